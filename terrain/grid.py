@@ -1,0 +1,278 @@
+"""`HeightGrid`: a metric, north-up height raster with vectorised lookups.
+
+Conventions (used everywhere in terrapath):
+
+- map coordinates are metres in the grid's projected CRS: x east, y north; heights are metres AMSL;
+- ``heights[row, col]``, row 0 is the northern edge, col 0 the western edge;
+- fractional grid indices put the *centre* of cell (r, c) at exactly (r, c); the cell covers
+  ``[r - 0.5, r + 0.5) x [c - 0.5, c + 0.5)``;
+- a grid without CRS is "local": plain metres with no georeference (lon/lat queries are refused).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from affine import Affine
+from rasterio.crs import CRS
+
+from terrain.atomic import atomic_output
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+ArrayLike = npt.ArrayLike
+
+
+def _as_float_arrays(*values: ArrayLike, what: str = "coordinates") -> list[FloatArray]:
+    arrays = [np.asarray(v, dtype=np.float64) for v in values]
+    for a in arrays:
+        if not np.all(np.isfinite(a)):
+            raise InputError(f"{what} must be finite numbers; found NaN or infinity")
+    return arrays
+
+
+def crs_label(crs: CRS | None) -> str:
+    """A short, honest name for a CRS: 'EPSG:n' when the EPSG code really describes it, else the
+    name in its WKT (some files carry a bogus code), 'local' for no CRS."""
+    if crs is None:
+        return "local"
+    code = crs.to_epsg()
+    if code is not None:
+        try:
+            if CRS.from_epsg(code) == crs:
+                return f"EPSG:{code}"
+        except Exception:  # noqa: BLE001 - an unknown code just means "use the name"
+            pass
+    match = re.match(r'^\s*\w+\["([^"]+)"', crs.to_wkt())
+    return match.group(1) if match else crs.to_string()
+
+
+@dataclass(frozen=True, eq=False)
+class HeightGrid:
+    """Heights (float32, read-only) on a north-up grid with an affine transform and a CRS.
+
+    Build one with :func:`terrain.load_dem`, :func:`terrain.synthetic_terrain` or directly from an
+    array; the array is copied and frozen, so a grid never changes once built.
+    """
+
+    heights: npt.NDArray[np.float32]
+    transform: Affine
+    crs: CRS | None = None
+    sources: tuple[str, ...] = ()
+    nodata_filled: int = 0
+
+    def __post_init__(self) -> None:
+        h = np.array(self.heights, dtype=np.float32, copy=True)
+        if h.ndim != 2 or h.shape[0] < 2 or h.shape[1] < 2:
+            raise InputError(f"a height grid needs at least 2 x 2 cells; got shape {h.shape}")
+        if not np.all(np.isfinite(h)):
+            raise InputError("a height grid may not contain NaN or infinite heights")
+        t = self.transform
+        if t.b != 0 or t.d != 0 or t.a <= 0 or t.e >= 0:
+            raise InputError(
+                f"a height grid must be north-up with positive cell sizes; got transform {tuple(t)[:6]}"
+            )
+        h.flags.writeable = False
+        object.__setattr__(self, "heights", h)
+
+    # -- shape and extent -------------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (int(self.heights.shape[0]), int(self.heights.shape[1]))
+
+    @property
+    def rows(self) -> int:
+        return self.shape[0]
+
+    @property
+    def cols(self) -> int:
+        return self.shape[1]
+
+    @property
+    def cell_size(self) -> tuple[float, float]:
+        """(dx, dy) in metres, both positive."""
+        return (float(self.transform.a), float(-self.transform.e))
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the grid's outer cell edges, map metres."""
+        dx, dy = self.cell_size
+        xmin, ymax = float(self.transform.c), float(self.transform.f)
+        return (xmin, ymax - self.rows * dy, xmin + self.cols * dx, ymax)
+
+    @property
+    def zmin(self) -> float:
+        return float(self.heights.min())
+
+    @property
+    def zmax(self) -> float:
+        return float(self.heights.max())
+
+    @property
+    def is_georeferenced(self) -> bool:
+        return self.crs is not None
+
+    # -- coordinates ------------------------------------------------------------------------------
+    def xy_to_index(self, x: ArrayLike, y: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Fractional (row, col) of map points; cell centres are at integer indices."""
+        xa, ya = _as_float_arrays(x, y)
+        dx, dy = self.cell_size
+        col = (xa - self.transform.c) / dx - 0.5
+        row = (self.transform.f - ya) / dy - 0.5
+        return row, col
+
+    def index_to_xy(self, row: ArrayLike, col: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Map (x, y) of fractional grid indices (inverse of :meth:`xy_to_index`)."""
+        ra, ca = _as_float_arrays(row, col, what="grid indices")
+        dx, dy = self.cell_size
+        return self.transform.c + (ca + 0.5) * dx, self.transform.f - (ra + 0.5) * dy
+
+    def cell_of(self, x: ArrayLike, y: ArrayLike) -> tuple[npt.NDArray[np.int64], ...]:
+        """Integer (row, col) of the cell containing each point, clamped to the grid."""
+        row, col = self.xy_to_index(x, y)
+        r = np.clip(np.floor(row + 0.5), 0, self.rows - 1).astype(np.int64)
+        c = np.clip(np.floor(col + 0.5), 0, self.cols - 1).astype(np.int64)
+        return r, c
+
+    def contains(self, x: ArrayLike, y: ArrayLike) -> npt.NDArray[np.bool_]:
+        """True where a map point lies inside the grid's bounds."""
+        xa, ya = _as_float_arrays(x, y)
+        xmin, ymin, xmax, ymax = self.bounds
+        return (xa >= xmin) & (xa <= xmax) & (ya >= ymin) & (ya <= ymax)
+
+    def height_at(self, x: ArrayLike, y: ArrayLike) -> FloatArray:
+        """Bilinear terrain height at map points (vectorised; exact at cell centres).
+
+        Points in the outer half cell, or outside the grid, take the value clamped to the nearest
+        cell-centre line (the grid does not extrapolate).
+        """
+        row, col = self.xy_to_index(x, y)
+        r = np.clip(row, 0.0, self.rows - 1.0)
+        c = np.clip(col, 0.0, self.cols - 1.0)
+        r0 = np.minimum(np.floor(r).astype(np.int64), self.rows - 2)
+        c0 = np.minimum(np.floor(c).astype(np.int64), self.cols - 2)
+        fr = r - r0
+        fc = c - c0
+        h = self.heights
+        h00 = h[r0, c0].astype(np.float64)
+        h01 = h[r0, c0 + 1].astype(np.float64)
+        h10 = h[r0 + 1, c0].astype(np.float64)
+        h11 = h[r0 + 1, c0 + 1].astype(np.float64)
+        top = h00 + (h01 - h00) * fc
+        bottom = h10 + (h11 - h10) * fc
+        return np.asarray(top + (bottom - top) * fr, dtype=np.float64)
+
+    def to_lonlat(self, x: ArrayLike, y: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """WGS84 (lon, lat) of map points; refused for a local grid."""
+        from rasterio.warp import transform
+
+        xa, ya = _as_float_arrays(x, y)
+        crs = self._require_crs("lon/lat output")
+        lon, lat = transform(crs, CRS.from_epsg(4326), xa.ravel().tolist(), ya.ravel().tolist())
+        return np.reshape(lon, xa.shape), np.reshape(lat, ya.shape)
+
+    def from_lonlat(self, lon: ArrayLike, lat: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Map (x, y) of WGS84 (lon, lat) points; refused for a local grid."""
+        from rasterio.warp import transform
+
+        lo, la = _as_float_arrays(lon, lat, what="lon/lat coordinates")
+        if np.any(np.abs(la) > 90) or np.any(np.abs(lo) > 360):
+            raise InputError("latitude must lie in [-90, 90] and longitude in [-360, 360]")
+        crs = self._require_crs("lon/lat input")
+        x, y = transform(CRS.from_epsg(4326), crs, lo.ravel().tolist(), la.ravel().tolist())
+        return np.reshape(x, lo.shape), np.reshape(y, la.shape)
+
+    def lonlat_bounds(self) -> tuple[float, float, float, float] | None:
+        """(west, south, east, north) in degrees, or None for a local grid."""
+        if self.crs is None:
+            return None
+        from rasterio.warp import transform_bounds
+
+        w, s, e, n = transform_bounds(self.crs, CRS.from_epsg(4326), *self.bounds, densify_pts=21)
+        return (float(w), float(s), float(e), float(n))
+
+    def _require_crs(self, purpose: str) -> CRS:
+        if self.crs is None:
+            raise InputError(
+                f"{purpose} needs a georeferenced map, but this grid has no CRS (local metres); "
+                "give coordinates in map metres instead"
+            )
+        return self.crs
+
+    # -- derived grids ----------------------------------------------------------------------------
+    def crop(self, xmin: float, ymin: float, xmax: float, ymax: float) -> HeightGrid:
+        """The sub-grid of cells that overlap the box (map metres); refused if it misses the map."""
+        vals = _as_float_arrays([xmin, ymin, xmax, ymax], what="crop box")[0]
+        xmin, ymin, xmax, ymax = (float(v) for v in vals)
+        if xmin >= xmax or ymin >= ymax:
+            raise InputError(
+                f"crop box must have xmin < xmax and ymin < ymax; got {(xmin, ymin, xmax, ymax)}"
+            )
+        bx0, by0, bx1, by1 = self.bounds
+        ix0, iy0, ix1, iy1 = max(xmin, bx0), max(ymin, by0), min(xmax, bx1), min(ymax, by1)
+        dx, dy = self.cell_size
+        if ix1 - ix0 < dx or iy1 - iy0 < dy:
+            raise InputError(
+                f"crop box {(xmin, ymin, xmax, ymax)} lies outside the map "
+                f"(map bounds {tuple(round(b, 3) for b in self.bounds)}) or covers under one cell"
+            )
+        c0 = int(math.floor((ix0 - bx0) / dx + 1e-9))
+        c1 = int(math.ceil((ix1 - bx0) / dx - 1e-9))
+        r0 = int(math.floor((by1 - iy1) / dy + 1e-9))
+        r1 = int(math.ceil((by1 - iy0) / dy - 1e-9))
+        c1, r1 = max(c1, c0 + 2), max(r1, r0 + 2)
+        c1, r1 = min(c1, self.cols), min(r1, self.rows)
+        c0, r0 = min(c0, c1 - 2), min(r0, r1 - 2)
+        t = self.transform * Affine.translation(c0, r0)
+        return HeightGrid(self.heights[r0:r1, c0:c1], t, self.crs, self.sources, 0)
+
+    # -- output -----------------------------------------------------------------------------------
+    def to_geotiff(self, path: str | Path) -> Path:
+        """Save as a single-band float32 GeoTIFF (written to a temporary name, then renamed)."""
+        import rasterio
+
+        out = Path(path)
+        with atomic_output(out) as tmp:
+            with rasterio.open(
+                tmp,
+                "w",
+                driver="GTiff",
+                height=self.rows,
+                width=self.cols,
+                count=1,
+                dtype="float32",
+                crs=self.crs,
+                transform=self.transform,
+                compress="deflate",
+            ) as dst:
+                dst.write(self.heights, 1)
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """Plain-data description (what ``terrapath info`` prints)."""
+        dx, dy = self.cell_size
+        out: dict[str, Any] = {
+            "sources": list(self.sources),
+            "crs": crs_label(self.crs),
+            "rows": self.rows,
+            "cols": self.cols,
+            "cell_size_m": [dx, dy],
+            "elevation_m": {
+                "min": self.zmin,
+                "max": self.zmax,
+                "mean": float(self.heights.mean(dtype=np.float64)),
+            },
+            "nodata_filled": int(self.nodata_filled),
+            "bounds_map": list(self.bounds),
+            "bounds_lonlat": None,
+        }
+        ll = self.lonlat_bounds()
+        if ll is not None:
+            out["bounds_lonlat"] = list(ll)
+        return out

@@ -1,0 +1,424 @@
+"""Load DEM tiles (anything GDAL reads) into one metric :class:`~terrain.grid.HeightGrid`.
+
+What happens, in order:
+
+1. every tile is opened with rasterio and checked (exists, is a raster, has one band or a chosen
+   band, is not entirely nodata);
+2. the target CRS is chosen: the one the user names; else the tiles' own CRS when it is projected
+   in metres and shared by all tiles; else the UTM zone of the area's centre (WGS84, EPSG:326zz /
+   327zz; the Norway/Svalbard zone exceptions are not applied). Tiles without CRS are "local"
+   metres and stay local; mixing local and georeferenced tiles is refused;
+3. the cell size is the user's, or the native one in metres: for tiles already in the target CRS
+   their own pixel size; for reprojected tiles the *finer* of the east-west and north-south pixel
+   sizes measured in metres (so no detail is thrown away; rmnp-dem.tif's 0.00275 x 0.00211 degree
+   pixels become ~233 m cells);
+4. tiles in the target CRS are mosaicked with ``rasterio.merge``; others are reprojected with
+   ``rasterio.warp.reproject`` (bilinear; ``average`` when the new cells are much coarser) into
+   one grid; where tiles overlap the first one given wins;
+5. nodata holes (and the empty corners a reprojection leaves) are filled by interpolation
+   (GDAL's inverse-distance ``fillnodata``, then nearest neighbour for anything left), and the
+   number of filled cells is recorded in ``HeightGrid.nodata_filled``.
+
+The memory a grid needs is checked against the memory available *before* anything is allocated.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import rasterio
+from affine import Affine
+from rasterio.crs import CRS
+from rasterio.enums import Resampling
+from rasterio.errors import CRSError, RasterioIOError
+
+from terrain.errors import DataFileError, InputError, ResourceError
+from terrain.grid import HeightGrid
+
+WGS84 = CRS.from_epsg(4326)
+# Working copies per cell while building a grid: the float32 result, one float32 tile buffer,
+# the validity mask and the fill's scratch arrays.
+_BYTES_PER_CELL = 24
+
+PathLike = str | os.PathLike[str]
+
+
+@dataclass(frozen=True)
+class SourceInfo:
+    """What one DEM tile is, as stored (before any reprojection)."""
+
+    path: str
+    driver: str
+    crs: str | None
+    rows: int
+    cols: int
+    res: tuple[float, float]
+    bounds: tuple[float, float, float, float]
+    nodata: float | None
+    dtype: str
+    bands: int
+
+
+def inspect_dem(path: PathLike) -> SourceInfo:
+    """Describe one tile without loading its heights."""
+    with _open(path) as src:
+        return SourceInfo(
+            path=str(path),
+            driver=src.driver,
+            crs=src.crs.to_string() if src.crs else None,
+            rows=src.height,
+            cols=src.width,
+            res=(float(src.res[0]), float(src.res[1])),
+            bounds=tuple(float(b) for b in src.bounds),  # type: ignore[arg-type]
+            nodata=None if src.nodata is None else float(src.nodata),
+            dtype=src.dtypes[0],
+            bands=src.count,
+        )
+
+
+def _open(path: PathLike) -> rasterio.DatasetReader:
+    p = Path(path)
+    if not p.exists():
+        raise DataFileError(f"{str(p)!r}: no such file")
+    if p.is_dir():
+        raise DataFileError(f"{str(p)!r}: is a folder, expected a DEM file")
+    try:
+        return rasterio.open(p)
+    except RasterioIOError as exc:
+        reason = str(exc).split("\n")[0]
+        if len(reason) > 160 or not reason:
+            reason = "format not recognised"
+        raise DataFileError(
+            f"{str(p)!r}: not a raster GDAL can read (expected a DEM such as GeoTIFF, SRTM .hgt "
+            f"or ESRI ASCII grid; {reason})"
+        ) from None
+
+
+def utm_crs_for(lon: float, lat: float) -> CRS:
+    """The WGS84 UTM zone CRS containing (lon, lat)."""
+    zone = int(math.floor((((lon + 180.0) % 360.0)) / 6.0)) + 1
+    zone = min(max(zone, 1), 60)
+    return CRS.from_epsg((32600 if lat >= 0 else 32700) + zone)
+
+
+def _is_metric(crs: CRS) -> bool:
+    if crs.is_geographic:
+        return False
+    try:
+        units = (crs.linear_units or "").lower()
+    except CRSError:  # pragma: no cover - exotic CRS
+        return False
+    return units in {"metre", "meter", "metres", "meters", "m"}
+
+
+def _parse_crs(value: str | CRS | None) -> CRS | None:
+    if value is None or isinstance(value, CRS):
+        return value
+    try:
+        crs = CRS.from_user_input(value)
+    except CRSError:
+        raise InputError(
+            f"CRS {value!r} is not one PROJ knows (expected e.g. 'EPSG:32611')"
+        ) from None
+    if not _is_metric(crs):
+        raise InputError(f"CRS {value!r} is not a projected CRS in metres; terrapath maps are metric")
+    return crs
+
+
+def _available_memory() -> int:
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return 8 * 2**30
+
+
+def check_grid_memory(rows: int, cols: int, cell_size: float) -> None:
+    """Refuse, before allocating, a grid that would not fit in the memory available."""
+    need = rows * cols * _BYTES_PER_CELL
+    avail = _available_memory()
+    if rows * cols > 2**31 - 1 or need > 0.8 * avail:
+        raise ResourceError(
+            f"cell size {cell_size:g} m would make a {rows:,} x {cols:,} grid needing about "
+            f"{need / 2**30:.1f} GiB, more than the {avail / 2**30:.1f} GiB of memory available; "
+            "choose a larger cell size or a smaller crop box"
+        )
+
+
+def _read_band(src: rasterio.DatasetReader, band: int, path: str) -> npt.NDArray[np.float32]:
+    data = src.read(band, masked=True).astype(np.float32)
+    arr = np.ma.filled(data, np.nan).astype(np.float32, copy=False)
+    arr[~np.isfinite(arr)] = np.nan
+    if not np.isfinite(arr).any():
+        raise DataFileError(f"{path!r}: every cell is nodata; there are no heights in it")
+    return arr
+
+
+def _choose_band(src: rasterio.DatasetReader, band: int | None, path: str) -> int:
+    if band is None:
+        if src.count != 1:
+            raise InputError(
+                f"{path!r}: has {src.count} bands, so which one is elevation is ambiguous "
+                "(a DEM has one band); choose one with --band N"
+            )
+        return 1
+    if not 1 <= band <= src.count:
+        raise InputError(f"{path!r}: band {band} does not exist (it has {src.count} bands)")
+    return band
+
+
+def load_dem(
+    paths: PathLike | Sequence[PathLike],
+    *,
+    crs: str | CRS | None = None,
+    cell_size: float | None = None,
+    crop: Sequence[float] | None = None,
+    crop_lonlat: bool = False,
+    band: int | None = None,
+) -> HeightGrid:
+    """Load one or more DEM tiles into a metric height grid (see the module docstring).
+
+    ``crop`` is (xmin, ymin, xmax, ymax) in map metres of the *result*, or (west, south, east,
+    north) in degrees with ``crop_lonlat=True``.
+    """
+    plist = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
+    if not plist:
+        raise InputError("no DEM file given")
+    names = [str(p) for p in plist]
+    if cell_size is not None and not (math.isfinite(cell_size) and cell_size > 0):
+        raise InputError(f"cell size must be a positive number of metres; got {cell_size!r}")
+    user_crs = _parse_crs(crs)
+
+    srcs = [_open(p) for p in plist]
+    try:
+        bands = [_choose_band(s, band, n) for s, n in zip(srcs, names, strict=True)]
+        local = [s.crs is None for s in srcs]
+        if any(local) and not all(local):
+            bad = names[local.index(True)]
+            raise InputError(
+                f"{bad!r}: has no CRS while other tiles are georeferenced; tiles must all be "
+                "georeferenced or all local"
+            )
+        if all(local):
+            if user_crs is not None:
+                raise InputError(
+                    f"{names[0]!r}: has no CRS (local metres), so it cannot be reprojected to "
+                    f"{user_crs.to_string()}"
+                )
+            target = None
+        else:
+            target = user_crs or _default_crs(srcs)
+        grid = _build(srcs, names, bands, target, cell_size, crop, crop_lonlat)
+    finally:
+        for s in srcs:
+            s.close()
+    return grid
+
+
+def _default_crs(srcs: list[rasterio.DatasetReader]) -> CRS:
+    first = srcs[0].crs
+    if _is_metric(first) and all(s.crs == first for s in srcs):
+        return first
+    west, south, east, north = _union([_bounds_in(s, WGS84) for s in srcs])
+    return utm_crs_for((west + east) / 2.0, (south + north) / 2.0)
+
+
+def _bounds_in(src: rasterio.DatasetReader, crs: CRS) -> tuple[float, float, float, float]:
+    from rasterio.warp import transform_bounds
+
+    if src.crs == crs:
+        return tuple(float(b) for b in src.bounds)  # type: ignore[return-value]
+    b = transform_bounds(src.crs, crs, *src.bounds, densify_pts=21)
+    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
+
+
+def _union(boxes: list[tuple[float, float, float, float]]) -> tuple[float, float, float, float]:
+    a = np.array(boxes)
+    return (float(a[:, 0].min()), float(a[:, 1].min()), float(a[:, 2].max()), float(a[:, 3].max()))
+
+
+def _native_res(src: rasterio.DatasetReader, target: CRS | None) -> tuple[float, float]:
+    if target is None or src.crs == target:
+        return (float(src.res[0]), float(src.res[1]))
+    from rasterio.warp import transform
+
+    # Measure one pixel step east and one south at the tile's centre, in the target CRS.
+    r, c = src.height / 2.0, src.width / 2.0
+    cols, rows = [c, c + 1.0, c], [r, r, r + 1.0]
+    xs, ys = zip(*(src.transform * (ci, ri) for ci, ri in zip(cols, rows, strict=True)), strict=True)
+    tx, ty = transform(src.crs, target, list(xs), list(ys))
+    east = math.hypot(tx[1] - tx[0], ty[1] - ty[0])
+    south = math.hypot(tx[2] - tx[0], ty[2] - ty[0])
+    fine = min(east, south)
+    return (fine, fine)
+
+
+def _crop_box(
+    crop: Sequence[float] | None, lonlat: bool, target: CRS | None
+) -> tuple[float, float, float, float] | None:
+    if crop is None:
+        return None
+    vals = [float(v) for v in crop]
+    if len(vals) != 4 or not all(math.isfinite(v) for v in vals):
+        raise InputError(f"crop box must be 4 finite numbers (xmin, ymin, xmax, ymax); got {crop!r}")
+    if vals[0] >= vals[2] or vals[1] >= vals[3]:
+        raise InputError(f"crop box must have xmin < xmax and ymin < ymax; got {tuple(vals)}")
+    if not lonlat:
+        return (vals[0], vals[1], vals[2], vals[3])
+    if target is None:
+        raise InputError("a crop box in lon/lat needs a georeferenced DEM; this one is local metres")
+    if not (-90 <= vals[1] <= 90 and -90 <= vals[3] <= 90):
+        raise InputError(f"crop box latitudes must lie in [-90, 90]; got {tuple(vals)}")
+    from rasterio.warp import transform_bounds
+
+    b = transform_bounds(WGS84, target, *vals, densify_pts=21)
+    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
+
+
+def _build(
+    srcs: list[rasterio.DatasetReader],
+    names: list[str],
+    bands: list[int],
+    target: CRS | None,
+    cell_size: float | None,
+    crop: Sequence[float] | None,
+    crop_lonlat: bool,
+) -> HeightGrid:
+    native = [_native_res(s, target) for s in srcs]
+    if cell_size is not None:
+        res = (float(cell_size), float(cell_size))
+    elif target is None or all(s.crs == target for s in srcs):
+        res = native[0]
+    else:
+        fine = min(min(r) for r in native)
+        res = (fine, fine)
+    full = _union([_bounds_in(s, target) if target else tuple(s.bounds) for s in srcs])  # type: ignore[misc]
+    box = _crop_box(crop, crop_lonlat, target)
+    if box is not None:
+        inter = (max(box[0], full[0]), max(box[1], full[1]), min(box[2], full[2]), min(box[3], full[3]))
+        if inter[2] - inter[0] < res[0] or inter[3] - inter[1] < res[1]:
+            raise InputError(
+                f"crop box {tuple(round(v, 6) for v in (crop or ()))} lies outside the map "
+                f"(map bounds {tuple(round(v, 3) for v in full)}"
+                f"{' in map metres' if not crop_lonlat else ' in map metres; box given in lon/lat'})"
+            )
+        full = inter
+    same_frame = target is None or all(s.crs == target for s in srcs)
+    if same_frame:
+        # Snap to the first tile's pixel lattice when keeping its resolution, so reads are exact.
+        t0 = srcs[0].transform
+        if res == native[0]:
+            xmin = t0.c + math.floor((full[0] - t0.c) / res[0] + 1e-9) * res[0]
+            ymax = t0.f - math.floor((t0.f - full[3]) / res[1] + 1e-9) * res[1]
+        else:
+            xmin, ymax = full[0], full[3]
+    else:
+        xmin, ymax = full[0], full[3]
+    cols = max(2, math.ceil((full[2] - xmin) / res[0] - 1e-9))
+    rows = max(2, math.ceil((ymax - full[1]) / res[1] - 1e-9))
+    check_grid_memory(rows, cols, min(res))
+    transform = Affine(res[0], 0.0, xmin, 0.0, -res[1], ymax)
+
+    coarse = min(res) > 1.5 * max(max(r) for r in native)
+    resampling = Resampling.average if coarse else Resampling.bilinear
+    heights = np.full((rows, cols), np.nan, dtype=np.float32)
+    for src, name, band in zip(srcs, names, bands, strict=True):
+        part = _warp_tile(src, name, band, target, transform, rows, cols, resampling, same_frame)
+        hole = np.isnan(heights)
+        heights[hole] = part[hole]
+    missing = int(np.isnan(heights).sum())
+    if missing == heights.size:
+        raise DataFileError(
+            f"{', '.join(repr(n) for n in names)}: no heights inside the requested area (all nodata)"
+        )
+    if missing:
+        heights = fill_nodata(heights)
+    return HeightGrid(heights, transform, target, tuple(names), missing)
+
+
+def _warp_tile(
+    src: rasterio.DatasetReader,
+    name: str,
+    band: int,
+    target: CRS | None,
+    transform: Affine,
+    rows: int,
+    cols: int,
+    resampling: Resampling,
+    same_frame: bool,
+) -> npt.NDArray[np.float32]:
+    data = _read_band(src, band, name)
+    out = np.full((rows, cols), np.nan, dtype=np.float32)
+    st = src.transform
+    aligned = (
+        same_frame
+        and st.b == 0
+        and st.d == 0
+        and math.isclose(st.a, transform.a, rel_tol=1e-9)
+        and math.isclose(st.e, transform.e, rel_tol=1e-9)
+    )
+    if aligned:
+        # Same lattice: an exact copy of the overlapping window (no resampling at all).
+        c_off = (st.c - transform.c) / transform.a
+        r_off = (st.f - transform.f) / transform.e
+        ci, ri = round(c_off), round(r_off)
+        if abs(c_off - ci) < 1e-6 and abs(r_off - ri) < 1e-6:
+            r0, c0 = max(ri, 0), max(ci, 0)
+            r1, c1 = min(ri + src.height, rows), min(ci + src.width, cols)
+            if r1 > r0 and c1 > c0:
+                out[r0:r1, c0:c1] = data[r0 - ri : r1 - ri, c0 - ci : c1 - ci]
+            return out
+    from rasterio.warp import reproject
+
+    if target is None:
+        # Local metres: resample in the shared frame (GDAL wants a CRS; any metric one will do
+        # since source and destination share it).
+        frame = CRS.from_epsg(3857)
+        src_crs, dst_crs = frame, frame
+    else:
+        src_crs, dst_crs = src.crs, target
+    reproject(
+        source=data,
+        destination=out,
+        src_transform=st,
+        src_crs=src_crs,
+        src_nodata=np.nan,
+        dst_transform=transform,
+        dst_crs=dst_crs,
+        dst_nodata=np.nan,
+        resampling=resampling,
+    )
+    return out
+
+
+def fill_nodata(heights: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+    """Fill NaN cells by inverse-distance interpolation from the valid cells around them (GDAL's
+    ``fillnodata``, a four-quadrant search as far as the grid is wide), then by nearest neighbour
+    for any cell that search could not reach. Valid cells are returned unchanged."""
+    from rasterio.fill import fillnodata
+    from scipy import ndimage
+
+    valid = np.isfinite(heights)
+    reach = float(max(heights.shape))
+    filled = np.asarray(
+        fillnodata(heights.copy(), mask=valid.astype(np.uint8), max_search_distance=reach),
+        dtype=np.float32,
+    )
+    still = ~np.isfinite(filled)
+    if still.any():
+        idx = ndimage.distance_transform_edt(still, return_distances=False, return_indices=True)
+        filled = filled[idx[0], idx[1]]
+    filled[valid] = heights[valid]
+    return filled
