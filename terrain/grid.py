@@ -38,17 +38,13 @@ def _as_float_arrays(*values: ArrayLike, what: str = "coordinates") -> list[Floa
 
 
 def crs_label(crs: CRS | None) -> str:
-    """A short, honest name for a CRS: 'EPSG:n' when the EPSG code really describes it, else the
-    name in its WKT (some files carry a bogus code), 'local' for no CRS."""
+    """A short name for a CRS: 'EPSG:n' when it has a code, else the name in its WKT, 'local' for
+    no CRS (plain metres)."""
     if crs is None:
         return "local"
     code = crs.to_epsg()
     if code is not None:
-        try:
-            if CRS.from_epsg(code) == crs:
-                return f"EPSG:{code}"
-        except Exception:  # noqa: BLE001 - an unknown code just means "use the name"
-            pass
+        return f"EPSG:{code}"
     match = re.match(r'^\s*\w+\["([^"]+)"', crs.to_wkt())
     return match.group(1) if match else crs.to_string()
 
@@ -229,7 +225,7 @@ class HeightGrid:
         c1, r1 = max(c1, c0 + 2), max(r1, r0 + 2)
         c1, r1 = min(c1, self.cols), min(r1, self.rows)
         c0, r0 = min(c0, c1 - 2), min(r0, r1 - 2)
-        t = self.transform * Affine.translation(c0, r0)
+        t = self.transform @ Affine.translation(c0, r0)
         return HeightGrid(self.heights[r0:r1, c0:c1], t, self.crs, self.sources, 0)
 
     # -- output -----------------------------------------------------------------------------------

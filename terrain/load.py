@@ -102,7 +102,7 @@ def _open(path: PathLike) -> rasterio.DatasetReader:
 
 def utm_crs_for(lon: float, lat: float) -> CRS:
     """The WGS84 UTM zone CRS containing (lon, lat)."""
-    zone = int(math.floor((((lon + 180.0) % 360.0)) / 6.0)) + 1
+    zone = int(math.floor(((lon + 180.0) % 360.0) / 6.0)) + 1
     zone = min(max(zone, 1), 60)
     return CRS.from_epsg((32600 if lat >= 0 else 32700) + zone)
 
@@ -127,7 +127,9 @@ def _parse_crs(value: str | CRS | None) -> CRS | None:
             f"CRS {value!r} is not one PROJ knows (expected e.g. 'EPSG:32611')"
         ) from None
     if not _is_metric(crs):
-        raise InputError(f"CRS {value!r} is not a projected CRS in metres; terrapath maps are metric")
+        raise InputError(
+            f"CRS {value!r} is not a projected CRS in metres; terrapath maps are metric"
+        )
     return crs
 
 
@@ -256,9 +258,11 @@ def _native_res(src: rasterio.DatasetReader, target: CRS | None) -> tuple[float,
 
     # Measure one pixel step east and one south at the tile's centre, in the target CRS.
     r, c = src.height / 2.0, src.width / 2.0
+    t = src.transform
     cols, rows = [c, c + 1.0, c], [r, r, r + 1.0]
-    xs, ys = zip(*(src.transform * (ci, ri) for ci, ri in zip(cols, rows, strict=True)), strict=True)
-    tx, ty = transform(src.crs, target, list(xs), list(ys))
+    xs = [t.c + ci * t.a + ri * t.b for ci, ri in zip(cols, rows, strict=True)]
+    ys = [t.f + ci * t.d + ri * t.e for ci, ri in zip(cols, rows, strict=True)]
+    tx, ty = transform(src.crs, target, xs, ys)
     east = math.hypot(tx[1] - tx[0], ty[1] - ty[0])
     south = math.hypot(tx[2] - tx[0], ty[2] - ty[0])
     fine = min(east, south)
@@ -272,13 +276,17 @@ def _crop_box(
         return None
     vals = [float(v) for v in crop]
     if len(vals) != 4 or not all(math.isfinite(v) for v in vals):
-        raise InputError(f"crop box must be 4 finite numbers (xmin, ymin, xmax, ymax); got {crop!r}")
+        raise InputError(
+            f"crop box must be 4 finite numbers (xmin, ymin, xmax, ymax); got {crop!r}"
+        )
     if vals[0] >= vals[2] or vals[1] >= vals[3]:
         raise InputError(f"crop box must have xmin < xmax and ymin < ymax; got {tuple(vals)}")
     if not lonlat:
         return (vals[0], vals[1], vals[2], vals[3])
     if target is None:
-        raise InputError("a crop box in lon/lat needs a georeferenced DEM; this one is local metres")
+        raise InputError(
+            "a crop box in lon/lat needs a georeferenced DEM; this one is local metres"
+        )
     if not (-90 <= vals[1] <= 90 and -90 <= vals[3] <= 90):
         raise InputError(f"crop box latitudes must lie in [-90, 90]; got {tuple(vals)}")
     from rasterio.warp import transform_bounds
@@ -307,7 +315,12 @@ def _build(
     full = _union([_bounds_in(s, target) if target else tuple(s.bounds) for s in srcs])  # type: ignore[misc]
     box = _crop_box(crop, crop_lonlat, target)
     if box is not None:
-        inter = (max(box[0], full[0]), max(box[1], full[1]), min(box[2], full[2]), min(box[3], full[3]))
+        inter = (
+            max(box[0], full[0]),
+            max(box[1], full[1]),
+            min(box[2], full[2]),
+            min(box[3], full[3]),
+        )
         if inter[2] - inter[0] < res[0] or inter[3] - inter[1] < res[1]:
             raise InputError(
                 f"crop box {tuple(round(v, 6) for v in (crop or ()))} lies outside the map "

@@ -148,4 +148,6 @@ def path_below_lengths(
     p, w = arr.shape[0], arr.shape[1]
     a = arr[:, :-1, :].reshape(-1, 3)
     b = arr[:, 1:, :].reshape(-1, 3)
-    return below_terrain_lengths(grid, a, b, clearance, backend=backend).reshape(p, w - 1).sum(axis=1)
+    return (
+        below_terrain_lengths(grid, a, b, clearance, backend=backend).reshape(p, w - 1).sum(axis=1)
+    )

