@@ -9,8 +9,13 @@ from typing import Any
 import numpy as np
 import pytest
 from affine import Affine
+from hypothesis import settings
 
 from terrain.grid import HeightGrid
+
+# JIT compilation makes first calls slow and CI machines are noisy: no per-example deadline.
+settings.register_profile("terrapath", deadline=None, print_blob=True)
+settings.load_profile("terrapath")
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA_MAPS = ROOT / "data" / "maps"

@@ -1,0 +1,128 @@
+"""Bresenham segment-versus-terrain checks: the cells walked, the lengths below ground, and the
+agreement of the numba kernel with its pure-numpy twin."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from terrain.errors import InputError
+from terrain.segments import (
+    below_terrain_lengths,
+    below_terrain_lengths_numpy,
+    bresenham_cells,
+    bresenham_cells_numpy,
+    path_below_lengths,
+)
+from tests.conftest import make_grid
+
+ints = st.integers(-60, 60)
+
+
+@given(r0=ints, c0=ints, r1=ints, c1=ints)
+def test_bresenham_is_a_connected_run_between_the_end_cells(r0: int, c0: int, r1: int, c1: int) -> None:
+    cells = bresenham_cells(r0, c0, r1, c1)
+    assert tuple(cells[0]) == (r0, c0) and tuple(cells[-1]) == (r1, c1)
+    steps = np.abs(np.diff(cells, axis=0))
+    assert (steps.max(axis=1) == 1).all()  # 8-connected, no repeats, no gaps
+    assert len(cells) == max(abs(r1 - r0), abs(c1 - c0)) + 1
+    assert np.array_equal(cells, bresenham_cells_numpy(r0, c0, r1, c1))
+
+
+def test_bresenham_known_line() -> None:
+    # the textbook octant-0 example: (0,0) -> (3 rows, 8 cols)
+    cells = bresenham_cells(0, 0, 3, 8).tolist()
+    assert cells == [[0, 0], [0, 1], [1, 2], [1, 3], [1, 4], [2, 5], [2, 6], [3, 7], [3, 8]]
+
+
+FLAT = make_grid(np.full((50, 60), 100.0), cell=10.0, x0=0.0, y0=500.0)
+RNG = np.random.default_rng(3)
+ROUGH = make_grid(RNG.uniform(0.0, 300.0, size=(40, 45)), cell=30.0, x0=1000.0, y0=5000.0)
+
+
+def test_flat_ground_cases_are_exact() -> None:
+    p0 = np.array([[10.0, 20.0, 50.0], [10.0, 20.0, 150.0], [5.0, 5.0, 99.0], [300.0, 300.0, 10.0]])
+    p1 = np.array([[400.0, 480.0, 50.0], [400.0, 480.0, 150.0], [5.0, 5.0, 99.0], [300.0, 300.0, 10.0]])
+    length = np.linalg.norm(p1 - p0, axis=1)
+    for backend in ("numba", "numpy"):
+        got = below_terrain_lengths(FLAT, p0, p1, backend=backend)  # type: ignore[arg-type]
+        assert got[0] == pytest.approx(length[0], rel=1e-12)  # entirely below
+        assert got[1] == 0.0  # entirely above
+        assert got[2] == 0.0 and got[3] == 0.0  # zero-length segments have no length below
+
+
+def test_clearance_counts_as_ground() -> None:
+    p0, p1 = np.array([[10.0, 20.0, 120.0]]), np.array([[400.0, 20.0, 120.0]])
+    assert below_terrain_lengths(FLAT, p0, p1)[0] == 0.0
+    assert below_terrain_lengths(FLAT, p0, p1, clearance=30.0)[0] == pytest.approx(390.0)
+
+
+def test_descending_segment_is_below_for_about_half_its_length() -> None:
+    # from 150 m to 50 m over flat 100 m ground: below for the second half, to within one cell
+    p0, p1 = np.array([[5.0, 255.0, 150.0]]), np.array([[595.0, 255.0, 50.0]])
+    got = below_terrain_lengths(FLAT, p0, p1)[0]
+    length = float(np.linalg.norm(p1 - p0))
+    assert abs(got - length / 2) <= length / 59 + 1e-9  # 60 cells walked
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    pts=st.lists(st.floats(0.0, 1.0), min_size=6, max_size=6),
+    clearance=st.floats(0.0, 50.0),
+)
+def test_parts_tile_the_segment_and_backends_agree(pts: list[float], clearance: float) -> None:
+    xmin, ymin, xmax, ymax = ROUGH.bounds
+    p0 = np.array([[xmin + pts[0] * (xmax - xmin), ymin + pts[1] * (ymax - ymin), 400 * pts[2]]])
+    p1 = np.array([[xmin + pts[3] * (xmax - xmin), ymin + pts[4] * (ymax - ymin), 400 * pts[5]]])
+    a = below_terrain_lengths(ROUGH, p0, p1, clearance)
+    b = below_terrain_lengths_numpy(ROUGH, p0, p1, clearance)
+    assert a[0] == pytest.approx(b[0], abs=1e-9)
+    length = float(np.linalg.norm(p1 - p0))
+    assert 0.0 <= a[0] <= length + 1e-9
+    # with an infinite clearance every part is "below": the parts add up to the whole segment
+    assert below_terrain_lengths(ROUGH, p0, p1, 1e9)[0] == pytest.approx(length, rel=1e-12, abs=1e-9)
+    # reversing the segment walks the same cells backwards (up to Bresenham tie-breaks)
+    rev = below_terrain_lengths(ROUGH, p1, p0, clearance)[0]
+    assert abs(rev - a[0]) <= length / max(1, _cells(p0, p1)) * 2 + 1e-9
+
+
+def _cells(p0: np.ndarray, p1: np.ndarray) -> int:
+    r0, c0 = ROUGH.cell_of(p0[:, 0], p0[:, 1])
+    r1, c1 = ROUGH.cell_of(p1[:, 0], p1[:, 1])
+    return int(max(abs(r1 - r0)[0], abs(c1 - c0)[0]))
+
+
+def test_swarm_of_paths_in_one_call_matches_numpy() -> None:
+    xmin, ymin, xmax, ymax = ROUGH.bounds
+    rng = np.random.default_rng(11)
+    paths = np.stack(
+        [rng.uniform(xmin, xmax, (64, 8)), rng.uniform(ymin, ymax, (64, 8)), rng.uniform(0, 400, (64, 8))],
+        axis=2,
+    )
+    a = path_below_lengths(ROUGH, paths)
+    b = path_below_lengths(ROUGH, paths, backend="numpy")
+    assert a.shape == (64,)
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-8)
+    seg = np.linalg.norm(np.diff(paths, axis=1), axis=2).sum(axis=1)
+    assert (a <= seg + 1e-9).all() and (a > 0).any() and (a < seg).any()
+
+
+def test_a_ridge_between_two_high_points_is_found() -> None:
+    h = np.full((20, 40), 100.0)
+    h[:, 20] = 800.0  # a one-cell wall across the map
+    g = make_grid(h, cell=10.0, x0=0.0, y0=200.0)
+    got = below_terrain_lengths(g, [[5.0, 100.0, 500.0]], [[395.0, 100.0, 500.0]])[0]
+    assert got == pytest.approx(10.0, abs=1e-9)  # exactly one cell's share of the segment
+
+
+def test_bad_segments_are_refused() -> None:
+    with pytest.raises(InputError, match="finite"):
+        below_terrain_lengths(FLAT, [[0.0, np.nan, 0.0]], [[1.0, 1.0, 1.0]])
+    with pytest.raises(InputError, match=r"\(M, 3\)"):
+        below_terrain_lengths(FLAT, [[0.0, 0.0]], [[1.0, 1.0]])
+    with pytest.raises(InputError, match="backend"):
+        below_terrain_lengths(FLAT, [[0.0, 0.0, 0]], [[1.0, 1.0, 1]], backend="fortran")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="paths"):
+        path_below_lengths(FLAT, np.zeros((3, 1, 3)))
