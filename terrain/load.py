@@ -75,7 +75,7 @@ def inspect_dem(path: PathLike) -> SourceInfo:
             rows=src.height,
             cols=src.width,
             res=(float(src.res[0]), float(src.res[1])),
-            bounds=tuple(float(b) for b in src.bounds),  # type: ignore[arg-type]
+            bounds=_own_bounds(src),
             nodata=None if src.nodata is None else float(src.nodata),
             dtype=src.dtypes[0],
             bands=src.count,
@@ -237,11 +237,16 @@ def _default_crs(srcs: list[rasterio.DatasetReader]) -> CRS:
     return utm_crs_for((west + east) / 2.0, (south + north) / 2.0)
 
 
+def _own_bounds(src: rasterio.DatasetReader) -> tuple[float, float, float, float]:
+    b = src.bounds
+    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
+
+
 def _bounds_in(src: rasterio.DatasetReader, crs: CRS) -> tuple[float, float, float, float]:
     from rasterio.warp import transform_bounds
 
     if src.crs == crs:
-        return tuple(float(b) for b in src.bounds)  # type: ignore[return-value]
+        return _own_bounds(src)
     b = transform_bounds(src.crs, crs, *src.bounds, densify_pts=21)
     return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
 
@@ -312,7 +317,7 @@ def _build(
     else:
         fine = min(min(r) for r in native)
         res = (fine, fine)
-    full = _union([_bounds_in(s, target) if target else tuple(s.bounds) for s in srcs])  # type: ignore[misc]
+    full = _union([_bounds_in(s, target) if target else _own_bounds(s) for s in srcs])
     box = _crop_box(crop, crop_lonlat, target)
     if box is not None:
         inter = (

@@ -83,6 +83,13 @@ def _points(value: npt.ArrayLike, name: str) -> FloatArray:
     return a
 
 
+def _point(value: npt.ArrayLike, name: str) -> FloatArray:
+    a = _points(value, name)
+    if a.size != 3:
+        raise InputError(f"{name} must be one point (3,); got an array of shape {a.shape}")
+    return a.reshape(3)
+
+
 def _pair(a: npt.ArrayLike, b: npt.ArrayLike, na: str, nb: str) -> tuple[FloatArray, FloatArray]:
     pa, pb = _points(a, na), _points(b, nb)
     try:
@@ -224,7 +231,7 @@ class TerrainModel:
     ) -> bool:
         """True if ``shape`` at map ``position`` (rotated by ``rotation``) touches or is below the
         terrain (a shape entirely underground touches no triangle, so its centre is checked too)."""
-        p = _points(position, "position").reshape(3)
+        p = _point(position, "position")
         if self._below(p):
             return True
         return self._touches(self._place(shape, p, _rotation(rotation)))
@@ -241,7 +248,7 @@ class TerrainModel:
         fcl's own ``distance`` is not used on contact: against a mesh it returns -1 or an
         uninitialised denormal (~1e-320) there, so contact is tested first with ``collide``.
         """
-        p = _points(position, "position").reshape(3)
+        p = _point(position, "position")
         obj = self._place(shape, p, _rotation(rotation))
         if self._touches(obj):
             return 0.0
@@ -319,10 +326,8 @@ class TerrainModel:
         rays = np.empty((*origins.shape[:-1], 6), dtype=np.float32)
         rays[..., :3] = origins - self.origin
         rays[..., 3:] = units
-        t_hit = self._scene.cast_rays(o3d.core.Tensor.from_numpy(rays.reshape(-1, 6)))[
-            "t_hit"
-        ].numpy()
-        return t_hit.reshape(origins.shape[:-1]).astype(np.float64)
+        answer = self._scene.cast_rays(o3d.core.Tensor.from_numpy(rays.reshape(-1, 6)))
+        return answer["t_hit"].numpy().reshape(origins.shape[:-1]).astype(np.float64)
 
     def raycast(
         self, origins: npt.ArrayLike, directions: npt.ArrayLike, max_range: float = math.inf

@@ -63,7 +63,7 @@ def new_map_figure(
     ax.set_ylabel("y north (m)")
     ax.ticklabel_format(style="plain", useOffset=False)
     ax.tick_params(axis="x", labelrotation=30)
-    dx, dy = grid.cell_size
+    dx = grid.cell_size[0]
     ax.set_title(
         title
         or f"{', '.join(Path(s).name for s in grid.sources) or 'height grid'} — "

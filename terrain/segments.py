@@ -131,7 +131,7 @@ def below_terrain_lengths_numpy(
     cc = np.clip(cols, 0, grid.cols - 1)
     below = z < grid.heights[rr, cc].astype(np.float64) + clearance
     part = np.where(below, (hi - lo) * seg[idx, 6], 0.0)
-    return np.bincount(idx, weights=part, minlength=m)
+    return np.asarray(np.bincount(idx, weights=part, minlength=m), dtype=np.float64)
 
 
 def path_below_lengths(

@@ -53,9 +53,7 @@ def _count(name: str, value: Any, minimum: int) -> int:
 def _real(name: str, value: Any, *, minimum: float | None = None, strict: bool = False) -> float:
     ok = not isinstance(value, bool) and isinstance(value, numbers.Real)
     v = float(value) if ok else math.nan
-    if not math.isfinite(v) or (
-        minimum is not None and (v <= minimum if strict else v < minimum)
-    ):
+    if not math.isfinite(v) or (minimum is not None and (v <= minimum if strict else v < minimum)):
         bound = "" if minimum is None else f" {'>' if strict else '>='} {minimum:g}"
         raise InputError(f"{name} must be a finite number{bound}; got {value!r}")
     return v
@@ -158,7 +156,12 @@ def synthetic_terrain(
 
     # Feature parameters, drawn in a fixed order.
     peak_params = [
-        (rng.uniform(0, width), rng.uniform(0, height), rng.uniform(0.04, 0.12), rng.uniform(0.5, 1))
+        (
+            rng.uniform(0, width),
+            rng.uniform(0, height),
+            rng.uniform(0.04, 0.12),
+            rng.uniform(0.5, 1),
+        )
         for _ in range(n_peaks)
     ]
     line_params = []

@@ -142,7 +142,9 @@ def _diameter(value: Any, path: Source, field: str, expected: str) -> float:
 
 def _check_lonlat(lon: float, lat: float, path: Source, field: str) -> None:
     if not -180.0 <= lon <= 180.0:
-        raise InputError(f"{where(path, field + '.lon')}expected degrees in [-180, 180], found {lon}")
+        raise InputError(
+            f"{where(path, field + '.lon')}expected degrees in [-180, 180], found {lon}"
+        )
     if not -90.0 <= lat <= 90.0:
         raise InputError(f"{where(path, field + '.lat')}expected degrees in [-90, 90], found {lat}")
 
@@ -179,9 +181,7 @@ def _yaml_entry(entry: Any, path: Source, field: str) -> _Entry:
         _check_lonlat(a, b, path, field)
     if "diameter" not in entry:
         raise InputError(f"{where(path, field)}missing 'diameter' (metres, > 0)")
-    diameter = _diameter(
-        entry["diameter"], path, f"{field}.diameter", "a diameter in metres > 0"
-    )
+    diameter = _diameter(entry["diameter"], path, f"{field}.diameter", "a diameter in metres > 0")
     top = _top(entry.get("top"), path, f"{field}.top")
     ident = _ident(entry.get("id"), path, f"{field}.id")
     return _Entry(field, bool(has_ll), a, b, diameter, top, ident)
@@ -359,7 +359,9 @@ def _read(path: Path) -> Any:
 def _load_geojson(data: Any, path: Path, grid: HeightGrid | None) -> tuple[DangerZone, ...]:
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         found = _found(data.get("type")) if isinstance(data, dict) else _found(data)
-        raise DataFileError(f"{where(path, 'type')}expected a GeoJSON FeatureCollection, found {found}")
+        raise DataFileError(
+            f"{where(path, 'type')}expected a GeoJSON FeatureCollection, found {found}"
+        )
     features = data.get("features")
     if not isinstance(features, list):
         raise DataFileError(f"{where(path, 'features')}expected a list, found {_found(features)}")
@@ -394,9 +396,7 @@ def _load_document(data: Any, path: Path, grid: HeightGrid | None) -> tuple[Dang
     return zones_from_records(data["danger_zones"], grid, source=path)
 
 
-def load_zones(
-    path: str | PathLike[str], grid: HeightGrid | None = None
-) -> tuple[DangerZone, ...]:
+def load_zones(path: str | PathLike[str], grid: HeightGrid | None = None) -> tuple[DangerZone, ...]:
     """Read danger zones from a YAML or GeoJSON file (see the module docstring for the formats)."""
     p = Path(path)
     data = _read(p)

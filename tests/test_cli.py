@@ -22,7 +22,7 @@ def test_info_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert s["crs"] == "EPSG:32613"
     assert s["cell_size_m"][0] == pytest.approx(233.3, abs=1.0)
     assert 2281.0 <= s["elevation_m"]["min"] < s["elevation_m"]["max"] <= 4261.0
-    w, so, e, n = s["bounds_lonlat"]
+    w, _, _, n = s["bounds_lonlat"]
     assert w == pytest.approx(-105.91, abs=0.02) and n == pytest.approx(40.554, abs=0.02)
     assert len(s["bounds_map"]) == 4 and s["nodata_filled"] >= 0
 
@@ -74,7 +74,9 @@ def test_usage_errors_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_console_script_runs_without_traceback() -> None:
     exe = Path(sys.executable).parent / "terrapath"
-    proc = subprocess.run([str(exe), "info", "nope.hgt"], capture_output=True, text=True, check=False)
+    proc = subprocess.run(
+        [str(exe), "info", "nope.hgt"], capture_output=True, text=True, check=False
+    )
     assert proc.returncode == 1
     assert proc.stderr.strip() == "terrapath: error: 'nope.hgt': no such file"
     ok = subprocess.run([str(exe), "--help"], capture_output=True, text=True, check=False)

