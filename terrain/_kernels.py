@@ -10,6 +10,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+# open3d's wheels bring an old TBB that numba refuses (with a warning) before it falls back:
+# ask for OpenMP first, then TBB, then numba's own work queue.
+nb.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]  # type: ignore[attr-defined]
+
 
 @nb.njit(cache=True, nogil=True)
 def bresenham_cells(r0: int, c0: int, r1: int, c1: int) -> np.ndarray:  # pragma: no cover - jit

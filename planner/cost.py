@@ -1,0 +1,106 @@
+"""The path cost of seed 002 (after Roberge et al. 2013), vectorised over a whole population.
+
+For a polyline S, W_1 .. W_N, G (all points map metres, z AMSL):
+
+    F             = F_length + F_altitude + F_collision + F_dangerzones
+    F_length      = 1 - L_SG / L_traj                 L_SG the straight 3D start-goal distance
+    F_altitude    = (A_traj - Zmin) / (Zmax - Zmin)   A_traj the length-weighted mean altitude
+    F_collision   = 0 if L_under == 0 else P + L_under / L_traj,  P = 3
+    F_dangerzones = (1/n) sum_i min(1, L_inside_i / d_i)
+
+``L_under`` is the length below terrain (+ clearance) from the Bresenham walk of
+:mod:`terrain.segments`; ``L_inside_i`` the analytic length inside cylinder i from
+:mod:`terrain.cylinders`. With no danger zones F_dangerzones is 0. Because F_length and
+F_altitude lie in [0, 1], F_dangerzones in [0, 1] and F_collision >= 3 whenever the path touches
+the ground, a path with F > 3.5 certainly hits the ground — seed 002's infeasibility threshold —
+and any colliding path costs more than any collision-free one of the same map when the
+altitude band is honoured.
+
+A_traj is the mean altitude *along the path* (each segment weighted by its 3D length, its altitude
+the mean of its ends), so a short climb costs less than a long high cruise; a degenerate path of
+length 0 takes the mean of its points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from terrain.cylinders import path_inside_lengths
+from terrain.grid import HeightGrid
+from terrain.segments import path_below_lengths
+
+FloatArray = npt.NDArray[np.float64]
+COLLISION_PENALTY = 3.0
+
+
+@dataclass(frozen=True)
+class CostTerms:
+    """Every term of the cost for P paths (arrays of shape (P,), ``inside`` (P, K))."""
+
+    total: FloatArray
+    length: FloatArray
+    altitude: FloatArray
+    collision: FloatArray
+    dangerzones: FloatArray
+    path_length: FloatArray
+    below_length: FloatArray
+    inside: FloatArray
+    mean_altitude: FloatArray
+
+    def row(self, i: int) -> dict[str, float]:
+        """Plain-data terms of path i (what the mission file records)."""
+        return {
+            "total": float(self.total[i]),
+            "length": float(self.length[i]),
+            "altitude": float(self.altitude[i]),
+            "collision": float(self.collision[i]),
+            "dangerzones": float(self.dangerzones[i]),
+            "path_length_m": float(self.path_length[i]),
+            "below_terrain_m": float(self.below_length[i]),
+            "inside_zones_m": float(self.inside[i].sum()) if self.inside.shape[1] else 0.0,
+            "mean_altitude_m": float(self.mean_altitude[i]),
+        }
+
+
+def path_costs(
+    grid: HeightGrid,
+    paths: npt.ArrayLike,
+    *,
+    zmin: float,
+    zmax: float,
+    centers: FloatArray,
+    radii: FloatArray,
+    tops: FloatArray,
+    clearance: float = 0.0,
+    penalty: float = COLLISION_PENALTY,
+) -> CostTerms:
+    """Cost terms of a (P, W, 3) stack of polylines (one call for a whole swarm)."""
+    p = np.asarray(paths, dtype=np.float64)
+    seg = np.diff(p, axis=1)
+    seg_len = np.linalg.norm(seg, axis=2)
+    length = seg_len.sum(axis=1)
+    straight = np.linalg.norm(p[:, -1, :] - p[:, 0, :], axis=1)
+    safe_len = np.where(length > 0, length, 1.0)
+    f_length = np.where(length > 0, 1.0 - straight / safe_len, 0.0)
+
+    mid_z = 0.5 * (p[:, :-1, 2] + p[:, 1:, 2])
+    mean_alt = np.where(
+        length > 0, (seg_len * mid_z).sum(axis=1) / safe_len, p[:, :, 2].mean(axis=1)
+    )
+    f_alt = (mean_alt - zmin) / (zmax - zmin)
+
+    below = path_below_lengths(grid, p, clearance)
+    f_col = np.where(below > 0, penalty + below / safe_len, 0.0)
+
+    k = len(radii)
+    if k:
+        inside = path_inside_lengths(p, centers, radii, tops)
+        f_dz = np.minimum(1.0, inside / (2.0 * radii)[None, :]).sum(axis=1) / k
+    else:
+        inside = np.zeros((p.shape[0], 0))
+        f_dz = np.zeros(p.shape[0])
+    total = f_length + f_alt + f_col + f_dz
+    return CostTerms(total, f_length, f_alt, f_col, f_dz, length, below, inside, mean_alt)

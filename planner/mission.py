@@ -1,0 +1,274 @@
+"""The mission file (DESIGN.md §5): the source of truth between `plan` and `replay`.
+
+```yaml
+terrapath: 1
+name: demo
+crs: EPSG:32611              # "local" for plain metres
+terrain: {dem: [../data/maps/x.tif], cell_size: 30}   # optional; paths relative to this file
+vehicle: solar-uav
+cruise: {speed: 15.0, altitude: 200.0}   # altitude used for waypoints given as [x, y]
+waypoints: [[x, y, z], ...]  # map metres, z metres AMSL
+danger_zones: [{x, y, diameter, top?, id?}, ...]
+plan: {...}                  # provenance written by `terrapath plan`
+waypoints_geo: [{lon, lat, alt_amsl, alt_agl}, ...]   # written for people and other tools; ignored on read
+```
+
+Read with ``yaml.safe_load`` only; unknown keys are refused with the allowed names; every error
+names the file and the field.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import yaml
+
+from terrain.atomic import atomic_output
+from terrain.errors import DataFileError, InputError, where
+from terrain.grid import HeightGrid, crs_label
+from terrain.zones import DangerZone, zones_from_records, zones_to_records
+
+FORMAT_VERSION = 1
+MISSION_KEYS = (
+    "terrapath",
+    "name",
+    "crs",
+    "terrain",
+    "vehicle",
+    "cruise",
+    "waypoints",
+    "danger_zones",
+    "plan",
+    "waypoints_geo",
+)
+DEFAULT_VEHICLE = "aerosonde"
+DEFAULT_CRUISE = {"speed": 25.0, "altitude": 200.0}
+
+
+@dataclass(frozen=True)
+class TerrainRef:
+    """DEM tiles (absolute paths once loaded) and an optional cell size."""
+
+    dem: tuple[str, ...]
+    cell_size: float | None = None
+
+    def load(self) -> HeightGrid:
+        from terrain.load import load_dem
+
+        return load_dem(list(self.dem), cell_size=self.cell_size)
+
+
+@dataclass(frozen=True, eq=False)
+class Mission:
+    """A validated mission. ``waypoints`` is (W, 3): x east, y north (map metres), z AMSL."""
+
+    name: str
+    waypoints: npt.NDArray[np.float64]
+    crs: str = "local"
+    terrain: TerrainRef | None = None
+    vehicle: str = DEFAULT_VEHICLE
+    cruise_speed: float = DEFAULT_CRUISE["speed"]
+    cruise_altitude: float = DEFAULT_CRUISE["altitude"]
+    danger_zones: tuple[DangerZone, ...] = ()
+    plan: dict[str, Any] = field(default_factory=dict)
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        w = np.array(self.waypoints, dtype=np.float64, copy=True)
+        if w.ndim != 2 or w.shape[1] != 3 or len(w) < 2 or not np.isfinite(w).all():
+            raise InputError(
+                f"mission waypoints must be at least two finite [x, y, z]; got {w.shape}"
+            )
+        w.flags.writeable = False
+        object.__setattr__(self, "waypoints", w)
+
+
+def _fail(path: str | None, fld: str, msg: str) -> InputError:
+    return InputError(f"{where(path, fld)}{msg}")
+
+
+def _num(value: Any, path: str | None, fld: str, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _fail(path, fld, f"expected a number, found {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise _fail(
+            path, fld, f"expected a {'positive ' if positive else ''}finite number, found {value!r}"
+        )
+    return v
+
+
+def _mapping(value: Any, path: str | None, fld: str, keys: tuple[str, ...]) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise _fail(path, fld, f"expected a mapping with keys {', '.join(keys)}; found {value!r}")
+    unknown = sorted(set(map(str, value)) - set(keys))
+    if unknown:
+        raise _fail(path, fld, f"unknown key(s) {', '.join(unknown)}; allowed: {', '.join(keys)}")
+    return value
+
+
+def mission_from_dict(data: Any, path: str | None = None) -> Mission:
+    """Validate a parsed mission document (paths in ``terrain.dem`` resolved against ``path``)."""
+    doc = _mapping(data, path, "", MISSION_KEYS) if data is not None else None
+    if doc is None:
+        raise DataFileError(
+            f"{where(path)}empty file, expected a mission (terrapath: 1, waypoints: ...)"
+        )
+    if doc.get("terrapath") != FORMAT_VERSION:
+        raise _fail(
+            path,
+            "terrapath",
+            f"expected format version {FORMAT_VERSION}, found {doc.get('terrapath')!r}",
+        )
+    base = Path(path).parent if path else Path(".")
+    cruise = _mapping(doc.get("cruise", {}), path, "cruise", ("speed", "altitude"))
+    speed = _num(cruise.get("speed", DEFAULT_CRUISE["speed"]), path, "cruise.speed", positive=True)
+    alt = _num(cruise.get("altitude", DEFAULT_CRUISE["altitude"]), path, "cruise.altitude")
+    raw = doc.get("waypoints")
+    if not isinstance(raw, list) or len(raw) < 2:
+        raise _fail(
+            path, "waypoints", f"expected a list of at least two [x, y] or [x, y, z]; found {raw!r}"
+        )
+    pts = []
+    for i, w in enumerate(raw):
+        if not isinstance(w, list | tuple) or len(w) not in (2, 3):
+            raise _fail(path, f"waypoints[{i}]", f"expected [x, y] or [x, y, z], found {w!r}")
+        xyz = [_num(v, path, f"waypoints[{i}][{j}]") for j, v in enumerate(w)]
+        pts.append(xyz if len(xyz) == 3 else [*xyz, alt])
+    terrain = None
+    if doc.get("terrain") is not None:
+        t = _mapping(doc["terrain"], path, "terrain", ("dem", "cell_size"))
+        dem = t.get("dem")
+        if isinstance(dem, str):
+            dem = [dem]
+        if not isinstance(dem, list) or not dem or not all(isinstance(d, str) for d in dem):
+            raise _fail(path, "terrain.dem", f"expected a list of DEM file paths, found {dem!r}")
+        cell = t.get("cell_size")
+        terrain = TerrainRef(
+            tuple(str((base / d) if not os.path.isabs(d) else Path(d)) for d in dem),
+            None if cell is None else _num(cell, path, "terrain.cell_size", positive=True),
+        )
+    name = doc.get("name", Path(path).stem if path else "mission")
+    vehicle = doc.get("vehicle", DEFAULT_VEHICLE)
+    if not isinstance(vehicle, str) or not vehicle:
+        raise _fail(
+            path, "vehicle", f"expected a preset name or a vehicle file path, found {vehicle!r}"
+        )
+    crs = doc.get("crs", "local")
+    if not isinstance(crs, str):
+        raise _fail(
+            path, "crs", f"expected a CRS string such as 'EPSG:32611' or 'local', found {crs!r}"
+        )
+    plan = doc.get("plan") or {}
+    if not isinstance(plan, dict):
+        raise _fail(path, "plan", f"expected a mapping, found {plan!r}")
+    zones = zones_from_records(doc.get("danger_zones") or [], None, source=path)
+    return Mission(
+        name=str(name),
+        waypoints=np.array(pts),
+        crs=crs,
+        terrain=terrain,
+        vehicle=vehicle,
+        cruise_speed=speed,
+        cruise_altitude=alt,
+        danger_zones=zones,
+        plan=plan,
+        source=path,
+    )
+
+
+def load_mission(path: str | os.PathLike[str]) -> Mission:
+    """Read and validate a mission YAML file."""
+    p = Path(path)
+    if not p.is_file():
+        raise DataFileError(f"{str(p)!r}: no such file")
+    try:
+        data = yaml.safe_load(p.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}" if mark is not None else ""
+        raise DataFileError(f"{str(p)!r}: not valid YAML{at}") from None
+    except UnicodeDecodeError:
+        raise DataFileError(f"{str(p)!r}: not a text file, expected a mission YAML") from None
+    return mission_from_dict(data, str(p))
+
+
+def _r(v: float, nd: int = 3) -> float:
+    return round(float(v), nd)
+
+
+def mission_to_dict(
+    mission: Mission, path: str | os.PathLike[str] | None = None, grid: HeightGrid | None = None
+) -> dict[str, Any]:
+    """The YAML document of a mission; DEM paths relative to ``path``'s folder; with a
+    georeferenced ``grid`` also ``waypoints_geo`` (lon/lat, AMSL and above-ground altitudes)."""
+    base = Path(path).resolve().parent if path else None
+    doc: dict[str, Any] = {"terrapath": FORMAT_VERSION, "name": mission.name, "crs": mission.crs}
+    if mission.terrain is not None:
+        dem = [os.path.relpath(Path(d).resolve(), base) if base else d for d in mission.terrain.dem]
+        doc["terrain"] = {"dem": dem}
+        if mission.terrain.cell_size is not None:
+            doc["terrain"]["cell_size"] = mission.terrain.cell_size
+    doc["vehicle"] = mission.vehicle
+    doc["cruise"] = {"speed": mission.cruise_speed, "altitude": mission.cruise_altitude}
+    doc["waypoints"] = [[_r(v) for v in w] for w in mission.waypoints]
+    doc["danger_zones"] = zones_to_records(mission.danger_zones)
+    doc["plan"] = mission.plan
+    if grid is not None:
+        w = mission.waypoints
+        ground = grid.height_at(w[:, 0], w[:, 1])
+        geo = []
+        if grid.is_georeferenced:
+            lon, lat = grid.to_lonlat(w[:, 0], w[:, 1])
+            for lo, la, z, g in zip(lon, lat, w[:, 2], ground, strict=True):
+                geo.append(
+                    {"lon": _r(lo, 7), "lat": _r(la, 7), "alt_amsl": _r(z), "alt_agl": _r(z - g)}
+                )
+        else:
+            geo = [
+                {"alt_amsl": _r(z), "alt_agl": _r(z - g)}
+                for z, g in zip(w[:, 2], ground, strict=True)
+            ]
+        doc["waypoints_geo"] = geo
+    return doc
+
+
+def save_mission(
+    mission: Mission, path: str | os.PathLike[str], grid: HeightGrid | None = None
+) -> Path:
+    """Write a mission YAML (temporary name, then rename)."""
+    out = Path(path)
+    doc = mission_to_dict(mission, out, grid)
+    with atomic_output(out) as tmp:
+        tmp.write_text(
+            "# terrapath mission: map metres (x east, y north), altitudes metres AMSL\n"
+            + yaml.safe_dump(_plain(doc), sort_keys=False, default_flow_style=None, width=100),
+            encoding="utf-8",
+        )
+    return out
+
+
+def _plain(value: Any) -> Any:
+    """Turn numpy scalars/arrays and tuples into plain YAML-safe Python values."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return value
+
+
+def grid_crs_label(grid: HeightGrid) -> str:
+    """What a mission records as its CRS for a grid."""
+    return crs_label(grid.crs) if grid.crs is not None else "local"

@@ -1,0 +1,183 @@
+"""The global planning problem: a height grid, danger zones, start, goal and N free waypoints.
+
+A candidate path is S, W_1 .. W_N, G. The optimisers see only the solution vector: the 3N
+coordinates ``[x_1, y_1, z_1, x_2, ...]`` of the free waypoints, bounded by the map (the extent of
+the cell centres, so every lookup is interpolated, never extrapolated) and the altitude band
+[Zmin, Zmax]. The problem is a callable objective ``f(X (P, 3N)) -> (P,)`` for any optimiser.
+
+Defaults and choices:
+
+- the altitude band defaults to seed 002's "just below the lowest / just above the highest terrain
+  point": Zmin = lowest terrain - 1 m, Zmax = highest terrain + max(clearance, 50 m, 5 % of the
+  relief), widened if needed to contain the start and goal altitudes;
+- start and goal must lie inside the map and at or above the terrain (+ clearance);
+- feasibility: no length below terrain + clearance and, with ``avoid_zones``, no length inside any
+  danger zone.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from planner.cost import COLLISION_PENALTY, CostTerms, path_costs
+from terrain.cylinders import ZoneArrays, zones_arrays
+from terrain.errors import InputError
+from terrain.grid import HeightGrid
+from terrain.zones import DangerZone
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def _point(value: Sequence[float] | FloatArray, name: str) -> FloatArray:
+    p = np.asarray(value, dtype=np.float64)
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise InputError(f"{name} must be three finite numbers x, y, z; got {value!r}")
+    return p
+
+
+@dataclass(frozen=True, eq=False)
+class PlanningProblem:
+    """Start/goal (map metres, z AMSL), N free waypoints, zones, band and clearance."""
+
+    grid: HeightGrid
+    start: FloatArray
+    goal: FloatArray
+    n_waypoints: int = 5
+    zones: tuple[DangerZone, ...] = ()
+    zmin: float | None = None
+    zmax: float | None = None
+    clearance: float = 0.0
+    avoid_zones: bool = False
+    penalty: float = COLLISION_PENALTY
+    _zones: ZoneArrays = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        g = self.grid
+        set_ = object.__setattr__
+        set_(self, "start", _point(self.start, "start"))
+        set_(self, "goal", _point(self.goal, "goal"))
+        if isinstance(self.n_waypoints, bool) or int(self.n_waypoints) != self.n_waypoints:
+            raise InputError(f"number of waypoints must be an integer; got {self.n_waypoints!r}")
+        if self.n_waypoints < 1:
+            raise InputError(
+                f"number of free waypoints N must be at least 1; got {self.n_waypoints}"
+            )
+        set_(self, "n_waypoints", int(self.n_waypoints))
+        if not (math.isfinite(self.clearance) and self.clearance >= 0):
+            raise InputError(f"clearance must be a number of metres >= 0; got {self.clearance!r}")
+        for name, p in (("start", self.start), ("goal", self.goal)):
+            if not bool(g.contains(p[0], p[1])):
+                xmin, ymin, xmax, ymax = g.bounds
+                raise InputError(
+                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) lies outside the map "
+                    f"(x {xmin:.1f} .. {xmax:.1f}, y {ymin:.1f} .. {ymax:.1f})"
+                )
+            ground = float(g.height_at(p[0], p[1]))
+            if p[2] < ground + self.clearance:
+                need = f"terrain {ground:.1f} m" + (
+                    f" + clearance {self.clearance:g} m" if self.clearance else ""
+                )
+                raise InputError(
+                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is inside the terrain "
+                    f"(needs at least {need})"
+                )
+        relief = g.zmax - g.zmin
+        zmin = g.zmin - 1.0 if self.zmin is None else float(self.zmin)
+        margin = max(self.clearance, 50.0, 0.05 * relief)
+        zmax = g.zmax + margin if self.zmax is None else float(self.zmax)
+        if self.zmax is None:
+            zmax = max(zmax, float(self.start[2]), float(self.goal[2]))
+        if self.zmin is None:
+            zmin = min(zmin, float(self.start[2]), float(self.goal[2]))
+        if not (math.isfinite(zmin) and math.isfinite(zmax)) or zmin >= zmax:
+            raise InputError(f"altitude band must have Zmin < Zmax; got [{zmin}, {zmax}]")
+        if zmax <= g.zmin + self.clearance:
+            raise InputError(
+                f"altitude band [{zmin:.1f}, {zmax:.1f}] m lies entirely below the terrain "
+                f"(lowest point {g.zmin:.1f} m"
+                + (f" + clearance {self.clearance:g} m)" if self.clearance else ")")
+            )
+        set_(self, "zmin", zmin)
+        set_(self, "zmax", zmax)
+        set_(self, "zones", tuple(self.zones))
+        set_(self, "_zones", zones_arrays(self.zones))
+
+    # -- the search space ---------------------------------------------------------------------------
+    @property
+    def dimension(self) -> int:
+        return 3 * self.n_waypoints
+
+    @property
+    def band(self) -> tuple[float, float]:
+        assert self.zmin is not None and self.zmax is not None
+        return (self.zmin, self.zmax)
+
+    def bounds(self) -> tuple[FloatArray, FloatArray]:
+        """(lower, upper) of the 3N-vector: cell-centre extent of the map, altitude band."""
+        xmin, ymin, xmax, ymax = self.grid.bounds
+        dx, dy = self.grid.cell_size
+        lo3 = np.array([xmin + dx / 2, ymin + dy / 2, self.band[0]])
+        hi3 = np.array([xmax - dx / 2, ymax - dy / 2, self.band[1]])
+        return np.tile(lo3, self.n_waypoints), np.tile(hi3, self.n_waypoints)
+
+    def paths(self, x: npt.ArrayLike) -> FloatArray:
+        """(P, N + 2, 3) polylines S, W_1..W_N, G of a (P, 3N) population (or one (3N,) vector)."""
+        arr = np.asarray(x, dtype=np.float64)
+        single = arr.ndim == 1
+        arr = np.atleast_2d(arr)
+        if arr.shape[1] != self.dimension:
+            raise InputError(
+                f"solution vectors must have {self.dimension} numbers; got {arr.shape[1]}"
+            )
+        p = arr.shape[0]
+        mid = arr.reshape(p, self.n_waypoints, 3)
+        out = np.concatenate(
+            [np.broadcast_to(self.start, (p, 1, 3)), mid, np.broadcast_to(self.goal, (p, 1, 3))],
+            axis=1,
+        )
+        return out[0] if single else out
+
+    def straight_seeds(self) -> FloatArray:
+        """Two seed solutions on the straight start-goal line: altitudes interpolated between the
+        ends, and a constant altitude clearing all terrain under the line (clipped to Zmax)."""
+        t = np.linspace(0.0, 1.0, self.n_waypoints + 2)[1:-1, None]
+        line = self.start[None, :] + t * (self.goal - self.start)[None, :]
+        dense = np.linspace(0.0, 1.0, 512)[:, None]
+        xy = self.start[None, :2] + dense * (self.goal - self.start)[None, :2]
+        top = float(self.grid.height_at(xy[:, 0], xy[:, 1]).max())
+        high = line.copy()
+        high[:, 2] = min(
+            top + max(self.clearance, 1.0) + 0.5 * self.grid.cell_size[0], self.band[1]
+        )
+        lo, hi = self.bounds()
+        return np.clip(np.stack([line.ravel(), high.ravel()]), lo, hi)
+
+    # -- the objective -------------------------------------------------------------------------------
+    def terms(self, x: npt.ArrayLike) -> CostTerms:
+        """Every cost term of a (P, 3N) population."""
+        z = self._zones
+        return path_costs(
+            self.grid,
+            self.paths(np.atleast_2d(np.asarray(x, dtype=np.float64))),
+            zmin=self.band[0],
+            zmax=self.band[1],
+            centers=z.centers,
+            radii=z.radii,
+            tops=z.tops,
+            clearance=self.clearance,
+            penalty=self.penalty,
+        )
+
+    def __call__(self, x: npt.ArrayLike) -> FloatArray:
+        return self.terms(x).total
+
+    def feasible(self, terms: CostTerms) -> npt.NDArray[np.bool_]:
+        ok = terms.below_length <= 0.0
+        if self.avoid_zones and terms.inside.shape[1]:
+            ok &= terms.inside.sum(axis=1) <= 0.0
+        return np.asarray(ok)
