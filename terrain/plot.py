@@ -34,20 +34,13 @@ def hillshade(
     return np.asarray(np.clip(shade, 0.0, 1.0))
 
 
-def new_map_figure(
-    grid: HeightGrid, title: str | None = None, size: float = 8.0
-) -> tuple[Any, Any]:
-    """A figure with the tinted hillshade of ``grid`` drawn in map metres; returns (fig, ax)."""
+def draw_hillshade(fig: Any, ax: Any, grid: HeightGrid, title: str | None = None) -> None:
+    """Draw the tinted hillshade of ``grid`` on ``ax`` in map metres, with an elevation colour bar."""
     from matplotlib import colormaps
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
-    from matplotlib.figure import Figure
 
     xmin, ymin, xmax, ymax = grid.bounds
-    aspect = (ymax - ymin) / (xmax - xmin)
-    fig = Figure(figsize=(size, max(3.0, min(size * aspect, 2.0 * size)) + 0.8))
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
     relief = max(grid.zmax - grid.zmin, 1e-6)
     norm = Normalize(grid.zmin, grid.zmin + relief)
     cmap = colormaps["gist_earth"]
@@ -55,10 +48,9 @@ def new_map_figure(
     shade = hillshade(grid)[..., None]
     rgb = np.clip(tint * (0.35 + 0.65 * shade), 0.0, 1.0)
     ax.imshow(rgb, extent=(xmin, xmax, ymin, ymax), origin="upper", interpolation="bilinear")
-    from matplotlib.cm import ScalarMappable
-
-    sm = ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=ax, shrink=0.8, label="elevation (m AMSL)")
+    fig.colorbar(
+        ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.8, label="elevation (m AMSL)"
+    )
     ax.set_xlabel(f"x east (m, {crs_label(grid.crs)})")
     ax.set_ylabel("y north (m)")
     ax.ticklabel_format(style="plain", useOffset=False)
@@ -71,6 +63,27 @@ def new_map_figure(
     )
     ax.set_xlim(xmin, xmax)
     ax.set_ylim(ymin, ymax)
+
+
+def new_figure(width: float, height: float) -> Any:
+    """A matplotlib Figure on an Agg canvas (no pyplot state)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height))
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def new_map_figure(
+    grid: HeightGrid, title: str | None = None, size: float = 8.0
+) -> tuple[Any, Any]:
+    """A figure with the tinted hillshade of ``grid`` drawn in map metres; returns (fig, ax)."""
+    xmin, ymin, xmax, ymax = grid.bounds
+    aspect = (ymax - ymin) / (xmax - xmin)
+    fig = new_figure(size, max(3.0, min(size * aspect, 2.0 * size)) + 0.8)
+    ax = fig.add_subplot(1, 1, 1)
+    draw_hillshade(fig, ax, grid, title)
     return fig, ax
 
 
