@@ -147,9 +147,12 @@ class PlanningProblem:
         ends, and a constant altitude clearing all terrain under the line (clipped to Zmax)."""
         t = np.linspace(0.0, 1.0, self.n_waypoints + 2)[1:-1, None]
         line = self.start[None, :] + t * (self.goal - self.start)[None, :]
-        dense = np.linspace(0.0, 1.0, 512)[:, None]
+        # highest cell under the line (cell values, as the Bresenham check uses), sampled densely
+        span = float(np.linalg.norm(self.goal[:2] - self.start[:2]))
+        n = max(2, int(np.ceil(4.0 * span / min(self.grid.cell_size))) + 1)
+        dense = np.linspace(0.0, 1.0, n)[:, None]
         xy = self.start[None, :2] + dense * (self.goal - self.start)[None, :2]
-        top = float(self.grid.height_at(xy[:, 0], xy[:, 1]).max())
+        top = float(self.grid.heights[self.grid.cell_of(xy[:, 0], xy[:, 1])].max())
         high = line.copy()
         high[:, 2] = min(
             top + max(self.clearance, 1.0) + 0.5 * self.grid.cell_size[0], self.band[1]

@@ -16,6 +16,7 @@ from terrain.errors import TerrapathError
 from terrapath import __version__
 from terrapath.commands.hillshade import hillshade
 from terrapath.commands.info import info
+from terrapath.commands.plan import plan_cmd
 
 EXIT_ERROR = 1
 
@@ -36,6 +37,7 @@ def cli(verbose: int, quiet: bool) -> None:
 
 cli.add_command(info)
 cli.add_command(hillshade)
+cli.add_command(plan_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:
