@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Callable
 from typing import Any
@@ -17,6 +18,19 @@ from terrain.errors import InputError
 ALGORITHMS = ("ampso", "pso", "apso", "ga")
 DEFAULT_ALGORITHM = "ampso"
 SWARM_RADIUS_EPS = 1e-4
+
+
+def min_clearance(problem: PlanningProblem, path: np.ndarray) -> float:
+    """Smallest height of the path above the (bilinear) terrain, sampled every half cell — a
+    finer check than the Bresenham walk the cost uses, reported so users see the true margin."""
+    grid = problem.grid
+    step = 0.5 * min(grid.cell_size)
+    lowest = np.inf
+    for a, b in itertools.pairwise(path):
+        n = max(2, int(np.ceil(np.linalg.norm(b[:2] - a[:2]) / step)) + 1)
+        pts = a[None, :] + np.linspace(0.0, 1.0, n)[:, None] * (b - a)[None, :]
+        lowest = min(lowest, float((pts[:, 2] - grid.height_at(pts[:, 0], pts[:, 1])).min()))
+    return lowest
 
 
 def plan(
@@ -62,10 +76,12 @@ def plan(
     terms = problem.terms(res.x[None, :])
     feasible = bool(problem.feasible(terms)[0])
     path = problem.paths(res.x)
+    row = terms.row(0)
+    row["min_clearance_m"] = min_clearance(problem, path)
     return PlanResult(
         status="feasible" if feasible else "infeasible",
         waypoints=path,
-        terms=terms.row(0),
+        terms=row,
         algorithm=algorithm,
         params={
             **dict(res.params),

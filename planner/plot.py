@@ -100,7 +100,14 @@ def save_plan_picture(
     ax2.plot(d / 1000.0, z, "-", color="#1f77b4", lw=2, label="path")
     below = z < g + clearance
     if below.any():
-        ax2.plot(d[below] / 1000.0, z[below], ".", color="#d62728", ms=3, label="below terrain")
+        ax2.plot(
+            d[below] / 1000.0,
+            z[below],
+            ".",
+            color="#d62728",
+            ms=3,
+            label="below terrain + clearance" if clearance > 0 else "below terrain",
+        )
     ax2.set_xlabel("distance along the path (km)")
     ax2.set_ylabel("altitude (m AMSL)")
     ax2.set_xlim(0, d[-1] / 1000.0 if d[-1] > 0 else 1)

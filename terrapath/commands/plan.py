@@ -48,6 +48,33 @@ def _resolve(
     return np.array([x, y, z])
 
 
+def _run_with_progress(
+    plan: Any, problem: Any, algorithm: str, seed: int, population: int, iterations: int
+) -> Any:
+    """Run the planner with a progress bar (iteration, best cost) on an interactive terminal."""
+    if not sys.stderr.isatty():
+        return plan(problem, algorithm, seed=seed, population=population, iterations=iterations)
+    done = [0]
+    with click.progressbar(
+        length=iterations, label=f"{algorithm}: planning", file=sys.stderr, show_pos=True, width=30
+    ) as bar:
+
+        def progress(state: Any) -> None:
+            it = int(state.iteration)
+            bar.label = f"{algorithm}: best cost {float(state.best_f):.4f}"
+            bar.update(max(0, it - done[0]))
+            done[0] = it
+
+        return plan(
+            problem,
+            algorithm,
+            seed=seed,
+            population=population,
+            iterations=iterations,
+            callback=progress,
+        )
+
+
 @click.command("plan")
 @dem_options
 @click.option(
@@ -93,9 +120,9 @@ def _resolve(
 @click.option(
     "--clearance",
     type=float,
-    default=0.0,
+    default=50.0,
     show_default=True,
-    help="Minimum terrain clearance (m) for feasibility.",
+    help="Minimum terrain clearance (m) for feasibility (0: the path may touch the ground).",
 )
 @click.option(
     "--zmin",
@@ -214,28 +241,7 @@ def plan_cmd(
                 click.echo(f"terrapath: warning: {msg}", err=True)
     problem = PlanningProblem(grid, s, g, n_waypoints, zlist, zmin, zmax, clearance, avoid_zones)
 
-    bar: Any = None
-    last = [0]
-
-    def progress(state: Any) -> None:
-        it = int(getattr(state, "iteration", last[0] + 1))
-        if bar is not None:
-            bar.label = f"{algorithm}: best cost {float(state.best_f):.4f}"
-            bar.update(max(0, it - last[0]))
-        last[0] = it
-
-    with click.progressbar(
-        length=iterations, label=f"{algorithm}: planning", file=sys.stderr, show_pos=True, width=30
-    ) as b:
-        bar = b
-        result = plan(
-            problem,
-            algorithm,
-            seed=seed,
-            population=population,
-            iterations=iterations,
-            callback=progress,
-        )
+    result = _run_with_progress(plan, problem, algorithm, seed, population, iterations)
 
     provenance = {
         "algorithm": algorithm,
@@ -261,7 +267,7 @@ def plan_cmd(
         terrain=TerrainRef(tuple(str(Path(d).resolve()) for d in dem), opts.get("cell_size")),
         vehicle=vehicle,
         cruise_speed=speed,
-        cruise_altitude=float(np.mean(result.waypoints[:, 2])),
+        cruise_altitude=round(float(np.mean(result.waypoints[:, 2])), 1),
         danger_zones=tuple(zlist),
         plan=provenance,
     )
