@@ -83,15 +83,15 @@ def _provenance(mission: Mission) -> dict[str, Any]:
     return {k: plan[k] for k in ("algorithm", "seed", "feasible") if k in plan}
 
 
-def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: AltFrame = "amsl") -> dict[str, Any]:
+def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict[str, Any]:
     """A QGroundControl plan (fileType "Plan", version 1, mission version 2)."""
-    frame = _frame(frame)
+    frame_ = _frame(frame)
     lon, lat, alt = _geo(mission, grid)
     home_alt = float(alt[0])
-    mav_frame = MAV_FRAME_GLOBAL if frame == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
+    mav_frame = MAV_FRAME_GLOBAL if frame_ == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
     items = []
     for i in range(1, len(alt)):
-        a = float(alt[i]) if frame == "amsl" else float(alt[i]) - home_alt
+        a = float(alt[i]) if frame_ == "amsl" else float(alt[i]) - home_alt
         a = round(a, 2)
         cmd = MAV_CMD_NAV_TAKEOFF if i == 1 else MAV_CMD_NAV_WAYPOINT
         p1 = 15.0 if cmd == MAV_CMD_NAV_TAKEOFF else 0.0  # takeoff: minimum pitch (deg)
@@ -99,7 +99,7 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: AltFrame = "amsl") ->
             {
                 "AMSLAltAboveTerrain": None,
                 "Altitude": a,
-                "AltitudeMode": QGC_ALT_MODE[frame],
+                "AltitudeMode": QGC_ALT_MODE[frame_],
                 "autoContinue": True,
                 "command": cmd,
                 "doJumpId": i,
@@ -138,7 +138,7 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: AltFrame = "amsl") ->
             "vehicleType": MAV_TYPE_FIXED_WING,
             "cruiseSpeed": mission.cruise_speed,
             "hoverSpeed": 5,
-            "globalPlanAltitudeMode": QGC_ALT_MODE[frame],
+            "globalPlanAltitudeMode": QGC_ALT_MODE[frame_],
             "plannedHomePosition": [
                 round(float(lat[0]), 8),
                 round(float(lon[0]), 8),
@@ -149,11 +149,11 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: AltFrame = "amsl") ->
     }
 
 
-def to_wpl(mission: Mission, grid: HeightGrid, frame: AltFrame = "amsl") -> str:
+def to_wpl(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> str:
     """``QGC WPL 110`` text: item 0 is home (AMSL), then takeoff and waypoints in ``frame``."""
-    frame = _frame(frame)
+    frame_ = _frame(frame)
     lon, lat, alt = _geo(mission, grid)
-    mav_frame = MAV_FRAME_GLOBAL if frame == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
+    mav_frame = MAV_FRAME_GLOBAL if frame_ == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
     lines = ["QGC WPL 110"]
     row = "{i}\t{cur}\t{fr}\t{cmd}\t{p1}\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t{alt:.2f}\t1"
     lines.append(
@@ -169,7 +169,7 @@ def to_wpl(mission: Mission, grid: HeightGrid, frame: AltFrame = "amsl") -> str:
         )
     )
     for i in range(1, len(alt)):
-        a = alt[i] if frame == "amsl" else alt[i] - alt[0]
+        a = alt[i] if frame_ == "amsl" else alt[i] - alt[0]
         cmd = MAV_CMD_NAV_TAKEOFF if i == 1 else MAV_CMD_NAV_WAYPOINT
         lines.append(
             row.format(

@@ -141,7 +141,7 @@ def test_geojson_lies_inside_the_dem(tmp_path: Path, grid) -> None:  # type: ign
 @pytest.mark.parametrize("frame", ["amsl", "relative"])
 def test_qgc_plan_structure(grid, frame: str) -> None:  # type: ignore[no-untyped-def]
     m = _mission(grid)
-    plan = json.loads(json.dumps(to_qgc_plan(m, grid, frame)))  # type: ignore[arg-type]
+    plan = json.loads(json.dumps(to_qgc_plan(m, grid, frame)))
     assert plan["fileType"] == "Plan" and plan["version"] == 1
     mission = plan["mission"]
     assert mission["version"] == 2 and mission["vehicleType"] == 1
@@ -171,7 +171,7 @@ def test_wpl_reads_back_with_pymavlink(tmp_path: Path, grid, frame: str) -> None
     from pymavlink import mavwp
 
     m = _mission(grid)
-    out = write_text(to_wpl(m, grid, frame), tmp_path / "m.waypoints")  # type: ignore[arg-type]
+    out = write_text(to_wpl(m, grid, frame), tmp_path / "m.waypoints")
     loader = mavwp.MAVWPLoader()
     assert loader.load(str(out)) == 5
     lon, lat = grid.to_lonlat(m.waypoints[:, 0], m.waypoints[:, 1])
@@ -190,4 +190,4 @@ def test_exports_need_a_georeferenced_map() -> None:
     with pytest.raises(InputError, match="no CRS"):
         to_geojson(m, local)
     with pytest.raises(InputError, match="altitude frame"):
-        to_wpl(m, local, "agl")  # type: ignore[arg-type]
+        to_wpl(m, local, "agl")

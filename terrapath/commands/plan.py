@@ -277,10 +277,10 @@ def plan_cmd(
         written["geojson"] = write_json(to_geojson(mission, grid), stem.with_suffix(".geojson"))
         written["qgc_plan"] = write_json(
             to_qgc_plan(mission, grid, alt_frame), stem.with_suffix(".plan")
-        )  # type: ignore[arg-type]
+        )
         written["wpl"] = write_text(
             to_wpl(mission, grid, alt_frame), stem.with_suffix(".waypoints")
-        )  # type: ignore[arg-type]
+        )
     written["picture"] = save_plan_picture(
         grid,
         result.waypoints,
