@@ -16,6 +16,9 @@ the ground, a path with F > 3.5 certainly hits the ground — seed 002's infeasi
 and any colliding path costs more than any collision-free one of the same map when the
 altitude band is honoured.
 
+With ``hard_zones`` (the planner's ``avoid_zones``), a path entering any zone also pays the
+penalty P in F_dangerzones, so zones become constraints as hard as the ground.
+
 A_traj is the mean altitude *along the path* (each segment weighted by its 3D length, its altitude
 the mean of its ends), so a short climb costs less than a long high cruise; a degenerate path of
 length 0 takes the mean of its points.
@@ -76,6 +79,7 @@ def path_costs(
     tops: FloatArray,
     clearance: float = 0.0,
     penalty: float = COLLISION_PENALTY,
+    hard_zones: bool = False,
 ) -> CostTerms:
     """Cost terms of a (P, W, 3) stack of polylines (one call for a whole swarm)."""
     p = np.asarray(paths, dtype=np.float64)
@@ -99,6 +103,9 @@ def path_costs(
     if k:
         inside = path_inside_lengths(p, centers, radii, tops)
         f_dz = np.minimum(1.0, inside / (2.0 * radii)[None, :]).sum(axis=1) / k
+        if hard_zones:
+            # zones as hard constraints: entering any costs the collision penalty, like the ground
+            f_dz = f_dz + np.where(inside.sum(axis=1) > 0, penalty, 0.0)
     else:
         inside = np.zeros((p.shape[0], 0))
         f_dz = np.zeros(p.shape[0])

@@ -174,6 +174,7 @@ class PlanningProblem:
             tops=z.tops,
             clearance=self.clearance,
             penalty=self.penalty,
+            hard_zones=self.avoid_zones,
         )
 
     def __call__(self, x: npt.ArrayLike) -> FloatArray:

