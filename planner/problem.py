@@ -8,7 +8,7 @@ the cell centres, so every lookup is interpolated, never extrapolated) and the a
 Defaults and choices:
 
 - the altitude band defaults to seed 002's "just below the lowest / just above the highest terrain
-  point": Zmin = lowest terrain - 1 m, Zmax = highest terrain + max(clearance, 50 m, 5 % of the
+  point": Zmin = lowest terrain - 1 m, Zmax = highest terrain + clearance + max(50 m, 5 % of the
   relief), widened if needed to contain the start and goal altitudes;
 - start and goal must lie inside the map and at or above the terrain (+ clearance);
 - feasibility: no length below terrain + clearance and, with ``avoid_zones``, no length inside any
@@ -88,7 +88,7 @@ class PlanningProblem:
                 )
         relief = g.zmax - g.zmin
         zmin = g.zmin - 1.0 if self.zmin is None else float(self.zmin)
-        margin = max(self.clearance, 50.0, 0.05 * relief)
+        margin = self.clearance + max(50.0, 0.05 * relief)
         zmax = g.zmax + margin if self.zmax is None else float(self.zmax)
         if self.zmax is None:
             zmax = max(zmax, float(self.start[2]), float(self.goal[2]))
