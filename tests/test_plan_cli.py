@@ -148,7 +148,7 @@ def test_goal_inside_a_zone_warns_or_is_refused_with_strict(
         "terrapath: 1\ndanger_zones:\n  - {id: g, lon: -105.55, lat: 40.50, diameter: 3000}\n"
     )
     args = [*BASE, "--iterations", "5", "--zones", str(zones), "-o", str(tmp_path / "x.yaml")]
-    assert main(args) == 0
+    assert main(args) in (0, 3)  # planned (feasible or not: 5 iterations), not refused
     assert "warning: the goal lies inside danger zone g" in capsys.readouterr().err
     assert main([*args, "--strict"]) == 2
     assert "--strict" in capsys.readouterr().err
