@@ -1,0 +1,112 @@
+"""Coordinate frames, in one place.
+
+- **map** (ENU-like): x east, y north (metres in the map's projected CRS), z up (metres AMSL).
+  Missions, threats, terrain and everything a user sees use it.
+- **NED**: north, east, down (metres), the frame of the vehicle dynamics (Beard & McLain). The NED
+  origin is the map origin (0, 0, 0 AMSL), so ``n = y``, ``e = x``, ``d = -z``.
+- **body**: x forward, y right wing, z down; Euler angles roll phi, pitch theta, yaw psi (3-2-1).
+- **course/heading** angles are measured clockwise from north (NED convention); the map angle
+  atan2(dy, dx) is counter-clockwise from east. :func:`course_of` converts a map vector.
+
+State vector of the 6-DOF model (12 floats): ``[pn, pe, pd, u, v, w, phi, theta, psi, p, q, r]``.
+Control vector (4 floats): ``[delta_e, delta_a, delta_r, delta_t]`` (radians, throttle 0..1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+
+# indices into the 12-state vector
+PN, PE, PD, U, V, W, PHI, THETA, PSI, P, Q, R = range(12)
+N_STATES = 12
+# indices into the control vector
+DE, DA, DR, DT = range(4)
+N_CONTROLS = 4
+
+
+def map_to_ned(xyz: npt.ArrayLike) -> FloatArray:
+    """(..., 3) map points (x east, y north, z up) -> NED (north, east, down)."""
+    p = np.asarray(xyz, dtype=np.float64)
+    return np.stack([p[..., 1], p[..., 0], -p[..., 2]], axis=-1)
+
+
+def ned_to_map(ned: npt.ArrayLike) -> FloatArray:
+    """(..., 3) NED points -> map (x east, y north, z up)."""
+    p = np.asarray(ned, dtype=np.float64)
+    return np.stack([p[..., 1], p[..., 0], -p[..., 2]], axis=-1)
+
+
+def course_of(dx: npt.ArrayLike, dy: npt.ArrayLike) -> FloatArray:
+    """Course angle (rad, clockwise from north, in (-pi, pi]) of a map displacement (dx east, dy north)."""
+    return np.asarray(np.arctan2(dx, dy), dtype=np.float64)
+
+
+def wrap_pi(a: npt.ArrayLike) -> FloatArray:
+    """Angle(s) wrapped to [-pi, pi)."""
+    return np.asarray((np.asarray(a, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi)
+
+
+def rotation_body_to_ned(phi: float, theta: float, psi: float) -> FloatArray:
+    """3x3 rotation taking body-frame vectors to NED (3-2-1 Euler angles)."""
+    cf, sf = np.cos(phi), np.sin(phi)
+    ct, st = np.cos(theta), np.sin(theta)
+    cp, sp = np.cos(psi), np.sin(psi)
+    return np.array(
+        [
+            [ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp],
+            [ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp],
+            [-st, sf * ct, cf * ct],
+        ]
+    )
+
+
+def quaternion_map_from_euler(
+    phi: float, theta: float, psi: float
+) -> tuple[float, float, float, float]:
+    """(x, y, z, w) quaternion of the body attitude expressed in the map (ENU) frame, with the body
+    axes as FLU (x forward, y left, z up) — what Foxglove / ROS expect for a pose."""
+    r_ned = rotation_body_to_ned(phi, theta, psi)
+    ned_to_enu = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+    frd_to_flu = np.diag([1.0, -1.0, -1.0])
+    m = ned_to_enu @ r_ned @ frd_to_flu
+    return _quat_from_matrix(m)
+
+
+def _quat_from_matrix(m: FloatArray) -> tuple[float, float, float, float]:
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    if tr > 0:
+        s = np.sqrt(tr + 1.0) * 2
+        w, x, y, z = (
+            0.25 * s,
+            (m[2, 1] - m[1, 2]) / s,
+            (m[0, 2] - m[2, 0]) / s,
+            (m[1, 0] - m[0, 1]) / s,
+        )
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
+        w, x, y, z = (
+            (m[2, 1] - m[1, 2]) / s,
+            0.25 * s,
+            (m[0, 1] + m[1, 0]) / s,
+            (m[0, 2] + m[2, 0]) / s,
+        )
+    elif m[1, 1] > m[2, 2]:
+        s = np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
+        w, x, y, z = (
+            (m[0, 2] - m[2, 0]) / s,
+            (m[0, 1] + m[1, 0]) / s,
+            0.25 * s,
+            (m[1, 2] + m[2, 1]) / s,
+        )
+    else:
+        s = np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
+        w, x, y, z = (
+            (m[1, 0] - m[0, 1]) / s,
+            (m[0, 2] + m[2, 0]) / s,
+            (m[1, 2] + m[2, 1]) / s,
+            0.25 * s,
+        )
+    return (float(x), float(y), float(z), float(w))
