@@ -1,0 +1,152 @@
+"""Metrics of a replay run (DESIGN.md §4), accumulated chunk by chunk by the simulation loop.
+
+- success: the goal was reached with no safety-sphere violation and no terrain contact;
+- minimum separation to each threat (distance to its safety surface; negative = inside) and when;
+- violations: every interval spent inside a threat's safety volume, with entry/exit times;
+- minimum terrain clearance (height above the terrain under the aircraft) and when;
+- flown length (3D), path-length ratio PLR = flown length / straight source-destination distance
+  (seed 000 §6), flight time, waypoints added by the avoider, time spent in the avoider per decision.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Violation:
+    threat: str
+    t_enter: float
+    t_exit: float | None  # None: still inside when the run ended
+    min_separation: float
+
+
+@dataclass(frozen=True)
+class RunMetrics:
+    success: bool
+    end_reason: str
+    reached_goal: bool
+    terrain_contact: bool
+    flight_time_s: float
+    flown_length_m: float
+    straight_distance_m: float
+    plr: float
+    min_terrain_clearance_m: float
+    min_terrain_clearance_t: float
+    min_separation: dict[str, dict[str, float]]
+    violations: tuple[Violation, ...]
+    waypoints_added: int
+    decisions: int
+    decision_time_mean_s: float
+    decision_time_max_s: float
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["violations"] = [asdict(v) for v in self.violations]
+        return _finite(d)
+
+
+def _finite(value: Any) -> Any:
+    """JSON-safe: inf/nan become None."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+class MetricsTracker:
+    """Feed it the trajectory chunk by chunk; :meth:`finish` gives the :class:`RunMetrics`."""
+
+    def __init__(self, threat_ids: list[str], start: FloatArray, goal: FloatArray) -> None:
+        self.start = np.asarray(start, dtype=np.float64)
+        self.goal = np.asarray(goal, dtype=np.float64)
+        self.length = 0.0
+        self.last: FloatArray | None = None
+        self.min_sep = {tid: (math.inf, math.nan) for tid in threat_ids}
+        self.inside: dict[str, tuple[float, float]] = {}  # id -> (t_enter, min sep so far)
+        self.violations: list[Violation] = []
+        self.min_clear = (math.inf, math.nan)
+        self.decision_times: list[float] = []
+        self.added = 0
+
+    def update(
+        self,
+        times: FloatArray,
+        positions: FloatArray,
+        separations: dict[str, FloatArray],
+        clearance: FloatArray,
+    ) -> None:
+        """One chunk: sample times (k,), map positions (k, 3), separation per active threat (k,),
+        terrain clearance (k,)."""
+        pts = positions if self.last is None else np.vstack([self.last[None, :], positions])
+        self.length += float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+        self.last = positions[-1].copy()
+        k = int(np.argmin(clearance))
+        if clearance[k] < self.min_clear[0]:
+            self.min_clear = (float(clearance[k]), float(times[k]))
+        for tid, sep in separations.items():
+            j = int(np.argmin(sep))
+            if sep[j] < self.min_sep.get(tid, (math.inf, math.nan))[0]:
+                self.min_sep[tid] = (float(sep[j]), float(times[j]))
+            self._track_violation(tid, times, sep)
+
+    def _track_violation(self, tid: str, times: FloatArray, sep: FloatArray) -> None:
+        """Open/close violation intervals at the samples where the separation changes sign."""
+        inside = sep < 0.0
+        was_inside = tid in self.inside
+        t0, low = self.inside.get(tid, (math.nan, math.inf))
+        before = np.concatenate([[was_inside], inside[:-1]])
+        start = 0
+        for e in np.flatnonzero(inside != before).tolist():
+            if inside[e]:  # enters at sample e
+                t0, low, start = float(times[e]), math.inf, e
+            else:  # leaves at sample e
+                low = min(low, float(sep[start:e].min())) if e > start else low
+                self.violations.append(Violation(tid, t0, float(times[e]), low))
+        if inside[-1]:
+            self.inside[tid] = (t0, min(low, float(sep[start:].min())))
+        else:
+            self.inside.pop(tid, None)
+
+    def decision(self, compute_s: float, waypoints_added: int = 0) -> None:
+        self.decision_times.append(float(compute_s))
+        self.added += int(waypoints_added)
+
+    def finish(
+        self, t_end: float, reached_goal: bool, terrain_contact: bool, end_reason: str
+    ) -> RunMetrics:
+        for tid, (t0, m) in list(self.inside.items()):
+            self.violations.append(Violation(tid, t0, None, m))
+        self.inside.clear()
+        self.violations.sort(key=lambda v: v.t_enter)
+        straight = float(np.linalg.norm(self.goal - self.start))
+        dt = self.decision_times
+        return RunMetrics(
+            success=bool(reached_goal and not terrain_contact and not self.violations),
+            end_reason=end_reason,
+            reached_goal=reached_goal,
+            terrain_contact=terrain_contact,
+            flight_time_s=float(t_end),
+            flown_length_m=self.length,
+            straight_distance_m=straight,
+            plr=self.length / straight if straight > 0 else math.nan,
+            min_terrain_clearance_m=self.min_clear[0],
+            min_terrain_clearance_t=self.min_clear[1],
+            min_separation={k: {"value": v[0], "t": v[1]} for k, v in self.min_sep.items()},
+            violations=tuple(self.violations),
+            waypoints_added=self.added,
+            decisions=len(dt),
+            decision_time_mean_s=float(np.mean(dt)) if dt else 0.0,
+            decision_time_max_s=float(np.max(dt)) if dt else 0.0,
+        )
