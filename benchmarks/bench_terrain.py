@@ -99,7 +99,9 @@ def main() -> None:
         ],
         axis=1,
     )
-    dirs = np.stack([rng.normal(size=n), rng.normal(size=n), -np.abs(rng.normal(size=n)) - 0.2], axis=1)
+    dirs = np.stack(
+        [rng.normal(size=n), rng.normal(size=n), -np.abs(rng.normal(size=n)) - 0.2], axis=1
+    )
     model.raycast(origins[:1000], dirs[:1000])  # build the scene
     t_ray = best_of(lambda: model.raycast(origins, dirs), 3)
     hits = np.isfinite(model.raycast(origins, dirs)).mean()
@@ -111,13 +113,21 @@ def main() -> None:
             ("grid", f"{grid.rows} x {grid.cols} cells of {grid.cell_size[0]:g} m", ""),
             ("load + grid (first, cold)", f"{t_load * 1e3:.1f} ms", ""),
             ("load + grid (warm, best of 3)", f"{t_load_warm * 1e3:.1f} ms", ""),
-            (f"below-terrain length, 100 paths x 10 segments ({segs} segs, numba)", f"{t_nb * 1e3:.2f} ms", "<= 5 ms"),
+            (
+                f"below-terrain length, 100 paths x 10 segments ({segs} segs, numba)",
+                f"{t_nb * 1e3:.2f} ms",
+                "<= 5 ms",
+            ),
             ("same, pure-numpy twin", f"{t_np * 1e3:.1f} ms", ""),
             ("numpy / numba", f"{t_np / t_nb:.1f} x", ""),
             ("segment-in-cylinder, same population x 20 zones", f"{t_cyl * 1e3:.2f} ms", ""),
             ("TerrainModel.from_grid (trimesh mesh)", f"{t_model:.2f} s", ""),
             ("fcl BVH build (first collision query)", f"{t_bvh:.2f} s", ""),
-            (f"ray casting, {n:,} rays ({hits:.0%} hit)", f"{n / t_ray / 1e6:.2f} M rays/s", ">= 1 M rays/s"),
+            (
+                f"ray casting, {n:,} rays ({hits:.0%} hit)",
+                f"{n / t_ray / 1e6:.2f} M rays/s",
+                ">= 1 M rays/s",
+            ),
         ],
         notes=f"DEM {Path(args.dem).name}, seed {args.seed}",
     )
