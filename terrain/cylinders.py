@@ -4,22 +4,29 @@ A danger zone is a vertical cylinder: a horizontal disc of centre (cx, cy) and r
 from -inf up to an altitude ``top`` (``+inf`` for an unbounded zone).  The ground is not a floor:
 whatever lies under the terrain is the terrain checker's business, not this module's.
 
-Method, for a segment p(t) = p0 + t (p1 - p0), t in [0, 1]:
+Method, for a segment p(s) from p0 to p1 parametrised by arc length s in [0, L]:
 
-1. horizontal: the set of t where the horizontal distance to the centre is <= r is an interval
-   centred on the closest-approach parameter t* = -(w . d) / |d|^2 (w = p0_xy - c, d the horizontal
-   direction) of half-width sqrt(r^2 - h^2) / |d|, with h = |w x d| / |d| the perpendicular distance.
-   (This form is better conditioned than the roots of the raw quadratic when the segment starts far
-   from the centre.)  A segment with no horizontal extent (vertical, or a single point) is inside for
-   every t when its (x, y) is within r of the centre, and for no t otherwise;
-2. vertical: the set of t where z(t) <= top is a half-line (or everything / nothing when the segment
-   is horizontal);
-3. the inside length is the width of [0, 1] & (1) & (2) times the 3D segment length.
+1. horizontal: the set of s where the horizontal distance to the centre is <= r is an interval
+   centred on the closest approach (w = p0_xy - c, d the horizontal direction, q = L / |d|:
+   s* = -(w . d) / |d| * q) of half-width sqrt(r^2 - h^2) * q, h = (w x d) / |d| the perpendicular
+   distance.  This is the quadratic's solution in a form better conditioned than its raw roots when
+   the segment starts far from the centre.  A segment with no horizontal extent (vertical, or a
+   point) is inside for every s when its (x, y) is within r of the centre, for no s otherwise;
+   a segment whose horizontal extent is below 2^-52 of its length counts as vertical at p0's
+   (x, y), which keeps L / |d| finite (the drift is below the resolution of the length);
+2. vertical: the set of s where z(s) <= top is a half-line (everything / nothing when level);
+3. the inside length is the width of [0, L] & (1) & (2).  Working in metres rather than in t in
+   [0, 1] makes level and vertical axis-aligned cases exact (a level pass through the centre gives
+   exactly 2r).
 
 The cylinder is closed: points on its side wall or its top face count as inside.  That only changes
 a result for segments lying *in* the top plane (z0 == z1 == top), which count as inside, or sliding
 along the wall, which have zero horizontal-crossing width anyway.  Inside length is a measure, so
 touching the cylinder at a single point gives 0.
+
+Each segment is evaluated from its lexicographically smaller end, so the result is bit-identical
+when p0 and p1 are swapped.  Near tangency the result is ill-conditioned (the chord grows like
+sqrt(r^2 - h^2)), so rounding in the inputs can move it by ~sqrt(r * ulp) times L / |d|.
 
 Everything is numpy broadcasting over (segments, cylinders); there is no Python loop.  NaN inputs give
 NaN outputs.  Memory is a handful of float64 arrays of shape (M, K).
@@ -91,47 +98,77 @@ def segment_cylinder_lengths(
     if a.ndim != 2 or a.shape[1] != 3 or b.shape != a.shape:
         raise InputError(f"segment ends must both have shape (M, 3); got {a.shape} and {b.shape}")
     c, r, top = _check_cylinders(centers, radii, tops)
+    # Orient every segment the same way (lexicographically smaller end first) so that reversing a
+    # segment gives a bit-identical result (a reversed path costs exactly the same).
+    flip = (b[:, 0] < a[:, 0]) | (
+        (b[:, 0] == a[:, 0]) & ((b[:, 1] < a[:, 1]) | ((b[:, 1] == a[:, 1]) & (b[:, 2] < a[:, 2])))
+    )
+    a, b = np.where(flip[:, None], b, a), np.where(flip[:, None], a, b)
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        return _lengths(a, b, c, r, top)
 
-    d = b - a  # (M, 3)
-    seg_len = np.sqrt(np.einsum("ij,ij->i", d, d))  # (M,)
-    dx, dy, dz = d[:, 0:1], d[:, 1:2], d[:, 2:3]  # (M, 1) each, broadcast against (1, K)
-    hor2 = dx * dx + dy * dy  # (M, 1)
-    moving = hor2 > 0.0
-    safe_hor2 = np.where(moving, hor2, 1.0)
 
-    # 1. horizontal interval [h_lo, h_hi] of t where the distance to the centre is <= r.
+def _lengths(
+    a: FloatArray, b: FloatArray, c: FloatArray, r: FloatArray, top: FloatArray
+) -> FloatArray:
+    """The work of :func:`segment_cylinder_lengths`, in arc length s in [0, L].
+
+    Per-segment quantities are (M, 1) columns; only a few (M, K) arrays are made, updated in
+    place.  Inf and NaN in the vertical bound are deliberate (see the comments); the caller
+    silences numpy's floating-point warnings.
+    """
+    d = b - a
+    length = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])[:, None]  # (M, 1); no underflow
+    hor = np.hypot(d[:, 0:1], d[:, 1:2])
+    # Horizontal extent below 2**-52 of the length counts as vertical (keeps L / hor finite).
+    moving = hor > length * 2.0**-52
+    safe_hor = np.where(moving, hor, 1.0)
+    scale = length / safe_hor  # arc length per metre of horizontal travel (exactly 1 when level)
+    ux, uy = d[:, 0:1] / safe_hor, d[:, 1:2] / safe_hor  # horizontal unit direction (0 if static)
+
+    # 1. horizontal interval [lo, hi] of s where the distance to the centre is <= r.
     wx = a[:, 0:1] - c[None, :, 0]  # (M, K)
     wy = a[:, 1:2] - c[None, :, 1]
-    t_mid = -(wx * dx + wy * dy) / safe_hor2
-    cross = wx * dy - wy * dx
-    perp2 = cross * cross / safe_hor2  # squared perpendicular distance to the centre
-    r2 = (r * r)[None, :]
-    slack = r2 - perp2
-    half = np.sqrt(np.maximum(slack, 0.0) / safe_hor2)
-    static_in = wx * wx + wy * wy <= r2  # for segments with no horizontal extent
-    hits = np.where(moving, slack > 0.0, static_in)
-    h_lo = np.where(moving, t_mid - half, 0.0)
-    h_hi = np.where(moving, t_mid + half, 1.0)
+    perp = wx * uy - wy * ux  # signed perpendicular distance to the centre
+    mid = wx * ux
+    mid += wy * uy
+    mid *= -scale  # arc length to the closest approach
+    half = np.square(perp, out=perp)
+    np.subtract((r * r)[None, :], half, out=half)  # r^2 - h^2
+    np.maximum(half, 0.0, out=half)
+    np.sqrt(half, out=half)
+    half *= scale
+    lo = mid - half
+    hi = np.add(mid, half, out=mid)
+    static = np.flatnonzero(~moving[:, 0])
+    if static.size:  # no horizontal extent: inside everywhere or nowhere
+        inside = wx[static] ** 2 + wy[static] ** 2 <= (r * r)[None, :]
+        lo[static] = np.where(inside, -np.inf, np.inf)
+        hi[static] = np.where(inside, np.inf, -np.inf)
+    np.maximum(lo, 0.0, out=lo)
+    np.minimum(hi, length, out=hi)
 
-    # 2. vertical interval [v_lo, v_hi] of t where z(t) <= top.
-    room = top[None, :] - a[:, 2:3]  # top - z0, (M, K); +inf for unbounded zones
-    climbing = dz > 0.0
-    sinking = dz < 0.0
-    safe_dz = np.where(dz != 0.0, dz, 1.0)
-    t_top = room / safe_dz
-    v_lo = np.where(sinking, t_top, 0.0)
-    v_hi = np.where(climbing, t_top, 1.0)
-    below = np.where(climbing | sinking, True, room >= 0.0)
+    # 2. vertical bound: z(s) <= top  <=>  s <= s_top when climbing, s >= s_top when sinking,
+    # with s_top = (top - z0) * L / dz.  For a level segment L / dz = +inf, so s_top is +inf above
+    # the top, -inf below it and NaN exactly at it: fmin ignores the NaN, so a segment lying in
+    # the top plane counts as inside.  A huge finite factor stands in for overflow, so that a
+    # segment starting exactly at the top and barely climbing still gets s_top = 0.
+    dz = d[:, 2:3]
+    factor = np.where(dz == 0.0, np.inf, np.clip(length / dz, -1.7e308, 1.7e308))
+    s_top = top[None, :] - a[:, 2:3]
+    s_top *= factor
+    np.fmin(hi, s_top, out=hi, where=dz >= 0.0)
+    np.fmax(lo, s_top, out=lo, where=dz < 0.0)
 
-    # 3. intersect with [0, 1].
-    lo = np.maximum(np.maximum(h_lo, v_lo), 0.0)
-    hi = np.minimum(np.minimum(h_hi, v_hi), 1.0)
-    width = np.where(hits & below, np.maximum(hi - lo, 0.0), 0.0)
-    # NaN anywhere in the inputs must not be hidden by the where/maximum above.
-    bad = ~np.isfinite(seg_len)[:, None] | np.isnan(c).any(axis=1)[None, :]
-    bad |= np.isnan(r)[None, :] | np.isnan(top)[None, :]
-    out = width * seg_len[:, None]
-    return np.asarray(np.where(bad, np.nan, out), dtype=np.float64)
+    # 3. inside length: the width of the intersection, never negative.
+    out = np.subtract(hi, lo, out=hi)
+    np.maximum(out, 0.0, out=out)
+    bad_segment = ~np.isfinite(length[:, 0])
+    bad_zone = np.isnan(c).any(axis=1) | np.isnan(r) | np.isnan(top)
+    if bad_segment.any() or bad_zone.any():  # fmin/fmax/maximum must not hide NaN inputs
+        out[bad_segment, :] = np.nan
+        out[:, bad_zone] = np.nan
+    return out
 
 
 def path_inside_lengths(

@@ -151,8 +151,8 @@ def synthetic_terrain(
 
     width, height = cols * cell, rows * cell
     size = max(width, height)
-    xs = (np.arange(cols) + 0.5) * cell  # cell centres, relative to the origin
-    ys = height - (np.arange(rows) + 0.5) * cell  # row 0 is north
+    xs: FloatArray = (np.arange(cols, dtype=np.float64) + 0.5) * cell  # cell centres from origin
+    ys: FloatArray = height - (np.arange(rows, dtype=np.float64) + 0.5) * cell  # row 0 = north
 
     # Feature parameters, drawn in a fixed order.
     peak_params = [

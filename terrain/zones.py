@@ -59,12 +59,13 @@ class DangerZone:
 
     def __post_init__(self) -> None:
         for name in ("x", "y", "diameter"):
+            given = getattr(self, name)
             try:
-                value = float(getattr(self, name))
+                value = float(given)
             except (TypeError, ValueError, OverflowError):
                 value = math.nan
-            if not math.isfinite(value):
-                raise InputError(f"danger zone {name} must be a finite number; got {value}")
+            if isinstance(given, bool) or not math.isfinite(value):
+                raise InputError(f"danger zone {name} must be a finite number; got {given!r}")
             object.__setattr__(self, name, value)
         if self.diameter <= 0:
             raise InputError(f"danger zone diameter must be > 0 metres; got {self.diameter}")
@@ -73,8 +74,10 @@ class DangerZone:
                 top = float(self.top)
             except (TypeError, ValueError, OverflowError):
                 top = math.nan
-            if not math.isfinite(top):
-                raise InputError(f"danger zone top must be a finite altitude or None; got {top}")
+            if isinstance(self.top, bool) or not math.isfinite(top):
+                raise InputError(
+                    f"danger zone top must be a finite altitude or None; got {self.top!r}"
+                )
             object.__setattr__(self, "top", top)
         if self.id is not None and not isinstance(self.id, str):
             raise InputError(f"danger zone id must be text or None; got {self.id!r}")
@@ -103,7 +106,8 @@ def _found(value: Any) -> str:
         return repr(value)
     text = repr(value)
     text = text if len(text) <= 60 else text[:57] + "..."
-    kind = {str: "text", list: "a list", dict: "a mapping"}.get(type(value), type(value).__name__)
+    kinds: dict[type, str] = {str: "text", list: "a list", dict: "a mapping"}
+    kind = kinds.get(type(value), type(value).__name__)
     return f"{text} ({kind})"
 
 
@@ -222,10 +226,10 @@ def _geojson_entry(feature: Any, path: Source, field: str) -> _Entry:
     else:
         raise InputError(f"{where(path, pfield)}missing 'diameter' (metres, > 0) or 'radius'")
     top = _top(props.get("top"), path, f"{pfield}.top")
-    for key, value, at in (
-        ("id", props.get("id"), f"{pfield}.id"),
-        ("name", props.get("name"), f"{pfield}.name"),
-        ("id", feature.get("id"), f"{field}.id"),
+    for value, at in (
+        (props.get("id"), f"{pfield}.id"),
+        (props.get("name"), f"{pfield}.name"),
+        (feature.get("id"), f"{field}.id"),
     ):
         if value is not None:
             ident = _ident(value, path, at)
