@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -71,12 +72,17 @@ def _run_with_progress(
     with click.progressbar(
         length=iterations, label=f"{algorithm}: planning", file=sys.stderr, show_pos=True, width=30
     ) as bar:
+        last_draw = [0.0]
 
         def progress(state: Any) -> None:
             it = int(state.iteration)
+            now = time.monotonic()
+            if it >= done[0] and it < iterations and now - last_draw[0] < 0.1:
+                return  # redraw at most 10 times a second: drawing costs more than an iteration
+            last_draw[0] = now
             if it < done[0]:  # a restart begins again at iteration 0
                 bar.pos = 0
-                bar.render_progress()
+                done[0] = 0
             bar.label = f"{algorithm}: best cost {float(state.best_f):.4f}"
             bar.update(max(0, it - done[0]))
             done[0] = it
