@@ -1,0 +1,1521 @@
+"""Record one replay run as one MCAP file that Foxglove shows in 3D (:class:`RunRecorder`).
+
+Topics (names in :mod:`replay.topics`; Foxglove schemas are the protobuf ones of
+``foxglove-schemas-protobuf``, ``terrapath.*`` schemas are JSON Schema with JSON messages)::
+
+    /tf                      foxglove.FrameTransform   map -> base_link, every state sample
+    /tf_static               foxglove.FrameTransform   map -> world, once at t = 0
+    /map/terrain             foxglove.SceneUpdate      terrain mesh coloured by height
+    /vehicle/pose            foxglove.PoseInFrame      vehicle pose in ``map``
+    /vehicle/state           terrapath.VehicleState    12 states, airspeed, alpha, beta, controls, extras
+    /vehicle/fix             foxglove.LocationFix      WGS84 position (only with ``to_lonlat``)
+    /vehicle/track           foxglove.SceneUpdate      track flown since the last overview
+    /vehicle/track_overview  foxglove.SceneUpdate      whole track so far (decimated)
+    /mission/waypoints       foxglove.SceneUpdate      waypoint line strip, spheres and labels
+    /mission/waypoint_list   terrapath.WaypointList    the list, the active index, the reason
+    /threats                 foxglove.SceneUpdate      threat shapes; deletions when one goes
+    /threats/list            terrapath.ThreatList      current threats, appeared/changed/removed ids
+    /radar/detections        foxglove.SceneUpdate      a marker per detection of the last scan
+    /radar/detection_list    terrapath.DetectionList   the detections of the last scan
+    /avoidance/decision      terrapath.Decision        algorithm, inputs, choice, costs, compute_s
+    /log                     foxglove.Log              human-readable events
+    /metrics                 terrapath.Metrics         run metrics (also metadata record "metrics")
+
+Conventions:
+
+- **Time**: every method takes the simulated time ``t`` in seconds (t = 0 at the start of the
+  replay), converted once to integer nanoseconds (``round(t * 1e9)``) used as MCAP log and publish
+  time and as the message timestamps.  The wall-clock start is the metadata key ``started_utc``.
+- **Frames**: ``map`` is ENU with its origin at ``map_origin`` (map CRS metres), so the numbers
+  Foxglove renders in float32 stay small; every position written to a Foxglove message is relative
+  to it.  ``world`` is the map CRS itself, published as a *child* of ``map`` (translation
+  ``-map_origin``) so that ``map`` stays the root of the frame tree, the frame Foxglove displays by
+  default: a display frame at CRS coordinates (millions of metres) would jitter in float32.
+  ``base_link`` is the vehicle (x forward, y left, z up).  The JSON messages keep absolute map
+  coordinates: ``/vehicle/state`` to ``DIGITS`` (12) significant digits (1e-5 m at 10,000 km;
+  17 would round-trip exactly but costs twice as much to format), the events in full.
+- **Rates**: :meth:`RunRecorder.write_state` may be called at any rate (e.g. every 100 Hz step): the
+  *recorder* drops the calls between ticks of ``log_rate_hz`` (a sample is written for the first
+  call at or after each tick ``k / log_rate_hz``; ``force=True`` writes anyway) and returns whether
+  it wrote.  The track is sampled from the written states at ``track_rate_hz``; the overview is
+  re-published every ``track_overview_s``.  Moving threats are likewise re-drawn at most at
+  ``log_rate_hz``; appearances and removals, waypoint changes, detections, decisions and logs are
+  written when they happen.
+- **Threats** (:meth:`RunRecorder.write_threats`): the *current* set, a list of dicts (the shape of
+  ``replay.threats.Threat.shape(t)``); the recorder compares it with the last set it wrote::
+
+      {"id": "obs2", "kind": "sphere",   "center": [x, y, z] | [[x, y, z], ...],
+                                          "radius": r | [r, ...]}
+      {"id": "sam",  "kind": "cylinder", "center": [x, y] | [x, y, z], "radius": r,
+                                          "bottom": z | None, "top": z | None}
+      {"id": "twr",  "kind": "ellipsoid", "center": [x, y, z], "axes": [a, b, c],
+                                          "exponents": [p, q, r]}        (optional, default 1)
+
+  (``top``/``bottom`` are optional for spheres and ellipsoids and ignored there.)  An ellipsoid is
+  seed 001's body ``|dx/a|^(2p) + |dy/b|^(2q) + |dz/c|^(2r) <= 1``: drawn as a scaled sphere when
+  all exponents are 1, else as a triangle mesh of its surface.  An unbounded cylinder bottom is
+  drawn from the lowest terrain height (0 m without terrain), an unbounded top 10 km above the
+  bottom.  Unknown keys are refused.
+- **Detections** (:meth:`RunRecorder.write_detections`): one radar scan, a list of
+  ``{"id", "position": [x, y, z], "range", "kind": "threat" | "terrain", "moving": bool}`` (``id``
+  and ``position`` required, ``kind`` defaults to ``"threat"``, ``moving`` to false).
+
+The file is written under a temporary name beside ``path`` and renamed into place only when the
+``with`` block ends cleanly; an exception (or Ctrl-C) removes the temporary file, so a file at
+``path`` is always complete.  Chunks are zstd-compressed (``compression="lz4"`` or ``"none"`` also
+work) and every CRC is written (chunks, data section, summary).
+
+Messages are framed into chunks here (:class:`_McapSink`, the records themselves are serialised by
+``mcap.records``) rather than with ``mcap.writer.Writer``, whose pure-Python ``add_message`` costs
+about 10 µs a message on the project machines: 3 messages a state sample, 288,000 samples for an
+8-hour mission.  Large point arrays (terrain, track) are encoded as protobuf wire format with numpy;
+everything else uses the foxglove protobuf classes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import json
+import math
+import struct
+import zlib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from datetime import UTC, datetime
+from os import PathLike
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any, Self
+
+import numpy as np
+import numpy.typing as npt
+from foxglove_schemas_protobuf.Color_pb2 import Color
+from foxglove_schemas_protobuf.CylinderPrimitive_pb2 import CylinderPrimitive
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
+from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
+from foxglove_schemas_protobuf.LocationFix_pb2 import LocationFix
+from foxglove_schemas_protobuf.Log_pb2 import Log
+from foxglove_schemas_protobuf.Point3_pb2 import Point3
+from foxglove_schemas_protobuf.Pose_pb2 import Pose
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
+from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
+from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
+from foxglove_schemas_protobuf.TextPrimitive_pb2 import TextPrimitive
+from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
+from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
+from google.protobuf import descriptor_pb2
+from mcap.data_stream import RecordBuilder
+from mcap.opcode import Opcode
+from mcap.records import (
+    Attachment,
+    AttachmentIndex,
+    Channel,
+    Chunk,
+    ChunkIndex,
+    DataEnd,
+    Footer,
+    Header,
+    McapRecord,
+    Metadata,
+    MetadataIndex,
+    Schema,
+    Statistics,
+    SummaryOffset,
+)
+
+from replay import topics as T
+from terrain.atomic import atomic_output
+from terrain.errors import InputError, where
+
+FloatArray = npt.NDArray[np.float64]
+LonLat = Callable[[float, float], tuple[float, float]]
+
+NS_PER_S = 1_000_000_000
+# significant digits of the numbers in /vehicle/state: 1e-5 m at 10,000 km; formatting 17 (exact
+# round trip) costs twice as much, and this message is written 288,000 times in an 8-hour mission
+DIGITS = 12
+UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
+LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
+THREAT_KINDS = ("sphere", "cylinder", "ellipsoid")
+THREAT_KEYS = ("id", "kind", "center", "radius", "axes", "exponents", "top", "bottom")
+DETECTION_KEYS = ("id", "position", "range", "kind", "moving")
+COMPRESSIONS = ("zstd", "lz4", "none")
+
+# ---------------------------------------------------------------------------------------------
+# protobuf wire format for large arrays (fields checked against the schema descriptors below)
+
+_WIRE_DOUBLE = 1
+_WIRE_LEN = 2
+_FIXED32 = 7  # FieldDescriptor.TYPE_FIXED32
+
+
+def _tag(field: int, wire: int) -> bytes:
+    return _varint(field << 3 | wire)
+
+
+def _varint(n: int) -> bytes:
+    out = bytearray()
+    while n > 0x7F:
+        out.append(n & 0x7F | 0x80)
+        n >>= 7
+    out.append(n)
+    return bytes(out)
+
+
+def _ld(field: int, payload: bytes) -> bytes:
+    """A length-delimited field (embedded message, string, packed array)."""
+    return _tag(field, _WIRE_LEN) + _varint(len(payload)) + payload
+
+
+def _doubles_messages(field: int, values: FloatArray) -> bytes:
+    """``repeated M field`` where M has only double fields 1..k (Point3, Color): one embedded
+    message per row of ``values`` (n, k), every field written (also zeros, which is valid)."""
+    n, k = values.shape
+    out = np.empty((n, 2 + 9 * k), dtype=np.uint8)
+    out[:] = _row_template(field, k)
+    raw = np.ascontiguousarray(values, dtype="<f8").view(np.uint8).reshape(n, k, 8)
+    for j in range(k):
+        out[:, 3 + 9 * j : 11 + 9 * j] = raw[:, j]
+    return out.tobytes()
+
+
+@functools.cache
+def _row_template(field: int, k: int) -> npt.NDArray[np.uint8]:
+    """The bytes of one embedded message of ``_doubles_messages`` with all doubles zero."""
+    tag = _tag(field, _WIRE_LEN)
+    if len(tag) != 1 or k > 15:
+        raise ValueError("only fields 1..15 with up to 15 doubles are supported")
+    row = [tag[0], 9 * k]
+    for j in range(k):
+        row += [(j + 1) << 3 | _WIRE_DOUBLE] + [0] * 8
+    return np.array(row, dtype=np.uint8)
+
+
+def _packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
+    return _ld(field, np.ascontiguousarray(values, dtype="<u4").tobytes())
+
+
+def _check_wire_layout() -> None:
+    """The hand-encoded fields must be what the installed schemas say (fails at import if not)."""
+
+    def number(msg: Any, name: str, ftype: int | None = None) -> int:
+        f = msg.DESCRIPTOR.fields_by_name[name]
+        if ftype is not None and f.type != ftype:
+            raise ImportError(f"unexpected type for {msg.DESCRIPTOR.full_name}.{name}")
+        return int(f.number)
+
+    expected: dict[tuple[Any, str], int] = {
+        (Point3, "x"): 1,
+        (Point3, "y"): 2,
+        (Point3, "z"): 3,
+        (Color, "r"): 1,
+        (Color, "g"): 2,
+        (Color, "b"): 3,
+        (Color, "a"): 4,
+    }
+    for (msg, name), num in expected.items():
+        if number(msg, name, 1) != num:  # TYPE_DOUBLE
+            raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
+    number(TriangleListPrimitive, "indices", _FIXED32)
+
+
+_check_wire_layout()
+_TRI_POINTS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["points"].number
+_TRI_COLORS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["colors"].number
+_TRI_INDICES = TriangleListPrimitive.DESCRIPTOR.fields_by_name["indices"].number
+_LINE_POINTS = LinePrimitive.DESCRIPTOR.fields_by_name["points"].number
+_ENTITY_LINES = SceneEntity.DESCRIPTOR.fields_by_name["lines"].number
+_ENTITY_TRIANGLES = SceneEntity.DESCRIPTOR.fields_by_name["triangles"].number
+_UPDATE_ENTITIES = SceneUpdate.DESCRIPTOR.fields_by_name["entities"].number
+
+
+def descriptor_set(message_class: Any) -> bytes:
+    """Serialized ``FileDescriptorSet`` of a protobuf class and all its dependencies (the schema
+    data MCAP expects for the ``protobuf`` encoding)."""
+    fds = descriptor_pb2.FileDescriptorSet()
+    seen: set[str] = set()
+
+    def add(fd: Any) -> None:
+        if fd.name in seen:
+            return
+        seen.add(fd.name)
+        for dep in fd.dependencies:
+            add(dep)
+        fd.CopyToProto(fds.file.add())
+
+    add(message_class.DESCRIPTOR.file)
+    return bytes(fds.SerializeToString())
+
+
+PROTOBUF_CLASSES: dict[str, Any] = {
+    T.FRAME_TRANSFORM: FrameTransform,
+    T.POSE_IN_FRAME: PoseInFrame,
+    T.LOCATION_FIX: LocationFix,
+    T.SCENE_UPDATE: SceneUpdate,
+    T.LOG_SCHEMA: Log,
+}
+
+# ---------------------------------------------------------------------------------------------
+# JSON schemas of the terrapath channels
+
+_NUM = {"type": ["number", "null"]}
+_VEC3 = {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3}
+
+
+def _object(props: Mapping[str, Any], title: str, required: Sequence[str] = ()) -> dict[str, Any]:
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": title,
+        "type": "object",
+        "properties": dict(props),
+        "required": list(required),
+    }
+
+
+_STATE_DOCS = {
+    "pn": "north, map metres (NED origin = map CRS origin)",
+    "pe": "east, map metres",
+    "pd": "down, metres (-altitude AMSL)",
+    "alt": "altitude, metres AMSL (= -pd)",
+    "u": "body x velocity, m/s",
+    "v": "body y velocity, m/s",
+    "w": "body z velocity, m/s",
+    "phi": "roll, rad",
+    "theta": "pitch, rad",
+    "psi": "yaw (heading), rad clockwise from north",
+    "p": "roll rate, rad/s",
+    "q": "pitch rate, rad/s",
+    "r": "yaw rate, rad/s",
+    "airspeed": "|(u, v, w)|, m/s (no wind)",
+    "alpha": "angle of attack atan2(w, u), rad",
+    "beta": "sideslip asin(v / airspeed), rad",
+    "delta_e": "elevator, rad",
+    "delta_a": "aileron, rad",
+    "delta_r": "rudder, rad",
+    "delta_t": "throttle, 0..1",
+}
+_STATE_KEYS = tuple(_STATE_DOCS)
+JSON_SCHEMAS: dict[str, dict[str, Any]] = {
+    T.STATE_SCHEMA: _object(
+        {
+            **{k: {**_NUM, "description": d} for k, d in _STATE_DOCS.items()},
+            "extras": {
+                "type": "object",
+                "additionalProperties": _NUM,
+                "description": "caller's values: commanded course/altitude, cross-track error, leg...",
+            },
+        },
+        T.STATE_SCHEMA,
+        _STATE_KEYS,
+    ),
+    T.WAYPOINT_LIST_SCHEMA: _object(
+        {
+            "waypoints": {"type": "array", "items": _VEC3, "description": "map metres"},
+            "active_index": {"type": "integer"},
+            "reason": {"type": "string"},
+        },
+        T.WAYPOINT_LIST_SCHEMA,
+        ("waypoints", "active_index", "reason"),
+    ),
+    T.THREAT_LIST_SCHEMA: _object(
+        {
+            "threats": {"type": "array", "items": {"type": "object"}},
+            "appeared": {"type": "array", "items": {"type": "string"}},
+            "changed": {"type": "array", "items": {"type": "string"}},
+            "removed": {"type": "array", "items": {"type": "string"}},
+        },
+        T.THREAT_LIST_SCHEMA,
+        ("threats", "appeared", "changed", "removed"),
+    ),
+    T.DETECTION_LIST_SCHEMA: _object(
+        {"detections": {"type": "array", "items": {"type": "object"}}},
+        T.DETECTION_LIST_SCHEMA,
+        ("detections",),
+    ),
+    T.DECISION_SCHEMA: _object(
+        {"algorithm": {"type": "string"}, "compute_s": {"type": "number"}},
+        T.DECISION_SCHEMA,
+        ("algorithm", "compute_s"),
+    ),
+    T.METRICS_SCHEMA: _object({}, T.METRICS_SCHEMA),
+}
+
+# ---------------------------------------------------------------------------------------------
+# a lean MCAP writer: mcap.records serialise every record; messages are framed with one pack
+
+
+_MAGIC = b"\x89MCAP0\r\n"
+_MESSAGE = struct.Struct("<BQHIQQ")  # opcode, record length, channel, sequence, log, publish time
+_MESSAGE_INDEX = struct.Struct("<BQHI")  # opcode, record length, channel, records length
+
+
+def _record_bytes(record: McapRecord) -> bytes:
+    builder = RecordBuilder()
+    record.write(builder)
+    return bytes(builder.end())
+
+
+class _OpenChunk:
+    """Messages of one chunk being built: the records, and per channel (log time, offset) pairs."""
+
+    __slots__ = ("data", "index", "t0", "t1")
+
+    def __init__(self) -> None:
+        self.data = bytearray()
+        self.index: dict[int, list[int]] = {}  # channel -> [log_time, offset, log_time, ...]
+        self.t0 = -1
+        self.t1 = 0
+
+
+class _McapSink:
+    """Writes an indexed, chunked MCAP stream with CRCs (data section, chunks, summary).
+
+    Schemas and channels are written in the data section before the first chunk and repeated in
+    the summary, with statistics, chunk, attachment and metadata indexes and summary offsets.
+    Each channel belongs to a chunk *group*; a chunk holds one group's messages, so a reader that
+    asks for the topics of one group skips the chunks of the others (their time ranges overlap,
+    which MCAP allows: the message indexes order them).
+    """
+
+    def __init__(self, out: IO[bytes], *, compression: str, chunk_size: int, library: str) -> None:
+        self._out = out
+        self._offset = 0
+        self._crc = 0
+        self._compression = compression
+        self._chunk_size = chunk_size
+        self._schemas: list[Schema] = []
+        self._channels: list[Channel] = []
+        self._group_of: list[int] = [0]  # by channel id
+        self._open: dict[int, _OpenChunk] = {}
+        self._chunk_indexes: list[ChunkIndex] = []
+        self._attachment_indexes: list[AttachmentIndex] = []
+        self._metadata_indexes: list[MetadataIndex] = []
+        self._counts: dict[int, int] = {}
+        self._first = -1
+        self._last = 0
+        self._write(_MAGIC)
+        self._write_record(Header(profile=T.PROFILE, library=library))
+
+    def _write(self, data: bytes) -> None:
+        self._crc = zlib.crc32(data, self._crc)
+        self._out.write(data)
+        self._offset += len(data)
+
+    def _write_record(self, record: McapRecord) -> tuple[int, int]:
+        data = _record_bytes(record)
+        start = self._offset
+        self._write(data)
+        return start, len(data)
+
+    def add_schema(self, name: str, encoding: str, data: bytes) -> int:
+        schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
+        self._schemas.append(schema)
+        self._write_record(schema)
+        return schema.id
+
+    def add_channel(self, topic: str, message_encoding: str, schema_id: int, group: int = 0) -> int:
+        channel = Channel(
+            id=len(self._channels) + 1,
+            topic=topic,
+            message_encoding=message_encoding,
+            schema_id=schema_id,
+            metadata={},
+        )
+        self._channels.append(channel)
+        self._write_record(channel)
+        self._group_of.append(group)
+        self._open.setdefault(group, _OpenChunk())
+        return channel.id
+
+    def add_message(self, channel: int, log_time: int, data: bytes) -> None:
+        chunk = self._open[self._group_of[channel]]
+        buf = chunk.data
+        index = chunk.index.get(channel)
+        if index is None:
+            index = chunk.index[channel] = []
+        index.append(log_time)
+        index.append(len(buf))
+        buf += _MESSAGE.pack(Opcode.MESSAGE, 22 + len(data), channel, 0, log_time, log_time)
+        buf += data
+        if log_time < chunk.t0 or chunk.t0 < 0:
+            chunk.t0 = log_time
+        if log_time > chunk.t1:
+            chunk.t1 = log_time
+        if len(buf) >= self._chunk_size:
+            self._flush(self._group_of[channel])
+
+    def _flush(self, group: int) -> None:
+        chunk = self._open[group]
+        if not chunk.index:
+            return
+        self._open[group] = _OpenChunk()
+        raw = bytes(chunk.data)
+        if self._compression == "zstd":
+            import zstandard
+
+            data = zstandard.ZstdCompressor().compress(raw)
+        elif self._compression == "lz4":
+            import lz4.frame
+
+            data = lz4.frame.compress(raw)
+        else:
+            data = raw
+        record = Chunk(
+            compression="" if self._compression == "none" else self._compression,
+            data=data,
+            message_start_time=chunk.t0,
+            message_end_time=chunk.t1,
+            uncompressed_crc=zlib.crc32(raw),
+            uncompressed_size=len(raw),
+        )
+        start, length = self._write_record(record)
+        index_start = self._offset
+        offsets: dict[int, int] = {}
+        for channel in sorted(chunk.index):
+            pairs = np.asarray(chunk.index[channel], dtype=np.uint64).reshape(-1, 2)
+            if np.any(np.diff(pairs[:, 0].astype(np.int64)) < 0):
+                pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
+            body = pairs.astype("<u8").tobytes()
+            offsets[channel] = self._offset
+            self._write(
+                _MESSAGE_INDEX.pack(Opcode.MESSAGE_INDEX, 6 + len(body), channel, len(body)) + body
+            )
+            self._counts[channel] = self._counts.get(channel, 0) + len(pairs)
+        self._chunk_indexes.append(
+            ChunkIndex(
+                message_start_time=chunk.t0,
+                message_end_time=chunk.t1,
+                chunk_start_offset=start,
+                chunk_length=length,
+                message_index_offsets=offsets,
+                message_index_length=self._offset - index_start,
+                compression=record.compression,
+                compressed_size=len(data),
+                uncompressed_size=len(raw),
+            )
+        )
+        self._first = chunk.t0 if self._first < 0 else min(self._first, chunk.t0)
+        self._last = max(self._last, chunk.t1)
+
+    def add_attachment(self, name: str, media_type: str, data: bytes, log_time: int) -> None:
+        record = Attachment(
+            create_time=0, log_time=log_time, name=name, media_type=media_type, data=data
+        )
+        start, length = self._write_record(record)
+        self._attachment_indexes.append(
+            AttachmentIndex(
+                offset=start,
+                length=length,
+                log_time=log_time,
+                create_time=0,
+                data_size=len(data),
+                name=name,
+                media_type=media_type,
+            )
+        )
+
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
+        start, length = self._write_record(Metadata(name=name, metadata=dict(data)))
+        self._metadata_indexes.append(MetadataIndex(offset=start, length=length, name=name))
+
+    def finish(self) -> None:
+        for group in sorted(self._open):
+            self._flush(group)
+        self._write_record(DataEnd(data_section_crc=self._crc))
+        summary_start = self._offset
+        summary = bytearray()
+        groups: list[SummaryOffset] = []
+        stats = Statistics(
+            message_count=sum(self._counts.values()),
+            schema_count=len(self._schemas),
+            channel_count=len(self._channels),
+            attachment_count=len(self._attachment_indexes),
+            metadata_count=len(self._metadata_indexes),
+            chunk_count=len(self._chunk_indexes),
+            message_start_time=max(self._first, 0),
+            message_end_time=self._last,
+            channel_message_counts=dict(self._counts),
+        )
+        for opcode, records in (
+            (Opcode.SCHEMA, self._schemas),
+            (Opcode.CHANNEL, self._channels),
+            (Opcode.STATISTICS, [stats]),
+            (Opcode.CHUNK_INDEX, self._chunk_indexes),
+            (Opcode.ATTACHMENT_INDEX, self._attachment_indexes),
+            (Opcode.METADATA_INDEX, self._metadata_indexes),
+        ):
+            if not records:
+                continue
+            group_start = summary_start + len(summary)
+            for record in records:
+                summary += _record_bytes(record)
+            groups.append(
+                SummaryOffset(opcode, group_start, summary_start + len(summary) - group_start)
+            )
+        offsets_start = summary_start + len(summary)
+        for offset in groups:
+            summary += _record_bytes(offset)
+        footer_head = struct.pack("<BQQQ", Opcode.FOOTER, 20, summary_start, offsets_start)
+        crc = zlib.crc32(footer_head, zlib.crc32(summary))
+        self._write(bytes(summary))
+        self._write_record(Footer(summary_start, offsets_start, crc))
+        self._write(_MAGIC)
+
+
+# ---------------------------------------------------------------------------------------------
+# geometry helpers
+
+_S = math.sqrt(0.5)
+
+
+def quaternion_map(phi: float, theta: float, psi: float) -> tuple[float, float, float, float]:
+    """(x, y, z, w) attitude of the FLU body in the ENU map frame from 3-2-1 Euler angles: the same
+    rotation as :func:`replay.frames.quaternion_map_from_euler`, in plain floats (about 10x faster,
+    it runs for every state sample).  q = q(NED->ENU) * q(FRD body->NED) * q(FLU->FRD)."""
+    cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
+    cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
+    cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
+    w0 = cr * cp * cy + sr * sp * sy
+    x0 = sr * cp * cy - cr * sp * sy
+    y0 = cr * sp * cy + sr * cp * sy
+    z0 = cr * cp * sy - sr * sp * cy
+    return (_S * (x0 + y0), _S * (x0 - y0), _S * (w0 - z0), _S * (w0 + z0))
+
+
+@functools.cache
+def _line_head(rgba: tuple[float, float, float, float]) -> bytes:
+    """A track line strip without its points (they are appended as wire bytes)."""
+    return bytes(
+        LinePrimitive(
+            type=LinePrimitive.LINE_STRIP,
+            pose=_pose(),
+            thickness=3.0,
+            scale_invariant=True,
+            color=_color(*rgba),
+        ).SerializeToString()
+    )
+
+
+def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Pose:
+    """A pose at (x, y, z) with the identity orientation (never the all-zero quaternion)."""
+    return Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(w=1.0))
+
+
+def _color(r: float, g: float, b: float, a: float = 1.0) -> Color:
+    return Color(r=r, g=g, b=b, a=a)
+
+
+def _height_colors(z: FloatArray) -> FloatArray:
+    """(n, 4) RGBA: green lowlands, brown hills, grey-white tops (min..max of z)."""
+    span = float(np.ptp(z)) if z.size else 0.0
+    h = (z - float(np.min(z))) / span if span > 0 else np.zeros_like(z)
+    stops = [0.0, 0.35, 0.7, 1.0]
+    rgb = [
+        (0.22, 0.45, 0.20),
+        (0.55, 0.55, 0.30),
+        (0.50, 0.38, 0.25),
+        (0.92, 0.92, 0.92),
+    ]
+    out = np.ones((z.size, 4))
+    for c in range(3):
+        out[:, c] = np.interp(h, stops, [s[c] for s in rgb])
+    return out
+
+
+def decimate_mesh(
+    vertices: FloatArray, faces: npt.NDArray[np.int64], max_triangles: int
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """Vertex clustering on a horizontal grid until at most ``max_triangles`` remain (for terrain
+    meshes, which are height fields): each cell's vertices merge at their mean, degenerate and
+    repeated triangles go.  Returns the mesh unchanged when it is small enough."""
+    if len(faces) <= max_triangles:
+        return vertices, faces
+    lo = vertices[:, :2].min(axis=0)
+    span = np.maximum(np.ptp(vertices[:, :2], axis=0), 1e-9)
+    cell = math.sqrt(float(span[0] * span[1]) / (max_triangles / 2.0))
+    while True:
+        ij = np.floor((vertices[:, :2] - lo) / cell).astype(np.int64)
+        key = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
+        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+        inverse = inverse.reshape(-1)
+        merged = np.stack(
+            [np.bincount(inverse, weights=vertices[:, k]) / counts for k in range(3)], axis=1
+        )
+        f = inverse[faces]
+        keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+        f = f[keep]
+        _, first = np.unique(np.sort(f, axis=1), axis=0, return_index=True)
+        f = f[np.sort(first)]
+        if len(f) <= max_triangles:
+            used, remap = np.unique(f, return_inverse=True)
+            return merged[used], remap.reshape(f.shape).astype(np.int64)
+        cell *= 1.25
+
+
+def superellipsoid_mesh(
+    axes: Sequence[float], exponents: Sequence[float], n_lon: int = 32, n_lat: int = 16
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """Surface of ``|x/a|^(2p) + |y/b|^(2q) + |z/c|^(2r) = 1`` (centred at 0) as a triangle mesh:
+    each direction of a UV sphere scaled to the surface (bisection on the radius, vectorised)."""
+    lon = np.linspace(0.0, 2 * np.pi, n_lon, endpoint=False)
+    lat = np.linspace(-np.pi / 2, np.pi / 2, n_lat + 1)[1:-1]
+    la, lo = np.meshgrid(lat, lon, indexing="ij")
+    dirs = np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)], -1)
+    dirs = np.concatenate([dirs.reshape(-1, 3), [[0, 0, -1.0], [0, 0, 1.0]]])
+    a = np.asarray(axes, dtype=np.float64)
+    e = 2.0 * np.asarray(exponents, dtype=np.float64)
+    lo_r = np.zeros(len(dirs))
+    hi_r = np.full(len(dirs), float(np.linalg.norm(a)))  # the box corner bounds the body
+    for _ in range(50):
+        mid = 0.5 * (lo_r + hi_r)
+        gamma = np.sum(np.abs(mid[:, None] * dirs / a) ** e, axis=1)
+        inside = gamma <= 1.0
+        lo_r = np.where(inside, mid, lo_r)
+        hi_r = np.where(inside, hi_r, mid)
+    points = dirs * lo_r[:, None]
+    rows, cols = len(lat), n_lon
+    faces: list[tuple[int, int, int]] = []
+    for i in range(rows - 1):
+        for j in range(cols):
+            a0, a1 = i * cols + j, i * cols + (j + 1) % cols
+            b0, b1 = a0 + cols, a1 + cols
+            faces += [(a0, a1, b1), (a0, b1, b0)]
+    south, north = rows * cols, rows * cols + 1
+    for j in range(cols):
+        faces.append((south, (j + 1) % cols, j))
+        top = (rows - 1) * cols
+        faces.append((north, top + j, top + (j + 1) % cols))
+    return points, np.asarray(faces, dtype=np.int64)
+
+
+# ---------------------------------------------------------------------------------------------
+# JSON
+
+
+def jsonable(value: Any) -> Any:
+    """Plain JSON data from numbers, numpy scalars and arrays, tuples, mappings; NaN and infinities
+    become ``null`` (JSON has no such numbers)."""
+    if isinstance(value, str | bool) or value is None:
+        return value
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        f = float(value)
+        return f if math.isfinite(f) else None
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, Iterable):
+        return [jsonable(v) for v in value]
+    raise TypeError(f"{type(value).__name__} is not JSON data")
+
+
+def _dumps(value: Any) -> bytes:
+    return json.dumps(value, separators=(",", ":"), allow_nan=False).encode()
+
+
+def _num(x: float) -> str:
+    return f"{x:.{DIGITS}g}" if math.isfinite(x) else "null"
+
+
+# ---------------------------------------------------------------------------------------------
+# input validation
+
+
+def _finite(value: Any, what: str) -> float:
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{what}: expected a number, found {value!r}") from None
+    if not math.isfinite(f):
+        raise InputError(f"{what}: expected a finite number, found {value!r}")
+    return f
+
+
+def _vector(value: Any, n: int | tuple[int, ...], what: str) -> list[float]:
+    sizes = (n,) if isinstance(n, int) else n
+    try:
+        items = list(value)
+    except TypeError:
+        raise InputError(f"{what}: expected {sizes[0]} numbers, found {value!r}") from None
+    if len(items) not in sizes:
+        raise InputError(
+            f"{what}: expected {' or '.join(map(str, sizes))} numbers, found {len(items)}"
+        )
+    return [_finite(v, what) for v in items]
+
+
+def _keys(item: Any, allowed: Sequence[str], what: str) -> Mapping[str, Any]:
+    if not isinstance(item, Mapping):
+        raise InputError(f"{what}: expected a mapping, found {type(item).__name__}")
+    unknown = sorted(set(map(str, item)) - set(allowed))
+    if unknown:
+        raise InputError(f"{what}: unknown key(s) {unknown}; allowed: {', '.join(allowed)}")
+    if "id" not in item:
+        raise InputError(f"{what}: missing 'id'")
+    return item
+
+
+def normalize_threat(item: Any, index: int = 0) -> dict[str, Any]:
+    """A threat dict (module docstring) checked and with plain floats; raises InputError."""
+    item = _keys(item, THREAT_KEYS, f"threats[{index}]")
+    ident = str(item["id"])
+    what = f"threat {ident!r}"
+    kind = item.get("kind")
+    if kind not in THREAT_KINDS:
+        raise InputError(f"{what} kind: expected one of {', '.join(THREAT_KINDS)}, found {kind!r}")
+    out: dict[str, Any] = {"id": ident, "kind": kind}
+    if "center" not in item:
+        raise InputError(f"{what}: missing 'center'")
+    if kind == "sphere":
+        first = next(iter(item["center"]), None) if isinstance(item["center"], Iterable) else None
+        if isinstance(first, Iterable) and not isinstance(first, str):  # a hill: several spheres
+            centers = [_vector(c, 3, f"{what} center") for c in item["center"]]
+            radii = item.get("radius")
+            rs = [radii] * len(centers) if not isinstance(radii, Iterable) else list(radii)
+            if len(rs) != len(centers):
+                raise InputError(f"{what} radius: expected one or {len(centers)} radii")
+            out["center"] = centers
+            out["radius"] = [_positive(r, f"{what} radius") for r in rs]
+        else:
+            out["center"] = _vector(item["center"], 3, f"{what} center")
+            out["radius"] = _positive(item.get("radius"), f"{what} radius")
+    elif kind == "cylinder":
+        out["center"] = _vector(item["center"], (2, 3), f"{what} center")
+        out["radius"] = _positive(item.get("radius"), f"{what} radius")
+        for key in ("bottom", "top"):
+            value = item.get(key)
+            out[key] = None if value is None else _finite(value, f"{what} {key}")
+        if out["bottom"] is not None and out["top"] is not None and out["top"] <= out["bottom"]:
+            raise InputError(f"{what}: top {out['top']} must be above bottom {out['bottom']}")
+    else:
+        out["center"] = _vector(item["center"], 3, f"{what} center")
+        out["axes"] = [
+            _positive(a, f"{what} axes") for a in _vector(item.get("axes"), 3, f"{what} axes")
+        ]
+        exps = item.get("exponents")
+        out["exponents"] = (
+            [1.0, 1.0, 1.0]
+            if exps is None
+            else [_positive(e, f"{what} exponents") for e in _vector(exps, 3, f"{what} exponents")]
+        )
+    for key in ("top", "bottom"):
+        if kind != "cylinder" and item.get(key) is not None:
+            out[key] = _finite(item[key], f"{what} {key}")
+    return out
+
+
+def _positive(value: Any, what: str) -> float:
+    f = _finite(value, what)
+    if f <= 0:
+        raise InputError(f"{what}: expected a number > 0, found {value!r}")
+    return f
+
+
+def normalize_detection(item: Any, index: int = 0) -> dict[str, Any]:
+    """A detection dict (module docstring) checked and with plain types; raises InputError."""
+    item = _keys(item, DETECTION_KEYS, f"detections[{index}]")
+    what = f"detections[{index}]"
+    if "position" not in item:
+        raise InputError(f"{what}: missing 'position'")
+    kind = item.get("kind", "threat")
+    if kind not in ("threat", "terrain"):
+        raise InputError(f"{what} kind: expected 'threat' or 'terrain', found {kind!r}")
+    out: dict[str, Any] = {
+        "id": str(item["id"]),
+        "position": _vector(item["position"], 3, f"{what} position"),
+        "kind": kind,
+        "moving": bool(item.get("moving", False)),
+    }
+    if item.get("range") is not None:
+        out["range"] = _finite(item["range"], f"{what} range")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# the recorder
+
+
+class RunRecorder:
+    """Write one replay run to ``path`` (MCAP); use as a context manager.  See the module docstring
+    for topics, frames, rates and the threat/detection dicts.
+
+    ``map_origin`` (x, y, z map metres) is the origin of the ``map`` frame (e.g. the first
+    waypoint or the terrain centre).  ``to_lonlat(x, y) -> (lon, lat)`` (map metres to WGS84
+    degrees) enables ``/vehicle/fix``.  ``seed``, ``command``, ``avoid``, ``crs`` and
+    ``software_version`` go into the ``terrapath`` metadata record with the wall-clock start; extra
+    ``metadata`` (str -> str) is added to it.
+    """
+
+    def __init__(
+        self,
+        path: str | PathLike[str],
+        *,
+        map_origin: Sequence[float] = (0.0, 0.0, 0.0),
+        crs: str = "local",
+        seed: int | str | None = None,
+        command: str = "",
+        avoid: str = "none",
+        software_version: str | None = None,
+        to_lonlat: LonLat | None = None,
+        log_rate_hz: float = 10.0,
+        track_rate_hz: float = 1.0,
+        track_overview_s: float = 60.0,
+        track_overview_points: int = 2048,
+        marker_size_m: float = 50.0,
+        max_terrain_triangles: int = 1_000_000,
+        compression: str = "zstd",
+        chunk_size: int = 1 << 20,
+        metadata: Mapping[str, str] | None = None,
+    ) -> None:
+        self.path = Path(path)
+        loc = where(self.path)
+        self._where = loc
+        self.map_origin = tuple(_vector(map_origin, 3, f"{loc}map_origin"))
+        for name, value in (
+            ("log_rate_hz", log_rate_hz),
+            ("track_rate_hz", track_rate_hz),
+            ("track_overview_s", track_overview_s),
+            ("marker_size_m", marker_size_m),
+        ):
+            _positive(value, f"{loc}{name}")
+        if compression not in COMPRESSIONS:
+            raise InputError(
+                f"{loc}compression: expected one of {COMPRESSIONS}, found {compression!r}"
+            )
+        if track_overview_points < 2 or max_terrain_triangles < 1 or chunk_size < 1024:
+            raise InputError(
+                f"{loc}track_overview_points, max_terrain_triangles or chunk_size too small"
+            )
+        self.log_rate_hz = float(log_rate_hz)
+        self._state_period = max(1, round(NS_PER_S / log_rate_hz))
+        self._track_period = max(1, round(NS_PER_S / track_rate_hz))
+        self._overview_period = max(1, round(track_overview_s * NS_PER_S))
+        self._overview_points = int(track_overview_points)
+        self._marker = float(marker_size_m)
+        self._max_triangles = int(max_terrain_triangles)
+        self._compression = compression
+        self._chunk_size = int(chunk_size)
+        self._to_lonlat = to_lonlat
+        if software_version is None:
+            software_version = _package_version()
+        self.run_metadata: dict[str, str] = {
+            "terrapath": T.FORMAT_VERSION,
+            "seed": "" if seed is None else str(seed),
+            "software_version": software_version,
+            "command": command,
+            "avoid": avoid,
+            "started_utc": "",
+            "crs": crs,
+            "map_origin": json.dumps(list(self.map_origin)),
+            "log_rate_hz": repr(self.log_rate_hz),
+            "time": "simulated seconds since the start of the replay, integer nanoseconds",
+        }
+        for key, text in (metadata or {}).items():
+            if not isinstance(key, str) or not isinstance(text, str):
+                raise InputError(f"{loc}metadata: keys and values must be text ({key!r})")
+            self.run_metadata[key] = text
+        self._sink: _McapSink | None = None
+        self._stack: contextlib.ExitStack | None = None
+        self._channels: dict[str, int] = {}
+        self._t_max = 0
+        self._last_state = -1
+        self._next_state = 0
+        self._next_track = 0
+        self._next_overview = self._overview_period
+        self._next_threat_move = 0
+        self._track = np.empty((1024, 3))
+        self._track_n = 0
+        self._recent_from = 0  # index in the track where the recent line starts
+        self._threats: dict[str, dict[str, Any]] = {}
+        self._formats: dict[tuple[str, ...], str] = {(): "{" + _STATE_FORMAT + ',"extras":{}}'}
+        self._floor_z = 0.0
+        self._attachments: set[str] = set()
+        self.samples_written = 0
+        self._pose = PoseInFrame(frame_id=T.MAP_FRAME)
+        self._tf = FrameTransform(parent_frame_id=T.MAP_FRAME, child_frame_id=T.VEHICLE_FRAME)
+        self._fix = LocationFix(frame_id=T.VEHICLE_FRAME)
+
+    # -- life cycle --------------------------------------------------------------------------
+
+    def __enter__(self) -> Self:
+        if self._stack is not None:
+            raise InputError(f"{self._where}the recorder is already open")
+        stack = contextlib.ExitStack()
+        try:
+            tmp = stack.enter_context(atomic_output(self.path))
+            out = stack.enter_context(open(tmp, "wb", buffering=1 << 20))
+            self._sink = _McapSink(
+                out,
+                compression=self._compression,
+                chunk_size=self._chunk_size,
+                library=f"{T.LIBRARY} {self.run_metadata['software_version']}",
+            )
+            self._start()
+        except BaseException as err:  # the temporary file goes, nothing is renamed
+            stack.__exit__(type(err), err, err.__traceback__)
+            raise
+        self._stack = stack
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> bool:
+        stack, sink = self._stack, self._sink
+        self._stack = self._sink = None
+        if stack is None:
+            return False
+        if exc_type is None and sink is not None:
+            try:
+                sink.finish()
+            except BaseException as err:
+                if not stack.__exit__(type(err), err, err.__traceback__):
+                    raise
+                return False
+        return bool(stack.__exit__(exc_type, exc, tb))
+
+    def _start(self) -> None:
+        sink = self._require()
+        schema_ids: dict[str, int] = {}
+        for topic, schema in T.SCHEMAS.items():
+            if topic == T.VEHICLE_FIX and self._to_lonlat is None:
+                continue
+            if schema not in schema_ids:
+                if schema in PROTOBUF_CLASSES:
+                    data = descriptor_set(PROTOBUF_CLASSES[schema])
+                    schema_ids[schema] = sink.add_schema(schema, T.PROTOBUF, data)
+                else:
+                    data = json.dumps(JSON_SCHEMAS[schema], indent=1).encode()
+                    schema_ids[schema] = sink.add_schema(schema, T.JSONSCHEMA, data)
+            encoding = T.PROTOBUF if schema in PROTOBUF_CLASSES else T.JSON
+            group = 1 if topic in T.DATA_TOPICS else 0
+            self._channels[topic] = sink.add_channel(topic, encoding, schema_ids[schema], group)
+        self.run_metadata["started_utc"] = datetime.now(UTC).isoformat(timespec="milliseconds")
+        sink.add_metadata(T.RUN_METADATA, self.run_metadata)
+        ox, oy, oz = self.map_origin
+        static = FrameTransform(
+            parent_frame_id=T.MAP_FRAME,
+            child_frame_id=T.WORLD_FRAME,
+            translation=Vector3(x=-ox, y=-oy, z=-oz),
+            rotation=Quaternion(w=1.0),
+        )
+        self._emit(T.TF_STATIC, 0, static.SerializeToString())
+
+    def _require(self) -> _McapSink:
+        if self._sink is None:
+            raise InputError(f"{self._where}the recorder is not open (use 'with RunRecorder(...)')")
+        return self._sink
+
+    def _emit(self, topic: str, ns: int, data: bytes) -> None:
+        self._require().add_message(self._channels[topic], ns, data)
+        if ns > self._t_max:
+            self._t_max = ns
+
+    def _ns(self, t: float) -> int:
+        """Simulated seconds -> integer nanoseconds, the one conversion."""
+        try:
+            if isinstance(t, str):
+                raise TypeError
+            ns = round(float(t) * NS_PER_S)  # float(): numpy scalars' round() is slow
+        except (TypeError, ValueError, OverflowError):
+            raise InputError(f"{self._where}time {t!r}: expected finite seconds") from None
+        if ns < 0:
+            raise InputError(f"{self._where}time {t!r}: expected seconds >= 0")
+        return int(ns)
+
+    def _rel(self, xyz: Sequence[float]) -> tuple[float, float, float]:
+        ox, oy, oz = self.map_origin
+        return (xyz[0] - ox, xyz[1] - oy, xyz[2] - oz)
+
+    # -- vehicle -----------------------------------------------------------------------------
+
+    def state_due(self, t: float) -> bool:
+        """Whether :meth:`write_state` at time ``t`` would write a sample (lets a caller skip
+        building its arguments between ticks)."""
+        return self._ns(t) >= self._next_state
+
+    def write_state(
+        self,
+        t: float,
+        state: Sequence[float] | FloatArray,
+        controls: Sequence[float] | FloatArray,
+        extras: Mapping[str, float] | None = None,
+        *,
+        force: bool = False,
+    ) -> bool:
+        """One vehicle sample (12-state NED vector and 4 controls, :mod:`replay.frames`) with the
+        caller's ``extras`` (name -> number).  Written if ``t`` reached the next log tick (or
+        ``force``); returns whether it was written.  Times must not go backwards."""
+        ns = self._ns(t)
+        if ns < self._last_state:
+            raise InputError(f"{self._where}state time {t!r} s is before the previous sample")
+        if ns < self._next_state and not force:
+            return False
+        s = _sample(state, 12, f"{self._where}state")
+        c = _sample(controls, 4, f"{self._where}controls")
+        period = self._state_period
+        self._next_state = (ns // period + 1) * period
+        self._last_state = ns
+        sec, nsec = divmod(ns, NS_PER_S)
+        pn, pe, pd, u, v, w, phi, theta, psi = s[:9]
+        ox, oy, oz = self.map_origin
+        x, y, z = pe - ox, pn - oy, -pd - oz
+        qx, qy, qz, qw = quaternion_map(phi, theta, psi)
+
+        pose = self._pose
+        pose.timestamp.seconds = sec
+        pose.timestamp.nanos = nsec
+        p, o = pose.pose.position, pose.pose.orientation
+        p.x, p.y, p.z = x, y, z
+        o.x, o.y, o.z, o.w = qx, qy, qz, qw
+        tf = self._tf
+        tf.timestamp.seconds = sec
+        tf.timestamp.nanos = nsec
+        tr, ro = tf.translation, tf.rotation
+        tr.x, tr.y, tr.z = x, y, z
+        ro.x, ro.y, ro.z, ro.w = qx, qy, qz, qw
+
+        va = math.sqrt(u * u + v * v + w * w)
+        alpha = math.atan2(w, u)
+        beta = math.asin(max(-1.0, min(1.0, v / va))) if va > 0 else 0.0
+        values = (*s[:3], -pd, *s[3:], va, alpha, beta, *c)
+        if extras:
+            fmt = self._formats.get(tuple(extras)) or self._state_format(extras)
+            values += tuple(extras.values())
+        else:
+            fmt = self._formats[()]
+        try:
+            text = fmt % values if math.isfinite(sum(values)) else self._state_text(values, extras)
+        except TypeError:
+            raise InputError(f"{self._where}extras: expected numbers, found {extras!r}") from None
+
+        sink, ch = self._require(), self._channels
+        sink.add_message(ch[T.TF], ns, tf.SerializeToString())
+        sink.add_message(ch[T.VEHICLE_POSE], ns, pose.SerializeToString())
+        sink.add_message(ch[T.VEHICLE_STATE], ns, text.encode())
+        if self._to_lonlat is not None:
+            lon, lat = self._to_lonlat(pe, pn)
+            fix = self._fix
+            fix.timestamp.seconds = sec
+            fix.timestamp.nanos = nsec
+            fix.longitude, fix.latitude, fix.altitude = float(lon), float(lat), -pd
+            sink.add_message(ch[T.VEHICLE_FIX], ns, fix.SerializeToString())
+        if ns > self._t_max:
+            self._t_max = ns
+        if ns >= self._next_track:
+            self._next_track = (ns // self._track_period + 1) * self._track_period
+            self._track_point(ns, (x, y, z))
+        self.samples_written += 1
+        return True
+
+    def _state_format(self, extras: Mapping[str, float]) -> str:
+        """The %-format of a state message with these extras names (cached per name tuple)."""
+        names = tuple(extras)
+        for name in names:
+            if not isinstance(name, str) or not name:
+                raise InputError(f"{self._where}extras: names must be non-empty text ({name!r})")
+        fields = ",".join(f"{json.dumps(name)}:%.{DIGITS}g" for name in names)
+        fmt = self._formats[names] = "{" + _STATE_FORMAT + ',"extras":{' + fields + "}}"
+        return fmt
+
+    def _state_text(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
+        """The state message when some value is not finite (written as null)."""
+        nums = [_num(float(x)) for x in values]
+        body = ",".join(f'"{k}":{n}' for k, n in zip(_STATE_KEYS, nums, strict=False))
+        names = tuple(extras or ())
+        more = ",".join(
+            f"{json.dumps(k)}:{n}" for k, n in zip(names, nums[len(_STATE_KEYS) :], strict=True)
+        )
+        return "{" + body + ',"extras":{' + more + "}}"
+
+    def _track_point(self, ns: int, xyz: tuple[float, float, float]) -> None:
+        if self._track_n == len(self._track):
+            self._track = np.concatenate([self._track, np.empty_like(self._track)])
+        self._track[self._track_n] = xyz
+        self._track_n += 1
+        n = self._track_n
+        if ns >= self._next_overview:
+            self._next_overview = (ns // self._overview_period + 1) * self._overview_period
+            pts = self._track[:n]
+            if n > self._overview_points:
+                stride = 1 << math.ceil(math.log2(n / (self._overview_points - 1)))
+                keep = np.arange(0, n, stride)
+                if keep[-1] != n - 1:
+                    keep = np.append(keep, n - 1)
+                pts = pts[keep]
+            self._line_update(
+                T.VEHICLE_TRACK_OVERVIEW, ns, "track/overview", pts, (0.95, 0.8, 0.1, 0.9)
+            )
+            self._recent_from = n - 1
+        pts = self._track[self._recent_from : n]
+        if len(pts) >= 2:
+            self._line_update(T.VEHICLE_TRACK, ns, "track/recent", pts, (1.0, 0.9, 0.2, 1.0))
+
+    def _line_update(
+        self,
+        topic: str,
+        ns: int,
+        ident: str,
+        pts: FloatArray,
+        rgba: tuple[float, float, float, float],
+    ) -> None:
+        line = _line_head(rgba) + _doubles_messages(_LINE_POINTS, pts)
+        entity = self._entity(ns, ident).SerializeToString() + _ld(_ENTITY_LINES, line)
+        self._emit(topic, ns, _ld(_UPDATE_ENTITIES, entity))
+
+    def _entity(self, ns: int, ident: str, **fields: Any) -> SceneEntity:
+        e = SceneEntity(frame_id=T.MAP_FRAME, id=ident, **fields)
+        e.timestamp.seconds, e.timestamp.nanos = divmod(ns, NS_PER_S)
+        return e
+
+    # -- scene -------------------------------------------------------------------------------
+
+    def write_terrain(
+        self,
+        vertices: npt.ArrayLike,
+        faces: npt.ArrayLike,
+        frame: str = T.MAP_FRAME,
+        t: float = 0.0,
+    ) -> int:
+        """The terrain mesh (vertices (N, 3) map metres, faces (M, 3) vertex indices), once at the
+        start: a triangle list coloured by height, in ``frame`` (relative to the map origin),
+        decimated to ``max_terrain_triangles``.  Returns the number of triangles written."""
+        ns = self._ns(t)
+        v = np.asarray(vertices, dtype=np.float64)
+        f = np.asarray(faces)
+        if v.ndim != 2 or v.shape[1] != 3 or not np.isfinite(v).all():
+            raise InputError(
+                f"{self._where}terrain vertices: expected finite (N, 3), found {v.shape}"
+            )
+        if f.ndim != 2 or f.shape[1] != 3 or not np.issubdtype(f.dtype, np.integer):
+            raise InputError(
+                f"{self._where}terrain faces: expected integer (M, 3), found {f.shape}"
+            )
+        if f.size and (f.min() < 0 or f.max() >= len(v)):
+            raise InputError(f"{self._where}terrain faces: indices outside 0..{len(v) - 1}")
+        v, f = decimate_mesh(v, f.astype(np.int64), self._max_triangles)
+        if len(v):
+            self._floor_z = float(v[:, 2].min())
+        tri = (
+            TriangleListPrimitive(pose=_pose()).SerializeToString()
+            + _doubles_messages(_TRI_POINTS, v - np.asarray(self.map_origin))
+            + _doubles_messages(_TRI_COLORS, _height_colors(v[:, 2]))
+            + _packed_fixed32(_TRI_INDICES, f.reshape(-1))
+        )
+        entity = self._entity(ns, "terrain")
+        entity.frame_id = frame
+        data = _ld(_UPDATE_ENTITIES, entity.SerializeToString() + _ld(_ENTITY_TRIANGLES, tri))
+        self._emit(T.TERRAIN, ns, data)
+        return len(f)
+
+    def write_waypoints(
+        self, t: float, waypoints: npt.ArrayLike, reason: str, active_index: int = 0
+    ) -> None:
+        """The waypoint list (W, 3) map metres, at the start (``reason="initial"``) and after each
+        change (``"avoidance: pso-ca inserted 1"``, ``"leg 3"``...)."""
+        ns = self._ns(t)
+        wps = np.asarray(waypoints, dtype=np.float64)
+        if wps.ndim != 2 or wps.shape[1] != 3 or not np.isfinite(wps).all():
+            raise InputError(f"{self._where}waypoints: expected finite (W, 3), found {wps.shape}")
+        active = int(active_index)
+        entity = self._entity(ns, "waypoints")
+        rel = wps - np.asarray(self.map_origin)
+        if len(rel) >= 2:
+            entity.lines.append(
+                LinePrimitive(
+                    type=LinePrimitive.LINE_STRIP,
+                    pose=_pose(),
+                    thickness=2.0,
+                    scale_invariant=True,
+                    color=_color(0.3, 0.6, 1.0, 0.9),
+                    points=[Point3(x=a, y=b, z=c) for a, b, c in rel.tolist()],
+                )
+            )
+        size = Vector3(x=self._marker, y=self._marker, z=self._marker)
+        for i, (a, b, c) in enumerate(rel.tolist()):
+            rgb = (
+                (0.6, 0.6, 0.6)
+                if i < active
+                else (0.1, 0.9, 0.3)
+                if i == active
+                else (0.3, 0.6, 1.0)
+            )
+            entity.spheres.append(
+                SpherePrimitive(pose=_pose(a, b, c), size=size, color=_color(*rgb))
+            )
+            entity.texts.append(
+                TextPrimitive(
+                    pose=_pose(a, b, c + self._marker),
+                    billboard=True,
+                    font_size=14.0,
+                    scale_invariant=True,
+                    color=_color(1, 1, 1),
+                    text=str(i),
+                )
+            )
+        self._emit(T.WAYPOINTS, ns, SceneUpdate(entities=[entity]).SerializeToString())
+        doc = {"waypoints": wps.tolist(), "active_index": active, "reason": str(reason)}
+        self._emit(T.WAYPOINT_LIST, ns, _dumps(doc))
+
+    def write_threats(self, t: float, threats: Iterable[Mapping[str, Any]]) -> bool:
+        """The current threats (module docstring).  Compared with the last set written: new ones
+        are drawn, changed ones redrawn (a move at most once per log tick), missing ones deleted.
+        Returns whether a message was written.  Between log ticks a call with the same ids
+        returns at once; at a tick each threat costs a comparison (and a check when it changed),
+        so call it at most at the log rate (e.g. when :meth:`state_due`), not every 100 Hz step."""
+        ns = self._ns(t)
+        items = list(threats)
+        if ns < self._next_threat_move and len(items) == len(self._threats):
+            try:
+                if all(str(item["id"]) in self._threats for item in items):
+                    return False
+            except (TypeError, KeyError):
+                pass  # the full check below says what is wrong
+        current: dict[str, dict[str, Any]] = {}
+        for i, item in enumerate(items):
+            threat = self._normalized(item, i)
+            if threat["id"] in current:
+                raise InputError(f"{self._where}threats: duplicate id {threat['id']!r}")
+            current[threat["id"]] = threat
+        previous = self._threats
+        appeared = [i for i in current if i not in previous]
+        removed = [i for i in previous if i not in current]
+        changed = [i for i in current if i in previous and current[i] != previous[i]]
+        if not (appeared or removed or changed):
+            return False
+        if not (appeared or removed) and ns < self._next_threat_move:
+            return False
+        self._next_threat_move = (ns // self._state_period + 1) * self._state_period
+        update = SceneUpdate()
+        for ident in removed:
+            deletion = SceneEntityDeletion(
+                type=SceneEntityDeletion.MATCHING_ID, id=f"threat/{ident}"
+            )
+            deletion.timestamp.seconds, deletion.timestamp.nanos = divmod(ns, NS_PER_S)
+            update.deletions.append(deletion)
+        for ident in appeared + changed:
+            update.entities.append(self._threat_entity(ns, current[ident]))
+        self._emit(T.THREATS, ns, update.SerializeToString())
+        doc = {
+            "threats": list(current.values()),
+            "appeared": appeared,
+            "changed": changed,
+            "removed": removed,
+        }
+        self._emit(T.THREAT_LIST, ns, _dumps(doc))
+        self._threats = current
+        return True
+
+    def _normalized(self, item: Any, index: int) -> dict[str, Any]:
+        """normalize_threat, skipped when the item equals the normalized threat of its id."""
+        try:
+            prev = self._threats.get(str(item["id"]))
+            if prev is not None and item == prev:
+                return prev
+        except (TypeError, KeyError, ValueError):  # not a mapping, no id, numpy arrays inside
+            pass
+        return normalize_threat(item, index)
+
+    def _threat_entity(self, ns: int, th: dict[str, Any]) -> SceneEntity:
+        e = self._entity(ns, f"threat/{th['id']}")
+        e.metadata.extend(
+            [KeyValuePair(key="id", value=th["id"]), KeyValuePair(key="kind", value=th["kind"])]
+        )
+        color = _color(0.9, 0.15, 0.1, 0.35)
+        kind = th["kind"]
+        if kind == "sphere":
+            centers = th["center"] if isinstance(th["center"][0], list) else [th["center"]]
+            radii = th["radius"] if isinstance(th["radius"], list) else [th["radius"]]
+            for c, r in zip(centers, radii, strict=True):
+                e.spheres.append(
+                    SpherePrimitive(
+                        pose=_pose(*self._rel(c)),
+                        size=Vector3(x=2 * r, y=2 * r, z=2 * r),
+                        color=color,
+                    )
+                )
+            top = max(c[2] + r for c, r in zip(centers, radii, strict=True))
+            label = self._rel((centers[0][0], centers[0][1], top))
+        elif kind == "cylinder":
+            r = th["radius"]
+            bottom = (
+                th["bottom"]
+                if th["bottom"] is not None
+                else min(self._floor_z, (th["top"] or 0.0) - 1.0)
+            )
+            top = th["top"] if th["top"] is not None else bottom + UNBOUNDED_TOP_DRAW_M
+            cx, cy = th["center"][:2]
+            e.cylinders.append(
+                CylinderPrimitive(
+                    pose=_pose(*self._rel((cx, cy, 0.5 * (bottom + top)))),
+                    size=Vector3(x=2 * r, y=2 * r, z=top - bottom),
+                    bottom_scale=1.0,
+                    top_scale=1.0,
+                    color=color,
+                )
+            )
+            label = self._rel((cx, cy, top))
+        else:
+            a, b, c = th["axes"]
+            center = self._rel(th["center"])
+            if all(x == 1.0 for x in th["exponents"]):
+                e.spheres.append(
+                    SpherePrimitive(
+                        pose=_pose(*center), size=Vector3(x=2 * a, y=2 * b, z=2 * c), color=color
+                    )
+                )
+            else:
+                pts, faces = superellipsoid_mesh(th["axes"], th["exponents"])
+                e.triangles.append(
+                    TriangleListPrimitive(
+                        pose=_pose(*center),
+                        color=color,
+                        points=[Point3(x=px, y=py, z=pz) for px, py, pz in pts.tolist()],
+                        indices=faces.reshape(-1).tolist(),
+                    )
+                )
+            label = (center[0], center[1], center[2] + c)
+        e.texts.append(
+            TextPrimitive(
+                pose=_pose(label[0], label[1], label[2] + self._marker),
+                billboard=True,
+                font_size=14.0,
+                scale_invariant=True,
+                color=_color(1.0, 0.6, 0.6),
+                text=th["id"],
+            )
+        )
+        return e
+
+    def write_detections(self, t: float, detections: Iterable[Mapping[str, Any]]) -> None:
+        """One radar scan: a marker per detection (red: stationary threat, orange: moving, brown:
+        terrain) replacing the previous scan's, and the list as JSON."""
+        ns = self._ns(t)
+        items = [normalize_detection(d, i) for i, d in enumerate(detections)]
+        e = self._entity(ns, "detections")
+        size = Vector3(x=self._marker, y=self._marker, z=self._marker)
+        for d in items:
+            rgb = (
+                (0.6, 0.4, 0.2)
+                if d["kind"] == "terrain"
+                else (1.0, 0.55, 0.0)
+                if d["moving"]
+                else (1.0, 0.1, 0.1)
+            )
+            e.spheres.append(
+                SpherePrimitive(
+                    pose=_pose(*self._rel(d["position"])), size=size, color=_color(*rgb)
+                )
+            )
+        self._emit(T.DETECTIONS, ns, SceneUpdate(entities=[e]).SerializeToString())
+        self._emit(T.DETECTION_LIST, ns, _dumps({"detections": items}))
+
+    # -- events ------------------------------------------------------------------------------
+
+    def write_decision(self, t: float, decision: Mapping[str, Any]) -> None:
+        """An avoidance decision: a JSON object with at least ``algorithm`` (text) and
+        ``compute_s`` (seconds spent deciding), and typically ``inputs`` (a summary), ``chosen``
+        (waypoint(s)) and ``costs`` (cost terms).  numpy values are converted."""
+        ns = self._ns(t)
+        if not isinstance(decision, Mapping):
+            raise InputError(
+                f"{self._where}decision: expected a mapping, found {type(decision).__name__}"
+            )
+        if not isinstance(decision.get("algorithm"), str):
+            raise InputError(f"{self._where}decision: 'algorithm' (text) is required")
+        compute = _finite(decision.get("compute_s"), f"{self._where}decision compute_s")
+        if compute < 0:
+            raise InputError(f"{self._where}decision compute_s: expected >= 0, found {compute}")
+        try:
+            doc = jsonable(decision)
+        except TypeError as err:
+            raise InputError(f"{self._where}decision: {err}") from None
+        self._emit(T.DECISION, ns, _dumps(doc))
+
+    def write_log(self, t: float, level: str, text: str) -> None:
+        """A human-readable event (``level``: debug, info, warning, error or fatal)."""
+        ns = self._ns(t)
+        if level not in LOG_LEVELS:
+            raise InputError(
+                f"{self._where}log level: expected one of {', '.join(LOG_LEVELS)}, found {level!r}"
+            )
+        msg = Log(level=Log.Level.Value(level.upper()), message=str(text), name="terrapath")
+        msg.timestamp.seconds, msg.timestamp.nanos = divmod(ns, NS_PER_S)
+        self._emit(T.LOG, ns, msg.SerializeToString())
+
+    def write_metrics(self, metrics: Mapping[str, Any]) -> None:
+        """Run metrics, at the end: a JSON message at the last time written and the metadata
+        record ``metrics`` (each value JSON-encoded)."""
+        try:
+            doc = jsonable(metrics)
+        except TypeError as err:
+            raise InputError(f"{self._where}metrics: {err}") from None
+        if not isinstance(doc, dict):
+            raise InputError(f"{self._where}metrics: expected a mapping")
+        self._emit(T.METRICS, self._t_max, _dumps(doc))
+        self._require().add_metadata(T.METRICS_METADATA, {k: json.dumps(v) for k, v in doc.items()})
+
+    def attach(self, name: str, data: bytes, media_type: str = "application/octet-stream") -> None:
+        """Store a file inside the run (the mission, threat and vehicle files, so that a recorded
+        run can be flown again), e.g. ``attach("mission.yaml", text.encode(), "application/yaml")``."""
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise InputError(
+                f"{self._where}attachment {name!r}: expected bytes, found {type(data).__name__}"
+            )
+        if not name or name in self._attachments:
+            raise InputError(
+                f"{self._where}attachment {name!r}: names must be unique and non-empty"
+            )
+        self._attachments.add(name)
+        self._require().add_attachment(name, media_type, bytes(data), self._t_max)
+
+
+_STATE_FORMAT = ",".join(f'"{k}":%.{DIGITS}g' for k in _STATE_KEYS)
+
+
+def _sample(values: Sequence[float] | FloatArray, n: int, what: str) -> list[float]:
+    if isinstance(values, np.ndarray):
+        if values.shape != (n,):
+            raise InputError(f"{what}: expected {n} numbers, found shape {values.shape}")
+        out: list[float] = values.astype(np.float64, copy=False).tolist()
+        return out
+    try:
+        out = [float(v) for v in values]
+    except (TypeError, ValueError):
+        raise InputError(f"{what}: expected {n} numbers") from None
+    if len(out) != n:
+        raise InputError(f"{what}: expected {n} numbers, found {len(out)}")
+    return out
+
+
+def _package_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("terrapath")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+__all__ = [
+    "JSON_SCHEMAS",
+    "PROTOBUF_CLASSES",
+    "RunRecorder",
+    "decimate_mesh",
+    "descriptor_set",
+    "jsonable",
+    "normalize_detection",
+    "normalize_threat",
+    "quaternion_map",
+    "superellipsoid_mesh",
+]
