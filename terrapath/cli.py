@@ -16,7 +16,9 @@ from terrain.errors import TerrapathError
 from terrapath import __version__
 from terrapath.commands.hillshade import hillshade
 from terrapath.commands.info import info
+from terrapath.commands.inspect import inspect_cmd
 from terrapath.commands.plan import plan_cmd
+from terrapath.commands.replay import replay_cmd
 
 EXIT_ERROR = 1
 
@@ -38,6 +40,8 @@ def cli(verbose: int, quiet: bool) -> None:
 cli.add_command(info)
 cli.add_command(hillshade)
 cli.add_command(plan_cmd)
+cli.add_command(replay_cmd)
+cli.add_command(inspect_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

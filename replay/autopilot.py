@@ -1,0 +1,915 @@
+"""The autopilot: waypoint guidance with cross-track correction and successive loop closure.
+
+Structure (Beard & McLain, *Small Unmanned Aircraft*, 2012, ch. 6 "successive loop closure"; the
+guidance after Krishnan & Manimala 2020 — seed 000 — §3.5-3.6, eqs 13-20)::
+
+    waypoints --leg--> course command chi_c --course PI--> bank phi_c --roll PID--> aileron
+              --leg--> altitude h_c --P--> climb rate hdot_c --PI--> pitch theta_c --PD--> elevator
+    airspeed command Va_c --PI + climb thrust feed-forward--> throttle
+    sideslip (PI) + washed-out yaw rate --> rudder
+
+The commands can be overridden (:meth:`Autopilot.set_override`: a course or a bank angle, an
+altitude, an airspeed — what an avoider's guidance override or a test needs) and the waypoint list
+replaced in flight (:meth:`Autopilot.set_waypoints`).
+
+Everything runs in the compiled kernel ``replay/vehicle/_kernels.py`` (``control_law``) — called
+once per control period by :meth:`Autopilot.command`, or inside :meth:`Autopilot.fly` which flies
+the vehicle and the autopilot together at 100 Hz in one compiled loop (the fast path for long
+missions; both give the same flight).
+
+Guidance (lateral)
+------------------
+The current leg runs from the previous waypoint W[i-1] to the next one W[i] (map x east, y north,
+z up; NED inside). Cross-track error, seed 000 eq. 15::
+
+    DD = (A x + B y + C) / sqrt(A^2 + B^2),  A = Y_fin - Y_st,  B = X_st - X_fin,
+    C = X_st (Y_st - Y_fin) + Y_st (X_fin - X_st)
+
+which is the signed distance from the leg's line, positive to the RIGHT of the direction of travel
+(the paper's ``AA, BB`` in the denominator are A and B). Seed 000 then feeds DD and its rate
+(eq. 20, a difference quotient at 100 Hz) into a leaky-integrator roll command (eq. 19) and a
+proportional aileron law (eq. 18). Two things there are ambiguous or wrong geometrically: the sign
+(eq. 19 banks *toward* positive DD, i.e. away from the track, unless the paper's aileron sign of
+eq. 18 absorbs it), and the law itself: its steady state is ``phi = 0.01 DD + 0.5 DD_rate`` which,
+once the bank saturates at 30 deg far from the track, has no bounded approach angle and can circle
+(``DD_rate`` cannot exceed the speed). We keep DD (eq. 15) and replace eqs 18-20 by a course
+command that is geometrically right for any distance — the straight-line vector field of Beard &
+McLain §10.2::
+
+    chi_c = chi_leg - chi_inf (2/pi) atan(k_path DD)
+
+(``chi_inf`` = 60 deg approach angle far from the leg; ``k_path`` = 1 / (2 R_min) with the
+minimum turn radius ``R_min = V^2 / (g tan(phi_max))`` of seed 000 eq. 13, so the approach bends
+over a couple of turn radii). The cross-track rate of eq. 20 is then implicit:
+``dDD/dt = V_g sin(chi - chi_leg)``, which the course loop drives to ``-V_g sin(chi_inf ...)``.
+The course loop turns with at most the bank limit, so the turn rate never exceeds
+``g tan(phi_max) / V`` (eq. 14).
+
+Leg change (seed 000 §3.6, eqs 16-17): the paper changes leg when "the difference between Waypoint
+Distance and UAV Distance is less than 1 km" — on the track that is the distance still to go. We
+use what that means geometrically: the leg ends when the aircraft is within ``switch_distance``
+(default 1000 m) of W[i] horizontally, or when it has passed W[i]'s perpendicular plane (the
+along-track distance exceeds the leg length — so a missed waypoint never leaves the aircraft flying
+away). Horizontal because an altitude lag (climb-rate limit) must not hold a leg. The switching
+radius is capped at half the leg's length, so a short inserted leg (an avoider's waypoint) is
+flown, not skipped on arrival. The final waypoint uses ``arrival_distance`` (default 100 m); after
+it the autopilot holds the last leg's course and the last altitude (:attr:`Autopilot.done`).
+
+Guidance (vertical)
+-------------------
+The altitude command follows the leg linearly: ``h_c = z[i-1] + f (z[i] - z[i-1])`` with ``f`` the
+along-track fraction clamped to [0, 1] — the straight 3D segment the planner checked against the
+terrain (``altitude_mode="direct"`` commands z[i] at once instead). With ``terrain_height`` and a
+clearance, ``h_c`` is raised to at least the highest terrain within ``terrain_lookahead`` metres
+ahead (along the ground track and along the leg; default 60 s of flight at cruise) plus the
+clearance, refreshed every ``terrain_update`` seconds.
+
+Inner loops (gains from the vehicle's transfer-function coefficients, Beard & McLain §5.4, at the
+commanded airspeed — cruise unless given — so the same code flies every preset; the numbers are the
+:class:`LoopDesign` defaults)
+-----------------------------------------------------------------------------------------------
+Roll, ``phi'' = -a_phi1 phi' + a_phi2 delta_a``::
+
+    a_phi1 = -1/4 rho Va S b^2 C_p_p,  a_phi2 = 1/2 rho Va^2 S b C_p_da
+    C_p_p = G3 Clp + G4 Cnp,  C_p_da = G3 Clda + G4 Cnda
+    wn_phi = sqrt(|a_phi2| da_max / e_phi_max)   (the aileron saturates at e_phi_max = 30 deg of
+              roll error), raised to a_phi1 / (2 zeta) for an airframe whose own roll damping
+              exceeds 2 zeta wn (it would otherwise need rate feedback of the wrong sign), <= 15
+    k_p = wn^2 / a_phi2,  k_d = max(0, (2 zeta wn - a_phi1) / a_phi2),  zeta = 0.9
+    k_i = 0.1 wn k_p, integrating only while |phi_c - phi| < 3 deg (no windup in bank steps)
+    delta_a = da_ff + k_p (phi_c - phi) + k_i int(phi_c - phi) - k_d p
+    da_ff = -(C_p0 + C_p_beta beta + C_p_r b r / (2 Va) + C_p_dr delta_r) / C_p_da
+
+``da_ff`` cancels the rolling moments the book's roll model leaves out (sideslip, yaw rate — large
+in tight turns — and rudder, with C_p_x = G3 Cl_x + G4 Cn_x), so the loop sees the plant it was
+designed for; the bank command is rate limited to 0.3 wn_phi bank_max per second. Measured bank
+overshoot on a 30 deg step: under 0.5 deg for every preset.
+
+Course, ``chi' = (g / V_g) phi``: ``wn_chi = wn_phi / 8`` (bandwidth separation 8), zeta 1::
+
+    k_p = 2 zeta wn_chi V_g / g,  k_i = wn_chi^2 V_g / g,  phi_c = sat(k_p e_chi + k_i int e_chi)
+
+with ``e_chi`` wrapped to [-pi, pi) and ``phi_c`` saturated at the bank limit (default 30 deg).
+
+Pitch, ``theta'' = -a_th1 theta' - a_th2 theta + a_th3 delta_e``::
+
+    a_th1 = -rho Va^2 c S Cmq c / (2 Va) / (2 Jy),  a_th2 = -rho Va^2 c S Cmalpha / (2 Jy),
+    a_th3 = rho Va^2 c S Cmde / (2 Jy)
+    k_p = sign(a_th3) de_max / e_th_max   (e_th_max = 10 deg, de_max the smaller travel)
+    wn_th = sqrt(a_th2 + k_p a_th3),  k_d = (2 zeta wn_th - a_th1) / a_th3,  zeta = 0.8
+    delta_e = de_ff + k_p (theta_c - theta) - k_d q
+
+Altitude and climb rate (our replacement of the book's altitude-to-pitch PI, to honour the
+climb-rate and pitch limits)::
+
+    hdot_c  = sat(k_h (h_c - h), -0.95 descent_max, 0.95 climb_max),  k_h = 0.25 1/s,
+              slewed at 1 m/s^2
+    gamma_c = asin(hdot_c / Va),  e_gamma = (hdot_c - hdot) / Va
+    theta_c = sat(theta_ff + k_pg e_gamma + k_ig int e_gamma, pitch_min, pitch_max),
+              k_pg = 2, k_ig = 0.2 1/s
+    theta_ff = theta* + (dtheta/dgamma) gamma_c,  de_ff = delta_e* + (ddelta_e/dgamma) gamma_c
+
+The feed-forward slopes come from the trims at the climb and the descent limits (straight lines
+from level trim, one for climbs, one for descents; gamma alone if a trim does not exist, e.g. an
+idle descent that would need negative thrust). The climb-rate command stays 5 % inside the
+vehicle's limits: the climb-rate loop overshoots its command by up to 3 % at the start of a climb,
+and the limit is the vehicle's, not the command's — flown climb rates stay within it.
+
+Airspeed (throttle), ``Va' = -a_V1 Va + a_V2 delta_t``::
+
+    a_V1 = rho Va* S (CD(alpha*) + CDde de*) / m + rho S_prop C_prop Va* / m,
+    a_V2 = rho S_prop C_prop k_motor^2 delta_t* / m
+    k_i = wn_V^2 / a_V2,  k_p = max(0, (2 zeta wn_V - a_V1) / a_V2),  wn_V = 0.5 rad/s, zeta = 1
+    delta_t = delta_t_ff + k_p e_V + k_i int e_V,
+    delta_t_ff: the throttle giving T* + m g sin(gamma_c) at the current airspeed
+
+The throttle's lower saturation for anti-windup is ``Va / k_motor``, below which the propeller
+gives no thrust (the clamped 2012 propeller model), not 0.
+
+Yaw (rudder): sideslip hold (coordinated flight in Beard & McLain's sense, beta = 0, on
+``sin(beta) = v_r / Va``) plus a yaw damper washed out with tau = 1 s (so steady turns are not
+opposed), written as a yawing-moment coefficient and divided by Cndr (no rudder when Cndr = 0)::
+
+    dCn = Cnbeta sin(beta) + 0.5 Cnbeta int sin(beta) - |Cnr| b r_hp / (2 Va),
+    delta_r = dCn / Cndr
+
+(the rudder doubles the weathercock stability and the yaw damping and trims the sideslip out).
+With beta = 0 the rudder's own side force (CYdr delta_r) still acts, so a steady 30 deg turn is
+tighter or wider than V^2 / (g tan(phi)) by that force: measured -2.1 % (aerosonde), +0.5 %
+(cessna172), -9 % (solar-uav) and -7.5 % (small-uas, whose scaled airframes fly tighter turns at
+their low speed). Holding zero side force instead was tried and rejected: with the Aerosonde's
+CYdr < 0 the required sideslip grows with the rudder and the loop runs into the stop.
+
+Every saturation (bank, pitch, surfaces, throttle) has anti-windup: an integrator stops while its
+loop is saturated and the error would push it further.
+
+Rates: the control law assumes it runs every control period (``dt``, 100 Hz by default, seed 000
+eq. 20); ``command`` measures the period from successive ``t``; ``fly`` can run it every
+``control_every`` dynamics steps.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from replay.frames import N_CONTROLS, N_STATES
+from replay.vehicle import _kernels as kern
+from replay.vehicle.dynamics import DT, drag_coefficient
+from replay.vehicle.params import G, VehicleParams
+from replay.vehicle.trim import trim
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+TerrainHeight = Callable[[FloatArray, FloatArray], npt.ArrayLike]
+
+
+# ---- design choices ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LoopDesign:
+    """Natural frequencies, damping and separations of the loops (see the module docstring)."""
+
+    roll_error_max_deg: float = 30.0
+    roll_wn_max: float = 15.0
+    roll_zeta: float = 0.9
+    roll_integral_fraction: float = 0.1
+    roll_integral_band_deg: float = 3.0
+    roll_slew: float = 0.3
+    course_separation: float = 8.0
+    course_zeta: float = 1.0
+    pitch_error_max_deg: float = 10.0
+    pitch_zeta: float = 0.8
+    altitude_gain: float = 0.25
+    climb_slew: float = 1.0
+    climb_margin: float = 0.05
+    climb_kp: float = 2.0
+    climb_ki: float = 0.2
+    airspeed_wn: float = 0.5
+    airspeed_zeta: float = 1.0
+    yaw_beta: float = 1.0
+    yaw_beta_integral: float = 0.5
+    yaw_rate: float = 1.0
+    washout_tau: float = 1.0
+
+
+@dataclass(frozen=True)
+class AutopilotConfig:
+    """Guidance settings. Distances in metres, times in seconds."""
+
+    dt: float = DT
+    control_every: int = 1  # control law every n dynamics steps in ``fly``
+    switch_distance: float = 1000.0  # seed 000 §3.6
+    arrival_distance: float = 100.0  # the final waypoint
+    approach_angle_deg: float = 60.0  # chi_inf
+    path_gain: float | None = None  # k_path (1/m); None: 1 / (2 R_min)
+    altitude_mode: Literal["linear", "direct"] = "linear"
+    terrain_clearance: float = 100.0
+    terrain_lookahead: float | None = None  # None: 60 s at the design airspeed
+    terrain_samples: int = 24
+    terrain_update: float = 1.0
+    design: LoopDesign = field(default_factory=LoopDesign)
+
+    def __post_init__(self) -> None:
+        checks = {
+            "dt": self.dt > 0,
+            "control_every": isinstance(self.control_every, int) and self.control_every >= 1,
+            "switch_distance": self.switch_distance > 0,
+            "arrival_distance": self.arrival_distance > 0,
+            "approach_angle_deg": 0 < self.approach_angle_deg <= 90,
+            "path_gain": self.path_gain is None or self.path_gain > 0,
+            "altitude_mode": self.altitude_mode in ("linear", "direct"),
+            "terrain_clearance": self.terrain_clearance >= 0,
+            "terrain_lookahead": self.terrain_lookahead is None or self.terrain_lookahead >= 0,
+            "terrain_samples": self.terrain_samples >= 1,
+            "terrain_update": self.terrain_update > 0,
+        }
+        for name, good in checks.items():
+            if not good:
+                raise InputError(
+                    f"autopilot setting {name!r}: invalid value {getattr(self, name)!r}"
+                )
+
+
+@dataclass(frozen=True)
+class Gains:
+    """The designed gains and feed-forwards (rad, m, s units; see the module docstring)."""
+
+    airspeed: float
+    roll_p: float
+    roll_i: float
+    roll_d: float
+    roll_band: float
+    roll_slew: float
+    course_p: float
+    course_i: float
+    pitch_p: float
+    pitch_d: float
+    pitch_dc: float
+    altitude_p: float
+    climb_p: float
+    climb_i: float
+    climb_slew: float
+    climb_margin: float
+    speed_p: float
+    speed_i: float
+    yaw_beta: float
+    yaw_beta_i: float
+    yaw_r: float
+    washout_tau: float
+    theta_trim: float
+    elevator_trim: float
+    thrust_trim: float
+    theta_per_gamma_up: float
+    theta_per_gamma_down: float
+    elevator_per_gamma_up: float
+    elevator_per_gamma_down: float
+    roll_wn: float
+    course_wn: float
+    pitch_wn: float
+
+    def pack(self, params: VehicleParams, chi_inf: float, path_gain: float) -> FloatArray:
+        gk = np.zeros(kern.N_GAINS)
+        gk[kern.K_ROLL_P] = self.roll_p
+        gk[kern.K_ROLL_I] = self.roll_i
+        gk[kern.K_ROLL_D] = self.roll_d
+        gk[kern.K_ROLL_BAND] = self.roll_band
+        gk[kern.K_ROLL_SLEW] = self.roll_slew
+        _, _, _, g3, g4, _, _, _, _ = params.gammas()
+        gk[kern.K_CP0] = g3 * params.Cl0 + g4 * params.Cn0
+        gk[kern.K_CPB] = g3 * params.Clbeta + g4 * params.Cnbeta
+        gk[kern.K_CPR] = g3 * params.Clr + g4 * params.Cnr
+        gk[kern.K_CPDR] = g3 * params.Cldr + g4 * params.Cndr
+        gk[kern.K_CPDA] = g3 * params.Clda + g4 * params.Cnda
+        gk[kern.K_COURSE_P] = self.course_p
+        gk[kern.K_COURSE_I] = self.course_i
+        gk[kern.K_PITCH_P] = self.pitch_p
+        gk[kern.K_PITCH_D] = self.pitch_d
+        gk[kern.K_ALT_P] = self.altitude_p
+        gk[kern.K_CLIMB_P] = self.climb_p
+        gk[kern.K_CLIMB_I] = self.climb_i
+        gk[kern.K_SPEED_P] = self.speed_p
+        gk[kern.K_SPEED_I] = self.speed_i
+        gk[kern.K_YAW_BETA] = self.yaw_beta
+        gk[kern.K_YAW_BETA_I] = self.yaw_beta_i
+        gk[kern.K_YAW_R] = self.yaw_r
+        gk[kern.K_WASHOUT_TAU] = self.washout_tau
+        gk[kern.K_THETA0] = self.theta_trim
+        gk[kern.K_DE0] = self.elevator_trim
+        gk[kern.K_THRUST0] = self.thrust_trim
+        gk[kern.K_BANK_MAX] = math.radians(params.bank_max_deg)
+        gk[kern.K_THETA_MIN] = math.radians(params.pitch_min_deg)
+        gk[kern.K_THETA_MAX] = math.radians(params.pitch_max_deg)
+        gk[kern.K_CLIMB_MAX] = (1.0 - self.climb_margin) * params.climb_rate_max
+        gk[kern.K_DESCENT_MAX] = (1.0 - self.climb_margin) * params.descent_rate_max
+        gk[kern.K_VA_MIN] = params.airspeed_min
+        gk[kern.K_VA_MAX] = params.airspeed_max
+        gk[kern.K_CHI_INF] = chi_inf
+        gk[kern.K_PATH] = path_gain
+        gk[kern.K_VACC_MAX] = self.climb_slew
+        gk[kern.K_THETA_UP] = self.theta_per_gamma_up
+        gk[kern.K_THETA_DN] = self.theta_per_gamma_down
+        gk[kern.K_DE_UP] = self.elevator_per_gamma_up
+        gk[kern.K_DE_DN] = self.elevator_per_gamma_down
+        return gk
+
+
+def design_gains(
+    params: VehicleParams, airspeed: float | None = None, design: LoopDesign | None = None
+) -> Gains:
+    """Gains of every loop from the transfer-function coefficients at ``airspeed`` (default
+    cruise) and the level trim there (Beard & McLain §5.4 and ch. 6)."""
+    d = design or LoopDesign()
+    p = params
+    va = p.cruise_speed if airspeed is None else float(airspeed)
+    x_t, u_t = trim(p, va)
+    alpha_t = math.atan2(x_t[5], x_t[3])
+    de_t, dt_t = float(u_t[0]), float(u_t[3])
+    _, _, _, g3, g4, _, _, _, _ = p.gammas()
+    rho, s, b, c = p.rho, p.S, p.b, p.c
+    lo, hi = p.control_limits()
+
+    # roll
+    c_pp = g3 * p.Clp + g4 * p.Cnp
+    c_pda = g3 * p.Clda + g4 * p.Cnda
+    a_phi1 = -0.25 * rho * va * s * b * b * c_pp
+    a_phi2 = 0.5 * rho * va * va * s * b * c_pda
+    da_max = hi[1]
+    wn_phi = min(
+        math.sqrt(abs(a_phi2) * da_max / math.radians(d.roll_error_max_deg)), d.roll_wn_max
+    )
+    # a heavily roll-damped airframe (a_phi1 > 2 zeta wn) would need rate feedback of the wrong
+    # sign: raise wn until its own damping gives zeta (with k_d = 0)
+    wn_phi = min(max(wn_phi, a_phi1 / (2.0 * d.roll_zeta)), d.roll_wn_max)
+    roll_p = wn_phi * wn_phi / a_phi2
+    roll_d = (2.0 * d.roll_zeta * wn_phi - a_phi1) / a_phi2
+    if roll_d * roll_p < 0:  # the airframe's own roll damping is already enough
+        roll_d = 0.0
+    roll_i = d.roll_integral_fraction * wn_phi * roll_p
+
+    # course
+    wn_chi = wn_phi / d.course_separation
+    course_p = 2.0 * d.course_zeta * wn_chi * va / G
+    course_i = wn_chi * wn_chi * va / G
+
+    # pitch
+    k = rho * va * va * c * s / (2.0 * p.Jy)
+    a_th1 = -k * p.Cmq * c / (2.0 * va)
+    a_th2 = -k * p.Cmalpha
+    a_th3 = k * p.Cmde
+    de_max = min(-lo[0], hi[0])
+    pitch_p = math.copysign(de_max / math.radians(d.pitch_error_max_deg), a_th3)
+    wn_th = math.sqrt(a_th2 + pitch_p * a_th3)
+    pitch_d = (2.0 * d.pitch_zeta * wn_th - a_th1) / a_th3
+    if pitch_d * pitch_p < 0:
+        pitch_d = 0.0
+    k_dc = pitch_p * a_th3 / (a_th2 + pitch_p * a_th3)
+
+    # airspeed
+    kprop = rho * p.S_prop * p.C_prop
+    a_v1 = (
+        rho * va * s * (drag_coefficient(alpha_t, p) + p.CDde * de_t) / p.mass + kprop * va / p.mass
+    )
+    a_v2 = kprop * p.k_motor**2 * dt_t / p.mass
+    speed_i = d.airspeed_wn**2 / a_v2
+    speed_p = max(0.0, (2.0 * d.airspeed_zeta * d.airspeed_wn - a_v1) / a_v2)
+    thrust_t = 0.5 * kprop * max(0.0, (p.k_motor * dt_t) ** 2 - va * va)
+
+    # pitch and elevator feed-forwards from the climb and descent trims at the limits
+    slopes = []
+    for rate in (p.climb_rate_max, -p.descent_rate_max):
+        gam = math.asin(max(-0.9, min(0.9, rate / va)))
+        try:
+            x_g, u_g = trim(p, va, gamma=gam)
+            slopes.append(((x_g[7] - x_t[7]) / gam, (u_g[0] - de_t) / gam))
+        except InputError:  # e.g. an idle descent that needs negative thrust: gamma alone
+            slopes.append((1.0, 0.0))
+
+    return Gains(
+        airspeed=va,
+        roll_p=roll_p,
+        roll_i=roll_i,
+        roll_d=roll_d,
+        roll_band=math.radians(d.roll_integral_band_deg),
+        roll_slew=d.roll_slew * wn_phi * math.radians(p.bank_max_deg),
+        course_p=course_p,
+        course_i=course_i,
+        pitch_p=pitch_p,
+        pitch_d=pitch_d,
+        pitch_dc=k_dc,
+        altitude_p=d.altitude_gain,
+        climb_p=d.climb_kp,
+        climb_i=d.climb_ki,
+        climb_slew=d.climb_slew,
+        climb_margin=d.climb_margin,
+        speed_p=speed_p,
+        speed_i=speed_i,
+        yaw_beta=d.yaw_beta * max(p.Cnbeta, 0.05),
+        yaw_beta_i=d.yaw_beta_integral * max(p.Cnbeta, 0.05),
+        yaw_r=d.yaw_rate * abs(p.Cnr),
+        washout_tau=d.washout_tau,
+        theta_trim=float(x_t[7]),
+        elevator_trim=de_t,
+        thrust_trim=thrust_t,
+        theta_per_gamma_up=slopes[0][0],
+        theta_per_gamma_down=slopes[1][0],
+        elevator_per_gamma_up=slopes[0][1],
+        elevator_per_gamma_down=slopes[1][1],
+        roll_wn=wn_phi,
+        course_wn=wn_chi,
+        pitch_wn=wn_th,
+    )
+
+
+# ---- results ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class WaypointReached:
+    """A leg change: waypoint ``index`` was reached at ``t`` at horizontal ``distance``;
+    ``how`` is ``"radius"`` (within the switching distance) or ``"plane"`` (its perpendicular
+    plane was passed)."""
+
+    index: int
+    t: float
+    distance: float
+    how: str
+
+
+@dataclass(frozen=True)
+class GuidanceState:
+    """What the autopilot is doing (for logging). Angles in rad (course clockwise from north),
+    altitudes in m up, ``cross_track`` positive right of the leg."""
+
+    mode: str  # "waypoints", "override", "hold" (no waypoints) or "done"
+    next_index: int  # index of the waypoint flown to (len(waypoints) when done)
+    leg_index: int  # next_index - 1
+    cross_track: float
+    along_track: float
+    distance_to_next: float
+    course_cmd: float
+    bank_cmd: float
+    altitude_cmd: float
+    climb_rate_cmd: float
+    pitch_cmd: float
+    airspeed_cmd: float
+    terrain_floor: float | None
+
+
+@dataclass(frozen=True, eq=False)
+class FlightLog:
+    """What :meth:`Autopilot.fly` flew: the final state and time, the last controls, and the
+    samples taken every ``record_every`` steps (before each recorded step): ``times`` (m,),
+    ``states`` (m, 12), ``controls`` (m, 4), ``guidance`` (m, 9) = course_cmd, bank_cmd,
+    altitude_cmd, climb_rate_cmd, pitch_cmd, airspeed_cmd, cross_track, along_track,
+    distance_to_next, and ``next_index`` (m,); ``reached`` lists the leg changes."""
+
+    x: FloatArray
+    t: float
+    u: FloatArray
+    times: FloatArray
+    states: FloatArray
+    controls: FloatArray
+    guidance: FloatArray
+    next_index: npt.NDArray[np.int64]
+    reached: tuple[WaypointReached, ...]
+    steps: int
+
+
+GUIDANCE_COLUMNS = (
+    "course_cmd",
+    "bank_cmd",
+    "altitude_cmd",
+    "climb_rate_cmd",
+    "pitch_cmd",
+    "airspeed_cmd",
+    "cross_track",
+    "along_track",
+    "distance_to_next",
+)
+
+
+# ---- the autopilot ----------------------------------------------------------------------------
+class Autopilot:
+    """Waypoint-following autopilot of one vehicle.
+
+    ``waypoints`` are map coordinates (W, 3): x east, y north, z altitude (m AMSL); the first leg
+    runs from W[0] to W[1]. ``airspeed`` is the commanded airspeed (default: the vehicle's cruise);
+    ``wind`` must be the wind the dynamics use (the autopilot reads true air data).
+    ``terrain_height(x, y)`` (arrays of map coordinates -> heights) turns on terrain following.
+    """
+
+    def __init__(
+        self,
+        params: VehicleParams,
+        waypoints: npt.ArrayLike | None = None,
+        *,
+        airspeed: float | None = None,
+        config: AutopilotConfig | None = None,
+        wind: npt.ArrayLike = (0.0, 0.0, 0.0),
+        terrain_height: TerrainHeight | None = None,
+        gains: Gains | None = None,
+    ) -> None:
+        self.params = params
+        self.config = config or AutopilotConfig()
+        self.airspeed = self._check_airspeed(params.cruise_speed if airspeed is None else airspeed)
+        self.gains = gains or design_gains(params, self._design_speed(), self.config.design)
+        self.packed = params.pack(wind)
+        self.wind = np.asarray(wind, dtype=np.float64)
+        cfg = self.config
+        self.path_gain = (
+            cfg.path_gain
+            if cfg.path_gain is not None
+            else 1.0 / (2.0 * params.min_turn_radius(self.gains.airspeed))
+        )
+        self._gk = self.gains.pack(params, math.radians(cfg.approach_angle_deg), self.path_gain)
+        self._cmd = np.zeros(kern.N_CMD)
+        self._cmd[kern.C_AIRSPEED] = self.airspeed
+        self._cmd[kern.C_FLOOR] = -math.inf
+        self._cmd[kern.C_ALT_DIRECT] = 1.0 if cfg.altitude_mode == "direct" else 0.0
+        self._leg = np.zeros(kern.N_LEG)
+        self._ap = np.zeros(kern.N_AP)
+        self._u = np.zeros(N_CONTROLS)
+        self.terrain_height = terrain_height
+        self.terrain_lookahead = (
+            cfg.terrain_lookahead
+            if cfg.terrain_lookahead is not None
+            else 60.0 * self.gains.airspeed
+        )
+        self._terrain_next = -math.inf
+        self._t_last: float | None = None
+        self._x_last: FloatArray | None = None
+        self._wp = np.zeros((0, 3))
+        self._next = 0
+        self._done = False
+        self._pending_direct = False
+        self._override_lat: str | None = None  # None, "course", "bank"
+        self._override_alt = False
+        self._override_speed = False
+        self.reached: list[WaypointReached] = []
+        self._hold_pending = waypoints is None
+        if waypoints is not None:
+            self.set_waypoints(waypoints, 1)
+        else:
+            self._apply_modes()
+
+    def _check_airspeed(self, airspeed: float) -> float:
+        p = self.params
+        v = float(airspeed)
+        if not p.airspeed_min <= v <= p.airspeed_max:  # also refuses NaN
+            raise InputError(
+                f"commanded airspeed {v:g} m/s is outside {p.name}'s envelope "
+                f"{p.airspeed_min:g}–{p.airspeed_max:g} m/s (airspeed_min, airspeed_max)"
+            )
+        return v
+
+    def _design_speed(self) -> float:
+        return self.airspeed
+
+    # ---- waypoints and overrides --------------------------------------------------------------
+    @property
+    def waypoints(self) -> FloatArray:
+        """The current waypoint list (a copy), map coordinates (W, 3)."""
+        return self._wp.copy()
+
+    @property
+    def next_index(self) -> int:
+        return self._next
+
+    @property
+    def done(self) -> bool:
+        """True once the final waypoint has been reached."""
+        return self._done
+
+    def set_waypoints(
+        self, waypoints: npt.ArrayLike, next_index: int = 1, *, direct: bool = False
+    ) -> None:
+        """Replace the waypoint list mid-flight and fly to ``waypoints[next_index]``.
+
+        The leg starts at ``waypoints[next_index - 1]``; with ``direct=True`` (or
+        ``next_index == 0``) it starts at the aircraft's position instead ("direct to": what an
+        avoider that planned from the current position wants).
+        """
+        w = np.array(waypoints, dtype=np.float64)
+        if w.ndim != 2 or w.shape[1] != 3 or len(w) < 1 or not np.isfinite(w).all():
+            raise InputError(f"waypoints must be a list of finite [x, y, z]; got shape {w.shape}")
+        if not 0 <= int(next_index) < len(w):
+            raise InputError(
+                f"next waypoint index must be in [0, {len(w) - 1}] for {len(w)} waypoints, "
+                f"found {next_index!r}"
+            )
+        self._wp = w
+        self._next = int(next_index)
+        self._done = False
+        self._hold_pending = False
+        direct = direct or self._next == 0
+        if direct and self._x_last is None:
+            self._pending_direct = True
+            self._leg[kern.L_ACTIVE] = 0.0
+        else:
+            self._start_leg(direct)
+        self._apply_modes()
+
+    def _start_leg(self, direct: bool) -> None:
+        i = self._next
+        end = self._wp[i]
+        if direct:
+            assert self._x_last is not None
+            x = self._x_last
+            start = np.array([x[1], x[0], -x[2]])
+        else:
+            start = self._wp[i - 1]
+        length = math.hypot(end[0] - start[0], end[1] - start[1])
+        last = i == len(self._wp) - 1
+        radius = self.config.arrival_distance if last else self.config.switch_distance
+        radius = min(radius, 0.5 * length) if length > 0 else radius
+        kern.set_leg(self._leg, start[1], start[0], start[2], end[1], end[0], end[2], float(radius))
+        self._pending_direct = False
+
+    def set_override(
+        self,
+        *,
+        course: float | None = None,
+        bank: float | None = None,
+        altitude: float | None = None,
+        airspeed: float | None = None,
+    ) -> None:
+        """Hold a course (rad, clockwise from north) or a bank angle (rad), an altitude (m) and/or
+        an airspeed (m/s) instead of the waypoint guidance; ``None`` leaves an axis as it is."""
+        if course is not None and bank is not None:
+            raise InputError("override either the course or the bank angle, not both")
+        if course is not None:
+            self._override_lat = "course"
+            self._cmd[kern.C_COURSE] = float(course)
+        if bank is not None:
+            self._override_lat = "bank"
+            self._cmd[kern.C_BANK] = float(bank)
+        if altitude is not None:
+            self._override_alt = True
+            self._cmd[kern.C_ALT] = float(altitude)
+        if airspeed is not None:
+            self._override_speed = True
+            self._cmd[kern.C_AIRSPEED] = self._check_airspeed(airspeed)
+        self._apply_modes()
+
+    def clear_override(self) -> None:
+        """Return every axis to waypoint guidance (and the commanded airspeed)."""
+        self._override_lat = None
+        self._override_alt = False
+        self._override_speed = False
+        self._cmd[kern.C_AIRSPEED] = self.airspeed
+        self._apply_modes()
+
+    def _apply_modes(self) -> None:
+        cmd = self._cmd
+        following = self._leg[kern.L_ACTIVE] > 0.5 and not self._done
+        if self._override_lat == "bank":
+            cmd[kern.C_LAT_MODE] = 2
+        elif self._override_lat == "course" or not following:
+            cmd[kern.C_LAT_MODE] = 1
+        else:
+            cmd[kern.C_LAT_MODE] = 0
+        cmd[kern.C_ALT_MODE] = 1 if (self._override_alt or not following) else 0
+        if not self._override_speed:
+            cmd[kern.C_AIRSPEED] = self.airspeed
+
+    def _finish(self) -> None:
+        """After the final waypoint: hold the last leg's course and the last altitude."""
+        self._done = True
+        leg = self._leg
+        leg[kern.L_ACTIVE] = 0.0
+        if self._override_lat is None:
+            self._cmd[kern.C_COURSE] = leg[kern.L_CHI]
+        if not self._override_alt:
+            self._cmd[kern.C_ALT] = leg[kern.L_H1]
+        self._apply_modes()
+
+    def _hold_current(self, x: FloatArray) -> None:
+        """No waypoints: hold the present course and altitude."""
+        vn, ve = _ground_velocity(x)
+        if self._override_lat is None:
+            self._cmd[kern.C_COURSE] = math.atan2(ve, vn) if math.hypot(vn, ve) > 0.5 else x[8]
+        if not self._override_alt:
+            self._cmd[kern.C_ALT] = -x[2]
+        self._hold_pending = False
+        self._apply_modes()
+
+    def _switch(self, ev: int, t: float, x: FloatArray) -> None:
+        _, _, dist = kern.leg_geometry(x, self._leg)
+        self.reached.append(
+            WaypointReached(self._next, float(t), float(dist), "radius" if ev == 1 else "plane")
+        )
+        if self._next + 1 >= len(self._wp):
+            self._finish()
+            return
+        self._next += 1
+        self._start_leg(False)
+        self._apply_modes()
+
+    def _prepare(self, x: FloatArray, t: float) -> None:
+        """Everything that happens between control steps: pending modes, leg changes."""
+        self._x_last = x
+        if self._pending_direct:
+            self._start_leg(True)
+            self._apply_modes()
+        if self._hold_pending:
+            self._hold_current(x)
+        while True:
+            ev = int(kern.leg_done(x, self._leg))
+            if ev == 0:
+                break
+            self._switch(ev, t, x)
+
+    def _update_terrain(self, x: FloatArray) -> None:
+        if self.terrain_height is None:
+            return
+        vn, ve = _ground_velocity(x)
+        vg = math.hypot(vn, ve)
+        n_s = self.config.terrain_samples
+        s = np.linspace(0.0, self.terrain_lookahead, n_s + 1)
+        px, py = [np.array([x[1]])], [np.array([x[0]])]
+        if vg > 0.5:
+            px.append(x[1] + s * ve / vg)
+            py.append(x[0] + s * vn / vg)
+        if self._leg[kern.L_ACTIVE] > 0.5:
+            leg = self._leg
+            _, along, _ = kern.leg_geometry(x, leg)
+            a = np.clip(along + s, 0.0, leg[kern.L_LEN])
+            px.append(leg[kern.L_E0] + a * leg[kern.L_QE])
+            py.append(leg[kern.L_N0] + a * leg[kern.L_QN])
+        hx = np.concatenate(px)
+        hy = np.concatenate(py)
+        heights = np.asarray(self.terrain_height(hx, hy), dtype=np.float64)
+        top = float(np.nanmax(heights)) if heights.size else -math.inf
+        self._cmd[kern.C_FLOOR] = top + self.config.terrain_clearance
+
+    # ---- running ------------------------------------------------------------------------------
+    def command(self, t: float, state: npt.ArrayLike) -> FloatArray:
+        """Controls ``[delta_e, delta_a, delta_r, delta_t]`` for ``state`` at time ``t``.
+
+        Call once per control period (``config.dt``, 100 Hz); the integrators use the time since
+        the previous call. Leg changes and terrain look-ups happen here.
+        """
+        x = np.ascontiguousarray(state, dtype=np.float64)
+        if x.shape != (N_STATES,):
+            raise InputError(f"state must have {N_STATES} elements, found shape {x.shape}")
+        t = float(t)
+        if self._t_last is None or not 0.0 < t - self._t_last < 1.0:
+            dtc = self.config.dt * self.config.control_every
+        else:
+            dtc = t - self._t_last
+        self._prepare(x, t)
+        if self.terrain_height is not None and t >= self._terrain_next - 1e-9:
+            self._update_terrain(x)
+            self._terrain_next = t + self.config.terrain_update
+        kern.control_law(x, self.packed, self._gk, self._cmd, self._leg, self._ap, dtc, self._u)
+        self._t_last = t
+        self._x_last = x.copy()
+        return self._u.copy()
+
+    def fly(
+        self, state: npt.ArrayLike, t: float, duration: float, *, record_every: int = 0
+    ) -> FlightLog:
+        """Fly the vehicle with this autopilot for ``duration`` seconds from ``state`` at ``t``
+        (compiled RK4 at ``config.dt``, control law every ``config.control_every`` steps).
+        ``record_every`` > 0 records every that many steps."""
+        cfg = self.config
+        dt = cfg.dt
+        x = np.array(state, dtype=np.float64)
+        if x.shape != (N_STATES,) or not np.isfinite(x).all():
+            raise InputError(f"state must be {N_STATES} finite numbers, found shape {x.shape}")
+        n_total = int(round(duration / dt))
+        if n_total < 0:
+            raise InputError(f"duration must be >= 0 s, found {duration!r}")
+        k_start = int(round(t / dt))
+        t0_grid = t - k_start * dt
+        rec_every = int(record_every)
+        cap = n_total // rec_every + 2 if rec_every > 0 else 1
+        rec_x = np.zeros((cap, N_STATES))
+        rec_u = np.zeros((cap, N_CONTROLS))
+        rec_g = np.zeros((cap, kern.N_GUIDANCE_LOG))
+        rec_t = np.zeros(cap)
+        rec_i = np.zeros(cap, dtype=np.int64)
+        n_rec = 0
+        first_reached = len(self.reached)
+        terrain_steps = max(1, int(round(cfg.terrain_update / dt)))
+        decim = cfg.control_every
+        done = 0
+        while done < n_total:
+            k = k_start + done
+            tk = t0_grid + k * dt
+            if k % decim == 0:
+                self._prepare(x, tk)
+            chunk = n_total - done
+            if self.terrain_height is not None:
+                if k % terrain_steps == 0 or self._terrain_next == -math.inf:
+                    self._update_terrain(x)
+                    self._terrain_next = tk + cfg.terrain_update
+                chunk = min(chunk, terrain_steps - (k % terrain_steps))
+            steps, ev, nr = kern.fly(
+                x,
+                chunk,
+                k,
+                dt,
+                decim,
+                self.packed,
+                self._gk,
+                self._cmd,
+                self._leg,
+                self._ap,
+                self._u,
+                rec_every,
+                rec_x[n_rec:],
+                rec_u[n_rec:],
+                rec_g[n_rec:],
+            )
+            if nr:
+                ks = np.arange(k, k + steps + 1)
+                ks = ks[ks % rec_every == 0][:nr]
+                rec_t[n_rec : n_rec + nr] = t0_grid + ks * dt
+                rec_i[n_rec : n_rec + nr] = self._next
+                n_rec += nr
+            done += steps
+            if ev != 0:
+                self._switch(ev, t0_grid + (k + steps) * dt, x)
+        self._x_last = x.copy()
+        t_end = t0_grid + (k_start + n_total) * dt
+        self._t_last = t_end - dt
+        return FlightLog(
+            x=x,
+            t=t_end,
+            u=self._u.copy(),
+            times=rec_t[:n_rec],
+            states=rec_x[:n_rec],
+            controls=rec_u[:n_rec],
+            guidance=rec_g[:n_rec],
+            next_index=rec_i[:n_rec],
+            reached=tuple(self.reached[first_reached:]),
+            steps=n_total,
+        )
+
+    def reset_integrators(self) -> None:
+        self._ap[:] = 0.0
+
+    @property
+    def guidance(self) -> GuidanceState:
+        ap = self._ap
+        if self._done:
+            mode = "done"
+        elif self._override_lat or self._override_alt or self._override_speed:
+            mode = "override"
+        elif self._leg[kern.L_ACTIVE] > 0.5:
+            mode = "waypoints"
+        else:
+            mode = "hold"
+        floor = float(self._cmd[kern.C_FLOOR])
+        return GuidanceState(
+            mode=mode,
+            next_index=len(self._wp) if self._done else self._next,
+            leg_index=(len(self._wp) if self._done else self._next) - 1,
+            cross_track=float(ap[kern.A_XTRACK]),
+            along_track=float(ap[kern.A_ALONG]),
+            distance_to_next=float(ap[kern.A_DIST]),
+            course_cmd=float(ap[kern.A_CHI_C]),
+            bank_cmd=float(ap[kern.A_PHI_C]),
+            altitude_cmd=float(ap[kern.A_H_C]),
+            climb_rate_cmd=float(ap[kern.A_HDOT_C]),
+            pitch_cmd=float(ap[kern.A_THETA_C]),
+            airspeed_cmd=float(ap[kern.A_VA_C]),
+            terrain_floor=None if math.isinf(floor) else floor,
+        )
+
+    def retune(self, airspeed: float) -> None:
+        """Redesign the gains for a new commanded airspeed (and command it)."""
+        self.airspeed = self._check_airspeed(airspeed)
+        self.gains = design_gains(self.params, self._design_speed(), self.config.design)
+        self._gk = self.gains.pack(
+            self.params, math.radians(self.config.approach_angle_deg), self.path_gain
+        )
+        self._apply_modes()
+
+
+def _ground_velocity(x: Sequence[float] | FloatArray) -> tuple[float, float]:
+    phi, theta, psi = x[6], x[7], x[8]
+    sf, cf = math.sin(phi), math.cos(phi)
+    st, ct = math.sin(theta), math.cos(theta)
+    sp, cp = math.sin(psi), math.cos(psi)
+    u, v, w = x[3], x[4], x[5]
+    vn = ct * cp * u + (sf * st * cp - cf * sp) * v + (cf * st * cp + sf * sp) * w
+    ve = ct * sp * u + (sf * st * sp + cf * cp) * v + (cf * st * sp - sf * cp) * w
+    return float(vn), float(ve)
+
+
+__all__ = [
+    "GUIDANCE_COLUMNS",
+    "Autopilot",
+    "AutopilotConfig",
+    "FlightLog",
+    "Gains",
+    "GuidanceState",
+    "LoopDesign",
+    "WaypointReached",
+    "design_gains",
+]

@@ -1,0 +1,355 @@
+"""The simulation loop: vehicle + autopilot, threats, radar and an avoider, wired together.
+
+Per radar period (1 s by default) the loop
+
+1. flies the 6-DOF aircraft with its autopilot for one period in one compiled call
+   (:meth:`replay.autopilot.Autopilot.fly`, RK4 at 100 Hz), sampling the state at ``sample_hz``;
+2. advances the threats (intruders move on their own schedule) and measures, at every sample, the
+   separation to each active threat's safety volume and the clearance above the terrain;
+3. records the samples (the recorder keeps its own log rate), leg changes and threat changes;
+4. scans with the radar and asks the avoider; a new waypoint list goes to the autopilot at once,
+   and every decision is recorded with its compute time.
+
+The run ends when the final waypoint is reached (``goal``), the aircraft touches the terrain
+(``terrain contact``) or the time limit passes (``time limit``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from planner.mission import Mission
+from replay.autopilot import GUIDANCE_COLUMNS, Autopilot, AutopilotConfig
+from replay.avoidance.base import AvoidanceContext, AvoidanceDecision, Avoider
+from replay.frames import PD, PE, PN, PSI, U, V, W, ned_to_map, rotation_body_to_ned
+from replay.metrics import MetricsTracker, RunMetrics
+from replay.radar import Radar
+from replay.threats import ThreatSet
+from replay.vehicle.params import VehicleParams
+from replay.vehicle.trim import trim
+from terrain.errors import InputError
+from terrain.grid import HeightGrid
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ReplayConfig:
+    """Settings of one replay. Times in seconds, distances in metres."""
+
+    seed: int = 0
+    duration: float | None = None  # None: 1.5 x the mission's flight time at cruise + 10 min
+    sample_hz: float = 10.0  # trajectory samples for metrics, recording and the result
+    radar_range: float = 10_000.0
+    radar_period: float = 1.0
+    radar_noise_range: float = 0.0
+    radar_noise_bearing: float = 0.0
+    terrain_returns: bool = True
+    terrain_clearance: float | None = (
+        None  # radar: terrain above own altitude - this (None: radar default)
+    )
+    terrain_following: float | None = None  # autopilot: keep at least this clearance (None: off)
+    switch_distance: float = 1000.0
+    airspeed: float | None = None  # None: the mission's cruise speed
+
+    def __post_init__(self) -> None:
+        for name in ("sample_hz", "radar_range", "radar_period", "switch_distance"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise InputError(f"replay setting {name!r} must be a positive number; got {v!r}")
+        if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
+            raise InputError(
+                f"duration must be a positive number of seconds; got {self.duration!r}"
+            )
+
+
+@dataclass(frozen=True, eq=False)
+class ReplayResult:
+    """What a replay produced: metrics, the sampled trajectory, the final waypoint list."""
+
+    metrics: RunMetrics
+    times: FloatArray
+    states: FloatArray  # (K, 12) NED
+    positions: FloatArray  # (K, 3) map
+    waypoints: FloatArray  # final list (map)
+    initial_waypoints: FloatArray
+    decisions: tuple[dict[str, Any], ...]
+    seed: int
+    wall_s: float
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
+    return float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum() / speed)
+
+
+def initial_state(params: VehicleParams, waypoints: FloatArray, airspeed: float) -> FloatArray:
+    """Trimmed level flight at ``airspeed`` over the first waypoint, heading for the second."""
+    start, nxt = waypoints[0], waypoints[1]
+    tr = trim(params, airspeed, altitude=float(start[2]))
+    x = np.array(tr.x, dtype=np.float64)
+    x[PN], x[PE], x[PD] = start[1], start[0], -start[2]
+    x[PSI] = math.atan2(nxt[0] - start[0], nxt[1] - start[1])
+    return x
+
+
+def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
+    """Waypoints must lie inside the map and above the terrain (flat ground at 0 m without one)."""
+    w = mission.waypoints
+    where = f"{mission.source!r}: " if mission.source else ""
+    if grid is None:
+        low = np.flatnonzero(w[:, 2] <= 0.0)
+        if low.size:
+            i = int(low[0])
+            raise InputError(
+                f"{where}waypoint {i} at {w[i, 2]:.1f} m is not above the ground (0 m, no terrain)"
+            )
+        return
+    inside = grid.contains(w[:, 0], w[:, 1])
+    if not inside.all():
+        i = int(np.flatnonzero(~inside)[0])
+        raise InputError(
+            f"{where}waypoint {i} ({w[i, 0]:.1f}, {w[i, 1]:.1f}) lies outside the map {tuple(round(b, 1) for b in grid.bounds)}"
+        )
+    ground = grid.height_at(w[:, 0], w[:, 1])
+    below = np.flatnonzero(w[:, 2] <= ground)
+    if below.size:
+        i = int(below[0])
+        raise InputError(
+            f"{where}waypoint {i} at {w[i, 2]:.1f} m AMSL is below the terrain there ({ground[i]:.1f} m)"
+        )
+
+
+def simulate(
+    mission: Mission,
+    threats: ThreatSet,
+    avoider: Avoider,
+    params: VehicleParams,
+    *,
+    grid: HeightGrid | None = None,
+    terrain_model: Any = None,
+    config: ReplayConfig | None = None,
+    recorder: Any = None,
+    progress: Callable[[float, float], None] | None = None,
+) -> ReplayResult:
+    """Fly ``mission`` with ``params`` among ``threats``, letting ``avoider`` react to the radar."""
+    cfg = config or ReplayConfig()
+    wall0 = time.perf_counter()
+    check_mission(mission, grid)
+    wp0 = np.array(mission.waypoints, dtype=np.float64)
+    airspeed = float(cfg.airspeed or mission.cruise_speed)
+    duration = cfg.duration or 1.5 * estimated_flight_time(wp0, airspeed) + 600.0
+    rng = np.random.default_rng(cfg.seed)
+    ground: Callable[[FloatArray, FloatArray], FloatArray]
+    if grid is not None:
+        ground = grid.height_at
+    else:
+
+        def ground(x: FloatArray, y: FloatArray) -> FloatArray:
+            return np.zeros_like(np.asarray(x, dtype=np.float64))
+
+    ap_cfg = AutopilotConfig(
+        switch_distance=cfg.switch_distance,
+        terrain_clearance=cfg.terrain_following or 0.0,
+    )
+    autopilot = Autopilot(
+        params,
+        wp0,
+        airspeed=airspeed,
+        config=ap_cfg,
+        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
+    )
+    x = initial_state(params, wp0, airspeed)
+    radar = Radar(
+        range_m=cfg.radar_range,
+        period_s=cfg.radar_period,
+        noise_range_m=cfg.radar_noise_range,
+        noise_bearing_rad=cfg.radar_noise_bearing,
+        seed=rng,
+    )
+    avoider.reset(wp0, rng)
+    tracker = MetricsTracker(list(threats.ids), wp0[0], wp0[-1])
+    record_every = max(1, int(round(1.0 / (cfg.sample_hz * ap_cfg.dt))))
+    if recorder is not None:
+        recorder.write_waypoints(0.0, wp0, "initial", 1)
+
+    times: list[FloatArray] = []
+    states: list[FloatArray] = []
+    decisions: list[dict[str, Any]] = []
+    t = 0.0
+    end_reason = "time limit"
+    contact = False
+    shown: tuple[str, ...] = ()
+    while t < duration - 1e-9:
+        period = min(cfg.radar_period, duration - t)
+        log = autopilot.fly(x, t, period, record_every=record_every)
+        x, t = log.x, log.t
+        ts, xs = log.times, log.states
+        if len(ts):
+            pos = ned_to_map(xs[:, :3])
+            clearance = pos[:, 2] - ground(pos[:, 0], pos[:, 1])
+            seps = {
+                th.id: np.where(_active(th, ts), th.separation(pos, ts), np.inf)
+                for th in threats.threats
+            }
+            seps = {k: v for k, v in seps.items() if np.isfinite(v).any()}
+            tracker.update(ts, pos, seps, clearance)
+            times.append(ts)
+            states.append(xs)
+            if recorder is not None:
+                _record_samples(recorder, log, pos)
+            hit = np.flatnonzero(clearance < 0.0)
+            if hit.size:
+                contact = True
+                end_reason = "terrain contact"
+                t = float(ts[hit[0]])
+                if recorder is not None:
+                    recorder.write_log(
+                        t,
+                        "error",
+                        f"terrain contact at x={pos[hit[0], 0]:.0f}, y={pos[hit[0], 1]:.0f}",
+                    )
+                break
+        if recorder is not None:
+            for r in log.reached:
+                recorder.write_log(
+                    r.t, "info", f"waypoint {r.index} reached ({r.how}, {r.distance:.0f} m)"
+                )
+            active = tuple(th.id for th in threats.active(t))
+            if active != shown or any(getattr(th, "moving", False) for th in threats.active(t)):
+                recorder.write_threats(t, threats.shapes(t))
+                shown = active
+        if progress is not None:
+            progress(t, duration)
+        if autopilot.done:
+            end_reason = "goal"
+            break
+        if radar.due(t):
+            own = ned_to_map(x[:3])
+            picture = radar.scan(
+                t,
+                own,
+                threats.threats,
+                terrain_model=terrain_model if cfg.terrain_returns else None,
+                min_clearance=cfg.terrain_clearance,
+            )
+            if recorder is not None and picture.detections:
+                recorder.write_detections(t, [_detection_dict(d) for d in picture.detections])
+            ctx = _context(t, x, picture, autopilot, params, terrain_model)
+            t0 = time.perf_counter()
+            decision = avoider.decide(ctx)
+            compute = time.perf_counter() - t0
+            if decision is not None:
+                decisions.append(
+                    _apply(decision, autopilot, t, compute, avoider, tracker, recorder)
+                )
+    metrics = tracker.finish(
+        t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
+    )
+    if recorder is not None:
+        recorder.write_metrics(metrics.as_dict())
+    tt = np.concatenate(times) if times else np.zeros(0)
+    xx = np.concatenate(states) if states else np.zeros((0, 12))
+    return ReplayResult(
+        metrics=metrics,
+        times=tt,
+        states=xx,
+        positions=ned_to_map(xx[:, :3]) if len(xx) else np.zeros((0, 3)),
+        waypoints=autopilot.waypoints,
+        initial_waypoints=wp0,
+        decisions=tuple(decisions),
+        seed=cfg.seed,
+        wall_s=time.perf_counter() - wall0,
+    )
+
+
+def _active(threat: Any, ts: FloatArray) -> npt.NDArray[np.bool_]:
+    """Which sample times a threat is active at (it appears/disappears at fixed times)."""
+    first, last = threat.active(float(ts[0])), threat.active(float(ts[-1]))
+    if first == last and first:
+        return np.ones(len(ts), dtype=bool)
+    return np.fromiter((threat.active(float(t)) for t in ts), dtype=bool, count=len(ts))
+
+
+def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
+    for i, tk in enumerate(log.times):
+        if not recorder.state_due(float(tk)):
+            continue
+        extras = {name: float(log.guidance[i, j]) for j, name in enumerate(GUIDANCE_COLUMNS)}
+        extras["next_index"] = float(log.next_index[i])
+        recorder.write_state(float(tk), log.states[i], log.controls[i], extras)
+
+
+def _detection_dict(d: Any) -> dict[str, Any]:
+    return {
+        "id": d.id,
+        "position": [float(v) for v in d.position],
+        "range": float(d.range),
+        "kind": d.kind,
+        "moving": d.moving,
+    }
+
+
+def _context(
+    t: float, x: FloatArray, picture: Any, autopilot: Autopilot, params: VehicleParams, terrain: Any
+) -> AvoidanceContext:
+    rot = rotation_body_to_ned(x[6], x[7], x[8])
+    v_ned = rot @ x[[U, V, W]]
+    vel = np.array([v_ned[1], v_ned[0], -v_ned[2]])
+    return AvoidanceContext(
+        t=t,
+        state=x.copy(),
+        position=ned_to_map(x[:3]),
+        velocity=vel,
+        airspeed=float(np.linalg.norm(x[[U, V, W]])),
+        course=math.atan2(vel[0], vel[1]),
+        picture=picture,
+        waypoints=autopilot.waypoints,
+        next_index=autopilot.next_index,
+        vehicle=params,
+        terrain=terrain,
+    )
+
+
+def _apply(
+    decision: AvoidanceDecision,
+    autopilot: Autopilot,
+    t: float,
+    compute: float,
+    avoider: Avoider,
+    tracker: MetricsTracker,
+    recorder: Any,
+) -> dict[str, Any]:
+    added = 0
+    if decision.waypoints is not None:
+        before = len(autopilot.waypoints)
+        nxt = decision.next_index if decision.next_index is not None else autopilot.next_index
+        autopilot.set_waypoints(decision.waypoints, nxt)
+        added = max(0, len(decision.waypoints) - before)
+        if recorder is not None:
+            recorder.write_waypoints(
+                t, decision.waypoints, f"avoidance: {avoider.name} {decision.reason}".strip(), nxt
+            )
+    if decision.guidance is not None:
+        autopilot.set_override(**decision.guidance)
+    elif decision.waypoints is not None:
+        autopilot.clear_override()
+    tracker.decision(compute, added)
+    record = {
+        "t": t,
+        "algorithm": avoider.name,
+        "reason": decision.reason,
+        "compute_s": compute,
+        "waypoints_added": added,
+        **decision.info,
+    }
+    if recorder is not None:
+        recorder.write_decision(t, record)
+    return record

@@ -1,0 +1,365 @@
+"""Vehicle presets and vehicle files.
+
+Presets (``load_vehicle(name)``):
+
+``aerosonde`` (default)
+    The Aerosonde UAV parameter set of Beard & McLain, *Small Unmanned Aircraft: Theory and
+    Practice* (Princeton University Press, 2012), Appendix E (Tables E.1-E.2, their
+    ``aerosonde_parameters``): 13.5 kg, 2.9 m span, every derivative and the propeller constants
+    as printed (including ``CLde = -0.36`` and the ``k_motor = 80`` propeller). Not in the book and
+    chosen here: surface travel +-25 deg, cruise 25 m/s (the default cruise of terrapath missions),
+    envelope 18-40 m/s, climb limit 5 m/s, descent limit 3 m/s (with the throttle closed it glides
+    at 2.1 m/s sink at 25 m/s; a steeper descent has to trade height for speed).
+``solar-uav``
+    Seed 000's UAV (Krishnan & Manimala 2020 §2.1: a 6-DOF solar UAV at 15 m/s, bank limit 30 deg,
+    climb speed 3 m/s). The paper does not print its airframe, so this is a consistent set derived
+    from the Aerosonde by geometric scaling: a light, high-aspect-ratio glider-like airframe of
+    6 kg, 3.5 m span and 0.75 m^2 (AR 16.3, near the Aerosonde's 15.2, so the non-dimensional
+    derivatives are kept); inertias scaled as ``Jx, Jz, Jxz ~ m b^2`` (wing-dominated) and
+    ``Jy ~ m S``; parasitic drag lowered to CDp = 0.025 (a clean sailplane-like airframe: best
+    L/D about 20, L/D 18 at 15 m/s); propeller resized (same model) so that level flight tops out
+    near 25 m/s and a 3.5 m/s climb is available at 15 m/s; rho = 1.225 (ISA sea level).
+    Climb limit 3 m/s (the paper), descent limit 1.5 m/s (a clean glider sinks 0.8 m/s at idle and
+    has no airbrakes), envelope 11-22 m/s. The Aerosonde's small rudder makes its 30 deg turns at
+    15 m/s about 9 % tighter than V^2 / (g tan(phi)) (see ``replay/autopilot.py``).
+``cessna172``
+    A Cessna-172-class aircraft for seed 001 (Guo et al. 2021 §4.1: 50 m/s cruise, roll +-30 deg,
+    pitch +-20 deg). Derivatives from the LaRCsim ``c172_aero.c`` model by Tony Peden in
+    FlightGear (based on Roskam, *Airplane Flight Dynamics and Automatic Flight Controls* Part I),
+    geometry, weight (2300 lb) and inertias (948/1346/1967 slug ft^2) from the UIUC Cessna 172
+    model pages (J. Scott, M. Selig, 2000, after Sivier's Frasca data), converted to SI. CL0 = 0.25
+    and CLalpha = 5.5 /rad are the linear part of Peden's CL(alpha) table (CLmax 1.47 at 16 deg,
+    reproduced with alpha0 = 0.35 rad, M = 20); e = 0.80 reproduces his induced-drag factor
+    1/(pi e AR) = 0.054. His aileron is positive right-wing-up, so Clda and Cnda change sign
+    here. The alpha-dot terms (CLadot, Cmadot) are not modelled. The propeller constants are ours:
+    the 2012 propeller model fitted to about 2.8 kN static thrust and a top level speed near
+    60 m/s, which gives about 3.6 m/s climb at 50 m/s (the real 172 climbs about 3.7 m/s).
+    Envelope 35-58 m/s, climb limit 3 m/s, descent limit 4 m/s.
+``small-uas``
+    Seed 004's small UAS (Lin, Castano & Xu: a UMD RMRC Anaconda-class aircraft, 13-19 m/s,
+    cruise 15 m/s, Table II). Scaled from the Aerosonde like ``solar-uav``: 3 kg, 2.2 m span,
+    0.48 m^2 (AR 10), Aerosonde non-dimensional derivatives, propeller sized for a top level speed
+    near 24 m/s and a 3.5 m/s climb at 15 m/s; envelope 13-19 m/s as in the paper; climb limit
+    3 m/s, descent limit 2 m/s.
+
+Vehicle files (``load_vehicle(path)``): YAML read with ``yaml.safe_load``::
+
+    terrapath: 1
+    name: my-uav
+    base: aerosonde          # optional: a preset whose values are the defaults (default aerosonde)
+    mass: 12.0               # any VehicleParams field overrides the base
+    cruise_speed: 22.0
+
+Unknown keys are refused with the allowed names; impossible values (mass <= 0, an inertia that is
+not positive definite, S <= 0, ...) are refused naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from replay.vehicle.params import FIELD_NAMES, VehicleParams
+from terrain.errors import DataFileError, InputError, where
+
+FORMAT_VERSION = 1
+DEFAULT_VEHICLE = "aerosonde"
+FILE_KEYS: tuple[str, ...] = ("terrapath", "base", *FIELD_NAMES)
+
+_SLUG_FT2 = 1.3558179483314004  # kg m^2 per slug ft^2
+_LB = 0.45359237  # kg per lb
+_FT = 0.3048
+
+AEROSONDE = VehicleParams(
+    name="aerosonde",
+    mass=13.5,
+    Jx=0.8244,
+    Jy=1.135,
+    Jz=1.759,
+    Jxz=0.1204,
+    S=0.55,
+    b=2.8956,
+    c=0.18994,
+    rho=1.2682,
+    e=0.9,
+    CL0=0.28,
+    CLalpha=3.45,
+    CLq=0.0,
+    CLde=-0.36,
+    CDp=0.0437,
+    CDq=0.0,
+    CDde=0.0,
+    Cm0=-0.02338,
+    Cmalpha=-0.38,
+    Cmq=-3.6,
+    Cmde=-0.5,
+    CY0=0.0,
+    CYbeta=-0.98,
+    CYp=0.0,
+    CYr=0.0,
+    CYda=0.0,
+    CYdr=-0.17,
+    Cl0=0.0,
+    Clbeta=-0.12,
+    Clp=-0.26,
+    Clr=0.14,
+    Clda=0.08,
+    Cldr=0.105,
+    Cn0=0.0,
+    Cnbeta=0.25,
+    Cnp=0.022,
+    Cnr=-0.35,
+    Cnda=0.06,
+    Cndr=-0.032,
+    S_prop=0.2027,
+    C_prop=1.0,
+    k_motor=80.0,
+    k_Tp=0.0,
+    k_Omega=0.0,
+    M=50.0,
+    alpha0=0.4712,
+    elevator_min_deg=-25.0,
+    elevator_max_deg=25.0,
+    aileron_max_deg=25.0,
+    rudder_max_deg=25.0,
+    cruise_speed=25.0,
+    airspeed_min=18.0,
+    airspeed_max=40.0,
+    climb_rate_max=5.0,
+    descent_rate_max=3.0,
+    source="Beard & McLain, Small Unmanned Aircraft (2012), Appendix E (Aerosonde)",
+)
+
+
+def _scaled(
+    base: VehicleParams, name: str, mass: float, b: float, S: float, **changes: Any
+) -> VehicleParams:
+    """Geometric scaling of ``base``: non-dimensional derivatives kept; Jx, Jz, Jxz ~ m b^2;
+    Jy ~ m S (fuselage and tail length taken proportional to sqrt(S))."""
+    km = mass / base.mass
+    kb = (b / base.b) ** 2
+    ks = S / base.S
+    return dataclasses.replace(
+        base,
+        name=name,
+        mass=mass,
+        b=b,
+        S=S,
+        c=S / b,
+        Jx=base.Jx * km * kb,
+        Jz=base.Jz * km * kb,
+        Jxz=base.Jxz * km * kb,
+        Jy=base.Jy * km * ks,
+        **changes,
+    )
+
+
+def _prop_for(s_prop_area_rho: float, rho: float) -> float:
+    """S_prop giving the thrust factor K = 1/2 rho S_prop C_prop (C_prop = 1)."""
+    return 2.0 * s_prop_area_rho / rho
+
+
+# Propeller sizing (T = K ((k delta_t)^2 - V^2)): K and k solve T(1, V_top) = D(V_top) and
+# T(1, V_cruise) = D(V_cruise) + W sin(gamma_climb); the numbers below are those solutions.
+SOLAR_UAV = _scaled(
+    AEROSONDE,
+    "solar-uav",
+    mass=6.0,
+    b=3.5,
+    S=0.75,
+    rho=1.225,
+    CDp=0.025,
+    S_prop=_prop_for(0.0239, 1.225),
+    k_motor=30.6,
+    elevator_min_deg=-25.0,
+    elevator_max_deg=25.0,
+    cruise_speed=15.0,
+    airspeed_min=11.0,
+    airspeed_max=22.0,
+    climb_rate_max=3.0,
+    descent_rate_max=1.5,
+    source=(
+        "scaled from the Aerosonde of Beard & McLain (2012): 6 kg, 3.5 m span, 0.75 m^2, "
+        "CDp 0.025, propeller resized; seed 000 speed and limits"
+    ),
+)
+
+SMALL_UAS = _scaled(
+    AEROSONDE,
+    "small-uas",
+    mass=3.0,
+    b=2.2,
+    S=0.48,
+    rho=1.225,
+    S_prop=_prop_for(0.00746, 1.225),
+    k_motor=39.9,
+    cruise_speed=15.0,
+    airspeed_min=13.0,
+    airspeed_max=19.0,
+    climb_rate_max=3.0,
+    descent_rate_max=2.0,
+    source=(
+        "scaled from the Aerosonde of Beard & McLain (2012): 3 kg, 2.2 m span, 0.48 m^2; "
+        "seed 004 Table II speed (15 m/s, 13-19 m/s)"
+    ),
+)
+
+_c172_S = 174.0 * _FT**2
+_c172_b = 35.8 * _FT
+CESSNA172 = VehicleParams(
+    name="cessna172",
+    mass=2300.0 * _LB,
+    Jx=948.0 * _SLUG_FT2,
+    Jy=1346.0 * _SLUG_FT2,
+    Jz=1967.0 * _SLUG_FT2,
+    Jxz=0.0,
+    S=_c172_S,
+    b=_c172_b,
+    c=4.9 * _FT,
+    rho=1.225,
+    e=1.0 / (math.pi * (_c172_b**2 / _c172_S) * 0.054),
+    CL0=0.25,
+    CLalpha=5.5,
+    CLq=3.9,
+    CLde=1.28 / 3.682,
+    CDp=0.046,
+    CDq=0.0,
+    CDde=0.06,
+    Cm0=-0.02,
+    Cmalpha=-1.8,
+    Cmq=-12.4,
+    Cmde=-1.28,
+    CY0=0.0,
+    CYbeta=-0.31,
+    CYp=-0.037,
+    CYr=0.21,
+    CYda=0.0,
+    CYdr=0.187,
+    Cl0=0.0,
+    Clbeta=-0.089,
+    Clp=-0.47,
+    Clr=0.096,
+    Clda=0.09,
+    Cldr=0.0147,
+    Cn0=0.0,
+    Cnbeta=0.065,
+    Cnp=-0.03,
+    Cnr=-0.099,
+    Cnda=0.0053,
+    Cndr=-0.0657,
+    S_prop=_prop_for(0.2783, 1.225),
+    C_prop=1.0,
+    k_motor=100.3,
+    k_Tp=0.0,
+    k_Omega=0.0,
+    M=20.0,
+    alpha0=0.35,
+    elevator_min_deg=-28.0,
+    elevator_max_deg=23.0,
+    aileron_max_deg=17.5,
+    rudder_max_deg=16.0,
+    cruise_speed=50.0,
+    airspeed_min=35.0,
+    airspeed_max=58.0,
+    climb_rate_max=3.0,
+    descent_rate_max=4.0,
+    source=(
+        "LaRCsim c172_aero.c (T. Peden, FlightGear; after Roskam Part I) derivatives; UIUC "
+        "Cessna 172 model (Scott & Selig 2000, Sivier) mass and geometry; propeller fitted here"
+    ),
+)
+
+PRESETS: dict[str, VehicleParams] = {
+    p.name: p for p in (AEROSONDE, SOLAR_UAV, CESSNA172, SMALL_UAS)
+}
+
+
+def preset(name: str) -> VehicleParams:
+    """A preset by name (``aerosonde``, ``solar-uav``, ``cessna172``, ``small-uas``)."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise InputError(
+            f"unknown vehicle {name!r}: expected a preset ({', '.join(PRESETS)}) "
+            "or the path of a vehicle file (.yaml)"
+        ) from None
+
+
+def load_vehicle(
+    name_or_path: str | Path | VehicleParams, *, base_dir: Path | None = None
+) -> VehicleParams:
+    """A preset by name, or a YAML vehicle file (relative paths against ``base_dir``)."""
+    if isinstance(name_or_path, VehicleParams):
+        return name_or_path
+    text = str(name_or_path)
+    if isinstance(name_or_path, str) and text in PRESETS:
+        return PRESETS[text]
+    path = Path(text)
+    if base_dir is not None and not path.is_absolute():
+        path = base_dir / path
+    looks_like_file = path.suffix.lower() in (".yaml", ".yml") or path.exists() or "/" in text
+    if not looks_like_file:
+        return preset(text)
+    return vehicle_from_file(path)
+
+
+def vehicle_from_file(path: str | Path) -> VehicleParams:
+    """Read and validate a vehicle file."""
+    p = Path(path)
+    try:
+        raw = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataFileError(
+            f"{where(p)}cannot read the vehicle file: {exc.strerror or exc}"
+        ) from exc
+    try:
+        data = yaml.safe_load(raw)
+    except yaml.YAMLError as exc:
+        raise DataFileError(f"{where(p)}not valid YAML: {exc}") from exc
+    return vehicle_from_dict(data, str(p))
+
+
+def vehicle_from_dict(data: Any, path: str | None = None) -> VehicleParams:
+    """Validate a parsed vehicle document (``path`` only names the source in messages)."""
+    if not isinstance(data, dict):
+        raise DataFileError(
+            f"{where(path)}expected a mapping (terrapath: 1, name: ..., base: ..., fields), "
+            f"found {type(data).__name__}"
+        )
+    unknown = sorted(str(k) for k in data if k not in FILE_KEYS)
+    if unknown:
+        raise InputError(
+            f"{where(path)}unknown key(s) {', '.join(map(repr, unknown))}; "
+            f"allowed: {', '.join(FILE_KEYS)}"
+        )
+    if data.get("terrapath") != FORMAT_VERSION:
+        raise InputError(
+            f"{where(path, 'terrapath')}expected format version {FORMAT_VERSION}, "
+            f"found {data.get('terrapath')!r}"
+        )
+    base_name = data.get("base", DEFAULT_VEHICLE)
+    if base_name not in PRESETS:
+        raise InputError(
+            f"{where(path, 'base')}expected a preset ({', '.join(PRESETS)}), found {base_name!r}"
+        )
+    if "name" not in data:
+        raise InputError(f"{where(path, 'name')}missing: a vehicle file needs a name")
+    overrides: dict[str, Any] = {}
+    for k, v in data.items():
+        if k in ("terrapath", "base"):
+            continue
+        if k in ("name", "source"):
+            if not isinstance(v, str) or not v:
+                raise InputError(f"{where(path, k)}expected a non-empty string, found {v!r}")
+        elif isinstance(v, bool) or not isinstance(v, int | float):
+            raise InputError(f"{where(path, k)}expected a number, found {v!r}")
+        overrides[k] = float(v) if k not in ("name", "source") else v
+    overrides.setdefault("source", f"{path or 'vehicle document'} (base {base_name})")
+    try:
+        return dataclasses.replace(PRESETS[base_name], **overrides)
+    except InputError as exc:
+        raise InputError(f"{where(path)}{exc}") from None

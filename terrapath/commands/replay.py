@@ -1,0 +1,296 @@
+"""`terrapath replay`: re-fly a mission (or the mission inside an earlier run) with pop-up threats."""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+import yaml
+
+from terrain.errors import InputError
+
+
+def _software_version() -> str:
+    from terrapath import __version__
+
+    return __version__
+
+
+def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
+    """(mission, attachments of an earlier run, its threat file text or None)."""
+    from planner.mission import load_mission, mission_from_dict
+
+    if source.lower().endswith(".mcap"):
+        from replay.reader import load_run
+
+        run = load_run(source)
+        text = run.attachments.get("mission.yaml")
+        if text is None:
+            raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
+        mission = mission_from_dict(yaml.safe_load(text.decode("utf-8")), None)
+        threats = run.attachments.get("threats.yaml")
+        return mission, dict(run.attachments), threats.decode("utf-8") if threats else None
+    return load_mission(source), {}, None
+
+
+@click.command("replay")
+@click.argument("source", type=click.Path(dir_okay=False, exists=False))
+@click.option(
+    "--threats",
+    "threats_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Pop-up threats (YAML). For an .mcap source, default: the threats of that run.",
+)
+@click.option(
+    "--avoid",
+    default="none",
+    show_default=True,
+    help="Avoidance algorithm (none = keep the mission).",
+)
+@click.option("--vehicle", default=None, help="Vehicle preset or file (default: the mission's).")
+@click.option(
+    "--seed",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Random seed (radar noise, avoiders); recorded in the MCAP.",
+)
+@click.option(
+    "--duration",
+    type=float,
+    default=None,
+    help="Time limit in simulated seconds (default: 1.5 x the planned flight time + 10 min).",
+)
+@click.option(
+    "--log-rate",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="State log rate in the MCAP (Hz).",
+)
+@click.option(
+    "--radar-range", type=float, default=10_000.0, show_default=True, help="Radar range (m)."
+)
+@click.option(
+    "--radar-noise",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Radar range noise, 1 sigma (m).",
+)
+@click.option(
+    "--terrain-following",
+    type=float,
+    default=None,
+    help="Keep at least this clearance (m) above the terrain ahead.",
+)
+@click.option("--no-terrain-mesh", is_flag=True, help="Do not store the terrain mesh in the MCAP.")
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="MCAP file to write."
+)
+@click.option("--json", "as_json", is_flag=True, help="Print the metrics as JSON.")
+def replay_cmd(
+    source: str,
+    threats_path: str | None,
+    avoid: str,
+    vehicle: str | None,
+    seed: int,
+    duration: float | None,
+    log_rate: float,
+    radar_range: float,
+    radar_noise: float,
+    terrain_following: float | None,
+    no_terrain_mesh: bool,
+    output: str,
+    as_json: bool,
+) -> None:
+    """Re-fly SOURCE (a mission YAML, or an earlier run's .mcap) in the 6-DOF simulation, with
+    pop-up threats, and record everything as MCAP for Foxglove."""
+    from replay.avoidance import make_avoider
+    from replay.record import RunRecorder
+    from replay.sim import ReplayConfig, estimated_flight_time
+    from replay.threats import ThreatSet, load_threats
+    from replay.vehicle.presets import load_vehicle
+
+    if not output.lower().endswith(".mcap"):
+        raise click.BadParameter(
+            f"the output must end in .mcap; got {output!r}", param_hint="-o/--output"
+        )
+    mission, old, old_threats = _load_source(source)
+    grid = mission.terrain.load() if mission.terrain is not None else None
+    base_dir = Path(source).resolve().parent
+    vehicle_name = vehicle or mission.vehicle
+    params = load_vehicle(vehicle_name, base_dir=base_dir)
+    avoider = make_avoider(avoid)
+    threat_text: str | None = None
+    if threats_path:
+        threats = load_threats(threats_path, grid)
+        threat_text = Path(threats_path).read_text(encoding="utf-8")
+    elif old_threats is not None:
+        with tempfile.TemporaryDirectory() as tmp:
+            p = Path(tmp) / "threats.yaml"
+            p.write_text(old_threats, encoding="utf-8")
+            threats = load_threats(p, grid)
+        threat_text = old_threats
+    else:
+        threats = ThreatSet(())
+    config = ReplayConfig(
+        seed=seed,
+        duration=duration,
+        radar_range=radar_range,
+        radar_noise_range=radar_noise,
+        terrain_following=terrain_following,
+    )
+    planned = estimated_flight_time(mission.waypoints, config.airspeed or mission.cruise_speed)
+    limit = duration or 1.5 * planned + 600.0
+    for warning in threats.warn_after(planned):
+        click.echo(f"terrapath: warning: {warning}", err=True)
+
+    terrain_model = None
+    if grid is not None:
+        from terrain.model import TerrainModel
+
+        terrain_model = TerrainModel.from_grid(grid, max_faces=2_000_000)
+    origin = _map_origin(mission, grid)
+    from planner.mission import mission_to_dict
+
+    mission_doc = mission_to_dict(mission, None)
+    with RunRecorder(
+        output,
+        map_origin=origin,
+        crs=mission.crs,
+        seed=seed,
+        command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
+        avoid=avoid,
+        software_version=_software_version(),
+        to_lonlat=grid.to_lonlat if grid is not None and grid.is_georeferenced else None,
+        log_rate_hz=log_rate,
+        metadata={
+            "vehicle": params.name if hasattr(params, "name") else str(vehicle_name),
+            "source": str(source),
+        },
+    ) as rec:
+        rec.attach(
+            "mission.yaml",
+            yaml.safe_dump(mission_doc, sort_keys=False).encode("utf-8"),
+            "application/yaml",
+        )
+        if threat_text is not None:
+            rec.attach("threats.yaml", threat_text.encode("utf-8"), "application/yaml")
+        vpath = base_dir / str(vehicle_name)
+        if vpath.suffix.lower() in (".yaml", ".yml") and vpath.is_file():
+            rec.attach("vehicle.yaml", vpath.read_bytes(), "application/yaml")
+        elif "vehicle.yaml" in old and vehicle is None:
+            rec.attach("vehicle.yaml", old["vehicle.yaml"], "application/yaml")
+        if terrain_model is not None and not no_terrain_mesh:
+            mesh = (
+                TerrainModel.from_grid(grid, max_faces=400_000).mesh if grid is not None else None
+            )
+            if mesh is not None:
+                rec.write_terrain(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        result = _run(mission, threats, avoider, params, grid, terrain_model, config, rec, limit)
+    _report(result, output, as_json, threats)
+
+
+def _map_origin(mission: Any, grid: Any) -> tuple[float, float, float]:
+    if grid is not None:
+        xmin, ymin, xmax, ymax = grid.bounds
+        return (round((xmin + xmax) / 2.0), round((ymin + ymax) / 2.0), 0.0)
+    w = mission.waypoints
+    return (float(w[0, 0]), float(w[0, 1]), 0.0)
+
+
+def _run(
+    mission: Any,
+    threats: Any,
+    avoider: Any,
+    params: Any,
+    grid: Any,
+    terrain_model: Any,
+    config: Any,
+    rec: Any,
+    limit: float,
+) -> Any:
+    from replay.sim import simulate
+
+    kwargs = {"grid": grid, "terrain_model": terrain_model, "config": config, "recorder": rec}
+    if not sys.stderr.isatty():
+        return simulate(mission, threats, avoider, params, **kwargs)
+    with click.progressbar(
+        length=int(limit), label="replay (simulated s)", file=sys.stderr, show_pos=True, width=30
+    ) as bar:
+        last = [0.0, 0]
+
+        def progress(t: float, total: float) -> None:
+            now = time.monotonic()
+            if now - last[0] < 0.1:
+                return
+            last[0] = now
+            bar.update(int(t) - last[1])
+            last[1] = int(t)
+
+        result = simulate(mission, threats, avoider, params, progress=progress, **kwargs)
+        bar.update(int(limit) - last[1])
+        return result
+
+
+def _report(result: Any, output: str, as_json: bool, threats: Any) -> None:
+    m = result.metrics
+    if as_json:
+        click.echo(
+            json.dumps(
+                {
+                    "output": output,
+                    "seed": result.seed,
+                    "wall_s": result.wall_s,
+                    "metrics": m.as_dict(),
+                    "final_waypoints": result.waypoints.tolist(),
+                },
+                indent=2,
+            )
+        )
+        return
+    rows = [
+        ("success", "yes" if m.success else "NO"),
+        ("end", m.end_reason),
+        ("flight time", f"{m.flight_time_s / 60:.1f} min"),
+        ("flown length", f"{m.flown_length_m / 1000:.2f} km"),
+        ("PLR", f"{m.plr:.4f}"),
+        (
+            "min terrain clearance",
+            f"{m.min_terrain_clearance_m:.1f} m at t={m.min_terrain_clearance_t:.0f} s",
+        ),
+        ("waypoints added", str(m.waypoints_added)),
+        (
+            "decisions",
+            f"{m.decisions} (mean {m.decision_time_mean_s * 1000:.1f} ms, max {m.decision_time_max_s * 1000:.1f} ms)",
+        ),
+    ]
+    width = max(len(r[0]) for r in rows)
+    for k, v in rows:
+        click.echo(f"{k:<{width}}  {v}")
+    if m.min_separation:
+        click.echo("\nthreat        min separation      at t (s)   violations")
+        for tid, sep in m.min_separation.items():
+            vs = [v for v in m.violations if v.threat == tid]
+            span = (
+                ", ".join(
+                    f"{v.t_enter:.0f}-{'end' if v.t_exit is None else f'{v.t_exit:.0f}'} s"
+                    for v in vs
+                )
+                or "-"
+            )
+            click.echo(f"{tid:<12}  {sep['value']:>12.1f} m  {sep['t']:>12.0f}   {span}")
+    click.echo(
+        f"\nwrote {output} (simulated {m.flight_time_s:.0f} s in {result.wall_s:.1f} s wall)"
+    )
+    click.echo(
+        "open it in Foxglove: Open local file, 3D panel with display frame 'map'; plots from /vehicle/state"
+    )

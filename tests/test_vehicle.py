@@ -1,0 +1,283 @@
+"""The 6-DOF vehicle: presets and vehicle files, the compiled model against its numpy twin, trim,
+and physics checks (free fall, gliding)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from replay.frames import rotation_body_to_ned
+from replay.vehicle import (
+    PRESETS,
+    Aircraft,
+    VehicleParams,
+    derivatives,
+    load_vehicle,
+    rk4,
+    rk4_step,
+    step_n,
+    trim,
+    trim_range,
+)
+from replay.vehicle.dynamics import air_data, drag_coefficient, lift_coefficient
+from replay.vehicle.params import I_RHO
+from replay.vehicle.trim import alpha_max_lift
+from terrain.errors import DataFileError, InputError
+
+G = 9.81
+NAMES = sorted(PRESETS)
+
+
+def _near_trim(p: VehicleParams, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    x0, u0 = trim(p, p.cruise_speed, 300.0)
+    scale = np.array([50, 50, 20, 1.0, 1.0, 1.0, 0.2, 0.1, 3.0, 0.3, 0.3, 0.3])
+    x = x0 + rng.normal(size=12) * scale
+    u = u0 + rng.normal(size=4) * np.array([0.03, 0.03, 0.03, 0.05])
+    return x, u
+
+
+# ---- presets and files ------------------------------------------------------------------------
+def test_presets_are_the_documented_aircraft() -> None:
+    assert set(PRESETS) == {"aerosonde", "solar-uav", "cessna172", "small-uas"}
+    aero = load_vehicle("aerosonde")
+    # Beard & McLain (2012) Appendix E values
+    assert (aero.mass, aero.Jx, aero.Jxz, aero.S, aero.b) == (13.5, 0.8244, 0.1204, 0.55, 2.8956)
+    assert (aero.CLalpha, aero.Cmalpha, aero.Cmq, aero.Cnbeta) == (3.45, -0.38, -3.6, 0.25)
+    assert (aero.k_motor, aero.S_prop, aero.M, aero.alpha0) == (80.0, 0.2027, 50.0, 0.4712)
+    cruise = {n: load_vehicle(n).cruise_speed for n in NAMES}
+    assert cruise == {"aerosonde": 25.0, "solar-uav": 15.0, "cessna172": 50.0, "small-uas": 15.0}
+    c172 = load_vehicle("cessna172")
+    assert c172.mass == pytest.approx(1043.3, abs=0.1)  # 2300 lb
+    assert c172.S == pytest.approx(16.165, abs=1e-3)  # 174 ft^2
+    assert 1 / (math.pi * c172.e * c172.aspect_ratio) == pytest.approx(0.054)
+    for p in PRESETS.values():
+        assert p.bank_max_deg == 30.0
+        assert (p.pitch_min_deg, p.pitch_max_deg) == (-20.0, 20.0)
+        assert p.source
+
+
+def test_stall_is_where_the_blend_says() -> None:
+    c172 = PRESETS["cessna172"]
+    a = alpha_max_lift(c172)
+    # Peden's table: CLmax 1.47 at 16 deg; the blended curve peaks near there
+    assert math.degrees(a) == pytest.approx(16.0, abs=0.5)
+    assert lift_coefficient(a, c172) == pytest.approx(1.466, abs=0.01)
+    assert lift_coefficient(0.14, c172) == pytest.approx(1.02, abs=0.02)  # his table at 8 deg
+    aero = PRESETS["aerosonde"]
+    assert lift_coefficient(0.0, aero) == pytest.approx(aero.CL0)
+    assert lift_coefficient(0.05, aero) == pytest.approx(aero.CL0 + aero.CLalpha * 0.05, rel=1e-6)
+    # far past the stall only the flat plate remains
+    assert lift_coefficient(1.2, aero) == pytest.approx(2 * math.sin(1.2) ** 2 * math.cos(1.2))
+
+
+def test_vehicle_file_with_base_and_overrides(tmp_path: Path) -> None:
+    f = tmp_path / "heavy.yaml"
+    f.write_text("terrapath: 1\nname: heavy-172\nbase: cessna172\nmass: 1100\ncruise_speed: 45\n")
+    p = load_vehicle(str(f))
+    assert (p.name, p.mass, p.cruise_speed) == ("heavy-172", 1100.0, 45.0)
+    assert p.CLalpha == PRESETS["cessna172"].CLalpha
+    assert "heavy.yaml" in p.source
+    # the default base is the aerosonde; a relative path resolves against base_dir
+    (tmp_path / "light.yml").write_text("terrapath: 1\nname: light\nmass: 12\n")
+    q = load_vehicle("light.yml", base_dir=tmp_path)
+    assert (q.mass, q.S) == (12.0, PRESETS["aerosonde"].S)
+
+
+@pytest.mark.parametrize(
+    ("body", "error", "field", "expected"),
+    [
+        ("terrapath: 1\nname: x\nwingspan: 3\n", InputError, "wingspan", "allowed: terrapath"),
+        ("terrapath: 1\nname: x\nmass: 0\n", InputError, "mass", "> 0"),
+        ("terrapath: 1\nname: x\nmass: -3\n", InputError, "mass", "found -3"),
+        ("terrapath: 1\nname: x\nJxz: 2.0\n", InputError, "Jxz", "positive-definite"),
+        ("terrapath: 1\nname: x\nJz: 5.0\n", InputError, "Jz", "triangle inequality"),
+        ("terrapath: 1\nname: x\nS: 0\n", InputError, "S", "> 0"),
+        ("terrapath: 1\nname: x\nmass: heavy\n", InputError, "mass", "expected a number"),
+        ("terrapath: 1\nname: x\nbase: concorde\n", InputError, "base", "cessna172"),
+        ("terrapath: 2\nname: x\n", InputError, "terrapath", "format version 1"),
+        ("terrapath: 1\nmass: 3\n", InputError, "name", "missing"),
+        ("terrapath: 1\nname: x\ncruise_speed: 99\n", InputError, "cruise_speed", "inside"),
+        ("terrapath: 1\nname: x\nbank_max_deg: 95\n", InputError, "bank_max_deg", "(0, 80)"),
+        ("- just\n- a list\n", DataFileError, None, "expected a mapping"),
+        ("terrapath: 1\nname: [unclosed\n", DataFileError, None, "not valid YAML"),
+    ],
+)
+def test_bad_vehicle_files_name_file_and_field(
+    tmp_path: Path, body: str, error: type[Exception], field: str | None, expected: str
+) -> None:
+    f = tmp_path / "bad.yaml"
+    f.write_text(body)
+    with pytest.raises(error) as info:
+        load_vehicle(str(f))
+    msg = str(info.value)
+    assert "bad.yaml" in msg
+    if field:
+        assert repr(field) in msg
+    assert expected in msg
+
+
+def test_missing_file_and_unknown_preset() -> None:
+    with pytest.raises(DataFileError, match="cannot read the vehicle file"):
+        load_vehicle("/nonexistent/dir/plane.yaml")
+    with pytest.raises(InputError, match="aerosonde, solar-uav, cessna172, small-uas"):
+        load_vehicle("concorde")
+
+
+def test_params_refuse_impossible_values_directly() -> None:
+    base = PRESETS["aerosonde"]
+    with pytest.raises(InputError, match="'Jxz'"):
+        dataclasses.replace(base, Jxz=1.3)
+    with pytest.raises(InputError, match="'rho'"):
+        dataclasses.replace(base, rho=0.0)
+    with pytest.raises(InputError, match="'airspeed_min/airspeed_max'"):
+        dataclasses.replace(base, airspeed_min=50.0)
+    with pytest.raises(InputError, match="'Cmalpha'"):
+        dataclasses.replace(base, Cmalpha=0.1)
+    with pytest.raises(InputError, match=r"'mass'.*finite"):
+        dataclasses.replace(base, mass=float("nan"))
+
+
+# ---- compiled model against the numpy reference ------------------------------------------------
+@pytest.mark.parametrize("name", NAMES)
+def test_numba_rk4_matches_numpy_step_by_step(name: str) -> None:
+    p = PRESETS[name]
+    rng = np.random.default_rng(7)
+    wind = rng.normal(0.0, 3.0, 3)
+    packed = p.pack(wind)
+    for _ in range(3):
+        x, u = _near_trim(p, rng)
+        xa = x.copy()
+        xb = x.copy()
+        worst_step = 0.0
+        worst_run = 0.0
+        for _ in range(1000):
+            # one step from the same state
+            na = rk4(xb, u, 0.01, packed)
+            nb = rk4_step(xb, u, 0.01, p, wind)
+            worst_step = max(worst_step, float(np.max(np.abs(na - nb) / (1 + np.abs(nb)))))
+            # and the two trajectories running side by side
+            xa = step_n(xa, u, 1, 0.01, packed)
+            xb = nb
+            worst_run = max(worst_run, float(np.max(np.abs(xa - xb) / (1 + np.abs(xb)))))
+        assert worst_step < 1e-13
+        assert worst_run < 1e-10
+        out = Aircraft(p, x, wind=wind).fun(x, u)
+        np.testing.assert_allclose(out, derivatives(x, u, p, wind), rtol=1e-13, atol=1e-12)
+
+
+def test_step_n_is_n_single_steps_and_clips_controls() -> None:
+    p = PRESETS["aerosonde"]
+    x, u = trim(p, 25.0, 100.0)
+    packed = p.pack()
+    y = x.copy()
+    for _ in range(50):
+        y = rk4(y, u, 0.01, packed)
+    np.testing.assert_array_equal(step_n(x, u, 50, 0.01, packed), y)
+    lo, hi = p.control_limits()
+    wild = np.array([2.0, -3.0, 5.0, 7.0])
+    np.testing.assert_array_equal(
+        step_n(x, wild, 5, 0.01, packed), step_n(x, np.clip(wild, lo, hi), 5, 0.01, packed)
+    )
+    plane = Aircraft(p, x)
+    plane.step(u, 100)
+    assert plane.t == pytest.approx(1.0)
+    np.testing.assert_allclose(plane.x, step_n(x, u, 100, 0.01, packed))
+
+
+# ---- trim --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", NAMES)
+def test_trim_residual_is_zero_at_cruise(name: str) -> None:
+    p = PRESETS[name]
+    x, u = trim(p, p.cruise_speed, 500.0)
+    xdot = derivatives(x, u, p)
+    assert np.max(np.abs(xdot[2:])) < 1e-9  # no climb, no accelerations, no rotation
+    va, alpha, beta = air_data(x)
+    assert va == pytest.approx(p.cruise_speed, rel=1e-12)
+    assert beta == 0.0 and x[6] == pytest.approx(0.0, abs=1e-9)
+    assert 0 < alpha < alpha_max_lift(p)
+    lo, hi = p.control_limits()
+    assert np.all(u >= lo) and np.all(u <= hi) and 0.05 < u[3] < 0.95
+    assert x[2] == -500.0
+
+
+@pytest.mark.parametrize("name", ["aerosonde", "cessna172"])
+def test_trim_in_a_climbing_turn(name: str) -> None:
+    p = PRESETS[name]
+    va, gamma, radius = p.cruise_speed, math.radians(3.0), -4.0 * p.min_turn_radius()
+    x, u = trim(p, va, 100.0, gamma=gamma, turn_radius=radius)
+    xdot = derivatives(x, u, p)
+    assert xdot[2] == pytest.approx(-va * math.sin(gamma), abs=1e-9)  # climbing
+    assert xdot[8] == pytest.approx(va * math.cos(gamma) / radius, abs=1e-9)  # turning left
+    assert np.max(np.abs(xdot[3:8])) < 1e-9 and np.max(np.abs(xdot[9:])) < 1e-9
+    assert x[6] < 0  # banked left
+
+
+def test_cannot_trim_names_speed_and_range() -> None:
+    p = PRESETS["aerosonde"]
+    lo, hi = trim_range(p)  # type: ignore[misc]
+    assert 12.0 < lo < 17.0 and 60.0 < hi < 90.0  # stall at CLmax ~1.6; the 2012 propeller
+    with pytest.raises(InputError) as fast:
+        trim(p, 100.0)
+    msg = str(fast.value)
+    assert msg.startswith("aerosonde cannot trim at 100 m/s")
+    assert f"level trim exists for {lo:g}–{hi:g} m/s" in msg
+    assert "thrust" in msg
+    with pytest.raises(InputError, match=r"cannot trim at 9 m/s, below its stall speed"):
+        trim(p, 9.0)
+    # the ends of the range really are the ends
+    trim(p, lo + 0.05)
+    trim(p, hi - 0.05)
+    with pytest.raises(InputError):
+        trim(p, hi + 0.2)
+
+
+# ---- physics -----------------------------------------------------------------------------------
+def test_free_fall_without_aerodynamics_is_9_81() -> None:
+    p = PRESETS["aerosonde"]
+    packed = p.pack()
+    packed[I_RHO] = 0.0  # no air: no lift, drag, side force, moments or thrust
+    rng = np.random.default_rng(3)
+    x = np.zeros(12)
+    x[3:6] = rng.normal(0, 10, 3)
+    x[6:9] = [0.4, -0.3, 2.0]
+    x[9:12] = [0.5, -0.4, 0.3]
+    v0 = rotation_body_to_ned(*x[6:9]) @ x[3:6]
+    jm = np.array([[p.Jx, 0, -p.Jxz], [0, p.Jy, 0], [-p.Jxz, 0, p.Jz]])
+
+    def momentum(s: np.ndarray) -> tuple[np.ndarray, float]:
+        w = s[9:12]
+        return rotation_body_to_ned(*s[6:9]) @ (jm @ w), 0.5 * w @ jm @ w
+
+    h0, e0 = momentum(x)
+    t = 2.0
+    y = step_n(x, np.array([0.0, 0.0, 0.0, 1.0]), 200, 0.01, packed)
+    v = rotation_body_to_ned(*y[6:9]) @ y[3:6]
+    np.testing.assert_allclose(v - v0, [0.0, 0.0, G * t], atol=1e-8)
+    np.testing.assert_allclose(y[0:3], v0 * t + np.array([0, 0, 0.5 * G * t * t]), atol=1e-7)
+    h1, e1 = momentum(y)
+    np.testing.assert_allclose(h1, h0, atol=1e-8)  # torque-free: angular momentum kept
+    assert e1 == pytest.approx(e0, rel=1e-9)
+
+
+@pytest.mark.parametrize("name", ["aerosonde", "cessna172", "small-uas"])
+def test_glide_with_zero_thrust_has_the_airframe_lift_to_drag(name: str) -> None:
+    p = PRESETS[name]
+    x, u = trim(p, p.cruise_speed, 3000.0)
+    u = u.copy()
+    u[3] = 0.0  # engine off, elevator held at its trim
+    packed = p.pack()
+    x = step_n(x, u, 30000, 0.01, packed)  # 300 s for the phugoid to settle
+    start = x.copy()
+    x = step_n(x, u, 30000, 0.01, packed)
+    glide_ratio = math.hypot(x[0] - start[0], x[1] - start[1]) / (x[2] - start[2])
+    va, alpha, _ = air_data(x)
+    cl = lift_coefficient(alpha, p) + p.CLde * u[0]
+    cd = drag_coefficient(alpha, p) + p.CDde * u[0]
+    assert glide_ratio == pytest.approx(cl / cd, rel=2e-3)  # tan(glide angle) = D / L
+    assert 6.0 < glide_ratio < 16.0  # a small UAV or a Cessna, not a brick or a sailplane
+    xdot = derivatives(x, u, p)
+    assert -xdot[2] == pytest.approx(-va / math.hypot(glide_ratio, 1.0), rel=2e-3)
