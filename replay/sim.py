@@ -187,6 +187,7 @@ def simulate(
     end_reason = "time limit"
     contact = False
     shown: tuple[str, ...] = ()
+    pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
     while t < duration - 1e-9:
         period = min(cfg.radar_period, duration - t)
         log = autopilot.fly(x, t, period, record_every=record_every)
@@ -195,17 +196,15 @@ def simulate(
         if len(ts):
             pos = ned_to_map(xs[:, :3])
             clearance = pos[:, 2] - ground(pos[:, 0], pos[:, 1])
-            seps = {
-                th.id: np.where(_active(th, ts), th.separation(pos, ts), np.inf)
-                for th in threats.threats
-            }
-            seps = {k: v for k, v in seps.items() if np.isfinite(v).any()}
-            tracker.update(ts, pos, seps, clearance)
-            times.append(ts)
-            states.append(xs)
+            hit = np.flatnonzero(clearance < 0.0)
+            keep = int(hit[0]) + 1 if hit.size else len(ts)
+            pending.append((ts[:keep], pos[:keep], clearance[:keep]))
+            times.append(ts[:keep])
+            states.append(xs[:keep])
             if recorder is not None:
                 _record_samples(recorder, log, pos)
-            hit = np.flatnonzero(clearance < 0.0)
+            if ts[keep - 1] - pending[0][0][0] >= _METRICS_BATCH_S:
+                _flush(pending, threats, tracker)
             if hit.size:
                 contact = True
                 end_reason = "terrain contact"
@@ -250,6 +249,7 @@ def simulate(
                 decisions.append(
                     _apply(decision, autopilot, t, compute, avoider, tracker, recorder)
                 )
+    _flush(pending, threats, tracker)
     metrics = tracker.finish(
         t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
     )
@@ -268,6 +268,27 @@ def simulate(
         seed=cfg.seed,
         wall_s=time.perf_counter() - wall0,
     )
+
+
+_METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much flight at once
+
+
+def _flush(
+    pending: list[tuple[FloatArray, FloatArray, FloatArray]],
+    threats: ThreatSet,
+    tracker: MetricsTracker,
+) -> None:
+    """Separation to every active threat and the metrics update, for the buffered samples."""
+    if not pending:
+        return
+    ts = np.concatenate([p[0] for p in pending])
+    pos = np.concatenate([p[1] for p in pending])
+    clearance = np.concatenate([p[2] for p in pending])
+    pending.clear()
+    seps = {
+        th.id: np.where(_active(th, ts), th.separation(pos, ts), np.inf) for th in threats.threats
+    }
+    tracker.update(ts, pos, {k: v for k, v in seps.items() if np.isfinite(v).any()}, clearance)
 
 
 def _active(threat: Any, ts: FloatArray) -> npt.NDArray[np.bool_]:
