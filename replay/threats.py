@@ -33,17 +33,24 @@ metres (x east, y north, z metres AMSL, :mod:`replay.frames`).  The kinds:
     is ``max(A, B)`` exactly (f is linear in u^2: a sample end is the maximum); for a = b and
     p = q it is ``A 2^(1/2 - 1/(2p))`` when p >= 1, which the search finds to ~1e-12 relative.
     It is 0 at the top ``z0 + c`` and the bottom ``z0 - c``.
-    *Separation* is not available in closed form, so it is approximated *conservatively* (never
-    more than the true signed distance):
+    *Separation* has no closed form; it is computed as a *conservative* value (never more than
+    the true signed distance) which is, outside the body, also exact to ~1e-9 relative:
 
-    - outside (Gamma > 1): for any surface point q with outward normal n = grad Gamma(q), the
-      convex body lies in the half-space ``n.(x - q) <= 0``, so ``dist(p, body) >= n^.(p - q)``.
-      q0 is the radial projection of p (the point ``c + s (p - c)`` with ``Gamma = 1``, found by
-      Newton's method on ``log Gamma`` as a function of ``log s``: convex and increasing, so Newton
-      started at the largest coordinate ratio converges monotonically); then 8 times: f = the
-      foot of p on the tangent plane at q, q = radial projection of f.  The separation is the
-      largest of these half-space bounds (exact for a sphere, within a fraction of a percent of
-      the true distance on the bodies of the tests); the closest q is :meth:`nearest_point`;
+    - outside (Gamma > 1): for any surface point q and any (sub)gradient g of Gamma at q, the
+      convex body lies in the half-space ``g.(x - q) <= 0``, so ``dist(p, body) >= g^.(p - q)``
+      (``g^ = g / |g|``): a lower bound whatever q is.  Two surface points are tried.  q0 is the
+      radial projection of p, ``c + s (p - c)`` with Gamma = 1 (Newton's method on log Gamma as a
+      function of log s, convex and increasing, from the largest coordinate ratio: monotone).  q1
+      solves the nearest-point conditions ``x - d = -(lam/2) grad Gamma(x)`` (centred coordinates,
+      d = p - c): for a fixed multiplier each axis is the scalar equation
+      ``X + mu X^(2p-1) = |d|``, ``mu = lam p / a^(2p)`` (Newton in log X: convex and increasing),
+      and Gamma(x(lam)) = 1 is solved for log lam by bracketed Newton.  q1 is projected radially
+      onto the surface and the larger bound is the separation; the closer point is
+      :meth:`BodyThreat.nearest_point`.  At the nearest point the half-space bound *equals* the
+      distance, so the result is exact when the solver converged and a safe lower bound when it
+      did not.  Where an exponent is 0.5 the body has edges (|x/a| is not differentiable at 0);
+      there the subgradient closest to the direction p - q is used.  Cost: ~1 ms for one point,
+      ~10 us per point in batches;
     - inside: minus the smallest distance from p to a surface point found along the three axis
       directions and along the radial direction (each an upper bound of the depth);
     - on the surface (Gamma = 1): 0.
@@ -81,8 +88,9 @@ hill's first point, the body centre, the centre of the cylinder's top face, the 
 intruders, over times broadcast with them), ``violates(p, t)`` (separation < 0), ``radar_points``
 (what the radar sees, see :mod:`replay.radar`) and ``shape(t)``, a plain dict for the recorder:
 ``{"id", "kind": "sphere"|"cylinder"|"ellipsoid", "center", "radius"|"axes", "top", "bottom"}``
-(a hill's ``center`` and ``radius`` are lists, one per point; ``shapes(t)`` splits it into spheres;
-an unbounded cylinder bottom is ``None``).
+(a hill's ``center`` and ``radius`` are lists, one per point, and ``shapes(t)`` splits it into
+spheres ``"<id>/<k>"``; a cylinder's ``center`` is its mid-height point, or the top-face centre when
+it has no bottom, which is then ``None``; an ellipsoid also carries its ``exponents``).
 """
 
 from __future__ import annotations
