@@ -12,7 +12,10 @@ Defaults and choices:
   relief), widened if needed to contain the start and goal altitudes;
 - start and goal must lie inside the map and at or above the terrain (+ clearance);
 - feasibility: no length below terrain + clearance and, with ``avoid_zones``, no length inside any
-  danger zone.
+  danger zone;
+- with ``conservative`` (the default) the Bresenham check runs on the terrain dilated by one cell
+  (:func:`dilated`), so a feasible path clears the bilinear terrain surface too — without it a
+  path can slip diagonally between the visited cells of a ridge.
 """
 
 from __future__ import annotations
@@ -40,6 +43,22 @@ def _point(value: Sequence[float] | FloatArray, name: str) -> FloatArray:
     return p
 
 
+def dilated(grid: HeightGrid) -> HeightGrid:
+    """The grid with every cell raised to the highest of its 3 x 3 neighbourhood.
+
+    The Bresenham walk compares the path with one cell value per step, while the terrain between
+    cell centres is the bilinear surface of the four surrounding centres; a diagonal crossing of a
+    ridge can pass between the cells the walk visits. Every point of the bilinear surface lies
+    within one cell of the visited cell at the same major-axis position, so on the dilated grid the
+    cell value bounds the true terrain from above and "no length below" means clear of the real
+    surface (up to the segment's own climb within one cell).
+    """
+    from scipy.ndimage import maximum_filter
+
+    h = maximum_filter(np.asarray(grid.heights), size=3, mode="nearest")
+    return HeightGrid(h, grid.transform, grid.crs, grid.sources, grid.nodata_filled)
+
+
 @dataclass(frozen=True, eq=False)
 class PlanningProblem:
     """Start/goal (map metres, z AMSL), N free waypoints, zones, band and clearance."""
@@ -54,7 +73,9 @@ class PlanningProblem:
     clearance: float = 0.0
     avoid_zones: bool = False
     penalty: float = COLLISION_PENALTY
+    conservative: bool = True
     _zones: ZoneArrays = field(init=False, repr=False)
+    _check_grid: HeightGrid = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         g = self.grid
@@ -106,6 +127,7 @@ class PlanningProblem:
         set_(self, "zmax", zmax)
         set_(self, "zones", tuple(self.zones))
         set_(self, "_zones", zones_arrays(self.zones))
+        set_(self, "_check_grid", dilated(g) if self.conservative else g)
 
     # -- the search space ---------------------------------------------------------------------------
     @property
@@ -152,7 +174,7 @@ class PlanningProblem:
         n = max(2, int(np.ceil(4.0 * span / min(self.grid.cell_size))) + 1)
         dense = np.linspace(0.0, 1.0, n)[:, None]
         xy = self.start[None, :2] + dense * (self.goal - self.start)[None, :2]
-        top = float(self.grid.heights[self.grid.cell_of(xy[:, 0], xy[:, 1])].max())
+        top = float(self._check_grid.heights[self.grid.cell_of(xy[:, 0], xy[:, 1])].max())
         high = line.copy()
         high[:, 2] = min(
             top + max(self.clearance, 1.0) + 0.5 * self.grid.cell_size[0], self.band[1]
@@ -165,7 +187,7 @@ class PlanningProblem:
         """Every cost term of a (P, 3N) population."""
         z = self._zones
         return path_costs(
-            self.grid,
+            self._check_grid,
             self.paths(np.atleast_2d(np.asarray(x, dtype=np.float64))),
             zmin=self.band[0],
             zmax=self.band[1],

@@ -158,7 +158,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from replay.frames import N_CONTROLS, N_STATES
+from replay.frames import N_CONTROLS, N_STATES, map_to_ned
 from replay.vehicle import _kernels as kern
 from replay.vehicle.dynamics import DT, drag_coefficient
 from replay.vehicle.params import G, VehicleParams
@@ -174,27 +174,27 @@ TerrainHeight = Callable[[FloatArray, FloatArray], npt.ArrayLike]
 class LoopDesign:
     """Natural frequencies, damping and separations of the loops (see the module docstring)."""
 
-    roll_error_max_deg: float = 30.0
-    roll_wn_max: float = 15.0
+    roll_error_max_deg: float = 30.0  # roll error that just saturates the ailerons (sets wn_phi)
+    roll_wn_max: float = 15.0  # rad/s
     roll_zeta: float = 0.9
-    roll_integral_fraction: float = 0.1
-    roll_integral_band_deg: float = 3.0
-    roll_slew: float = 0.3
-    course_separation: float = 8.0
+    roll_integral_fraction: float = 0.1  # k_i = fraction * wn_phi * k_p
+    roll_integral_band_deg: float = 3.0  # the roll integrator runs inside this error only
+    roll_slew: float = 0.3  # bank-command rate limit, in wn_phi * bank_max per second
+    course_separation: float = 8.0  # wn_chi = wn_phi / separation
     course_zeta: float = 1.0
-    pitch_error_max_deg: float = 10.0
+    pitch_error_max_deg: float = 10.0  # pitch error that just saturates the elevator
     pitch_zeta: float = 0.8
-    altitude_gain: float = 0.25
-    climb_slew: float = 1.0
-    climb_margin: float = 0.05
-    climb_kp: float = 2.0
-    climb_ki: float = 0.2
-    airspeed_wn: float = 0.5
+    altitude_gain: float = 0.25  # k_h, climb-rate command per metre of altitude error (1/s)
+    climb_slew: float = 1.0  # m/s^2, rate limit of the climb-rate command
+    climb_margin: float = 0.05  # the climb-rate command stays this fraction inside the limits
+    climb_kp: float = 2.0  # pitch (rad) per flight-path-angle error (rad)
+    climb_ki: float = 0.2  # 1/s
+    airspeed_wn: float = 0.5  # rad/s
     airspeed_zeta: float = 1.0
-    yaw_beta: float = 1.0
-    yaw_beta_integral: float = 0.5
-    yaw_rate: float = 1.0
-    washout_tau: float = 1.0
+    yaw_beta: float = 1.0  # rudder sideslip gain, in units of Cnbeta
+    yaw_beta_integral: float = 0.5  # 1/s, in units of Cnbeta
+    yaw_rate: float = 1.0  # yaw damper gain, in units of |Cnr|
+    washout_tau: float = 1.0  # s
 
 
 @dataclass(frozen=True)
@@ -237,7 +237,8 @@ class AutopilotConfig:
 
 @dataclass(frozen=True)
 class Gains:
-    """The designed gains and feed-forwards (rad, m, s units; see the module docstring)."""
+    """The designed gains and feed-forwards (rad, m, s units; see the module docstring).
+    ``pitch_dc`` is the book's DC gain of the pitch loop, K_DC (for information)."""
 
     airspeed: float
     roll_p: float
@@ -614,18 +615,20 @@ class Autopilot:
 
     def _start_leg(self, direct: bool) -> None:
         i = self._next
-        end = self._wp[i]
+        end = map_to_ned(self._wp[i])
         if direct:
             assert self._x_last is not None
-            x = self._x_last
-            start = np.array([x[1], x[0], -x[2]])
+            start = np.array(self._x_last[0:3], dtype=np.float64)
         else:
-            start = self._wp[i - 1]
+            start = map_to_ned(self._wp[i - 1])
         length = math.hypot(end[0] - start[0], end[1] - start[1])
         last = i == len(self._wp) - 1
         radius = self.config.arrival_distance if last else self.config.switch_distance
         radius = min(radius, 0.5 * length) if length > 0 else radius
-        kern.set_leg(self._leg, start[1], start[0], start[2], end[1], end[0], end[2], float(radius))
+        # the leg array holds north, east and altitude (up)
+        kern.set_leg(
+            self._leg, start[0], start[1], -start[2], end[0], end[1], -end[2], float(radius)
+        )
         self._pending_direct = False
 
     def set_override(

