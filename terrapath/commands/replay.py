@@ -226,18 +226,19 @@ def _run(
     with click.progressbar(
         length=int(limit), label="replay (simulated s)", file=sys.stderr, show_pos=True, width=30
     ) as bar:
-        last = [0.0, 0]
+        drawn_at = [0.0]
+        shown = [0]
 
         def progress(t: float, total: float) -> None:
             now = time.monotonic()
-            if now - last[0] < 0.1:
+            if now - drawn_at[0] < 0.1:
                 return
-            last[0] = now
-            bar.update(int(t) - last[1])
-            last[1] = int(t)
+            drawn_at[0] = now
+            bar.update(int(t) - shown[0])
+            shown[0] = int(t)
 
         result = simulate(mission, threats, avoider, params, progress=progress, **kwargs)
-        bar.update(int(limit) - last[1])
+        bar.update(int(limit) - shown[0])
         return result
 
 
