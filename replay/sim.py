@@ -239,8 +239,8 @@ def simulate(
                 terrain_model=terrain_model if cfg.terrain_returns else None,
                 min_clearance=cfg.terrain_clearance,
             )
-            if recorder is not None and picture.detections:
-                recorder.write_detections(t, [_detection_dict(d) for d in picture.detections])
+            if recorder is not None and len(picture):
+                recorder.write_detections(t, _recorded_detections(picture))
             ctx = _context(t, x, picture, autopilot, params, terrain_model)
             t0 = time.perf_counter()
             decision = avoider.decide(ctx)
@@ -308,14 +308,30 @@ def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
         recorder.write_state(float(tk), log.states[i], log.controls[i], extras)
 
 
-def _detection_dict(d: Any) -> dict[str, Any]:
-    return {
-        "id": d.id,
-        "position": [float(v) for v in d.position],
-        "range": float(d.range),
-        "kind": d.kind,
-        "moving": d.moving,
-    }
+RECORDED_TERRAIN_RETURNS = 48  # the nearest terrain returns of a scan that go into the MCAP
+
+
+def _recorded_detections(picture: Any) -> list[dict[str, Any]]:
+    """Every threat return, and the nearest terrain returns (a mountain scan can hold hundreds;
+    recording them all would dominate the run's time and file size)."""
+    n = picture.n_threat
+    rows = list(range(n))
+    if len(picture) > n:
+        terrain = np.arange(n, len(picture))
+        near = terrain[np.argsort(picture.ranges[n:], kind="stable")[:RECORDED_TERRAIN_RETURNS]]
+        rows.extend(int(i) for i in near)
+    moving = {-1: None, 0: False, 1: True}
+    ids = picture.ids
+    return [
+        {
+            "id": ids[i],
+            "position": picture.positions[i].tolist(),
+            "range": float(picture.ranges[i]),
+            "kind": "threat" if i < n else "terrain",
+            "moving": moving[int(picture.moving_code[i])],
+        }
+        for i in rows
+    ]
 
 
 def _context(

@@ -110,3 +110,19 @@ def test_crs_label() -> None:
 def test_too_small_grid_refused() -> None:
     with pytest.raises(InputError, match="2 x 2"):
         HeightGrid(np.zeros((1, 5), dtype=np.float32), make_grid(np.zeros((2, 2))).transform)
+
+
+def test_fast_lonlat_matches_the_exact_transform() -> None:
+    g = make_grid(
+        RNG.uniform(0, 100, (700, 1200)), crs=CRS.from_epsg(32611), x0=376313.0, y0=3807917.0
+    )
+    fast = g.lonlat_interpolator()
+    rng = np.random.default_rng(1)
+    xmin, ymin, xmax, ymax = g.bounds
+    x, y = rng.uniform(xmin, xmax, 500), rng.uniform(ymin, ymax, 500)
+    lon, lat = g.to_lonlat(x, y)
+    flon, flat = fast(x, y)
+    # 1e-7 degrees is about a centimetre
+    assert np.abs(flon - lon).max() < 1e-7 and np.abs(flat - lat).max() < 1e-7
+    far = fast(xmax + 1e5, ymax)  # outside the lattice: the exact transform
+    assert np.allclose(far, g.to_lonlat(xmax + 1e5, ymax))

@@ -89,7 +89,7 @@ def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
     "--terrain-following",
     type=float,
     default=None,
-    help="Keep at least this clearance (m) above the terrain ahead.",
+    help="Keep at least this clearance (m) above the terrain ahead (default: the clearance the mission was planned with, when it has terrain; 0: off).",
 )
 @click.option("--no-terrain-mesh", is_flag=True, help="Do not store the terrain mesh in the MCAP.")
 @click.option(
@@ -141,6 +141,11 @@ def replay_cmd(
         threat_text = old_threats
     else:
         threats = ThreatSet(())
+    if terrain_following is None and grid is not None:
+        # keep the clearance the mission was planned with (0 turns it off)
+        terrain_following = float(mission.plan.get("clearance", 0.0) or 0.0) or None
+    elif terrain_following == 0:
+        terrain_following = None
     config = ReplayConfig(
         seed=seed,
         duration=duration,
@@ -170,7 +175,9 @@ def replay_cmd(
         command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
         avoid=avoid,
         software_version=_software_version(),
-        to_lonlat=grid.to_lonlat if grid is not None and grid.is_georeferenced else None,
+        to_lonlat=grid.lonlat_interpolator()
+        if grid is not None and grid.is_georeferenced
+        else None,
         log_rate_hz=log_rate,
         metadata={
             "vehicle": params.name if hasattr(params, "name") else str(vehicle_name),
