@@ -46,12 +46,19 @@ demo: $(VENV)/.run-stamp
 	$(BIN)/terrapath hillshade $(DEMO_MAP) --zones $(DEMO_ZONES) -o $(OUT)/rmnp-hillshade.png
 	$(BIN)/terrapath plan $(DEMO_MAP) --start=-105.85,40.20 --goal=-105.55,40.50 \
 	  --zones $(DEMO_ZONES) --avoid-zones --seed 1 -o $(OUT)/rmnp-mission.yaml
+	$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --threats data/threats/rmnp-demo.yaml \
+	  --seed 1 -o $(OUT)/rmnp-replay.mcap
 	@echo
 	@echo "demo outputs (in $(OUT)/):"
 	@echo "  rmnp-hillshade.png   the map with its two danger zones"
 	@echo "  rmnp-mission.yaml    the planned mission (source of truth: waypoints, cost terms, seed)"
 	@echo "  rmnp-mission.png     the path over the map and its altitude profile"
 	@echo "  rmnp-mission.geojson / .plan / .waypoints   for GIS tools and ground stations"
+	@echo "  rmnp-replay.mcap     the 6-DOF replay with three pop-up threats (no avoidance yet)"
+	@echo
+	@echo "open the replay in Foxglove (app.foxglove.dev or the desktop app): Open local file ->"
+	@echo "  $(OUT)/rmnp-replay.mcap; add a 3D panel (display frame 'map', follow 'base_link') and"
+	@echo "  a Plot panel (e.g. /vehicle/state.alt). Summary: .venv/bin/terrapath inspect $(OUT)/rmnp-replay.mcap"
 
 lint: $(VENV)/.test-stamp
 	$(BIN)/ruff check .

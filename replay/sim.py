@@ -155,6 +155,7 @@ def simulate(
         def ground(x: FloatArray, y: FloatArray) -> FloatArray:
             return np.zeros_like(np.asarray(x, dtype=np.float64))
 
+    x = initial_state(params, wp0, airspeed)  # first: "cannot trim" names the speeds it can fly
     ap_cfg = AutopilotConfig(
         switch_distance=cfg.switch_distance,
         terrain_clearance=cfg.terrain_following or 0.0,
@@ -166,7 +167,6 @@ def simulate(
         config=ap_cfg,
         terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
     )
-    x = initial_state(params, wp0, airspeed)
     radar = Radar(
         range_m=cfg.radar_range,
         period_s=cfg.radar_period,
