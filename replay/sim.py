@@ -27,7 +27,7 @@ import numpy.typing as npt
 
 from planner.mission import Mission
 from replay.autopilot import GUIDANCE_COLUMNS, Autopilot, AutopilotConfig
-from replay.avoidance.base import AvoidanceContext, AvoidanceDecision, Avoider
+from replay.avoidance.base import AvoidanceContext, AvoidanceDecision, Avoider, NoAvoidance
 from replay.frames import PD, PE, PN, PSI, U, V, W, ned_to_map, rotation_body_to_ned
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.radar import Radar
@@ -175,6 +175,7 @@ def simulate(
         seed=rng,
     )
     avoider.reset(wp0, rng)
+    passive = isinstance(avoider, NoAvoidance)
     tracker = MetricsTracker(list(threats.ids), wp0[0], wp0[-1])
     record_every = max(1, int(round(1.0 / (cfg.sample_hz * ap_cfg.dt))))
     if recorder is not None:
@@ -241,6 +242,8 @@ def simulate(
             )
             if recorder is not None and len(picture):
                 recorder.write_detections(t, _recorded_detections(picture))
+            if passive:
+                continue  # "none" never changes the mission: skip building its context
             ctx = _context(t, x, picture, autopilot, params, terrain_model)
             t0 = time.perf_counter()
             decision = avoider.decide(ctx)
