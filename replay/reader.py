@@ -158,8 +158,12 @@ class _Incomplete(Exception):
     """The file is not a complete MCAP file (reason in the message)."""
 
 
-def load_run(path: str | PathLike[str]) -> RunRecord:
-    """Read and check a recorded run (see the module docstring); raises DataFileError."""
+def load_run(path: str | PathLike[str], *, with_states: bool = True) -> RunRecord:
+    """Read and check a recorded run (see the module docstring); raises DataFileError.
+
+    ``with_states=False`` skips decoding the state samples (``times``/``states`` come back
+    empty): what ``inspect`` and re-flying need, several times faster on long runs. The whole
+    file's CRCs are checked either way."""
     name = str(path)
     try:
         f = open(path, "rb")
@@ -168,7 +172,7 @@ def load_run(path: str | PathLike[str]) -> RunRecord:
     try:
         with f:
             _check_integrity(f)
-            return _read(f, name)
+            return _read(f, name, with_states)
     except DataFileError:
         raise
     except Exception as err:  # anything a damaged file can make the parsers raise
@@ -226,7 +230,7 @@ def _crc(f: IO[bytes], start: int, end: int) -> int:
     return crc
 
 
-def _read(f: IO[bytes], name: str) -> RunRecord:
+def _read(f: IO[bytes], name: str, with_states: bool = True) -> RunRecord:
     reader = make_reader(f, validate_crcs=True)
     metadata: dict[str, dict[str, str]] = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
     run = metadata.get(T.RUN_METADATA)
@@ -264,7 +268,8 @@ def _read(f: IO[bytes], name: str) -> RunRecord:
     logs: list[LogEntry] = []
     metrics: dict[str, Any] | None = None
     keys = (*T.STATE_FIELDS, *T.CONTROL_FIELDS)
-    for _schema, channel, message in reader.iter_messages(T.DATA_TOPICS, log_time_order=False):
+    wanted = T.DATA_TOPICS if with_states else [t for t in T.DATA_TOPICS if t != T.VEHICLE_STATE]
+    for _schema, channel, message in reader.iter_messages(wanted, log_time_order=False):
         topic, ns = channel.topic, message.log_time
         if topic == T.VEHICLE_STATE:
             doc = json.loads(message.data)
@@ -337,7 +342,7 @@ def summary(record: RunRecord) -> dict[str, Any]:
     return {
         "path": record.path,
         "duration_s": record.duration_s,
-        "samples": len(record.times_ns),
+        "samples": record.topic_counts.get(T.VEHICLE_STATE, len(record.times_ns)),
         "log_rate_hz": _float(md.get("log_rate_hz")),
         "seed": md.get("seed", ""),
         "software_version": md.get("software_version", ""),

@@ -14,7 +14,7 @@ def inspect_cmd(run: str, as_json: bool) -> None:
     """Summarise a replay MCAP: duration, seed, topics, metrics, the final waypoint list."""
     from replay.reader import load_run, summary
 
-    record = load_run(run)
+    record = load_run(run, with_states=False)
     s = summary(record)
     final = record.waypoints[-1].waypoints.tolist() if record.waypoints else []
     s["final_waypoints"] = final

@@ -29,7 +29,7 @@ def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
     if source.lower().endswith(".mcap"):
         from replay.reader import load_run
 
-        run = load_run(source)
+        run = load_run(source, with_states=False)
         text = run.attachments.get("mission.yaml")
         if text is None:
             raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
