@@ -105,9 +105,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-import yaml
 
-from terrain.errors import DataFileError, InputError, where
+from terrain.docfile import check_header, read_document
+from terrain.docfile import found as _found
+from terrain.errors import InputError, where
 from terrain.grid import HeightGrid
 
 FloatArray = npt.NDArray[np.float64]
@@ -964,18 +965,6 @@ def threats_to_records(threats: Iterable[Threat]) -> list[dict[str, Any]]:
 
 
 # -- parsing ------------------------------------------------------------------------------------
-def _found(value: Any) -> str:
-    if value is None:
-        return "nothing (null)"
-    if isinstance(value, bool):
-        return f"{value!r} (a boolean)"
-    if isinstance(value, int | float):
-        return repr(value)
-    text = repr(value)
-    text = text if len(text) <= 60 else text[:57] + "..."
-    names: dict[type, str] = {str: "text", list: "a list", dict: "a mapping"}
-    kind = names.get(type(value), type(value).__name__)
-    return f"{text} ({kind})"
 
 
 class _FieldError(InputError):
@@ -1269,53 +1258,10 @@ def threats_from_records(
     return ThreatSet(tuple(threats), None if source is None else str(source), name)
 
 
-def _read(path: Path) -> Any:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise DataFileError(f"{where(path)}no such file (expected a threat file)") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{where(path)}is a folder, expected a threat file") from None
-    except UnicodeDecodeError as exc:
-        raise DataFileError(f"{where(path)}not UTF-8 text ({exc.reason})") from None
-    except OSError as exc:
-        raise DataFileError(f"{where(path)}cannot be read: {exc.strerror or exc}") from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        raise DataFileError(f"{where(path)}not valid YAML{at}: {problem}") from None
-
-
 def load_threats(path: str | PathLike[str], grid: HeightGrid | None = None) -> ThreatSet:
     """Read and validate a threat file (see the module docstring)."""
     p = Path(path)
-    data = _read(p)
-    if not isinstance(data, dict):
-        found = "an empty file" if data is None else _found(data)
-        raise DataFileError(
-            f"{where(p)}expected a mapping with 'terrapath: 1' and 'threats', found {found}"
-        )
-    if "terrapath" not in data:
-        raise DataFileError(
-            f"{where(p, 'terrapath')}missing format version key; expected 'terrapath: 1'"
-        )
-    version = data["terrapath"]
-    if isinstance(version, bool) or version != FORMAT_VERSION:
-        raise DataFileError(
-            f"{where(p, 'terrapath')}expected format version {FORMAT_VERSION}, "
-            f"found {_found(version)}"
-        )
-    unknown = [str(k) for k in data if k not in DOCUMENT_KEYS]
-    if unknown:
-        raise InputError(
-            f"{where(p)}unknown key(s) {', '.join(map(repr, unknown))}; "
-            f"allowed: {', '.join(DOCUMENT_KEYS)}"
-        )
-    if "threats" not in data:
-        raise DataFileError(f"{where(p, 'threats')}missing; expected a list of threats")
+    data = check_header(read_document(p, "a threat file"), p, "threats", DOCUMENT_KEYS, "threats")
     name = data.get("name")
     if name is not None and not isinstance(name, str):
         raise InputError(f"{where(p, 'name')}expected text, found {_found(name)}")

@@ -25,7 +25,6 @@ naming the file and the field (``danger_zones[2].diameter``).
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -34,8 +33,9 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-import yaml
 
+from terrain.docfile import check_header, read_document
+from terrain.docfile import found as _found
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid
 
@@ -95,20 +95,6 @@ class _Entry(NamedTuple):
     diameter: float
     top: float | None
     id: str | None
-
-
-def _found(value: Any) -> str:
-    if value is None:
-        return "nothing (null)"
-    if isinstance(value, bool):
-        return f"{value!r} (a boolean)"
-    if isinstance(value, int | float):
-        return repr(value)
-    text = repr(value)
-    text = text if len(text) <= 60 else text[:57] + "..."
-    kinds: dict[type, str] = {str: "text", list: "a list", dict: "a mapping"}
-    kind = kinds.get(type(value), type(value).__name__)
-    return f"{text} ({kind})"
 
 
 def _number(value: Any, path: Source, field: str, expected: str = "a number") -> float:
@@ -334,30 +320,7 @@ def zones_to_geojson(zones: Iterable[DangerZone], grid: HeightGrid) -> dict[str,
 
 
 def _read(path: Path) -> Any:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise DataFileError(f"{where(path)}no such file (expected a danger-zone file)") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{where(path)}is a folder, expected a danger-zone file") from None
-    except UnicodeDecodeError as exc:
-        raise DataFileError(f"{where(path)}not UTF-8 text ({exc.reason})") from None
-    except OSError as exc:
-        raise DataFileError(f"{where(path)}cannot be read: {exc.strerror or exc}") from None
-    if path.suffix.lower() in GEOJSON_SUFFIXES:
-        try:
-            return json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise DataFileError(
-                f"{where(path)}not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
-            ) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        raise DataFileError(f"{where(path)}not valid YAML{at}: {problem}") from None
+    return read_document(path, "a danger-zone file", GEOJSON_SUFFIXES)
 
 
 def _load_geojson(data: Any, path: Path, grid: HeightGrid | None) -> tuple[DangerZone, ...]:
@@ -374,29 +337,7 @@ def _load_geojson(data: Any, path: Path, grid: HeightGrid | None) -> tuple[Dange
 
 
 def _load_document(data: Any, path: Path, grid: HeightGrid | None) -> tuple[DangerZone, ...]:
-    if not isinstance(data, dict):
-        found = "an empty file" if data is None else _found(data)
-        raise DataFileError(
-            f"{where(path)}expected a mapping with 'terrapath: 1' and 'danger_zones', found {found}"
-        )
-    if "terrapath" not in data:
-        raise DataFileError(
-            f"{where(path, 'terrapath')}missing format version key; expected 'terrapath: 1'"
-        )
-    version = data["terrapath"]
-    if isinstance(version, bool) or version != FORMAT_VERSION:
-        raise DataFileError(
-            f"{where(path, 'terrapath')}expected format version {FORMAT_VERSION}, "
-            f"found {_found(version)}"
-        )
-    unknown = [str(k) for k in data if k not in DOCUMENT_KEYS]
-    if unknown:
-        raise InputError(
-            f"{where(path)}unknown key(s) {', '.join(map(repr, unknown))}; "
-            f"allowed: {', '.join(DOCUMENT_KEYS)}"
-        )
-    if "danger_zones" not in data:
-        raise DataFileError(f"{where(path, 'danger_zones')}missing; expected a list of zones")
+    data = check_header(data, path, "danger_zones", DOCUMENT_KEYS, "zones")
     return zones_from_records(data["danger_zones"], grid, source=path)
 
 
