@@ -30,11 +30,11 @@ import numpy.typing as npt
 import yaml
 
 from terrain.atomic import atomic_output
+from terrain.docfile import FORMAT_VERSION
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid, crs_label
 from terrain.zones import DangerZone, zones_from_records, zones_to_records
 
-FORMAT_VERSION = 1
 MISSION_KEYS = (
     "terrapath",
     "name",

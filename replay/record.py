@@ -65,31 +65,25 @@ The file is written under a temporary name beside ``path`` and renamed into plac
 ``path`` is always complete.  Chunks are zstd-compressed (``compression="lz4"`` or ``"none"`` also
 work) and every CRC is written (chunks, data section, summary).
 
-Messages are framed into chunks here (:class:`_McapSink`, the records themselves are serialised by
-``mcap.records``) rather than with ``mcap.writer.Writer``, whose pure-Python ``add_message`` costs
-about 10 µs a message on the project machines: 3 messages a state sample, 288,000 samples for an
-8-hour mission.  Large point arrays (terrain, track) are encoded as protobuf wire format with numpy;
-everything else uses the foxglove protobuf classes.
+Messages are framed into chunks by :mod:`replay.mcapio` (a lean MCAP stream writer; large point
+arrays are encoded there as protobuf wire format with numpy); everything else uses the foxglove
+protobuf classes.  Drawing helpers and the threat/detection checks are in :mod:`replay.scene`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import math
-import struct
-import zlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from datetime import UTC, datetime
 from os import PathLike
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any, Self
+from typing import Any, Self
 
 import numpy as np
 import numpy.typing as npt
-from foxglove_schemas_protobuf.Color_pb2 import Color
 from foxglove_schemas_protobuf.CylinderPrimitive_pb2 import CylinderPrimitive
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
@@ -97,7 +91,6 @@ from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.LocationFix_pb2 import LocationFix
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.Point3_pb2 import Point3
-from foxglove_schemas_protobuf.Pose_pb2 import Pose
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
@@ -107,149 +100,53 @@ from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
 from foxglove_schemas_protobuf.TextPrimitive_pb2 import TextPrimitive
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
-from google.protobuf import descriptor_pb2
-from mcap.data_stream import RecordBuilder
-from mcap.opcode import Opcode
-from mcap.records import (
-    Attachment,
-    AttachmentIndex,
-    Channel,
-    Chunk,
-    ChunkIndex,
-    DataEnd,
-    Footer,
-    Header,
-    McapRecord,
-    Metadata,
-    MetadataIndex,
-    Schema,
-    Statistics,
-    SummaryOffset,
-)
 
 from replay import topics as T
+from replay.mcapio import (
+    _ENTITY_LINES,
+    _ENTITY_TRIANGLES,
+    _LINE_POINTS,
+    _TRI_COLORS,
+    _TRI_INDICES,
+    _TRI_POINTS,
+    _UPDATE_ENTITIES,
+    _doubles_messages,
+    _ld,
+    _McapSink,
+    _packed_fixed32,
+    descriptor_set,
+)
+from replay.scene import (
+    DIGITS,
+    FloatArray,
+    _color,
+    _dumps,
+    _finite,
+    _height_colors,
+    _line_head,
+    _num,
+    _pose,
+    _positive,
+    _vector,
+    decimate_mesh,
+    jsonable,
+    normalize_detection,
+    normalize_threat,
+    quaternion_map,
+    superellipsoid_mesh,
+)
 from terrain.atomic import atomic_output
 from terrain.errors import InputError, where
 
-FloatArray = npt.NDArray[np.float64]
 LonLat = Callable[[float, float], tuple[float, float]]
 
 NS_PER_S = 1_000_000_000
-# significant digits of the numbers in /vehicle/state: 1e-5 m at 10,000 km; formatting 17 (exact
-# round trip) costs twice as much, and this message is written 288,000 times in an 8-hour mission
-DIGITS = 12
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
 LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
-THREAT_KINDS = ("sphere", "cylinder", "ellipsoid")
-THREAT_KEYS = ("id", "kind", "center", "radius", "axes", "exponents", "top", "bottom")
-DETECTION_KEYS = ("id", "position", "range", "kind", "moving")
 COMPRESSIONS = ("zstd", "lz4", "none")
 
 # ---------------------------------------------------------------------------------------------
-# protobuf wire format for large arrays (fields checked against the schema descriptors below)
-
-_WIRE_DOUBLE = 1
-_WIRE_LEN = 2
-_FIXED32 = 7  # FieldDescriptor.TYPE_FIXED32
-
-
-def _tag(field: int, wire: int) -> bytes:
-    return _varint(field << 3 | wire)
-
-
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while n > 0x7F:
-        out.append(n & 0x7F | 0x80)
-        n >>= 7
-    out.append(n)
-    return bytes(out)
-
-
-def _ld(field: int, payload: bytes) -> bytes:
-    """A length-delimited field (embedded message, string, packed array)."""
-    return _tag(field, _WIRE_LEN) + _varint(len(payload)) + payload
-
-
-def _doubles_messages(field: int, values: FloatArray) -> bytes:
-    """``repeated M field`` where M has only double fields 1..k (Point3, Color): one embedded
-    message per row of ``values`` (n, k), every field written (also zeros, which is valid)."""
-    n, k = values.shape
-    out = np.empty((n, 2 + 9 * k), dtype=np.uint8)
-    out[:] = _row_template(field, k)
-    raw = np.ascontiguousarray(values, dtype="<f8").view(np.uint8).reshape(n, k, 8)
-    for j in range(k):
-        out[:, 3 + 9 * j : 11 + 9 * j] = raw[:, j]
-    return out.tobytes()
-
-
-@functools.cache
-def _row_template(field: int, k: int) -> npt.NDArray[np.uint8]:
-    """The bytes of one embedded message of ``_doubles_messages`` with all doubles zero."""
-    tag = _tag(field, _WIRE_LEN)
-    if len(tag) != 1 or k > 15:
-        raise ValueError("only fields 1..15 with up to 15 doubles are supported")
-    row = [tag[0], 9 * k]
-    for j in range(k):
-        row += [(j + 1) << 3 | _WIRE_DOUBLE] + [0] * 8
-    return np.array(row, dtype=np.uint8)
-
-
-def _packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
-    return _ld(field, np.ascontiguousarray(values, dtype="<u4").tobytes())
-
-
-def _check_wire_layout() -> None:
-    """The hand-encoded fields must be what the installed schemas say (fails at import if not)."""
-
-    def number(msg: Any, name: str, ftype: int | None = None) -> int:
-        f = msg.DESCRIPTOR.fields_by_name[name]
-        if ftype is not None and f.type != ftype:
-            raise ImportError(f"unexpected type for {msg.DESCRIPTOR.full_name}.{name}")
-        return int(f.number)
-
-    expected: dict[tuple[Any, str], int] = {
-        (Point3, "x"): 1,
-        (Point3, "y"): 2,
-        (Point3, "z"): 3,
-        (Color, "r"): 1,
-        (Color, "g"): 2,
-        (Color, "b"): 3,
-        (Color, "a"): 4,
-    }
-    for (msg, name), num in expected.items():
-        if number(msg, name, 1) != num:  # TYPE_DOUBLE
-            raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
-    number(TriangleListPrimitive, "indices", _FIXED32)
-
-
-_check_wire_layout()
-_TRI_POINTS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["points"].number
-_TRI_COLORS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["colors"].number
-_TRI_INDICES = TriangleListPrimitive.DESCRIPTOR.fields_by_name["indices"].number
-_LINE_POINTS = LinePrimitive.DESCRIPTOR.fields_by_name["points"].number
-_ENTITY_LINES = SceneEntity.DESCRIPTOR.fields_by_name["lines"].number
-_ENTITY_TRIANGLES = SceneEntity.DESCRIPTOR.fields_by_name["triangles"].number
-_UPDATE_ENTITIES = SceneUpdate.DESCRIPTOR.fields_by_name["entities"].number
-
-
-def descriptor_set(message_class: Any) -> bytes:
-    """Serialized ``FileDescriptorSet`` of a protobuf class and all its dependencies (the schema
-    data MCAP expects for the ``protobuf`` encoding)."""
-    fds = descriptor_pb2.FileDescriptorSet()
-    seen: set[str] = set()
-
-    def add(fd: Any) -> None:
-        if fd.name in seen:
-            return
-        seen.add(fd.name)
-        for dep in fd.dependencies:
-            add(dep)
-        fd.CopyToProto(fds.file.add())
-
-    add(message_class.DESCRIPTOR.file)
-    return bytes(fds.SerializeToString())
-
+# Foxglove protobuf schemas of the channels (schema data: replay.mcapio.descriptor_set)
 
 PROTOBUF_CLASSES: dict[str, Any] = {
     T.FRAME_TRANSFORM: FrameTransform,
@@ -343,501 +240,6 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     ),
     T.METRICS_SCHEMA: _object({}, T.METRICS_SCHEMA),
 }
-
-# ---------------------------------------------------------------------------------------------
-# a lean MCAP writer: mcap.records serialise every record; messages are framed with one pack
-
-
-_MAGIC = b"\x89MCAP0\r\n"
-_MESSAGE = struct.Struct("<BQHIQQ")  # opcode, record length, channel, sequence, log, publish time
-_MESSAGE_INDEX = struct.Struct("<BQHI")  # opcode, record length, channel, records length
-
-
-def _record_bytes(record: McapRecord) -> bytes:
-    builder = RecordBuilder()
-    record.write(builder)
-    return bytes(builder.end())
-
-
-class _OpenChunk:
-    """Messages of one chunk being built: the records, and per channel (log time, offset) pairs."""
-
-    __slots__ = ("data", "index", "t0", "t1")
-
-    def __init__(self) -> None:
-        self.data = bytearray()
-        self.index: dict[int, list[int]] = {}  # channel -> [log_time, offset, log_time, ...]
-        self.t0 = -1
-        self.t1 = 0
-
-
-class _McapSink:
-    """Writes an indexed, chunked MCAP stream with CRCs (data section, chunks, summary).
-
-    Schemas and channels are written in the data section before the first chunk and repeated in
-    the summary, with statistics, chunk, attachment and metadata indexes and summary offsets.
-    Each channel belongs to a chunk *group*; a chunk holds one group's messages, so a reader that
-    asks for the topics of one group skips the chunks of the others (their time ranges overlap,
-    which MCAP allows: the message indexes order them).
-    """
-
-    def __init__(self, out: IO[bytes], *, compression: str, chunk_size: int, library: str) -> None:
-        self._out = out
-        self._offset = 0
-        self._crc = 0
-        self._compression = compression
-        self._chunk_size = chunk_size
-        self._schemas: list[Schema] = []
-        self._channels: list[Channel] = []
-        self._group_of: list[int] = [0]  # by channel id
-        self._open: dict[int, _OpenChunk] = {}
-        self._chunk_indexes: list[ChunkIndex] = []
-        self._attachment_indexes: list[AttachmentIndex] = []
-        self._metadata_indexes: list[MetadataIndex] = []
-        self._counts: dict[int, int] = {}
-        self._first = -1
-        self._last = 0
-        self._write(_MAGIC)
-        self._write_record(Header(profile=T.PROFILE, library=library))
-
-    def _write(self, data: bytes) -> None:
-        self._crc = zlib.crc32(data, self._crc)
-        self._out.write(data)
-        self._offset += len(data)
-
-    def _write_record(self, record: McapRecord) -> tuple[int, int]:
-        data = _record_bytes(record)
-        start = self._offset
-        self._write(data)
-        return start, len(data)
-
-    def add_schema(self, name: str, encoding: str, data: bytes) -> int:
-        schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
-        self._schemas.append(schema)
-        self._write_record(schema)
-        return schema.id
-
-    def add_channel(self, topic: str, message_encoding: str, schema_id: int, group: int = 0) -> int:
-        channel = Channel(
-            id=len(self._channels) + 1,
-            topic=topic,
-            message_encoding=message_encoding,
-            schema_id=schema_id,
-            metadata={},
-        )
-        self._channels.append(channel)
-        self._write_record(channel)
-        self._group_of.append(group)
-        self._open.setdefault(group, _OpenChunk())
-        return channel.id
-
-    def add_message(self, channel: int, log_time: int, data: bytes) -> None:
-        chunk = self._open[self._group_of[channel]]
-        buf = chunk.data
-        index = chunk.index.get(channel)
-        if index is None:
-            index = chunk.index[channel] = []
-        index.append(log_time)
-        index.append(len(buf))
-        buf += _MESSAGE.pack(Opcode.MESSAGE, 22 + len(data), channel, 0, log_time, log_time)
-        buf += data
-        if log_time < chunk.t0 or chunk.t0 < 0:
-            chunk.t0 = log_time
-        if log_time > chunk.t1:
-            chunk.t1 = log_time
-        if len(buf) >= self._chunk_size:
-            self._flush(self._group_of[channel])
-
-    def _flush(self, group: int) -> None:
-        chunk = self._open[group]
-        if not chunk.index:
-            return
-        self._open[group] = _OpenChunk()
-        raw = bytes(chunk.data)
-        if self._compression == "zstd":
-            import zstandard
-
-            data = zstandard.ZstdCompressor().compress(raw)
-        elif self._compression == "lz4":
-            import lz4.frame
-
-            data = lz4.frame.compress(raw)
-        else:
-            data = raw
-        record = Chunk(
-            compression="" if self._compression == "none" else self._compression,
-            data=data,
-            message_start_time=chunk.t0,
-            message_end_time=chunk.t1,
-            uncompressed_crc=zlib.crc32(raw),
-            uncompressed_size=len(raw),
-        )
-        start, length = self._write_record(record)
-        index_start = self._offset
-        offsets: dict[int, int] = {}
-        for channel in sorted(chunk.index):
-            pairs = np.asarray(chunk.index[channel], dtype=np.uint64).reshape(-1, 2)
-            if np.any(np.diff(pairs[:, 0].astype(np.int64)) < 0):
-                pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
-            body = pairs.astype("<u8").tobytes()
-            offsets[channel] = self._offset
-            self._write(
-                _MESSAGE_INDEX.pack(Opcode.MESSAGE_INDEX, 6 + len(body), channel, len(body)) + body
-            )
-            self._counts[channel] = self._counts.get(channel, 0) + len(pairs)
-        self._chunk_indexes.append(
-            ChunkIndex(
-                message_start_time=chunk.t0,
-                message_end_time=chunk.t1,
-                chunk_start_offset=start,
-                chunk_length=length,
-                message_index_offsets=offsets,
-                message_index_length=self._offset - index_start,
-                compression=record.compression,
-                compressed_size=len(data),
-                uncompressed_size=len(raw),
-            )
-        )
-        self._first = chunk.t0 if self._first < 0 else min(self._first, chunk.t0)
-        self._last = max(self._last, chunk.t1)
-
-    def add_attachment(self, name: str, media_type: str, data: bytes, log_time: int) -> None:
-        record = Attachment(
-            create_time=0, log_time=log_time, name=name, media_type=media_type, data=data
-        )
-        start, length = self._write_record(record)
-        self._attachment_indexes.append(
-            AttachmentIndex(
-                offset=start,
-                length=length,
-                log_time=log_time,
-                create_time=0,
-                data_size=len(data),
-                name=name,
-                media_type=media_type,
-            )
-        )
-
-    def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
-        start, length = self._write_record(Metadata(name=name, metadata=dict(data)))
-        self._metadata_indexes.append(MetadataIndex(offset=start, length=length, name=name))
-
-    def finish(self) -> None:
-        for group in sorted(self._open):
-            self._flush(group)
-        self._write_record(DataEnd(data_section_crc=self._crc))
-        summary_start = self._offset
-        summary = bytearray()
-        groups: list[SummaryOffset] = []
-        stats = Statistics(
-            message_count=sum(self._counts.values()),
-            schema_count=len(self._schemas),
-            channel_count=len(self._channels),
-            attachment_count=len(self._attachment_indexes),
-            metadata_count=len(self._metadata_indexes),
-            chunk_count=len(self._chunk_indexes),
-            message_start_time=max(self._first, 0),
-            message_end_time=self._last,
-            channel_message_counts=dict(self._counts),
-        )
-        for opcode, records in (
-            (Opcode.SCHEMA, self._schemas),
-            (Opcode.CHANNEL, self._channels),
-            (Opcode.STATISTICS, [stats]),
-            (Opcode.CHUNK_INDEX, self._chunk_indexes),
-            (Opcode.ATTACHMENT_INDEX, self._attachment_indexes),
-            (Opcode.METADATA_INDEX, self._metadata_indexes),
-        ):
-            if not records:
-                continue
-            group_start = summary_start + len(summary)
-            for record in records:
-                summary += _record_bytes(record)
-            groups.append(
-                SummaryOffset(opcode, group_start, summary_start + len(summary) - group_start)
-            )
-        offsets_start = summary_start + len(summary)
-        for offset in groups:
-            summary += _record_bytes(offset)
-        footer_head = struct.pack("<BQQQ", Opcode.FOOTER, 20, summary_start, offsets_start)
-        crc = zlib.crc32(footer_head, zlib.crc32(summary))
-        self._write(bytes(summary))
-        self._write_record(Footer(summary_start, offsets_start, crc))
-        self._write(_MAGIC)
-
-
-# ---------------------------------------------------------------------------------------------
-# geometry helpers
-
-_S = math.sqrt(0.5)
-
-
-def quaternion_map(phi: float, theta: float, psi: float) -> tuple[float, float, float, float]:
-    """(x, y, z, w) attitude of the FLU body in the ENU map frame from 3-2-1 Euler angles: the same
-    rotation as :func:`replay.frames.quaternion_map_from_euler`, in plain floats (about 10x faster,
-    it runs for every state sample).  q = q(NED->ENU) * q(FRD body->NED) * q(FLU->FRD)."""
-    cr, sr = math.cos(0.5 * phi), math.sin(0.5 * phi)
-    cp, sp = math.cos(0.5 * theta), math.sin(0.5 * theta)
-    cy, sy = math.cos(0.5 * psi), math.sin(0.5 * psi)
-    w0 = cr * cp * cy + sr * sp * sy
-    x0 = sr * cp * cy - cr * sp * sy
-    y0 = cr * sp * cy + sr * cp * sy
-    z0 = cr * cp * sy - sr * sp * cy
-    return (_S * (x0 + y0), _S * (x0 - y0), _S * (w0 - z0), _S * (w0 + z0))
-
-
-@functools.cache
-def _line_head(rgba: tuple[float, float, float, float]) -> bytes:
-    """A track line strip without its points (they are appended as wire bytes)."""
-    return bytes(
-        LinePrimitive(
-            type=LinePrimitive.LINE_STRIP,
-            pose=_pose(),
-            thickness=3.0,
-            scale_invariant=True,
-            color=_color(*rgba),
-        ).SerializeToString()
-    )
-
-
-def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Pose:
-    """A pose at (x, y, z) with the identity orientation (never the all-zero quaternion)."""
-    return Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(w=1.0))
-
-
-def _color(r: float, g: float, b: float, a: float = 1.0) -> Color:
-    return Color(r=r, g=g, b=b, a=a)
-
-
-def _height_colors(z: FloatArray) -> FloatArray:
-    """(n, 4) RGBA: green lowlands, brown hills, grey-white tops (min..max of z)."""
-    span = float(np.ptp(z)) if z.size else 0.0
-    h = (z - float(np.min(z))) / span if span > 0 else np.zeros_like(z)
-    stops = [0.0, 0.35, 0.7, 1.0]
-    rgb = [
-        (0.22, 0.45, 0.20),
-        (0.55, 0.55, 0.30),
-        (0.50, 0.38, 0.25),
-        (0.92, 0.92, 0.92),
-    ]
-    out = np.ones((z.size, 4))
-    for c in range(3):
-        out[:, c] = np.interp(h, stops, [s[c] for s in rgb])
-    return out
-
-
-def decimate_mesh(
-    vertices: FloatArray, faces: npt.NDArray[np.int64], max_triangles: int
-) -> tuple[FloatArray, npt.NDArray[np.int64]]:
-    """Vertex clustering on a horizontal grid until at most ``max_triangles`` remain (for terrain
-    meshes, which are height fields): each cell's vertices merge at their mean, degenerate and
-    repeated triangles go.  Returns the mesh unchanged when it is small enough."""
-    if len(faces) <= max_triangles:
-        return vertices, faces
-    lo = vertices[:, :2].min(axis=0)
-    span = np.maximum(np.ptp(vertices[:, :2], axis=0), 1e-9)
-    cell = math.sqrt(float(span[0] * span[1]) / (max_triangles / 2.0))
-    while True:
-        ij = np.floor((vertices[:, :2] - lo) / cell).astype(np.int64)
-        key = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
-        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-        inverse = inverse.reshape(-1)
-        merged = np.stack(
-            [np.bincount(inverse, weights=vertices[:, k]) / counts for k in range(3)], axis=1
-        )
-        f = inverse[faces]
-        keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-        f = f[keep]
-        _, first = np.unique(np.sort(f, axis=1), axis=0, return_index=True)
-        f = f[np.sort(first)]
-        if len(f) <= max_triangles:
-            used, remap = np.unique(f, return_inverse=True)
-            return merged[used], remap.reshape(f.shape).astype(np.int64)
-        cell *= 1.25
-
-
-def superellipsoid_mesh(
-    axes: Sequence[float], exponents: Sequence[float], n_lon: int = 32, n_lat: int = 16
-) -> tuple[FloatArray, npt.NDArray[np.int64]]:
-    """Surface of ``|x/a|^(2p) + |y/b|^(2q) + |z/c|^(2r) = 1`` (centred at 0) as a triangle mesh:
-    each direction of a UV sphere scaled to the surface (bisection on the radius, vectorised)."""
-    lon = np.linspace(0.0, 2 * np.pi, n_lon, endpoint=False)
-    lat = np.linspace(-np.pi / 2, np.pi / 2, n_lat + 1)[1:-1]
-    la, lo = np.meshgrid(lat, lon, indexing="ij")
-    dirs = np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)], -1)
-    dirs = np.concatenate([dirs.reshape(-1, 3), [[0, 0, -1.0], [0, 0, 1.0]]])
-    a = np.asarray(axes, dtype=np.float64)
-    e = 2.0 * np.asarray(exponents, dtype=np.float64)
-    lo_r = np.zeros(len(dirs))
-    hi_r = np.full(len(dirs), float(np.linalg.norm(a)))  # the box corner bounds the body
-    for _ in range(50):
-        mid = 0.5 * (lo_r + hi_r)
-        gamma = np.sum(np.abs(mid[:, None] * dirs / a) ** e, axis=1)
-        inside = gamma <= 1.0
-        lo_r = np.where(inside, mid, lo_r)
-        hi_r = np.where(inside, hi_r, mid)
-    points = dirs * lo_r[:, None]
-    rows, cols = len(lat), n_lon
-    faces: list[tuple[int, int, int]] = []
-    for i in range(rows - 1):
-        for j in range(cols):
-            a0, a1 = i * cols + j, i * cols + (j + 1) % cols
-            b0, b1 = a0 + cols, a1 + cols
-            faces += [(a0, a1, b1), (a0, b1, b0)]
-    south, north = rows * cols, rows * cols + 1
-    for j in range(cols):
-        faces.append((south, (j + 1) % cols, j))
-        top = (rows - 1) * cols
-        faces.append((north, top + j, top + (j + 1) % cols))
-    return points, np.asarray(faces, dtype=np.int64)
-
-
-# ---------------------------------------------------------------------------------------------
-# JSON
-
-
-def jsonable(value: Any) -> Any:
-    """Plain JSON data from numbers, numpy scalars and arrays, tuples, mappings; NaN and infinities
-    become ``null`` (JSON has no such numbers)."""
-    if isinstance(value, str | bool) or value is None:
-        return value
-    if isinstance(value, int | np.integer):
-        return int(value)
-    if isinstance(value, float | np.floating):
-        f = float(value)
-        return f if math.isfinite(f) else None
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, Iterable):
-        return [jsonable(v) for v in value]
-    raise TypeError(f"{type(value).__name__} is not JSON data")
-
-
-def _dumps(value: Any) -> bytes:
-    return json.dumps(value, separators=(",", ":"), allow_nan=False).encode()
-
-
-def _num(x: float) -> str:
-    return f"{x:.{DIGITS}g}" if math.isfinite(x) else "null"
-
-
-# ---------------------------------------------------------------------------------------------
-# input validation
-
-
-def _finite(value: Any, what: str) -> float:
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{what}: expected a number, found {value!r}") from None
-    if not math.isfinite(f):
-        raise InputError(f"{what}: expected a finite number, found {value!r}")
-    return f
-
-
-def _vector(value: Any, n: int | tuple[int, ...], what: str) -> list[float]:
-    sizes = (n,) if isinstance(n, int) else n
-    try:
-        items = list(value)
-    except TypeError:
-        raise InputError(f"{what}: expected {sizes[0]} numbers, found {value!r}") from None
-    if len(items) not in sizes:
-        raise InputError(
-            f"{what}: expected {' or '.join(map(str, sizes))} numbers, found {len(items)}"
-        )
-    return [_finite(v, what) for v in items]
-
-
-def _keys(item: Any, allowed: Sequence[str], what: str) -> Mapping[str, Any]:
-    if not isinstance(item, Mapping):
-        raise InputError(f"{what}: expected a mapping, found {type(item).__name__}")
-    unknown = sorted(set(map(str, item)) - set(allowed))
-    if unknown:
-        raise InputError(f"{what}: unknown key(s) {unknown}; allowed: {', '.join(allowed)}")
-    if "id" not in item:
-        raise InputError(f"{what}: missing 'id'")
-    return item
-
-
-def normalize_threat(item: Any, index: int = 0) -> dict[str, Any]:
-    """A threat dict (module docstring) checked and with plain floats; raises InputError."""
-    item = _keys(item, THREAT_KEYS, f"threats[{index}]")
-    ident = str(item["id"])
-    what = f"threat {ident!r}"
-    kind = item.get("kind")
-    if kind not in THREAT_KINDS:
-        raise InputError(f"{what} kind: expected one of {', '.join(THREAT_KINDS)}, found {kind!r}")
-    out: dict[str, Any] = {"id": ident, "kind": kind}
-    if "center" not in item:
-        raise InputError(f"{what}: missing 'center'")
-    if kind == "sphere":
-        first = next(iter(item["center"]), None) if isinstance(item["center"], Iterable) else None
-        if isinstance(first, Iterable) and not isinstance(first, str):  # a hill: several spheres
-            centers = [_vector(c, 3, f"{what} center") for c in item["center"]]
-            radii = item.get("radius")
-            rs = [radii] * len(centers) if not isinstance(radii, Iterable) else list(radii)
-            if len(rs) != len(centers):
-                raise InputError(f"{what} radius: expected one or {len(centers)} radii")
-            out["center"] = centers
-            out["radius"] = [_positive(r, f"{what} radius") for r in rs]
-        else:
-            out["center"] = _vector(item["center"], 3, f"{what} center")
-            out["radius"] = _positive(item.get("radius"), f"{what} radius")
-    elif kind == "cylinder":
-        out["center"] = _vector(item["center"], (2, 3), f"{what} center")
-        out["radius"] = _positive(item.get("radius"), f"{what} radius")
-        for key in ("bottom", "top"):
-            value = item.get(key)
-            out[key] = None if value is None else _finite(value, f"{what} {key}")
-        if out["bottom"] is not None and out["top"] is not None and out["top"] <= out["bottom"]:
-            raise InputError(f"{what}: top {out['top']} must be above bottom {out['bottom']}")
-    else:
-        out["center"] = _vector(item["center"], 3, f"{what} center")
-        out["axes"] = [
-            _positive(a, f"{what} axes") for a in _vector(item.get("axes"), 3, f"{what} axes")
-        ]
-        exps = item.get("exponents")
-        out["exponents"] = (
-            [1.0, 1.0, 1.0]
-            if exps is None
-            else [_positive(e, f"{what} exponents") for e in _vector(exps, 3, f"{what} exponents")]
-        )
-    for key in ("top", "bottom"):
-        if kind != "cylinder" and item.get(key) is not None:
-            out[key] = _finite(item[key], f"{what} {key}")
-    return out
-
-
-def _positive(value: Any, what: str) -> float:
-    f = _finite(value, what)
-    if f <= 0:
-        raise InputError(f"{what}: expected a number > 0, found {value!r}")
-    return f
-
-
-def normalize_detection(item: Any, index: int = 0) -> dict[str, Any]:
-    """A detection dict (module docstring) checked and with plain types; raises InputError."""
-    item = _keys(item, DETECTION_KEYS, f"detections[{index}]")
-    what = f"detections[{index}]"
-    if "position" not in item:
-        raise InputError(f"{what}: missing 'position'")
-    kind = item.get("kind", "threat")
-    if kind not in ("threat", "terrain"):
-        raise InputError(f"{what} kind: expected 'threat' or 'terrain', found {kind!r}")
-    out: dict[str, Any] = {
-        "id": str(item["id"]),
-        "position": _vector(item["position"], 3, f"{what} position"),
-        "kind": kind,
-        "moving": bool(item.get("moving", False)),
-    }
-    if item.get("range") is not None:
-        out["range"] = _finite(item["range"], f"{what} range")
-    return out
-
 
 # ---------------------------------------------------------------------------------------------
 # the recorder

@@ -116,7 +116,6 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 Vec3 = tuple[float, float, float]
 
-FORMAT_VERSION = 1
 HILL_LINK_M = 1000.0  # seed 000 §5.3: points closer than 1 km form one continuous obstacle
 DOCUMENT_KEYS = ("terrapath", "name", "threats")
 KINDS = ("static", "hill", "body", "cylinder", "intruder")

@@ -34,12 +34,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from terrain.docfile import check_header, read_document
+from terrain.docfile import (
+    check_header,
+    read_document,
+)
 from terrain.docfile import found as _found
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid
 
-FORMAT_VERSION = 1
 ZONE_KEYS = ("x", "y", "lon", "lat", "diameter", "top", "id")
 DOCUMENT_KEYS = ("terrapath", "name", "danger_zones")
 GEOJSON_SUFFIXES = (".json", ".geojson")
