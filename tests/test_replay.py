@@ -251,3 +251,28 @@ def test_corrupt_mcap_is_refused_in_one_line(
         err = capsys.readouterr().err
         assert err.startswith("terrapath: error: ") and "bad.mcap" in err and err.count("\n") == 1
     assert not (tmp_path / "y.mcap").exists()
+
+
+def test_vehicle_file_is_used_and_stored(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = "terrapath: 1\nname: heavy-solar\nbase: solar-uav\nmass: 7.0\n"
+    _write(tmp_path / "heavy.yaml", text)
+    monkeypatch.chdir(tmp_path)  # --vehicle paths are relative to the working directory
+    out = tmp_path / "v.mcap"
+    assert (
+        main(
+            ["replay", str(MISSION), "--vehicle", "heavy.yaml", "--duration", "30", "-o", str(out)]
+        )
+        == 0
+    )
+    run = load_run(out, with_states=False)
+    assert run.attachments["vehicle.yaml"].decode() == text
+    assert run.metadata["vehicle"] == "heavy-solar"
+    capsys.readouterr()
+    bad = _write(tmp_path / "bad.yaml", "terrapath: 1\nname: x\nbase: solar-uav\nmass: -1\n")
+    assert (
+        main(["replay", str(MISSION), "--vehicle", str(bad), "-o", str(tmp_path / "w.mcap")]) == 1
+    )
+    err = capsys.readouterr().err
+    assert "bad.yaml" in err and "mass" in err and err.count("\n") == 1

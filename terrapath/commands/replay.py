@@ -125,7 +125,8 @@ def replay_cmd(
         )
     mission, old, old_threats = _load_source(source)
     grid = mission.terrain.load() if mission.terrain is not None else None
-    base_dir = Path(source).resolve().parent
+    # --vehicle paths are relative to the working directory, the mission's `vehicle:` to its file
+    base_dir = Path.cwd() if vehicle else Path(source).resolve().parent
     vehicle_name = vehicle or mission.vehicle
     params = load_vehicle(vehicle_name, base_dir=base_dir)
     avoider = make_avoider(avoid)
