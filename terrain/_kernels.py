@@ -74,6 +74,10 @@ def below_lengths(
         z0 = seg[i, 4]
         z1 = seg[i, 5]
         length = seg[i, 6]
+        # walk from the lexicographically smaller end, so a segment and its reverse visit the
+        # same cells (Bresenham's tie-breaks depend on the direction)
+        if (fr1, fc1, z1) < (fr0, fc0, z0):
+            fr0, fc0, z0, fr1, fc1, z1 = fr1, fc1, z1, fr0, fc0, z0
         r0 = int(np.floor(fr0 + 0.5))
         c0 = int(np.floor(fc0 + 0.5))
         r1 = int(np.floor(fr1 + 0.5))

@@ -4,7 +4,8 @@ Seed 002 compares the altitude of the trajectory with the terrain "in a discrete
 Bresenham's line drawing algorithm". Here that is made exact and vectorised:
 
 - each segment's ends are mapped to fractional grid indices; the end cells are the cells that
-  contain the ends; the integer Bresenham line between them gives the visited cells (8-connected,
+  contain the ends; the walk starts at the lexicographically smaller end (row, col, z), so a
+  segment and its reverse give the same length (Bresenham's tie-breaks depend on direction); the integer Bresenham line between them gives the visited cells (8-connected,
   one cell per step of the major axis);
 - cell k stands for the part of the segment between the midpoints of t_{k-1}, t_k, t_{k+1}, where
   t_k is the parameter at which the major-axis coordinate of the segment reaches the cell centre
@@ -91,6 +92,12 @@ def below_terrain_lengths_numpy(
     m = seg.shape[0]
     if m == 0:
         return np.zeros(0)
+    # walk from the lexicographically smaller end (as the kernel does)
+    a, b = seg[:, [0, 1, 4]], seg[:, [2, 3, 5]]
+    first = np.argmax(a != b, axis=1)
+    rows = np.arange(m)
+    flip = (a != b).any(axis=1) & (b[rows, first] < a[rows, first])
+    seg[flip] = seg[flip][:, [2, 3, 0, 1, 5, 4, 6]]
     r0 = np.floor(seg[:, 0] + 0.5).astype(np.int64)
     c0 = np.floor(seg[:, 1] + 0.5).astype(np.int64)
     r1 = np.floor(seg[:, 2] + 0.5).astype(np.int64)
