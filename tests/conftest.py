@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +15,11 @@ from hypothesis import settings
 from terrain.grid import HeightGrid
 
 # JIT compilation makes first calls slow and CI machines are noisy: no per-example deadline.
-settings.register_profile("terrapath", deadline=None, print_blob=True)
+# In CI (CI=true) the examples are derandomized so a run is reproducible; locally Hypothesis keeps
+# exploring new examples.
+settings.register_profile(
+    "terrapath", deadline=None, print_blob=True, derandomize=bool(os.environ.get("CI"))
+)
 settings.load_profile("terrapath")
 
 ROOT = Path(__file__).resolve().parents[1]
