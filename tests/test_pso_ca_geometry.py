@@ -1,0 +1,275 @@
+"""Exact geometric cases for the PSO-CA building blocks (seed 000 §2.3, §3, eq 27, Table 4)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from replay.avoidance.pso_ca_geometry import (
+    PsoCaParams,
+    WaypointProblem,
+    brute_force_waypoint,
+    closest_first,
+    continuous_mask,
+    group_obstacles,
+    near_end_waypoint,
+    obstacle_between,
+    search_grid,
+    segment_clearance,
+    segment_hits_sphere,
+    segment_sphere_intersections,
+    tangent_points,
+    tangent_seed_points,
+)
+from terrain.errors import InputError
+
+# Table 4 / §6 obstacles (z = 200 m, as the waypoints)
+OBS = np.array(
+    [[60000, 7000], [135000, 12000], [290400, 17300], [290200, 17400], [290000, 17500]], float
+)
+
+
+# -- eqs 22-26 ----------------------------------------------------------------------------------
+def test_segment_through_centre_has_exact_entry_and_exit():
+    r = segment_sphere_intersections([0, 0, 0], [10, 0, 0], [[5, 0, 0]], 1.0)
+    assert r.hit.tolist() == [True]
+    assert r.t_enter[0] == pytest.approx(0.4)
+    assert r.t_exit[0] == pytest.approx(0.6)
+    assert r.discriminant[0] == pytest.approx(4 * 100 * 1.0)  # b^2 - 4ac = 4 a r^2 through centre
+
+
+def test_segment_passing_at_1001_radius_misses_and_tangent_hits():
+    centres = [[5, 1.001, 0], [5, 1.0, 0]]
+    r = segment_sphere_intersections([0, 0, 0], [10, 0, 0], centres, 1.0)
+    assert r.hit.tolist() == [False, True]  # eq 26: tangency is a collision
+    assert r.discriminant[0] < 0 and np.isnan(r.t_enter[0])
+    assert r.t_enter[1] == pytest.approx(0.5) and r.t_exit[1] == pytest.approx(0.5)
+
+
+def test_segment_ending_before_or_starting_after_the_sphere_misses():
+    # the infinite line of eq 26 meets both spheres (discriminant > 0); the segment does not
+    r = segment_sphere_intersections([0, 0], [3, 0], [[5, 0], [-5, 0]], 1.0)
+    assert r.hit.tolist() == [False, False]
+    assert np.all(r.discriminant > 0)
+    assert r.t_enter[0] == pytest.approx(4 / 3)
+    assert r.t_exit[1] == pytest.approx(-4 / 3)
+
+
+def test_start_inside_sphere_hits_and_radius_per_obstacle():
+    r = segment_sphere_intersections([0, 0], [10, 0], [[0.5, 0], [5, 3]], [1.0, 3.0])
+    assert r.hit.tolist() == [True, True]
+    assert r.t_enter[0] < 0 <= r.t_exit[0]
+
+
+def test_degenerate_segment_is_a_point_test():
+    assert segment_hits_sphere([1, 1], [1, 1], [[1, 1.5], [1, 3]], 1.0).tolist() == [True, False]
+
+
+def test_table4_leg_hits_obstacle_2_not_obstacle_1():
+    assert segment_hits_sphere(
+        [100000, 11000, 200], [200000, 15000, 200], [[135000, 12000, 200]], 1000.0
+    )[0]
+    assert not segment_hits_sphere(
+        [20000, 1000, 200], [70000, 6500, 200], [[60000, 7000, 200]], 1000.0
+    )[0]
+    # the 2D and 3D tests agree at constant altitude, for all five obstacles at once
+    hits = segment_hits_sphere([100000, 11000], [200000, 15000], OBS, 1000.0)
+    assert hits.tolist() == [False, True, False, False, False]
+
+
+def test_segment_clearance_matches_the_hit_test():
+    rng = np.random.default_rng(3)
+    p0, p1 = rng.uniform(-10, 10, (50, 2)), rng.uniform(-10, 10, (50, 2))
+    c = rng.uniform(-10, 10, (7, 2))
+    clear = segment_clearance(p0, p1, c)
+    for i in range(50):
+        hit = segment_hits_sphere(p0[i], p1[i], c, 2.0)
+        assert np.array_equal(hit, clear[i] <= 2.0)
+
+
+# -- Figs 8-10, §5.3 ----------------------------------------------------------------------------
+def test_table4_obstacles_group_as_paper_says():
+    groups = group_obstacles(OBS)
+    assert [g.tolist() for g in groups] == [[0], [1], [2, 3, 4]]
+    assert continuous_mask(OBS).tolist() == [False, False, True, True, True]
+    obs3 = np.column_stack([OBS, np.full(5, 200.0)])
+    assert [g.tolist() for g in group_obstacles(obs3)] == [[0], [1], [2, 3, 4]]
+
+
+def test_near_end_between_and_ordering():
+    wp = [200000, 15000]
+    assert near_end_waypoint([[200500, 15000], [201000, 15000], [198000, 15000]], wp).tolist() == [
+        True,
+        False,  # exactly 1 km: "Distance < safety distance" is strict
+        False,
+    ]
+    pos = [100000, 11000]
+    obs = [[135000, 12000], [210000, 15000], [90000, 11000]]
+    assert obstacle_between(pos, wp, obs).tolist() == [True, False, True]  # Fig. 10: range only
+    assert obstacle_between(pos, wp, obs, along_track=True).tolist() == [True, False, False]
+    assert closest_first(pos, obs).tolist() == [2, 0, 1]
+
+
+# -- eq 27 --------------------------------------------------------------------------------------
+def test_tangent_points_exact():
+    tp = tangent_points([0, 0], [10000, 0], 2000.0)
+    s = math.sqrt(10000**2 - 2000**2)
+    np.testing.assert_allclose(tp, [[9600, 2000 * s / 10000], [9600, -2000 * s / 10000]])
+    o = np.array([10000.0, 0.0])
+    for t in tp:
+        assert math.hypot(*(t - o)) == pytest.approx(2000.0)
+        assert np.dot(t - o, t) == pytest.approx(0.0, abs=1e-6)  # radius ⟂ line of sight
+
+
+def test_tangent_points_any_direction_left_first():
+    a, o = np.array([500.0, -300.0]), np.array([-4000.0, 6000.0])
+    tp = tangent_points(a, o, 1500.0)
+    los = o - a
+    cross = los[0] * (tp[:, 1] - a[1]) - los[1] * (tp[:, 0] - a[0])
+    assert cross[0] > 0 > cross[1]
+    np.testing.assert_allclose(np.hypot(*(tp - o).T), 1500.0)
+    np.testing.assert_allclose(np.einsum("kd,kd->k", tp - o, tp - a), 0.0, atol=1e-6)
+    with pytest.raises(InputError):
+        tangent_points([0, 0], [1000, 0], 2000.0)
+
+
+def test_tangent_seed_points_on_circle_both_sides_and_deterministic():
+    a, o, r = np.array([125000.0, 11600.0]), np.array([135000.0, 12000.0]), 2000.0
+    seeds = tangent_seed_points(a, o, r, n=10, rng=np.random.default_rng(1))
+    assert seeds.shape == (10, 2)
+    np.testing.assert_allclose(seeds[:2], tangent_points(a, o, r))
+    d = np.hypot(*(seeds - o).T)
+    assert np.all(d >= r - 1e-6) and np.all(d <= 1.1 * r + 1e-6)
+    los = o - a
+    cross = los[0] * (seeds[:, 1] - a[1]) - los[1] * (seeds[:, 0] - a[0])
+    assert (cross > 0).sum() >= 3 and (cross < 0).sum() >= 3
+    np.testing.assert_array_equal(seeds, tangent_seed_points(a, o, r, n=10, rng=1))
+    np.testing.assert_array_equal(
+        tangent_seed_points(a, o, r, n=10, rng=1), tangent_seed_points(a, o, r, n=10, rng=1)
+    )
+    # every seed satisfies g1 of the matching problem
+    prob = WaypointProblem(a, [200000, 15000], o)
+    assert np.all(prob.constraint_report(seeds).g1 >= -1e-6)
+
+
+def test_seed_points_when_aircraft_inside_the_circle():
+    seeds = tangent_seed_points([0, 0], [1000, 0], 2000.0, n=4, rng=0)
+    np.testing.assert_allclose(seeds[:2], [[1000, 2000], [1000, -2000]], atol=1e-9)
+
+
+# -- eqs 2-12 -----------------------------------------------------------------------------------
+def _problem(**params):
+    return WaypointProblem([0, 0], [20000, 0], [[10000, 0]], params=PsoCaParams(**params))
+
+
+def test_constraints_on_hand_made_candidates():
+    prob = _problem()
+    X = np.array([[10000, 2500], [10000, 1500], [6000, 0], [15000, 1000]], float)
+    rep = prob.constraint_report(X)
+    L = math.hypot(10000, 2500)
+    np.testing.assert_allclose(rep.g1, [500, -500, 2000, math.hypot(5000, 1000) - 2000])
+    np.testing.assert_allclose(rep.g2, [1500, 2500, 0, 4000 - math.hypot(5000, 1000)])
+    # g3: segment (10000, 2500) -> (20000, 0) passes 2.5e7 / L from the centre
+    assert rep.g3[0] == pytest.approx(2.5e7 / L - 1000)
+    assert rep.g3[2] == pytest.approx(-1000)  # (6000, 0) -> (20000, 0) goes through the centre
+    assert rep.g5[2] == pytest.approx(3000)  # (0, 0) -> (6000, 0) stops 4 km short
+    theta = 2 * math.atan(0.25)
+    assert rep.turn_angle[0] == pytest.approx(theta)
+    R = 15.0**2 / (9.81 * math.tan(math.radians(30)))
+    assert prob.params.turn_radius == pytest.approx(R)
+    assert rep.g4[0] == pytest.approx(L - R * math.tan(theta / 2))
+    assert rep.feasible.tolist() == [True, False, False, False]
+    assert rep.violation[1] == pytest.approx(500)
+
+
+def test_g4_rejects_a_hairpin_and_g2_aircraft_centre():
+    prob = WaypointProblem([0, 0], [20000, 0], [[20000, 3000]])
+    rep = prob.constraint_report([[20030, 5]])
+    theta = math.pi - math.atan2(5, 30) + math.atan2(5, 20030)  # from course +b to 180° + a
+    R = prob.params.turn_radius
+    assert rep.turn_angle[0] == pytest.approx(theta)
+    assert rep.g4[0] == pytest.approx(math.hypot(30, 5) - R * math.tan(theta / 2))
+    assert rep.g4[0] < 0 and not rep.feasible[0]
+    air = _problem(g2_centre="aircraft").constraint_report([[3000, 0], [10000, 2500]])
+    np.testing.assert_allclose(air.g2, [1000, 4000 - math.hypot(10000, 2500)])
+
+
+def test_objective_terms_eqs_2_to_6():
+    prob = WaypointProblem([0, 0], [20000, 0], [[10000, 0]], others=[[10000, 4000], [0, 9000]])
+    X = np.array([[10000, 2500], [10000, -2500]])
+    t = prob.terms(X)
+    np.testing.assert_allclose(t.f1, 2 * math.hypot(10000, 2500))
+    # only the first obstacle is within MXRSK = 3 km of the first candidate (1.5 km away)
+    np.testing.assert_allclose(t.f2, [(3000 - 1500) ** 2, 0.0])
+    np.testing.assert_allclose(t.f, 0.1 * t.f1 + 0.9 * t.f2)
+    np.testing.assert_allclose(t.penalised, t.f)  # both feasible
+    assert t.f[1] < t.f[0]  # risk makes the right side better
+    bad = prob(np.array([[10000, 1000]]))
+    assert bad[0] > 1e12
+    norm = WaypointProblem(
+        [0, 0], [20000, 0], [[10000, 0]], others=[[10000, 4000]], params=PsoCaParams(normalise=True)
+    ).terms(X)
+    np.testing.assert_allclose(norm.f1, 2 * math.hypot(10000, 2500) / 20000)
+    np.testing.assert_allclose(norm.f2, [0.25, 0.0])
+
+
+def test_penalty_orders_infeasible_after_feasible_and_guides():
+    prob = _problem()
+    F = prob(np.array([[10000, 2500], [10000, 1900], [10000, 1000]]))
+    assert F[0] < F[1] < F[2]
+
+
+def test_paper_table4_waypoints_against_eq8_and_g3():
+    """Table 4's PSO waypoints lie 5.3-5.8 km from the avoided obstacle, outside eq 8's 4 km; the
+    hill waypoint's outgoing segment clears the safety sphere by a few metres (g3 active)."""
+    p2 = WaypointProblem([125000, 11600], [200000, 15000], [[135000, 12000]])
+    rep = p2.constraint_report([[130190, 14153]])
+    assert rep.g2[0] < 0 and rep.g1[0] > 0 and rep.g3[0] > 0
+    hill = WaypointProblem([280000, 17650], [350000, 20000], OBS[2:])
+    rep = hill.constraint_report([[284710, 18371]])
+    assert 0 < rep.g3[0] < 10
+    assert rep.g2[0] < 0
+
+
+# -- brute force --------------------------------------------------------------------------------
+def test_brute_force_optimum_is_feasible_and_minimal():
+    prob = WaypointProblem([0, 0], [20000, 0], [[10000, 0]], others=[[10000, -3500]])
+    res = brute_force_waypoint(prob, step=50.0)
+    assert res.status == "feasible"
+    rep = prob.constraint_report(res.xy[None])
+    assert rep.feasible[0]
+    assert res.xy[1] > 0  # the other obstacle below pushes it up
+    grid = search_grid(prob, 50.0)
+    assert res.evaluations == len(grid)
+    t = prob.terms(grid)
+    assert np.all(t.f[t.report.feasible] >= res.f)
+    assert res.f == pytest.approx(0.1 * res.f1 + 0.9 * res.f2)
+    # no seed point beats it either
+    seeds = tangent_seed_points([0, 0], [10000, 0], 2000.0, rng=0)
+    assert np.all(prob(seeds) >= res.f - 1e-9)
+
+
+def test_brute_force_chunks_agree_and_infeasible_status():
+    prob = WaypointProblem([0, 0], [20000, 0], [[10000, 0]], others=[[10000, -3500]])
+    a = brute_force_waypoint(prob, step=100.0)
+    b = brute_force_waypoint(prob, step=100.0, chunk=97)
+    np.testing.assert_array_equal(a.xy, b.xy)
+    # the next waypoint inside the safety sphere: g3 can never hold (Fig. 9 case)
+    stuck = WaypointProblem([0, 0], [10300, 0], [[10000, 0]])
+    assert brute_force_waypoint(stuck, step=200.0).status == "infeasible"
+
+
+def test_pso_from_tangent_seeds_reaches_the_grid_optimum():
+    from planner.optim import make_optimizer
+
+    prob = WaypointProblem([0, 0], [20000, 0], [[10000, 0]], others=[[10000, -3500]])
+    lo, hi = prob.bounds()
+    seeds = tangent_seed_points([0, 0], [10000, 0], 2000.0, n=10, rng=0)
+    seeds = np.clip(seeds, lo, hi)
+    opt = make_optimizer("pso", pop_size=10, max_iterations=60)
+    out = opt.run(prob, lo, hi, seed=0, x0=seeds)
+    best = brute_force_waypoint(prob, step=25.0)
+    assert prob.constraint_report(out.x[None]).feasible[0]
+    assert out.f <= best.f * 1.01
