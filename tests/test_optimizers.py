@@ -558,12 +558,24 @@ def test_swarm_radius_is_the_normalised_spread_around_the_best() -> None:
 
 
 def test_registry_names_and_unknown_names() -> None:
-    assert OPTIMIZERS == {"pso": PSO, "apso": AdaptivePSO, "ampso": AMPSO, "ga": GA}
+    from planner.optim import GCPSO, MAFOA, MPSO, SA
+
+    assert OPTIMIZERS == {
+        "pso": PSO,
+        "apso": AdaptivePSO,
+        "ampso": AMPSO,
+        "ga": GA,
+        "sa": SA,
+        "mafoa": MAFOA,
+        "gcpso": GCPSO,
+        "mpso": MPSO,
+    }
     assert make_optimizer("ampso", pop_size=12).params["pop_size"] == 12
     with pytest.raises(
-        InputError, match="unknown optimiser 'sa'; expected one of ampso, apso, ga, pso"
+        InputError,
+        match="unknown optimiser 'nope'; expected one of ampso, apso, ga, gcpso, mafoa, mpso, pso, sa",
     ):
-        make_optimizer("sa")
+        make_optimizer("nope")
     with pytest.raises(InputError, match="unknown parameter 'popsize' for optimiser 'pso'"):
         make_optimizer("pso", popsize=10)
 

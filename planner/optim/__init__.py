@@ -15,8 +15,10 @@ import inspect
 from typing import Any
 
 from planner.optim.base import Objective, Optimizer, OptimizeResult, Seed
+from planner.optim.foa import MAFOA
 from planner.optim.ga import GA
-from planner.optim.pso import AMPSO, PSO, AdaptivePSO
+from planner.optim.pso import AMPSO, GCPSO, MPSO, PSO, AdaptivePSO
+from planner.optim.sa import SA
 from planner.optim.termination import (
     AnyOf,
     MaxEvaluations,
@@ -32,6 +34,10 @@ OPTIMIZERS: dict[str, type[Optimizer]] = {
     "apso": AdaptivePSO,
     "ampso": AMPSO,
     "ga": GA,
+    "sa": SA,
+    "mafoa": MAFOA,
+    "gcpso": GCPSO,
+    "mpso": MPSO,
 }
 
 
@@ -55,8 +61,12 @@ def make_optimizer(name: str, **params: Any) -> Optimizer:
 __all__ = [
     "AMPSO",
     "GA",
+    "GCPSO",
+    "MAFOA",
+    "MPSO",
     "OPTIMIZERS",
     "PSO",
+    "SA",
     "AdaptivePSO",
     "AnyOf",
     "MaxEvaluations",

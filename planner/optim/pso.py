@@ -347,3 +347,224 @@ class AMPSO(AdaptivePSO):
         self._x[rows] = M[accepted]
         self._fx[rows] = FM[accepted]
         self._update_pbest(rows)
+
+
+# --------------------------------------------------------------------------- seed 000 §6 variants
+
+__all__ += ["GCPSO", "MPSO"]
+
+SEED000_PSO: dict[str, Any] = {
+    "pop_size": 10,
+    "w": (0.09, 0.02),
+    "c1": 2.0,
+    "c2": 2.0,
+    "vmax_frac": 0.1,
+    "max_iterations": 30,
+}
+"""Seed 000 Table 2 (PSO-CA): the base of its GCPSO and MPSO comparison (§6, Table 7)."""
+
+
+class GCPSO(PSO):
+    """Guaranteed-convergence PSO (van den Bergh & Engelbrecht 2002), seed 000 §6 / Table 7.
+
+    Every particle but one moves by eqs 12-13 (:class:`PSO`). The global-best particle τ (the one
+    whose pbest is the global best ŷ: lowest pbest cost, first on ties) instead moves by
+
+        v_τ <- ŷ - x_τ + w v_τ + ρ(t) (1 - 2 r),   r ~ U[0, 1)^D
+        x_τ <- x_τ + v_τ  (= ŷ + w v_τ + ρ(t)(1 - 2 r): a random search in a box of radius ρ
+                            around ŷ, so the best particle never stalls with zero velocity)
+
+    with ρ_d(t) = ``rho`` (t) * (upper_d - lower_d), i.e. ρ is a fraction of the box (the paper's
+    ρ(0) = 1.0 is in the units of x; on its [-5.12, 5.12] Rastrigin box that is ~0.1 of the range,
+    hence ``rho0 = 0.1``). τ's velocity is not clamped to vmax (clamping would stop the move from
+    landing around ŷ when x_τ has drifted from it); the wall (clip/reflect) applies as for the others.
+
+    After the move is evaluated, iteration t is a *success* if the global best improved (strictly)
+    and a *failure* otherwise; consecutive counts are kept (a success zeroes the failure count and
+    vice versa) and ρ for the next move is
+
+        ρ <- 2 ρ    if #successes > s_c        ρ <- ρ / 2    if #failures > f_c
+
+    (the paper's strict ">", s_c = 15, f_c = 5: the first doubling follows the 16th consecutive
+    success, the first halving the 6th consecutive failure, and ρ keeps changing at each further
+    consecutive one). Defaults: seed 000 Table 2's PSO (:data:`SEED000_PSO`) plus those.
+    """
+
+    name = "gcpso"
+
+    def __init__(
+        self,
+        *,
+        pop_size: int = 10,
+        w: Coefficient = (0.09, 0.02),
+        c1: Coefficient = 2.0,
+        c2: Coefficient = 2.0,
+        vmax_frac: float = 0.1,
+        init_velocity: str = "zero",
+        boundary: str = "clip",
+        max_iterations: int = 30,
+        rho0: float = 0.1,
+        s_c: int = 15,
+        f_c: int = 5,
+    ) -> None:
+        super().__init__(
+            pop_size=pop_size,
+            w=w,
+            c1=c1,
+            c2=c2,
+            vmax_frac=vmax_frac,
+            init_velocity=init_velocity,
+            boundary=boundary,
+            max_iterations=max_iterations,
+        )
+        self.rho0 = require_real("rho0", rho0, 0.0, 1e6, open_low=True)
+        self.s_c = require_int("s_c", s_c, 0)
+        self.f_c = require_int("f_c", f_c, 0)
+        self._rho = self.rho0
+        self._successes = 0
+        self._failures = 0
+
+    @property
+    def params(self) -> dict[str, Any]:
+        return {**super().params, "rho0": self.rho0, "s_c": self.s_c, "f_c": self.f_c}
+
+    @property
+    def rho(self) -> float:
+        """ρ (fraction of the range) for the next move of the global-best particle."""
+        return self._rho
+
+    @property
+    def successes(self) -> int:
+        return self._successes
+
+    @property
+    def failures(self) -> int:
+        return self._failures
+
+    def global_best_particle(self) -> int:
+        """Index τ of the particle whose pbest is the global best (first on ties)."""
+        return int(np.argmin(self._pbest_f))
+
+    def _initialize(self, x0: FloatArray | None) -> None:
+        super()._initialize(x0)
+        self._rho, self._successes, self._failures = self.rho0, 0, 0
+
+    def _iterate(self) -> None:
+        t = self._iteration + 1
+        w, c1, c2 = self.coefficients(t)
+        X, V0 = self._x, self._v
+        tau = self.global_best_particle()
+        r1 = self._rng.random(X.shape)
+        r2 = self._rng.random(X.shape)
+        r3 = self._rng.random(X.shape[1])
+        V = w * V0 + c1 * r1 * (self._pbest - X) + c2 * r2 * (self._best_x - X)
+        V = ops.clamp_velocity(V, self._vmax)
+        V[tau] = self._best_x - X[tau] + w * V0[tau] + self._rho * self._range * (1.0 - 2.0 * r3)
+        wall = ops.absorb if self.boundary == "clip" else ops.bounce
+        X, V = wall(X + V, V, self._lower, self._upper)
+        before = self._best_f
+        self._x, self._v = X, V
+        self._fx = self._evaluate(X)
+        self._update_pbest(np.arange(self.pop_size))
+        if self._best_f < before:
+            self._successes, self._failures = self._successes + 1, 0
+        else:
+            self._successes, self._failures = 0, self._failures + 1
+        if self._successes > self.s_c:
+            self._rho *= 2.0
+        elif self._failures > self.f_c:
+            self._rho *= 0.5
+
+
+class MPSO(PSO):
+    """Multi-start PSO ("MPSO (slope)" of seed 000 §6 / Table 7, after van den Bergh 2002).
+
+    A PSO (eqs 12-13) that restarts its swarm when the best cost stops changing: a counter of
+    consecutive *moves* whose best-so-far improved by at most ``restart_tol`` (default 0: not at
+    all) is kept; when it reaches ``restart_after`` (seed 000: 5), the next iteration is a restart
+    instead of a move, and the counter starts again from 0 (the restart itself is not counted). A
+    restart re-initialises every particle except the global-best one τ (lowest pbest cost, first
+    on ties): new positions uniform in the box, velocities as at the start (zero by default), pbest
+    = the new positions, all evaluated in that iteration's one call of f (P - 1 rows). τ keeps its
+    position, velocity and pbest, so the global best is kept and the new swarm is drawn towards it.
+    The restarts done are listed (by iteration) in :attr:`restarts`.
+
+    Defaults: seed 000 Table 2's PSO (:data:`SEED000_PSO`), restart after 5 unchanged iterations.
+    """
+
+    name = "mpso"
+
+    def __init__(
+        self,
+        *,
+        pop_size: int = 10,
+        w: Coefficient = (0.09, 0.02),
+        c1: Coefficient = 2.0,
+        c2: Coefficient = 2.0,
+        vmax_frac: float = 0.1,
+        init_velocity: str = "zero",
+        boundary: str = "clip",
+        max_iterations: int = 30,
+        restart_after: int = 5,
+        restart_tol: float = 0.0,
+    ) -> None:
+        super().__init__(
+            pop_size=pop_size,
+            w=w,
+            c1=c1,
+            c2=c2,
+            vmax_frac=vmax_frac,
+            init_velocity=init_velocity,
+            boundary=boundary,
+            max_iterations=max_iterations,
+        )
+        self.restart_after = require_int("restart_after", restart_after, 1)
+        self.restart_tol = require_real("restart_tol", restart_tol, 0.0)
+        self._unchanged = 0
+        self._restarts: list[int] = []
+
+    @property
+    def params(self) -> dict[str, Any]:
+        return {
+            **super().params,
+            "restart_after": self.restart_after,
+            "restart_tol": self.restart_tol,
+        }
+
+    @property
+    def restarts(self) -> list[int]:
+        """Iterations at which the swarm was restarted, in order."""
+        return list(self._restarts)
+
+    @property
+    def unchanged(self) -> int:
+        """Consecutive moves without improvement since the last improvement or restart."""
+        return self._unchanged
+
+    def _initialize(self, x0: FloatArray | None) -> None:
+        super()._initialize(x0)
+        self._unchanged = 0
+        self._restarts = []
+
+    def _iterate(self) -> None:
+        if self._unchanged >= self.restart_after:
+            self._restart()
+            self._unchanged = 0
+            self._restarts.append(self._iteration + 1)
+            return
+        before = self._best_f
+        super()._iterate()
+        improved = before - self._best_f > self.restart_tol  # inf - inf = nan: not improved
+        self._unchanged = 0 if improved else self._unchanged + 1
+
+    def _restart(self) -> None:
+        tau = int(np.argmin(self._pbest_f))
+        rows = np.flatnonzero(np.arange(self.pop_size) != tau)
+        X = self._random_points(rows.size)
+        if self.init_velocity == "uniform":
+            V = (2.0 * self._rng.random(X.shape) - 1.0) * self._vmax
+        else:
+            V = np.zeros_like(X)
+        F = self._evaluate(X)
+        self._x[rows], self._v[rows], self._fx[rows] = X, V, F
+        self._pbest[rows], self._pbest_f[rows] = X, F
