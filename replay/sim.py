@@ -371,7 +371,7 @@ def _apply(
     if decision.waypoints is not None:
         before = len(autopilot.waypoints)
         nxt = decision.next_index if decision.next_index is not None else autopilot.next_index
-        autopilot.set_waypoints(decision.waypoints, nxt)
+        autopilot.set_waypoints(decision.waypoints, nxt, direct=decision.direct)
         added = max(0, len(decision.waypoints) - before)
         if recorder is not None:
             recorder.write_waypoints(

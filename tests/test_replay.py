@@ -276,3 +276,31 @@ def test_vehicle_file_is_used_and_stored(
     )
     err = capsys.readouterr().err
     assert "bad.yaml" in err and "mass" in err and err.count("\n") == 1
+
+
+def test_pso_ca_avoids_the_table4_obstacles() -> None:
+    """Seed 000 Table 4 with PSO-CA: obstacle 1 (off the path) triggers nothing; obstacle 2 and
+    the group of three get one new waypoint each, every constraint holds, no safety sphere is
+    entered, and the optimised waypoint list is no longer than the paper's PSO figure."""
+    from replay.avoidance import make_avoider
+
+    m = load_mission(MISSION)
+    r = simulate(
+        m,
+        load_threats(TABLE4),
+        make_avoider("pso-ca"),
+        load_vehicle(m.vehicle),
+        config=ReplayConfig(seed=0),
+    )
+    met = r.metrics
+    assert met.success and not met.violations and met.reached_goal
+    assert met.waypoints_added == 2 and len(r.decisions) == 2
+    # the group is seen from its near end first (§5.3: only what the radar sees at once is
+    # grouped); one waypoint clears all three
+    assert r.decisions[0]["obstacles"] == ["obs2"]
+    assert set(r.decisions[1]["obstacles"]) <= {"obs3", "obs4", "obs5"}
+    for d in r.decisions:
+        assert d["feasible"] and all(v >= 0.0 for v in d["g"].values()), d
+    assert all(s["value"] > 0.0 for s in met.min_separation.values())
+    length = float(np.linalg.norm(np.diff(r.waypoints[:, :2], axis=0), axis=1).sum())
+    assert length <= 431_730.0  # Table 4, PSO

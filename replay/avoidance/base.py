@@ -49,6 +49,7 @@ class AvoidanceDecision:
     waypoints: FloatArray | None = None
     next_index: int | None = None
     guidance: dict[str, float] | None = None
+    direct: bool = False  # fly from the aircraft's position to waypoints[next_index]
     reason: str = ""
     info: dict[str, Any] = field(default_factory=dict)
 
@@ -76,8 +77,14 @@ class NoAvoidance:
 AVOIDERS: dict[str, Callable[..., Avoider]] = {"none": NoAvoidance}
 
 
+def _register_builtin() -> None:
+    """Import the avoider modules so they add themselves to :data:`AVOIDERS`."""
+    import replay.avoidance.pso_ca  # noqa: F401
+
+
 def make_avoider(name: str, **options: Any) -> Avoider:
     """The avoider registered under ``name`` (later issues add pso-ca, ctga, fga, priority)."""
+    _register_builtin()
     try:
         factory = AVOIDERS[name]
     except KeyError:

@@ -52,7 +52,7 @@ def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
     "--avoid",
     default="none",
     show_default=True,
-    help="Avoidance algorithm (none = keep the mission).",
+    help="Avoidance algorithm: none (keep the mission) or pso-ca (seed 000; first version: stationary obstacles).",
 )
 @click.option("--vehicle", default=None, help="Vehicle preset or file (default: the mission's).")
 @click.option(
