@@ -7,38 +7,34 @@ import json
 import numpy as np
 import pytest
 
-from planner.plan import plan
-from tests.golden.scenarios import GOLDEN, SCENARIOS, SEEDS
+from tests.golden.scenarios import ALGORITHMS, GOLDEN, MAPS
 
 GOLD = json.loads(GOLDEN.read_text())
+CASES = [(sc, alg) for sc in MAPS for alg in ALGORITHMS]
 
 
-@pytest.mark.parametrize("scenario", SCENARIOS, ids=lambda s: s.name)
-def test_scenario_matches_golden(scenario) -> None:  # type: ignore[no-untyped-def]
-    gold = GOLD[scenario.name]
+@pytest.mark.parametrize(("scenario", "algorithm"), CASES, ids=[f"{s.name}-{a}" for s, a in CASES])
+def test_plan_matches_golden(scenario, algorithm: str) -> None:  # type: ignore[no-untyped-def]
+    if not scenario.available():
+        pytest.skip(f"{scenario.dem} not found")
+    gold = GOLD[f"{scenario.name}/{algorithm}"]
     problem = scenario.problem()
-    costs, feasible = [], 0
-    for seed in SEEDS:
-        r = plan(
-            problem,
-            scenario.algorithm,
-            seed=seed,
-            population=scenario.population,
-            iterations=scenario.iterations,
-        )
-        costs.append(r.terms["total"])
-        path = r.waypoints
-        np.testing.assert_array_equal(path[0], problem.start)
-        np.testing.assert_array_equal(path[-1], problem.goal)
-        lo, hi = problem.bounds()
-        inner = path[1:-1].ravel()
-        assert ((inner >= lo) & (inner <= hi)).all()
-        if r.feasible:
-            feasible += 1
-            assert r.terms["below_terrain_m"] == 0.0 and r.terms["collision"] == 0.0
-            if scenario.avoid_zones:
-                assert r.terms["inside_zones_m"] == 0.0
-        else:
-            assert r.violations and r.terms["total"] > 3.0
-    assert feasible >= gold["feasible"]
-    assert np.mean(costs) == pytest.approx(gold["mean_cost"], rel=0.03)
+    r = scenario.run(algorithm, problem)
+    path = r.waypoints
+    np.testing.assert_array_equal(path[0], problem.start)  # starts and ends where asked
+    np.testing.assert_array_equal(path[-1], problem.goal)
+    lo, hi = problem.bounds()
+    inner = path[1:-1].ravel()
+    assert ((inner >= lo) & (inner <= hi)).all()
+    assert r.status == gold["status"]
+    if gold["status"] == "feasible":
+        assert r.terms["below_terrain_m"] == 0.0 and r.terms["collision"] == 0.0
+        assert r.terms["inside_zones_m"] == 0.0  # zones are hard constraints here
+        assert r.terms["min_clearance_m"] > 0.0  # clear of the real (bilinear) surface
+    else:
+        assert r.violations and r.terms["total"] > 3.0
+    assert r.terms["total"] == pytest.approx(gold["cost"], rel=0.03)
+
+
+def test_golden_records_every_map_and_algorithm() -> None:
+    assert set(GOLD) == {f"{s.name}/{a}" for s in MAPS for a in ALGORITHMS}

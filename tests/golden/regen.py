@@ -4,22 +4,22 @@ from __future__ import annotations
 
 import json
 
-from tests.golden.scenarios import GOLDEN, SCENARIOS
+from tests.golden.scenarios import ALGORITHMS, GOLDEN, MAPS, SEED
 
 
 def main() -> None:
-    data = {}
-    for sc in SCENARIOS:
-        runs = sc.run()
-        costs = [float(r["cost"]) for r in runs]
-        data[sc.name] = {
-            "runs": runs,
-            "mean_cost": sum(costs) / len(costs),
-            "feasible": sum(bool(r["feasible"]) for r in runs),
-        }
-        print(
-            f"{sc.name:22s} mean cost {data[sc.name]['mean_cost']:.5f}  feasible {data[sc.name]['feasible']}/{len(runs)}"
-        )
+    data: dict[str, dict[str, object]] = {}
+    for sc in MAPS:
+        problem = sc.problem()
+        for alg in ALGORITHMS:
+            r = sc.run(alg, problem)
+            data[f"{sc.name}/{alg}"] = {
+                "seed": SEED,
+                "status": r.status,
+                "cost": r.terms["total"],
+                "attempt_seeds": r.params["attempt_seeds"],
+            }
+            print(f"{sc.name:10s} {alg:6s} {r.status:10s} cost {r.terms['total']:.5f}")
     GOLDEN.write_text(json.dumps(data, indent=2) + "\n")
     print(f"wrote {GOLDEN}")
 
