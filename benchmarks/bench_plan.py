@@ -104,6 +104,12 @@ def main() -> None:
         action="store_true",
         help="seed the population with the straight start-goal paths (terrapath's default)",
     )
+    ap.add_argument(
+        "--init",
+        choices=("uniform", "corridor"),
+        default="uniform",
+        help="initial population: uniform in the box (the paper's protocol) or terrapath's default corridor",
+    )
     ap.add_argument("--timing-only", action="store_true", help="only the single-plan timing target")
     args = ap.parse_args()
     timing(args)
@@ -127,6 +133,7 @@ def main() -> None:
                     population=args.population,
                     iterations=args.iterations,
                     straight_seeds=args.straight_seeds,
+                    init=args.init,
                 )
                 times.append(time.perf_counter() - t)
                 costs.append(r.terms["total"])
@@ -145,7 +152,8 @@ def main() -> None:
         f"planner: seed 002 Table 2 protocol ({args.runs} runs, P={args.population}, {args.iterations} iterations)",
         rows,
         notes="cost mean ± std over seeds 0..runs-1, "
-        + ("straight-line seeds + random" if args.straight_seeds else "random initial population")
+        + f"initial population {args.init}"
+        + (" + straight-line seeds" if args.straight_seeds else "")
         + ", single attempt, 6 free waypoints, 50 m clearance",
     )
 

@@ -182,6 +182,32 @@ class PlanningProblem:
         lo, hi = self.bounds()
         return np.clip(np.stack([line.ravel(), high.ravel()]), lo, hi)
 
+    def corridor_population(self, n: int, rng: np.random.Generator) -> FloatArray:
+        """``n`` random solutions that progress from start to goal: each path's waypoints sit at
+        sorted random fractions of the start-goal line, displaced sideways by a smooth excursion
+        (normal, sigma 25 % of the start-goal distance, shaped sin(pi t) so it vanishes at both
+        ends) plus a per-waypoint jitter (sigma 5 %), with altitudes uniform in the band; clipped
+        to the box. Uniform points in the box make zig-zag paths that cross the map many times,
+        which on mountain maps nearly always hit the ground."""
+        s, g = self.start, self.goal
+        d = g[:2] - s[:2]
+        span = float(np.linalg.norm(d))
+        u = d / span if span > 0 else np.array([1.0, 0.0])
+        side = np.array([-u[1], u[0]])
+        k = self.n_waypoints
+        t = np.sort(rng.uniform(0.0, 1.0, (n, k)), axis=1)
+        off = rng.normal(0.0, 0.25 * span, (n, 1)) * np.sin(np.pi * t)
+        off = off + rng.normal(0.0, 0.05 * span, (n, k))
+        xy = (
+            s[None, None, :2]
+            + t[..., None] * d[None, None, :]
+            + off[..., None] * side[None, None, :]
+        )
+        z = rng.uniform(self.band[0], self.band[1], (n, k))
+        x = np.concatenate([xy, z[..., None]], axis=2).reshape(n, -1)
+        lo, hi = self.bounds()
+        return np.clip(x, lo, hi)
+
     # -- the objective -------------------------------------------------------------------------------
     def terms(self, x: npt.ArrayLike) -> CostTerms:
         """Every cost term of a (P, 3N) population."""

@@ -38,3 +38,5 @@ def test_plan_matches_golden(scenario, algorithm: str) -> None:  # type: ignore[
 
 def test_golden_records_every_map_and_algorithm() -> None:
     assert set(GOLD) == {f"{s.name}/{a}" for s in MAPS for a in ALGORITHMS}
+    # every algorithm finds a feasible path on every reference map with the plan defaults
+    assert all(g["status"] == "feasible" for g in GOLD.values())
