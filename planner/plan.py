@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -13,6 +12,7 @@ import numpy as np
 from planner.optim import make_optimizer
 from planner.optim.termination import MaxIterations, SwarmRadius
 from planner.problem import PlanningProblem
+from planner.profile import sample_path
 from planner.result import PlanResult, find_violations
 from terrain.errors import InputError
 
@@ -25,14 +25,7 @@ SWARM_RADIUS_EPS = 1e-4
 def min_clearance(problem: PlanningProblem, path: np.ndarray) -> float:
     """Smallest height of the path above the (bilinear) terrain, sampled every half cell — a
     finer check than the Bresenham walk the cost uses, reported so users see the true margin."""
-    grid = problem.grid
-    step = 0.5 * min(grid.cell_size)
-    lowest = np.inf
-    for a, b in itertools.pairwise(path):
-        n = max(2, int(np.ceil(np.linalg.norm(b[:2] - a[:2]) / step)) + 1)
-        pts = a[None, :] + np.linspace(0.0, 1.0, n)[:, None] * (b - a)[None, :]
-        lowest = min(lowest, float((pts[:, 2] - grid.height_at(pts[:, 0], pts[:, 1])).min()))
-    return lowest
+    return float(sample_path(problem.grid, path).clearance.min())
 
 
 def attempt_seed(seed: int, attempt: int) -> int:

@@ -3,34 +3,15 @@ altitude profile over the terrain beneath it."""
 
 from __future__ import annotations
 
-import itertools
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
+from planner.profile import sample_path
 from terrain.grid import HeightGrid
 from terrain.plot import draw_hillshade, draw_zones, new_figure, save_figure
 from terrain.zones import DangerZone
-
-
-def profile(
-    grid: HeightGrid, path: npt.NDArray[np.float64], step: float | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(distance along the path, path altitude, terrain height) sampled every ``step`` metres."""
-    step = step or 0.5 * min(grid.cell_size)
-    dist, alt, ground = [], [], []
-    s0 = 0.0
-    for a, b in itertools.pairwise(path):
-        horiz = float(np.linalg.norm(b[:2] - a[:2]))
-        n = max(2, int(np.ceil(horiz / step)) + 1)
-        t = np.linspace(0.0, 1.0, n)
-        pts = a[None, :] + t[:, None] * (b - a)[None, :]
-        dist.append(s0 + t * horiz)
-        alt.append(pts[:, 2])
-        ground.append(grid.height_at(pts[:, 0], pts[:, 1]))
-        s0 += horiz
-    return np.concatenate(dist), np.concatenate(alt), np.concatenate(ground)
 
 
 def save_plan_picture(
@@ -79,7 +60,8 @@ def save_plan_picture(
     ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
 
     ax2 = fig.add_subplot(gs[1])
-    d, z, g = profile(grid, path)
+    samples = sample_path(grid, path)
+    d, z, g = samples.distance, samples.points[:, 2], samples.ground
     ax2.fill_between(
         d / 1000.0,
         grid.zmin - 0.02 * (grid.zmax - grid.zmin + 1),

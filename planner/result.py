@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.problem import PlanningProblem
+from planner.profile import sample_path
 from terrain.cylinders import segment_cylinder_lengths, zones_arrays
 
 FloatArray = npt.NDArray[np.float64]
@@ -74,18 +75,15 @@ class PlanResult:
 def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violation, ...]:
     """Where a path breaks its constraints: the deepest point below terrain + clearance of each
     colliding segment, and (with ``avoid_zones``) each zone a segment enters."""
-    grid = problem.grid
+    samples = sample_path(problem.grid, path)
     out: list[Violation] = []
-    step = 0.5 * min(grid.cell_size)
     for i in range(len(path) - 1):
-        a, b = path[i], path[i + 1]
-        n = max(2, int(np.ceil(np.linalg.norm(b[:2] - a[:2]) / step)) + 1)
-        t = np.linspace(0.0, 1.0, n)[:, None]
-        pts = a[None, :] + t * (b - a)[None, :]
-        depth = grid.height_at(pts[:, 0], pts[:, 1]) + problem.clearance - pts[:, 2]
+        on = samples.segment == i
+        pts = samples.points[on]
+        depth = problem.clearance - samples.clearance[on]
         k = int(np.argmax(depth))
         if depth[k] > 0:
-            seg_len = float(np.linalg.norm(b - a))
+            seg_len = float(np.linalg.norm(path[i + 1] - path[i]))
             below = float((depth > 0).mean() * seg_len)
             what = "terrain + clearance" if problem.clearance else "terrain"
             out.append(
