@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +9,7 @@ import click
 import numpy as np
 
 from terrapath.options import dem_options, load_grid
+from terrapath.progress import progress_bar
 
 EXIT_INFEASIBLE = 3
 DEFAULT_CRUISE_AGL = 150.0
@@ -59,33 +58,12 @@ def _run_with_progress(
     attempts: int,
 ) -> Any:
     """Run the planner with a progress bar (iteration, best cost) on an interactive terminal."""
-    if not sys.stderr.isatty():
-        return plan(
-            problem,
-            algorithm,
-            seed=seed,
-            population=population,
-            iterations=iterations,
-            attempts=attempts,
-        )
-    done = [0]
-    with click.progressbar(
-        length=iterations, label=f"{algorithm}: planning", file=sys.stderr, show_pos=True, width=30
-    ) as bar:
-        last_draw = [0.0]
+    with progress_bar(iterations, f"{algorithm}: planning") as report:
+        callback = None
+        if report is not None:
 
-        def progress(state: Any) -> None:
-            it = int(state.iteration)
-            now = time.monotonic()
-            if it >= done[0] and it < iterations and now - last_draw[0] < 0.1:
-                return  # redraw at most 10 times a second: drawing costs more than an iteration
-            last_draw[0] = now
-            if it < done[0]:  # a restart begins again at iteration 0
-                bar.pos = 0
-                done[0] = 0
-            bar.label = f"{algorithm}: best cost {float(state.best_f):.4f}"
-            bar.update(max(0, it - done[0]))
-            done[0] = it
+            def callback(state: Any) -> None:
+                report(int(state.iteration), f"{algorithm}: best cost {float(state.best_f):.4f}")
 
         return plan(
             problem,
@@ -94,7 +72,7 @@ def _run_with_progress(
             population=population,
             iterations=iterations,
             attempts=attempts,
-            callback=progress,
+            callback=callback,
         )
 
 

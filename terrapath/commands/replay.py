@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +13,7 @@ import numpy as np
 import yaml
 
 from terrain.errors import InputError
+from terrapath.progress import progress_bar
 
 
 def _software_version() -> str:
@@ -229,25 +229,14 @@ def _run(
     from replay.sim import simulate
 
     kwargs = {"grid": grid, "terrain_model": terrain_model, "config": config, "recorder": rec}
-    if not sys.stderr.isatty():
-        return simulate(mission, threats, avoider, params, **kwargs)
-    with click.progressbar(
-        length=int(limit), label="replay (simulated s)", file=sys.stderr, show_pos=True, width=30
-    ) as bar:
-        drawn_at = [0.0]
-        shown = [0]
+    with progress_bar(int(limit), "replay (simulated s)") as report:
+        if report is None:
+            return simulate(mission, threats, avoider, params, **kwargs)
 
         def progress(t: float, total: float) -> None:
-            now = time.monotonic()
-            if now - drawn_at[0] < 0.1:
-                return
-            drawn_at[0] = now
-            bar.update(int(t) - shown[0])
-            shown[0] = int(t)
+            report(int(t), None)
 
-        result = simulate(mission, threats, avoider, params, progress=progress, **kwargs)
-        bar.update(int(limit) - shown[0])
-        return result
+        return simulate(mission, threats, avoider, params, progress=progress, **kwargs)
 
 
 def _report(result: Any, output: str, as_json: bool, threats: Any) -> None:
