@@ -51,9 +51,10 @@ def plan(
     """Minimise the seed-002 cost of ``problem`` with ``algorithm``.
 
     The initial population is ``init="corridor"`` (default: random paths that progress from start
-    to goal, :meth:`PlanningProblem.corridor_population`, drawn from the run's seed) or
-    ``"uniform"`` (uniform in the box, as in seed 002's protocol). Measured with AMPSO, 10 seeds,
-    P=60, 200 iterations: feasible runs on rmnp 5/10 -> 10/10, jacksboro 3/10 -> 8/10. ``straight_seeds`` puts the two
+    to goal with every waypoint above the ground under it, :meth:`PlanningProblem.corridor_population`,
+    drawn from the run's seed) or ``"uniform"`` (uniform in the box, as in seed 002's protocol).
+    Measured with AMPSO, 10 seeds, P=60, 200 iterations: feasible runs on rmnp 5/10 -> 10/10,
+    jacksboro 3/10 -> 10/10 (every algorithm 10/10 there). ``straight_seeds`` puts the two
     straight start-goal paths of :meth:`PlanningProblem.straight_seeds` into it as well; measured
     over 10 seeds on three real maps (benchmarks/RESULTS.md) that did not help AMPSO — the swarm
     gathers round the straight route — so it is off by default.

