@@ -244,7 +244,7 @@ def simulate(
                 recorder.write_detections(t, _recorded_detections(picture))
             if passive:
                 continue  # "none" never changes the mission: skip building its context
-            ctx = _context(t, x, picture, autopilot, params, terrain_model)
+            ctx = _context(t, x, picture, autopilot, params, terrain_model, cfg)
             t0 = time.perf_counter()
             decision = avoider.decide(ctx)
             compute = time.perf_counter() - t0
@@ -338,7 +338,13 @@ def _recorded_detections(picture: Any) -> list[dict[str, Any]]:
 
 
 def _context(
-    t: float, x: FloatArray, picture: Any, autopilot: Autopilot, params: VehicleParams, terrain: Any
+    t: float,
+    x: FloatArray,
+    picture: Any,
+    autopilot: Autopilot,
+    params: VehicleParams,
+    terrain: Any,
+    cfg: ReplayConfig,
 ) -> AvoidanceContext:
     rot = rotation_body_to_ned(x[6], x[7], x[8])
     v_ned = rot @ x[[U, V, W]]
@@ -355,6 +361,7 @@ def _context(
         next_index=autopilot.next_index,
         vehicle=params,
         terrain=terrain,
+        terrain_clearance=float(cfg.terrain_following or 0.0),
     )
 
 

@@ -36,6 +36,7 @@ class AvoidanceContext:
     next_index: int  # index in ``waypoints`` of the waypoint being flown to
     vehicle: Any = None  # replay.vehicle.VehicleParams (limits: bank, pitch, climb rate)
     terrain: Any = None  # terrain.model.TerrainModel or None (flat ground)
+    terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
 
 
 @dataclass(frozen=True)

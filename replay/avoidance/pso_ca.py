@@ -1,28 +1,76 @@
-"""PSO-CA (seed 000, Krishnan & Manimala 2020) as an avoider of the replay engine — first version.
+"""PSO-CA (seed 000, Krishnan & Manimala 2020) as an avoider of the replay engine.
 
-After every radar scan (Fig. 4 / Fig. 5):
+After every radar scan (Fig. 4 / Fig. 5, main module):
 
-1. the threat returns are grouped — returns closer than 1 km form one continuous obstacle (Fig. 8,
-   §5.3) — and taken closest first;
-2. the current leg (aircraft -> next waypoint) is tested against each group's safety spheres
-   (line–sphere test, eqs 22–26, :func:`segment_hits_sphere`);
-3. if the next waypoint itself lies within 1 km of the obstacle it is unsafe and skipped (Fig. 9,
-   Fig. 23); the new waypoint then leads to the waypoint after it;
-4. ten particles are seeded round the safety circle from the tangent construction (eq 27), and
-   planner.optim's PSO with Table 2's parameters minimises f = Wt f1 + Wo f2 under g1–g4
-   (:class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`), stopping after 30 iterations or
-   when the best fitness changes by less than 200 for 5 iterations (§5.5);
-5. the new waypoint (at the altitude of the waypoint it leads to) is inserted and flown "direct to"
-   from the aircraft's position; the decision records the obstacle, the waypoint, its cost terms,
-   the constraints and the evaluations.
+1. **What is an obstacle.**  Threat returns the radar calls stationary (Fig. 7), and the terrain
+   returns of hills that rise above what the aircraft can fly over (below), are remembered for
+   ``memory_s`` seconds by id -- so a piece of a hill or of a solid body that the radar saw a few
+   scans ago still counts when it drops out of view behind another.  Returns of solid bodies
+   (cylinders, bodies: the radar gives the nearest point of the body, which slides along its
+   surface as the aircraft moves) are remembered per 100 m cell, so the surface seen over time
+   builds up as a group of points.  Threat returns the radar calls moving are *intruders*;
+   returns seen for the first time (not yet classified) wait one scan.
+2. **Terrain** (issue 5: "hills that rise above the flight altitude ... as continuous obstacles").
+   A terrain return at height ``z_t`` and horizontal distance ``d`` is an obstacle when it rises
+   above the flight altitude, ``z_t > z - terrain_margin`` (0 m), and -- with terrain following
+   at clearance ``c`` (the replay's ``--terrain-following``: the autopilot climbs over what it
+   can) -- only when the aircraft cannot clear it by climbing either:
+   ``z_t + c - z > climb_share * d * tan(gamma)``, ``gamma`` the steepest sustained climb
+   (``asin(climb_rate_max / V)``, at most the pitch limit), ``climb_share`` = 1.  Without
+   terrain following the aircraft holds its waypoint altitudes, as in the paper, and every hill
+   above it is an obstacle.
+3. **Collision test** (Fig. 12, eqs 22-26): the current leg, aircraft -> next waypoint, against the
+   safety circle (radius RS) of every stationary point: a hit when the leg comes closer than RS.
+   For intruders (§5.7, Fig. 13 ``Confirm_Collision``): the range fell since the previous scan, it
+   is below ``act_range`` (8 km), and the leg meets the ``moving_rs`` (2 km) sphere around the
+   intruder's *current* position.
+4. **Closest first** (§5.3).  The nearest hit is handled; for a stationary hit its whole group
+   (points chained closer than 1 km, Fig. 8) is the obstacle and every member is avoided (the
+   paper avoids the terminal points of a continuous obstacle; all members is the same for a
+   convex row and safer for a curved one).  If the next waypoint lies within RS of the obstacle
+   (Fig. 9, ``near_end_waypoint``) it is unsafe and skipped -- including a waypoint this avoider
+   inserted earlier for another obstacle: "a new waypoint that a later-seen obstacle makes unsafe
+   is replaced" (§5.3, Fig. 23).
+5. **Seeds and search** (Fig. 14, eq 27; Fig. 16).  Ten seed points on the circle of radius
+   RS + tolerance: half round the left terminal point of the group (most counter-clockwise seen
+   from the aircraft) and half round the right one, the first of each the exact tangent point.
+   The chosen optimiser of planner.optim (``pso`` = Table 2: N = 10, I = 30, w 0.09 -> 0.02,
+   C1 = C2 = 2, vmax 0.1 of the zone; or ``ga``, ``sa``, ``mafoa``, ``gcpso``, ``mpso`` with
+   seed 000 §6's parameters) minimises f = Wt f1 + Wo f2 under g1-g5 (and g6 for intruders)
+   (:class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`), stopping at 30 iterations or
+   when the best fitness changes by less than 200 for 5 iterations (§5.5).  The other obstacles
+   in view enter f2 (risk).
+6. **Intruders** (§5.7): the obstacle is the intruder's current position with a ``moving_rs``
+   (2 km) sphere, and the new waypoint must lie on the side away from its heading (g6): if it
+   moves to the left of the leg the aircraft turns right and vice versa; a head-on intruder
+   (lateral speed under ``head_on_ratio`` = 0.2 of its speed) is passed on the side opposite to
+   where it is now.  The side chosen at the first decision for an intruder is kept for the
+   later ones (each new leg changes what "left of the leg" means; flipping sides would zig-zag
+   across its path).  g1, g2, g4 and g5 hold as for a stationary obstacle; g3 (the leg after the
+   new waypoint clears the sphere) is not required, because that leg is flown later, when the
+   intruder is elsewhere -- the scans then re-check it -- and an intruder passing near the next
+   waypoint would otherwise make every candidate infeasible.  No waypoint is skipped for an
+   intruder (Fig. 5 applies near_end_waypoint to stationary obstacles).  A decision for an
+   intruder is not repeated for ``moving_hold_s`` (10 s).
+7. **Result.**  A feasible waypoint (at the altitude of the waypoint it leads to) is inserted and
+   flown "direct to" from the aircraft's position; the decision records the obstacle, its inputs,
+   the waypoint, f, f1, f2, g1-g6, iterations, evaluations (the loop adds the compute time).  When
+   no candidate meets the constraints the decision is recorded as failed, the aircraft flies on
+   with the old list and that obstacle (for stationary ones: any stationary obstacle, since a
+   group's membership changes as more of it comes into view) is retried after ``retry_s`` (5 s)
+   -- never an exception.
 
-Not yet here (issue 5 continues): moving intruders (Figs 13, §5.7: confirm from two scans, act
-under 8 km, 2 km sphere, turn by heading), terrain returns as obstacles, and re-checking earlier
-inserted waypoints against later-seen obstacles (§5.3).
+**Leg margin.**  The constraints on the two new legs (g3, g5) keep RS + ``leg_margin`` (100 m)
+instead of RS, while the collision test of the next scans uses RS.  Why: a leg built to graze
+the circle at exactly RS is re-tested one second later from where the aircraft really is
+(cross-track error, turn dynamics), grazes it by a few metres and triggers a new decision every
+scan (measured on the rmnp demo before the margin: 36 decisions for one threat).
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -35,18 +83,51 @@ from replay.avoidance.base import AVOIDERS, AvoidanceContext, AvoidanceDecision
 from replay.avoidance.pso_ca_geometry import (
     PsoCaParams,
     WaypointProblem,
-    closest_first,
     group_obstacles,
-    near_end_waypoint,
-    segment_hits_sphere,
+    segment_clearance,
     tangent_seed_points,
 )
+from replay.threats import cluster_terminals
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 STALL_ITERATIONS = 5
 STALL_TOLERANCE = 200.0  # §5.5: fitness change below 200 for 5 consecutive iterations
+MAX_ITERATIONS = 30  # Table 2
+N_SEEDS = 10  # Table 2: N = 10 particles, all seeded round the safety circle (Fig. 14)
 CA_OPTIMIZERS = ("pso", "ga", "sa", "mafoa", "gcpso", "mpso")
+BODY_CELL_M = 100.0  # solid-body returns are remembered per cell of this size
+
+
+@dataclass
+class _Seen:
+    xy: FloatArray
+    z: float
+    t: float
+
+
+@dataclass
+class _Track:
+    t: float
+    xy: FloatArray
+    range: float
+
+
+@dataclass(frozen=True)
+class _Hit:
+    key: str
+    distance: float
+    points: FloatArray  # (K, 2) the obstacle's points
+    ids: tuple[str, ...]
+    rs: float
+    moving: bool
+    side: int = 0
+
+
+def _positive(name: str, value: object) -> float:
+    if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+        raise InputError(f"PSO-CA {name} must be a positive number; got {value!r}")
+    return float(value)
 
 
 class PsoCaAvoider:
@@ -54,17 +135,66 @@ class PsoCaAvoider:
 
     name = "pso-ca"
 
-    def __init__(self, optimizer: str = "pso", params: PsoCaParams | None = None) -> None:
+    def __init__(
+        self,
+        optimizer: str = "pso",
+        params: PsoCaParams | None = None,
+        *,
+        rs: float | None = None,
+        leg_margin: float = 100.0,
+        moving_rs: float = 2000.0,
+        act_range: float = 8000.0,
+        moving_hold_s: float = 10.0,
+        head_on_ratio: float = 0.2,
+        retry_s: float = 5.0,
+        memory_s: float = 60.0,
+        climb_share: float = 1.0,
+        terrain_margin: float = 0.0,
+        terrain: bool = True,
+    ) -> None:
         if optimizer not in CA_OPTIMIZERS:
             raise InputError(
                 f"unknown PSO-CA optimiser {optimizer!r}; choose one of {', '.join(CA_OPTIMIZERS)}"
             )
         self.optimizer = optimizer
-        self.params = params or PsoCaParams()
+        base = params or PsoCaParams(leg_margin=leg_margin)
+        if rs is not None:
+            base = replace(base, rs=rs)  # re-checked by PsoCaParams
+        self.params = base
+        self.moving_rs = _positive("moving safety radius", moving_rs)
+        if self.moving_rs + self.params.tolerance >= self.params.search_limit:
+            raise InputError(
+                f"PSO-CA search limit ({self.params.search_limit:g} m) must exceed the moving "
+                f"safety radius plus the tolerance ({self.moving_rs:g} + "
+                f"{self.params.tolerance:g} m)"
+            )
+        self.act_range = _positive("act range", act_range)
+        self.moving_hold_s = _positive("moving hold", moving_hold_s)
+        self.head_on_ratio = _positive("head-on ratio", head_on_ratio)
+        self.retry_s = _positive("retry time", retry_s)
+        self.memory_s = _positive("memory time", memory_s)
+        self.climb_share = _positive("climb share", climb_share)
+        if not (math.isfinite(terrain_margin) and terrain_margin >= 0):
+            raise InputError(f"PSO-CA terrain margin must be >= 0 m; got {terrain_margin!r}")
+        self.terrain_margin = float(terrain_margin)
+        self.terrain = bool(terrain)
         self.rng = np.random.default_rng(0)
+        self._seen: dict[str, _Seen] = {}
+        self._tracks: dict[str, _Track] = {}
+        self._prev_tracks: dict[str, _Track] = {}
+        self._hold: dict[str, float] = {}
+        self._sides: dict[str, int] = {}
+        self._retry_stationary = -math.inf
 
+    # ----------------------------------------------------------------------------- life cycle
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         self.rng = rng
+        self._seen.clear()
+        self._tracks.clear()
+        self._prev_tracks.clear()
+        self._hold.clear()
+        self._sides.clear()
+        self._retry_stationary = -math.inf
 
     def _optimizer(self) -> Any:
         if self.optimizer == "pso":
@@ -75,81 +205,247 @@ class PsoCaAvoider:
             return GA.seed000()
         return make_optimizer(self.optimizer)
 
-    def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+    # ----------------------------------------------------------------------------- perception
+    def _climb_gradient(self, ctx: AvoidanceContext) -> float:
+        v = max(ctx.airspeed, 1.0)
+        veh = ctx.vehicle
+        if veh is None:
+            return math.tan(math.radians(5.0))
+        gamma = math.asin(min(1.0, veh.climb_rate_max / v))
+        return math.tan(min(gamma, math.radians(veh.pitch_max_deg)))
+
+    def _observe(self, ctx: AvoidanceContext) -> None:
+        """Update the memory of stationary points and the intruder tracks from the picture."""
         pic = ctx.picture
-        n = pic.n_threat
-        if n == 0 or ctx.next_index >= len(ctx.waypoints):
-            return None
-        points = np.asarray(pic.positions[:n], dtype=np.float64)
+        t = ctx.t
         pos = ctx.position
-        wps = ctx.waypoints
-        target_i = ctx.next_index
-        groups = group_obstacles(points)
-        # closest group first (by its closest member)
-        order = closest_first(
-            pos[:2],
-            np.array([points[g][closest_first(pos[:2], points[g][:, :2])[0], :2] for g in groups]),
-        )
+        n = pic.n_threat
+        ids = pic.ids
+        self._prev_tracks = dict(self._tracks)
+        for i in range(n):
+            code = int(pic.moving_code[i])
+            xy = np.asarray(pic.positions[i, :2], dtype=np.float64)
+            if code == 1:
+                self._tracks[ids[i]] = _Track(t, xy, float(pic.ranges[i]))
+                self._seen.pop(ids[i], None)
+            elif code == 0:
+                key = ids[i]
+                if bool(pic.extended[i]):
+                    c = np.floor(xy / BODY_CELL_M).astype(int)
+                    key = f"{key}@{c[0]}/{c[1]}"
+                self._seen[key] = _Seen(xy, float(pic.positions[i, 2]), t)
+        if self.terrain and len(pic) > n:
+            pts = np.asarray(pic.positions[n:], dtype=np.float64)
+            d = np.hypot(pts[:, 0] - pos[0], pts[:, 1] - pos[1])
+            clearance = float(ctx.terrain_clearance)
+            blocking = pts[:, 2] > pos[2] - self.terrain_margin
+            if clearance > 0:
+                need = pts[:, 2] + clearance - pos[2]
+                blocking &= need > self.climb_share * d * self._climb_gradient(ctx)
+            for k in np.flatnonzero(blocking).tolist():
+                self._seen[ids[n + k]] = _Seen(pts[k, :2].copy(), float(pts[k, 2]), t)
+        for key in [k for k, s in self._seen.items() if t - s.t > self.memory_s]:
+            del self._seen[key]
+        for key in [k for k, s in self._tracks.items() if t - s.t > self.memory_s]:
+            del self._tracks[key]
+
+    # ----------------------------------------------------------------------------- decisions
+    def _stationary_hits(
+        self, pos: FloatArray, target: FloatArray, keys: list[str], pts: FloatArray, t: float
+    ) -> list[_Hit]:
+        if not len(pts) or self._retry_stationary > t:
+            return []
         rs = self.params.rs
-        for gi in order:
-            members = points[groups[int(gi)]]
-            target = wps[target_i]
-            hits = segment_hits_sphere(pos[:2], target[:2], members[:, :2], rs)
-            if not np.any(hits):
+        clear = segment_clearance(pos[None, :], target[None, :], pts)[0]
+        hit = clear < rs
+        if not hit.any():
+            return []
+        groups = group_obstacles(pts)
+        out = []
+        for g in groups:
+            if not hit[g].any():
                 continue
-            skipped = 0
-            while near_end_waypoint(
-                members[:, :2], wps[target_i][:2], rs
-            ).any() and target_i + 1 < len(wps):
-                target_i += 1  # Fig. 9: the waypoint is inside the danger area; lead past it
-                skipped += 1
-            target = wps[target_i]
-            others = np.delete(points, groups[int(gi)], axis=0)[:, :2]
-            problem = WaypointProblem(
-                pos[:2],
-                target[:2],
-                members[:, :2],
-                others,
-                PsoCaParams(**{**self.params.__dict__, "speed": max(ctx.airspeed, 1.0)}),
-            )
-            nearest = members[closest_first(pos[:2], members[:, :2])[0], :2]
-            seeds = tangent_seed_points(pos[:2], nearest, rs + self.params.tolerance, 10, self.rng)
-            lo, hi = problem.bounds()
-            opt = self._optimizer()
-            res = opt.run(
-                problem,
-                lo,
-                hi,
-                seed=self.rng,
-                termination=MaxIterations(30) | Stall(STALL_ITERATIONS, STALL_TOLERANCE),
-                x0=np.clip(seeds, lo, hi)[: opt.max_seed_points()],
-            )
-            xy = np.asarray(res.x, dtype=np.float64)
-            terms = problem.terms(xy[None, :])
-            report = terms.report
-            new = np.array([xy[0], xy[1], target[2]])
-            new_list = np.vstack([wps[: ctx.next_index], new[None, :], wps[target_i:]])
+            members = tuple(sorted(keys[i] for i in g))
+            key = "s:" + members[0]
+            if self._hold.get(key, -math.inf) > t:
+                continue
+            dist = float(np.hypot(*(pts[g] - pos).T).min())
+            out.append(_Hit(key, dist, pts[g], members, rs, moving=False))
+        return out
+
+    def _moving_hits(self, ctx: AvoidanceContext, target: FloatArray) -> list[_Hit]:
+        pos = ctx.position[:2]
+        out = []
+        leg = target - pos
+        leg_len = max(float(np.hypot(*leg)), 1e-9)
+        for ident, tr in self._tracks.items():
+            prev = self._prev_tracks.get(ident)
+            if tr.t != ctx.t or prev is None or prev.t >= tr.t:
+                continue  # not seen in this scan, or no earlier fix to confirm with
+            if not (tr.range < prev.range and tr.range < self.act_range):
+                continue  # Fig. 13: Confirm_Collision needs the range to fall; §5.7: act < 8 km
+            if segment_clearance(pos[None, :], target[None, :], tr.xy[None, :])[0, 0] >= (
+                self.moving_rs
+            ):
+                continue
+            key = "m:" + ident
+            if self._hold.get(key, -math.inf) > ctx.t:
+                continue
+            side = self._sides.get(ident, 0)
+            if side:
+                dist = float(np.hypot(*(tr.xy - pos)))
+                out.append(_Hit(key, dist, tr.xy[None, :], (ident,), self.moving_rs, True, side))
+                continue
+            vel = (tr.xy - prev.xy) / (tr.t - prev.t)
+            speed = float(np.hypot(*vel))
+            lateral = (leg[0] * vel[1] - leg[1] * vel[0]) / leg_len  # > 0: moving to the left
+            if speed > 0 and abs(lateral) >= self.head_on_ratio * speed:
+                side = -1 if lateral > 0 else 1  # §5.7: intruder heading left -> turn right
+            else:
+                rel = tr.xy - pos
+                left_of_leg = leg[0] * rel[1] - leg[1] * rel[0] > 0
+                side = -1 if left_of_leg else 1  # head-on: pass on the other side
+            dist = float(np.hypot(*(tr.xy - pos)))
+            out.append(_Hit(key, dist, tr.xy[None, :], (ident,), self.moving_rs, True, side))
+        return out
+
+    def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        self._observe(ctx)
+        wps = ctx.waypoints
+        if ctx.next_index >= len(wps) or (not self._seen and not self._tracks):
+            return None
+        pos = np.asarray(ctx.position[:2], dtype=np.float64)
+        target = np.asarray(wps[ctx.next_index, :2], dtype=np.float64)
+        keys = list(self._seen)
+        pts = (
+            np.array([self._seen[k].xy for k in keys], dtype=np.float64)
+            if keys
+            else np.zeros((0, 2))
+        )
+        hits = self._stationary_hits(pos, target, keys, pts, ctx.t) + self._moving_hits(ctx, target)
+        if not hits:
+            return None
+        hit = min(hits, key=lambda h: h.distance)  # §5.3: the closest first
+        return self._avoid(ctx, hit, keys, pts)
+
+    def _avoid(
+        self, ctx: AvoidanceContext, hit: _Hit, keys: list[str], pts: FloatArray
+    ) -> AvoidanceDecision:
+        wps = ctx.waypoints
+        pos = np.asarray(ctx.position[:2], dtype=np.float64)
+        params = replace(
+            self.params,
+            rs=hit.rs,
+            speed=max(ctx.airspeed, 1.0),
+            check_outbound=not hit.moving,
+        )
+        target_i = ctx.next_index
+        skipped = 0
+        # Fig. 9 / Fig. 23: a next waypoint within RS of a stationary obstacle is unsafe -- lead
+        # past it (Fig. 5 step 13: single stationary obstacles only; an intruder moves on)
+        while (
+            not hit.moving
+            and target_i + 1 < len(wps)
+            and (np.hypot(*(hit.points - wps[target_i, :2]).T).min() < hit.rs)
+        ):
+            target_i += 1
+            skipped += 1
+        target = wps[target_i]
+        mine = set(hit.ids)
+        others_list = [pts[i] for i, k in enumerate(keys) if k not in mine]
+        others_list += [
+            tr.xy for ident, tr in self._tracks.items() if ident not in mine and tr.t == ctx.t
+        ]
+        others = np.array(others_list) if others_list else np.zeros((0, 2))
+        problem = WaypointProblem(pos, target[:2], hit.points, others, params, side=hit.side)
+        seeds = self._seeds(pos, hit, params)
+        lo, hi = problem.bounds()
+        opt = self._optimizer()
+        res = opt.run(
+            problem,
+            lo,
+            hi,
+            seed=self.rng,
+            termination=MaxIterations(MAX_ITERATIONS) | Stall(STALL_ITERATIONS, STALL_TOLERANCE),
+            x0=np.clip(seeds, lo, hi)[: opt.max_seed_points()],
+        )
+        xy = np.asarray(res.x, dtype=np.float64)
+        terms = problem.terms(xy[None, :])
+        report = terms.report
+        feasible = bool(report.feasible[0])
+        new = np.array([xy[0], xy[1], target[2]])
+        info: dict[str, Any] = {
+            "obstacles": list(hit.ids),
+            "obstacle_kind": "moving" if hit.moving else "stationary",
+            "safety_radius": hit.rs,
+            "side": hit.side,
+            "new_waypoint": new.tolist(),
+            "f": float(terms.f[0]),
+            "f1": float(terms.f1[0]),
+            "f2": float(terms.f2[0]),
+            "feasible": feasible,
+            "g": {
+                k: float(getattr(report, k)[0])
+                for k in ("g1", "g2", "g3", "g4", "g5", "g6")
+                if math.isfinite(float(getattr(report, k)[0]))
+            },
+            "optimizer": self.optimizer,
+            "iterations": int(res.iterations),
+            "evaluations": int(res.evaluations),
+            "skipped_waypoints": skipped,
+            "inputs": {
+                "aircraft": pos.tolist(),
+                "target": target[:2].tolist(),
+                "obstacles": hit.points.tolist(),
+                "others": others.tolist(),
+                "side": hit.side,
+                "params": {
+                    k: getattr(params, k)
+                    for k in ("rs", "tolerance", "search_limit", "mxrsk", "wt", "wo")
+                }
+                | {"max_bank_deg": params.max_bank_deg, "speed": params.speed},
+            },
+        }
+        if hit.moving:
+            self._hold[hit.key] = ctx.t + self.moving_hold_s
+            self._sides.setdefault(hit.ids[0], hit.side)
+        if not feasible:
+            self._hold[hit.key] = ctx.t + self.retry_s
+            if not hit.moving:  # the group's membership (its key) changes as more is seen
+                self._retry_stationary = ctx.t + self.retry_s
             return AvoidanceDecision(
-                waypoints=new_list,
-                next_index=ctx.next_index,
-                direct=True,
-                reason=f"inserted 1 for obstacle group of {len(members)}"
-                + (f", skipped {skipped}" if skipped else ""),
-                info={
-                    "obstacles": [pic.threat_ids[i] for i in groups[int(gi)]],
-                    "new_waypoint": new.tolist(),
-                    "f": float(terms.f[0]),
-                    "f1": float(terms.f1[0]),
-                    "f2": float(terms.f2[0]),
-                    "feasible": bool(report.feasible[0]),
-                    "g": {k: float(getattr(report, k)[0]) for k in ("g1", "g2", "g3", "g4", "g5")},
-                    "optimizer": self.optimizer,
-                    "iterations": int(res.iterations),
-                    "evaluations": int(res.evaluations),
-                    "skipped_waypoints": skipped,
-                },
+                reason=f"failed: no waypoint meets g1-g6 for {', '.join(hit.ids[:3])}"
+                + (" ..." if len(hit.ids) > 3 else "")
+                + "; keeping the current waypoints",
+                info=info,
             )
-        return None
+        new_list = np.vstack([wps[: ctx.next_index], new[None, :], wps[target_i:]])
+        what = (
+            f"intruder {hit.ids[0]}"
+            if hit.moving
+            else (f"obstacle {hit.ids[0]}" if len(hit.ids) == 1 else f"group of {len(hit.ids)}")
+        )
+        return AvoidanceDecision(
+            waypoints=new_list,
+            next_index=ctx.next_index,
+            direct=True,
+            reason=f"inserted 1 for {what}" + (f", skipped {skipped}" if skipped else ""),
+            info=info,
+        )
+
+    def _seeds(self, pos: FloatArray, hit: _Hit, params: PsoCaParams) -> FloatArray:
+        """Fig. 14: half the seeds round each terminal point of the obstacle (one point: both
+        halves round it), tangent points first; only the allowed side for an intruder."""
+        radius = params.rs + params.tolerance
+        p3 = np.column_stack([hit.points, np.zeros(len(hit.points))])
+        left_i, right_i = cluster_terminals(p3, np.array([pos[0], pos[1], 0.0]))
+        left = tangent_seed_points(pos, hit.points[left_i], radius, 2 * N_SEEDS, self.rng)
+        right = tangent_seed_points(pos, hit.points[right_i], radius, 2 * N_SEEDS, self.rng)
+        if hit.side > 0:
+            return np.asarray(left[0::2])
+        if hit.side < 0:
+            return np.asarray(right[1::2])
+        return np.vstack([left[0::2][: N_SEEDS // 2], right[1::2][: N_SEEDS - N_SEEDS // 2]])
 
 
 AVOIDERS["pso-ca"] = PsoCaAvoider

@@ -318,21 +318,37 @@ class PsoCaParams:
     speed: float = 15.0  # §2.1.1
     g2_centre: Literal["obstacle", "aircraft"] = "obstacle"
     check_inbound: bool = True
+    check_outbound: bool = True
     normalise: bool = False
+    leg_margin: float = 0.0
     penalty_offset: float = 1e12
     penalty_weight: float = 1e6  # per metre of violation
 
     def __post_init__(self) -> None:
         for name in ("rs", "search_limit", "mxrsk", "speed"):
             v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise InputError(f"{name} must be a positive number; got {v!r}")
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise InputError(f"PSO-CA {name} must be a positive number of metres; got {v!r}")
         if not (0 < self.max_bank_deg < 90):
-            raise InputError(f"max_bank_deg must be in (0, 90); got {self.max_bank_deg!r}")
+            raise InputError(f"PSO-CA max_bank_deg must be in (0, 90); got {self.max_bank_deg!r}")
         if self.g2_centre not in ("obstacle", "aircraft"):
-            raise InputError(f"g2_centre must be 'obstacle' or 'aircraft'; got {self.g2_centre!r}")
-        if self.tolerance < 0 or self.wt < 0 or self.wo < 0:
-            raise InputError("tolerance, wt and wo must be >= 0")
+            raise InputError(
+                f"PSO-CA g2_centre must be 'obstacle' or 'aircraft'; got {self.g2_centre!r}"
+            )
+        for name in ("tolerance", "wt", "wo", "leg_margin"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise InputError(f"PSO-CA {name} must be a number >= 0; got {v!r}")
+        if abs(self.wt + self.wo - 1.0) > 1e-9:
+            raise InputError(
+                f"PSO-CA weights must sum to 1 (eq 6: Wt + Wo = 1); got Wt = {self.wt!r}, "
+                f"Wo = {self.wo!r}"
+            )
+        if self.rs + self.tolerance >= self.search_limit:
+            raise InputError(
+                f"PSO-CA search limit ({self.search_limit:g} m) must exceed the safety radius plus "
+                f"the tolerance ({self.rs:g} + {self.tolerance:g} m): g1 and g2 leave no room"
+            )
 
     @property
     def turn_radius(self) -> float:
@@ -347,13 +363,20 @@ class ConstraintReport:
 
     - ``g1 = min_k |p - o_k| - (RS + tolerance)`` (eq 7; min over the avoided group);
     - ``g2 = searchspaceLimit - min_k |p - o_k|`` (eq 8) or ``- |p - pos|`` (aircraft centre);
-    - ``g3 = clearance(segment p -> X_fin, o_k) - RS`` (eqs 9-10 on the segment, min over k);
+    - ``g3 = clearance(segment p -> X_fin, o_k) - (RS + leg_margin)`` (eqs 9-10 on the segment,
+      min over k; ``leg_margin`` = 0 is the paper);
     - ``g4 = min(|p - pos|, |X_fin - p|) - R tan(theta / 2)`` (our reading of eq 11; ``theta`` is
       the heading change at p in radians, ``turn_angle``);
-    - ``g5 = clearance(segment pos -> p, o_k) - RS`` (not in the paper; see module docstring).
+    - ``g5 = clearance(segment pos -> p, o_k) - min(RS + leg_margin, |pos - o_k| - 1 m)`` (not in
+      the paper; see the module docstring): an aircraft already inside the margin of a point
+      (e.g. the nearest point of a large body) must fly a leg that does not get closer to it;
+    - ``g6 = side * (signed distance of p left of the line pos -> X_fin)``: the side a moving
+      intruder's heading imposes (§5.7: "if the obstacle is heading towards left, the UAV turns
+      right"); ``+inf`` when the problem has no side (``side = 0``).
 
-    ``feasible`` holds g1..g4 (and g5 when ``check_inbound``); ``violation`` is the sum of the
-    negative parts of the checked ones (capped at 1e9 m each).
+    ``feasible`` holds g1, g2, g4 and g6, g3 unless ``check_outbound`` is off (a moving
+    intruder: the next leg is flown later, when it is elsewhere) and g5 when ``check_inbound``;
+    ``violation`` is the sum of the negative parts of the checked ones (capped at 1e9 m each).
     """
 
     g1: FloatArray
@@ -361,6 +384,7 @@ class ConstraintReport:
     g3: FloatArray
     g4: FloatArray
     g5: FloatArray
+    g6: FloatArray
     turn_angle: FloatArray
     feasible: BoolArray
     violation: FloatArray
@@ -394,8 +418,11 @@ class WaypointProblem:
     avoided: FloatArray
     others: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
     params: PsoCaParams = field(default_factory=PsoCaParams)
+    side: int = 0  # +1: the waypoint must lie left of the leg pos -> target, -1: right, 0: either
 
     def __post_init__(self) -> None:
+        if self.side not in (-1, 0, 1):
+            raise InputError(f"side must be -1 (right), 0 (either) or +1 (left); got {self.side!r}")
         object.__setattr__(self, "position", _xy(self.position, "position").reshape(2).copy())
         object.__setattr__(self, "target", _xy(self.target, "target").reshape(2).copy())
         avoided = _xy(self.avoided, "avoided").reshape(-1, 2).copy()
@@ -446,9 +473,22 @@ class WaypointProblem:
             g2 = pr.search_limit - np.hypot(*(p - self.position).T)
         fin = np.broadcast_to(self.target, (n, 2))
         pos = np.broadcast_to(self.position, (n, 2))
-        g3 = segment_clearance(p, fin, self.avoided).min(axis=1) - pr.rs
-        g5 = segment_clearance(pos, p, self.avoided).min(axis=1) - pr.rs
         u_in = p - self.position
+        g3 = segment_clearance(p, fin, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin)
+        # g5: an aircraft already closer than RS + margin to a point may not get any closer
+        # (1 m slack): otherwise no leg could start where it is and it could not leave
+        d0 = np.hypot(*(self.avoided - self.position).T)
+        need = np.minimum(pr.rs + pr.leg_margin, d0 - 1.0)
+        g5 = (segment_clearance(pos, p, self.avoided) - need[None, :]).min(axis=1)
+        if self.side:
+            leg = self.target - self.position
+            g6 = (
+                self.side
+                * (leg[0] * u_in[:, 1] - leg[1] * u_in[:, 0])
+                / max(math.hypot(*leg), 1e-9)
+            )
+        else:
+            g6 = np.full(n, np.inf)
         u_out = self.target - p
         l_in = np.hypot(*u_in.T)
         l_out = np.hypot(*u_out.T)
@@ -460,11 +500,15 @@ class WaypointProblem:
         with np.errstate(over="ignore"):
             lead = pr.turn_radius * np.tan(np.minimum(theta, math.pi * (1 - 1e-12)) / 2.0)
         g4 = np.minimum(l_in, l_out) - lead
-        checked = [g1, g2, g3, g4] + ([g5] if pr.check_inbound else [])
+        checked = (
+            [g1, g2, g4, g6]
+            + ([g3] if pr.check_outbound else [])
+            + ([g5] if pr.check_inbound else [])
+        )
         neg = [np.clip(-g, 0.0, _BIG) for g in checked]
         violation = np.sum(neg, axis=0)
         feasible = np.all([g >= 0.0 for g in checked], axis=0)
-        return ConstraintReport(g1, g2, g3, g4, g5, theta, np.asarray(feasible), violation)
+        return ConstraintReport(g1, g2, g3, g4, g5, g6, theta, np.asarray(feasible), violation)
 
     def terms(self, X: npt.ArrayLike) -> ObjectiveTerms:
         """Eq 6 ``f = Wt f1 + Wo f2`` with its parts, the constraints and the penalised cost."""
