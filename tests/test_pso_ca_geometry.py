@@ -273,3 +273,33 @@ def test_pso_from_tangent_seeds_reaches_the_grid_optimum():
     best = brute_force_waypoint(prob, step=25.0)
     assert prob.constraint_report(out.x[None]).feasible[0]
     assert out.f <= best.f * 1.01
+
+
+@pytest.mark.parametrize("side", [0, 1, -1])
+@pytest.mark.parametrize(
+    "options",
+    [
+        {},
+        {"normalise": True, "leg_margin": 100.0},
+        {"check_inbound": False, "check_outbound": False, "g2_centre": "aircraft"},
+    ],
+)
+def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:  # type: ignore[type-arg]
+    """The optimisers call the compiled penalised cost; it must be the documented one."""
+    rng = np.random.default_rng(side + 7)
+    both = []
+    for _ in range(5):
+        avoided = rng.uniform(-3000, 3000, (int(rng.integers(1, 5)), 2)) + [10000, 0]
+        others = rng.uniform(-6000, 6000, (int(rng.integers(0, 4)), 2)) + [10000, 0]
+        pr = WaypointProblem(
+            [0, 0], [20000, 500], avoided, others, params=PsoCaParams(**options), side=side
+        )
+        lo, hi = pr.bounds()
+        X = rng.uniform(lo, hi, (200, 2))
+        X[0] = pr.position  # degenerate legs
+        X[1] = pr.target
+        want = pr.terms(X).penalised
+        np.testing.assert_allclose(pr(X), want, rtol=1e-12, atol=1e-6)
+        feasible = pr.terms(X).report.feasible
+        both.append(feasible.any() and not feasible.all())
+    assert any(both)  # feasible and penalised candidates were both compared

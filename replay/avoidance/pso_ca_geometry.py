@@ -524,8 +524,41 @@ class WaypointProblem:
         return ObjectiveTerms(f1, f2, f, f + pen, rep)
 
     def __call__(self, X: npt.ArrayLike) -> FloatArray:
-        """Penalised cost (P,) of candidates X (P, 2) -- the function a PSO minimises."""
-        return self.terms(X).penalised
+        """Penalised cost (P,) of candidates X (P, 2) -- the function a PSO minimises; the same
+        numbers as ``terms(X).penalised`` from a compiled loop
+        (:mod:`replay.avoidance._pso_ca_kernel`), about 100x faster for 10 candidates."""
+        from replay.avoidance._pso_ca_kernel import penalised_costs
+
+        pr = self.params
+        p = np.ascontiguousarray(_xy(X, "X").reshape(-1, 2))
+        consts = np.array(
+            [
+                pr.rs,
+                pr.tolerance,
+                pr.search_limit,
+                pr.mxrsk,
+                pr.wt,
+                pr.wo,
+                pr.turn_radius,
+                pr.leg_margin,
+                pr.penalty_offset,
+                pr.penalty_weight,
+                _BIG,
+            ]
+        )
+        flags = np.array(
+            [
+                pr.g2_centre == "obstacle",
+                pr.check_inbound,
+                pr.check_outbound,
+                pr.normalise,
+                self.side,
+            ],
+            dtype=np.int64,
+        )
+        return np.asarray(
+            penalised_costs(p, self.position, self.target, self.avoided, self.others, consts, flags)
+        )
 
     def search_centres(self) -> FloatArray:
         """Centres (C, 2) of the g2 discs: the avoided obstacle(s) or the aircraft."""
