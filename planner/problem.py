@@ -214,8 +214,8 @@ class PlanningProblem:
         )
         lo, hi = self.bounds()
         xy = np.clip(xy, lo[:2], hi[:2])
-        g = self._check_grid
-        ground = g.heights[g.cell_of(xy[..., 0].ravel(), xy[..., 1].ravel())].reshape(n, k)
+        check = self._check_grid
+        ground = check.heights[check.cell_of(xy[..., 0].ravel(), xy[..., 1].ravel())].reshape(n, k)
         floor = np.clip(ground + self.clearance, self.band[0], self.band[1])
         z = floor + rng.uniform(0.0, 1.0, (n, k)) * (self.band[1] - floor)
         x = np.concatenate([xy, z[..., None]], axis=2).reshape(n, -1)

@@ -289,8 +289,8 @@ def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:
     rng = np.random.default_rng(side + 7)
     both = []
     for _ in range(5):
-        avoided = rng.uniform(-3000, 3000, (int(rng.integers(1, 5)), 2)) + [10000, 0]
-        others = rng.uniform(-6000, 6000, (int(rng.integers(0, 4)), 2)) + [10000, 0]
+        avoided = rng.uniform(-3000, 3000, (int(rng.integers(1, 5)), 2)) + np.array([10000.0, 0.0])
+        others = rng.uniform(-6000, 6000, (int(rng.integers(0, 4)), 2)) + np.array([10000.0, 0.0])
         pr = WaypointProblem(
             [0, 0], [20000, 500], avoided, others, params=PsoCaParams(**options), side=side
         )

@@ -141,6 +141,7 @@ class PsoCaAvoider:
         params: PsoCaParams | None = None,
         *,
         rs: float | None = None,
+        mxrsk: float | None = None,
         leg_margin: float = 100.0,
         moving_rs: float = 2000.0,
         act_range: float = 8000.0,
@@ -160,6 +161,8 @@ class PsoCaAvoider:
         base = params or PsoCaParams(leg_margin=leg_margin)
         if rs is not None:
             base = replace(base, rs=rs)  # re-checked by PsoCaParams
+        if mxrsk is not None:
+            base = replace(base, mxrsk=mxrsk)
         self.params = base
         self.moving_rs = _positive("moving safety radius", moving_rs)
         if self.moving_rs + self.params.tolerance >= self.params.search_limit:

@@ -52,7 +52,32 @@ def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
     "--avoid",
     default="none",
     show_default=True,
-    help="Avoidance algorithm: none (keep the mission) or pso-ca (seed 000; first version: stationary obstacles).",
+    help="Avoidance algorithm: none (keep the mission) or pso-ca (seed 000: radar-driven waypoint re-planning).",
+)
+@click.option(
+    "--ca-optimizer",
+    type=click.Choice(["pso", "ga", "sa", "mafoa", "gcpso", "mpso"]),
+    default=None,
+    help="pso-ca: optimiser of the new waypoint (seed 000 §6; default pso, Table 2).",
+)
+@click.option(
+    "--ca-safety-radius",
+    type=float,
+    default=None,
+    help="pso-ca: safety radius RS kept from stationary obstacles (m; default 1000, seed 000). "
+    "Set it to at least the radius of your threats.",
+)
+@click.option(
+    "--ca-moving-radius",
+    type=float,
+    default=None,
+    help="pso-ca: safety radius around a moving intruder (m; default 2000, seed 000 §5.7).",
+)
+@click.option(
+    "--ca-mxrsk",
+    type=float,
+    default=None,
+    help="pso-ca: maximal risk distance MXRSK of the f2 term (m; default 3000, our choice: the paper gives none).",
 )
 @click.option("--vehicle", default=None, help="Vehicle preset or file (default: the mission's).")
 @click.option(
@@ -100,6 +125,10 @@ def replay_cmd(
     source: str,
     threats_path: str | None,
     avoid: str,
+    ca_optimizer: str | None,
+    ca_safety_radius: float | None,
+    ca_moving_radius: float | None,
+    ca_mxrsk: float | None,
     vehicle: str | None,
     seed: int,
     duration: float | None,
@@ -129,7 +158,16 @@ def replay_cmd(
     base_dir = Path.cwd() if vehicle else Path(source).resolve().parent
     vehicle_name = vehicle or mission.vehicle
     params = load_vehicle(vehicle_name, base_dir=base_dir)
-    avoider = make_avoider(avoid)
+    ca = {
+        "optimizer": ca_optimizer,
+        "rs": ca_safety_radius,
+        "moving_rs": ca_moving_radius,
+        "mxrsk": ca_mxrsk,
+    }
+    ca = {k: v for k, v in ca.items() if v is not None}
+    if ca and avoid != "pso-ca":
+        raise click.UsageError("the --ca-* options apply to --avoid pso-ca only")
+    avoider = make_avoider(avoid, **ca)
     threat_text: str | None = None
     if threats_path:
         threats = load_threats(threats_path, grid)
@@ -174,7 +212,7 @@ def replay_cmd(
         crs=mission.crs,
         seed=seed,
         command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
-        avoid=avoid,
+        avoid=avoid + "".join(f" {k}={v}" for k, v in ca.items()),
         software_version=_software_version(),
         to_lonlat=grid.lonlat_interpolator()
         if grid is not None and grid.is_georeferenced

@@ -1,0 +1,217 @@
+"""PSO-CA behaviour beyond the contract (seed 000 §3, §5.3, §5.7): failed decisions, replacing an
+inserted waypoint, terrain returns, the side rule for intruders, the CLI options, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from affine import Affine
+
+from planner.mission import mission_from_dict
+from replay.avoidance import make_avoider
+from replay.avoidance.pso_ca import PsoCaAvoider
+from replay.avoidance.pso_ca_geometry import PsoCaParams
+from replay.reader import load_run
+from replay.sim import ReplayConfig, ReplayResult, simulate
+from replay.threats import threats_from_records
+from replay.vehicle.presets import load_vehicle
+from terrain.errors import InputError
+from terrain.grid import HeightGrid
+from terrapath.cli import main
+
+R = 1000.0
+
+
+def _mission(waypoints: list[list[float]], name: str = "t") -> Any:
+    return mission_from_dict(
+        {
+            "terrapath": 1,
+            "name": name,
+            "crs": "local",
+            "vehicle": "solar-uav",
+            "cruise": {"speed": 15.0, "altitude": 200.0},
+            "waypoints": waypoints,
+        }
+    )
+
+
+def _fly(
+    waypoints: list[list[float]],
+    threats: list[dict[str, Any]],
+    avoider: str = "pso-ca",
+    seed: int = 0,
+    **kw: Any,
+) -> ReplayResult:
+    return simulate(
+        _mission(waypoints),
+        threats_from_records(threats),
+        make_avoider(avoider, **({} if avoider == "none" else kw.pop("options", {}))),
+        load_vehicle("solar-uav"),
+        config=ReplayConfig(seed=seed, **kw.pop("config", {})),
+        **kw,
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"rs": -1.0}, "rs must be a positive"),
+        ({"params": PsoCaParams(tolerance=1000.0, search_limit=4000.0), "rs": 3500.0}, "room"),
+        ({"moving_rs": 0.0}, "moving safety radius"),
+        ({"moving_rs": 3500.0}, "moving safety radius plus"),
+        ({"optimizer": "cmaes"}, "unknown PSO-CA optimiser"),
+        ({"act_range": float("nan")}, "act range"),
+    ],
+)
+def test_bad_avoider_parameters_are_refused(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(InputError, match=message):
+        PsoCaAvoider(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"wt": 0.2, "wo": 0.9}, "sum to 1"),
+        ({"tolerance": 3500.0}, "search limit"),
+        ({"tolerance": -1.0}, "tolerance must be a number >= 0"),
+        ({"rs": 0.0}, "rs must be a positive"),
+        ({"leg_margin": float("inf")}, "leg_margin"),
+    ],
+)
+def test_bad_pso_ca_constants_are_refused(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(InputError, match=message):
+        PsoCaParams(**kwargs)
+
+
+def test_no_feasible_waypoint_is_a_recorded_failure_not_an_exception() -> None:
+    """An obstacle on the goal itself: no new waypoint can lead to the goal clear of it (g3), and
+    the goal cannot be skipped.  The run goes on with the old list; each failed decision is
+    recorded, retried no more often than every 5 s."""
+    r = _fly(
+        [[0, 0, 200], [20000, 0, 200]],
+        [{"id": "on-goal", "kind": "static", "position": [20000, 0, 200], "radius": R}],
+    )
+    assert r.decisions, "the obstacle was seen and a decision attempted"
+    assert all(not d["feasible"] and d["reason"].startswith("failed") for d in r.decisions)
+    np.testing.assert_array_equal(r.waypoints, r.initial_waypoints)
+    assert r.metrics.waypoints_added == 0 and r.metrics.end_reason == "goal"
+    t = np.array([d["t"] for d in r.decisions])
+    assert (np.diff(t) >= 5.0 - 1e-9).all()
+
+
+def test_an_inserted_waypoint_made_unsafe_by_a_later_obstacle_is_replaced() -> None:
+    """§5.3 / Fig. 23: a second obstacle that pops up next to the waypoint inserted for the
+    first makes it unsafe; the avoider leads past it with a new one."""
+    legs = [[0, 0, 200], [30000, 0, 200], [50000, 0, 200]]
+    first = [{"id": "a", "kind": "static", "position": [12000, 0, 200], "radius": R}]
+    r1 = _fly(legs, first)
+    w = np.array(r1.decisions[0]["new_waypoint"])
+    t1 = r1.decisions[0]["t"]
+    b = {"id": "b", "kind": "static", "position": [w[0] + 300.0, w[1], 200], "radius": R}
+    b["appears_at"] = t1 + 30.0
+    r2 = _fly(legs, [*first, b])
+    assert r2.decisions[0]["new_waypoint"] == r1.decisions[0]["new_waypoint"]
+    later = [d for d in r2.decisions[1:] if d["obstacles"] == ["b"]]
+    assert later and later[0]["skipped_waypoints"] == 1 and later[0]["feasible"]
+    final = r2.waypoints[:, :2]
+    assert np.hypot(*(final - np.array(b["position"][:2])).T).min() > R
+    assert r2.metrics.success and r2.metrics.reached_goal
+
+
+def test_an_intruder_crossing_to_the_left_is_passed_on_the_right() -> None:
+    """§5.7 / Fig. 28: an intruder heading to the left of the aircraft's leg -> the aircraft turns
+    right (the new waypoint lies right of the leg, g6 >= 0 with side -1)."""
+    legs = [[0, 0, 200], [40000, 0, 200]]
+    crosser = {
+        "id": "crosser",
+        "kind": "intruder",
+        "position": [17000, -17000, 200],  # meets the aircraft at (17000, 0) without avoidance
+        "velocity": [0, 15, 0],
+        "radius": R,
+    }
+    assert not _fly(legs, [crosser], avoider="none").metrics.success
+    r = _fly(legs, [crosser])
+    moving = [d for d in r.decisions if d["obstacle_kind"] == "moving" and d["feasible"]]
+    assert moving and all(d["side"] == -1 for d in moving)
+    first = moving[0]
+    a, tgt = np.array(first["inputs"]["aircraft"]), np.array(first["inputs"]["target"])
+    p = np.array(first["new_waypoint"][:2])
+    leg, rel = tgt - a, p - a
+    assert leg[0] * rel[1] - leg[1] * rel[0] < 0  # right of the leg
+    assert r.metrics.success and r.metrics.min_separation["crosser"]["value"] >= 0.0
+
+
+def test_terrain_that_rises_above_the_flight_altitude_is_avoided() -> None:
+    """Terrain returns of a hill above the (constant) flight altitude are a continuous obstacle:
+    without avoidance the aircraft flies into the hill; with PSO-CA it goes round it."""
+    from terrain.model import TerrainModel
+
+    cell = 100.0
+    ys, xs = np.mgrid[0:80, 0:400]
+    x = xs * cell + cell / 2
+    y = 4000.0 - (ys * cell + cell / 2)
+    hill = 600.0 * np.exp(-((x - 20000.0) ** 2 + y**2) / (2 * 900.0**2))
+    grid = HeightGrid(hill.astype(np.float32), Affine(cell, 0, 0.0, 0, -cell, 4000.0), None)
+    model = TerrainModel.from_grid(grid)
+    legs = [[1000, 0, 200], [39000, 0, 200]]
+    base = _fly(legs, [], avoider="none", grid=grid, terrain_model=model)
+    assert base.metrics.terrain_contact
+    r = _fly(legs, [], grid=grid, terrain_model=model)
+    assert not r.metrics.terrain_contact and r.metrics.reached_goal
+    assert r.metrics.min_terrain_clearance_m > 0.0
+    assert any(all(o.startswith("terrain/") for o in d["obstacles"]) for d in r.decisions)
+    assert r.metrics.waypoints_added >= 1
+
+
+def test_replay_cli_ca_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    mission = tmp_path / "m.yaml"
+    mission.write_text(
+        yaml.safe_dump(
+            {
+                "terrapath": 1,
+                "name": "cli",
+                "crs": "local",
+                "vehicle": "solar-uav",
+                "cruise": {"speed": 15.0, "altitude": 200.0},
+                "waypoints": [[0, 0, 200], [20000, 0, 200], [30000, 0, 200]],
+            }
+        )
+    )
+    threats = tmp_path / "t.yaml"
+    threats.write_text(
+        yaml.safe_dump(
+            {
+                "terrapath": 1,
+                "threats": [
+                    {"id": "o", "kind": "static", "position": [10000, 0, 200], "radius": 1400}
+                ],
+            }
+        )
+    )
+    out = tmp_path / "run.mcap"
+    args = ["replay", str(mission), "--threats", str(threats), "-o", str(out)]
+    # the paper's RS = 1 km does not keep clear of a 1.4 km threat; --ca-safety-radius does
+    rc = main([*args, "--avoid", "pso-ca", "--ca-optimizer", "ga", "--ca-safety-radius", "1500"])
+    assert rc == 0
+    capsys.readouterr()
+    run = load_run(out, with_states=False)
+    decisions = [d.decision for d in run.decisions]
+    assert decisions and all(d["optimizer"] == "ga" for d in decisions)
+    assert all(d["safety_radius"] == 1500.0 for d in decisions)
+    assert "ga" in run.metadata["avoid"] and "1500" in run.metadata["avoid"]
+    assert main(["inspect", str(out), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["min_separation"]["o"]["value"] >= 0.0 and len(s["final_waypoints"]) >= 4
+    # --ca-* without pso-ca is a usage error; a bad value is one line, exit 1, nothing written
+    assert main([*args, "--ca-optimizer", "ga"]) == 2
+    capsys.readouterr()
+    out.unlink()
+    assert main([*args, "--avoid", "pso-ca", "--ca-moving-radius", "-3"]) == 1
+    err = capsys.readouterr().err
+    assert "moving safety radius" in err and err.strip().count("\n") == 0
+    assert not out.exists()
