@@ -47,14 +47,17 @@ demo: $(VENV)/.run-stamp
 	$(BIN)/terrapath plan $(DEMO_MAP) --start=-105.85,40.20 --goal=-105.55,40.50 \
 	  --zones $(DEMO_ZONES) --avoid-zones --seed 1 -o $(OUT)/rmnp-mission.yaml
 	$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --threats data/threats/rmnp-demo.yaml \
-	  --seed 1 -o $(OUT)/rmnp-replay.mcap
+	  --seed 1 -o $(OUT)/rmnp-replay-none.mcap
+	$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --threats data/threats/rmnp-demo.yaml \
+	  --avoid pso-ca --seed 1 -o $(OUT)/rmnp-replay.mcap
 	@echo
 	@echo "demo outputs (in $(OUT)/):"
 	@echo "  rmnp-hillshade.png   the map with its two danger zones"
 	@echo "  rmnp-mission.yaml    the planned mission (source of truth: waypoints, cost terms, seed)"
 	@echo "  rmnp-mission.png     the path over the map and its altitude profile"
 	@echo "  rmnp-mission.geojson / .plan / .waypoints   for GIS tools and ground stations"
-	@echo "  rmnp-replay.mcap     the 6-DOF replay with three pop-up threats (no avoidance yet)"
+	@echo "  rmnp-replay-none.mcap  the 6-DOF replay with three pop-up threats, no avoidance: all three violated"
+	@echo "  rmnp-replay.mcap     the same with PSO-CA avoidance (seed 000): every threat kept clear"
 	@echo
 	@echo "open the replay in Foxglove (app.foxglove.dev or the desktop app): Open local file ->"
 	@echo "  $(OUT)/rmnp-replay.mcap; add a 3D panel (display frame 'map', follow 'base_link') and"
