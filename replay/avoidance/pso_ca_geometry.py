@@ -32,6 +32,11 @@ Choices where the paper is silent or inconsistent (see each docstring):
 - **g4 flyability**, not eq 11's "turn angle <= bank angle": the heading change ``theta`` at the
   new waypoint is flyable when the fly-by lead ``R tan(theta / 2)`` with
   ``R = V^2 / (g tan(phi_max))`` (eq 13) fits in the shorter of the two adjoining legs.
+- **g5 for an aircraft already inside** the margin of a point: the leg may not get closer to it
+  (otherwise no leg could start where the aircraft is).  **g6** (not in the paper): the side of
+  the leg a moving intruder's heading imposes (§5.7).  ``check_outbound=False`` drops g3 for
+  intruders (the next leg is flown when the intruder is elsewhere).  ``leg_margin`` adds a margin
+  to RS in g3 and g5 (0 here, the paper; the avoider uses 100 m, see :mod:`replay.avoidance.pso_ca`).
 - **f1 in metres** (eq 2 as printed; the paper does not normalise it).  ``normalise=True`` divides
   f1 by the straight distance aircraft -> next waypoint (the PLR of §6) and the risk sum by MXRSK.
 """
