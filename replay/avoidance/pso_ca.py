@@ -27,8 +27,8 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
 4. **Closest first** (§5.3).  The nearest hit is handled; for a stationary hit its whole group
    (points chained closer than 1 km, Fig. 8) is the obstacle and every member is avoided (the
    paper avoids the terminal points of a continuous obstacle; all members is the same for a
-   convex row and safer for a curved one).  If the next waypoint lies within RS of the obstacle
-   (Fig. 9, ``near_end_waypoint``) it is unsafe and skipped -- including a waypoint this avoider
+   convex row and safer for a curved one).  If the next waypoint lies within RS (+ the leg
+   margin, below) of the obstacle (Fig. 9, ``near_end_waypoint``) it is unsafe and skipped -- including a waypoint this avoider
    inserted earlier for another obstacle: "a new waypoint that a later-seen obstacle makes unsafe
    is replaced" (§5.3, Fig. 23).
 5. **Seeds and search** (Fig. 14, eq 27; Fig. 16).  Ten seed points on the circle of radius
@@ -50,8 +50,9 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    closest approach -- constant velocities, the aircraft along its current leg at its airspeed,
    up to the end of the leg -- instead of the sphere round its current position: the paper's
    test keeps firing while the intruder closes in even when the new leg already passes it at
-   more than ``moving_rs`` (measured on the demo: 13 decisions for one drone).  g1, g2, g4 and g5 hold as for a stationary obstacle; g3 (the leg after the
-   new waypoint clears the sphere) is not required, because that leg is flown later, when the
+   more than ``moving_rs`` (measured on the demo: 13 decisions for one drone).  g1, g2, g4 and
+   g5 hold as for a stationary obstacle; g3 (the leg after the new waypoint clears the sphere)
+   is not required, because that leg is flown later, when the
    intruder is elsewhere -- the scans then re-check it -- and an intruder passing near the next
    waypoint would otherwise make every candidate infeasible.  No waypoint is skipped for an
    intruder (Fig. 5 applies near_end_waypoint to stationary obstacles).  A decision for an
@@ -73,6 +74,7 @@ scan (measured on the rmnp demo before the margin: 36 decisions for one threat).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, replace
 from typing import Any
@@ -359,7 +361,8 @@ class PsoCaAvoider:
         while (
             not hit.moving
             and target_i + 1 < len(wps)
-            and (np.hypot(*(hit.points - wps[target_i, :2]).T).min() < hit.rs)
+            # RS + leg margin: closer than that, g3 cannot hold for any candidate
+            and (np.hypot(*(hit.points - wps[target_i, :2]).T).min() < hit.rs + params.leg_margin)
         ):
             target_i += 1
             skipped += 1
@@ -383,6 +386,8 @@ class PsoCaAvoider:
             x0=np.clip(seeds, lo, hi)[: opt.max_seed_points()],
         )
         xy = np.asarray(res.x, dtype=np.float64)
+        hist = np.asarray(res.history_best, dtype=np.float64)
+        met = np.flatnonzero(hist < params.penalty_offset)  # CS (§6): constraints first all met
         terms = problem.terms(xy[None, :])
         report = terms.report
         feasible = bool(report.feasible[0])
@@ -405,6 +410,7 @@ class PsoCaAvoider:
             "optimizer": self.optimizer,
             "iterations": int(res.iterations),
             "evaluations": int(res.evaluations),
+            "cs_iteration": int(met[0]) if met.size else None,
             "skipped_waypoints": skipped,
             "inputs": {
                 "aircraft": pos.tolist(),
@@ -412,11 +418,7 @@ class PsoCaAvoider:
                 "obstacles": hit.points.tolist(),
                 "others": others.tolist(),
                 "side": hit.side,
-                "params": {
-                    k: getattr(params, k)
-                    for k in ("rs", "tolerance", "search_limit", "mxrsk", "wt", "wo")
-                }
-                | {"max_bank_deg": params.max_bank_deg, "speed": params.speed},
+                "params": dataclasses.asdict(params),
             },
         }
         if hit.moving:
