@@ -345,3 +345,45 @@ def test_scan_cost_on_a_real_map(shared_maps: Path) -> None:
     print(f"radar scan on bigtujunga (ms, terrain returns): {results}")
     assert all(ms < 50.0 for ms, _ in results.values())
     assert all(n > 0 for _, n in results.values())
+
+
+def test_static_threats_in_one_array_keep_order_windows_and_range() -> None:
+    """Static point threats are tested as one array; the returns must be exactly those of the
+    threat-by-threat rule, in the order the threats are given, interleaved with other kinds."""
+    from replay.threats import threats_from_records
+
+    threats = threats_from_records(
+        [
+            {"id": "a", "kind": "static", "position": [5000, 0, 200], "radius": 100},
+            {
+                "id": "i",
+                "kind": "intruder",
+                "position": [0, 3000, 200],
+                "velocity": [10, 0, 0],
+                "radius": 50,
+            },
+            {"id": "far", "kind": "static", "position": [20000, 0, 200], "radius": 100},
+            {
+                "id": "late",
+                "kind": "static",
+                "position": [0, -4000, 200],
+                "radius": 100,
+                "appears_at": 50,
+            },
+            {
+                "id": "gone",
+                "kind": "static",
+                "position": [-3000, 0, 200],
+                "radius": 100,
+                "disappears_at": 20,
+            },
+            {"id": "b", "kind": "static", "position": [0, 9999, 200], "radius": 100},
+        ]
+    ).threats
+    radar = Radar()
+    own = np.array([0.0, 0.0, 200.0])
+    assert radar.scan(10.0, own, threats).threat_ids == ("a", "i", "gone", "b")
+    assert radar.scan(60.0, own, threats).threat_ids == ("a", "i", "late", "b")
+    pic = radar.scan(61.0, own, threats)
+    np.testing.assert_allclose(pic.positions[0], [5000.0, 0.0, 200.0])
+    np.testing.assert_allclose(pic.positions[2], [0.0, -4000.0, 200.0])
