@@ -441,6 +441,14 @@ def summarise(
             "cs": feasible_iteration(d, base.penalty_offset),
             "first_in_process": False,
         }
+        inputs = d.get("inputs")
+        if inputs and d.get("f1") is not None:
+            # the decision's own path-length ratio: aircraft -> new waypoint -> target over
+            # aircraft -> target (f1 / straight distance; seed 000 §6's PLR, per decision)
+            a, b = np.asarray(inputs["aircraft"]), np.asarray(inputs["target"])
+            straight = float(np.hypot(*(b - a)))
+            if straight > 0:
+                row["leg_plr"] = float(d["f1"]) / straight
         if case.bf_step and "inputs" in d and "new_waypoint" in d:
             row["bf"] = decision_gap(d, base, case.bf_step)
         decisions.append(row)
@@ -786,6 +794,12 @@ def _table6_value(runs: Sequence[dict[str, Any]], total: int, row: Row) -> str:
             + (f" ({statistics.fmean(ms):.2f} ms/decision)" if ms else ""),
             f"list {mean_std([r['list_length_m'] for r in ok])} m",
             f"PLR {mean_std([r['plr'] for r in ok], '.3f')}",
+            "route ratio "
+            + mean_std([r["list_length_m"] / r["initial_length_m"] for r in ok], ".4f"),
+        ]
+        legs = [d["leg_plr"] for r in ok for d in r["decisions"] if "leg_plr" in d]
+        parts += [
+            *([f"decision PLR {mean_std(legs, '.3f')}"] if legs else []),
             f"CS {_cs_text(ok)}",
         ]
     nd = [len(r["decisions"]) for r in runs]
@@ -872,8 +886,10 @@ def cmd_table6(args: argparse.Namespace) -> None:
         f"'40 + ...' rows add to the 40-obstacle draw): {seeds}. Means over successful runs; "
         f"alg = total time in avoider.decide per run; list = 3D polyline of the final waypoint "
         f"list; PLR = flown length / straight start-goal distance (replay.metrics; 1.59 on this "
-        f"mission without obstacles, so not the paper's PLR); SR = reached the goal without "
-        f"entering any safety sphere"
+        f"mission without obstacles, so not the paper's PLR); route ratio = final list / "
+        f"planned list length; decision PLR = (|aircraft - new wp| + |new wp - target|) / "
+        f"|aircraft - target| per decision, the reading of §6's PLR comparable with Table 6; "
+        f"SR = reached the goal without entering any safety sphere"
     )
     errs = _errors(results)
     if errs:
