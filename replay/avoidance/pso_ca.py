@@ -83,6 +83,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.optim import make_optimizer
+from planner.optim.base import require_real
 from planner.optim.pso import SEED000_PSO
 from planner.optim.termination import MaxIterations, Stall
 from replay.avoidance.base import AVOIDERS, AvoidanceContext, AvoidanceDecision
@@ -130,12 +131,6 @@ class _Hit:
     side: int = 0
 
 
-def _positive(name: str, value: object) -> float:
-    if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-        raise InputError(f"PSO-CA {name} must be a positive number; got {value!r}")
-    return float(value)
-
-
 class PsoCaAvoider:
     """Radar-driven waypoint re-planning of seed 000 (see the module docstring)."""
 
@@ -170,22 +165,20 @@ class PsoCaAvoider:
         if mxrsk is not None:
             base = replace(base, mxrsk=mxrsk)
         self.params = base
-        self.moving_rs = _positive("moving safety radius", moving_rs)
+        self.moving_rs = require_real("PSO-CA moving safety radius", moving_rs, 0.0, open_low=True)
         if self.moving_rs + self.params.tolerance >= self.params.search_limit:
             raise InputError(
                 f"PSO-CA search limit ({self.params.search_limit:g} m) must exceed the moving "
                 f"safety radius plus the tolerance ({self.moving_rs:g} + "
                 f"{self.params.tolerance:g} m)"
             )
-        self.act_range = _positive("act range", act_range)
-        self.moving_hold_s = _positive("moving hold", moving_hold_s)
-        self.head_on_ratio = _positive("head-on ratio", head_on_ratio)
-        self.retry_s = _positive("retry time", retry_s)
-        self.memory_s = _positive("memory time", memory_s)
-        self.climb_share = _positive("climb share", climb_share)
-        if not (math.isfinite(terrain_margin) and terrain_margin >= 0):
-            raise InputError(f"PSO-CA terrain margin must be >= 0 m; got {terrain_margin!r}")
-        self.terrain_margin = float(terrain_margin)
+        self.act_range = require_real("PSO-CA act range", act_range, 0.0, open_low=True)
+        self.moving_hold_s = require_real("PSO-CA moving hold", moving_hold_s, 0.0, open_low=True)
+        self.head_on_ratio = require_real("PSO-CA head-on ratio", head_on_ratio, 0.0, open_low=True)
+        self.retry_s = require_real("PSO-CA retry time", retry_s, 0.0, open_low=True)
+        self.memory_s = require_real("PSO-CA memory time", memory_s, 0.0, open_low=True)
+        self.climb_share = require_real("PSO-CA climb share", climb_share, 0.0, open_low=True)
+        self.terrain_margin = require_real("PSO-CA terrain margin", terrain_margin, 0.0)
         self.terrain = bool(terrain)
         self.rng = np.random.default_rng(0)
         self._seen: dict[str, _Seen] = {}
