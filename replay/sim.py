@@ -191,6 +191,8 @@ def simulate(
     pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
     while t < duration - 1e-9:
         period = min(cfg.radar_period, duration - t)
+        if period < 0.5 * ap_cfg.dt:
+            break  # the limit falls between two steps of the integrator: nothing left to fly
         log = autopilot.fly(x, t, period, record_every=record_every)
         x, t = log.x, log.t
         ts, xs = log.times, log.states

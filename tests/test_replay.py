@@ -13,7 +13,7 @@ from planner.mission import load_mission
 from replay.avoidance import NoAvoidance
 from replay.reader import load_run
 from replay.sim import ReplayConfig, simulate
-from replay.threats import load_threats
+from replay.threats import ThreatSet, load_threats
 from replay.vehicle.presets import load_vehicle
 from terrapath.cli import main
 from tests.conftest import ROOT
@@ -304,3 +304,18 @@ def test_pso_ca_avoids_the_table4_obstacles() -> None:
     assert all(s["value"] > 0.0 for s in met.min_separation.values())
     length = float(np.linalg.norm(np.diff(r.waypoints[:, :2], axis=0), axis=1).sum())
     assert length <= 431_730.0  # Table 4, PSO
+
+
+def test_a_time_limit_between_two_integration_steps_ends_the_run() -> None:
+    """Found by the Table 6 benchmark: a limit that is not a multiple of the 0.01 s step left a
+    remainder too short for one step, and the loop never ended."""
+    m = load_mission(MISSION)
+    r = simulate(
+        m,
+        ThreatSet(()),
+        NoAvoidance(),
+        load_vehicle(m.vehicle),
+        config=ReplayConfig(duration=5.0034921864),
+    )
+    assert r.metrics.end_reason == "time limit"
+    assert 4.8 <= r.times[-1] <= 5.0035  # 10 Hz samples
