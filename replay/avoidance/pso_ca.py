@@ -277,8 +277,6 @@ class PsoCaAvoider:
                 continue
             members = tuple(sorted(keys[i] for i in g))
             key = "s:" + members[0]
-            if self._hold.get(key, -math.inf) > t:
-                continue
             dist = float(np.hypot(*(pts[g] - pos).T).min())
             out.append(_Hit(key, dist, pts[g], members, rs, moving=False))
         return out
@@ -430,8 +428,9 @@ class PsoCaAvoider:
             self._hold[hit.key] = ctx.t + self.moving_hold_s
             self._sides.setdefault(hit.ids[0], hit.side)
         if not feasible:
-            self._hold[hit.key] = ctx.t + self.retry_s
-            if not hit.moving:  # the group's membership (its key) changes as more is seen
+            if hit.moving:
+                self._hold[hit.key] = ctx.t + self.retry_s
+            else:  # all stationary ones: a group's membership (its key) changes as more is seen
                 self._retry_stationary = ctx.t + self.retry_s
             return AvoidanceDecision(
                 reason=f"failed: no waypoint meets g1-g6 for {', '.join(hit.ids[:3])}"
