@@ -364,6 +364,7 @@ def _context(
         vehicle=params,
         terrain=terrain,
         terrain_clearance=float(cfg.terrain_following or 0.0),
+        switch_distance=float(cfg.switch_distance),
     )
 
 

@@ -31,11 +31,36 @@ def _seg_clearance(ax: float, ay: float, bx: float, by: float, ox: float, oy: fl
     return math.sqrt(gx * gx + gy * gy)
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _corner(
+    wx: float, wy: float, ux: float, uy: float, vx: float, vy: float, sw: float, tan_app: float
+) -> tuple[float, float, float, float, float, float]:
+    """pso_ca_geometry.corner_cut for one waypoint: c1, m and the end of the second segment."""
+    lu = math.hypot(ux, uy)
+    lv = math.hypot(vx, vy)
+    eux, euy = (ux / lu, uy / lu) if lu > 0.0 else (ux, uy)
+    evx, evy = (vx / lv, vy / lv) if lv > 0.0 else (vx, vy)
+    cut = min(sw, 0.5 * lu)
+    cx = wx - cut * eux
+    cy = wy - cut * euy
+    rx = cx - wx
+    ry = cy - wy
+    along = rx * evx + ry * evy
+    dd = abs(evx * ry - evy * rx)
+    reach = min(along + dd / tan_app, lv)
+    mx = wx + reach * evx
+    my = wy + reach * evy
+    if reach < 0.0:
+        return cx, cy, mx, my, wx, wy
+    return cx, cy, mx, my, mx, my
+
+
 @nb.njit(cache=True, nogil=True)
 def penalised_costs(
     X: FloatArray,
     pos: FloatArray,
     target: FloatArray,
+    after: FloatArray,
     avoided: FloatArray,
     others: FloatArray,
     consts: FloatArray,
@@ -44,10 +69,11 @@ def penalised_costs(
     """Penalised costs (P,) of candidates X (P, 2).
 
     ``consts`` = [rs, tolerance, search_limit, mxrsk, wt, wo, turn_radius, leg_margin,
-    penalty_offset, penalty_weight, big]; ``flags`` = [g2 centred on the obstacle, check_inbound,
-    check_outbound, normalise, side]."""
-    rs, tol, lim, mxrsk, wt, wo, radius, margin, pen_off, pen_w, big = consts
-    g2_obstacle, inbound, outbound, normalise, side = flags
+    switch_distance, tan(approach angle), penalty_offset, penalty_weight, big]; ``flags`` = [g2 centred on the
+    obstacle, check_inbound, check_outbound, normalise, side, has_after]; ``after`` is the
+    waypoint after the target (ignored without has_after)."""
+    rs, tol, lim, mxrsk, wt, wo, radius, margin, sw, tan_app, pen_off, pen_w, big = consts
+    g2_obstacle, inbound, outbound, normalise, side, has_after = flags
     n = X.shape[0]
     k_av = avoided.shape[0]
     k_ot = others.shape[0]
@@ -78,6 +104,11 @@ def penalised_costs(
         dmin = math.inf
         g3 = math.inf
         g5 = math.inf
+        # corners cut by the autopilot (pso_ca_geometry.corner_cut): at p and at the target
+        c1x, c1y, mx, my, bx, by = _corner(px, py, ix, iy, ox, oy, sw, tan_app)
+        d1x, d1y, nx, ny, ex, ey = _corner(
+            target[0], target[1], ox, oy, after[0] - target[0], after[1] - target[1], sw, tan_app
+        )
         for k in range(k_av):
             ax = avoided[k, 0]
             ay = avoided[k, 1]
@@ -85,6 +116,12 @@ def penalised_costs(
             g3 = min(g3, _seg_clearance(px, py, target[0], target[1], ax, ay) - (rs + margin))
             need = min(rs + margin, math.hypot(ax - pos[0], ay - pos[1]) - 1.0)
             g5 = min(g5, _seg_clearance(pos[0], pos[1], px, py, ax, ay) - need)
+            if sw > 0.0:
+                g5 = min(g5, _seg_clearance(c1x, c1y, mx, my, ax, ay) - need)
+                g5 = min(g5, _seg_clearance(mx, my, bx, by, ax, ay) - need)
+                if has_after:
+                    g3 = min(g3, _seg_clearance(d1x, d1y, nx, ny, ax, ay) - (rs + margin))
+                    g3 = min(g3, _seg_clearance(nx, ny, ex, ey, ax, ay) - (rs + margin))
         g1 = dmin - (rs + tol)
         g2 = lim - dmin if g2_obstacle else lim - l_in
         denom = l_in * l_out

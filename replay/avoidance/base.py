@@ -37,6 +37,7 @@ class AvoidanceContext:
     vehicle: Any = None  # replay.vehicle.VehicleParams (limits: bank, pitch, climb rate)
     terrain: Any = None  # terrain.model.TerrainModel or None (flat ground)
     terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
+    switch_distance: float = 0.0  # the autopilot turns to the next leg this far from a waypoint
 
 
 @dataclass(frozen=True)

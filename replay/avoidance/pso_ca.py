@@ -95,7 +95,9 @@ from replay.avoidance.base import AVOIDERS, AvoidanceContext, AvoidanceDecision
 from replay.avoidance.pso_ca_geometry import (
     PsoCaParams,
     WaypointProblem,
+    corner_cut,
     group_obstacles,
+    search_grid,
     segment_clearance,
     tangent_seed_points,
 )
@@ -110,6 +112,7 @@ MERGE_ROUNDS = 3  # obstacles merged into the avoided one when the new legs pass
 N_SEEDS = 10  # Table 2: N = 10 particles, all seeded round the safety circle (Fig. 14)
 CA_OPTIMIZERS = ("pso", "ga", "sa", "mafoa", "gcpso", "mpso")
 BODY_CELL_M = 100.0  # solid-body returns are remembered per cell of this size
+RESCUE_STEP_M = 100.0  # finest grid of the rescue scan (coarser for large zones: <= 20k points)
 
 
 @dataclass
@@ -137,6 +140,17 @@ class _Hit:
     side: int = 0
 
 
+@dataclass(frozen=True)
+class _Solution:
+    res: Any
+    xy: FloatArray
+    problem: WaypointProblem
+    hit: _Hit
+    target_i: int
+    stage: str
+    feasible: bool
+
+
 class PsoCaAvoider:
     """Radar-driven waypoint re-planning of seed 000 (see the module docstring)."""
 
@@ -159,6 +173,8 @@ class PsoCaAvoider:
         climb_share: float = 1.0,
         terrain_margin: float = 0.0,
         terrain: bool = True,
+        narrow: bool = True,
+        rescue: bool = True,
     ) -> None:
         if optimizer not in CA_OPTIMIZERS:
             raise InputError(
@@ -186,6 +202,9 @@ class PsoCaAvoider:
         self.climb_share = require_real("PSO-CA climb share", climb_share, 0.0, open_low=True)
         self.terrain_margin = require_real("PSO-CA terrain margin", terrain_margin, 0.0)
         self.terrain = bool(terrain)
+        self.narrow = bool(narrow)
+        self.rescue = bool(rescue)
+        self._grid_evaluations = 0
         self.rng = np.random.default_rng(0)
         self._seen: dict[str, _Seen] = {}
         self._tracks: dict[str, _Track] = {}
@@ -259,12 +278,31 @@ class PsoCaAvoider:
 
     # ----------------------------------------------------------------------------- decisions
     def _stationary_hits(
-        self, pos: FloatArray, target: FloatArray, keys: list[str], pts: FloatArray, t: float
+        self,
+        pos: FloatArray,
+        target: FloatArray,
+        after: FloatArray | None,
+        switch: float,
+        keys: list[str],
+        pts: FloatArray,
+        t: float,
     ) -> list[_Hit]:
         if not len(pts) or self._retry_stationary > t:
             return []
         rs = self.params.rs
         clear = segment_clearance(pos[None, :], target[None, :], pts)[0]
+        if after is not None and switch > 0:
+            # the corner the autopilot cuts at the next waypoint: it turns towards ``after``
+            # up to ``switch`` metres before it (WaypointProblem's g3 checks the same chord)
+            # (a leg of twice the distance to go: the cut starts at most ``switch`` before it)
+            for a, b in corner_cut(
+                target[None, :],
+                2.0 * (target - pos)[None, :],
+                (after - target)[None, :],
+                switch,
+                self.params.approach_deg,
+            ):
+                clear = np.minimum(clear, segment_clearance(a, b, pts)[0])
         # a leg that starts inside a circle but never gets closer than where the aircraft is
         # (it is leaving) is not a new collision: re-deciding every scan would not help it out
         hit = (clear < rs) & (clear < np.hypot(*(pts - pos).T) - 1.0)
@@ -336,7 +374,10 @@ class PsoCaAvoider:
             if keys
             else np.zeros((0, 2))
         )
-        hits = self._stationary_hits(pos, target, keys, pts, ctx.t) + self._moving_hits(ctx, target)
+        after = wps[ctx.next_index + 1, :2] if ctx.next_index + 1 < len(wps) else None
+        hits = self._stationary_hits(
+            pos, target, after, float(ctx.switch_distance), keys, pts, ctx.t
+        ) + self._moving_hits(ctx, target)
         if not hits:
             return None
         hit = min(hits, key=lambda h: h.distance)  # §5.3: the closest first
@@ -352,43 +393,20 @@ class PsoCaAvoider:
             rs=hit.rs,
             speed=max(ctx.airspeed, 1.0),
             check_outbound=not hit.moving,
+            switch_distance=max(float(ctx.switch_distance), 0.0),
         )
-        target_i = ctx.next_index
-        skipped = 0
-        # Fig. 9 / Fig. 23: a next waypoint within RS of a stationary obstacle is unsafe -- lead
-        # past it (Fig. 5 step 13: single stationary obstacles only; an intruder moves on)
-        while (
-            not hit.moving
-            and target_i + 1 < len(wps)
-            # RS + leg margin: closer than that, g3 cannot hold for any candidate
-            and (np.hypot(*(hit.points - wps[target_i, :2]).T).min() < hit.rs + params.leg_margin)
-        ):
-            target_i += 1
-            skipped += 1
-        target = wps[target_i]
-        moving_xy = [
-            tr.xy for ident, tr in self._tracks.items() if ident not in hit.ids and tr.t == ctx.t
-        ]
-        mine = np.array([k in hit.ids for k in keys], dtype=bool)
-        for search in range(MERGE_ROUNDS):
-            others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
-            others = np.array(others_list) if others_list else np.zeros((0, 2))
-            problem = WaypointProblem(pos, target[:2], hit.points, others, params, side=hit.side)
-            res, xy = self._search(problem, pos, hit, params)
-            if hit.moving or not len(pts) or search == MERGE_ROUNDS - 1:
-                break
-            # a stationary point that the two new legs pass closer than RS + margin would
-            # trigger the next decision, whose waypoint leads back here: avoid them together
-            a, b = np.vstack([pos, xy]), np.vstack([xy, target[:2]])
-            near = (segment_clearance(a, b, pts).min(axis=0) < hit.rs + params.leg_margin) & ~mine
-            if not near.any():
-                break
-            mine |= near
-            hit = replace(
-                hit,
-                points=pts[mine],
-                ids=tuple(sorted(k for k, m in zip(keys, mine, strict=True) if m)),
+        self._grid_evaluations = 0
+        sol = self._solve(ctx, hit, keys, pts, params, "paper")
+        if not sol.feasible and self.narrow and params.tolerance > params.leg_margin:
+            # escalation (our addition): the same search with g1 = RS + margin instead of
+            # RS + tolerance -- a waypoint may thread a gap the paper's 1 km tolerance closes
+            narrow = self._solve(
+                ctx, hit, keys, pts, replace(params, tolerance=params.leg_margin), "narrow"
             )
+            if narrow.feasible:
+                sol = narrow
+        res, xy, problem, hit, target_i = sol.res, sol.xy, sol.problem, sol.hit, sol.target_i
+        params, others, target = sol.problem.params, sol.problem.others, wps[sol.target_i]
         hist = np.asarray(res.history_best, dtype=np.float64)
         met = np.flatnonzero(hist < params.penalty_offset)  # CS (§6): constraints first all met
         terms = problem.terms(xy[None, :])
@@ -413,8 +431,10 @@ class PsoCaAvoider:
             "optimizer": self.optimizer,
             "iterations": int(res.iterations),
             "evaluations": int(res.evaluations),
+            "grid_evaluations": self._grid_evaluations,
             "cs_iteration": int(met[0]) if met.size else None,
-            "skipped_waypoints": skipped,
+            "skipped_waypoints": target_i - ctx.next_index,
+            "stage": sol.stage,
             "inputs": {
                 "aircraft": pos.tolist(),
                 "target": target[:2].tolist(),
@@ -448,9 +468,71 @@ class PsoCaAvoider:
             waypoints=new_list,
             next_index=ctx.next_index,
             direct=True,
-            reason=f"inserted 1 for {what}" + (f", skipped {skipped}" if skipped else ""),
+            reason=f"inserted 1 for {what}"
+            + (f", skipped {target_i - ctx.next_index}" if target_i > ctx.next_index else ""),
             info=info,
         )
+
+    def _solve(
+        self,
+        ctx: AvoidanceContext,
+        hit: _Hit,
+        keys: list[str],
+        pts: FloatArray,
+        params: PsoCaParams,
+        stage: str,
+    ) -> _Solution:
+        """One decision's search: skip unsafe waypoints, search, merge the obstacles the new legs
+        pass too close into the avoided one and search again (module docstring, step 4)."""
+        wps = ctx.waypoints
+        pos = np.asarray(ctx.position[:2], dtype=np.float64)
+        target_i = self._skip_unsafe(wps, ctx.next_index, hit, params)
+        target = wps[target_i]
+        moving_xy = [
+            tr.xy for ident, tr in self._tracks.items() if ident not in hit.ids and tr.t == ctx.t
+        ]
+        mine = np.array([k in hit.ids for k in keys], dtype=bool)
+        for search in range(MERGE_ROUNDS):
+            others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
+            others = np.array(others_list) if others_list else np.zeros((0, 2))
+            after = wps[target_i + 1, :2] if target_i + 1 < len(wps) else None
+            problem = WaypointProblem(
+                pos, target[:2], hit.points, others, params, side=hit.side, after=after
+            )
+            res, xy = self._search(problem, pos, hit, params)
+            if hit.moving or not len(pts) or search == MERGE_ROUNDS - 1:
+                break
+            # a stationary point that the two new legs pass closer than RS + margin would
+            # trigger the next decision, whose waypoint leads back here: avoid them together
+            a, b = np.vstack([pos, xy]), np.vstack([xy, target[:2]])
+            near = (segment_clearance(a, b, pts).min(axis=0) < hit.rs + params.leg_margin) & ~mine
+            if not near.any():
+                break
+            mine |= near
+            hit = replace(
+                hit,
+                points=pts[mine],
+                ids=tuple(sorted(k for k, m in zip(keys, mine, strict=True) if m)),
+            )
+            # a merged point may lie next to the target waypoint: skip it as for the hit itself
+            target_i = self._skip_unsafe(wps, target_i, hit, params)
+            target = wps[target_i]
+        feasible = bool(problem.terms(xy[None, :]).report.feasible[0])
+        return _Solution(res, xy, problem, hit, target_i, stage, feasible)
+
+    @staticmethod
+    def _skip_unsafe(wps: FloatArray, target_i: int, hit: _Hit, params: PsoCaParams) -> int:
+        """Fig. 9 / Fig. 23: a next waypoint within RS (+ the leg margin: closer than that, g3
+        cannot hold for any candidate) of a stationary obstacle is unsafe -- lead past it (Fig. 5
+        step 13: stationary obstacles only; an intruder moves on).  The index of the first safe
+        waypoint from ``target_i`` on (the last one is never skipped)."""
+        while (
+            not hit.moving
+            and target_i + 1 < len(wps)
+            and np.hypot(*(hit.points - wps[target_i, :2]).T).min() < hit.rs + params.leg_margin
+        ):
+            target_i += 1
+        return target_i
 
     def _search(
         self, problem: WaypointProblem, pos: FloatArray, hit: _Hit, params: PsoCaParams
@@ -466,6 +548,29 @@ class PsoCaAvoider:
             seed=self.rng,
             termination=MaxIterations(MAX_ITERATIONS) | Stall(STALL_ITERATIONS, STALL_TOLERANCE),
             x0=np.clip(seeds, lo, hi)[: opt.max_seed_points()],
+        )
+        xy = np.asarray(res.x, dtype=np.float64)
+        if not self.rescue or float(problem(xy[None, :])[0]) < params.penalty_offset:
+            return res, xy
+        # rescue (our addition): the swarm, seeded round the tangent points, missed a feasible
+        # region -- typically a narrow one at the edge of the search zone in a dense field.  The
+        # same objective on a grid of the zone finds the feasible points; the optimiser runs again
+        # seeded with the best of them (so the waypoint is still the optimiser's).
+        grid = search_grid(problem, max(RESCUE_STEP_M, math.sqrt(float(np.prod(hi - lo)) / 2e4)))
+        cost = problem(grid)
+        self._grid_evaluations += len(grid)
+        ok = np.flatnonzero(cost < params.penalty_offset)
+        if not ok.size:
+            return res, xy
+        best = grid[ok[np.argsort(cost[ok], kind="stable")]][: opt.max_seed_points()]
+        opt = self._optimizer()
+        res = opt.run(
+            problem,
+            lo,
+            hi,
+            seed=self.rng,
+            termination=MaxIterations(MAX_ITERATIONS) | Stall(STALL_ITERATIONS, STALL_TOLERANCE),
+            x0=best,
         )
         return res, np.asarray(res.x, dtype=np.float64)
 

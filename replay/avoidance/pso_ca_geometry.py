@@ -307,6 +307,37 @@ def tangent_seed_points(
     return np.asarray(o + rad[:, None] * np.column_stack([np.cos(ang), np.sin(ang)]))
 
 
+# -- corner cutting ---------------------------------------------------------------------------
+def corner_cut(
+    w: FloatArray, u_in: FloatArray, u_next: FloatArray, switch: float, approach_deg: float
+) -> tuple[tuple[FloatArray, FloatArray], tuple[FloatArray, FloatArray]]:
+    """The path the autopilot flies round waypoints ``w`` (P, 2), as two segments
+    ``(c1 -> m, m -> w)`` of (P, 2) arrays each.
+
+    The legs arrive along ``u_in`` (P, 2) and leave along ``u_next`` (P, 2) (any lengths: the
+    leg vectors).  :mod:`replay.autopilot` ends a leg ``switch`` metres before its waypoint (at
+    most half the leg's length) at ``c1`` and from there follows the next leg's *line* with the
+    vector field ``chi_leg - chi_inf (2/pi) atan(k DD)``: it heads for the line at up to
+    ``approach_deg`` (``chi_inf``, 60 deg) and meets it at ``m``, the point reached at that angle
+    from ``c1`` (the steepest approach) -- which may lie *before* ``w`` on the line's extension, so
+    that with a small turn the aircraft first swings to the other side (measured: 10 m inside a
+    safety sphere behind a waypoint 1.3 km from it).  The second segment ``m -> w`` is the part
+    of the line flown before ``w`` (zero length, ``m -> m``, when ``m`` lies beyond ``w``).  The slower
+    convergence of the last ~100 m of cross-track (the atan) is left to the leg margin."""
+    l_in = np.hypot(*np.asarray(u_in).T)
+    l_nx = np.hypot(*np.asarray(u_next).T)
+    e_in = u_in / np.where(l_in > 0, l_in, 1.0)[:, None]
+    e_nx = u_next / np.where(l_nx > 0, l_nx, 1.0)[:, None]
+    c1 = w - np.minimum(switch, 0.5 * l_in)[:, None] * e_in
+    rel = c1 - w
+    along = np.einsum("pd,pd->p", rel, e_nx)
+    dd = np.abs(e_nx[:, 0] * rel[:, 1] - e_nx[:, 1] * rel[:, 0])
+    reach = np.minimum(along + dd / math.tan(math.radians(approach_deg)), l_nx)
+    m = w + reach[:, None] * e_nx
+    back = np.where((reach < 0.0)[:, None], w, m)
+    return (c1, m), (m, back)
+
+
 # -- 4. objective and constraints (eqs 2-12) ----------------------------------------------------
 @dataclass(frozen=True)
 class PsoCaParams:
@@ -326,6 +357,8 @@ class PsoCaParams:
     check_outbound: bool = True
     normalise: bool = False
     leg_margin: float = 0.0
+    switch_distance: float = 0.0
+    approach_deg: float = 60.0
     penalty_offset: float = 1e12
     penalty_weight: float = 1e6  # per metre of violation
 
@@ -334,13 +367,15 @@ class PsoCaParams:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise InputError(f"PSO-CA {name} must be a positive number of metres; got {v!r}")
+        if not (0 < self.approach_deg <= 90):
+            raise InputError(f"PSO-CA approach_deg must be in (0, 90]; got {self.approach_deg!r}")
         if not (0 < self.max_bank_deg < 90):
             raise InputError(f"PSO-CA max_bank_deg must be in (0, 90); got {self.max_bank_deg!r}")
         if self.g2_centre not in ("obstacle", "aircraft"):
             raise InputError(
                 f"PSO-CA g2_centre must be 'obstacle' or 'aircraft'; got {self.g2_centre!r}"
             )
-        for name in ("tolerance", "wt", "wo", "leg_margin"):
+        for name in ("tolerance", "wt", "wo", "leg_margin", "switch_distance"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise InputError(f"PSO-CA {name} must be a number >= 0; got {v!r}")
@@ -424,6 +459,7 @@ class WaypointProblem:
     others: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
     params: PsoCaParams = field(default_factory=PsoCaParams)
     side: int = 0  # +1: the waypoint must lie left of the leg pos -> target, -1: right, 0: either
+    after: FloatArray | None = None  # the waypoint after the target (its corner is cut too)
 
     def __post_init__(self) -> None:
         if self.side not in (-1, 0, 1):
@@ -437,6 +473,8 @@ class WaypointProblem:
         others = np.asarray(self.others, dtype=np.float64)
         others = np.zeros((0, 2)) if others.size == 0 else _xy(others, "others").reshape(-1, 2)
         object.__setattr__(self, "others", others.copy())
+        if self.after is not None:
+            object.__setattr__(self, "after", _xy(self.after, "after").reshape(2).copy())
 
     # eq 2
     def f1(self, X: npt.ArrayLike) -> FloatArray:
@@ -485,6 +523,26 @@ class WaypointProblem:
         d0 = np.hypot(*(self.avoided - self.position).T)
         need = np.minimum(pr.rs + pr.leg_margin, d0 - 1.0)
         g5 = (segment_clearance(pos, p, self.avoided) - need[None, :]).min(axis=1)
+        u_out = self.target - p
+        l_in = np.hypot(*u_in.T)
+        l_out = np.hypot(*u_out.T)
+        sw = pr.switch_distance
+        if sw > 0:
+            # the corners the autopilot cuts (:func:`corner_cut`): the one at p belongs with the
+            # inbound leg (g5), the one at X_fin (towards ``after``) with the outbound leg (g3)
+            cut = corner_cut(p, u_in, u_out, sw, pr.approach_deg)
+            for a, b in cut:
+                g5 = np.minimum(g5, (segment_clearance(a, b, self.avoided) - need).min(axis=1))
+            if self.after is not None:
+                v = np.broadcast_to(self.after - self.target, (n, 2))
+                cut = corner_cut(
+                    np.broadcast_to(self.target, (n, 2)), u_out, v, sw, pr.approach_deg
+                )
+                for a, b in cut:
+                    g3 = np.minimum(
+                        g3,
+                        segment_clearance(a, b, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin),
+                    )
         if self.side:
             leg = self.target - self.position
             g6 = (
@@ -494,9 +552,6 @@ class WaypointProblem:
             )
         else:
             g6 = np.full(n, np.inf)
-        u_out = self.target - p
-        l_in = np.hypot(*u_in.T)
-        l_out = np.hypot(*u_out.T)
         denom = l_in * l_out
         cos_t = np.where(
             denom > 0, np.einsum("pd,pd->p", u_in, u_out) / np.where(denom > 0, denom, 1.0), 1.0
@@ -546,6 +601,8 @@ class WaypointProblem:
                 pr.wo,
                 pr.turn_radius,
                 pr.leg_margin,
+                pr.switch_distance,
+                math.tan(math.radians(pr.approach_deg)),
                 pr.penalty_offset,
                 pr.penalty_weight,
                 _BIG,
@@ -558,11 +615,15 @@ class WaypointProblem:
                 pr.check_outbound,
                 pr.normalise,
                 self.side,
+                self.after is not None,
             ],
             dtype=np.int64,
         )
+        after = self.target if self.after is None else self.after
         return np.asarray(
-            penalised_costs(p, self.position, self.target, self.avoided, self.others, consts, flags)
+            penalised_costs(
+                p, self.position, self.target, after, self.avoided, self.others, consts, flags
+            )
         )
 
     def search_centres(self) -> FloatArray:
