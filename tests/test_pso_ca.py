@@ -215,3 +215,80 @@ def test_replay_cli_ca_options(tmp_path: Path, capsys: pytest.CaptureFixture[str
     err = capsys.readouterr().err
     assert "moving safety radius" in err and err.strip().count("\n") == 0
     assert not out.exists()
+
+
+def _separation(r: ReplayResult, threats: list[dict[str, Any]]) -> float:
+    p = np.asarray(r.positions)[:, :2]
+    return min(float(np.hypot(*(p - np.array(t["position"][:2])).T).min()) for t in threats) - R
+
+
+def test_a_corner_the_autopilot_cuts_towards_an_obstacle_is_avoided() -> None:
+    """The leg clears the obstacle by 1105 m (no hit for the paper's test), but 1 km before the
+    waypoint the autopilot turns for the next leg and swings about 140 m towards it
+    (pso_ca_geometry.corner_cut): flown as planned, the safety sphere is entered.  PSO-CA tests
+    the cut corner too and inserts a waypoint (measured: the version without this flew 33 m
+    inside)."""
+    legs = [[-12000, 0, 200], [0, 0, 200], [8000, -6028, 200]]
+    threats = [{"id": "o", "kind": "static", "position": [-400, 1105, 200], "radius": R}]
+    assert _separation(_fly(legs, threats, avoider="none"), threats) < 0
+    r = _fly(legs, threats)
+    assert len(r.decisions) >= 1 and all(d["feasible"] for d in r.decisions)
+    assert _separation(r, threats) >= 0 and r.metrics.reached_goal
+
+
+# a decision taken 2.6 km from two obstacles (Table 6 seed 50002, its first failing decision)
+RESCUE_LEGS = [[196144, 13795, 200], [200000, 15000, 200], [215000, 15500, 200]]
+RESCUE_THREATS = [
+    {"id": "a", "kind": "static", "position": [198538, 15436, 200], "radius": R},
+    {"id": "b", "kind": "static", "position": [198761, 13472, 200], "radius": R},
+]
+
+
+def test_a_feasible_region_the_seeded_swarm_misses_is_found_by_the_rescue_grid() -> None:
+    """The only waypoints that meet g1-g5 lie near the edge of the 4 km search zone, which the
+    swarm seeded round the tangent points does not reach: the grid scan of the same objective
+    finds them and the optimiser, re-seeded there, returns a feasible waypoint.  Without the
+    rescue the narrower g1 stage finds one; without both (and without leaving the waypoint out)
+    the decision fails."""
+    r = _fly(RESCUE_LEGS, RESCUE_THREATS)
+    first = r.decisions[0]
+    assert first["feasible"] and first["stage"] == "paper" and first["grid_evaluations"] > 0
+    assert all(d["feasible"] for d in r.decisions)
+    assert _separation(r, RESCUE_THREATS) >= 0 and r.metrics.reached_goal
+    narrow = _fly(RESCUE_LEGS, RESCUE_THREATS, options={"rescue": False})
+    assert narrow.decisions[0]["stage"] == "narrow" and narrow.decisions[0]["feasible"]
+    assert narrow.decisions[0]["grid_evaluations"] == 0
+    bare = _fly(
+        RESCUE_LEGS, RESCUE_THREATS, options={"rescue": False, "narrow": False, "max_skip": 0}
+    )
+    assert not bare.decisions[0]["feasible"] and bare.decisions[0]["stage"] == "failed"
+
+
+def test_a_waypoint_no_leg_reaches_clear_of_the_obstacles_is_left_out() -> None:
+    """A turning point ringed by obstacles (Table 6 seed 40004): no new waypoint leads to it
+    clear of them, even with the rescue grid and the narrower g1, so the decision leaves it out
+    and leads to the one after it (as Fig. 23 does for a waypoint next to an obstacle).
+    Without that stage the decisions fail and the aircraft flies into a safety sphere."""
+    t = np.array([350000.0, 20000.0])
+    rel = {
+        "o1": [-1038, 1904],
+        "o10": [-897, 1656],
+        "o13": [-151, 1473],
+        "o28": [-2494, -2436],
+        "o38": [-2398, 875],
+        "o40": [-1654, -1215],
+    }
+    legs = [[345478, 19192, 200], [*t.tolist(), 200], [300000, 11000, 200]]
+    threats = [
+        {"id": k, "kind": "static", "position": [*(t + v).tolist(), 200], "radius": R}
+        for k, v in rel.items()
+    ]
+    r = _fly(legs, threats)
+    skipped = [d for d in r.decisions if d["stage"].startswith("skip")]
+    assert skipped and skipped[0]["skipped_waypoints"] == 1 and skipped[0]["feasible"]
+    assert all(d["feasible"] for d in r.decisions)
+    assert _separation(r, threats) >= 0 and r.metrics.reached_goal
+    assert not np.any(np.all(np.isclose(r.waypoints[:, :2], t), axis=1))  # it was left out
+    stuck = _fly(legs, threats, options={"max_skip": 0})
+    assert any(not d["feasible"] for d in stuck.decisions)
+    assert _separation(stuck, threats) < 0

@@ -12,6 +12,7 @@ from replay.avoidance.pso_ca_geometry import (
     WaypointProblem,
     brute_force_waypoint,
     closest_first,
+    corner_cut,
     continuous_mask,
     group_obstacles,
     near_end_waypoint,
@@ -196,6 +197,61 @@ def test_g4_rejects_a_hairpin_and_g2_aircraft_centre():
     np.testing.assert_allclose(air.g2, [1000, 4000 - math.hypot(10000, 2500)])
 
 
+def test_corner_cut_hand_cases():
+    """The autopilot's turn: 1 km before the waypoint it heads for the next leg's line at up to
+    60 deg (replay.autopilot).  Arriving east, leaving north (90 deg left): from (-1000, 0) to the
+    line x = 0, met at y = 1000 / tan 60; leaving 20 deg left, the line is met *behind* the
+    waypoint and the part of it up to the waypoint is flown too."""
+    w = np.zeros((1, 2))
+    (c1, m), (m2, back) = corner_cut(w, np.array([[5000.0, 0]]), np.array([[0, 3000.0]]), 1000, 60)
+    np.testing.assert_allclose(c1, [[-1000, 0]])
+    np.testing.assert_allclose(m, [[0, 1000 / math.sqrt(3)]])
+    np.testing.assert_allclose(back, m)  # met beyond the waypoint: the second piece is empty
+    a = math.radians(20)
+    e = np.array([[math.cos(a), math.sin(a)]])
+    (c1, m), (m2, back) = corner_cut(w, np.array([[5000.0, 0]]), 4000 * e, 1000, 60)
+    reach = -1000 * math.cos(a) + 1000 * math.sin(a) / math.sqrt(3)
+    assert reach < 0
+    np.testing.assert_allclose(m, reach * e)
+    np.testing.assert_allclose(back, w)
+    # the cut starts at most half the incoming leg before the waypoint
+    (c1, _), _ = corner_cut(w, np.array([[600.0, 0]]), np.array([[0, 3000.0]]), 1000, 60)
+    np.testing.assert_allclose(c1, [[-300, 0]])
+
+
+def test_g3_and_g5_count_the_cut_corners():
+    """A waypoint whose straight legs clear the obstacle by more than RS + margin can still be
+    unsafe: the turn at the next waypoint swings towards the obstacle (g3), or the turn at the new
+    waypoint does (g5).  Without the switch distance (the paper) both are feasible."""
+    o = [[-400.0, 1105.0 + 1000.0]]  # 2105 m north of the line y = 0 ...
+    target, after = [0.0, 1000.0], [8000.0, 1000.0 - 6028.0]
+    paper = WaypointProblem([-20000, 1000], target, o, params=PsoCaParams(leg_margin=100.0))
+    cut = WaypointProblem(
+        [-20000, 1000],
+        target,
+        o,
+        params=PsoCaParams(leg_margin=100.0, switch_distance=1000.0),
+        after=after,
+    )
+    p = np.array([[-3000.0, 1000.0]])  # ... so both legs clear it by 1105 m
+    assert paper.constraint_report(p).feasible[0]
+    rep = cut.constraint_report(p)
+    assert rep.g3[0] < 0 and not rep.feasible[0]
+    assert rep.g5[0] == pytest.approx(paper.constraint_report(p).g5[0])
+    # the cut corner at the new waypoint itself: a right turn at p towards an obstacle behind it
+    inbound = WaypointProblem(
+        [-20000, 0],
+        [-10000 + 8000, -6028],
+        [[-10400, 1105]],
+        params=PsoCaParams(leg_margin=100.0, switch_distance=1000.0, tolerance=100.0),
+    )
+    q = np.array([[-10000.0, 0.0]])
+    assert inbound.constraint_report(q).g5[0] < 0
+    assert WaypointProblem(
+        [-20000, 0], [-2000, -6028], [[-10400, 1105]], params=PsoCaParams(leg_margin=100.0)
+    ).constraint_report(q).g5[0] > 0
+
+
 def test_objective_terms_eqs_2_to_6():
     prob = WaypointProblem([0, 0], [20000, 0], [[10000, 0]], others=[[10000, 4000], [0, 9000]])
     X = np.array([[10000, 2500], [10000, -2500]])
@@ -282,6 +338,8 @@ def test_pso_from_tangent_seeds_reaches_the_grid_optimum():
         {},
         {"normalise": True, "leg_margin": 100.0},
         {"check_inbound": False, "check_outbound": False, "g2_centre": "aircraft"},
+        {"switch_distance": 1000.0, "leg_margin": 100.0},
+        {"switch_distance": 700.0, "approach_deg": 45.0, "tolerance": 100.0},
     ],
 )
 def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:  # type: ignore[type-arg]
@@ -291,8 +349,15 @@ def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:
     for _ in range(5):
         avoided = rng.uniform(-3000, 3000, (int(rng.integers(1, 5)), 2)) + np.array([10000.0, 0.0])
         others = rng.uniform(-6000, 6000, (int(rng.integers(0, 4)), 2)) + np.array([10000.0, 0.0])
+        after = rng.uniform(-8000, 8000, 2) + np.array([20000.0, 500.0])
         pr = WaypointProblem(
-            [0, 0], [20000, 500], avoided, others, params=PsoCaParams(**options), side=side
+            [0, 0],
+            [20000, 500],
+            avoided,
+            others,
+            params=PsoCaParams(**options),
+            side=side,
+            after=after if options.get("switch_distance") else None,
         )
         lo, hi = pr.bounds()
         X = rng.uniform(lo, hi, (200, 2))

@@ -21,6 +21,11 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    above it is an obstacle.
 3. **Collision test** (Fig. 12, eqs 22-26): the current leg, aircraft -> next waypoint, against the
    safety circle (radius RS) of every stationary point: a hit when the leg comes closer than RS.
+   The leg is the path the autopilot flies, not only the straight line: 1 km before the next
+   waypoint (its switch distance) it turns for the leg after, heading for that leg's line at up
+   to 60 deg, so the corner is cut -- by ~140 m towards an obstacle outside a 37 deg turn
+   (:func:`~replay.avoidance.pso_ca_geometry.corner_cut`; measured on Table 6 seed 30001: a
+   leg 1105 m clear of an obstacle, flown 990 m from it).  The same corners enter g3 and g5.
    For intruders (§5.7, Fig. 13 ``Confirm_Collision``): the range fell since the previous scan, it
    is below ``act_range`` (8 km), and the leg meets the ``moving_rs`` (2 km) sphere around the
    intruder's *current* position.
@@ -62,7 +67,24 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    waypoint would otherwise make every candidate infeasible.  No waypoint is skipped for an
    intruder (Fig. 5 applies near_end_waypoint to stationary obstacles).  A decision for an
    intruder is not repeated for ``moving_hold_s`` (10 s).
-7. **Result.**  A feasible waypoint (at the altitude of the waypoint it leads to) is inserted and
+7. **When the paper's search fails** (our addition; measured on the Table 6 protocol, where
+   failed decisions -- up to 1138 in ten 100-obstacle runs -- left the aircraft on a leg through
+   a safety sphere in every failed run):
+
+   - *rescue*: the swarm, seeded round the tangent points, can miss a feasible region that is
+     small or far from them (typically at the edge of the 4 km zone in a dense field).  The same
+     penalised objective is then evaluated on a grid of the zone (100 m, at most ~20k points,
+     ``grid_evaluations`` in the record) and the optimiser runs again seeded with the best
+     feasible grid points, so the waypoint is still the optimiser's;
+   - *narrow*: the search again with g1 = RS + leg margin instead of RS + tolerance, so a
+     waypoint may thread a gap that the paper's 1 km tolerance closes;
+   - *skip*: for stationary obstacles, the next waypoint is left out (``max_skip`` = 1) and the
+     searches are repeated towards the one after it: a waypoint no leg reaches clear of the
+     obstacles is as unsafe as one next to them (Fig. 23).
+
+   The record's ``stage`` says which search gave the waypoint (``paper``, ``narrow``,
+   ``skip 1``, ``skip 1, narrow``) or ``failed``.
+8. **Result.**  A feasible waypoint (at the altitude of the waypoint it leads to) is inserted and
    flown "direct to" from the aircraft's position; the decision records the obstacle, its inputs,
    the waypoint, f, f1, f2, g1-g6, iterations, evaluations (the loop adds the compute time).  When
    no candidate meets the constraints the decision is recorded as failed, the aircraft flies on
@@ -175,6 +197,7 @@ class PsoCaAvoider:
         terrain: bool = True,
         narrow: bool = True,
         rescue: bool = True,
+        max_skip: int = 1,
     ) -> None:
         if optimizer not in CA_OPTIMIZERS:
             raise InputError(
@@ -204,6 +227,7 @@ class PsoCaAvoider:
         self.terrain = bool(terrain)
         self.narrow = bool(narrow)
         self.rescue = bool(rescue)
+        self.max_skip = int(require_real("PSO-CA max skip", max_skip, 0.0))
         self._grid_evaluations = 0
         self.rng = np.random.default_rng(0)
         self._seen: dict[str, _Seen] = {}
@@ -396,15 +420,26 @@ class PsoCaAvoider:
             switch_distance=max(float(ctx.switch_distance), 0.0),
         )
         self._grid_evaluations = 0
-        sol = self._solve(ctx, hit, keys, pts, params, "paper")
-        if not sol.feasible and self.narrow and params.tolerance > params.leg_margin:
-            # escalation (our addition): the same search with g1 = RS + margin instead of
-            # RS + tolerance -- a waypoint may thread a gap the paper's 1 km tolerance closes
-            narrow = self._solve(
-                ctx, hit, keys, pts, replace(params, tolerance=params.leg_margin), "narrow"
-            )
-            if narrow.feasible:
-                sol = narrow
+        sol = self._solve(ctx, hit, keys, pts, params, "paper", ctx.next_index)
+        stages = (
+            [("narrow", replace(params, tolerance=params.leg_margin), 0)]
+            if (self.narrow and params.tolerance > params.leg_margin)
+            else []
+        )
+        if not hit.moving:
+            for extra in range(1, self.max_skip + 1):
+                stages += [(f"skip {extra}", params, extra)]
+                if stages[0][0] == "narrow":
+                    stages += [(f"skip {extra}, narrow", stages[0][1], extra)]
+        for stage, stage_params, extra in stages:
+            # escalation (our addition, module docstring): a narrower g1, then leaving out
+            # the next waypoint(s) -- one that no waypoint leads to clear of the obstacles is
+            # as unsafe as one next to it (Fig. 23)
+            if sol.feasible or ctx.next_index + extra >= len(ctx.waypoints):
+                break
+            sol = self._solve(ctx, hit, keys, pts, stage_params, stage, ctx.next_index + extra)
+        if not sol.feasible:
+            sol = replace(sol, stage="failed")
         res, xy, problem, hit, target_i = sol.res, sol.xy, sol.problem, sol.hit, sol.target_i
         params, others, target = sol.problem.params, sol.problem.others, wps[sol.target_i]
         hist = np.asarray(res.history_best, dtype=np.float64)
@@ -481,12 +516,13 @@ class PsoCaAvoider:
         pts: FloatArray,
         params: PsoCaParams,
         stage: str,
+        first: int,
     ) -> _Solution:
         """One decision's search: skip unsafe waypoints, search, merge the obstacles the new legs
         pass too close into the avoided one and search again (module docstring, step 4)."""
         wps = ctx.waypoints
         pos = np.asarray(ctx.position[:2], dtype=np.float64)
-        target_i = self._skip_unsafe(wps, ctx.next_index, hit, params)
+        target_i = self._skip_unsafe(wps, first, hit, params)
         target = wps[target_i]
         moving_xy = [
             tr.xy for ident, tr in self._tracks.items() if ident not in hit.ids and tr.t == ctx.t

@@ -37,6 +37,10 @@ Choices where the paper is silent or inconsistent (see each docstring):
   the leg a moving intruder's heading imposes (§5.7).  ``check_outbound=False`` drops g3 for
   intruders (the next leg is flown when the intruder is elsewhere).  ``leg_margin`` adds a margin
   to RS in g3 and g5 (0 here, the paper; the avoider uses 100 m, see :mod:`replay.avoidance.pso_ca`).
+- **Cut corners** (not in the paper): with ``switch_distance`` > 0 (the avoider passes the
+  replay autopilot's 1 km), g5 also covers the path flown round the new waypoint and g3 the
+  path round the target towards the waypoint ``after`` it (:func:`corner_cut`): the autopilot
+  leaves a leg before its end and heads for the next leg's line at up to ``approach_deg``.
 - **f1 in metres** (eq 2 as printed; the paper does not normalise it).  ``normalise=True`` divides
   f1 by the straight distance aircraft -> next waypoint (the PLR of §6) and the risk sum by MXRSK.
 """
