@@ -12,8 +12,8 @@ from replay.avoidance.pso_ca_geometry import (
     WaypointProblem,
     brute_force_waypoint,
     closest_first,
-    corner_cut,
     continuous_mask,
+    corner_cut,
     group_obstacles,
     near_end_waypoint,
     obstacle_between,
@@ -204,12 +204,15 @@ def test_corner_cut_hand_cases():
     waypoint and the part of it up to the waypoint is flown too."""
     w = np.zeros((1, 2))
     (c1, m), (m2, back) = corner_cut(w, np.array([[5000.0, 0]]), np.array([[0, 3000.0]]), 1000, 60)
+    np.testing.assert_allclose(m2, m)
     np.testing.assert_allclose(c1, [[-1000, 0]])
     np.testing.assert_allclose(m, [[0, 1000 / math.sqrt(3)]])
     np.testing.assert_allclose(back, m)  # met beyond the waypoint: the second piece is empty
     a = math.radians(20)
     e = np.array([[math.cos(a), math.sin(a)]])
     (c1, m), (m2, back) = corner_cut(w, np.array([[5000.0, 0]]), 4000 * e, 1000, 60)
+    np.testing.assert_allclose(c1, [[-1000, 0]])
+    np.testing.assert_allclose(m2, m)
     reach = -1000 * math.cos(a) + 1000 * math.sin(a) / math.sqrt(3)
     assert reach < 0
     np.testing.assert_allclose(m, reach * e)
@@ -247,9 +250,14 @@ def test_g3_and_g5_count_the_cut_corners():
     )
     q = np.array([[-10000.0, 0.0]])
     assert inbound.constraint_report(q).g5[0] < 0
-    assert WaypointProblem(
-        [-20000, 0], [-2000, -6028], [[-10400, 1105]], params=PsoCaParams(leg_margin=100.0)
-    ).constraint_report(q).g5[0] > 0
+    assert (
+        WaypointProblem(
+            [-20000, 0], [-2000, -6028], [[-10400, 1105]], params=PsoCaParams(leg_margin=100.0)
+        )
+        .constraint_report(q)
+        .g5[0]
+        > 0
+    )
 
 
 def test_objective_terms_eqs_2_to_6():
