@@ -440,6 +440,8 @@ def summarise(
             "has_inputs": "inputs" in d,
             "cs": feasible_iteration(d, base.penalty_offset),
             "first_in_process": False,
+            "stage": str(d.get("stage", "paper")),
+            "grid": int(d.get("grid_evaluations", 0)),
         }
         inputs = d.get("inputs")
         if inputs and d.get("f1") is not None:
@@ -810,6 +812,7 @@ def _table6_value(runs: Sequence[dict[str, Any]], total: int, row: Row) -> str:
         + (f", iterations {statistics.fmean(its):.1f}" if its else "")
         + ")"
     )
+    parts.append(f"by stage: {stage_counts(runs)}")
     if row.intruders:
         seps = [s for r in runs for s in r["intruder_min_sep_m"]]
         moving = sum(d["kind"] == "moving" for r in runs for d in r["decisions"])
@@ -832,6 +835,21 @@ def _table6_value(runs: Sequence[dict[str, Any]], total: int, row: Row) -> str:
             )
         )
     return "; ".join(parts)
+
+
+def stage_counts(runs: Sequence[dict[str, Any]]) -> str:
+    """How the feasible decisions were found: the paper's search alone, the same after the grid
+    rescue, or a later stage (narrower g1, a waypoint left out) -- replay.avoidance.pso_ca."""
+    counts: dict[str, int] = {}
+    for r in runs:
+        for d in r["decisions"]:
+            stage = d.get("stage", "paper")
+            if stage == "failed":
+                continue
+            if d.get("grid", 0) > 0 and stage == "paper":
+                stage = "paper + rescue"
+            counts[stage] = counts.get(stage, 0) + 1
+    return ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) or "none"
 
 
 def _table6_target(row: Row, optimizer: str) -> str:
@@ -889,7 +907,10 @@ def cmd_table6(args: argparse.Namespace) -> None:
         f"mission without obstacles, so not the paper's PLR); route ratio = final list / "
         f"planned list length; decision PLR = (|aircraft - new wp| + |new wp - target|) / "
         f"|aircraft - target| per decision, the reading of §6's PLR comparable with Table 6; "
-        f"SR = reached the goal without entering any safety sphere"
+        f"SR = reached the goal without entering any safety sphere; by stage = how the "
+        f"feasible decisions were found (paper = seed 000's search; + rescue = after the grid "
+        f"re-seeding; narrow = g1 at RS + margin; skip = next waypoint left out), our additions "
+        f"when the paper's search fails"
     )
     errs = _errors(results)
     if errs:
