@@ -364,8 +364,8 @@ def polyline_length(waypoints: npt.ArrayLike) -> float:
 
 
 def rebuild_problem(info: dict[str, Any], base: PsoCaParams) -> WaypointProblem:
-    """The WaypointProblem a decision solved, from its ``inputs`` (aircraft, target, obstacles,
-    others, side, params); params the inputs do not carry come from ``base`` (the avoider's), and
+    """The WaypointProblem a decision solved, from its ``inputs`` (aircraft, target, the waypoint
+    after it, obstacles, others, side, params); params the inputs do not carry come from ``base`` (the avoider's), and
     ``check_outbound`` is off for a moving obstacle as in the avoider."""
     inp = info["inputs"]
     names = {f.name for f in dataclasses.fields(PsoCaParams)}
@@ -380,6 +380,7 @@ def rebuild_problem(info: dict[str, Any], base: PsoCaParams) -> WaypointProblem:
         others,
         params,
         side=int(inp.get("side", info.get("side", 0))),
+        after=None if inp.get("after") is None else np.asarray(inp["after"], dtype=np.float64),
     )
 
 

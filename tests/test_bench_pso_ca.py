@@ -144,6 +144,12 @@ def test_rebuild_problem_reproduces_a_decision():
     assert (
         b.rebuild_problem({**info, "obstacle_kind": "moving"}, base).params.check_outbound is False
     )
+    # the corner cut at the target (switch distance, the waypoint after it) is rebuilt too
+    cut = {**info, "inputs": {**info["inputs"], "after": [21000.0, 5000.0]}}
+    cut["inputs"]["params"] = {**cut["inputs"]["params"], "switch_distance": 1000.0}
+    rebuilt = b.rebuild_problem(cut, base)
+    assert rebuilt.after is not None and rebuilt.params.switch_distance == 1000.0
+    np.testing.assert_array_equal(rebuilt.after, [21000.0, 5000.0])
 
 
 def test_feasible_iteration_from_the_info():
@@ -163,3 +169,18 @@ def test_load_saved_skips_a_torn_last_line(tmp_path):
     p = tmp_path / "runs.jsonl"
     p.write_text('{"scenario": "40", "run": 0, "optimizer": "pso"}\n{"scenario": "40", "ru')
     assert b.load_saved(p) == [{"scenario": "40", "run": 0, "optimizer": "pso"}]
+
+
+def test_stage_counts_separate_the_paper_search_from_the_additions():
+    runs = [
+        {
+            "decisions": [
+                {"stage": "paper", "grid": 0},
+                {"stage": "paper", "grid": 900},
+                {"stage": "failed", "grid": 900},
+            ]
+        },
+        {"decisions": [{"stage": "skip 1", "grid": 12}, {"grid": 0}]},
+    ]
+    assert b.stage_counts(runs) == "paper 2, paper + rescue 1, skip 1 1"
+    assert b.stage_counts([{"decisions": []}]) == "none"

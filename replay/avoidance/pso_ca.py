@@ -473,6 +473,7 @@ class PsoCaAvoider:
             "inputs": {
                 "aircraft": pos.tolist(),
                 "target": target[:2].tolist(),
+                "after": None if problem.after is None else problem.after.tolist(),
                 "obstacles": hit.points.tolist(),
                 "others": others.tolist(),
                 "side": hit.side,
