@@ -207,6 +207,12 @@ def test_replay_cli_ca_options(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert main(["inspect", str(out), "--json"]) == 0
     s = json.loads(capsys.readouterr().out)
     assert s["min_separation"]["o"]["value"] >= 0.0 and len(s["final_waypoints"]) >= 4
+    # --ca-paper: seed 000's logic only, recorded as such
+    assert main([*args, "--avoid", "pso-ca", "--ca-paper", "--ca-safety-radius", "1500"]) == 0
+    capsys.readouterr()
+    meta = load_run(out, with_states=False).metadata["avoid"]
+    assert all(f"{k}=False" in meta for k in ("rescue", "narrow", "corners"))
+    assert "max_skip=0" in meta
     # --ca-* without pso-ca is a usage error; a bad value is one line, exit 1, nothing written
     assert main([*args, "--ca-optimizer", "ga"]) == 2
     capsys.readouterr()
@@ -234,6 +240,8 @@ def test_a_corner_the_autopilot_cuts_towards_an_obstacle_is_avoided() -> None:
     r = _fly(legs, threats)
     assert len(r.decisions) >= 1 and all(d["feasible"] for d in r.decisions)
     assert _separation(r, threats) >= 0 and r.metrics.reached_goal
+    straight = _fly(legs, threats, options={"corners": False})  # the paper's straight legs
+    assert not straight.decisions and _separation(straight, threats) < 0
 
 
 # a decision taken 2.6 km from two obstacles (Table 6 seed 50002, its first failing decision)

@@ -198,6 +198,7 @@ class PsoCaAvoider:
         narrow: bool = True,
         rescue: bool = True,
         max_skip: int = 1,
+        corners: bool = True,
     ) -> None:
         if optimizer not in CA_OPTIMIZERS:
             raise InputError(
@@ -228,6 +229,7 @@ class PsoCaAvoider:
         self.narrow = bool(narrow)
         self.rescue = bool(rescue)
         self.max_skip = int(require_real("PSO-CA max skip", max_skip, 0.0))
+        self.corners = bool(corners)
         self._grid_evaluations = 0
         self.rng = np.random.default_rng(0)
         self._seen: dict[str, _Seen] = {}
@@ -246,6 +248,16 @@ class PsoCaAvoider:
         self._hold.clear()
         self._sides.clear()
         self._retry_stationary = -math.inf
+
+    @classmethod
+    def paper(cls, optimizer: str = "pso", **kwargs: Any) -> PsoCaAvoider:
+        """Seed 000's decision logic only: straight legs (no cut corners), and no rescue grid,
+        narrower g1 or waypoint left out when the search fails (module docstring, step 7)."""
+        return cls(optimizer, rescue=False, narrow=False, max_skip=0, corners=False, **kwargs)
+
+    def _switch(self, ctx: AvoidanceContext) -> float:
+        """The autopilot's switch distance when cut corners are tested, else 0 (straight legs)."""
+        return max(float(ctx.switch_distance), 0.0) if self.corners else 0.0
 
     def _optimizer(self) -> Any:
         if self.optimizer == "pso":
@@ -400,7 +412,7 @@ class PsoCaAvoider:
         )
         after = wps[ctx.next_index + 1, :2] if ctx.next_index + 1 < len(wps) else None
         hits = self._stationary_hits(
-            pos, target, after, float(ctx.switch_distance), keys, pts, ctx.t
+            pos, target, after, self._switch(ctx), keys, pts, ctx.t
         ) + self._moving_hits(ctx, target)
         if not hits:
             return None
@@ -417,20 +429,17 @@ class PsoCaAvoider:
             rs=hit.rs,
             speed=max(ctx.airspeed, 1.0),
             check_outbound=not hit.moving,
-            switch_distance=max(float(ctx.switch_distance), 0.0),
+            switch_distance=self._switch(ctx),
         )
         self._grid_evaluations = 0
         sol = self._solve(ctx, hit, keys, pts, params, "paper", ctx.next_index)
-        stages = (
-            [("narrow", replace(params, tolerance=params.leg_margin), 0)]
-            if (self.narrow and params.tolerance > params.leg_margin)
-            else []
-        )
-        if not hit.moving:
-            for extra in range(1, self.max_skip + 1):
-                stages += [(f"skip {extra}", params, extra)]
-                if stages[0][0] == "narrow":
-                    stages += [(f"skip {extra}, narrow", stages[0][1], extra)]
+        narrow = replace(params, tolerance=params.leg_margin)
+        use_narrow = self.narrow and params.tolerance > params.leg_margin
+        stages = [("narrow", narrow, 0)] if use_narrow else []
+        for extra in range(1, 0 if hit.moving else self.max_skip + 1):
+            stages.append((f"skip {extra}", params, extra))
+            if use_narrow:
+                stages.append((f"skip {extra}, narrow", narrow, extra))
         for stage, stage_params, extra in stages:
             # escalation (our addition, module docstring): a narrower g1, then leaving out
             # the next waypoint(s) -- one that no waypoint leads to clear of the obstacles is

@@ -79,6 +79,12 @@ def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
     default=None,
     help="pso-ca: maximal risk distance MXRSK of the f2 term (m; default 3000, our choice: the paper gives none).",
 )
+@click.option(
+    "--ca-paper",
+    is_flag=True,
+    help="pso-ca: seed 000's decision logic only -- straight legs (no cut corners) and no rescue "
+    "grid, narrower gap or skipped waypoint when the paper's search fails (to reproduce the paper).",
+)
 @click.option("--vehicle", default=None, help="Vehicle preset or file (default: the mission's).")
 @click.option(
     "--seed",
@@ -129,6 +135,7 @@ def replay_cmd(
     ca_safety_radius: float | None,
     ca_moving_radius: float | None,
     ca_mxrsk: float | None,
+    ca_paper: bool,
     vehicle: str | None,
     seed: int,
     duration: float | None,
@@ -165,6 +172,8 @@ def replay_cmd(
         "mxrsk": ca_mxrsk,
     }
     ca = {k: v for k, v in ca.items() if v is not None}
+    if ca_paper:
+        ca.update(rescue=False, narrow=False, max_skip=0, corners=False)
     if ca and avoid != "pso-ca":
         raise click.UsageError("the --ca-* options apply to --avoid pso-ca only")
     avoider = make_avoider(avoid, **ca)
