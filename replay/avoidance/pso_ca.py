@@ -563,7 +563,7 @@ class PsoCaAvoider:
             # a merged point may lie next to the target waypoint: skip it as for the hit itself
             target_i = self._skip_unsafe(wps, target_i, hit, params)
             target = wps[target_i]
-        feasible = bool(problem.terms(xy[None, :]).report.feasible[0])
+        feasible = bool(problem(xy[None, :])[0] < params.penalty_offset)
         return _Solution(res, xy, problem, hit, target_i, stage, feasible)
 
     @staticmethod
