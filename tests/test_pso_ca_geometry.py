@@ -376,3 +376,24 @@ def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:
         feasible = pr.terms(X).report.feasible
         both.append(feasible.any() and not feasible.all())
     assert any(both)  # feasible and penalised candidates were both compared
+
+
+def test_compiled_cost_has_one_specialisation_for_every_caller() -> None:
+    """An optimiser hands f a read-only view, a rescue grid scan a writable array and a problem
+    may hold read-only waypoints: all must reach the same compiled specialisation, or the first
+    rescue of a flight stalls for seconds of JIT compilation."""
+    from replay.avoidance._pso_ca_kernel import penalised_costs
+
+    target = np.array([20000.0, 500.0])
+    target.flags.writeable = False
+    pr = WaypointProblem([0, 0], target, np.array([[10000.0, 0.0]]), np.zeros((0, 2)))
+    lo, hi = pr.bounds()
+    X = np.random.default_rng(0).uniform(lo, hi, (10, 2))
+    view = X.view()
+    view.flags.writeable = False
+    a = pr(view)
+    b = pr(search_grid(pr, 500.0))
+    c = pr(np.asfortranarray(np.repeat(X, 2, axis=0))[::2])  # strided, Fortran order
+    np.testing.assert_array_equal(a, c)
+    assert np.isfinite(b).all()
+    assert len(penalised_costs.signatures) == 1

@@ -594,7 +594,10 @@ class WaypointProblem:
         from replay.avoidance._pso_ca_kernel import penalised_costs
 
         pr = self.params
-        p = np.ascontiguousarray(_xy(X, "X").reshape(-1, 2))
+        # Always a fresh writable C array: an optimiser hands f a read-only view of its
+        # population, a grid scan a writable array, and numba compiles one specialisation per
+        # (layout, read-only) kind -- a second one costs ~3 s of JIT in the middle of a flight.
+        p = np.array(_xy(X, "X").reshape(-1, 2), dtype=np.float64, order="C")
         consts = np.array(
             [
                 pr.rs,
@@ -624,11 +627,11 @@ class WaypointProblem:
             dtype=np.int64,
         )
         after = self.target if self.after is None else self.after
-        return np.asarray(
-            penalised_costs(
-                p, self.position, self.target, after, self.avoided, self.others, consts, flags
-            )
+        pos, target, after, avoided, others = (
+            np.array(a, dtype=np.float64, order="C")
+            for a in (self.position, self.target, after, self.avoided, self.others)
         )
+        return np.asarray(penalised_costs(p, pos, target, after, avoided, others, consts, flags))
 
     def search_centres(self) -> FloatArray:
         """Centres (C, 2) of the g2 discs: the avoided obstacle(s) or the aircraft."""
