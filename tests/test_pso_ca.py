@@ -300,3 +300,29 @@ def test_a_waypoint_no_leg_reaches_clear_of_the_obstacles_is_left_out() -> None:
     stuck = _fly(legs, threats, options={"max_skip": 0})
     assert any(not d["feasible"] for d in stuck.decisions)
     assert _separation(stuck, threats) < 0
+
+
+def test_reset_compiles_the_cost_before_the_flight(tmp_path: Path) -> None:
+    """A fresh process with an empty numba cache: after ``reset`` the compiled cost exists, so
+    the first decision in the air is not a JIT compilation (seconds on a fresh install)."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np\n"
+        "from replay.avoidance import make_avoider\n"
+        "from replay.avoidance._pso_ca_kernel import penalised_costs as k\n"
+        "assert not k.signatures\n"
+        "a = make_avoider('pso-ca')\n"
+        "assert not k.signatures\n"
+        "a.reset(np.zeros((2, 3)), np.random.default_rng(0))\n"
+        "print(len(k.signatures))\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=root, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "1"

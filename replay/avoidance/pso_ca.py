@@ -137,6 +137,20 @@ BODY_CELL_M = 100.0  # solid-body returns are remembered per cell of this size
 RESCUE_STEP_M = 100.0  # finest grid of the rescue scan (coarser for large zones: <= 20k points)
 
 
+_COST_COMPILED = False
+
+
+def compile_cost() -> None:
+    """Compile the numba cost of :class:`WaypointProblem` (or load it from numba's cache) once
+    per process, before the flight: otherwise the first decision of a fresh install pays ~3 s of
+    JIT compilation in mid-air. Called by :meth:`PsoCaAvoider.reset`."""
+    global _COST_COMPILED
+    if not _COST_COMPILED:
+        pts = np.array([[0.0, 0.0], [20000.0, 0.0], [10000.0, 0.0]])
+        WaypointProblem(pts[0], pts[1], pts[2:], np.zeros((0, 2)))(np.zeros((1, 2)))
+        _COST_COMPILED = True
+
+
 @dataclass
 class _Seen:
     xy: FloatArray
@@ -241,6 +255,7 @@ class PsoCaAvoider:
 
     # ----------------------------------------------------------------------------- life cycle
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
+        compile_cost()
         self.rng = rng
         self._seen.clear()
         self._tracks.clear()
