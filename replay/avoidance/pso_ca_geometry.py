@@ -627,11 +627,12 @@ class WaypointProblem:
             dtype=np.int64,
         )
         after = self.target if self.after is None else self.after
-        pos, target, after, avoided, others = (
-            np.array(a, dtype=np.float64, order="C")
-            for a in (self.position, self.target, after, self.avoided, self.others)
+        # the fields are writable C copies already (__post_init__)
+        return np.asarray(
+            penalised_costs(
+                p, self.position, self.target, after, self.avoided, self.others, consts, flags
+            )
         )
-        return np.asarray(penalised_costs(p, pos, target, after, avoided, others, consts, flags))
 
     def search_centres(self) -> FloatArray:
         """Centres (C, 2) of the g2 discs: the avoided obstacle(s) or the aircraft."""
