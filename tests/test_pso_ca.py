@@ -312,12 +312,12 @@ def test_reset_compiles_the_cost_before_the_flight(tmp_path: Path) -> None:
     code = (
         "import numpy as np\n"
         "from replay.avoidance import make_avoider\n"
-        "from replay.avoidance._pso_ca_kernel import penalised_costs as k\n"
-        "assert not k.signatures\n"
+        "from replay.avoidance._pso_ca_kernel import penalised_costs as k, segment_clearances\n"
+        "assert not k.signatures and not segment_clearances.signatures\n"
         "a = make_avoider('pso-ca')\n"
         "assert not k.signatures\n"
         "a.reset(np.zeros((2, 3)), np.random.default_rng(0))\n"
-        "print(len(k.signatures))\n"
+        "print(len(k.signatures), len(segment_clearances.signatures))\n"
     )
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
     root = Path(__file__).resolve().parents[1]
@@ -325,4 +325,4 @@ def test_reset_compiles_the_cost_before_the_flight(tmp_path: Path) -> None:
         [sys.executable, "-c", code], cwd=root, env=env, capture_output=True, text=True, timeout=300
     )
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "1"
+    assert out.stdout.split() == ["1", "1"]

@@ -90,6 +90,15 @@ def test_segment_clearance_matches_the_hit_test():
         assert np.array_equal(hit, clear[i] <= 2.0)
 
 
+@pytest.mark.parametrize("dims", [2, 3])
+def test_segment_clearance_hand_cases_and_degenerate_segment(dims: int) -> None:
+    pad = [0.0] * (dims - 2)
+    p0, p1 = np.array([[0.0, 0.0, *pad]] * 2), np.array([[10.0, 0.0, *pad], [0.0, 0.0, *pad]])
+    c = np.array([[5.0, 3.0, *pad], [-4.0, 3.0, *pad], [13.0, -4.0, *pad]])
+    want = [[3.0, 5.0, 5.0], [math.hypot(5, 3), 5.0, math.hypot(13, 4)]]  # middle, ends, point
+    np.testing.assert_allclose(segment_clearance(p0, p1, c), want, rtol=0, atol=1e-12)
+
+
 # -- Figs 8-10, §5.3 ----------------------------------------------------------------------------
 def test_table4_obstacles_group_as_paper_says():
     groups = group_obstacles(OBS)

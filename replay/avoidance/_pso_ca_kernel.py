@@ -148,3 +148,27 @@ def penalised_costs(
             viol += min(-g5, big)
         out[i] = f if ok else f + (pen_off + pen_w * viol)
     return out
+
+
+@nb.njit(cache=True, nogil=True)
+def segment_clearances(a0: FloatArray, a1: FloatArray, o: FloatArray) -> FloatArray:
+    """Closest distance (P, K) from each segment ``a0[i] -> a1[i]`` ((P, D) each) to each centre
+    ``o[k]`` ((K, D)): :func:`~replay.avoidance.pso_ca_geometry.segment_clearance`'s arithmetic,
+    one pair at a time (the avoider tests a few legs against all radar points every scan)."""
+    n_seg, dims = a0.shape
+    out = np.empty((n_seg, o.shape[0]))
+    for i in range(n_seg):
+        dd = 0.0
+        for d in range(dims):
+            dd += (a1[i, d] - a0[i, d]) ** 2
+        den = dd if dd > 0.0 else 1.0
+        for k in range(o.shape[0]):
+            s = 0.0
+            for d in range(dims):
+                s += (o[k, d] - a0[i, d]) * (a1[i, d] - a0[i, d])
+            s = min(max(s / den, 0.0), 1.0)
+            g = 0.0
+            for d in range(dims):
+                g += ((o[k, d] - a0[i, d]) - s * (a1[i, d] - a0[i, d])) ** 2
+            out[i, k] = math.sqrt(g)
+    return out

@@ -141,13 +141,15 @@ _COST_COMPILED = False
 
 
 def compile_cost() -> None:
-    """Compile the numba cost of :class:`WaypointProblem` (or load it from numba's cache) once
-    per process, before the flight: otherwise the first decision of a fresh install pays ~3 s of
-    JIT compilation in mid-air. Called by :meth:`PsoCaAvoider.reset`."""
+    """Compile the numba cost of :class:`WaypointProblem` and the leg clearance (or load them
+    from numba's cache) once per process, before the flight: otherwise the first decision of a
+    fresh install pays seconds of JIT compilation in mid-air. Called by
+    :meth:`PsoCaAvoider.reset`."""
     global _COST_COMPILED
     if not _COST_COMPILED:
         pts = np.array([[0.0, 0.0], [20000.0, 0.0], [10000.0, 0.0]])
         WaypointProblem(pts[0], pts[1], pts[2:], np.zeros((0, 2)))(np.zeros((1, 2)))
+        segment_clearance(pts[:1], pts[1:2], pts[2:])
         _COST_COMPILED = True
 
 

@@ -163,16 +163,16 @@ def segment_hits_sphere(
 def segment_clearance(p0: npt.ArrayLike, p1: npt.ArrayLike, centers: npt.ArrayLike) -> FloatArray:
     """Closest distance (P, K) from each segment ``p0[i] -> p1[i]`` ((P, D) each) to each centre
     (K, D).  ``clearance > r`` is the same as "no real root of eq 24 in [0, 1]" (no hit)."""
+    from replay.avoidance._pso_ca_kernel import segment_clearances
+
     a0 = _points(p0, "p0").reshape(-1, np.shape(p0)[-1])
     a1 = _points(p1, "p1").reshape(a0.shape)
     o = _points(centers, "centers").reshape(-1, a0.shape[-1])
-    d = a1 - a0  # (P, D)
-    dd = np.einsum("pd,pd->p", d, d)
-    rel = o[None, :, :] - a0[:, None, :]  # (P, K, D)
-    s = np.einsum("pkd,pd->pk", rel, d) / np.where(dd > 0.0, dd, 1.0)[:, None]
-    s = np.clip(s, 0.0, 1.0)
-    gap = rel - s[:, :, None] * d[:, None, :]
-    return np.asarray(np.sqrt(np.einsum("pkd,pkd->pk", gap, gap)))
+    # s = clip(((o - a0) . d) / |d|^2, 0, 1), clearance = |o - a0 - s d|, d = a1 - a0; compiled,
+    # on fresh writable C arrays (one numba specialisation for every caller)
+    return np.asarray(
+        segment_clearances(*(np.array(a, dtype=np.float64, order="C") for a in (a0, a1, o)))
+    )
 
 
 # -- 2. grouping and classification (Figs 8-10, §5.3) ---------------------------------------------
