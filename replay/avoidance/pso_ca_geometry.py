@@ -77,7 +77,7 @@ def _points(a: npt.ArrayLike, name: str, dims: tuple[int, ...] = (2, 3)) -> Floa
     out = np.asarray(a, dtype=np.float64)
     if out.ndim < 1 or out.shape[-1] not in dims:
         raise InputError(f"{name} must have a last axis of size {dims}; got shape {out.shape}")
-    if not np.all(np.isfinite(out)):
+    if not np.isfinite(out).all():  # the method: no dispatch overhead (called every scan)
         raise InputError(f"{name} must be finite; got {out!r}")
     return out
 
