@@ -199,6 +199,7 @@ def main() -> None:
         problem = problem_for(Path(dem), start, goal, zones)
         per_alg: dict[str, np.ndarray] = {}
         for alg in algorithms:
+            plan(problem, alg, seed=0, population=10, iterations=2)  # JIT out of the timings
             costs, feas, times = [], 0, []
             for seed in range(args.first_seed, args.first_seed + args.runs):
                 t = time.perf_counter()
