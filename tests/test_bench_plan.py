@@ -45,7 +45,7 @@ def test_bootstrap_counts_samples_where_ampso_wins():
     assert row[1] == "mean 1.00, mean and spread 1.00"
     # lower mean but wider spread in every sample: mean always, both never
     wide = np.where(np.arange(40) % 2 == 0, 0.2, 0.5)
-    row = b._bootstrap("m", {"ampso": wide, "apso": 0.6 + 0.0 * other})
+    row = b._bootstrap("m", {"ampso": wide, "apso": np.full(40, 0.6)})
     assert row[1] == "mean 1.00, mean and spread 0.00"
     # worse everywhere: never
     row = b._bootstrap("m", {"ampso": other + 1.0, "apso": other})
