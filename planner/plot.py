@@ -22,8 +22,12 @@ def save_plan_picture(
     title: str = "",
     clearance: float = 0.0,
     feasible: bool = True,
+    flown: npt.NDArray[np.float64] | None = None,
 ) -> Path:
-    """Write the map + profile PNG of a planned path."""
+    """Write the map + profile PNG of a planned path: the waypoints, and the path the aircraft
+    flies through them (``flown``, legs joined by turn fillets; default the polyline itself),
+    which the profile follows."""
+    track = path if flown is None else np.asarray(flown, dtype=np.float64)
     xmin, ymin, xmax, ymax = grid.bounds
     aspect = (ymax - ymin) / (xmax - xmin)
     width = 9.0
@@ -35,8 +39,18 @@ def save_plan_picture(
     if zones:
         draw_zones(ax, zones)
     colour = "#d62728" if not feasible else "#ffffff"
-    ax.plot(path[:, 0], path[:, 1], "-", color="black", lw=3.2, zorder=3)
-    ax.plot(path[:, 0], path[:, 1], "-o", color=colour, lw=1.6, ms=4, zorder=4, label="path")
+    ax.plot(track[:, 0], track[:, 1], "-", color="black", lw=3.2, zorder=3)
+    ax.plot(track[:, 0], track[:, 1], "-", color=colour, lw=1.6, zorder=4, label="flown path")
+    ax.plot(
+        path[1:-1, 0],
+        path[1:-1, 1],
+        "o",
+        color=colour,
+        mec="black",
+        ms=5,
+        zorder=4,
+        label="waypoints",
+    )
     ax.plot(
         *path[0, :2],
         marker="^",
@@ -60,7 +74,7 @@ def save_plan_picture(
     ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
 
     ax2 = fig.add_subplot(gs[1])
-    samples = sample_path(grid, path)
+    samples = sample_path(grid, track)
     d, z, g = samples.distance, samples.points[:, 2], samples.ground
     ax2.fill_between(
         d / 1000.0,
