@@ -57,7 +57,9 @@ def info_lines(s: dict[str, Any]) -> list[str]:
         )
         corners = "; ".join(
             f"{name} {lon:.5f}, {lat:.5f}"
-            for name, (lon, lat) in zip(("SW", "SE", "NE", "NW"), s["footprint_lonlat"], strict=True)
+            for name, (lon, lat) in zip(
+                ("SW", "SE", "NE", "NW"), s["footprint_lonlat"], strict=True
+            )
         )
         lines.append(f"footprint (lon/lat) {corners}")
     else:
