@@ -18,8 +18,8 @@ What happens, in order:
    source cell in each grid cell) and the tile's footprint (a coverage array, nearest). Where
    tiles overlap, the first one given wins for the display heights and the highest one for the
    safety heights;
-5. what was not measured is recorded: a cell is *known* when its centre lies inside a tile's
-   footprint and that tile has a value there. Unknown cells (nodata holes, counted in
+5. what was not measured is recorded: a cell is *known* when its centre lies over a valid
+   (not nodata) cell of a tile. Unknown cells (nodata holes, counted in
    ``HeightGrid.nodata_filled``; cells outside every footprint such as the empty corners a
    reprojection adds, counted in ``HeightGrid.outside_source``) are filled by interpolation
    (GDAL's inverse-distance ``fillnodata``, then nearest neighbour for anything left) and flagged
@@ -383,7 +383,7 @@ def _build(
         part = _warp_tile(
             src, name, band, target, transform, rows, cols, resampling, same_frame, box is None
         )
-        hole = np.isnan(heights)
+        hole = np.isnan(heights) & part.measured
         heights[hole] = part.heights[hole]
         covered |= part.covered
         if part.upper is None:
@@ -393,7 +393,7 @@ def _build(
             np.fmax(upper, part.upper, out=upper)
         if part.source_max is not None:
             source_max = part.source_max if source_max is None else max(source_max, part.source_max)
-    known = covered & ~np.isnan(heights)
+    known = ~np.isnan(heights)
     if not known.any():
         raise DataFileError(
             f"{', '.join(repr(n) for n in names)}: no heights inside the requested area (all nodata)"
@@ -430,11 +430,14 @@ def _build(
 class _TilePart:
     """One tile on the grid: display heights (NaN where it has no value), safety heights (``max``
     resampling; None when the tile is copied exactly), the cells whose centre lies inside its
-    footprint, and its highest valid value over the grid's area."""
+    footprint (``covered``) and over one of its valid cells (``measured``: a display height
+    that bilinear resampling spreads from valid neighbours over a hole's edge does not count),
+    and its highest valid value over the grid's area."""
 
     heights: npt.NDArray[np.float32]
     upper: npt.NDArray[np.float32] | None
     covered: npt.NDArray[np.bool_]
+    measured: npt.NDArray[np.bool_]
     source_max: float | None
 
 
@@ -480,7 +483,7 @@ def _warp_tile(
                 out[r0:r1, c0:c1] = window
                 covered[r0:r1, c0:c1] = True
                 top = _finite_max(window)
-            return _TilePart(out, None, covered, top)
+            return _TilePart(out, None, covered, np.isfinite(out), top)
     from rasterio.warp import reproject
 
     if target is None:
@@ -513,9 +516,11 @@ def _warp_tile(
         resampling=Resampling.max,
         **frames,
     )
+    # The source cell under each grid cell's centre: 0 none (outside the footprint), 1 a nodata
+    # cell, 2 a valid one.
     coverage = np.zeros((rows, cols), dtype=np.uint8)
     reproject(
-        source=np.ones(data.shape, dtype=np.uint8),
+        source=np.where(np.isfinite(data), 2, 1).astype(np.uint8),
         destination=coverage,
         dst_nodata=0,
         resampling=Resampling.nearest,
@@ -538,7 +543,7 @@ def _warp_tile(
             resampling=Resampling.nearest,
         )
         top = _finite_max(data[inside == 1])
-    return _TilePart(out, upper, coverage == 1, top)
+    return _TilePart(out, upper, coverage > 0, (coverage == 2) & np.isfinite(out), top)
 
 
 def _fill_nearest(values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
