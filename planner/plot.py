@@ -1,5 +1,7 @@
-"""The picture of a plan: the path over the tinted hillshade (with zones, start and goal) and its
-altitude profile over the terrain beneath it."""
+"""The picture of a plan: the path over the tinted hillshade (with zones, start and goal; unknown
+terrain hatched; a lon/lat graticule on a georeferenced map) and its altitude profile over the
+terrain beneath it (display heights, the safety grid's highest cells, unknown ground hatched).
+Legends sit below their panels so they never hide the path, the start or the goal."""
 
 from __future__ import annotations
 
@@ -10,7 +12,16 @@ import numpy.typing as npt
 
 from planner.profile import sample_path
 from terrain.grid import HeightGrid
-from terrain.plot import draw_hillshade, draw_zones, new_figure, save_figure
+from terrain.plot import (
+    UNKNOWN_FACE,
+    UNKNOWN_HATCH,
+    UNKNOWN_LABEL,
+    draw_hillshade,
+    draw_zones,
+    legend_below,
+    new_figure,
+    save_figure,
+)
 from terrain.zones import DangerZone
 
 
@@ -38,9 +49,20 @@ def save_plan_picture(
     draw_hillshade(fig, ax, grid, title or None)
     if zones:
         draw_zones(ax, zones)
+    from matplotlib.patheffects import Normal, Stroke
+
     colour = "#d62728" if not feasible else "#ffffff"
-    ax.plot(track[:, 0], track[:, 1], "-", color="black", lw=3.2, zorder=3)
-    ax.plot(track[:, 0], track[:, 1], "-", color=colour, lw=1.6, zorder=4, label="flown path")
+    # the black outline is a path effect of the same line, so the legend shows it too
+    ax.plot(
+        track[:, 0],
+        track[:, 1],
+        "-",
+        color=colour,
+        lw=1.6,
+        zorder=4,
+        label="flown path",
+        path_effects=[Stroke(linewidth=3.2, foreground="black"), Normal()],
+    )
     ax.plot(
         path[1:-1, 0],
         path[1:-1, 1],
@@ -71,19 +93,37 @@ def save_plan_picture(
         ls="",
         label="goal",
     )
-    ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+    legend_below(ax)
 
     ax2 = fig.add_subplot(gs[1])
     samples = sample_path(grid, track)
     d, z, g = samples.distance, samples.points[:, 2], samples.ground
-    ax2.fill_between(
-        d / 1000.0,
-        grid.zmin - 0.02 * (grid.zmax - grid.zmin + 1),
-        g,
-        color="#8c6d46",
-        alpha=0.8,
-        label="terrain",
-    )
+    floor = grid.zmin - 0.02 * (grid.zmax - grid.zmin + 1)
+    ax2.fill_between(d / 1000.0, floor, g, color="#8c6d46", alpha=0.8, label="terrain")
+    cells = grid.cell_of(samples.points[:, 0], samples.points[:, 1])
+    if grid.known is not None and grid.has_unknown:
+        unknown = ~grid.known[cells]
+        if unknown.any():
+            ax2.fill_between(
+                d / 1000.0,
+                floor,
+                g,
+                where=unknown,
+                facecolor=UNKNOWN_FACE,
+                edgecolor="0.2",
+                hatch=UNKNOWN_HATCH,
+                lw=0,
+                label=UNKNOWN_LABEL,
+            )
+    if grid.upper is not None:
+        ax2.plot(
+            d / 1000.0,
+            grid.upper[cells],
+            "-",
+            color="#4a3520",
+            lw=0.8,
+            label="highest source cell (safety)",
+        )
     if clearance > 0:
         ax2.plot(
             d / 1000.0,
@@ -108,5 +148,5 @@ def save_plan_picture(
     ax2.set_ylabel("altitude (m AMSL)")
     ax2.set_xlim(0, d[-1] / 1000.0 if d[-1] > 0 else 1)
     ax2.grid(alpha=0.3)
-    ax2.legend(loc="upper right", fontsize=8, ncol=4)
+    legend_below(ax2)
     return save_figure(fig, out)
