@@ -14,6 +14,7 @@ import yaml
 
 from terrain.errors import DataFileError, InputError
 from terrapath.progress import progress_bar
+from terrapath.runtext import duration, metrics_rows, table, threat_lines
 
 
 def _software_version() -> str:
@@ -404,39 +405,17 @@ def _report(result: Any, output: str, as_json: bool, threats: Any) -> None:
             )
         )
         return
-    rows = [
-        ("success", "yes" if m.success else "NO"),
-        ("end", m.end_reason),
-        ("flight time", f"{m.flight_time_s / 60:.1f} min"),
-        ("flown length", f"{m.flown_length_m / 1000:.2f} km"),
-        ("PLR", f"{m.plr:.4f}"),
-        (
-            "min terrain clearance",
-            f"{m.min_terrain_clearance_m:.1f} m at t={m.min_terrain_clearance_t:.0f} s",
-        ),
-        ("waypoints added", str(m.waypoints_added)),
-        (
-            "decisions",
-            f"{m.decisions} (mean {m.decision_time_mean_s * 1000:.1f} ms, max {m.decision_time_max_s * 1000:.1f} ms)",
-        ),
-    ]
-    width = max(len(r[0]) for r in rows)
-    for k, v in rows:
-        click.echo(f"{k:<{width}}  {v}")
-    if m.min_separation:
-        click.echo("\nthreat        min separation      at t (s)   violations")
-        for tid, sep in m.min_separation.items():
-            vs = [v for v in m.violations if v.threat == tid]
-            span = (
-                ", ".join(
-                    f"{v.t_enter:.0f}-{'end' if v.t_exit is None else f'{v.t_exit:.0f}'} s"
-                    for v in vs
-                )
-                or "-"
-            )
-            click.echo(f"{tid:<12}  {sep['value']:>12.1f} m  {sep['t']:>12.0f}   {span}")
+    metrics = m.as_dict()
+    for line in table(metrics_rows(metrics)):
+        click.echo(line)
+    threat_text = threat_lines(metrics)
+    if threat_text:
+        click.echo("")
+        for line in threat_text:
+            click.echo(line)
     click.echo(
-        f"\nwrote {output} (simulated {m.flight_time_s:.0f} s in {result.wall_s:.1f} s wall)"
+        f"\nwrote {output} (simulated {duration(m.flight_time_s)} in {result.wall_s:.1f} s of "
+        "wall-clock time)"
     )
     click.echo(
         "open it in Foxglove: Open local file, 3D panel with display frame 'map'; plots from /vehicle/state"
