@@ -92,7 +92,8 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
             (
                 "PLR",
                 f"{text} ({PLR_MEANING}"
-                + (f", {kilometres(straight)})" if straight is not None else ")"),
+                + (f", {kilometres(straight)}" if straight is not None else "")
+                + ("; the goal was not reached)" if m.get("reached_goal") is False else ")"),
             )
         )
     if "min_terrain_clearance_m" in m:

@@ -52,6 +52,7 @@ def test_metrics_text_says_what_plr_and_separation_are() -> None:
     m = {
         "success": False,
         "end_reason": "time limit",
+        "reached_goal": False,
         "terrain_contact": False,
         "flight_time_s": 400.0,
         "flown_length_m": 6012.34,
@@ -77,7 +78,7 @@ def test_metrics_text_says_what_plr_and_separation_are() -> None:
         "success": "NO (ended by time limit, 1 safety violation)",
         "flight time": "6.7 min",
         "flown length": "6.01 km",
-        "PLR": f"0.022 ({PLR_MEANING}, 269.73 km)",
+        "PLR": f"0.022 ({PLR_MEANING}, 269.73 km; the goal was not reached)",
         "avoidance decisions": "1 (computation mean 2.7 ms, max 2.7 ms)",
     }
     assert threat_lines(m) == [
@@ -109,7 +110,11 @@ def test_replay_and_inspect_text(tmp_path: Path, capsys: pytest.CaptureFixture[s
         assert not re.search(r"\d\.\d{4,}", shown), shown
         assert SEPARATION_NOTE in shown and PLR_MEANING in shown
         plr = f"{m['flown_length_m'] / m['straight_distance_m']:.3f}"
-        assert re.search(rf"^PLR +{re.escape(plr)} \({PLR_MEANING}, 270\.20 km\)$", shown, re.M)
+        assert re.search(
+            rf"^PLR +{re.escape(plr)} \({PLR_MEANING}, 270\.20 km; the goal was not reached\)$",
+            shown,
+            re.M,
+        )
         (v,) = m["violations"]
         tower = m["min_separation"]["tower"]
         row = (
@@ -146,3 +151,37 @@ def test_inspect_a_run_with_partial_metrics(
     assert re.search(
         rf"^waypoints +\d+ in the final list, {plural(changes, 'change')} ", text, re.M
     )
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("--duration", "-5"),
+        ("--duration", "0"),
+        ("--log-rate", "0"),
+        ("--radar-range", "0"),
+        ("--radar-noise", "-1"),
+        ("--terrain-following", "-50"),
+    ],
+)
+def test_replay_options_out_of_range_are_usage_errors(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str, value: str
+) -> None:
+    out = tmp_path / "x.mcap"
+    assert main(["replay", str(MISSION), option, value, "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"Invalid value for '{option}': {float(value)} is not in the range" in err
+    assert not out.exists()
+
+
+def test_replay_does_not_overwrite_the_run_it_re_flies(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    run = tmp_path / "run.mcap"
+    run.write_bytes(b"a run")
+    monkeypatch.chdir(tmp_path)
+    assert main(["replay", "run.mcap", "-o", str(run)]) == 2
+    assert f"{str(run)!r} is the run being re-flown" in capsys.readouterr().err
+    assert main(["replay", str(run), "-o", "./run.mcap"]) == 2
+    assert "'./run.mcap' is the run being re-flown" in capsys.readouterr().err
+    assert run.read_bytes() == b"a run"

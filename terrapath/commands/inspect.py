@@ -17,8 +17,8 @@ from terrapath.runtext import duration, metrics_rows, plural, table, threat_line
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
 def inspect_cmd(run: str, as_json: bool) -> None:
     """Summarise a replay MCAP: what was flown (mission, terrain, vehicle, seed, avoidance), the
-    metrics (success, PLR, terrain clearance, minimum separation to each threat), the final
-    waypoint list, topics and attachments."""
+    metrics (success, PLR, terrain clearance, minimum separation to each threat), topics and
+    attachments; --json adds the final waypoint list."""
     from replay.reader import load_run, summary
 
     record = load_run(run, with_states=False)

@@ -190,30 +190,34 @@ def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[
 )
 @click.option(
     "--duration",
-    type=float,
+    type=click.FloatRange(min=0.0, min_open=True),
     default=None,
     help="Time limit in simulated seconds (default: 1.5 x the planned flight time + 10 min).",
 )
 @click.option(
     "--log-rate",
-    type=float,
+    type=click.FloatRange(min=0.0, min_open=True),
     default=10.0,
     show_default=True,
     help="State log rate in the MCAP (Hz).",
 )
 @click.option(
-    "--radar-range", type=float, default=10_000.0, show_default=True, help="Radar range (m)."
+    "--radar-range",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=10_000.0,
+    show_default=True,
+    help="Radar range (m).",
 )
 @click.option(
     "--radar-noise",
-    type=float,
+    type=click.FloatRange(min=0.0),
     default=0.0,
     show_default=True,
     help="Radar range noise, 1 sigma (m).",
 )
 @click.option(
     "--terrain-following",
-    type=float,
+    type=click.FloatRange(min=0.0),
     default=None,
     help="Keep at least this clearance (m) above the terrain ahead (default: the clearance the mission was planned with, when it has terrain; 0: off).",
 )
@@ -253,6 +257,11 @@ def replay_cmd(
     if not output.lower().endswith(".mcap"):
         raise click.BadParameter(
             f"the output must end in .mcap; got {output!r}", param_hint="-o/--output"
+        )
+    if Path(output).resolve() == Path(source).resolve():
+        raise click.BadParameter(
+            f"{output!r} is the run being re-flown; write the new run to another file",
+            param_hint="-o/--output",
         )
     mission, old_run = _load_source(source)
     mission = _terrain(mission, dem_tiles)
