@@ -363,7 +363,10 @@ def _recorded_threats(text: str, source: str, grid: Any) -> Any:
         data = None
     if not isinstance(data, dict):
         raise DataFileError(f"{source!r}, attachment 'threats.yaml': not a threat file")
-    return threats_from_records(data.get("threats"), grid, source=source)
+    name = data.get("name")
+    return threats_from_records(
+        data.get("threats"), grid, source=source, name=name if isinstance(name, str) else None
+    )
 
 
 def _map_origin(mission: Any, grid: Any) -> tuple[float, float, float]:
