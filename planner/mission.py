@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +33,12 @@ import numpy.typing as npt
 import yaml
 
 from terrain.atomic import atomic_output
-from terrain.docfile import FORMAT_VERSION
+from terrain.docfile import (
+    FORMAT_VERSION,
+    absolute_as_written,
+    find_reference,
+    reference_places,
+)
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid, crs_label
 from terrain.zones import DangerZone, zones_from_records, zones_to_records
@@ -55,15 +61,81 @@ DEFAULT_CRUISE = {"speed": 25.0, "altitude": 200.0}
 
 @dataclass(frozen=True)
 class TerrainRef:
-    """DEM tiles (absolute paths once loaded) and an optional cell size."""
+    """DEM tiles and an optional cell size.
+
+    ``dem`` holds, for each tile, the first place it is looked for.  A reference read from a file
+    also keeps the entries as that file wrote them (``written``), every place each one is looked
+    for, in order (``candidates``: relative to the folder of the file that names it, then as
+    given, i.e. absolute or relative to the working directory) and that file (``source``, and
+    ``attachment`` when the reference sits in an attachment of it, as in an MCAP run).
+    :meth:`paths` takes the first place that exists for each tile; its error names the file, the
+    field and every place looked.
+    """
 
     dem: tuple[str, ...]
     cell_size: float | None = None
+    written: tuple[str, ...] = ()
+    candidates: tuple[tuple[str, ...], ...] = ()
+    source: str | None = None
+    attachment: str | None = None
+
+    @classmethod
+    def from_entries(
+        cls,
+        entries: Sequence[str],
+        cell_size: float | None = None,
+        *,
+        source: str | None = None,
+        attachment: str | None = None,
+    ) -> TerrainRef:
+        """DEM entries as the file ``source`` wrote them."""
+        looked = tuple(reference_places(d, source) for d in entries)
+        return cls(
+            tuple(c[0] for c in looked),
+            cell_size,
+            written=tuple(entries),
+            candidates=looked,
+            source=source,
+            attachment=attachment,
+        )
+
+    def also_look_in(self, places: Sequence[str]) -> TerrainRef:
+        """The same reference with one more place to look for each tile, last (e.g. the absolute
+        path a recorded run flew); unchanged unless ``places`` has one entry per tile."""
+        if len(places) != len(self.dem):
+            return self
+        looked = tuple(
+            tuple(dict.fromkeys((*self._looked(i), str(absolute_as_written(q)))))
+            for i, q in enumerate(places)
+        )
+        return replace(self, candidates=looked)
+
+    def _looked(self, i: int) -> tuple[str, ...]:
+        return self.candidates[i] if self.candidates else (self.dem[i],)
+
+    def _written(self, i: int) -> str:
+        return self.written[i] if self.written else self.dem[i]
+
+    def paths(self) -> tuple[str, ...]:
+        """The tile files to open (absolute): the first place that exists for each; else a
+        DataFileError naming the file holding the reference, the field and the places looked."""
+        return tuple(
+            find_reference(
+                self._looked(i),
+                self._written(i),
+                holder=self.source,
+                attachment=self.attachment,
+                field=f"terrain.dem[{i}]",
+                what="DEM",
+                hint="; give it with --dem",
+            )
+            for i in range(len(self.dem))
+        )
 
     def load(self) -> HeightGrid:
         from terrain.load import load_dem
 
-        return load_dem(list(self.dem), cell_size=self.cell_size)
+        return load_dem(list(self.paths()), cell_size=self.cell_size)
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,8 +188,12 @@ def _mapping(value: Any, path: str | None, fld: str, keys: tuple[str, ...]) -> d
     return value
 
 
-def mission_from_dict(data: Any, path: str | None = None) -> Mission:
-    """Validate a parsed mission document (paths in ``terrain.dem`` resolved against ``path``)."""
+def mission_from_dict(
+    data: Any, path: str | None = None, *, attachment: str | None = None
+) -> Mission:
+    """Validate a parsed mission document read from ``path`` (or from its attachment
+    ``attachment``, as in an MCAP run): entries in ``terrain.dem`` are looked for relative to
+    ``path``'s folder, then as given (see :class:`TerrainRef`)."""
     doc = _mapping(data, path, "", MISSION_KEYS) if data is not None else None
     if doc is None:
         raise DataFileError(
@@ -129,7 +205,6 @@ def mission_from_dict(data: Any, path: str | None = None) -> Mission:
             "terrapath",
             f"expected format version {FORMAT_VERSION}, found {doc.get('terrapath')!r}",
         )
-    base = Path(path).parent if path else Path(".")
     cruise = _mapping(doc.get("cruise", {}), path, "cruise", ("speed", "altitude", "turn_radius"))
     speed = _num(cruise.get("speed", DEFAULT_CRUISE["speed"]), path, "cruise.speed", positive=True)
     alt = _num(cruise.get("altitude", DEFAULT_CRUISE["altitude"]), path, "cruise.altitude")
@@ -155,9 +230,11 @@ def mission_from_dict(data: Any, path: str | None = None) -> Mission:
         if not isinstance(dem, list) or not dem or not all(isinstance(d, str) for d in dem):
             raise _fail(path, "terrain.dem", f"expected a list of DEM file paths, found {dem!r}")
         cell = t.get("cell_size")
-        terrain = TerrainRef(
-            tuple(str((base / d) if not os.path.isabs(d) else Path(d)) for d in dem),
+        terrain = TerrainRef.from_entries(
+            dem,
             None if cell is None else _num(cell, path, "terrain.cell_size", positive=True),
+            source=path,
+            attachment=attachment,
         )
     name = doc.get("name", Path(path).stem if path else "mission")
     vehicle = doc.get("vehicle", DEFAULT_VEHICLE)
@@ -217,7 +294,11 @@ def mission_to_dict(
     base = Path(path).resolve().parent if path else None
     doc: dict[str, Any] = {"terrapath": FORMAT_VERSION, "name": mission.name, "crs": mission.crs}
     if mission.terrain is not None:
-        dem = [os.path.relpath(Path(d).resolve(), base) if base else d for d in mission.terrain.dem]
+        try:  # where the tiles were found, else where they were first looked for
+            tiles = mission.terrain.paths()
+        except DataFileError:
+            tiles = mission.terrain.dem
+        dem = [os.path.relpath(Path(d).resolve(), base) if base else d for d in tiles]
         doc["terrain"] = {"dem": dem}
         if mission.terrain.cell_size is not None:
             doc["terrain"]["cell_size"] = mission.terrain.cell_size

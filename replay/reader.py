@@ -9,7 +9,7 @@ The file is what :class:`replay.record.RunRecorder` writes (topics in :mod:`repl
     /avoidance/decision      terrapath.Decision      -> RunRecord.decisions (Decision)
     /log                     foxglove.Log            -> RunRecord.logs (LogEntry)
     /metrics                 terrapath.Metrics       -> RunRecord.metrics (else metadata "metrics")
-    metadata "terrapath"                             -> RunRecord.metadata
+    metadata "terrapath"                             -> RunRecord.metadata (text; .seed, .dem)
     attachments                                      -> RunRecord.attachments, attachment_types
 
 The Foxglove display topics (``/tf``, ``/vehicle/pose``, ``/map/terrain``, the scene updates) are
@@ -152,6 +152,20 @@ class RunRecord:
     @property
     def duration_s(self) -> float:
         return (self.end_ns - self.start_ns) / 1e9
+
+    @property
+    def seed(self) -> int | None:
+        """The run's seed (MCAP metadata is text: converted here), None when none was recorded."""
+        return _int(self.metadata.get("seed"))
+
+    @property
+    def dem(self) -> list[str]:
+        """The DEM tiles the run flew over (absolute paths when it was recorded), [] for none."""
+        try:
+            tiles = json.loads(self.metadata.get("dem", "[]"))
+        except json.JSONDecodeError:
+            return []
+        return [str(t) for t in tiles] if isinstance(tiles, list) else []
 
 
 class _Incomplete(Exception):
@@ -344,15 +358,19 @@ def summary(record: RunRecord) -> dict[str, Any]:
         "duration_s": record.duration_s,
         "samples": record.topic_counts.get(T.VEHICLE_STATE, len(record.times_ns)),
         "log_rate_hz": _float(md.get("log_rate_hz")),
-        "seed": md.get("seed", ""),
+        "seed": record.seed,
         "software_version": md.get("software_version", ""),
         "started_utc": md.get("started_utc", ""),
         "command": md.get("command", ""),
         "avoid": md.get("avoid", ""),
         "crs": md.get("crs", ""),
         "map_origin": json.loads(md["map_origin"]) if "map_origin" in md else None,
+        "source": md.get("source", ""),
+        "vehicle": md.get("vehicle", ""),
+        "dem": record.dem,
         "topics": dict(record.topic_counts),
-        "waypoint_changes": len(record.waypoints),
+        # the first list is the mission's (reason "initial"); changes are the ones after it
+        "waypoint_changes": sum(1 for w in record.waypoints if w.reason != "initial"),
         "threat_updates": len(record.threats),
         "radar_scans": len(record.detections),
         "decisions": len(record.decisions),
@@ -364,6 +382,13 @@ def summary(record: RunRecord) -> dict[str, Any]:
             for n, b in record.attachments.items()
         ],
     }
+
+
+def _int(text: str | None) -> int | None:
+    try:
+        return int(text) if text is not None else None
+    except ValueError:
+        return None
 
 
 def _float(text: str | None) -> float | None:

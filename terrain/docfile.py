@@ -5,7 +5,8 @@ type reports problems the same way (file, line, field, what was expected, what w
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -89,3 +90,49 @@ def check_header(
     if list_key not in data:
         raise DataFileError(f"{where(path, list_key)}missing; expected a list of {items}")
     return data
+
+
+def absolute_as_written(p: str | PathLike[str]) -> Path:
+    """``p`` made absolute against the working directory, keeping ``..`` and symlinks as written
+    (so that a message shows exactly what was looked for)."""
+    q = Path(p).expanduser()
+    return q if q.is_absolute() else Path.cwd() / q
+
+
+def reference_places(written: str, holder: str | PathLike[str] | None) -> tuple[str, ...]:
+    """Where a file named inside another file (``holder``) is looked for, in order: relative to
+    the holder's folder, then as given (absolute, or relative to the working directory); made
+    absolute, without repeats."""
+    if holder is None or Path(written).is_absolute():
+        places = [written]
+    else:
+        places = [str(Path(holder).parent.resolve() / written), written]
+    return tuple(dict.fromkeys(str(absolute_as_written(q)) for q in places))
+
+
+def find_reference(
+    places: Sequence[str],
+    written: str,
+    *,
+    holder: str | PathLike[str] | None,
+    field: str,
+    what: str,
+    attachment: str | None = None,
+    hint: str = "",
+) -> str:
+    """The first of ``places`` that exists (absolute).  Else a DataFileError naming the file that
+    holds the reference (and the ``attachment`` of it that does), the field, what was written and
+    every place looked: ``'m.yaml', field 'terrain.dem[0]': DEM 'a.tif' not found (looked for
+    '/m/a.tif' and '/cwd/a.tif')`` followed by ``hint``."""
+    for q in places:
+        if Path(q).exists():
+            return str(absolute_as_written(q))
+    at = [repr(str(holder))] if holder is not None else []
+    if attachment:
+        at.append(f"attachment {attachment!r}")
+    at.append(f"field {field!r}")
+    quoted = [repr(q) for q in places]
+    looked = " and ".join(filter(None, [", ".join(quoted[:-1]), quoted[-1]]))
+    raise DataFileError(
+        f"{', '.join(at)}: {what} {written!r} not found (looked for {looked}){hint}"
+    )

@@ -301,7 +301,7 @@ def test_summary(run: tuple[Path, dict[str, Any]]) -> None:
     path, _ = run
     s = summary(load_run(path))
     json.dumps(s)  # JSON-ready for `terrapath inspect --json`
-    assert s["samples"] == 600 and s["duration_s"] == 60.0 and s["seed"] == "42"
+    assert s["samples"] == 600 and s["duration_s"] == 60.0 and s["seed"] == 42
     assert s["topics"][T.VEHICLE_STATE] == 600 and s["topics"][T.TF] == 600
     assert s["topics"][T.VEHICLE_FIX] == 600 and s["topics"][T.TERRAIN] == 1
     assert s["topics"][T.VEHICLE_TRACK] == 57  # 1 Hz from the 2nd point, not at overviews

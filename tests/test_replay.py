@@ -117,7 +117,7 @@ def test_replay_cli_writes_a_complete_run(
     assert run.detections, "the radar saw the threats"
     assert main(["inspect", str(out), "--json"]) == 0
     s = json.loads(capsys.readouterr().out)
-    assert s["seed"] == "7" and len(s["final_waypoints"]) == 8 and "tower" in s["min_separation"]
+    assert s["seed"] == 7 and len(s["final_waypoints"]) == 8 and "tower" in s["min_separation"]
 
 
 def test_refly_a_recorded_run_with_new_threats(

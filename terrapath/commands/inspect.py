@@ -3,15 +3,22 @@
 from __future__ import annotations
 
 import json
+from datetime import UTC, datetime
+from typing import Any
 
 import click
+import yaml
+
+from terrapath.runtext import duration, metrics_rows, plural, table, threat_lines
 
 
 @click.command("inspect")
 @click.argument("run", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
 def inspect_cmd(run: str, as_json: bool) -> None:
-    """Summarise a replay MCAP: duration, seed, topics, metrics, the final waypoint list."""
+    """Summarise a replay MCAP: what was flown (mission, terrain, vehicle, seed, avoidance), the
+    metrics (success, PLR, terrain clearance, minimum separation to each threat), topics and
+    attachments; --json adds the final waypoint list."""
     from replay.reader import load_run, summary
 
     record = load_run(run, with_states=False)
@@ -22,23 +29,103 @@ def inspect_cmd(run: str, as_json: bool) -> None:
     if as_json:
         click.echo(json.dumps(s, indent=2, default=str))
         return
-    m = s.get("metrics", {})
-    click.echo(f"run            {s['path']}")
-    click.echo(f"duration       {s['duration_s']:.1f} s simulated, {s['samples']} state samples")
-    click.echo(
-        f"seed           {s['seed']}   avoid {s['avoid']}   terrapath {s['software_version']}"
+    mission = _mission(record.attachments.get("mission.yaml"))
+    rate = s.get("log_rate_hz")
+    rows = [
+        ("run", s["path"]),
+        ("recorded", f"{_utc(s['started_utc'])} by terrapath {s['software_version'] or '?'}"),
+        ("command", s["command"] or "n/a"),
+        ("mission", _describe_mission(mission, s)),
+        ("terrain", _describe_terrain(mission, s)),
+        ("vehicle", s["vehicle"] or (mission or {}).get("vehicle") or "n/a"),
+        ("seed", "n/a" if s["seed"] is None else str(s["seed"])),
+        ("avoidance", s["avoid"] or "n/a"),
+        (
+            "simulated",
+            f"{duration(s['duration_s'])}, {plural(s['samples'], 'state sample')}"
+            + (f" at {rate:g} Hz" if rate else ""),
+        ),
+    ]
+    m = s.get("metrics") or {}
+    rows += metrics_rows(m) if m else [("metrics", "none recorded (the run did not finish)")]
+    changes = s["waypoint_changes"]
+    rows.append(
+        (
+            "waypoints",
+            f"{len(final)} in the final list, {plural(changes, 'change')} during the flight",
+        )
     )
-    click.echo(f"success        {m.get('success')}   ({m.get('end_reason')})")
-    if m:
-        click.echo(
-            f"flight time    {m['flight_time_s'] / 60:.1f} min, flown {m['flown_length_m'] / 1000:.2f} km, PLR {m['plr']:.4f}"
+    rows.append(("radar", plural(s["radar_scans"], "scan")))
+    n_log = s["topics"].get("/log", 0)
+    rows.append(
+        (
+            "log",
+            f"{plural(n_log, 'entry', 'entries')}"
+            + (f", {s['warnings']} of them warnings or errors" if n_log else ""),
         )
-    for tid, sep in s["min_separation"].items():
-        click.echo(f"  {tid:<12} min separation {sep['value']:.1f} m at t={sep['t']:.0f} s")
-    for v in m.get("violations", []):
-        click.echo(
-            f"  violation: {v['threat']} from t={v['t_enter']:.0f} s to {v['t_exit'] if v['t_exit'] is not None else 'end'} (min {v['min_separation']:.0f} m)"
-        )
-    click.echo(f"waypoints      {len(final)} in the final list, {s['waypoint_changes']} changes")
-    click.echo("topics         " + ", ".join(f"{k} ({n})" for k, n in sorted(s["topics"].items())))
-    click.echo("attachments    " + (", ".join(a["name"] for a in s["attachments"]) or "none"))
+    )
+    for line in table(rows):
+        click.echo(line)
+    threats = threat_lines(m)
+    if threats:
+        click.echo("")
+        for line in threats:
+            click.echo(line)
+    click.echo("")
+    for line in table(
+        [
+            ("topics", ", ".join(f"{k} ({n})" for k, n in sorted(s["topics"].items()))),
+            (
+                "attachments",
+                ", ".join(f"{a['name']} ({_size(a['bytes'])})" for a in s["attachments"]) or "none",
+            ),
+        ]
+    ):
+        click.echo(line)
+
+
+def _mission(text: bytes | None) -> dict[str, Any] | None:
+    """The run's mission attachment, for display only (None when absent or unreadable)."""
+    if text is None:
+        return None
+    try:
+        doc = yaml.safe_load(text.decode("utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError):
+        return None
+    return doc if isinstance(doc, dict) else None
+
+
+def _describe_mission(mission: dict[str, Any] | None, s: dict[str, Any]) -> str:
+    if mission is None:
+        return "n/a (no mission.yaml attachment)"
+    wps = mission.get("waypoints")
+    text = str(mission.get("name", "?"))
+    if isinstance(wps, list):
+        text += f", {plural(len(wps), 'waypoint')}"
+    if s.get("source"):
+        text += f", from {s['source']}"
+    return text
+
+
+def _describe_terrain(mission: dict[str, Any] | None, s: dict[str, Any]) -> str:
+    if s.get("dem"):
+        return ", ".join(s["dem"])
+    terrain = (mission or {}).get("terrain")
+    if isinstance(terrain, dict) and terrain.get("dem"):
+        return ", ".join(map(str, terrain["dem"]))
+    return "none (flat ground at 0 m)" if mission is not None else "n/a"
+
+
+def _size(n: int) -> str:
+    return (
+        f"{n} B" if n < 1024 else f"{n / 1024:.1f} kB" if n < 1024**2 else f"{n / 1024**2:.1f} MB"
+    )
+
+
+def _utc(text: str) -> str:
+    """``2026-11-23 20:18:13 UTC`` from the recorder's ISO time stamp."""
+    try:
+        t = datetime.fromisoformat(text).astimezone(UTC)
+    except (TypeError, ValueError):
+        return text or "n/a"
+    return t.strftime("%Y-%m-%d %H:%M:%S UTC")

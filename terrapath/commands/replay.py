@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
-import tempfile
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -12,8 +12,9 @@ import click
 import numpy as np
 import yaml
 
-from terrain.errors import InputError
+from terrain.errors import DataFileError, InputError
 from terrapath.progress import progress_bar
+from terrapath.runtext import duration, metrics_rows, table, threat_lines
 
 
 def _software_version() -> str:
@@ -22,21 +23,102 @@ def _software_version() -> str:
     return __version__
 
 
-def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
-    """(mission, attachments of an earlier run, its threat file text or None)."""
+def _load_source(source: str) -> tuple[Any, Any]:
+    """(mission, the earlier run when SOURCE is an .mcap, else None).
+
+    The mission inside a run names its DEM tiles relative to the run's folder (see
+    :func:`_recorded_mission`); they are looked for there, then as given, then where the run
+    found them (metadata ``dem``)."""
     from planner.mission import load_mission, mission_from_dict
 
-    if source.lower().endswith(".mcap"):
-        from replay.reader import load_run
+    if not source.lower().endswith(".mcap"):
+        return load_mission(source), None
+    from replay.reader import load_run
 
-        run = load_run(source, with_states=False)
-        text = run.attachments.get("mission.yaml")
-        if text is None:
-            raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
-        mission = mission_from_dict(yaml.safe_load(text.decode("utf-8")), None)
-        threats = run.attachments.get("threats.yaml")
-        return mission, dict(run.attachments), threats.decode("utf-8") if threats else None
-    return load_mission(source), {}, None
+    run = load_run(source, with_states=False)
+    text = run.attachments.get("mission.yaml")
+    if text is None:
+        raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
+    try:
+        doc = yaml.safe_load(text.decode("utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError):
+        raise DataFileError(
+            f"{source!r}, attachment 'mission.yaml': not a valid mission YAML"
+        ) from None
+    mission = mission_from_dict(doc, source, attachment="mission.yaml")
+    if mission.terrain is not None:
+        try:
+            flown = json.loads(run.metadata.get("dem", "[]"))
+        except json.JSONDecodeError:
+            flown = []
+        if isinstance(flown, list) and all(isinstance(d, str) for d in flown):
+            mission = replace(mission, terrain=mission.terrain.also_look_in(flown))
+    return mission, run
+
+
+def _terrain(mission: Any, dem_tiles: tuple[str, ...]) -> Any:
+    """The mission with its DEM tiles found (absolute paths), or replaced by ``--dem``; raises
+    before anything is written when a tile is found nowhere."""
+    from planner.mission import TerrainRef
+
+    ref = mission.terrain
+    if dem_tiles:
+        cell = ref.cell_size if ref is not None else None
+        ref = TerrainRef(tuple(str(Path(t).absolute()) for t in dem_tiles), cell)
+    if ref is None:
+        return mission
+    found = tuple(str(Path(t).resolve()) for t in ref.paths())
+    return replace(mission, terrain=TerrainRef(found, ref.cell_size))
+
+
+def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[Any, bytes | None]:
+    """(vehicle parameters, the vehicle file to attach or None).
+
+    ``--vehicle`` paths are relative to the working directory.  Re-flying a run flies the
+    vehicle that run flew (its ``vehicle.yaml`` attachment, or its preset).  A mission's
+    ``vehicle:`` file is looked for beside the mission, then as given."""
+    from replay.vehicle.presets import PRESETS, load_vehicle, vehicle_from_dict
+    from terrain.docfile import find_reference, reference_places
+
+    if vehicle:
+        params = load_vehicle(vehicle, base_dir=Path.cwd())
+        path = Path(vehicle)
+        is_file = path.suffix.lower() in (".yaml", ".yml") and path.is_file()
+        return params, path.read_bytes() if is_file else None
+    if run is not None:
+        text = run.attachments.get("vehicle.yaml")
+        if text is not None:
+            label = f"{source} (attachment vehicle.yaml)"
+            try:
+                data = yaml.safe_load(text.decode("utf-8"))
+            except (yaml.YAMLError, UnicodeDecodeError):
+                raise DataFileError(f"{label!r}: not a valid vehicle YAML") from None
+            return vehicle_from_dict(data, label), text
+        flown = run.metadata.get("vehicle", "")
+        if flown in PRESETS:
+            return PRESETS[flown], None
+    name = mission.vehicle
+    if name in PRESETS:
+        return PRESETS[name], None
+    places = reference_places(name, source)
+    if (
+        Path(name).suffix.lower() in (".yaml", ".yml")
+        or "/" in name
+        or any(Path(q).exists() for q in places)
+    ):
+        path = Path(
+            find_reference(
+                places,
+                name,
+                holder=source,
+                attachment="mission.yaml" if run is not None else None,
+                field="vehicle",
+                what="vehicle file",
+                hint="; give it with --vehicle",
+            )
+        )
+        return load_vehicle(path), path.read_bytes()
+    return load_vehicle(name), None  # not a preset: says which presets exist
 
 
 @click.command("replay")
@@ -85,7 +167,20 @@ def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
     help="pso-ca: seed 000's decision logic only -- straight legs (no cut corners) and no rescue "
     "grid, narrower gap or skipped waypoint when the paper's search fails (to reproduce the paper).",
 )
-@click.option("--vehicle", default=None, help="Vehicle preset or file (default: the mission's).")
+@click.option(
+    "--vehicle",
+    default=None,
+    help="Vehicle preset or file (default: the mission's; for an .mcap source, the vehicle that run flew).",
+)
+@click.option(
+    "--dem",
+    "dem_tiles",
+    multiple=True,
+    type=click.Path(exists=True, dir_okay=False),
+    help="DEM tile to fly over instead of the mission's (repeat for several tiles; the "
+    "mission's cell size is kept). Default: the mission's tiles, looked for beside the mission "
+    "(or the .mcap), then as written.",
+)
 @click.option(
     "--seed",
     type=int,
@@ -95,30 +190,34 @@ def _load_source(source: str) -> tuple[Any, dict[str, bytes], str | None]:
 )
 @click.option(
     "--duration",
-    type=float,
+    type=click.FloatRange(min=0.0, min_open=True),
     default=None,
     help="Time limit in simulated seconds (default: 1.5 x the planned flight time + 10 min).",
 )
 @click.option(
     "--log-rate",
-    type=float,
+    type=click.FloatRange(min=0.0, min_open=True),
     default=10.0,
     show_default=True,
     help="State log rate in the MCAP (Hz).",
 )
 @click.option(
-    "--radar-range", type=float, default=10_000.0, show_default=True, help="Radar range (m)."
+    "--radar-range",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=10_000.0,
+    show_default=True,
+    help="Radar range (m).",
 )
 @click.option(
     "--radar-noise",
-    type=float,
+    type=click.FloatRange(min=0.0),
     default=0.0,
     show_default=True,
     help="Radar range noise, 1 sigma (m).",
 )
 @click.option(
     "--terrain-following",
-    type=float,
+    type=click.FloatRange(min=0.0),
     default=None,
     help="Keep at least this clearance (m) above the terrain ahead (default: the clearance the mission was planned with, when it has terrain; 0: off).",
 )
@@ -137,6 +236,7 @@ def replay_cmd(
     ca_mxrsk: float | None,
     ca_paper: bool,
     vehicle: str | None,
+    dem_tiles: tuple[str, ...],
     seed: int,
     duration: float | None,
     log_rate: float,
@@ -153,18 +253,20 @@ def replay_cmd(
     from replay.record import RunRecorder
     from replay.sim import ReplayConfig, estimated_flight_time
     from replay.threats import ThreatSet, load_threats
-    from replay.vehicle.presets import load_vehicle
 
     if not output.lower().endswith(".mcap"):
         raise click.BadParameter(
             f"the output must end in .mcap; got {output!r}", param_hint="-o/--output"
         )
-    mission, old, old_threats = _load_source(source)
+    if Path(output).resolve() == Path(source).resolve():
+        raise click.BadParameter(
+            f"{output!r} is the run being re-flown; write the new run to another file",
+            param_hint="-o/--output",
+        )
+    mission, old_run = _load_source(source)
+    mission = _terrain(mission, dem_tiles)
     grid = mission.terrain.load() if mission.terrain is not None else None
-    # --vehicle paths are relative to the working directory, the mission's `vehicle:` to its file
-    base_dir = Path.cwd() if vehicle else Path(source).resolve().parent
-    vehicle_name = vehicle or mission.vehicle
-    params = load_vehicle(vehicle_name, base_dir=base_dir)
+    params, vehicle_file = _vehicle(vehicle, mission, source, old_run)
     ca = {
         "optimizer": ca_optimizer,
         "rs": ca_safety_radius,
@@ -178,15 +280,13 @@ def replay_cmd(
         raise click.UsageError("the --ca-* options apply to --avoid pso-ca only")
     avoider = make_avoider(avoid, **ca)
     threat_text: str | None = None
+    old_threats = old_run.attachments.get("threats.yaml") if old_run is not None else None
     if threats_path:
         threats = load_threats(threats_path, grid)
         threat_text = Path(threats_path).read_text(encoding="utf-8")
     elif old_threats is not None:
-        with tempfile.TemporaryDirectory() as tmp:
-            p = Path(tmp) / "threats.yaml"
-            p.write_text(old_threats, encoding="utf-8")
-            threats = load_threats(p, grid)
-        threat_text = old_threats
+        threat_text = old_threats.decode("utf-8")
+        threats = _recorded_threats(threat_text, source, grid)
     else:
         threats = ThreatSet(())
     if terrain_following is None and grid is not None:
@@ -214,7 +314,12 @@ def replay_cmd(
     origin = _map_origin(mission, grid)
     from planner.mission import mission_to_dict
 
-    mission_doc = mission_to_dict(mission, None)
+    # DEM paths relative to the MCAP's folder: the run can be re-flown after moving it together
+    # with its DEM; the metadata keeps where they were found, for a run moved on its own
+    mission_doc = mission_to_dict(mission, output)
+    extra = {"vehicle": params.name, "source": str(source)}
+    if mission.terrain is not None:
+        extra["dem"] = json.dumps(list(mission.terrain.dem))
     with RunRecorder(
         output,
         map_origin=origin,
@@ -227,23 +332,17 @@ def replay_cmd(
         if grid is not None and grid.is_georeferenced
         else None,
         log_rate_hz=log_rate,
-        metadata={
-            "vehicle": params.name if hasattr(params, "name") else str(vehicle_name),
-            "source": str(source),
-        },
+        metadata=extra,
     ) as rec:
         rec.attach(
             "mission.yaml",
-            yaml.safe_dump(mission_doc, sort_keys=False).encode("utf-8"),
+            yaml.safe_dump(mission_doc, sort_keys=False, default_flow_style=None).encode(),
             "application/yaml",
         )
         if threat_text is not None:
             rec.attach("threats.yaml", threat_text.encode("utf-8"), "application/yaml")
-        vpath = base_dir / str(vehicle_name)
-        if vpath.suffix.lower() in (".yaml", ".yml") and vpath.is_file():
-            rec.attach("vehicle.yaml", vpath.read_bytes(), "application/yaml")
-        elif "vehicle.yaml" in old and vehicle is None:
-            rec.attach("vehicle.yaml", old["vehicle.yaml"], "application/yaml")
+        if vehicle_file is not None:
+            rec.attach("vehicle.yaml", vehicle_file, "application/yaml")
         if terrain_model is not None and not no_terrain_mesh:
             mesh = (
                 TerrainModel.from_grid(grid, max_faces=400_000).mesh if grid is not None else None
@@ -252,6 +351,22 @@ def replay_cmd(
                 rec.write_terrain(np.asarray(mesh.vertices), np.asarray(mesh.faces))
         result = _run(mission, threats, avoider, params, grid, terrain_model, config, rec, limit)
     _report(result, output, as_json, threats)
+
+
+def _recorded_threats(text: str, source: str, grid: Any) -> Any:
+    """The threats an earlier run recorded (its ``threats.yaml`` attachment)."""
+    from replay.threats import threats_from_records
+
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError:
+        data = None
+    if not isinstance(data, dict):
+        raise DataFileError(f"{source!r}, attachment 'threats.yaml': not a threat file")
+    name = data.get("name")
+    return threats_from_records(
+        data.get("threats"), grid, source=source, name=name if isinstance(name, str) else None
+    )
 
 
 def _map_origin(mission: Any, grid: Any) -> tuple[float, float, float]:
@@ -302,39 +417,17 @@ def _report(result: Any, output: str, as_json: bool, threats: Any) -> None:
             )
         )
         return
-    rows = [
-        ("success", "yes" if m.success else "NO"),
-        ("end", m.end_reason),
-        ("flight time", f"{m.flight_time_s / 60:.1f} min"),
-        ("flown length", f"{m.flown_length_m / 1000:.2f} km"),
-        ("PLR", f"{m.plr:.4f}"),
-        (
-            "min terrain clearance",
-            f"{m.min_terrain_clearance_m:.1f} m at t={m.min_terrain_clearance_t:.0f} s",
-        ),
-        ("waypoints added", str(m.waypoints_added)),
-        (
-            "decisions",
-            f"{m.decisions} (mean {m.decision_time_mean_s * 1000:.1f} ms, max {m.decision_time_max_s * 1000:.1f} ms)",
-        ),
-    ]
-    width = max(len(r[0]) for r in rows)
-    for k, v in rows:
-        click.echo(f"{k:<{width}}  {v}")
-    if m.min_separation:
-        click.echo("\nthreat        min separation      at t (s)   violations")
-        for tid, sep in m.min_separation.items():
-            vs = [v for v in m.violations if v.threat == tid]
-            span = (
-                ", ".join(
-                    f"{v.t_enter:.0f}-{'end' if v.t_exit is None else f'{v.t_exit:.0f}'} s"
-                    for v in vs
-                )
-                or "-"
-            )
-            click.echo(f"{tid:<12}  {sep['value']:>12.1f} m  {sep['t']:>12.0f}   {span}")
+    metrics = m.as_dict()
+    for line in table(metrics_rows(metrics)):
+        click.echo(line)
+    threat_text = threat_lines(metrics)
+    if threat_text:
+        click.echo("")
+        for line in threat_text:
+            click.echo(line)
     click.echo(
-        f"\nwrote {output} (simulated {m.flight_time_s:.0f} s in {result.wall_s:.1f} s wall)"
+        f"\nwrote {output} (simulated {duration(m.flight_time_s)} in {result.wall_s:.1f} s of "
+        "wall-clock time)"
     )
     click.echo(
         "open it in Foxglove: Open local file, 3D panel with display frame 'map'; plots from /vehicle/state"

@@ -1,0 +1,149 @@
+"""A run's metrics as `terrapath replay` and `terrapath inspect` print them for people: one layout,
+numbers rounded to what they mean (metres to 0.1 m, times to 0.1 s, lengths in km to 10 m), counts
+with the right plural, and what separation and PLR measure (see :mod:`replay.metrics`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+SEPARATION_NOTE = (
+    "separation: distance from the threat's surface (the sphere of its radius around a point, "
+    "its cylinder or body); negative = inside its safety volume"
+)
+PLR_MEANING = "flown length / straight-line distance from the first to the last waypoint"
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``1 change``, ``2 changes``, ``0 changes``."""
+    return f"{n} {word if n == 1 else (many or word + 's')}"
+
+
+def _number(value: Any) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    return float(value) if math.isfinite(value) else None
+
+
+def metres(value: Any) -> str:
+    v = _number(value)
+    return "n/a" if v is None else f"{v:.1f} m"
+
+
+def kilometres(value: Any) -> str:
+    v = _number(value)
+    return "n/a" if v is None else f"{v / 1000:.2f} km"
+
+
+def seconds(value: Any) -> str:
+    v = _number(value)
+    return "n/a" if v is None else f"{v:.1f} s"
+
+
+def duration(value: Any) -> str:
+    """Seconds under two minutes, else minutes (and hours from two hours on)."""
+    v = _number(value)
+    if v is None:
+        return "n/a"
+    if v < 120:
+        return f"{v:.1f} s"
+    if v < 7200:
+        return f"{v / 60:.1f} min"
+    return f"{v / 3600:.2f} h"
+
+
+def milliseconds(value: Any) -> str:
+    v = _number(value)
+    return "n/a" if v is None else f"{v * 1000:.1f} ms"
+
+
+def table(rows: list[tuple[str, str]]) -> list[str]:
+    """``label  value`` lines, the values aligned."""
+    width = max((len(k) for k, _ in rows), default=0)
+    return [f"{k:<{width}}  {v}" for k, v in rows]
+
+
+def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """The run-level metrics (a ``RunMetrics.as_dict()``); keys a run did not record are left out."""
+    rows: list[tuple[str, str]] = []
+    if "success" in m:
+        if m["success"]:
+            verdict = "yes (reached the goal, no safety volume entered, no terrain contact)"
+        else:
+            why = []
+            if m.get("end_reason") not in (None, "goal"):
+                why.append(f"ended by {m['end_reason']}")
+            if m.get("terrain_contact") and m.get("end_reason") != "terrain contact":
+                why.append("terrain contact")
+            if m.get("violations"):
+                why.append(plural(len(m["violations"]), "safety violation"))
+            verdict = "NO" + (f" ({', '.join(why)})" if why else "")
+        rows.append(("success", verdict))
+    if "flight_time_s" in m:
+        rows.append(("flight time", duration(m["flight_time_s"])))
+    if "flown_length_m" in m:
+        rows.append(("flown length", kilometres(m["flown_length_m"])))
+    if "plr" in m:
+        plr = _number(m["plr"])
+        text = "n/a" if plr is None else f"{plr:.3f}"
+        straight = m.get("straight_distance_m")
+        rows.append(
+            (
+                "PLR",
+                f"{text} ({PLR_MEANING}"
+                + (f", {kilometres(straight)}" if straight is not None else "")
+                + ("; the goal was not reached)" if m.get("reached_goal") is False else ")"),
+            )
+        )
+    if "min_terrain_clearance_m" in m:
+        t = m.get("min_terrain_clearance_t")
+        at = f" at t = {seconds(t)}" if _number(t) is not None else ""
+        rows.append(("min terrain clearance", metres(m["min_terrain_clearance_m"]) + at))
+    if "waypoints_added" in m:
+        rows.append(("waypoints added", str(m["waypoints_added"])))
+    if "decisions" in m:
+        n = int(m["decisions"])
+        rows.append(
+            (
+                "avoidance decisions",
+                "none"
+                if n == 0
+                else f"{n} (computation mean {milliseconds(m.get('decision_time_mean_s'))}, "
+                f"max {milliseconds(m.get('decision_time_max_s'))})",
+            )
+        )
+    return rows
+
+
+def threat_lines(m: Mapping[str, Any]) -> list[str]:
+    """Minimum separation to each threat, when, and the intervals spent inside its safety volume;
+    then what separation means.  [] when the run had no threats."""
+    seps = m.get("min_separation")
+    if not isinstance(seps, dict) or not seps:
+        return []
+    violations = [v for v in m.get("violations") or [] if isinstance(v, dict)]
+    head = ("threat", "min separation", "at t", "inside its safety volume")
+    rows = []
+    for tid, sep in seps.items():
+        sep = sep if isinstance(sep, dict) else {}
+        spans = [
+            f"t = {seconds(v.get('t_enter'))} to "
+            f"{'the end' if v.get('t_exit') is None else seconds(v['t_exit'])} "
+            f"(deepest {metres(v.get('min_separation'))})"
+            for v in violations
+            if v.get("threat") == tid
+        ]
+        never = _number(sep.get("value")) is None
+        rows.append(
+            (
+                str(tid),
+                "never active" if never else metres(sep.get("value")),
+                "" if never else seconds(sep.get("t")),
+                ", ".join(spans) or "-",
+            )
+        )
+    w = [max(len(r[i]) for r in (head, *rows)) for i in range(3)]
+    lines = [f"{head[0]:<{w[0]}}  {head[1]:>{w[1]}}  {head[2]:>{w[2]}}  {head[3]}"]
+    lines += [f"{a:<{w[0]}}  {b:>{w[1]}}  {c:>{w[2]}}  {d}" for a, b, c, d in rows]
+    return [*lines, SEPARATION_NOTE]
