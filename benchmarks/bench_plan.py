@@ -2,6 +2,16 @@
 the cost, feasible runs and time per run. Random initial populations (no straight-line seeds) and
 a single attempt, as in the paper; ``--straight-seeds`` measures terrapath's default start.
 
+The problems are built by the planning pipeline (``planner.pipeline.build_problem``, what
+``terrapath plan`` runs): start and goal 150 m above the highest terrain around them, the
+conservative safety grid, and the aircraft's limits (``--vehicle``, default the aerosonde at its
+cruise speed: climb and descent gradients, turn fillets); ``--no-vehicle`` measures the paper's
+problem without them. Zones are soft (cost only), as in the paper.
+
+``--under-load`` times the default plan (P=60, 200 iterations) on each map on an idle machine and
+beside one busy process (a second Python spinning), the situation of a campaign running one
+process per core.
+
 Run: ``.venv/bin/python benchmarks/bench_plan.py [--runs 10] [--population 60] [--iterations 200]``;
 ``--maps``, ``--algorithms`` and ``--first-seed`` choose a subset, and ``--ampso KEY=VALUE``
 (repeatable) measures an AMPSO variant, e.g.
@@ -13,6 +23,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -22,11 +33,11 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import record  # noqa: E402
 from planner.optim import make_optimizer  # noqa: E402
+from planner.pipeline import PlanRequest, build_problem  # noqa: E402
 from planner.plan import ALGORITHMS, plan  # noqa: E402
 from planner.problem import PlanningProblem  # noqa: E402
+from replay.vehicle.presets import load_vehicle  # noqa: E402
 from terrain.errors import InputError  # noqa: E402
-from terrain.load import load_dem  # noqa: E402
-from terrain.zones import DangerZone  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "maps"
 # (name, DEM, start lon/lat, goal lon/lat, danger zones as (lon, lat, diameter))
@@ -56,18 +67,26 @@ MAPS = [
 
 
 def problem_for(
-    dem: Path, start: tuple[float, float], goal: tuple[float, float], zones: list
-) -> PlanningProblem:  # type: ignore[type-arg]
-    grid = load_dem(dem)
-    pts = []
-    for lon, lat in (start, goal):
-        x, y = grid.from_lonlat(lon, lat)
-        pts.append(np.array([float(x), float(y), float(grid.height_at(x, y)) + 150.0]))
-    zs = []
-    for lon, lat, d in zones:
-        x, y = grid.from_lonlat(lon, lat)
-        zs.append(DangerZone(float(x), float(y), d))
-    return PlanningProblem(grid, pts[0], pts[1], 6, tuple(zs), clearance=50.0)
+    dem: Path,
+    start: tuple[float, float],
+    goal: tuple[float, float],
+    zones: list,  # type: ignore[type-arg]
+    vehicle: str | None = "aerosonde",
+    n_waypoints: int = 6,
+) -> PlanningProblem:
+    """The planning problem ``terrapath plan`` builds for this scenario (soft zones), with the
+    vehicle's limits or (``vehicle=None``) without them."""
+    request = PlanRequest(
+        dem=(str(dem),),
+        start=start,
+        goal=goal,
+        performance=load_vehicle(vehicle or "aerosonde").performance(),
+        vehicle=vehicle or "aerosonde",
+        zones=[{"lon": a, "lat": b, "diameter": d} for a, b, d in zones],
+        n_waypoints=n_waypoints,
+    )
+    problem = build_problem(request).problem
+    return problem if vehicle else replace(problem, performance=None)
 
 
 def timing(args: argparse.Namespace) -> None:
@@ -77,8 +96,7 @@ def timing(args: argparse.Namespace) -> None:
     if not Path(dem).exists():
         print(f"skipping the timing: {dem} not found")
         return
-    p0 = problem_for(Path(dem), start, goal, zones)
-    problem = PlanningProblem(p0.grid, p0.start, p0.goal, 8, p0.zones, clearance=50.0)
+    problem = problem_for(Path(dem), start, goal, zones, args.vehicle, n_waypoints=8)
     plan(problem, "ampso", seed=0, population=10, iterations=2)  # JIT warm-up
     times, feasible = [], 0
     for seed in range(3):
@@ -95,7 +113,69 @@ def timing(args: argparse.Namespace) -> None:
                 "<= 3 s",
             )
         ],
-        notes="corridor initial population (the plan default), single attempt, 50 m clearance, dilated terrain check",
+        notes="corridor initial population (the plan default), single attempt, 50 m clearance, "
+        f"conservative terrain, {_limits(args)}",
+    )
+
+
+def _limits(args: argparse.Namespace) -> str:
+    return (
+        f"the {args.vehicle}'s limits (gradients, turn fillets)"
+        if args.vehicle
+        else "no aircraft limits (the paper's problem)"
+    )
+
+
+def _spin() -> None:  # pragma: no cover - runs in the busy process
+    while True:
+        pass
+
+
+def under_load(args: argparse.Namespace) -> None:
+    """Issue 12: time the default plan idle and beside one busy process (campaigns run one
+    process per core); the figure to compare is the ratio loaded / idle."""
+    import multiprocessing as mp
+
+    chosen = set(args.maps.split(","))
+    rows = []
+    for name, dem, start, goal, zones in MAPS:
+        if name not in chosen or not Path(dem).exists():
+            continue
+        problem = problem_for(Path(dem), start, goal, zones, args.vehicle)
+        plan(problem, "ampso", seed=0, population=10, iterations=2)  # JIT out of the timings
+        figures = {}
+        for label in ("idle", "loaded"):
+            busy = None
+            if label == "loaded":
+                busy = mp.get_context("spawn").Process(target=_spin, daemon=True)
+                busy.start()
+                time.sleep(1.0)
+            try:
+                times = []
+                for seed in range(args.runs):
+                    t = time.perf_counter()
+                    plan(problem, "ampso", seed=seed, population=60, iterations=200)
+                    times.append(time.perf_counter() - t)
+            finally:
+                if busy is not None:
+                    busy.terminate()
+                    busy.join()
+            figures[label] = float(np.median(times))
+        ratio = figures["loaded"] / figures["idle"]
+        rows.append(
+            (
+                f"{name}: AMPSO default plan, median of {args.runs}",
+                f"idle {figures['idle']:.3f} s, beside a busy process {figures['loaded']:.3f} s "
+                f"(x{ratio:.2f})",
+                "loaded close to idle (was x20: 0.16 -> 3.16 s with numba's 2 threads)",
+            )
+        )
+        print(rows[-1])
+    record(
+        "planner: plan time idle and under load (single-threaded kernels)",
+        rows,
+        notes=f"P=60, 200 iterations, 6 free waypoints, single attempt, {_limits(args)}; the load "
+        "is one other Python process spinning on the second core",
     )
 
 
@@ -156,6 +236,23 @@ def main() -> None:
     )
     ap.add_argument("--timing-only", action="store_true", help="only the single-plan timing target")
     ap.add_argument(
+        "--under-load",
+        action="store_true",
+        help="only the plan time idle and beside one busy process (--runs plans per map)",
+    )
+    ap.add_argument(
+        "--vehicle",
+        default="aerosonde",
+        help="plan within this vehicle's limits (preset or file; default aerosonde)",
+    )
+    ap.add_argument(
+        "--no-vehicle",
+        dest="vehicle",
+        action="store_const",
+        const=None,
+        help="the paper's problem: no aircraft limits",
+    )
+    ap.add_argument(
         "--maps",
         default=",".join(m[0] for m in MAPS),
         help="comma-separated subset of " + ", ".join(m[0] for m in MAPS),
@@ -184,6 +281,9 @@ def main() -> None:
                 f"--algorithms: unknown algorithm {alg!r}; choose from {', '.join(ALGORITHMS)}"
             )
     ampso_params = _parse_params(ap, args.ampso)
+    if args.under_load:
+        under_load(args)
+        return
     if not args.no_timing:
         timing(args)
     if args.timing_only:
@@ -196,7 +296,7 @@ def main() -> None:
         if not Path(dem).exists():
             print(f"skipping {name}: {dem} not found")
             continue
-        problem = problem_for(Path(dem), start, goal, zones)
+        problem = problem_for(Path(dem), start, goal, zones, args.vehicle)
         per_alg: dict[str, np.ndarray] = {}
         for alg in algorithms:
             plan(problem, alg, seed=0, population=10, iterations=2)  # JIT out of the timings
@@ -236,7 +336,8 @@ def main() -> None:
         notes=f"cost mean ± std over seeds {args.first_seed}..{args.first_seed + args.runs - 1}, "
         + f"initial population {args.init}"
         + (" + straight-line seeds" if args.straight_seeds else "")
-        + ", single attempt, 6 free waypoints, 50 m clearance"
+        + ", single attempt, 6 free waypoints, 50 m clearance, "
+        + _limits(args)
         + (f", AMPSO {ampso_params}" if ampso_params else ""),
     )
 

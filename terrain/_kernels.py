@@ -10,10 +10,6 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-# open3d's wheels bring an old TBB that numba refuses (with a warning) before it falls back:
-# ask for OpenMP first, then TBB, then numba's own work queue.
-nb.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]  # type: ignore[attr-defined]
-
 
 @nb.njit(cache=True, nogil=True)
 def bresenham_cells(r0: int, c0: int, r1: int, c1: int) -> np.ndarray:  # pragma: no cover - jit
@@ -51,7 +47,7 @@ def bresenham_cells(r0: int, c0: int, r1: int, c1: int) -> np.ndarray:  # pragma
     return out
 
 
-@nb.njit(cache=True, nogil=True, parallel=True)
+@nb.njit(cache=True, nogil=True)
 def below_lengths(
     seg: np.ndarray, heights: np.ndarray, clearance: float
 ) -> np.ndarray:  # pragma: no cover - jit
@@ -61,12 +57,17 @@ def below_lengths(
     Bresenham cell k stands for the part of the segment between the midpoints of its parameter
     t_k and its neighbours' (t_k is where the cell centre projects on the major axis); that part is
     below ground when the segment's altitude at t_k is below the cell's height plus clearance.
+
+    Single-threaded on purpose: a swarm's call is a few hundred segments (~0.2 ms), too small to
+    gain from numba's threads, and with ``parallel=True`` a plan took 20x longer whenever another
+    CPU-bound process shared the machine (issue 12: 0.16 s idle, 3.16 s beside one busy process)
+    — campaigns run one process per core. benchmarks/bench_plan.py --under-load measures it.
     """
     m = seg.shape[0]
     rows = heights.shape[0]
     cols = heights.shape[1]
     out = np.zeros(m)
-    for i in nb.prange(m):
+    for i in range(m):
         fr0 = seg[i, 0]
         fc0 = seg[i, 1]
         fr1 = seg[i, 2]
