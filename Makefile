@@ -45,17 +45,27 @@ demo: $(VENV)/.run-stamp
 	$(BIN)/terrapath info $(DEMO_MAP)
 	$(BIN)/terrapath hillshade $(DEMO_MAP) --zones $(DEMO_ZONES) -o $(OUT)/rmnp-hillshade.png
 	$(BIN)/terrapath plan $(DEMO_MAP) --start=-105.85,40.20 --goal=-105.55,40.50 \
-	  --zones $(DEMO_ZONES) --avoid-zones --seed 1 -o $(OUT)/rmnp-mission.yaml
-	$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --threats data/threats/rmnp-demo.yaml \
-	  --seed 1 -o $(OUT)/rmnp-replay-none.mcap
+	  --zones $(DEMO_ZONES) --avoid-zones --vehicle aerosonde --seed 1 -o $(OUT)/rmnp-mission.yaml
+	@echo
+	@echo "== the plan flown as a real autopilot would (6-DOF, terrain following OFF, no threats):"
+	$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --terrain-following 0 \
+	  --seed 1 -o $(OUT)/rmnp-flown.mcap
+	@echo
+	@echo "== pop-up threats, no avoidance (expected to fail: exit status 3):"
+	@$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --threats data/threats/rmnp-demo.yaml \
+	  --seed 1 -o $(OUT)/rmnp-replay-none.mcap; rc=$$?; \
+	  if [ $$rc -ne 3 ]; then echo "expected the unavoided threats to be violated (exit 3), got $$rc"; exit 1; fi
+	@echo
+	@echo "== pop-up threats, PSO-CA avoidance (seed 000):"
 	$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --threats data/threats/rmnp-demo.yaml \
 	  --avoid pso-ca --seed 1 -o $(OUT)/rmnp-replay.mcap
 	@echo
 	@echo "demo outputs (in $(OUT)/):"
-	@echo "  rmnp-hillshade.png   the map with its two danger zones"
-	@echo "  rmnp-mission.yaml    the planned mission (source of truth: waypoints, cost terms, seed)"
-	@echo "  rmnp-mission.png     the path over the map and its altitude profile"
+	@echo "  rmnp-hillshade.png   the map with its two danger zones (unknown terrain hatched)"
+	@echo "  rmnp-mission.yaml    the planned mission (source of truth: waypoints, vehicle, turn radius, cost terms, seed)"
+	@echo "  rmnp-mission.png     the flown path (legs joined by turn fillets) over the map, and its altitude profile"
 	@echo "  rmnp-mission.geojson / .plan / .waypoints   for GIS tools and ground stations"
+	@echo "  rmnp-flown.mcap      the aerosonde flying the plan with terrain following off: clear of the terrain"
 	@echo "  rmnp-replay-none.mcap  the 6-DOF replay with three pop-up threats, no avoidance: all three violated"
 	@echo "  rmnp-replay.mcap     the same with PSO-CA avoidance (seed 000): every threat kept clear"
 	@echo

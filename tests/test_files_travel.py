@@ -36,6 +36,9 @@ def _mission_text(dem: str, vehicle: str = "aerosonde") -> str:
     )
 
 
+CUT = 3  # a replay cut by --duration before the goal: recorded, but not a success (exit 3)
+
+
 def _replay(*args: str) -> int:
     return main(["replay", *args, "--duration", "20", "--no-terrain-mesh"])
 
@@ -63,7 +66,7 @@ def test_a_moved_mission_flies_from_another_folder(
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
-    assert _replay(os.path.relpath(moved_mission), "-o", "run.mcap") == 0
+    assert _replay(os.path.relpath(moved_mission), "-o", "run.mcap") == CUT
     run = load_run(elsewhere / "run.mcap", with_states=False)
     dem = (moved_mission.parent / "rmnp.tif").resolve()
     assert json.loads(run.metadata["dem"]) == [str(dem)]
@@ -150,7 +153,7 @@ def test_a_run_moved_with_its_dem_is_reflown(
     (first / "maps").mkdir(parents=True)
     shutil.copy(RMNP, first / "maps" / "dem.tif")
     monkeypatch.chdir(tmp_path)
-    assert _replay(str(moved_mission), "--dem", "a/maps/dem.tif", "-o", "a/run.mcap") == 0
+    assert _replay(str(moved_mission), "--dem", "a/maps/dem.tif", "-o", "a/run.mcap") == CUT
     doc = yaml.safe_load(
         load_run(first / "run.mcap", with_states=False).attachments["mission.yaml"]
     )
@@ -160,7 +163,7 @@ def test_a_run_moved_with_its_dem_is_reflown(
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
-    assert _replay("../b/run.mcap", "-o", "again.mcap") == 0
+    assert _replay("../b/run.mcap", "-o", "again.mcap") == CUT
     again = load_run(elsewhere / "again.mcap", with_states=False)
     assert json.loads(again.metadata["dem"]) == [
         str((tmp_path / "b" / "maps" / "dem.tif").resolve())
@@ -168,7 +171,7 @@ def test_a_run_moved_with_its_dem_is_reflown(
     # the run moved on its own: the DEM is found where the run recorded it (absolute path)
     (tmp_path / "c").mkdir()
     shutil.copy(elsewhere / "again.mcap", tmp_path / "c" / "alone.mcap")
-    assert _replay("../c/alone.mcap", "-o", "third.mcap") == 0
+    assert _replay("../c/alone.mcap", "-o", "third.mcap") == CUT
     third = load_run(elsewhere / "third.mcap", with_states=False)
     assert json.loads(third.metadata["dem"]) == json.loads(again.metadata["dem"])
     # the DEM is gone from everywhere: one line naming the run, its attachment and every place
@@ -183,7 +186,7 @@ def test_a_run_moved_with_its_dem_is_reflown(
     )
     assert not (elsewhere / "fourth.mcap").exists()
     # --dem overrides the run's tiles
-    assert _replay("../c/alone.mcap", "--dem", str(RMNP), "-o", "fourth.mcap") == 0
+    assert _replay("../c/alone.mcap", "--dem", str(RMNP), "-o", "fourth.mcap") == CUT
     fourth = load_run(elsewhere / "fourth.mcap", with_states=False)
     assert json.loads(fourth.metadata["dem"]) == [str(RMNP.resolve())]
 
@@ -202,8 +205,8 @@ def test_dem_override_with_several_tiles_flies_the_same_terrain(
     HeightGrid(grid.heights[90:], south, grid.crs).to_geotiff(tmp_path / "s.tif")
     (moved_mission.parent / "rmnp.tif").unlink()  # the mission's own reference is broken
     monkeypatch.chdir(tmp_path)
-    assert _replay(str(moved_mission), "--dem", "whole.tif", "-o", "whole.mcap") == 0
-    assert _replay(str(moved_mission), "--dem", "n.tif", "--dem", "s.tif", "-o", "tiles.mcap") == 0
+    assert _replay(str(moved_mission), "--dem", "whole.tif", "-o", "whole.mcap") == CUT
+    assert _replay(str(moved_mission), "--dem", "n.tif", "--dem", "s.tif", "-o", "tiles.mcap") == CUT
     whole, tiles = load_run(tmp_path / "whole.mcap"), load_run(tmp_path / "tiles.mcap")
     assert json.loads(tiles.metadata["dem"]) == [
         str(tmp_path.resolve() / "n.tif"),
@@ -231,14 +234,14 @@ def test_a_vehicle_file_travels_with_the_mission_and_the_run(
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
-    assert _replay("../missions/m.yaml", "-o", "run.mcap") == 0
+    assert _replay("../missions/m.yaml", "-o", "run.mcap") == CUT
     run = load_run(elsewhere / "run.mcap", with_states=False)
     assert run.metadata["vehicle"] == "heavy-aerosonde"
     assert run.attachments["vehicle.yaml"].decode() == HEAVY
     # re-flown from elsewhere, the run flies the vehicle it carries
     (tmp_path / "runs").mkdir()
     shutil.move(elsewhere / "run.mcap", tmp_path / "runs" / "run.mcap")
-    assert _replay("../runs/run.mcap", "-o", "again.mcap") == 0
+    assert _replay("../runs/run.mcap", "-o", "again.mcap") == CUT
     again = load_run(elsewhere / "again.mcap", with_states=False)
     assert again.metadata["vehicle"] == "heavy-aerosonde"
     assert again.attachments["vehicle.yaml"].decode() == HEAVY

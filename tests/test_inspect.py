@@ -99,8 +99,10 @@ def test_replay_and_inspect_text(tmp_path: Path, capsys: pytest.CaptureFixture[s
     threats.write_text(THREATS)
     out = tmp_path / "run.mcap"
     args = ["replay", str(MISSION), "--threats", str(threats), "--duration", "400", "--seed", "3"]
-    assert main([*args, "-o", str(out)]) == 0
-    replay_text = capsys.readouterr().out
+    assert main([*args, "-o", str(out)]) == 3  # cut at 400 s with violations: not a success
+    captured = capsys.readouterr()
+    replay_text = captured.out
+    assert captured.err.startswith("terrapath: replay failed: ended by time limit")
     run = load_run(out, with_states=False)
     m = run.metrics
     assert main(["inspect", str(out)]) == 0

@@ -16,6 +16,8 @@ from terrain.errors import DataFileError, InputError
 from terrapath.progress import progress_bar
 from terrapath.runtext import duration, metrics_rows, table, threat_lines
 
+EXIT_FAILED = 3  # the flight was recorded but is not a success (as `plan`'s infeasible)
+
 
 def _software_version() -> str:
     from terrapath import __version__
@@ -246,9 +248,12 @@ def replay_cmd(
     no_terrain_mesh: bool,
     output: str,
     as_json: bool,
-) -> None:
+) -> int:
     """Re-fly SOURCE (a mission YAML, or an earlier run's .mcap) in the 6-DOF simulation, with
-    pop-up threats, and record everything as MCAP for Foxglove."""
+    pop-up threats, and record everything as MCAP for Foxglove.
+
+    Exit status: 0 success (goal reached, no safety volume entered, no terrain contact), 3 the
+    flight failed (still recorded), 1 error."""
     from replay.avoidance import make_avoider
     from replay.record import RunRecorder
     from replay.sim import ReplayConfig, estimated_flight_time
@@ -351,6 +356,21 @@ def replay_cmd(
                 rec.write_terrain(np.asarray(mesh.vertices), np.asarray(mesh.faces))
         result = _run(mission, threats, avoider, params, grid, terrain_model, config, rec, limit)
     _report(result, output, as_json, threats)
+    m = result.metrics
+    if not m.success:
+        reasons = []
+        if m.end_reason != "goal":
+            reasons.append(f"ended by {m.end_reason}")
+        if m.violations:
+            n = len(m.violations)
+            reasons.append(f"{n} safety violation{'s' if n != 1 else ''}")
+        click.echo(
+            f"terrapath: replay failed: {', '.join(reasons) or 'not a success'} "
+            f"(the run is recorded in {output})",
+            err=True,
+        )
+        return EXIT_FAILED
+    return 0
 
 
 def _recorded_threats(text: str, source: str, grid: Any) -> Any:
