@@ -8,7 +8,7 @@ terrain: {dem: [../data/maps/x.tif], cell_size: 30}   # optional; paths relative
 vehicle: solar-uav
 cruise: {speed: 15.0, altitude: 200.0}   # altitude used for waypoints given as [x, y]
 waypoints: [[x, y, z], ...]  # map metres, z metres AMSL
-danger_zones: [{x, y, diameter, top?, id?}, ...]
+danger_zones: [{x, y, diameter, floor?, top?, id?} or {vertices: [[x, y], ...], floor?, top?, id?}, ...]
 plan: {...}                  # provenance written by `terrapath plan`
 waypoints_geo: [{lon, lat, alt_amsl, alt_agl}, ...]   # written for people and other tools; ignored on read
 ```
@@ -33,7 +33,7 @@ from terrain.atomic import atomic_output
 from terrain.docfile import FORMAT_VERSION
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid, crs_label
-from terrain.zones import DangerZone, zones_from_records, zones_to_records
+from terrain.zones import Zone, zones_from_records, zones_to_records
 
 MISSION_KEYS = (
     "terrapath",
@@ -75,7 +75,7 @@ class Mission:
     vehicle: str = DEFAULT_VEHICLE
     cruise_speed: float = DEFAULT_CRUISE["speed"]
     cruise_altitude: float = DEFAULT_CRUISE["altitude"]
-    danger_zones: tuple[DangerZone, ...] = ()
+    danger_zones: tuple[Zone, ...] = ()
     plan: dict[str, Any] = field(default_factory=dict)
     source: str | None = None
 

@@ -11,14 +11,14 @@ import numpy.typing as npt
 from planner.profile import sample_path
 from terrain.grid import HeightGrid
 from terrain.plot import draw_hillshade, draw_zones, new_figure, save_figure
-from terrain.zones import DangerZone
+from terrain.zones import Zone
 
 
 def save_plan_picture(
     grid: HeightGrid,
     path: npt.NDArray[np.float64],
     out: str | Path,
-    zones: tuple[DangerZone, ...] = (),
+    zones: tuple[Zone, ...] = (),
     title: str = "",
     clearance: float = 0.0,
     feasible: bool = True,
