@@ -138,7 +138,7 @@ def below_lengths(
     return out
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def point_in_edges(
     px: float, py: float, edges: np.ndarray, e0: int, e1: int
 ) -> bool:  # pragma: no cover - jit
@@ -170,7 +170,7 @@ def point_in_edges(
     return inside
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def polygon_lengths(
     a: np.ndarray,
     b: np.ndarray,
@@ -193,7 +193,8 @@ def polygon_lengths(
     the midpoint decides (:func:`point_in_edges`).  Every inside interval, in metres along the
     segment (s = t * L), is clipped to the vertical interval of s where floor <= z(s) <= top
     (computed as in :mod:`terrain.cylinders`), and the widths are summed in increasing t.
-    Single-threaded: one call per swarm evaluation, too small for threads to pay.
+    Single-threaded: one call per swarm evaluation, too small for threads to pay.  Division
+    follows numpy (``error_model="numpy"``: x / 0 is inf or NaN, never an exception), as the twin's.
     """
     m = a.shape[0]
     k_count = offsets.shape[0] - 1
