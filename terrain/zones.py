@@ -591,10 +591,10 @@ def _yaml_polygon(entry: dict[str, Any], path: Source, field: str) -> _PolyEntry
         parts = [rings]
         simple = len(rings) == 1
         check_field = f"{field}.{'vertices_lonlat' if lonlat else 'vertices'}" if simple else field
-    _check_polygon(parts, path, check_field, "")
+    ident = _ident(entry.get("id"), path, f"{field}.id")
+    _check_polygon(parts, path, check_field, f"zone {ident!r}: " if ident is not None else "")
     top = _top(entry.get("top"), path, f"{field}.top")
     floor = _floor(entry.get("floor"), top, path, f"{field}.floor")
-    ident = _ident(entry.get("id"), path, f"{field}.id")
     return _PolyEntry(field, lonlat, parts, floor, top, ident)
 
 
