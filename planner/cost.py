@@ -19,6 +19,20 @@ altitude band is honoured.
 With ``hard_zones`` (the planner's ``avoid_zones``), a path entering any zone also pays the
 penalty P in F_dangerzones, so zones become constraints as hard as the ground.
 
+Three more terms make a path flyable and honest (not in seed 002; zero for a path that keeps the
+limits, so the paper's cost is unchanged there), each shaped like F_collision:
+
+    F_climb   = 0 if E_climb == 0 else P + E_climb / L_traj    E_climb: metres climbed or descended
+                                                               beyond the aircraft's gradients
+    F_turn    = 0 if E_turn == 0 else P + E_turn / L_traj      E_turn: metres by which turn fillets
+                                                               overlap on their legs (planner.flown)
+    F_unknown = 0 if L_unknown == 0 else P + L_unknown / L_traj  L_unknown: length over terrain the
+                                                               DEM did not measure (Bresenham walk
+                                                               over the grid's unknown cells)
+
+The caller passes E_climb and E_turn (computed on the flown path, see :mod:`planner.flown`) and the
+unknown-cell mask as a grid; the polyline given is the one evaluated (the flown path).
+
 A_traj is the mean altitude *along the path* (each segment weighted by its 3D length, its altitude
 the mean of its ends), so a short climb costs less than a long high cruise; a degenerate path of
 length 0 takes the mean of its points.
@@ -52,6 +66,12 @@ class CostTerms:
     below_length: FloatArray
     inside: FloatArray
     mean_altitude: FloatArray
+    climb: FloatArray
+    turn: FloatArray
+    unknown: FloatArray
+    climb_excess: FloatArray
+    turn_excess: FloatArray
+    unknown_length: FloatArray
 
     def row(self, i: int) -> dict[str, float]:
         """Plain-data terms of path i (what the mission file records)."""
@@ -65,6 +85,12 @@ class CostTerms:
             "below_terrain_m": float(self.below_length[i]),
             "inside_zones_m": float(self.inside[i].sum()) if self.inside.shape[1] else 0.0,
             "mean_altitude_m": float(self.mean_altitude[i]),
+            "climb": float(self.climb[i]),
+            "turn": float(self.turn[i]),
+            "unknown": float(self.unknown[i]),
+            "climb_excess_m": float(self.climb_excess[i]),
+            "turn_excess_m": float(self.turn_excess[i]),
+            "unknown_terrain_m": float(self.unknown_length[i]),
         }
 
 
@@ -80,8 +106,15 @@ def path_costs(
     clearance: float = 0.0,
     penalty: float = COLLISION_PENALTY,
     hard_zones: bool = False,
+    climb_excess: FloatArray | None = None,
+    turn_excess: FloatArray | None = None,
+    unknown: HeightGrid | None = None,
 ) -> CostTerms:
-    """Cost terms of a (P, W, 3) stack of polylines (one call for a whole swarm)."""
+    """Cost terms of a (P, W, 3) stack of polylines (one call for a whole swarm).
+
+    ``climb_excess`` and ``turn_excess`` (P,) are the metres beyond the aircraft's limits (None:
+    no limits); ``unknown`` is a grid of the same lattice whose cells are > 0 where the terrain is
+    unknown and < 0 where it was measured (None: all measured)."""
     p = np.asarray(paths, dtype=np.float64)
     seg = np.diff(p, axis=1)
     seg_len = np.linalg.norm(seg, axis=2)
@@ -109,5 +142,33 @@ def path_costs(
     else:
         inside = np.zeros((p.shape[0], 0))
         f_dz = np.zeros(p.shape[0])
-    total = f_length + f_alt + f_col + f_dz
-    return CostTerms(total, f_length, f_alt, f_col, f_dz, length, below, inside, mean_alt)
+    n = p.shape[0]
+    ce = np.zeros(n) if climb_excess is None else np.asarray(climb_excess, dtype=np.float64)
+    te = np.zeros(n) if turn_excess is None else np.asarray(turn_excess, dtype=np.float64)
+    if unknown is not None:
+        flat = p.copy()
+        flat[..., 2] = 0.0
+        over = path_below_lengths(unknown, flat, 0.0)
+    else:
+        over = np.zeros(n)
+    f_climb = np.where(ce > 0, penalty + ce / safe_len, 0.0)
+    f_turn = np.where(te > 0, penalty + te / safe_len, 0.0)
+    f_unknown = np.where(over > 0, penalty + over / safe_len, 0.0)
+    total = f_length + f_alt + f_col + f_dz + f_climb + f_turn + f_unknown
+    return CostTerms(
+        total,
+        f_length,
+        f_alt,
+        f_col,
+        f_dz,
+        length,
+        below,
+        inside,
+        mean_alt,
+        f_climb,
+        f_turn,
+        f_unknown,
+        ce,
+        te,
+        over,
+    )

@@ -6,7 +6,9 @@ name: demo
 crs: EPSG:32611              # "local" for plain metres
 terrain: {dem: [../data/maps/x.tif], cell_size: 30}   # optional; paths relative to this file
 vehicle: solar-uav
-cruise: {speed: 15.0, altitude: 200.0}   # altitude used for waypoints given as [x, y]
+cruise: {speed: 15.0, altitude: 200.0, turn_radius: 143.0}   # altitude used for waypoints given as
+                             # [x, y]; turn_radius: corners are flown as fillets of this radius
+                             # (absent: the autopilot turns 1 km before each waypoint, seed 000)
 waypoints: [[x, y, z], ...]  # map metres, z metres AMSL
 danger_zones: [{x, y, diameter, floor?, top?, id?} or {vertices: [[x, y], ...], floor?, top?, id?}, ...]
 plan: {...}                  # provenance written by `terrapath plan`
@@ -75,6 +77,7 @@ class Mission:
     vehicle: str = DEFAULT_VEHICLE
     cruise_speed: float = DEFAULT_CRUISE["speed"]
     cruise_altitude: float = DEFAULT_CRUISE["altitude"]
+    turn_radius: float | None = None
     danger_zones: tuple[Zone, ...] = ()
     plan: dict[str, Any] = field(default_factory=dict)
     source: str | None = None
@@ -127,9 +130,11 @@ def mission_from_dict(data: Any, path: str | None = None) -> Mission:
             f"expected format version {FORMAT_VERSION}, found {doc.get('terrapath')!r}",
         )
     base = Path(path).parent if path else Path(".")
-    cruise = _mapping(doc.get("cruise", {}), path, "cruise", ("speed", "altitude"))
+    cruise = _mapping(doc.get("cruise", {}), path, "cruise", ("speed", "altitude", "turn_radius"))
     speed = _num(cruise.get("speed", DEFAULT_CRUISE["speed"]), path, "cruise.speed", positive=True)
     alt = _num(cruise.get("altitude", DEFAULT_CRUISE["altitude"]), path, "cruise.altitude")
+    turn = cruise.get("turn_radius")
+    turn_radius = None if turn is None else _num(turn, path, "cruise.turn_radius", positive=True)
     raw = doc.get("waypoints")
     if not isinstance(raw, list) or len(raw) < 2:
         raise _fail(
@@ -177,6 +182,7 @@ def mission_from_dict(data: Any, path: str | None = None) -> Mission:
         vehicle=vehicle,
         cruise_speed=speed,
         cruise_altitude=alt,
+        turn_radius=turn_radius,
         danger_zones=zones,
         plan=plan,
         source=path,
@@ -217,6 +223,8 @@ def mission_to_dict(
             doc["terrain"]["cell_size"] = mission.terrain.cell_size
     doc["vehicle"] = mission.vehicle
     doc["cruise"] = {"speed": mission.cruise_speed, "altitude": mission.cruise_altitude}
+    if mission.turn_radius is not None:
+        doc["cruise"]["turn_radius"] = round(float(mission.turn_radius), 2)
     doc["waypoints"] = [[_r(v) for v in w] for w in mission.waypoints]
     doc["danger_zones"] = zones_to_records(mission.danger_zones)
     doc["plan"] = mission.plan

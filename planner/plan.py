@@ -23,9 +23,10 @@ SWARM_RADIUS_EPS = 1e-4
 
 
 def min_clearance(problem: PlanningProblem, path: np.ndarray) -> float:
-    """Smallest height of the path above the (bilinear) terrain, sampled every half cell — a
-    finer check than the Bresenham walk the cost uses, reported so users see the true margin."""
-    return float(sample_path(problem.grid, path).clearance.min())
+    """Smallest height of the flown path above the terrain (the conservative safety grid, bilinear
+    between its cells), sampled every half cell — a finer check than the Bresenham walk the cost
+    uses, reported so users see the true margin. ``path`` is the waypoint path."""
+    return float(sample_path(problem.safety_grid, problem.flown(path)).clearance.min())
 
 
 def attempt_seed(seed: int, attempt: int) -> int:
@@ -153,4 +154,5 @@ def _plan_once(
         history_best=np.asarray(res.history_best),
         history_mean=np.asarray(res.history_mean),
         violations=() if feasible else find_violations(problem, path),
+        flown=problem.flown(path),
     )

@@ -1,5 +1,7 @@
-"""The picture of a plan: the path over the tinted hillshade (with zones, start and goal) and its
-altitude profile over the terrain beneath it."""
+"""The picture of a plan: the path over the tinted hillshade (with zones, start and goal; unknown
+terrain hatched; a lon/lat graticule on a georeferenced map) and its altitude profile over the
+terrain beneath it (display heights, the safety grid's highest cells, unknown ground hatched).
+Legends sit below their panels so they never hide the path, the start or the goal."""
 
 from __future__ import annotations
 
@@ -10,7 +12,16 @@ import numpy.typing as npt
 
 from planner.profile import sample_path
 from terrain.grid import HeightGrid
-from terrain.plot import draw_hillshade, draw_zones, new_figure, save_figure
+from terrain.plot import (
+    UNKNOWN_FACE,
+    UNKNOWN_HATCH,
+    UNKNOWN_LABEL,
+    draw_hillshade,
+    draw_zones,
+    legend_below,
+    new_figure,
+    save_figure,
+)
 from terrain.zones import Zone
 
 
@@ -22,8 +33,12 @@ def save_plan_picture(
     title: str = "",
     clearance: float = 0.0,
     feasible: bool = True,
+    flown: npt.NDArray[np.float64] | None = None,
 ) -> Path:
-    """Write the map + profile PNG of a planned path."""
+    """Write the map + profile PNG of a planned path: the waypoints, and the path the aircraft
+    flies through them (``flown``, legs joined by turn fillets; default the polyline itself),
+    which the profile follows."""
+    track = path if flown is None else np.asarray(flown, dtype=np.float64)
     xmin, ymin, xmax, ymax = grid.bounds
     aspect = (ymax - ymin) / (xmax - xmin)
     width = 9.0
@@ -34,9 +49,30 @@ def save_plan_picture(
     draw_hillshade(fig, ax, grid, title or None)
     if zones:
         draw_zones(ax, zones)
+    from matplotlib.patheffects import Normal, Stroke
+
     colour = "#d62728" if not feasible else "#ffffff"
-    ax.plot(path[:, 0], path[:, 1], "-", color="black", lw=3.2, zorder=3)
-    ax.plot(path[:, 0], path[:, 1], "-o", color=colour, lw=1.6, ms=4, zorder=4, label="path")
+    # the black outline is a path effect of the same line, so the legend shows it too
+    ax.plot(
+        track[:, 0],
+        track[:, 1],
+        "-",
+        color=colour,
+        lw=1.6,
+        zorder=4,
+        label="flown path",
+        path_effects=[Stroke(linewidth=3.2, foreground="black"), Normal()],
+    )
+    ax.plot(
+        path[1:-1, 0],
+        path[1:-1, 1],
+        "o",
+        color=colour,
+        mec="black",
+        ms=5,
+        zorder=4,
+        label="waypoints",
+    )
     ax.plot(
         *path[0, :2],
         marker="^",
@@ -57,19 +93,37 @@ def save_plan_picture(
         ls="",
         label="goal",
     )
-    ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+    legend_below(ax)
 
     ax2 = fig.add_subplot(gs[1])
-    samples = sample_path(grid, path)
+    samples = sample_path(grid, track)
     d, z, g = samples.distance, samples.points[:, 2], samples.ground
-    ax2.fill_between(
-        d / 1000.0,
-        grid.zmin - 0.02 * (grid.zmax - grid.zmin + 1),
-        g,
-        color="#8c6d46",
-        alpha=0.8,
-        label="terrain",
-    )
+    floor = grid.zmin - 0.02 * (grid.zmax - grid.zmin + 1)
+    ax2.fill_between(d / 1000.0, floor, g, color="#8c6d46", alpha=0.8, label="terrain")
+    cells = grid.cell_of(samples.points[:, 0], samples.points[:, 1])
+    if grid.known is not None and grid.has_unknown:
+        unknown = ~grid.known[cells]
+        if unknown.any():
+            ax2.fill_between(
+                d / 1000.0,
+                floor,
+                g,
+                where=unknown,
+                facecolor=UNKNOWN_FACE,
+                edgecolor="0.2",
+                hatch=UNKNOWN_HATCH,
+                lw=0,
+                label=UNKNOWN_LABEL,
+            )
+    if grid.upper is not None:
+        ax2.plot(
+            d / 1000.0,
+            grid.upper[cells],
+            "-",
+            color="#4a3520",
+            lw=0.8,
+            label="highest source cell (safety)",
+        )
     if clearance > 0:
         ax2.plot(
             d / 1000.0,
@@ -94,5 +148,5 @@ def save_plan_picture(
     ax2.set_ylabel("altitude (m AMSL)")
     ax2.set_xlim(0, d[-1] / 1000.0 if d[-1] > 0 else 1)
     ax2.grid(alpha=0.3)
-    ax2.legend(loc="upper right", fontsize=8, ncol=4)
+    legend_below(ax2)
     return save_figure(fig, out)

@@ -10,12 +10,17 @@ Defaults and choices:
 - the altitude band defaults to seed 002's "just below the lowest / just above the highest terrain
   point": Zmin = lowest terrain - 1 m, Zmax = highest terrain + clearance + max(50 m, 5 % of the
   relief), widened if needed to contain the start and goal altitudes;
-- start and goal must lie inside the map and at or above the terrain (+ clearance);
+- start and goal must lie inside the map and at or above the terrain (+ clearance) — the
+  conservative terrain the cost checks (see ``conservative``), or no path could be feasible;
 - feasibility: no length below terrain + clearance and, with ``avoid_zones``, no length inside any
   danger zone;
 - with ``conservative`` (the default) the Bresenham check runs on the terrain dilated by one cell
   (:func:`dilated`), so a feasible path clears the bilinear terrain surface too — without it a
-  path can slip diagonally between the visited cells of a ridge.
+  path can slip diagonally between the visited cells of a ridge;
+- with a ``performance`` (the aircraft's, :class:`planner.performance.Performance`) every term is
+  evaluated on the path the aircraft flies — legs joined by turn fillets (:mod:`planner.flown`) —
+  and a feasible path also keeps the climb and descent gradients and fits every fillet inside its
+  legs. Without one (the pure seed 002 problem) the polyline is the path.
 """
 
 from __future__ import annotations
@@ -28,6 +33,8 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.cost import COLLISION_PENALTY, CostTerms, path_costs
+from planner.flown import CHORDS, climb_excess, flown_paths
+from planner.performance import Performance
 from terrain.cylinders import ZoneArrays, zones_arrays
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
@@ -59,6 +66,15 @@ def dilated(grid: HeightGrid) -> HeightGrid:
     return HeightGrid(h, grid.transform, grid.crs, grid.sources, grid.nodata_filled)
 
 
+def terrain_top(grid: HeightGrid, x: float, y: float) -> float:
+    """The planner's conservative terrain height at a map point: the highest of the point's cell
+    and the eight around it (what :func:`dilated` puts in that cell)."""
+    r, c = grid.cell_of(x, y)
+    r0, c0 = int(r), int(c)
+    h = grid.heights[max(r0 - 1, 0) : r0 + 2, max(c0 - 1, 0) : c0 + 2]
+    return float(h.max())
+
+
 @dataclass(frozen=True, eq=False)
 class PlanningProblem:
     """Start/goal (map metres, z AMSL), N free waypoints, zones, band and clearance."""
@@ -74,8 +90,11 @@ class PlanningProblem:
     avoid_zones: bool = False
     penalty: float = COLLISION_PENALTY
     conservative: bool = True
+    performance: Performance | None = None
+    chords: int = CHORDS
     _zones: ZoneArrays = field(init=False, repr=False)
     _check_grid: HeightGrid = field(init=False, repr=False)
+    safety_grid: HeightGrid = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         g = self.grid
@@ -91,6 +110,12 @@ class PlanningProblem:
         set_(self, "n_waypoints", int(self.n_waypoints))
         if not (math.isfinite(self.clearance) and self.clearance >= 0):
             raise InputError(f"clearance must be a number of metres >= 0; got {self.clearance!r}")
+        span = float(np.hypot(*(self.goal[:2] - self.start[:2])))
+        if span < max(g.cell_size):
+            raise InputError(
+                f"start and goal are the same place ({span:.1f} m apart, less than a cell); "
+                "plan a round trip as two missions, out and back"
+            )
         for name, p in (("start", self.start), ("goal", self.goal)):
             if not bool(g.contains(p[0], p[1])):
                 xmin, ymin, xmax, ymax = g.bounds
@@ -127,7 +152,17 @@ class PlanningProblem:
         set_(self, "zmax", zmax)
         set_(self, "zones", tuple(self.zones))
         set_(self, "_zones", zones_arrays(self.zones))
+        set_(self, "safety_grid", g)
         set_(self, "_check_grid", dilated(g) if self.conservative else g)
+        for name, p in (("start", self.start), ("goal", self.goal)):
+            top = float(self._check_grid.heights[self._check_grid.cell_of(p[0], p[1])])
+            if p[2] < top + self.clearance:
+                raise InputError(
+                    f"{name} at {p[2]:.1f} m AMSL is only {p[2] - top:.1f} m above the highest "
+                    f"terrain around it ({top:.1f} m, the planner's conservative terrain: the "
+                    f"highest of its cell and the eight cells around it), less than the clearance "
+                    f"of {self.clearance:g} m; raise it to at least {top + self.clearance:.1f} m"
+                )
 
     # -- the search space ---------------------------------------------------------------------------
     @property
@@ -223,11 +258,18 @@ class PlanningProblem:
 
     # -- the objective -------------------------------------------------------------------------------
     def terms(self, x: npt.ArrayLike) -> CostTerms:
-        """Every cost term of a (P, 3N) population."""
+        """Every cost term of a (P, 3N) population (on the flown paths, see :meth:`flown`)."""
         z = self._zones
+        paths = self.paths(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+        ce = te = None
+        perf = self.performance
+        if perf is not None:
+            paths, fil = flown_paths(paths, perf.turn_radius, self.chords)
+            te = fil.turn_excess
+            ce = climb_excess(paths, perf.climb_gradient, perf.descent_gradient)
         return path_costs(
             self._check_grid,
-            self.paths(np.atleast_2d(np.asarray(x, dtype=np.float64))),
+            paths,
             zmin=self.band[0],
             zmax=self.band[1],
             centers=z.centers,
@@ -236,13 +278,25 @@ class PlanningProblem:
             clearance=self.clearance,
             penalty=self.penalty,
             hard_zones=self.avoid_zones,
+            climb_excess=ce,
+            turn_excess=te,
         )
 
     def __call__(self, x: npt.ArrayLike) -> FloatArray:
         return self.terms(x).total
 
+    def flown(self, paths: npt.ArrayLike) -> FloatArray:
+        """The path(s) the aircraft flies through waypoint path(s) (W, 3) or (P, W, 3): the
+        filleted polyline with a performance, else the waypoints themselves."""
+        p = np.asarray(paths, dtype=np.float64)
+        if self.performance is None:
+            return p
+        return flown_paths(p, self.performance.turn_radius, self.chords)[0]
+
     def feasible(self, terms: CostTerms) -> npt.NDArray[np.bool_]:
         ok = terms.below_length <= 0.0
         if self.avoid_zones and terms.inside.shape[1]:
             ok &= terms.inside.sum(axis=1) <= 0.0
+        ok &= (terms.climb_excess <= 0.0) & (terms.turn_excess <= 0.0)
+        ok &= terms.unknown_length <= 0.0
         return np.asarray(ok)

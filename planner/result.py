@@ -8,6 +8,8 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from planner.flown import TOLERANCE, fillets
+from planner.performance import Performance
 from planner.problem import PlanningProblem
 from planner.profile import sample_path
 from terrain.cylinders import segment_cylinder_lengths, zones_arrays
@@ -20,7 +22,7 @@ Status = Literal["feasible", "infeasible"]
 class Violation:
     """One broken constraint: what, which segment, where (map metres), how much."""
 
-    kind: Literal["terrain", "danger_zone"]
+    kind: Literal["terrain", "danger_zone", "climb", "turn", "unknown_terrain"]
     segment: int
     x: float
     y: float
@@ -57,6 +59,12 @@ class PlanResult:
     history_best: FloatArray = field(repr=False)
     history_mean: FloatArray = field(repr=False)
     violations: tuple[Violation, ...] = ()
+    flown: FloatArray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+
+    @property
+    def path(self) -> FloatArray:
+        """The path the aircraft flies (the filleted polyline; the waypoints without a vehicle)."""
+        return self.flown if len(self.flown) else self.waypoints
 
     @property
     def feasible(self) -> bool:
@@ -72,47 +80,161 @@ class PlanResult:
         return s
 
 
+def piece_labels(n_points: int, chords: int | None) -> list[str]:
+    """What each piece of a flown path is, for messages: ``n_points`` waypoints (S, W_1..W_N, G);
+    ``chords`` per turn fillet, or None when the flown path is the polyline itself."""
+    if chords is None:
+        return [f"segment {i} (waypoint {i} -> {i + 1})" for i in range(n_points - 1)]
+    out: list[str] = []
+    for k in range(1, n_points - 1):
+        out.append(f"leg {k - 1} (waypoint {k - 1} -> {k})")
+        out.extend([f"the turn at waypoint {k}"] * chords)
+    out.append(f"leg {n_points - 2} (waypoint {n_points - 2} -> {n_points - 1})")
+    return out
+
+
+def _piece_leg(n_points: int, chords: int | None) -> list[int]:
+    """The waypoint-list segment each piece of a flown path belongs to (turns: the leg into it)."""
+    if chords is None:
+        return list(range(n_points - 1))
+    out: list[int] = []
+    for k in range(1, n_points - 1):
+        out.append(k - 1)
+        out.extend([k - 1] * chords)
+    out.append(n_points - 2)
+    return out
+
+
 def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violation, ...]:
-    """Where a path breaks its constraints: the deepest point below terrain + clearance of each
-    colliding segment, and (with ``avoid_zones``) each zone a segment enters."""
-    samples = sample_path(problem.grid, path)
+    """Where a waypoint path breaks its constraints, on the path the aircraft flies: the deepest
+    point below terrain + clearance of each colliding piece (a leg or a turn), each zone entered
+    (with ``avoid_zones``), each piece climbing or descending beyond the aircraft's gradients and
+    each leg too short for the turn fillets at its ends."""
+    flown = problem.flown(path)
+    perf = problem.performance
+    chords = problem.chords if perf is not None else None
+    labels = piece_labels(len(path), chords)
+    legs = _piece_leg(len(path), chords)
+    samples = sample_path(problem.safety_grid, flown)
     out: list[Violation] = []
-    for i in range(len(path) - 1):
+    what = "terrain + clearance" if problem.clearance else "terrain"
+    seen: set[str] = set()
+    for i in range(len(flown) - 1):
         on = samples.segment == i
         pts = samples.points[on]
         depth = problem.clearance - samples.clearance[on]
         k = int(np.argmax(depth))
-        if depth[k] > 0:
-            seg_len = float(np.linalg.norm(path[i + 1] - path[i]))
+        if depth[k] > 0 and labels[i] not in seen:
+            seen.add(labels[i])
+            seg_len = float(np.linalg.norm(flown[i + 1] - flown[i]))
             below = float((depth > 0).mean() * seg_len)
-            what = "terrain + clearance" if problem.clearance else "terrain"
             out.append(
                 Violation(
                     "terrain",
-                    i,
+                    legs[i],
                     float(pts[k, 0]),
                     float(pts[k, 1]),
                     float(pts[k, 2]),
                     below,
-                    f"segment {i} (waypoint {i} -> {i + 1}) runs about {below:.0f} m below {what}, "
+                    f"{labels[i]} runs about {below:.0f} m below {what}, "
                     f"{depth[k]:.0f} m deep at x={pts[k, 0]:.0f}, y={pts[k, 1]:.0f}",
                 )
             )
     if problem.avoid_zones and problem.zones:
         z = zones_arrays(problem.zones)
-        inside = segment_cylinder_lengths(path[:-1], path[1:], z.centers, z.radii, z.tops)
+        inside = segment_cylinder_lengths(flown[:-1], flown[1:], z.centers, z.radii, z.tops)
+        per_label: dict[tuple[str, int], float] = {}
         for i, k in zip(*np.nonzero(inside > 0), strict=True):
-            zone = problem.zones[int(k)]
-            name = zone.id or f"#{int(k)}"
+            key = (labels[int(i)], int(k))
+            per_label[key] = per_label.get(key, 0.0) + float(inside[i, k])
+        for (label, k), amount in per_label.items():
+            zone = problem.zones[k]
+            name = zone.id or f"#{k}"
             out.append(
                 Violation(
                     "danger_zone",
-                    int(i),
+                    legs[labels.index(label)],
                     zone.x,
                     zone.y,
                     float("nan") if zone.top is None else zone.top,
-                    float(inside[i, k]),
-                    f"segment {int(i)} enters danger zone {name} for {inside[i, k]:.0f} m",
+                    amount,
+                    f"{label} enters danger zone {name} for {amount:.0f} m",
                 )
             )
+    if perf is not None:
+        out.extend(_climb_violations(perf, flown, labels, legs))
+        out.extend(_turn_violations(perf, path))
     return tuple(out)
+
+
+def _climb_violations(
+    perf: Performance, flown: FloatArray, labels: list[str], legs: list[int]
+) -> list[Violation]:
+    """One violation per leg or turn whose gradient exceeds the aircraft's (the steepest piece)."""
+    d = np.diff(flown, axis=0)
+    h = np.hypot(d[:, 0], d[:, 1])
+    dz = d[:, 2]
+    up = dz - perf.climb_gradient * h
+    down = -dz - perf.descent_gradient * h
+    out: list[Violation] = []
+    done: set[str] = set()
+    for i in np.flatnonzero((up > TOLERANCE) | (down > TOLERANCE)):
+        label = labels[int(i)]
+        if label in done:
+            continue
+        done.add(label)
+        members = [j for j, lab in enumerate(labels) if lab == label]
+        rise = float(dz[members].sum())
+        run = float(h[members].sum())
+        climbing = rise > 0
+        limit = perf.climb_gradient if climbing else perf.descent_gradient
+        rate = perf.climb_rate if climbing else perf.descent_rate
+        grad = abs(rise) / run if run > 0 else float("inf")
+        excess = float(np.maximum(up[members], down[members]).clip(min=0).sum())
+        mid = 0.5 * (flown[members[0]] + flown[members[-1] + 1])
+        verb = "climbs" if climbing else "descends"
+        out.append(
+            Violation(
+                "climb",
+                legs[int(i)],
+                float(mid[0]),
+                float(mid[1]),
+                float(mid[2]),
+                excess,
+                f"{label} {verb} {abs(rise):.0f} m in {run / 1000:.2f} km ({100 * grad:.1f} %); "
+                f"the {perf.name} at {perf.speed:g} m/s can {verb[:-1]} at most "
+                f"{100 * limit:.1f} % ({perf.climb_fraction:g} x {rate:g} m/s)",
+            )
+        )
+    return out
+
+
+def _turn_violations(perf: Performance, path: FloatArray) -> list[Violation]:
+    """One violation per leg too short for the turn fillets at its two ends."""
+    f = fillets(path, perf.turn_radius)
+    d = np.zeros(len(path))
+    d[1:-1] = f.wanted[0]
+    out: list[Violation] = []
+    for j in np.flatnonzero(f.leg_excess[0] > 0):
+        a, b = path[j], path[j + 1]
+        length = float(np.hypot(*(b[:2] - a[:2])))
+        ends = [k for k in (j, j + 1) if 0 < k < len(path) - 1 and d[k] > 0]
+        turns = " and ".join(
+            f"{np.degrees(f.angle[0, k - 1]):.0f} deg at waypoint {k}" for k in ends
+        )
+        mid = 0.5 * (a + b)
+        out.append(
+            Violation(
+                "turn",
+                int(j),
+                float(mid[0]),
+                float(mid[1]),
+                float(mid[2]),
+                float(f.leg_excess[0, j]),
+                f"leg {j} (waypoint {j} -> {j + 1}) is {length:.0f} m long but its turns "
+                f"({turns}) need {d[j] + d[j + 1]:.0f} m of it: the {perf.name} turns with a "
+                f"radius of {perf.turn_radius:.0f} m at {perf.speed:g} m/s "
+                f"({perf.turn_bank_deg:.0f} deg bank)",
+            )
+        )
+    return out

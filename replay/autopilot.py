@@ -158,6 +158,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
+from planner.flown import Fillets, fillets
 from replay.frames import N_CONTROLS, N_STATES, map_to_ned
 from replay.vehicle import _kernels as kern
 from replay.vehicle.dynamics import DT, drag_coefficient
@@ -204,6 +205,8 @@ class AutopilotConfig:
     dt: float = DT
     control_every: int = 1  # control law every n dynamics steps in ``fly``
     switch_distance: float = 1000.0  # seed 000 §3.6
+    turn_radius: float | None = None  # fly turn fillets of this radius instead (None: switch)
+    orbit_gain: float = 4.0  # k_orbit of the fillets' orbit following
     arrival_distance: float = 100.0  # the final waypoint
     approach_angle_deg: float = 60.0  # chi_inf
     path_gain: float | None = None  # k_path (1/m); None: 1 / (2 R_min)
@@ -219,6 +222,9 @@ class AutopilotConfig:
             "dt": self.dt > 0,
             "control_every": isinstance(self.control_every, int) and self.control_every >= 1,
             "switch_distance": self.switch_distance > 0,
+            "turn_radius": self.turn_radius is None
+            or (math.isfinite(self.turn_radius) and self.turn_radius > 0),
+            "orbit_gain": self.orbit_gain > 0,
             "arrival_distance": self.arrival_distance > 0,
             "approach_angle_deg": 0 < self.approach_angle_deg <= 90,
             "path_gain": self.path_gain is None or self.path_gain > 0,
@@ -273,8 +279,11 @@ class Gains:
     course_wn: float
     pitch_wn: float
 
-    def pack(self, params: VehicleParams, chi_inf: float, path_gain: float) -> FloatArray:
+    def pack(
+        self, params: VehicleParams, chi_inf: float, path_gain: float, orbit_gain: float = 4.0
+    ) -> FloatArray:
         gk = np.zeros(kern.N_GAINS)
+        gk[kern.K_ORBIT] = orbit_gain
         gk[kern.K_ROLL_P] = self.roll_p
         gk[kern.K_ROLL_I] = self.roll_i
         gk[kern.K_ROLL_D] = self.roll_d
@@ -430,8 +439,8 @@ def design_gains(
 @dataclass(frozen=True)
 class WaypointReached:
     """A leg change: waypoint ``index`` was reached at ``t`` at horizontal ``distance``;
-    ``how`` is ``"radius"`` (within the switching distance) or ``"plane"`` (its perpendicular
-    plane was passed)."""
+    ``how`` is ``"radius"`` (within the switching distance), ``"plane"`` (its perpendicular
+    plane was passed) or ``"fillet"`` (the turn fillet into the next leg began)."""
 
     index: int
     t: float
@@ -525,12 +534,15 @@ class Autopilot:
             if cfg.path_gain is not None
             else 1.0 / (2.0 * params.min_turn_radius(self.gains.airspeed))
         )
-        self._gk = self.gains.pack(params, math.radians(cfg.approach_angle_deg), self.path_gain)
+        self._gk = self.gains.pack(
+            params, math.radians(cfg.approach_angle_deg), self.path_gain, cfg.orbit_gain
+        )
         self._cmd = np.zeros(kern.N_CMD)
         self._cmd[kern.C_AIRSPEED] = self.airspeed
         self._cmd[kern.C_FLOOR] = -math.inf
         self._cmd[kern.C_ALT_DIRECT] = 1.0 if cfg.altitude_mode == "direct" else 0.0
         self._leg = np.zeros(kern.N_LEG)
+        self._fillet_at: Fillets | None = None
         self._ap = np.zeros(kern.N_AP)
         self._u = np.zeros(N_CONTROLS)
         self.terrain_height = terrain_height
@@ -546,6 +558,8 @@ class Autopilot:
         self._next = 0
         self._done = False
         self._pending_direct = False
+        # (index, map position): the direct-to leg to waypoint index started at that position
+        self._origin: tuple[int, FloatArray] | None = None
         self._override_lat: str | None = None  # None, "course", "bank"
         self._override_alt = False
         self._override_speed = False
@@ -603,6 +617,7 @@ class Autopilot:
             )
         self._wp = w
         self._next = int(next_index)
+        self._origin = None
         self._done = False
         self._hold_pending = False
         direct = direct or self._next == 0
@@ -619,17 +634,85 @@ class Autopilot:
         if direct:
             assert self._x_last is not None
             start = np.array(self._x_last[0:3], dtype=np.float64)
+            self._origin = (i, np.array([start[1], start[0], -start[2]]))
         else:
             start = map_to_ned(self._wp[i - 1])
         length = math.hypot(end[0] - start[0], end[1] - start[1])
         last = i == len(self._wp) - 1
         radius = self.config.arrival_distance if last else self.config.switch_distance
         radius = min(radius, 0.5 * length) if length > 0 else radius
+        fillet = None if last else self._fillet(i)
+        if fillet is not None:
+            radius = 0.0  # the leg ends at its fillet's first tangent point (a plane), not a radius
         # the leg array holds north, east and altitude (up)
         kern.set_leg(
             self._leg, start[0], start[1], -start[2], end[0], end[1], -end[2], float(radius)
         )
+        if fillet is not None:
+            self._leg[kern.L_PLANE] = max(0.0, length - float(fillet.distance[0, 0]))
+        self._fillet_at = fillet
         self._pending_direct = False
+
+    def _fillet(self, i: int) -> Fillets | None:
+        """The turn fillet at interior waypoint ``i`` (fillet mode) exactly as the planner
+        computes it (:func:`planner.flown.fillets` over the path being flown: fillets that would
+        overlap on a leg shrink in proportion); None when turns are not filleted or the turn is
+        under a degree."""
+        radius = self.config.turn_radius
+        if radius is None or not 0 < i < len(self._wp) - 1:
+            return None
+        path, k = self._wp, i
+        if self._origin is not None:
+            # a direct-to leg started where the aircraft was: the path flown begins there
+            j, pos = self._origin
+            path = np.vstack([pos[None, :], self._wp[j:]])
+            k = i - j + 1
+        f = fillets(path, radius)
+        if k < 1 or f.angle[0, k - 1] < math.radians(1.0):
+            return None
+        sel = slice(k - 1, k)
+        return Fillets(
+            angle=f.angle[:, sel],
+            side=f.side[:, sel],
+            wanted=f.wanted[:, sel],
+            distance=f.distance[:, sel],
+            radius=f.radius[:, sel],
+            t1=f.t1[:, sel],
+            t2=f.t2[:, sel],
+            center=f.center[:, sel],
+            turn_excess=f.turn_excess,
+            leg_excess=f.leg_excess,
+        )
+
+    def _start_arc(self, f: Fillets) -> None:
+        """Fly the turn fillet ``f`` (map coordinates) into the leg to waypoint ``_next``."""
+        c = f.center[0, 0]
+        t1 = f.t1[0, 0]
+        t2 = f.t2[0, 0]
+        nxt = self._wp[self._next]
+        qx, qy = nxt[0] - t2[0], nxt[1] - t2[1]
+        qn = math.hypot(qx, qy)
+        if qn <= 1e-9:  # the fillet ends on the next waypoint: use the turn's exit direction
+            qx, qy = t2[0] - c[0], t2[1] - c[1]
+            qx, qy = -float(f.side[0, 0]) * qy, float(f.side[0, 0]) * qx
+            qn = math.hypot(qx, qy)
+        # NED: north = map y, east = map x; a left (counter-clockwise) turn is lam = -1
+        kern.set_arc(
+            self._leg,
+            float(c[1]),
+            float(c[0]),
+            float(f.radius[0, 0]),
+            -float(f.side[0, 0]),
+            math.atan2(t1[0] - c[0], t1[1] - c[1]),
+            float(f.angle[0, 0]),
+            float(t1[2]),
+            float(t2[2]),
+            float(t2[1]),
+            float(t2[0]),
+            qy / qn,
+            qx / qn,
+        )
+        self._fillet_at = None
 
     def set_override(
         self,
@@ -700,15 +783,23 @@ class Autopilot:
         self._apply_modes()
 
     def _switch(self, ev: int, t: float, x: FloatArray) -> None:
+        if self._leg[kern.L_ARC] > 0.5:
+            # a turn fillet is done: fly the leg it turned into
+            self._start_leg(False)
+            self._apply_modes()
+            return
         _, _, dist = kern.leg_geometry(x, self._leg)
-        self.reached.append(
-            WaypointReached(self._next, float(t), float(dist), "radius" if ev == 1 else "plane")
-        )
+        fillet = self._fillet_at
+        how = "fillet" if fillet is not None else ("radius" if ev == 1 else "plane")
+        self.reached.append(WaypointReached(self._next, float(t), float(dist), how))
         if self._next + 1 >= len(self._wp):
             self._finish()
             return
         self._next += 1
-        self._start_leg(False)
+        if fillet is not None:
+            self._start_arc(fillet)
+        else:
+            self._start_leg(False)
         self._apply_modes()
 
     def _prepare(self, x: FloatArray, t: float) -> None:
@@ -736,7 +827,11 @@ class Autopilot:
         if vg > 0.5:
             px.append(x[1] + s * ve / vg)
             py.append(x[0] + s * vn / vg)
-        if self._leg[kern.L_ACTIVE] > 0.5:
+        if self._leg[kern.L_ACTIVE] > 0.5 and self._leg[kern.L_ARC] > 0.5:
+            leg = self._leg  # in a turn: look along the leg it turns into
+            px.append(leg[kern.L_EE] + s * leg[kern.L_EQE])
+            py.append(leg[kern.L_EN] + s * leg[kern.L_EQN])
+        elif self._leg[kern.L_ACTIVE] > 0.5:
             leg = self._leg
             _, along, _ = kern.leg_geometry(x, leg)
             a = np.clip(along + s, 0.0, leg[kern.L_LEN])
@@ -889,7 +984,10 @@ class Autopilot:
         self.airspeed = self._check_airspeed(airspeed)
         self.gains = design_gains(self.params, self._design_speed(), self.config.design)
         self._gk = self.gains.pack(
-            self.params, math.radians(self.config.approach_angle_deg), self.path_gain
+            self.params,
+            math.radians(self.config.approach_angle_deg),
+            self.path_gain,
+            self.config.orbit_gain,
         )
         self._apply_modes()
 

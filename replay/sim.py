@@ -158,6 +158,7 @@ def simulate(
     x = initial_state(params, wp0, airspeed)  # first: "cannot trim" names the speeds it can fly
     ap_cfg = AutopilotConfig(
         switch_distance=cfg.switch_distance,
+        turn_radius=mission.turn_radius,
         terrain_clearance=cfg.terrain_following or 0.0,
     )
     autopilot = Autopilot(

@@ -6,7 +6,12 @@ Conventions (used everywhere in terrapath):
 - ``heights[row, col]``, row 0 is the northern edge, col 0 the western edge;
 - fractional grid indices put the *centre* of cell (r, c) at exactly (r, c); the cell covers
   ``[r - 0.5, r + 0.5) x [c - 0.5, c + 0.5)``;
-- a grid without CRS is "local": plain metres with no georeference (lon/lat queries are refused).
+- a grid without CRS is "local": plain metres with no georeference (lon/lat queries are refused);
+- a grid says what it does not know: ``known`` is False where a height was not measured by any
+  source raster (a filled nodata hole, or a cell outside every source's footprint that a
+  reprojection added); ``upper`` holds conservative heights (never below ``heights``) for the
+  safety checks, while ``heights`` are the smooth display heights. :meth:`HeightGrid.safety` is
+  the grid every clearance check uses.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from terrain.atomic import atomic_output
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
 ArrayLike = npt.ArrayLike
 
 
@@ -55,7 +61,19 @@ class HeightGrid:
     """Heights (float32, read-only) on a north-up grid with an affine transform and a CRS.
 
     Build one with :func:`terrain.load_dem`, :func:`terrain.synthetic_terrain` or directly from an
-    array; the array is copied and frozen, so a grid never changes once built.
+    array; the arrays are copied and frozen, so a grid never changes once built.
+
+    - ``heights``: the display heights (bilinear or average resampling of the sources, holes
+      filled by interpolation);
+    - ``known``: True where the height was measured by a source raster; None means every cell is;
+    - ``upper``: conservative heights for safety checks (the highest source value in each cell),
+      raised to ``heights`` wherever they would be lower; None means ``heights`` are already
+      conservative (e.g. an exact copy of the source cells);
+    - ``nodata_filled``: filled holes inside a source raster's footprint; ``outside_source``:
+      filled cells outside every source's footprint (reprojection corners, gaps between tiles);
+    - ``source_max``: the highest valid source value over the grid's area (None if not known);
+    - ``outside``: True where a cell lies outside every source's footprint (a subset of the
+      unknown cells; lets :meth:`crop` count both kinds again); None means no such cell.
     """
 
     heights: npt.NDArray[np.float32]
@@ -63,6 +81,11 @@ class HeightGrid:
     crs: CRS | None = None
     sources: tuple[str, ...] = ()
     nodata_filled: int = 0
+    known: BoolArray | None = None
+    upper: npt.NDArray[np.float32] | None = None
+    outside_source: int = 0
+    source_max: float | None = None
+    outside: BoolArray | None = None
 
     def __post_init__(self) -> None:
         h = np.array(self.heights, dtype=np.float32, copy=True)
@@ -77,6 +100,72 @@ class HeightGrid:
             )
         h.flags.writeable = False
         object.__setattr__(self, "heights", h)
+        for name in ("known", "outside"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            mask = np.array(value, copy=True)
+            if mask.shape != h.shape or mask.dtype != np.bool_:
+                raise InputError(
+                    f"{name} must be a boolean array of the heights' shape {h.shape}; "
+                    f"got {mask.dtype} {mask.shape}"
+                )
+            mask.flags.writeable = False
+            object.__setattr__(self, name, mask)
+        if (
+            self.outside is not None
+            and self.known is not None
+            and np.any(self.outside & self.known)
+        ):
+            raise InputError("a cell outside every source cannot be known (outside & known)")
+        if self.upper is not None:
+            u = np.array(self.upper, dtype=np.float32, copy=True)
+            if u.shape != h.shape:
+                raise InputError(
+                    f"upper must have the heights' shape {h.shape}; got shape {u.shape}"
+                )
+            if not np.all(np.isfinite(u)):
+                raise InputError("upper may not contain NaN or infinite heights")
+            np.maximum(u, h, out=u)  # conservative: never below the display heights
+            u.flags.writeable = False
+            object.__setattr__(self, "upper", u)
+        for name in ("nodata_filled", "outside_source"):
+            n = getattr(self, name)
+            if int(n) != n or n < 0:
+                raise InputError(f"{name} must be a whole number >= 0; got {n!r}")
+            object.__setattr__(self, name, int(n))
+        if self.source_max is not None:
+            if not math.isfinite(self.source_max):
+                raise InputError(f"source_max must be a finite height; got {self.source_max!r}")
+            object.__setattr__(self, "source_max", float(self.source_max))
+
+    # -- what is measured -------------------------------------------------------------------------
+    @property
+    def unknown_count(self) -> int:
+        """How many cells were not measured by any source (their heights are filled)."""
+        return 0 if self.known is None else int(self.known.size - np.count_nonzero(self.known))
+
+    @property
+    def has_unknown(self) -> bool:
+        return self.unknown_count > 0
+
+    def safety(self) -> HeightGrid:
+        """The grid for clearance and safety checks: heights = ``upper`` (the highest source value
+        in each cell, never below the display heights); ``self`` when ``upper`` is None."""
+        if self.upper is None:
+            return self
+        return HeightGrid(
+            self.upper,
+            self.transform,
+            self.crs,
+            self.sources,
+            self.nodata_filled,
+            known=self.known,
+            upper=None,
+            outside_source=self.outside_source,
+            source_max=self.source_max,
+            outside=self.outside,
+        )
 
     # -- shape and extent -------------------------------------------------------------------------
     @property
@@ -222,6 +311,16 @@ class HeightGrid:
         w, s, e, n = transform_bounds(self.crs, CRS.from_epsg(4326), *self.bounds, densify_pts=21)
         return (float(w), float(s), float(e), float(n))
 
+    def lonlat_footprint(self) -> tuple[tuple[float, float], ...] | None:
+        """The map's four corners as (lon, lat), in the order SW, SE, NE, NW, or None for a local
+        grid. Unlike :meth:`lonlat_bounds` (an envelope), every point inside this quadrilateral
+        (up to the curvature of its edges) lies on the map."""
+        if self.crs is None:
+            return None
+        xmin, ymin, xmax, ymax = self.bounds
+        lon, lat = self.to_lonlat([xmin, xmax, xmax, xmin], [ymin, ymin, ymax, ymax])
+        return tuple((float(a), float(b)) for a, b in zip(lon, lat, strict=True))
+
     def _require_crs(self, purpose: str) -> CRS:
         if self.crs is None:
             raise InputError(
@@ -255,7 +354,29 @@ class HeightGrid:
         c1, r1 = min(c1, self.cols), min(r1, self.rows)
         c0, r0 = min(c0, c1 - 2), min(r0, r1 - 2)
         t = self.transform @ Affine.translation(c0, r0)
-        return HeightGrid(self.heights[r0:r1, c0:c1], t, self.crs, self.sources, 0)
+        win = (slice(r0, r1), slice(c0, c1))
+        known = None if self.known is None else self.known[win]
+        outside = None if self.outside is None else self.outside[win]
+        n_out = 0 if outside is None else int(np.count_nonzero(outside))
+        n_unknown = 0 if known is None else int(known.size - np.count_nonzero(known))
+        # The highest source value over the crop is known only where the heights are the source
+        # cells themselves (no resampling).
+        source_max = None
+        if self.upper is None and self.source_max is not None:
+            measured = self.heights[win] if known is None else self.heights[win][known]
+            source_max = float(measured.max()) if measured.size else None
+        return HeightGrid(
+            self.heights[win],
+            t,
+            self.crs,
+            self.sources,
+            n_unknown - n_out,
+            known=None if known is None or known.all() else known,
+            upper=None if self.upper is None else self.upper[win],
+            outside_source=n_out,
+            source_max=source_max,
+            outside=None if outside is None or not outside.any() else outside,
+        )
 
     # -- output -----------------------------------------------------------------------------------
     def to_geotiff(self, path: str | Path) -> Path:
@@ -280,8 +401,16 @@ class HeightGrid:
         return out
 
     def summary(self) -> dict[str, Any]:
-        """Plain-data description (what ``terrapath info`` prints)."""
+        """Plain-data description (what ``terrapath info`` prints).
+
+        ``elevation_m`` has the display heights' min/max/mean, ``max_safety`` (the safety grid's
+        maximum) and ``max_source`` (the highest valid source value, None if not known);
+        ``unknown`` counts the cells whose heights were not measured; ``bounds_lonlat`` is the
+        lon/lat envelope of the map and ``footprint_lonlat`` its four corners (SW, SE, NE, NW),
+        both None for a local grid.
+        """
         dx, dy = self.cell_size
+        cells = self.rows * self.cols
         out: dict[str, Any] = {
             "sources": list(self.sources),
             "crs": crs_label(self.crs),
@@ -292,12 +421,24 @@ class HeightGrid:
                 "min": self.zmin,
                 "max": self.zmax,
                 "mean": float(self.heights.mean(dtype=np.float64)),
+                "max_safety": self.safety().zmax,
+                "max_source": self.source_max,
             },
             "nodata_filled": int(self.nodata_filled),
+            "unknown": {
+                "nodata_filled": int(self.nodata_filled),
+                "outside_source": int(self.outside_source),
+                "cells": self.unknown_count,
+                "share": self.unknown_count / cells,
+            },
             "bounds_map": list(self.bounds),
             "bounds_lonlat": None,
+            "footprint_lonlat": None,
         }
         ll = self.lonlat_bounds()
         if ll is not None:
             out["bounds_lonlat"] = list(ll)
+        corners = self.lonlat_footprint()
+        if corners is not None:
+            out["footprint_lonlat"] = [list(c) for c in corners]
         return out

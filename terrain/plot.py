@@ -1,4 +1,5 @@
-"""Pictures of a height grid: hillshade over hypsometric tint, in map coordinates.
+"""Pictures of a height grid: hillshade over hypsometric tint, in map coordinates, with unknown
+(filled) terrain greyed and hatched, and a lon/lat graticule when the grid is georeferenced.
 
 Uses matplotlib's object API (``Figure`` + Agg canvas), never pyplot's global state, so it is safe
 in tests, workers and headless machines.
@@ -6,6 +7,7 @@ in tests, workers and headless machines.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -49,7 +51,12 @@ def draw_hillshade(fig: Any, ax: Any, grid: HeightGrid, title: str | None = None
     rgb = np.clip(tint * (0.35 + 0.65 * shade), 0.0, 1.0)
     ax.imshow(rgb, extent=(xmin, xmax, ymin, ymax), origin="upper", interpolation="bilinear")
     fig.colorbar(
-        ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.8, label="elevation (m AMSL)"
+        ScalarMappable(norm=norm, cmap=cmap),
+        ax=ax,
+        shrink=0.8,
+        label="elevation (m AMSL)",
+        # room for the latitude labels of the graticule between the map and the bar
+        pad=0.12 if grid.is_georeferenced else 0.05,
     )
     ax.set_xlabel(f"x east (m, {crs_label(grid.crs)})")
     ax.set_ylabel("y north (m)")
@@ -63,6 +70,8 @@ def draw_hillshade(fig: Any, ax: Any, grid: HeightGrid, title: str | None = None
     )
     ax.set_xlim(xmin, xmax)
     ax.set_ylim(ymin, ymax)
+    draw_unknown(ax, grid)
+    draw_graticule(ax, grid)
 
 
 def new_figure(width: float, height: float) -> Any:
@@ -152,4 +161,136 @@ def save_hillshade(
     fig, ax = new_map_figure(grid, title)
     if zones:
         draw_zones(ax, zones)
+    if ax.get_legend_handles_labels()[0]:
+        legend_below(ax)
     return save_figure(fig, path)
+
+
+UNKNOWN_LABEL = "unknown terrain (filled)"
+UNKNOWN_FACE = (0.55, 0.55, 0.55, 0.6)
+UNKNOWN_HATCH = "///"
+_UNKNOWN_GID = "terrapath-unknown-terrain"
+
+
+def draw_unknown(ax: Any, grid: HeightGrid) -> bool:
+    """Grey and hatch the cells whose heights were not measured (``grid.known`` False: filled
+    nodata holes and cells outside the source), and add a legend handle labelled
+    :data:`UNKNOWN_LABEL`. Nothing is drawn when every cell is measured; drawing twice on the same
+    axes draws once. Returns whether the axes show unknown terrain."""
+    if grid.known is None or not grid.has_unknown:
+        return False
+    if any(a.get_gid() == _UNKNOWN_GID for a in ax.get_children()):
+        return True
+    xmin, ymin, xmax, ymax = grid.bounds
+    unknown = ~grid.known
+    overlay = np.zeros((*grid.shape, 4))
+    overlay[unknown] = UNKNOWN_FACE
+    ax.imshow(
+        overlay,
+        extent=(xmin, xmax, ymin, ymax),
+        origin="upper",
+        interpolation="nearest",
+        zorder=1.5,
+    )
+    # the hatch follows the cell edges to within half a cell (contours between cell centres)
+    rows, cols = grid.shape
+    xc = grid.index_to_xy(np.zeros(cols), np.arange(cols))[0]
+    yc = grid.index_to_xy(np.arange(rows), np.zeros(rows))[1]  # north first
+    ax.contourf(
+        xc,
+        yc[::-1],
+        unknown[::-1].astype(np.float64),
+        levels=[0.5, 1.5],
+        colors="none",
+        hatches=[UNKNOWN_HATCH],
+        zorder=1.6,
+    )
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    ax.fill(
+        [],
+        [],
+        facecolor=UNKNOWN_FACE,
+        edgecolor="0.2",
+        hatch=UNKNOWN_HATCH,
+        label=UNKNOWN_LABEL,
+        gid=_UNKNOWN_GID,
+    )
+    return True
+
+
+def _degrees(value: float, step: float, positive: str, negative: str) -> str:
+    decimals = max(0, -math.floor(math.log10(step) + 1e-9)) if step < 1 else 0
+    if decimals and not math.isclose(round(step, decimals), step, abs_tol=1e-12):
+        decimals += 1
+    text = f"{abs(value):.{decimals}f}°"
+    return text + (positive if value > 0 else negative if value < 0 else "")
+
+
+def draw_graticule(ax: Any, grid: HeightGrid, lines: int = 5) -> bool:
+    """Lines of constant longitude and latitude (WGS84) over a georeferenced map, labelled on the
+    top (longitude) and right (latitude) axes; the map-metre axes stay at the bottom and left.
+    Nothing for a local grid. Returns whether a graticule was drawn."""
+    ll = grid.lonlat_bounds()
+    if ll is None:
+        return False
+    from matplotlib.ticker import MaxNLocator
+
+    west, south, east, north = ll
+    xmin, ymin, xmax, ymax = grid.bounds
+    locator = MaxNLocator(nbins=lines, steps=[1, 2, 2.5, 5, 10])
+    lons = [v for v in locator.tick_values(west, east) if west <= v <= east]
+    lats = [v for v in locator.tick_values(south, north) if south <= v <= north]
+    style = {"color": "white", "lw": 0.6, "ls": (0, (4, 3)), "alpha": 0.7, "zorder": 1.7}
+    n = 64
+    top_x, top_labels, right_y, right_labels = [], [], [], []
+    lon_step = lons[1] - lons[0] if len(lons) > 1 else 1.0
+    lat_step = lats[1] - lats[0] if len(lats) > 1 else 1.0
+    for lon in lons:
+        x, y = grid.from_lonlat(np.full(n, lon), np.linspace(south, north, n))
+        ax.plot(x, y, **style)
+        if y[0] <= ymax <= y[-1]:
+            xt = float(np.interp(ymax, y, x))
+            if xmin <= xt <= xmax:
+                top_x.append(xt)
+                top_labels.append(_degrees(lon, lon_step, "E", "W"))
+    for lat in lats:
+        x, y = grid.from_lonlat(np.linspace(west, east, n), np.full(n, lat))
+        ax.plot(x, y, **style)
+        if x[0] <= xmax <= x[-1]:
+            yr = float(np.interp(xmax, x, y))
+            if ymin <= yr <= ymax:
+                right_y.append(yr)
+                right_labels.append(_degrees(lat, lat_step, "N", "S"))
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    top = ax.secondary_xaxis("top")
+    top.set_xticks(top_x, labels=top_labels)
+    top.tick_params(labelsize=8)
+    right = ax.secondary_yaxis("right")
+    right.set_yticks(right_y, labels=right_labels)
+    right.tick_params(labelsize=8)
+    return True
+
+
+def legend_below(ax: Any, **kwargs: Any) -> Any:
+    """A legend under the axes (below their tick labels and axis label), so it hides nothing
+    drawn on the map; ``tight_layout`` makes room for it."""
+    from matplotlib.transforms import ScaledTranslation
+
+    fig = ax.figure
+    renderer = fig.canvas.get_renderer()
+    tight = ax.get_tightbbox(renderer)  # first: it applies the aspect, which moves the axes
+    below = ax.get_window_extent(renderer).y0 - tight.y0
+    shift = ScaledTranslation(0.0, -(max(below, 0.0) / fig.dpi + 0.05), fig.dpi_scale_trans)
+    handles, labels = ax.get_legend_handles_labels()
+    options: dict[str, Any] = {
+        "loc": "upper center",
+        "bbox_to_anchor": (0.5, 0.0),
+        "bbox_transform": ax.transAxes + shift,
+        "ncol": max(1, min(len(handles), 5)),
+        "fontsize": 8,
+        "frameon": False,
+    }
+    options.update(kwargs)
+    return ax.legend(handles, labels, **options)

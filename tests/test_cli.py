@@ -81,3 +81,63 @@ def test_console_script_runs_without_traceback() -> None:
     assert proc.stderr.strip() == "terrapath: error: 'nope.hgt': no such file"
     ok = subprocess.run([str(exe), "--help"], capture_output=True, text=True, check=False)
     assert ok.returncode == 0 and "info" in ok.stdout and "hillshade" in ok.stdout
+
+
+def test_info_reports_unknown_cells_maxima_and_footprint(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["info", RMNP]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "highest        4261.0 m source, 4192.4 m grid (display), "
+        "4261.0 m safety grid (clearance checks)"
+    ) in out
+    assert "nodata filled  0 cells (0.0 %): holes inside the source" in out
+    assert "outside source 580 cells (2.0 %): beyond every source's footprint" in out
+    assert "unknown        580 of 29106 cells (2.0 %) have filled, not measured, heights" in out
+    assert (
+        "footprint (lon/lat) SW -105.91246, 40.15605; SE -105.49021, 40.15861; "
+        "NE -105.49310, 40.55623; NW -105.91783, 40.55364"
+    ) in out
+    assert main(["info", RMNP, "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["elevation_m"]["max_source"] == 4261.0 and s["elevation_m"]["max_safety"] == 4261.0
+    assert s["elevation_m"]["max"] == pytest.approx(4192.38, abs=0.01)
+    assert s["unknown"] == {
+        "nodata_filled": 0,
+        "outside_source": 580,
+        "cells": 580,
+        "share": pytest.approx(580 / 29106),
+    }
+    corners = s["footprint_lonlat"]
+    assert len(corners) == 4 and corners[0] == pytest.approx([-105.91246, 40.15605], abs=1e-5)
+
+
+def test_info_on_an_empty_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    empty = tmp_path / "empty.tif"
+    empty.write_bytes(b"")
+    assert main(["info", str(empty)]) == 1
+    err = capsys.readouterr().err
+    assert (
+        err
+        == f"terrapath: error: {str(empty)!r}: empty file (0 bytes), expected a DEM such as GeoTIFF, SRTM .hgt or ESRI ASCII grid\n"
+    )
+
+
+def test_unknown_crs_prints_only_the_clean_error() -> None:
+    # PROJ's own "ERROR 1: PROJ: ..." line went straight to the process's stderr
+    exe = Path(sys.executable).parent / "terrapath"
+    proc = subprocess.run(
+        [str(exe), "info", RMNP, "--crs", "EPSG:99999"], capture_output=True, text=True, check=False
+    )
+    assert proc.returncode == 1
+    assert proc.stderr == (
+        "terrapath: error: CRS 'EPSG:99999' is not one PROJ knows (expected e.g. 'EPSG:32611')\n"
+    )
+    assert proc.stdout == ""
+
+
+def test_hillshade_of_a_map_with_unknown_terrain(tmp_path: Path) -> None:
+    out = tmp_path / "hugo.png"
+    assert main(["hillshade", HUGO, "-o", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

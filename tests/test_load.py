@@ -52,6 +52,12 @@ def _check_map(folder: Path, name: str) -> None:
         assert hi - 0.05 * relief <= grid.zmax <= hi + 1e-3
         assert min(grid.cell_size) == pytest.approx(min(m["cell_size_m_approx"]), rel=0.01)
     assert np.isfinite(grid.heights).all()
+    # The safety grid never lowers a summit: its maximum is the raw one, exactly.
+    assert grid.source_max == pytest.approx(hi, abs=1e-3)
+    assert grid.safety().zmax == pytest.approx(hi, abs=1e-3)
+    assert grid.nodata_filled + grid.outside_source == grid.unknown_count
+    if grid.upper is not None:
+        assert np.all(grid.upper >= grid.heights)
 
 
 @pytest.mark.parametrize("folder", sorted(BUNDLED))

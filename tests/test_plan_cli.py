@@ -9,7 +9,10 @@ import numpy as np
 import pytest
 import yaml
 
+from planner.flown import climb_excess, flown_paths
 from planner.mission import load_mission
+from planner.problem import terrain_top
+from replay.vehicle.presets import load_vehicle
 from terrain.load import load_dem
 from terrain.zones import load_zones
 from terrapath.cli import main
@@ -53,22 +56,30 @@ def test_plan_writes_a_feasible_mission_and_all_exports(
     assert not list(tmp_path.glob("*.part"))
     m = load_mission(out)
     grid = load_dem(RMNP)
-    # starts and ends where asked (lon/lat -> map), at the default 150 m above the ground
+    # starts and ends where asked (lon/lat -> map), at the default 150 m above the highest
+    # terrain around the point (the terrain the planner checks)
     sx, sy = grid.from_lonlat(-105.85, 40.20)
     gx, gy = grid.from_lonlat(-105.55, 40.50)
     np.testing.assert_allclose(m.waypoints[0, :2], [sx, sy], atol=1e-3)
     np.testing.assert_allclose(m.waypoints[-1, :2], [gx, gy], atol=1e-3)
-    assert m.waypoints[0, 2] == pytest.approx(float(grid.height_at(sx, sy)) + 150.0, abs=1e-3)
+    assert m.waypoints[0, 2] == pytest.approx(terrain_top(grid, sx, sy) + 150.0, abs=1e-3)
+    assert m.waypoints[-1, 2] == pytest.approx(terrain_top(grid, gx, gy) + 150.0, abs=1e-3)
     assert len(m.waypoints) == 8  # start, 6 free waypoints, goal
+    # flyable by the aerosonde at its cruise speed: gradients and turn fillets within its limits
+    perf = load_vehicle("aerosonde").performance()
+    assert m.vehicle == "aerosonde" and m.cruise_speed == perf.speed
+    assert m.turn_radius == pytest.approx(perf.turn_radius, abs=0.01)
+    assert m.plan["cost"]["climb_excess_m"] == 0.0 and m.plan["cost"]["turn_excess_m"] == 0.0
+    flown, fil = flown_paths(m.waypoints, perf.turn_radius)
+    assert fil.turn_excess[0] == 0.0
+    assert climb_excess(flown[None], perf.climb_gradient, perf.descent_gradient)[0] == 0.0
     # feasibility recorded and true: clear of the ground by the Bresenham check, outside zones
     assert m.plan["feasible"] is True and m.plan["seed"] == 3 and m.plan["algorithm"] == "ampso"
     assert m.plan["cost"]["below_terrain_m"] == 0.0 and m.plan["cost"]["inside_zones_m"] == 0.0
     assert m.plan["cost"]["total"] < 1.0
     assert m.danger_zones == load_zones(ZONES, grid)
     doc = yaml.safe_load(out.read_text())
-    assert len(doc["waypoints_geo"]) == 8 and doc["waypoints_geo"][0]["alt_agl"] == pytest.approx(
-        150.0, abs=0.01
-    )
+    assert len(doc["waypoints_geo"]) == 8 and doc["waypoints_geo"][0]["alt_agl"] >= 150.0
 
 
 def test_same_seed_same_mission(tmp_path: Path) -> None:
@@ -85,24 +96,27 @@ def test_infeasible_plan_is_written_marked_and_exits_3(
 ) -> None:
     # the Continental Divide (> 3600 m) lies between start and goal: a 3000 m ceiling cannot cross it
     out = tmp_path / "low.yaml"
-    rc = main(
-        [
-            *BASE,
-            "--zmax",
-            "3000",
-            "--start=-105.85,40.20,2900",
-            "--goal=-105.55,40.50,3000",
-            "-o",
-            str(out),
-        ]
-    )
+    args = [*BASE, "--zmax", "3000", "--start=-105.85,40.20,2900", "--goal=-105.55,40.50,3200"]
+    # a stale ground-station file of an earlier run under the same name is removed
+    out.with_suffix(".plan").write_text("{}")
+    rc = main([*args, "-o", str(out)])
     err = capsys.readouterr().err
     assert rc == 3
-    assert "infeasible" in err and "below terrain" in err and "segment" in err
+    assert "infeasible" in err and "below terrain" in err and "leg" in err
+    assert "--force-export" in err
     m = load_mission(out)
     assert m.plan["feasible"] is False and m.plan["violations"]
     v = m.plan["violations"][0]
     assert v["kind"] == "terrain" and v["amount_m"] > 0
+    # the mission and its picture, but no file a ground station would fly
+    assert out.with_suffix(".png").is_file()
+    for suffix in (".plan", ".waypoints", ".geojson"):
+        assert not out.with_suffix(suffix).exists(), suffix
+    # ... unless the user insists
+    assert main([*args, "-o", str(out), "--force-export"]) == 3
+    assert "INFEASIBLE" in capsys.readouterr().err
+    for suffix in (".plan", ".waypoints", ".geojson"):
+        assert out.with_suffix(suffix).is_file(), suffix
 
 
 @pytest.mark.parametrize(
@@ -152,5 +166,5 @@ def test_goal_inside_a_zone_warns_or_is_refused_with_strict(
     args = [*BASE, "--iterations", "5", "--zones", str(zones), "-o", str(tmp_path / "x.yaml")]
     assert main(args) in (0, 3)  # planned (feasible or not: 5 iterations), not refused
     assert "warning: the goal lies inside danger zone g" in capsys.readouterr().err
-    assert main([*args, "--strict"]) == 2
+    assert main([*args, "--strict"]) == 1  # bad input (exit 1), like every refused input
     assert "--strict" in capsys.readouterr().err

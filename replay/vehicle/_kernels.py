@@ -104,7 +104,8 @@ K_THETA_UP, K_THETA_DN, K_DE_UP, K_DE_DN = 29, 30, 31, 32  # d(theta, delta_e)/d
 K_ROLL_BAND = 33  # rad: the roll integrator runs only for roll errors below this
 K_ROLL_SLEW = 34  # rad/s: rate limit of the bank command
 K_CP0, K_CPB, K_CPR, K_CPDR, K_CPDA = 35, 36, 37, 38, 39  # C_p coefficients (G3 Cl + G4 Cn)
-N_GAINS = 40
+K_ORBIT = 40  # orbit-following gain k_orbit (Beard & McLain eq. 10.13)
+N_GAINS = 41
 
 # ---- commands ---------------------------------------------------------------------------------
 C_LAT_MODE = 0  # 0: follow the leg, 1: hold course, 2: hold bank
@@ -121,7 +122,12 @@ L_N0, L_E0, L_H0, L_N1, L_E1, L_H1 = 0, 1, 2, 3, 4, 5
 L_SWITCH = 6  # m: switch when closer than this to the leg's end
 L_ACTIVE = 7  # 1 when a leg is being followed (switch checks on)
 L_QN, L_QE, L_LEN, L_CHI = 8, 9, 10, 11  # unit direction, length (m), course (rad): set_leg
-N_LEG = 12
+L_PLANE = 12  # m: a line leg ends when its along-track distance reaches this (L_LEN by default)
+L_ARC = 13  # 1: the leg is a turn fillet (an arc; set_arc), 0: a straight line
+L_CN, L_CE, L_RHO, L_LAM = 14, 15, 16, 17  # arc centre (N, E), radius (m), +1 clockwise / -1
+L_GAM0, L_SWEEP = 18, 19  # arc: angle of its start seen from the centre, angle to turn (rad)
+L_EN, L_EE, L_EQN, L_EQE = 20, 21, 22, 23  # arc: end point and the next leg's unit direction
+N_LEG = 24
 
 # ---- autopilot loop state and logged signals --------------------------------------------------
 A_I_COURSE, A_I_ROLL, A_I_CLIMB, A_I_SPEED, A_I_BETA, A_R_LOW = 0, 1, 2, 3, 4, 5
@@ -362,31 +368,85 @@ def set_leg(leg, n0, e0, h0, n1, e1, h1, switch):  # pragma: no cover - jit
     leg[L_CHI] = math.atan2(leg[L_QE], leg[L_QN])
     leg[L_SWITCH] = switch
     leg[L_ACTIVE] = 1.0
+    leg[L_PLANE] = length
+    leg[L_ARC] = 0.0
+
+
+@nb.njit(cache=True, nogil=True)
+def set_arc(leg, cn, ce, rho, lam, gam0, sweep, h0, h1, en, ee, eqn, eqe):  # pragma: no cover - jit
+    """Fill ``leg`` for a turn fillet: centre (cn, ce), radius ``rho``, ``lam`` +1 clockwise
+    (a right turn) or -1, starting at the angle ``gam0`` seen from the centre and turning through
+    ``sweep`` rad, altitude ``h0`` -> ``h1`` linear in the angle turned; it ends when the
+    aircraft passes the plane through (en, ee) normal to the next leg's direction (eqn, eqe)."""
+    leg[L_ARC] = 1.0
+    leg[L_CN] = cn
+    leg[L_CE] = ce
+    leg[L_RHO] = rho
+    leg[L_LAM] = lam
+    leg[L_GAM0] = gam0
+    leg[L_SWEEP] = sweep
+    leg[L_H0] = h0
+    leg[L_H1] = h1
+    leg[L_EN] = en
+    leg[L_EE] = ee
+    leg[L_EQN] = eqn
+    leg[L_EQE] = eqe
+    leg[L_N1] = en
+    leg[L_E1] = ee
+    leg[L_LEN] = rho * sweep
+    leg[L_PLANE] = rho * sweep
+    # course at the end of the turn (what the autopilot holds if the mission ends here)
+    leg[L_QN] = eqn
+    leg[L_QE] = eqe
+    leg[L_CHI] = math.atan2(eqe, eqn)
+    leg[L_SWITCH] = 0.0
+    leg[L_ACTIVE] = 1.0
+
+
+@nb.njit(cache=True, nogil=True)
+def arc_progress(x, leg):  # pragma: no cover - jit
+    """(distance from the centre, angle seen from the centre, fraction of the turn done)."""
+    dn = x[0] - leg[L_CN]
+    de = x[1] - leg[L_CE]
+    d = math.sqrt(dn * dn + de * de)
+    gam = atan2f(de, dn)
+    frac = leg[L_LAM] * wrap(gam - leg[L_GAM0]) / leg[L_SWEEP] if leg[L_SWEEP] > 0.0 else 1.0
+    return d, gam, min(max(frac, 0.0), 1.0)
 
 
 @nb.njit(cache=True, nogil=True)
 def leg_geometry(x, leg):  # pragma: no cover - jit
     """(cross-track + right of the leg, along-track from its start, horizontal distance to its
     end) of the position in ``x`` (seed 000 eq. 15 for the cross-track)."""
+    en = x[0] - leg[L_N1]
+    ee = x[1] - leg[L_E1]
+    if leg[L_ARC] > 0.5:
+        # cross-track: + right of the direction of travel; along: arc length turned so far
+        d, _, frac = arc_progress(x, leg)
+        return leg[L_LAM] * (leg[L_RHO] - d), frac * leg[L_LEN], math.sqrt(en * en + ee * ee)
     qn = leg[L_QN]
     qe = leg[L_QE]
     pn = x[0] - leg[L_N0]
     pe = x[1] - leg[L_E0]
-    en = x[0] - leg[L_N1]
-    ee = x[1] - leg[L_E1]
     return -qe * pn + qn * pe, qn * pn + qe * pe, math.sqrt(en * en + ee * ee)
 
 
 @nb.njit(cache=True, nogil=True)
 def leg_done(x, leg):  # pragma: no cover - jit
-    """0: keep flying the leg; 1: within the switching distance of its end; 2: its end's
-    perpendicular plane has been passed."""
+    """0: keep flying the leg; 1: within the switching distance of its end; 2: its end plane
+    has been passed (a line: the plane normal to it at ``L_PLANE`` along it; an arc: the plane
+    through its end normal to the next leg)."""
     if leg[L_ACTIVE] < 0.5:
+        return 0
+    if leg[L_ARC] > 0.5:
+        # a turn ends at the plane through its end normal to the next leg
+        if (x[0] - leg[L_EN]) * leg[L_EQN] + (x[1] - leg[L_EE]) * leg[L_EQE] >= 0.0:
+            return 2
         return 0
     _, along, dist = leg_geometry(x, leg)
     if dist < leg[L_SWITCH]:
         return 1
-    if along >= leg[L_LEN]:
+    if along >= leg[L_PLANE]:
         return 2
     return 0
 
@@ -444,7 +504,17 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     # ---- lateral guidance: course command (vector field on the cross-track error)
     xtrack, along, dist = leg_geometry(x, leg)
     mode = int(cmd[C_LAT_MODE] + 0.5)
-    if mode == 0:
+    on_arc = leg[L_ARC] > 0.5 and leg[L_ACTIVE] > 0.5
+    phi_ff = 0.0
+    if mode == 0 and on_arc:
+        # orbit following (Beard & McLain eq. 10.13) with the steady bank of the turn as
+        # feed-forward: chi_c = gamma + lam (pi/2 + atan(k_orbit (d - rho) / rho))
+        rho = leg[L_RHO]
+        d_c, gam_c, _ = arc_progress(x, leg)
+        lam = leg[L_LAM]
+        chi_c = gam_c + lam * (0.5 * math.pi + math.atan(gk[K_ORBIT] * (d_c - rho) / rho))
+        phi_ff = lam * math.atan(vg2 / (p[I_GRAV] * rho))
+    elif mode == 0:
         chi_c = leg[L_CHI] - gk[K_CHI_INF] * (2.0 / math.pi) * math.atan(gk[K_PATH] * xtrack)
     else:
         chi_c = cmd[C_COURSE]
@@ -454,7 +524,7 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
         ap[A_I_COURSE] = 0.0
     else:
         e_chi = wrap(chi_c - chi)
-        raw = gk[K_COURSE_P] * e_chi + gk[K_COURSE_I] * ap[A_I_COURSE]
+        raw = phi_ff + gk[K_COURSE_P] * e_chi + gk[K_COURSE_I] * ap[A_I_COURSE]
         phi_c = min(max(raw, -bank_max), bank_max)
         # anti-windup: integrate unless saturated and the error pushes further into saturation
         if phi_c == raw or (raw > bank_max and e_chi < 0.0) or (raw < -bank_max and e_chi > 0.0):
@@ -479,17 +549,29 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
         ap[A_I_ROLL] += dtc * e_phi
 
     # ---- longitudinal guidance: altitude command
+    # the climb rate the profile asks for is fed forward (no lag on a climbing leg)
+    hdot_ff = 0.0
     if int(cmd[C_ALT_MODE] + 0.5) == 0:
         length = leg[L_LEN]
         if cmd[C_ALT_DIRECT] > 0.5 or length < 1e-9:
             h_c = leg[L_H1]
+        elif on_arc:
+            _, gam_a, f = arc_progress(x, leg)
+            h_c = leg[L_H0] + f * (leg[L_H1] - leg[L_H0])
+            if 0.0 < f < 1.0:
+                v_tan = leg[L_LAM] * (-math.sin(gam_a) * vn + math.cos(gam_a) * ve)
+                hdot_ff = (leg[L_H1] - leg[L_H0]) / length * v_tan
         else:
             f = min(max(along / length, 0.0), 1.0)
             h_c = leg[L_H0] + f * (leg[L_H1] - leg[L_H0])
+            if 0.0 < f < 1.0:
+                hdot_ff = (leg[L_H1] - leg[L_H0]) / length * (leg[L_QN] * vn + leg[L_QE] * ve)
     else:
         h_c = cmd[C_ALT]
-    h_c = max(h_c, cmd[C_FLOOR])
-    hdot_c = gk[K_ALT_P] * (h_c - h)
+    if cmd[C_FLOOR] > h_c:
+        h_c = cmd[C_FLOOR]
+        hdot_ff = 0.0
+    hdot_c = hdot_ff + gk[K_ALT_P] * (h_c - h)
     hdot_c = min(max(hdot_c, -gk[K_DESCENT_MAX]), gk[K_CLIMB_MAX])
     slew = gk[K_VACC_MAX] * dtc
     hdot_c = min(max(hdot_c, ap[A_HDOT_C] - slew), ap[A_HDOT_C] + slew)

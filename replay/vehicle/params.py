@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from planner.performance import Performance
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -164,6 +165,19 @@ class VehicleParams:
         """V^2 / (g tan(bank_max)) (seed 000 eq. 13) at ``speed`` (default: cruise)."""
         v = self.cruise_speed if speed is None else speed
         return v * v / (G * math.tan(math.radians(self.bank_max_deg)))
+
+    def performance(self, speed: float | None = None) -> Performance:
+        """What the planner needs of this aircraft at ``speed`` (default: cruise), checked
+        against the airspeed envelope."""
+        v = self.cruise_speed if speed is None else float(speed)
+        if not (math.isfinite(v) and self.airspeed_min <= v <= self.airspeed_max):
+            raise InputError(
+                f"speed {v:g} m/s is outside {self.name}'s airspeed envelope "
+                f"{self.airspeed_min:g}–{self.airspeed_max:g} m/s"
+            )
+        return Performance(
+            self.name, v, self.climb_rate_max, self.descent_rate_max, self.bank_max_deg
+        )
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

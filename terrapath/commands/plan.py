@@ -8,11 +8,11 @@ from typing import Any
 import click
 import numpy as np
 
-from terrapath.options import dem_options, load_grid
+from terrapath.options import dem_options
 from terrapath.progress import progress_bar
 
 EXIT_INFEASIBLE = 3
-DEFAULT_CRUISE_AGL = 150.0
+DEFAULT_CRUISE_AGL = 150.0  # as planner.pipeline.DEFAULT_CRUISE_AGL
 
 
 def _parse_point(ctx: click.Context, param: click.Parameter, value: str) -> tuple[float, ...]:
@@ -27,52 +27,20 @@ def _parse_point(ctx: click.Context, param: click.Parameter, value: str) -> tupl
     return parts
 
 
-def _resolve(
-    grid: Any, point: tuple[float, ...], map_coords: bool, agl: float, name: str
-) -> np.ndarray:
-    """Map metres and altitude AMSL of a point given as lon/lat or x/y, ALT AMSL or default AGL."""
-    a, b = point[0], point[1]
-    if map_coords:
-        x, y = a, b
-    else:
-        if not (-180.0 <= a <= 360.0 and -90.0 <= b <= 90.0):
-            raise click.BadParameter(
-                f"{name} {a},{b} is not lon,lat in degrees (use --map-coords for map metres)"
-            )
-        xa, ya = grid.from_lonlat(a, b)
-        x, y = float(xa), float(ya)
-    if len(point) == 3:
-        z = point[2]
-    else:
-        z = float(grid.height_at(x, y)) + agl if bool(grid.contains(x, y)) else agl
-    return np.array([x, y, z])
+def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: bool) -> Any:
+    """Run the planning pipeline with a progress bar (iteration, best cost) on a terminal."""
+    from planner.pipeline import plan_mission
 
-
-def _run_with_progress(
-    plan: Any,
-    problem: Any,
-    algorithm: str,
-    seed: int,
-    population: int,
-    iterations: int,
-    attempts: int,
-) -> Any:
-    """Run the planner with a progress bar (iteration, best cost) on an interactive terminal."""
-    with progress_bar(iterations, f"{algorithm}: planning") as report:
+    algorithm = request.algorithm
+    with progress_bar(request.iterations, f"{algorithm}: planning") as report:
         callback = None
         if report is not None:
 
             def callback(state: Any) -> None:
                 report(int(state.iteration), f"{algorithm}: best cost {float(state.best_f):.4f}")
 
-        return plan(
-            problem,
-            algorithm,
-            seed=seed,
-            population=population,
-            iterations=iterations,
-            attempts=attempts,
-            callback=callback,
+        return plan_mission(
+            request, output, alt_frame=alt_frame, force_export=force_export, callback=callback
         )
 
 
@@ -83,7 +51,8 @@ def _run_with_progress(
     required=True,
     callback=_parse_point,
     metavar="LON,LAT[,ALT]",
-    help="Start; ALT in metres AMSL (default: --cruise-agl above the ground).",
+    help="Start; ALT in metres AMSL (default: --cruise-agl above the highest terrain around "
+    "the point).",
 )
 @click.option(
     "--goal",
@@ -157,27 +126,40 @@ def _run_with_progress(
     type=float,
     default=DEFAULT_CRUISE_AGL,
     show_default=True,
-    help="Default start/goal height above ground (m).",
+    help="Default start/goal height (m) above the highest terrain around the point (its "
+    "cell and the eight around it: the terrain the planner checks).",
 )
 @click.option(
     "--speed",
     type=float,
-    default=25.0,
-    show_default=True,
-    help="Cruise speed written to the mission (m/s).",
+    default=None,
+    help="Cruise airspeed (m/s; default: the vehicle's cruise speed). The plan keeps the "
+    "vehicle's climb, descent and turn limits at this speed.",
 )
 @click.option(
     "--vehicle",
     default="aerosonde",
     show_default=True,
-    help="Vehicle preset or file written to the mission.",
+    help="Vehicle preset or vehicle file: the plan is flyable by it, and the mission names it.",
+)
+@click.option(
+    "--allow-unknown-terrain",
+    is_flag=True,
+    help="Accept a path over terrain the DEM did not measure (filled nodata, outside the "
+    "source raster), with a warning; by default that is infeasible, like the map's edge.",
+)
+@click.option(
+    "--force-export",
+    is_flag=True,
+    help="Write the .plan and .waypoints files even for an infeasible plan.",
 )
 @click.option(
     "--alt-frame",
     type=click.Choice(["amsl", "relative"]),
     default="amsl",
     show_default=True,
-    help="Altitude frame of the .plan and WPL exports (relative = above home).",
+    help="Altitude frame of the .plan and WPL exports (relative = above home, the ground "
+    "under the start where the aircraft arms).",
 )
 @click.option("--name", default=None, help="Mission name (default: the output file's stem).")
 @click.option(
@@ -206,108 +188,75 @@ def plan_cmd(
     avoid_zones: bool,
     strict: bool,
     cruise_agl: float,
-    speed: float,
+    speed: float | None,
     vehicle: str,
+    allow_unknown_terrain: bool,
+    force_export: bool,
     alt_frame: str,
     name: str | None,
     output: str,
     as_json: bool,
     **opts: Any,
 ) -> int:
-    """Plan a collision-free 3D path over real terrain and write the mission and its exports.
+    """Plan a collision-free 3D path over real terrain, flyable by the vehicle, and write the
+    mission and its exports.
 
-    Writes OUTPUT (mission YAML, the source of truth) and, beside it, .geojson (WGS84 LineString),
-    .plan (QGroundControl), .waypoints (QGC WPL 110) and .png (map and altitude profile).
-    Exit status: 0 feasible, 3 infeasible (still written, marked infeasible), 1 error.
+    Writes OUTPUT (mission YAML, the source of truth) and, beside it, .png (map and altitude
+    profile) and, for a feasible plan, .geojson (WGS84), .plan (QGroundControl) and .waypoints
+    (QGC WPL 110). Exit status: 0 feasible, 3 infeasible (the mission and picture are written,
+    marked infeasible; no ground-station files unless --force-export), 1 error.
     """
     import json
 
-    from planner.export import to_geojson, to_qgc_plan, to_wpl, write_json, write_text
-    from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
-    from planner.plan import plan
-    from planner.plot import save_plan_picture
-    from planner.problem import PlanningProblem
-    from terrain.zones import load_zones
+    from planner.pipeline import PlanRequest
+    from replay.vehicle.presets import load_vehicle
 
-    out = Path(output)
-    if out.suffix.lower() not in (".yaml", ".yml"):
+    if not output.lower().endswith((".yaml", ".yml")):
         raise click.BadParameter(
             f"the mission file must end in .yaml; got {output!r}", param_hint="-o/--output"
         )
-    grid = load_grid(dem, **opts)
-    s = _resolve(grid, start, map_coords, cruise_agl, "start")
-    g = _resolve(grid, goal, map_coords, cruise_agl, "goal")
-    zlist = load_zones(zones, grid) if zones else ()
-    for label, p in (("start", s), ("goal", g)):
-        for z in zlist:
-            inside = (p[0] - z.x) ** 2 + (p[1] - z.y) ** 2 <= z.radius**2 and (
-                z.top is None or p[2] <= z.top
-            )
-            if inside:
-                msg = f"the {label} lies inside danger zone {z.id or ''} (centre {z.x:.0f}, {z.y:.0f}, diameter {z.diameter:g} m)"
-                if strict:
-                    raise click.UsageError(msg + "; refused because of --strict")
-                click.echo(f"terrapath: warning: {msg}", err=True)
-    problem = PlanningProblem(grid, s, g, n_waypoints, zlist, zmin, zmax, clearance, avoid_zones)
-
-    result = _run_with_progress(plan, problem, algorithm, seed, population, iterations, attempts)
-
-    provenance = {
-        "algorithm": algorithm,
-        "parameters": result.params,
-        "seed": seed,
-        "feasible": result.feasible,
-        "status": result.status,
-        "cost": result.terms,
-        "iterations": result.iterations,
-        "evaluations": result.evaluations,
-        "stop_reason": result.stop_reason,
-        "elapsed_s": round(result.elapsed_s, 3),
-        "n_waypoints": n_waypoints,
-        "clearance": clearance,
-        "altitude_band": list(problem.band),
-        "avoid_zones": avoid_zones,
-        "violations": [v.as_dict() for v in result.violations],
-    }
-    mission = Mission(
-        name=name or out.stem,
-        waypoints=result.waypoints,
-        crs=grid_crs_label(grid),
-        terrain=TerrainRef(tuple(str(Path(d).resolve()) for d in dem), opts.get("cell_size")),
+    if speed is not None and not speed > 0:
+        raise click.BadParameter(f"expected a speed > 0 m/s; got {speed:g}", param_hint="--speed")
+    performance = load_vehicle(vehicle, base_dir=Path.cwd()).performance(speed)
+    request = PlanRequest(
+        dem=tuple(dem),
+        start=start,
+        goal=goal,
+        performance=performance,
         vehicle=vehicle,
-        cruise_speed=speed,
-        cruise_altitude=round(float(np.mean(result.waypoints[:, 2])), 1),
-        danger_zones=tuple(zlist),
-        plan=provenance,
-    )
-    written = {"mission": save_mission(mission, out, grid)}
-    stem = out.with_suffix("")
-    if grid.is_georeferenced:
-        written["geojson"] = write_json(to_geojson(mission, grid), stem.with_suffix(".geojson"))
-        written["qgc_plan"] = write_json(
-            to_qgc_plan(mission, grid, alt_frame), stem.with_suffix(".plan")
-        )
-        written["wpl"] = write_text(
-            to_wpl(mission, grid, alt_frame), stem.with_suffix(".waypoints")
-        )
-    written["picture"] = save_plan_picture(
-        grid,
-        result.waypoints,
-        stem.with_suffix(".png"),
-        zlist,
-        title=f"{mission.name}: {algorithm}, seed {seed} — {result.status}, cost {result.terms['total']:.4f}",
+        map_coords=map_coords,
+        dem_options=opts,
+        zones=zones,
+        algorithm=algorithm,
+        n_waypoints=n_waypoints,
+        population=population,
+        iterations=iterations,
+        attempts=attempts,
+        seed=seed,
         clearance=clearance,
-        feasible=result.feasible,
+        zmin=zmin,
+        zmax=zmax,
+        avoid_zones=avoid_zones,
+        strict=strict,
+        cruise_agl=cruise_agl,
+        allow_unknown=allow_unknown_terrain,
+        name=name,
     )
+    outcome = _run_with_progress(request, output, alt_frame, force_export)
+    result = outcome.result
+    for warning in outcome.warnings:
+        click.echo(f"terrapath: warning: {warning}", err=True)
     if as_json:
         click.echo(
             json.dumps(
                 {
                     "status": result.status,
                     "cost": result.terms,
-                    "outputs": {k: str(v) for k, v in written.items()},
-                    "violations": provenance["violations"],
-                    "seed": seed,
+                    "vehicle_limits": performance.as_dict(),
+                    "outputs": {k: str(v) for k, v in outcome.written.items()},
+                    "removed": [str(p) for p in outcome.removed],
+                    "violations": [v.as_dict() for v in result.violations],
+                    "seed": int(seed),
                 },
                 indent=2,
             )
@@ -315,17 +264,29 @@ def plan_cmd(
     else:
         t = result.terms
         click.echo(
-            f"{result.status}: cost {t['total']:.4f} (length {t['length']:.4f}, altitude {t['altitude']:.4f}, "
-            f"collision {t['collision']:.4f}, danger zones {t['dangerzones']:.4f}); "
-            f"path {t['path_length_m'] / 1000:.2f} km, {result.iterations} iterations, {result.elapsed_s:.1f} s"
+            f"{result.status}: cost {t['total']:.4f} (length {t['length']:.4f}, altitude "
+            f"{t['altitude']:.4f}, collision {t['collision']:.4f}, danger zones "
+            f"{t['dangerzones']:.4f}); path {t['path_length_m'] / 1000:.2f} km, min clearance "
+            f"{t['min_clearance_m']:.0f} m, {result.iterations} iterations, "
+            f"{result.elapsed_s:.1f} s"
         )
-        for k, v in written.items():
+        click.echo(f"  limits    {performance.describe()}")
+        for k, v in outcome.written.items():
             click.echo(f"  {k:9s} {v}")
+        for p in outcome.removed:
+            click.echo(f"  removed   {p} (from an earlier run: this plan is infeasible)")
     if not result.feasible:
+        first = result.violations[0].detail if result.violations else "constraint violated"
+        more = len(result.violations) - 1
         click.echo(
-            f"terrapath: infeasible: {result.violations[0].detail if result.violations else 'constraint violated'}"
-            f"{f' (and {len(result.violations) - 1} more)' if len(result.violations) > 1 else ''}",
+            f"terrapath: infeasible: {first}{f' (and {more} more)' if more > 0 else ''}",
             err=True,
         )
+        if not force_export:
+            click.echo(
+                "terrapath: no .plan/.waypoints written for an infeasible plan "
+                "(--force-export writes them anyway)",
+                err=True,
+            )
         return EXIT_INFEASIBLE
     return 0

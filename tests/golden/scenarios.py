@@ -1,8 +1,10 @@
 """Reference planning scenarios on real maps, shared by the golden test and its regeneration.
 
 One fixed start/goal/zones scenario per map (jacksboro and rmnp from data/maps, Big Tujunga from
-../shared/maps) and every algorithm at seed 0 with the `terrapath plan` defaults (population 60,
-200 iterations, 6 free waypoints, 50 m clearance, up to 3 attempts from derived seeds).
+../shared/maps) and every algorithm at seed 0 with the `terrapath plan` defaults (the aerosonde at
+its cruise speed, population 60, 200 iterations, 6 free waypoints, 50 m clearance, start and goal
+150 m above the highest terrain around them, zones as hard constraints, up to 3 attempts from
+derived seeds), built by the planning pipeline that `terrapath plan` runs.
 
 Regenerate the golden file (only when a change is *meant* to move the figures; say why in the
 commit):  ``.venv/bin/python -m tests.golden.regen``
@@ -11,21 +13,21 @@ commit):  ``.venv/bin/python -m tests.golden.regen``
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from planner.pipeline import PlanRequest, Prepared, build_problem
 from planner.plan import plan
 from planner.problem import PlanningProblem
-from terrain.load import load_dem
-from terrain.zones import DangerZone
+from replay.vehicle.presets import load_vehicle
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "maps"
 GOLDEN = Path(__file__).resolve().parent / "plans.json"
 ALGORITHMS = ("ampso", "apso", "pso", "ga")
 SEED = 0
+VEHICLE = "aerosonde"
 
 
 @dataclass(frozen=True)
@@ -39,27 +41,40 @@ class MapScenario:
     def available(self) -> bool:
         return self.dem.is_file()
 
+    def request(self, algorithm: str = "ampso") -> PlanRequest:
+        return PlanRequest(
+            dem=(str(self.dem),),
+            start=self.start,
+            goal=self.goal,
+            performance=load_vehicle(VEHICLE).performance(),
+            vehicle=VEHICLE,
+            zones=[{"lon": a, "lat": b, "diameter": d} for a, b, d in self.zones],
+            algorithm=algorithm,
+            seed=SEED,
+            avoid_zones=True,
+        )
+
+    def prepared(self) -> Prepared:
+        return _prepared(self)
+
     def problem(self) -> PlanningProblem:
-        grid = load_dem(self.dem)
-        pts = []
-        for lon, lat in (self.start, self.goal):
-            x, y = grid.from_lonlat(lon, lat)
-            pts.append(np.array([float(x), float(y), float(grid.height_at(x, y)) + 150.0]))
-        zs = []
-        for lon, lat, d in self.zones:
-            x, y = grid.from_lonlat(lon, lat)
-            zs.append(DangerZone(float(x), float(y), d))
-        return PlanningProblem(grid, pts[0], pts[1], 6, tuple(zs), clearance=50.0, avoid_zones=True)
+        return self.prepared().problem
 
     def run(self, algorithm: str, problem: PlanningProblem | None = None) -> Any:
+        r = self.request(algorithm)
         return plan(
             problem or self.problem(),
             algorithm,
-            seed=SEED,
-            population=60,
-            iterations=200,
-            attempts=3,
+            seed=r.seed,
+            population=r.population,
+            iterations=r.iterations,
+            attempts=r.attempts,
         )
+
+
+@cache
+def _prepared(scenario: MapScenario) -> Prepared:
+    return build_problem(scenario.request())
 
 
 MAPS = (

@@ -1,0 +1,104 @@
+"""What the planner must know of the aircraft to plan a path it can fly.
+
+A :class:`Performance` is the few numbers of a vehicle that make a path flyable or not: cruise
+airspeed, the sustained climb and descent rates at that speed, and the bank limit. The planner
+turns them into the limits it checks, each with a margin so the 6-DOF aircraft under its autopilot
+(``replay/``) flies what was planned rather than just failing to:
+
+- climb gradient ``climb_fraction * climb_rate / V`` and descent gradient
+  ``climb_fraction * descent_rate / V`` (default fraction 0.8: the autopilot commands at most 95 %
+  of the limits and needs some authority left to catch up after a transient);
+- turns are planned as fillets of radius ``R = V^2 / (g tan(turn_bank_fraction * bank_max))``
+  (default fraction 0.8, i.e. 24 deg for a 30 deg limit: the orbit follower keeps 6 deg of bank to
+  correct with); ``R_min = V^2 / (g tan(bank_max))`` is seed 000's eq. 13, the tightest turn.
+
+The planner is below ``replay/`` in the import order, so it cannot read vehicle presets itself:
+``replay.vehicle.params.VehicleParams.performance()`` builds one from a vehicle, and the CLI and
+the planning pipeline pass it down.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from terrain.errors import InputError
+
+G = 9.81  # m/s^2, as replay/vehicle/params.py (seed 000 eq. 13)
+CLIMB_FRACTION = 0.8
+TURN_BANK_FRACTION = 0.8
+
+
+@dataclass(frozen=True)
+class Performance:
+    """Cruise airspeed (m/s), sustained climb / descent rates at it (m/s), bank limit (deg)."""
+
+    name: str
+    speed: float
+    climb_rate: float
+    descent_rate: float
+    bank_max_deg: float
+    climb_fraction: float = CLIMB_FRACTION
+    turn_bank_fraction: float = TURN_BANK_FRACTION
+
+    def __post_init__(self) -> None:
+        for fld in ("speed", "climb_rate", "descent_rate", "bank_max_deg"):
+            v = getattr(self, fld)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise InputError(f"{self.name}: {fld} must be a finite number; got {v!r}")
+            if v <= 0:
+                raise InputError(f"{self.name}: {fld} must be > 0; got {v!r}")
+            object.__setattr__(self, fld, float(v))
+        if not self.bank_max_deg < 90.0:
+            raise InputError(f"{self.name}: bank_max_deg must be below 90; got {self.bank_max_deg}")
+        for fld in ("climb_fraction", "turn_bank_fraction"):
+            v = getattr(self, fld)
+            if not (isinstance(v, int | float) and 0.0 < v <= 1.0):
+                raise InputError(f"{self.name}: {fld} must lie in (0, 1]; got {v!r}")
+
+    @property
+    def climb_gradient(self) -> float:
+        """Steepest planned climb, metres up per metre of horizontal travel."""
+        return self.climb_fraction * self.climb_rate / self.speed
+
+    @property
+    def descent_gradient(self) -> float:
+        """Steepest planned descent, metres down per metre of horizontal travel."""
+        return self.climb_fraction * self.descent_rate / self.speed
+
+    @property
+    def turn_bank_deg(self) -> float:
+        return self.turn_bank_fraction * self.bank_max_deg
+
+    @property
+    def turn_radius(self) -> float:
+        """Radius of the planned turn fillets (m)."""
+        return self.speed**2 / (G * math.tan(math.radians(self.turn_bank_deg)))
+
+    @property
+    def min_turn_radius(self) -> float:
+        """V^2 / (g tan(bank_max)): the tightest turn at cruise (seed 000 eq. 13)."""
+        return self.speed**2 / (G * math.tan(math.radians(self.bank_max_deg)))
+
+    def describe(self) -> str:
+        """One line for messages: the limits the plan is held to."""
+        return (
+            f"{self.name} at {self.speed:g} m/s: climb <= {100 * self.climb_gradient:.1f} % "
+            f"({self.climb_fraction:g} x {self.climb_rate:g} m/s), descent <= "
+            f"{100 * self.descent_gradient:.1f} %, turns of radius {self.turn_radius:.0f} m "
+            f"({self.turn_bank_deg:.0f} deg bank)"
+        )
+
+    def as_dict(self) -> dict[str, float | str]:
+        """Plain data for the mission's provenance."""
+        return {
+            "vehicle": self.name,
+            "speed": self.speed,
+            "climb_rate": self.climb_rate,
+            "descent_rate": self.descent_rate,
+            "bank_max_deg": self.bank_max_deg,
+            "climb_gradient": round(self.climb_gradient, 5),
+            "descent_gradient": round(self.descent_gradient, 5),
+            "turn_radius": round(self.turn_radius, 2),
+            "turn_bank_deg": round(self.turn_bank_deg, 3),
+        }

@@ -1,0 +1,348 @@
+"""The planning pipeline as one library call: DEM tiles, start, goal, zones and the aircraft in;
+the plan and its files out. ``terrapath plan``, the benchmarks and the golden tests call it.
+
+Steps of :func:`plan_mission`:
+
+1. :func:`build_problem` loads the DEM (``terrain.load_dem`` with the DEM options), places start and
+   goal (lon/lat or map metres; a missing altitude is ``cruise_agl`` above the highest terrain
+   around the point, the terrain the planner checks), reads the danger zones and refuses input
+   that cannot give a flyable plan (start = goal, a goal out of the aircraft's climb reach, turns
+   too wide for the legs, a start or goal inside a zone with ``strict``);
+2. :func:`planner.plan.plan` runs the optimiser with its restarts;
+3. :func:`write_outputs` writes the mission YAML (the source of truth) and the picture, and —
+   only for a feasible plan, or with ``force_export`` — the ground-station files (QGroundControl
+   ``.plan``, ``QGC WPL 110``) and the GeoJSON. An infeasible plan removes ground-station files a
+   previous run left under the same name, so nobody flies a stale one.
+
+Everything is written to a temporary name and renamed when complete (``terrain.atomic``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
+from planner.performance import Performance
+from planner.plan import DEFAULT_ALGORITHM, plan
+from planner.problem import PlanningProblem, terrain_top
+from planner.result import PlanResult
+from terrain.errors import InputError
+from terrain.grid import HeightGrid
+from terrain.zones import DangerZone
+
+FloatArray = npt.NDArray[np.float64]
+DEFAULT_CRUISE_AGL = 150.0
+GROUND_STATION_SUFFIXES = (".plan", ".waypoints")
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """Everything a plan is made from (what ``terrapath plan``'s options say).
+
+    ``start`` / ``goal`` are (a, b) or (a, b, alt): lon/lat degrees, or map metres with
+    ``map_coords``; alt is metres AMSL. ``dem_options`` are :func:`terrain.load.load_dem`'s keyword
+    options (crs, cell_size, crop, crop_lonlat, band). ``zones`` is a danger-zone file (YAML or
+    GeoJSON) or a list of zone records as in a mission's ``danger_zones:`` (lon/lat allowed). ``vehicle`` is what the mission records
+    (a preset name or a vehicle file path); ``performance`` is that vehicle's limits.
+    """
+
+    dem: tuple[str, ...]
+    start: tuple[float, ...]
+    goal: tuple[float, ...]
+    performance: Performance
+    vehicle: str
+    map_coords: bool = False
+    dem_options: dict[str, Any] = field(default_factory=dict)
+    zones: str | Sequence[dict[str, Any]] | None = None
+    algorithm: str = DEFAULT_ALGORITHM
+    n_waypoints: int = 6
+    population: int = 60
+    iterations: int = 200
+    attempts: int = 3
+    seed: int = 0
+    clearance: float = 50.0
+    zmin: float | None = None
+    zmax: float | None = None
+    avoid_zones: bool = False
+    strict: bool = False
+    cruise_agl: float = DEFAULT_CRUISE_AGL
+    allow_unknown: bool = False
+    name: str | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """The loaded grid, the zones and the planning problem, with warnings for the user."""
+
+    grid: HeightGrid
+    zones: tuple[DangerZone, ...]
+    problem: PlanningProblem
+    warnings: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class PlanOutcome:
+    """A finished plan: the result, the mission it became, the files written, the warnings."""
+
+    result: PlanResult
+    mission: Mission
+    prepared: Prepared
+    written: dict[str, Path]
+    removed: tuple[Path, ...]
+    warnings: tuple[str, ...]
+
+    @property
+    def feasible(self) -> bool:
+        return self.result.feasible
+
+
+def _place(
+    grid: HeightGrid,
+    point: Sequence[float],
+    name: str,
+    map_coords: bool,
+    agl: float,
+    safety: HeightGrid,
+) -> FloatArray:
+    """Map metres and altitude AMSL of a start or goal as the user gave it."""
+    a, b = float(point[0]), float(point[1])
+    if map_coords:
+        x, y = a, b
+        if not bool(grid.contains(x, y)):
+            xmin, ymin, xmax, ymax = grid.bounds
+            raise InputError(
+                f"{name} ({x:.1f}, {y:.1f}) lies outside the map "
+                f"(x {xmin:.1f} .. {xmax:.1f}, y {ymin:.1f} .. {ymax:.1f} map metres)"
+            )
+    else:
+        if not (-180.0 <= a <= 360.0 and -90.0 <= b <= 90.0):
+            raise InputError(
+                f"{name} {a},{b} is not lon,lat in degrees (use --map-coords for map metres)"
+            )
+        xa, ya = grid.from_lonlat(a, b)
+        x, y = float(xa), float(ya)
+        if not bool(grid.contains(x, y)):
+            ll = grid.lonlat_bounds()
+            extent = (
+                f" (lon {ll[0]:.5f} .. {ll[2]:.5f}, lat {ll[1]:.5f} .. {ll[3]:.5f})" if ll else ""
+            )
+            raise InputError(f"{name} lon {a:.5f}, lat {b:.5f} lies outside the map{extent}")
+    if len(point) >= 3:
+        z = float(point[2])
+    else:
+        z = terrain_top(safety, x, y) + agl
+    return np.array([x, y, z])
+
+
+def _check_reach(problem: PlanningProblem, perf: Performance) -> None:
+    """Refuse a mission the aircraft cannot fly whatever the path: a climb or descent between
+    start and goal longer than the longest path the free waypoints can make, or turns wider than
+    the legs of the shortest path."""
+    s, g = problem.start, problem.goal
+    span = float(np.hypot(*(g[:2] - s[:2])))
+    rise = float(g[2] - s[2])
+    xmin, ymin, xmax, ymax = problem.grid.bounds
+    longest = (problem.n_waypoints + 1) * math.hypot(xmax - xmin, ymax - ymin)
+    limit = perf.climb_gradient if rise > 0 else perf.descent_gradient
+    if abs(rise) > limit * longest:
+        verb = "climb" if rise > 0 else "descent"
+        raise InputError(
+            f"the goal is {abs(rise):.0f} m {'above' if rise > 0 else 'below'} the start: a "
+            f"{verb} of {100 * abs(rise) / span:.1f} % over the {span / 1000:.2f} km between them; "
+            f"the {perf.name} can {verb} {100 * limit:.1f} % at most, which needs "
+            f"{abs(rise) / limit / 1000:.1f} km of path, more than {problem.n_waypoints} free "
+            f"waypoints can make in this map ({longest / 1000:.1f} km)"
+        )
+    shortest_leg = span / (problem.n_waypoints + 1)
+    if perf.turn_radius > 0.5 * shortest_leg:
+        most = max(0, int(span / (2.0 * perf.turn_radius)) - 1)
+        raise InputError(
+            f"the {perf.name}'s turn radius ({perf.turn_radius:.0f} m at {perf.speed:g} m/s) is "
+            f"larger than half the legs of the shortest path ({shortest_leg:.0f} m with "
+            f"{problem.n_waypoints} free waypoints over {span / 1000:.2f} km); use at most "
+            f"{most} waypoints (--waypoints) or a slower speed"
+        )
+
+
+def build_problem(request: PlanRequest) -> Prepared:
+    """Load the DEM and zones and build the planning problem (step 1 of :func:`plan_mission`)."""
+    from terrain.load import load_dem
+    from terrain.zones import load_zones, zones_from_records
+
+    r = request
+    grid = load_dem(list(r.dem), **r.dem_options)
+    s = _place(grid, r.start, "start", r.map_coords, r.cruise_agl, grid)
+    g = _place(grid, r.goal, "goal", r.map_coords, r.cruise_agl, grid)
+    if isinstance(r.zones, str):
+        zlist = load_zones(r.zones, grid)
+    else:
+        zlist = zones_from_records(list(r.zones or ()), grid, source="the plan request")
+    warnings: list[str] = []
+    for label, p in (("start", s), ("goal", g)):
+        for z in zlist:
+            inside = (p[0] - z.x) ** 2 + (p[1] - z.y) ** 2 <= z.radius**2 and (
+                z.top is None or p[2] <= z.top
+            )
+            if inside:
+                msg = (
+                    f"the {label} lies inside danger zone {z.id or ''} (centre {z.x:.0f}, "
+                    f"{z.y:.0f}, diameter {z.diameter:g} m)"
+                )
+                if r.strict:
+                    raise InputError(msg + "; refused because of --strict")
+                warnings.append(msg)
+    problem = PlanningProblem(
+        grid,
+        s,
+        g,
+        r.n_waypoints,
+        tuple(zlist),
+        r.zmin,
+        r.zmax,
+        r.clearance,
+        r.avoid_zones,
+        performance=r.performance,
+    )
+    _check_reach(problem, r.performance)
+    return Prepared(grid, tuple(zlist), problem, tuple(warnings))
+
+
+def plan_mission(
+    request: PlanRequest,
+    output: str | Path | None = None,
+    *,
+    alt_frame: str = "amsl",
+    force_export: bool = False,
+    callback: Callable[[Any], None] | None = None,
+) -> PlanOutcome:
+    """Plan ``request``; with ``output`` (a ``.yaml`` path) write the mission and its files."""
+    out = None
+    if output is not None:
+        out = Path(output)
+        if out.suffix.lower() not in (".yaml", ".yml"):
+            raise InputError(f"the mission file must end in .yaml; got {str(output)!r}")
+        if not out.parent.is_dir() and str(out.parent):
+            raise InputError(f"{str(out)!r}: output folder {str(out.parent)!r} does not exist")
+    prepared = build_problem(request)
+    r = request
+    result = plan(
+        prepared.problem,
+        r.algorithm,
+        seed=r.seed,
+        population=r.population,
+        iterations=r.iterations,
+        attempts=r.attempts,
+        callback=callback,
+    )
+    mission = to_mission(request, prepared, result, out)
+    written: dict[str, Path] = {}
+    removed: tuple[Path, ...] = ()
+    warnings = list(prepared.warnings)
+    if out is not None:
+        written, removed = write_outputs(
+            mission, result, prepared, out, alt_frame=alt_frame, force_export=force_export
+        )
+        if force_export and not result.feasible:
+            warnings.append(
+                "ground-station files written for an INFEASIBLE plan (--force-export): "
+                "do not fly them as they are"
+            )
+    return PlanOutcome(result, mission, prepared, written, removed, tuple(warnings))
+
+
+def to_mission(
+    request: PlanRequest, prepared: Prepared, result: PlanResult, out: Path | None = None
+) -> Mission:
+    """The mission a plan becomes: waypoints, the vehicle, its cruise speed and turn radius (the
+    replay flies the fillets the plan was checked with), zones and the plan's provenance."""
+    r = request
+    problem = prepared.problem
+    provenance = {
+        "algorithm": r.algorithm,
+        "parameters": result.params,
+        "seed": int(r.seed),
+        "feasible": result.feasible,
+        "status": result.status,
+        "cost": result.terms,
+        "iterations": result.iterations,
+        "evaluations": result.evaluations,
+        "stop_reason": result.stop_reason,
+        "elapsed_s": round(result.elapsed_s, 3),
+        "n_waypoints": r.n_waypoints,
+        "clearance": r.clearance,
+        "altitude_band": list(problem.band),
+        "avoid_zones": r.avoid_zones,
+        "vehicle_limits": r.performance.as_dict(),
+        "violations": [v.as_dict() for v in result.violations],
+    }
+    return Mission(
+        name=r.name or (out.stem if out is not None else "mission"),
+        waypoints=result.waypoints,
+        crs=grid_crs_label(prepared.grid),
+        terrain=TerrainRef(
+            tuple(str(Path(d).resolve()) for d in r.dem), r.dem_options.get("cell_size")
+        ),
+        vehicle=r.vehicle,
+        cruise_speed=r.performance.speed,
+        cruise_altitude=round(float(np.mean(result.waypoints[:, 2])), 1),
+        turn_radius=r.performance.turn_radius,
+        danger_zones=prepared.zones,
+        plan=provenance,
+    )
+
+
+def write_outputs(
+    mission: Mission,
+    result: PlanResult,
+    prepared: Prepared,
+    out: Path,
+    *,
+    alt_frame: str = "amsl",
+    force_export: bool = False,
+) -> tuple[dict[str, Path], tuple[Path, ...]]:
+    """Write the mission YAML and picture; the GeoJSON and ground-station files only for a
+    feasible plan or with ``force_export`` (stale ones of an earlier run are removed). Returns
+    (files written by kind, files removed)."""
+    from planner.export import to_geojson, to_qgc_plan, to_wpl, write_json, write_text
+    from planner.plot import save_plan_picture
+
+    grid = prepared.grid
+    written: dict[str, Path] = {"mission": save_mission(mission, out, grid)}
+    stem = out.with_suffix("")
+    removed: list[Path] = []
+    export = result.feasible or force_export
+    if grid.is_georeferenced and export:
+        written["geojson"] = write_json(to_geojson(mission, grid), stem.with_suffix(".geojson"))
+        written["qgc_plan"] = write_json(
+            to_qgc_plan(mission, grid, alt_frame), stem.with_suffix(".plan")
+        )
+        written["wpl"] = write_text(
+            to_wpl(mission, grid, alt_frame), stem.with_suffix(".waypoints")
+        )
+    elif not export:
+        for suffix in (".geojson", *GROUND_STATION_SUFFIXES):
+            stale = stem.with_suffix(suffix)
+            if stale.is_file():
+                stale.unlink()
+                removed.append(stale)
+    t = result.terms
+    written["picture"] = save_plan_picture(
+        grid,
+        result.waypoints,
+        stem.with_suffix(".png"),
+        prepared.zones,
+        title=f"{mission.name}: {result.algorithm}, seed {result.seed} — "
+        f"{result.status.upper() if not result.feasible else result.status}, "
+        f"cost {t['total']:.4f}",
+        clearance=prepared.problem.clearance,
+        feasible=result.feasible,
+        flown=result.path,
+    )
+    return written, tuple(removed)
