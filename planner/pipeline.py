@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -178,8 +178,9 @@ def build_problem(request: PlanRequest) -> Prepared:
 
     r = request
     grid = load_dem(list(r.dem), **r.dem_options)
-    s = _place(grid, r.start, "start", r.map_coords, r.cruise_agl, grid)
-    g = _place(grid, r.goal, "goal", r.map_coords, r.cruise_agl, grid)
+    safety = grid.safety()
+    s = _place(grid, r.start, "start", r.map_coords, r.cruise_agl, safety)
+    g = _place(grid, r.goal, "goal", r.map_coords, r.cruise_agl, safety)
     if isinstance(r.zones, str):
         zlist = load_zones(r.zones, grid)
     else:
@@ -209,6 +210,7 @@ def build_problem(request: PlanRequest) -> Prepared:
         r.clearance,
         r.avoid_zones,
         performance=r.performance,
+        allow_unknown=r.allow_unknown,
     )
     _check_reach(problem, r.performance)
     return Prepared(grid, tuple(zlist), problem, tuple(warnings))
@@ -242,6 +244,17 @@ def plan_mission(
         callback=callback,
     )
     mission = to_mission(request, prepared, result, out)
+    share = result.terms.get("over_unknown_share", 0.0)
+    if share > 0:
+        prepared = replace(
+            prepared,
+            warnings=(
+                *prepared.warnings,
+                f"{100 * share:.1f} % of the path ({share * result.terms['path_length_m'] / 1000:.2f}"
+                " km) lies over terrain the DEM did not measure (--allow-unknown-terrain): its "
+                "heights there are interpolated, not measured",
+            ),
+        )
     written: dict[str, Path] = {}
     removed: tuple[Path, ...] = ()
     warnings = list(prepared.warnings)

@@ -29,6 +29,21 @@ def min_clearance(problem: PlanningProblem, path: np.ndarray) -> float:
     return float(sample_path(problem.safety_grid, problem.flown(path)).clearance.min())
 
 
+def over_unknown_share(problem: PlanningProblem, path: np.ndarray) -> float:
+    """Share of the flown path (by horizontal distance, sampled every half cell) over cells the
+    DEM did not measure; 0 on a fully measured grid."""
+    grid = problem.grid
+    if grid.known is None or not grid.has_unknown:
+        return 0.0
+    s = sample_path(grid, problem.flown(path))
+    over = ~grid.known[grid.cell_of(s.points[:, 0], s.points[:, 1])]
+    step = np.diff(s.distance)
+    total = float(step.sum())
+    if total <= 0:
+        return float(over.any())
+    return float((step * (over[:-1] | over[1:])).sum() / total)
+
+
 def attempt_seed(seed: int, attempt: int) -> int:
     """The seed of restart ``attempt`` (0 is ``seed`` itself): derived, so a run is reproducible."""
     if attempt == 0:
@@ -135,6 +150,7 @@ def _plan_once(
     path = problem.paths(res.x)
     row = terms.row(0)
     row["min_clearance_m"] = min_clearance(problem, path)
+    row["over_unknown_share"] = over_unknown_share(problem, path)
     return PlanResult(
         status="feasible" if feasible else "infeasible",
         waypoints=path,

@@ -63,16 +63,17 @@ def save_plan_picture(
         label="flown path",
         path_effects=[Stroke(linewidth=3.2, foreground="black"), Normal()],
     )
-    ax.plot(
-        path[1:-1, 0],
-        path[1:-1, 1],
-        "o",
-        color=colour,
-        mec="black",
-        ms=5,
-        zorder=4,
-        label="waypoints",
-    )
+    if len(path) > 2:
+        ax.plot(
+            path[1:-1, 0],
+            path[1:-1, 1],
+            "o",
+            color=colour,
+            mec="black",
+            ms=5,
+            zorder=4,
+            label="waypoints",
+        )
     ax.plot(
         *path[0, :2],
         marker="^",

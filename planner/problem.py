@@ -20,14 +20,18 @@ Defaults and choices:
 - with a ``performance`` (the aircraft's, :class:`planner.performance.Performance`) every term is
   evaluated on the path the aircraft flies — legs joined by turn fillets (:mod:`planner.flown`) —
   and a feasible path also keeps the climb and descent gradients and fits every fillet inside its
-  legs. Without one (the pure seed 002 problem) the polyline is the path.
+  legs. Without one (the pure seed 002 problem) the polyline is the path;
+- terrain the DEM did not measure (``grid.known`` False: filled nodata, cells outside the source
+  raster, and the cells next to them) is out of bounds like the map's edge, unless
+  ``allow_unknown``; every clearance check uses the grid's conservative safety heights
+  (``grid.safety()``: the highest source value in each cell).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -63,7 +67,20 @@ def dilated(grid: HeightGrid) -> HeightGrid:
     from scipy.ndimage import maximum_filter
 
     h = maximum_filter(np.asarray(grid.heights), size=3, mode="nearest")
-    return HeightGrid(h, grid.transform, grid.crs, grid.sources, grid.nodata_filled)
+    return replace(grid, heights=h, upper=None)
+
+
+def unknown_mask_grid(grid: HeightGrid) -> HeightGrid | None:
+    """A grid on the same lattice whose cells are +1 where the terrain is unknown or next to an
+    unknown cell (the bilinear terrain there depends on a filled value), -1 elsewhere: the
+    Bresenham walk of :func:`planner.cost.path_costs` measures the length over it. None when
+    every cell is measured."""
+    if grid.known is None or not grid.has_unknown:
+        return None
+    from scipy.ndimage import binary_dilation
+
+    near = binary_dilation(~np.asarray(grid.known), structure=np.ones((3, 3), dtype=bool))
+    return HeightGrid(np.where(near, 1.0, -1.0), grid.transform, grid.crs)
 
 
 def terrain_top(grid: HeightGrid, x: float, y: float) -> float:
@@ -92,8 +109,10 @@ class PlanningProblem:
     conservative: bool = True
     performance: Performance | None = None
     chords: int = CHORDS
+    allow_unknown: bool = False
     _zones: ZoneArrays = field(init=False, repr=False)
     _check_grid: HeightGrid = field(init=False, repr=False)
+    _unknown: HeightGrid | None = field(init=False, repr=False)
     safety_grid: HeightGrid = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -152,8 +171,18 @@ class PlanningProblem:
         set_(self, "zmax", zmax)
         set_(self, "zones", tuple(self.zones))
         set_(self, "_zones", zones_arrays(self.zones))
-        set_(self, "safety_grid", g)
-        set_(self, "_check_grid", dilated(g) if self.conservative else g)
+        safety = g.safety()
+        set_(self, "safety_grid", safety)
+        set_(self, "_check_grid", dilated(safety) if self.conservative else safety)
+        set_(self, "_unknown", None if self.allow_unknown else unknown_mask_grid(g))
+        if self._unknown is not None:
+            for name, p in (("start", self.start), ("goal", self.goal)):
+                if float(self._unknown.heights[self._unknown.cell_of(p[0], p[1])]) > 0:
+                    raise InputError(
+                        f"the {name} ({p[0]:.1f}, {p[1]:.1f}) lies over terrain the DEM did not "
+                        "measure (filled nodata or outside the source raster, or next to it); "
+                        "--allow-unknown-terrain accepts that"
+                    )
         for name, p in (("start", self.start), ("goal", self.goal)):
             top = float(self._check_grid.heights[self._check_grid.cell_of(p[0], p[1])])
             if p[2] < top + self.clearance:
@@ -280,10 +309,16 @@ class PlanningProblem:
             hard_zones=self.avoid_zones,
             climb_excess=ce,
             turn_excess=te,
+            unknown=self._unknown,
         )
 
     def __call__(self, x: npt.ArrayLike) -> FloatArray:
         return self.terms(x).total
+
+    @property
+    def unknown_grid(self) -> HeightGrid | None:
+        """The unknown-terrain mask the cost walks (None: all measured, or allowed)."""
+        return self._unknown
 
     def flown(self, paths: npt.ArrayLike) -> FloatArray:
         """The path(s) the aircraft flies through waypoint path(s) (W, 3) or (P, W, 3): the

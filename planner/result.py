@@ -11,7 +11,7 @@ import numpy.typing as npt
 from planner.flown import TOLERANCE, fillets
 from planner.performance import Performance
 from planner.problem import PlanningProblem
-from planner.profile import sample_path
+from planner.profile import PathSamples, sample_path
 from terrain.cylinders import segment_cylinder_lengths, zones_arrays
 
 FloatArray = npt.NDArray[np.float64]
@@ -161,10 +161,46 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
                     f"{label} enters danger zone {name} for {amount:.0f} m",
                 )
             )
+    out.extend(_unknown_violations(problem, samples, labels, legs))
     if perf is not None:
         out.extend(_climb_violations(perf, flown, labels, legs))
         out.extend(_turn_violations(perf, path))
     return tuple(out)
+
+
+def _unknown_violations(
+    problem: PlanningProblem, samples: PathSamples, labels: list[str], legs: list[int]
+) -> list[Violation]:
+    """One violation per leg or turn that crosses terrain the DEM did not measure (or a cell next
+    to it), unless the problem allows unknown terrain."""
+    mask = problem.unknown_grid
+    if mask is None:
+        return []
+    pts = samples.points
+    over = mask.heights[mask.cell_of(pts[:, 0], pts[:, 1])] > 0
+    out: list[Violation] = []
+    done: set[str] = set()
+    for k in np.flatnonzero(over):
+        i = int(samples.segment[k])
+        if labels[i] in done:
+            continue
+        done.add(labels[i])
+        on = samples.segment == i
+        dist = samples.distance[on]
+        part = float(over[on].mean() * (dist[-1] - dist[0]))
+        out.append(
+            Violation(
+                "unknown_terrain",
+                legs[i],
+                float(pts[k, 0]),
+                float(pts[k, 1]),
+                float(pts[k, 2]),
+                part,
+                f"{labels[i]} crosses about {part:.0f} m of terrain the DEM did not measure "
+                f"from x={pts[k, 0]:.0f}, y={pts[k, 1]:.0f} (--allow-unknown-terrain accepts it)",
+            )
+        )
+    return out
 
 
 def _climb_violations(

@@ -57,13 +57,13 @@ def test_plan_writes_a_feasible_mission_and_all_exports(
     m = load_mission(out)
     grid = load_dem(RMNP)
     # starts and ends where asked (lon/lat -> map), at the default 150 m above the highest
-    # terrain around the point (the terrain the planner checks)
+    # terrain around the point (the safety grid the planner checks)
     sx, sy = grid.from_lonlat(-105.85, 40.20)
     gx, gy = grid.from_lonlat(-105.55, 40.50)
     np.testing.assert_allclose(m.waypoints[0, :2], [sx, sy], atol=1e-3)
     np.testing.assert_allclose(m.waypoints[-1, :2], [gx, gy], atol=1e-3)
-    assert m.waypoints[0, 2] == pytest.approx(terrain_top(grid, sx, sy) + 150.0, abs=1e-3)
-    assert m.waypoints[-1, 2] == pytest.approx(terrain_top(grid, gx, gy) + 150.0, abs=1e-3)
+    assert m.waypoints[0, 2] == pytest.approx(terrain_top(grid.safety(), sx, sy) + 150.0, abs=1e-3)
+    assert m.waypoints[-1, 2] == pytest.approx(terrain_top(grid.safety(), gx, gy) + 150.0, abs=1e-3)
     assert len(m.waypoints) == 8  # start, 6 free waypoints, goal
     # flyable by the aerosonde at its cruise speed: gradients and turn fillets within its limits
     perf = load_vehicle("aerosonde").performance()
@@ -96,7 +96,7 @@ def test_infeasible_plan_is_written_marked_and_exits_3(
 ) -> None:
     # the Continental Divide (> 3600 m) lies between start and goal: a 3000 m ceiling cannot cross it
     out = tmp_path / "low.yaml"
-    args = [*BASE, "--zmax", "3000", "--start=-105.85,40.20,2900", "--goal=-105.55,40.50,3200"]
+    args = [*BASE, "--zmax", "3000", "--start=-105.85,40.20,2900", "--goal=-105.55,40.50,3300"]
     # a stale ground-station file of an earlier run under the same name is removed
     out.with_suffix(".plan").write_text("{}")
     rc = main([*args, "-o", str(out)])

@@ -452,6 +452,6 @@ def test_plan_picture_legend_hides_nothing_and_names_unknown_terrain(
         assert box.y1 <= frame.y0  # entirely below the panel: nothing on it is hidden
         assert box.y1 <= ax.xaxis.get_tightbbox(renderer).y0 + 1  # and below its tick labels
     names = [t.get_text() for t in map_ax.get_legend().get_texts()]
-    assert names == [UNKNOWN_LABEL, "path", "start", "goal"]
+    assert names == [UNKNOWN_LABEL, "flown path", "start", "goal"]
     profile_names = [t.get_text() for t in profile_ax.get_legend().get_texts()]
     assert "highest source cell (safety)" in profile_names

