@@ -2,20 +2,33 @@
 
 Altitude frames are explicit and never mixed within one file:
 
-- ``amsl``: every item in MAV_FRAME_GLOBAL (0), altitudes metres above mean sea level
+- ``amsl``: every mission item in MAV_FRAME_GLOBAL (0), altitudes metres above mean sea level
   (QGroundControl ``AltitudeMode`` 2, "absolute");
-- ``relative``: every item in MAV_FRAME_GLOBAL_RELATIVE_ALT (3), altitudes relative to the home
-  position (the first waypoint), QGroundControl ``AltitudeMode`` 1.
+- ``relative``: every mission item in MAV_FRAME_GLOBAL_RELATIVE_ALT (3), altitudes relative to
+  the home position, QGroundControl ``AltitudeMode`` 1.  PX4 and ArduPilot take home where the
+  aircraft arms, on the ground, so home here is the launch point: the ground under the mission's
+  start (``grid.height_at`` under waypoint 0), not the airborne start itself.
 
-The first waypoint is home (``plannedHomePosition`` / WPL item 0, always AMSL as both formats
-require); the aircraft is fixed-wing, so the first mission item is a ``NAV_TAKEOFF`` (22) to the
-second waypoint's altitude, then ``NAV_WAYPOINT`` (16) items. Danger zones become exclusion
-geofence circles in the ``.plan``. These exports need a georeferenced map (lon/lat).
+Home is written as the ``.plan``'s ``plannedHomePosition`` and as WPL item 0, always AMSL as both
+formats require.  The mission items are the waypoints, one each, at their planned AMSL altitudes
+(expressed in the chosen frame): waypoint 0, the airborne start above the launch point, is a
+``NAV_TAKEOFF`` (22) item, the aircraft being fixed-wing, and the others are ``NAV_WAYPOINT`` (16)
+items.  So the aircraft climbs from the launch point to the start's altitude in its take-off
+mode (that climb is the autopilot's, not part of the planned path) and then flies to waypoint 1;
+an item's altitude plus home's is always the planned AMSL altitude.
+
+Danger zones become exclusion geofences in the ``.plan``: cylinders as ``circles``, polygon zones as
+``polygons`` (QGroundControl's ``{"inclusion": false, "polygon": [[lat, lon], ...], "version": 1}``,
+one per part; the geofence has no holes, so a hole is left out of the exclusion, the safe side).
+Geofences are 2D: a zone's floor and top are not part of them.  The GeoJSON carries the path, the
+waypoints and every danger zone as a polygon (see :func:`terrain.zones.zone_feature`).  These
+exports need a georeferenced map (lon/lat).
 """
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any, Literal
 
@@ -25,6 +38,7 @@ from planner.mission import Mission
 from terrain.atomic import atomic_output
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
+from terrain.zones import DangerZone, zone_feature
 
 AltFrame = Literal["amsl", "relative"]
 MAV_FRAME_GLOBAL = 0
@@ -52,8 +66,23 @@ def _frame(frame: str) -> AltFrame:
     return frame  # type: ignore[return-value]
 
 
+def _ground_under_start(mission: Mission, grid: HeightGrid) -> float:
+    """The terrain height (m AMSL) under waypoint 0: the launch point, home for the autopilot."""
+    w = mission.waypoints
+    ground = float(np.asarray(grid.height_at(w[0, 0], w[0, 1])).reshape(-1)[0])
+    if not math.isfinite(ground):
+        raise InputError(
+            f"no terrain height under the start ({w[0, 0]:.1f}, {w[0, 1]:.1f}); "
+            "home is placed on the ground there"
+        )
+    return ground
+
+
 def to_geojson(mission: Mission, grid: HeightGrid) -> dict[str, Any]:
-    """A FeatureCollection: the path as a LineString [lon, lat, alt AMSL], waypoints as Points."""
+    """A FeatureCollection: the path as a LineString [lon, lat, alt AMSL], waypoints as Points,
+    then each danger zone as a Polygon (cylinders as their circumscribed 72-gon) with properties
+    ``id``, ``kind``, ``floor``, ``top`` (metres AMSL, null when unset) and ``diameter`` for
+    cylinders; lon/lat rings closed, exteriors counter-clockwise (RFC 7946)."""
     lon, lat, alt = _geo(mission, grid)
     ground = grid.height_at(mission.waypoints[:, 0], mission.waypoints[:, 1])
     coords = [
@@ -75,6 +104,8 @@ def to_geojson(mission: Mission, grid: HeightGrid) -> dict[str, Any]:
                 "properties": {"index": i, "alt_amsl": c[2], "alt_agl": round(float(c[2] - g), 2)},
             }
         )
+    for zone in mission.danger_zones:
+        features.append(zone_feature(zone, grid, circles="polygons", digits=8))
     return {"type": "FeatureCollection", "features": features}
 
 
@@ -83,39 +114,20 @@ def _provenance(mission: Mission) -> dict[str, Any]:
     return {k: plan[k] for k in ("algorithm", "seed", "feasible") if k in plan}
 
 
-def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict[str, Any]:
-    """A QGroundControl plan (fileType "Plan", version 1, mission version 2)."""
-    frame_ = _frame(frame)
-    lon, lat, alt = _geo(mission, grid)
-    home_alt = float(alt[0])
-    mav_frame = MAV_FRAME_GLOBAL if frame_ == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
-    items = []
-    for i in range(1, len(alt)):
-        a = float(alt[i]) if frame_ == "amsl" else float(alt[i]) - home_alt
-        a = round(a, 2)
-        cmd = MAV_CMD_NAV_TAKEOFF if i == 1 else MAV_CMD_NAV_WAYPOINT
-        p1 = 15.0 if cmd == MAV_CMD_NAV_TAKEOFF else 0.0  # takeoff: minimum pitch (deg)
-        items.append(
-            {
-                "AMSLAltAboveTerrain": None,
-                "Altitude": a,
-                "AltitudeMode": QGC_ALT_MODE[frame_],
-                "autoContinue": True,
-                "command": cmd,
-                "doJumpId": i,
-                "frame": mav_frame,
-                "params": [p1, 0, 0, None, round(float(lat[i]), 8), round(float(lon[i]), 8), a],
-                "type": "SimpleItem",
-            }
-        )
-    circles = []
-    if mission.danger_zones:
-        zx = [z.x for z in mission.danger_zones]
-        zy = [z.y for z in mission.danger_zones]
-        zlon, zlat = grid.to_lonlat(zx, zy)
-        for z, lo, la in zip(
-            mission.danger_zones, np.atleast_1d(zlon), np.atleast_1d(zlat), strict=True
-        ):
+def _item_altitudes(alt: np.ndarray, home: float, frame: AltFrame) -> list[float]:
+    """Every waypoint's altitude in ``frame`` (2 decimals), relative to the rounded ``home``."""
+    base = 0.0 if frame == "amsl" else home
+    return [round(float(a) - base, 2) for a in alt]
+
+
+def _geofence(mission: Mission, grid: HeightGrid) -> dict[str, Any]:
+    """QGroundControl's geoFence: cylinders as exclusion circles, polygon parts as exclusion
+    polygons (exterior rings, [lat, lon] vertices, not closed)."""
+    circles: list[dict[str, Any]] = []
+    polygons: list[dict[str, Any]] = []
+    for z in mission.danger_zones:
+        if isinstance(z, DangerZone):
+            lo, la = grid.to_lonlat(z.x, z.y)
             circles.append(
                 {
                     "circle": {
@@ -126,11 +138,46 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict
                     "version": 1,
                 }
             )
+            continue
+        for ring in z.outline():
+            rlon, rlat = grid.to_lonlat(ring[:, 0], ring[:, 1])
+            polygon = [
+                [round(float(b), 8), round(float(a), 8)]
+                for a, b in zip(np.atleast_1d(rlon), np.atleast_1d(rlat), strict=True)
+            ]
+            polygons.append({"inclusion": False, "polygon": polygon, "version": 1})
+    return {"circles": circles, "polygons": polygons, "version": 2}
+
+
+def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict[str, Any]:
+    """A QGroundControl plan (fileType "Plan", version 1, mission version 2): home on the ground
+    under the start, then one item per waypoint (take-off to waypoint 0, then waypoints)."""
+    frame_ = _frame(frame)
+    lon, lat, alt = _geo(mission, grid)
+    home_alt = round(_ground_under_start(mission, grid), 2)
+    mav_frame = MAV_FRAME_GLOBAL if frame_ == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
+    items = []
+    for i, a in enumerate(_item_altitudes(alt, home_alt, frame_)):
+        cmd = MAV_CMD_NAV_TAKEOFF if i == 0 else MAV_CMD_NAV_WAYPOINT
+        p1 = 15.0 if cmd == MAV_CMD_NAV_TAKEOFF else 0.0  # takeoff: minimum pitch (deg)
+        items.append(
+            {
+                "AMSLAltAboveTerrain": None,
+                "Altitude": a,
+                "AltitudeMode": QGC_ALT_MODE[frame_],
+                "autoContinue": True,
+                "command": cmd,
+                "doJumpId": i + 1,
+                "frame": mav_frame,
+                "params": [p1, 0, 0, None, round(float(lat[i]), 8), round(float(lon[i]), 8), a],
+                "type": "SimpleItem",
+            }
+        )
     return {
         "fileType": "Plan",
         "version": 1,
         "groundStation": "terrapath",
-        "geoFence": {"circles": circles, "polygons": [], "version": 2},
+        "geoFence": _geofence(mission, grid),
         "rallyPoints": {"points": [], "version": 2},
         "mission": {
             "version": 2,
@@ -139,20 +186,18 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict
             "cruiseSpeed": mission.cruise_speed,
             "hoverSpeed": 5,
             "globalPlanAltitudeMode": QGC_ALT_MODE[frame_],
-            "plannedHomePosition": [
-                round(float(lat[0]), 8),
-                round(float(lon[0]), 8),
-                round(home_alt, 2),
-            ],
+            "plannedHomePosition": [round(float(lat[0]), 8), round(float(lon[0]), 8), home_alt],
             "items": items,
         },
     }
 
 
 def to_wpl(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> str:
-    """``QGC WPL 110`` text: item 0 is home (AMSL), then takeoff and waypoints in ``frame``."""
+    """``QGC WPL 110`` text: item 0 is home on the ground under the start (AMSL), then one item
+    per waypoint in ``frame`` (take-off to waypoint 0, then waypoints)."""
     frame_ = _frame(frame)
     lon, lat, alt = _geo(mission, grid)
+    home_alt = round(_ground_under_start(mission, grid), 2)
     mav_frame = MAV_FRAME_GLOBAL if frame_ == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
     lines = ["QGC WPL 110"]
     row = "{i}\t{cur}\t{fr}\t{cmd}\t{p1}\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t{alt:.2f}\t1"
@@ -165,19 +210,18 @@ def to_wpl(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> str:
             p1=0,
             lat=lat[0],
             lon=lon[0],
-            alt=alt[0],
+            alt=home_alt,
         )
     )
-    for i in range(1, len(alt)):
-        a = alt[i] if frame_ == "amsl" else alt[i] - alt[0]
-        cmd = MAV_CMD_NAV_TAKEOFF if i == 1 else MAV_CMD_NAV_WAYPOINT
+    for i, a in enumerate(_item_altitudes(alt, home_alt, frame_)):
+        cmd = MAV_CMD_NAV_TAKEOFF if i == 0 else MAV_CMD_NAV_WAYPOINT
         lines.append(
             row.format(
-                i=i,
+                i=i + 1,
                 cur=0,
                 fr=mav_frame,
                 cmd=cmd,
-                p1=15 if i == 1 else 0,
+                p1=15 if i == 0 else 0,
                 lat=lat[i],
                 lon=lon[i],
                 alt=a,

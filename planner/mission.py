@@ -10,7 +10,7 @@ cruise: {speed: 15.0, altitude: 200.0, turn_radius: 143.0}   # altitude used for
                              # [x, y]; turn_radius: corners are flown as fillets of this radius
                              # (absent: the autopilot turns 1 km before each waypoint, seed 000)
 waypoints: [[x, y, z], ...]  # map metres, z metres AMSL
-danger_zones: [{x, y, diameter, top?, id?}, ...]
+danger_zones: [{x, y, diameter, floor?, top?, id?} or {vertices: [[x, y], ...], floor?, top?, id?}, ...]
 plan: {...}                  # provenance written by `terrapath plan`
 waypoints_geo: [{lon, lat, alt_amsl, alt_agl}, ...]   # written for people and other tools; ignored on read
 ```
@@ -41,7 +41,7 @@ from terrain.docfile import (
 )
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid, crs_label
-from terrain.zones import DangerZone, zones_from_records, zones_to_records
+from terrain.zones import Zone, zones_from_records, zones_to_records
 
 MISSION_KEYS = (
     "terrapath",
@@ -150,7 +150,7 @@ class Mission:
     cruise_speed: float = DEFAULT_CRUISE["speed"]
     cruise_altitude: float = DEFAULT_CRUISE["altitude"]
     turn_radius: float | None = None
-    danger_zones: tuple[DangerZone, ...] = ()
+    danger_zones: tuple[Zone, ...] = ()
     plan: dict[str, Any] = field(default_factory=dict)
     source: str | None = None
 

@@ -22,14 +22,14 @@ from terrain.plot import (
     new_figure,
     save_figure,
 )
-from terrain.zones import DangerZone
+from terrain.zones import Zone
 
 
 def save_plan_picture(
     grid: HeightGrid,
     path: npt.NDArray[np.float64],
     out: str | Path,
-    zones: tuple[DangerZone, ...] = (),
+    zones: tuple[Zone, ...] = (),
     title: str = "",
     clearance: float = 0.0,
     feasible: bool = True,

@@ -137,3 +137,162 @@ def below_lengths(
                 d += 2 * dc
         out[i] = total
     return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def point_in_edges(
+    px: float, py: float, edges: np.ndarray, e0: int, e1: int
+) -> bool:  # pragma: no cover - jit
+    """Whether (px, py) lies in the closed region bounded by ``edges[e0:e1]`` (even-odd rule).
+
+    A point on an edge (zero cross product, inside the edge's box) is inside; otherwise a
+    horizontal ray to +x toggles the parity at every edge that straddles ``py`` (half-open in y,
+    so a vertex is counted once) with its crossing to the right of the point.
+    """
+    inside = False
+    for j in range(e0, e1):
+        x0 = edges[j, 0]
+        y0 = edges[j, 1]
+        x1 = edges[j, 2]
+        y1 = edges[j, 3]
+        cr = (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)
+        if (
+            cr == 0.0
+            and min(x0, x1) <= px
+            and px <= max(x0, x1)
+            and min(y0, y1) <= py
+            and py <= max(y0, y1)
+        ):
+            return True
+        if (y0 > py) != (y1 > py):
+            xint = x0 + (py - y0) * (x1 - x0) / (y1 - y0)
+            if px < xint:
+                inside = not inside
+    return inside
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def polygon_lengths(
+    a: np.ndarray,
+    b: np.ndarray,
+    edges: np.ndarray,
+    offsets: np.ndarray,
+    bboxes: np.ndarray,
+    floors: np.ndarray,
+    tops: np.ndarray,
+    eps: float,
+) -> np.ndarray:  # pragma: no cover - jit
+    """Length of each segment a[m] -> b[m] ((M, 3), oriented by the caller) inside each polygon
+    prism k, shape (M, K).  Prism k has the edges ``edges[offsets[k]:offsets[k + 1]]`` ((E, 4):
+    x0, y0, x1, y1 of every ring edge, all rings and parts together), the box ``bboxes[k]``
+    (xmin, ymin, xmax, ymax) and the altitudes ``floors[k] <= z <= tops[k]`` (-inf / +inf when open).
+
+    With t in [0, 1] along the segment's horizontal projection: the breakpoints are the t where it
+    crosses an edge (edge parameter u within [-eps, 1 + eps], so a crossing through a vertex is
+    never lost to rounding; a spare breakpoint only splits an interval) and the ends of edges it
+    runs along; between two breakpoints the projection is wholly inside or wholly outside, which
+    the midpoint decides (:func:`point_in_edges`).  Every inside interval, in metres along the
+    segment (s = t * L), is clipped to the vertical interval of s where floor <= z(s) <= top
+    (computed as in :mod:`terrain.cylinders`), and the widths are summed in increasing t.
+    Single-threaded: one call per swarm evaluation, too small for threads to pay.  Division
+    follows numpy (``error_model="numpy"``: x / 0 is inf or NaN, never an exception), as the twin's.
+    """
+    m = a.shape[0]
+    k_count = offsets.shape[0] - 1
+    out = np.zeros((m, k_count))
+    max_edges = 0
+    for k in range(k_count):
+        max_edges = max(max_edges, offsets[k + 1] - offsets[k])
+    ts = np.empty(2 * max_edges + 1)
+    for i in range(m):
+        ax = a[i, 0]
+        ay = a[i, 1]
+        az = a[i, 2]
+        dx = b[i, 0] - ax
+        dy = b[i, 1] - ay
+        dz = b[i, 2] - az
+        length = np.hypot(np.hypot(dx, dy), dz)
+        static = dx == 0.0 and dy == 0.0
+        if dz == 0.0:
+            factor = np.inf
+        else:
+            factor = min(max(length / dz, -1.7e308), 1.7e308)
+        sxmin = min(ax, b[i, 0])
+        sxmax = max(ax, b[i, 0])
+        symin = min(ay, b[i, 1])
+        symax = max(ay, b[i, 1])
+        for k in range(k_count):
+            if (
+                sxmax < bboxes[k, 0]
+                or sxmin > bboxes[k, 2]
+                or symax < bboxes[k, 1]
+                or symin > bboxes[k, 3]
+            ):
+                continue
+            # vertical interval [vlo, vhi] of s; NaN bounds (level in the plane) are ignored
+            vlo = 0.0
+            vhi = length
+            s_top = (tops[k] - az) * factor
+            s_floor = (floors[k] - az) * factor
+            if dz >= 0.0:
+                if s_top < vhi:
+                    vhi = s_top
+                if s_floor > vlo:
+                    vlo = s_floor
+            else:
+                if s_top > vlo:
+                    vlo = s_top
+                if s_floor < vhi:
+                    vhi = s_floor
+            if not vhi > vlo:
+                continue
+            e0 = offsets[k]
+            e1 = offsets[k + 1]
+            n = 0
+            if not static:
+                dd = dx * dx + dy * dy
+                for j in range(e0, e1):
+                    x0 = edges[j, 0]
+                    y0 = edges[j, 1]
+                    fx = edges[j, 2] - x0
+                    fy = edges[j, 3] - y0
+                    wx = x0 - ax
+                    wy = y0 - ay
+                    denom = dx * fy - dy * fx
+                    num_u = wx * dy - wy * dx
+                    if denom != 0.0:
+                        t = (wx * fy - wy * fx) / denom
+                        u = num_u / denom
+                        if u >= -eps and u <= 1.0 + eps and t > 0.0 and t < 1.0:
+                            ts[n] = t
+                            n += 1
+                    elif num_u == 0.0:  # along the edge's line: its ends are breakpoints
+                        t0 = (wx * dx + wy * dy) / dd
+                        t1 = ((edges[j, 2] - ax) * dx + (edges[j, 3] - ay) * dy) / dd
+                        if t0 > 0.0 and t0 < 1.0:
+                            ts[n] = t0
+                            n += 1
+                        if t1 > 0.0 and t1 < 1.0:
+                            ts[n] = t1
+                            n += 1
+                # insertion sort: n is small (a few crossings)
+                for p in range(1, n):
+                    v = ts[p]
+                    q = p - 1
+                    while q >= 0 and ts[q] > v:
+                        ts[q + 1] = ts[q]
+                        q -= 1
+                    ts[q + 1] = v
+            total = 0.0
+            prev = 0.0
+            for p in range(n + 1):
+                cur = ts[p] if p < n else 1.0
+                if cur > prev:
+                    tm = 0.5 * (prev + cur)
+                    if point_in_edges(ax + tm * dx, ay + tm * dy, edges, e0, e1):
+                        w = min(cur * length, vhi) - max(prev * length, vlo)
+                        if w > 0.0:
+                            total += w
+                prev = cur
+            out[i, k] = total
+    return out

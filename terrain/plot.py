@@ -96,14 +96,53 @@ def new_map_figure(
     return fig, ax
 
 
-def draw_zones(ax: Any, zones: Sequence[Any]) -> None:
-    """Draw danger-zone circles (objects with x, y, diameter) on a map axis."""
-    from matplotlib.patches import Circle
+def _zone_label(zone: Any) -> str:
+    """``id`` and the altitudes that bound the zone, e.g. ``sam 1200–4500 m``, ``top 800 m``."""
+    floor, top = getattr(zone, "floor", None), getattr(zone, "top", None)
+    if floor is not None and top is not None:
+        alt = f"{floor:.0f}–{top:.0f} m"
+    elif top is not None:
+        alt = f"top {top:.0f} m"
+    elif floor is not None:
+        alt = f"floor {floor:.0f} m"
+    else:
+        alt = ""
+    return " ".join(p for p in (getattr(zone, "id", None) or "", alt) if p)
 
-    for z in zones:
-        ax.add_patch(
-            Circle((z.x, z.y), z.diameter / 2.0, facecolor=(0.9, 0.1, 0.1, 0.25), edgecolor="red")
-        )
+
+def draw_zones(ax: Any, zones: Sequence[Any]) -> None:
+    """Draw danger zones on a map axis: cylinders as circles, polygon zones as their rings (holes
+    left open), each labelled with its id and its floor / top where set; the first zone carries
+    the one legend entry "danger zone"."""
+    from matplotlib.patches import Circle, PathPatch
+    from matplotlib.path import Path as MplPath
+
+    style = {"facecolor": (0.9, 0.1, 0.1, 0.25), "edgecolor": "red", "linewidth": 1.2}
+    for i, z in enumerate(zones):
+        label = "danger zone" if i == 0 else "_nolegend_"
+        if getattr(z, "kind", "cylinder") == "polygon":
+            verts, codes = [], []
+            for ring in z.rings:  # exteriors counter-clockwise, holes clockwise: holes stay open
+                verts.extend([*ring.tolist(), ring[0].tolist()])
+                codes.extend(
+                    [MplPath.MOVETO] + [MplPath.LINETO] * (len(ring) - 1) + [MplPath.CLOSEPOLY]
+                )
+            ax.add_patch(PathPatch(MplPath(verts, codes), label=label, **style))
+        else:
+            ax.add_patch(Circle((z.x, z.y), z.diameter / 2.0, label=label, **style))
+        text = _zone_label(z)
+        if text:
+            cx, cy = z.centroid if hasattr(z, "centroid") else (z.x, z.y)
+            ax.annotate(
+                text,
+                (cx, cy),
+                ha="center",
+                va="center",
+                fontsize=7,
+                color="darkred",
+                annotation_clip=True,
+                bbox={"boxstyle": "round,pad=0.15", "fc": (1, 1, 1, 0.6), "ec": "none"},
+            )
 
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 130) -> Path:

@@ -231,10 +231,10 @@ def test_terrapath_document_in_json_file(tmp_path):
             "expected a GeoJSON Feature, found 5",
         ),
         (
-            lambda d: d["features"][0]["geometry"].update(type="Polygon"),
+            lambda d: d["features"][0]["geometry"].update(type="LineString"),
             InputError,
             "features[0].geometry",
-            "expected a Point geometry, found 'Polygon' (text)",
+            "expected a Point, Polygon or MultiPolygon geometry, found 'LineString' (text)",
         ),
         (
             lambda d: d["features"][0]["geometry"].update(coordinates=[1]),
@@ -389,7 +389,8 @@ def test_unknown_top_level_key(tmp_path):
     ("entry", "field", "expected"),
     [
         ({"x": 1, "y": 2, "diameter": 3, "radius": 1, "colour": "red"}, "danger_zones[1]",
-         "unknown key(s) 'colour', 'radius'; allowed: x, y, lon, lat, diameter, top, id"),
+         "unknown key(s) 'colour', 'radius'; allowed: x, y, lon, lat, diameter, floor, top, id "
+         "(a polygon zone has vertices instead of a centre)"),
         ({"x": 1, "diameter": 3}, "danger_zones[1]",
          "missing 'y'; a zone centre needs x and y (map metres) or lon and lat (degrees)"),
         ({"diameter": 3}, "danger_zones[1]",
