@@ -6,11 +6,12 @@ For a polyline S, W_1 .. W_N, G (all points map metres, z AMSL):
     F_length      = 1 - L_SG / L_traj                 L_SG the straight 3D start-goal distance
     F_altitude    = (A_traj - Zmin) / (Zmax - Zmin)   A_traj the length-weighted mean altitude
     F_collision   = 0 if L_under == 0 else P + L_under / L_traj,  P = 3
-    F_dangerzones = (1/n) sum_i min(1, L_inside_i / d_i)
+    F_dangerzones = (1/n) sum_i min(1, L_inside_i / d_i)   (d_i: a cylinder's diameter, a polygon
+                                                          zone's equal-area diameter 2 sqrt(A/pi))
 
 ``L_under`` is the length below terrain (+ clearance) from the Bresenham walk of
-:mod:`terrain.segments`; ``L_inside_i`` the analytic length inside cylinder i from
-:mod:`terrain.cylinders`. With no danger zones F_dangerzones is 0. Because F_length and
+:mod:`terrain.segments`; ``L_inside_i`` the length inside zone i (a cylinder or a polygon prism, each
+with an optional floor and top) from :class:`terrain.zoneset.ZoneSet`. With no danger zones F_dangerzones is 0. Because F_length and
 F_altitude lie in [0, 1], F_dangerzones in [0, 1] and F_collision >= 3 whenever the path touches
 the ground, a path with F > 3.5 certainly hits the ground — seed 002's infeasibility threshold —
 and any colliding path costs more than any collision-free one of the same map when the
@@ -45,9 +46,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from terrain.cylinders import path_inside_lengths
 from terrain.grid import HeightGrid
 from terrain.segments import path_below_lengths
+from terrain.zoneset import ZoneSet
 
 FloatArray = npt.NDArray[np.float64]
 COLLISION_PENALTY = 3.0
@@ -100,9 +101,7 @@ def path_costs(
     *,
     zmin: float,
     zmax: float,
-    centers: FloatArray,
-    radii: FloatArray,
-    tops: FloatArray,
+    zones: ZoneSet | None = None,
     clearance: float = 0.0,
     penalty: float = COLLISION_PENALTY,
     hard_zones: bool = False,
@@ -132,10 +131,10 @@ def path_costs(
     below = path_below_lengths(grid, p, clearance)
     f_col = np.where(below > 0, penalty + below / safe_len, 0.0)
 
-    k = len(radii)
-    if k:
-        inside = path_inside_lengths(p, centers, radii, tops)
-        f_dz = np.minimum(1.0, inside / (2.0 * radii)[None, :]).sum(axis=1) / k
+    k = 0 if zones is None else len(zones)
+    if zones is not None and k:
+        inside = zones.path_lengths(p)
+        f_dz = np.minimum(1.0, inside / zones.sizes[None, :]).sum(axis=1) / k
         if hard_zones:
             # zones as hard constraints: entering any costs the collision penalty, like the ground
             f_dz = f_dz + np.where(inside.sum(axis=1) > 0, penalty, 0.0)

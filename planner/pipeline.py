@@ -35,7 +35,7 @@ from planner.problem import PlanningProblem, terrain_top
 from planner.result import PlanResult
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
-from terrain.zones import DangerZone
+from terrain.zones import DangerZone, Zone
 
 FloatArray = npt.NDArray[np.float64]
 DEFAULT_CRUISE_AGL = 150.0
@@ -82,7 +82,7 @@ class Prepared:
     """The loaded grid, the zones and the planning problem, with warnings for the user."""
 
     grid: HeightGrid
-    zones: tuple[DangerZone, ...]
+    zones: tuple[Zone, ...]
     problem: PlanningProblem
     warnings: tuple[str, ...]
 
@@ -188,13 +188,12 @@ def build_problem(request: PlanRequest) -> Prepared:
     warnings: list[str] = []
     for label, p in (("start", s), ("goal", g)):
         for z in zlist:
-            inside = (p[0] - z.x) ** 2 + (p[1] - z.y) ** 2 <= z.radius**2 and (
-                z.top is None or p[2] <= z.top
-            )
-            if inside:
+            if bool(np.asarray(z.contains(p[0], p[1], p[2])).any()):
+                cx, cy = z.centroid
+                what = f"diameter {z.diameter:g} m" if isinstance(z, DangerZone) else "a polygon"
                 msg = (
-                    f"the {label} lies inside danger zone {z.id or ''} (centre {z.x:.0f}, "
-                    f"{z.y:.0f}, diameter {z.diameter:g} m)"
+                    f"the {label} lies inside danger zone {z.id or ''} ({z.kind} centred at "
+                    f"{cx:.0f}, {cy:.0f}, {what})"
                 )
                 if r.strict:
                     raise InputError(msg + "; refused because of --strict")

@@ -39,10 +39,10 @@ import numpy.typing as npt
 from planner.cost import COLLISION_PENALTY, CostTerms, path_costs
 from planner.flown import CHORDS, climb_excess, flown_paths
 from planner.performance import Performance
-from terrain.cylinders import ZoneArrays, zones_arrays
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
-from terrain.zones import DangerZone
+from terrain.zones import Zone
+from terrain.zoneset import ZoneSet
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -100,7 +100,7 @@ class PlanningProblem:
     start: FloatArray
     goal: FloatArray
     n_waypoints: int = 5
-    zones: tuple[DangerZone, ...] = ()
+    zones: tuple[Zone, ...] = ()
     zmin: float | None = None
     zmax: float | None = None
     clearance: float = 0.0
@@ -110,7 +110,7 @@ class PlanningProblem:
     performance: Performance | None = None
     chords: int = CHORDS
     allow_unknown: bool = False
-    _zones: ZoneArrays = field(init=False, repr=False)
+    _zones: ZoneSet = field(init=False, repr=False)
     _check_grid: HeightGrid = field(init=False, repr=False)
     _unknown: HeightGrid | None = field(init=False, repr=False)
     safety_grid: HeightGrid = field(init=False, repr=False)
@@ -170,7 +170,7 @@ class PlanningProblem:
         set_(self, "zmin", zmin)
         set_(self, "zmax", zmax)
         set_(self, "zones", tuple(self.zones))
-        set_(self, "_zones", zones_arrays(self.zones))
+        set_(self, "_zones", ZoneSet.of(self.zones))
         safety = g.safety()
         set_(self, "safety_grid", safety)
         set_(self, "_check_grid", dilated(safety) if self.conservative else safety)
@@ -301,9 +301,7 @@ class PlanningProblem:
             paths,
             zmin=self.band[0],
             zmax=self.band[1],
-            centers=z.centers,
-            radii=z.radii,
-            tops=z.tops,
+            zones=z,
             clearance=self.clearance,
             penalty=self.penalty,
             hard_zones=self.avoid_zones,

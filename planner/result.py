@@ -12,7 +12,7 @@ from planner.flown import TOLERANCE, fillets
 from planner.performance import Performance
 from planner.problem import PlanningProblem
 from planner.profile import PathSamples, sample_path
-from terrain.cylinders import segment_cylinder_lengths, zones_arrays
+from terrain.zoneset import ZoneSet
 
 FloatArray = npt.NDArray[np.float64]
 Status = Literal["feasible", "infeasible"]
@@ -141,8 +141,7 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
                 )
             )
     if problem.avoid_zones and problem.zones:
-        z = zones_arrays(problem.zones)
-        inside = segment_cylinder_lengths(flown[:-1], flown[1:], z.centers, z.radii, z.tops)
+        inside = ZoneSet.of(problem.zones).segment_lengths(flown[:-1], flown[1:])
         per_label: dict[tuple[str, int], float] = {}
         for i, k in zip(*np.nonzero(inside > 0), strict=True):
             key = (labels[int(i)], int(k))
@@ -150,12 +149,13 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
         for (label, k), amount in per_label.items():
             zone = problem.zones[k]
             name = zone.id or f"#{k}"
+            cx, cy = zone.centroid
             out.append(
                 Violation(
                     "danger_zone",
                     legs[labels.index(label)],
-                    zone.x,
-                    zone.y,
+                    float(cx),
+                    float(cy),
                     float("nan") if zone.top is None else zone.top,
                     amount,
                     f"{label} enters danger zone {name} for {amount:.0f} m",

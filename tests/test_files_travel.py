@@ -206,7 +206,9 @@ def test_dem_override_with_several_tiles_flies_the_same_terrain(
     (moved_mission.parent / "rmnp.tif").unlink()  # the mission's own reference is broken
     monkeypatch.chdir(tmp_path)
     assert _replay(str(moved_mission), "--dem", "whole.tif", "-o", "whole.mcap") == CUT
-    assert _replay(str(moved_mission), "--dem", "n.tif", "--dem", "s.tif", "-o", "tiles.mcap") == CUT
+    assert (
+        _replay(str(moved_mission), "--dem", "n.tif", "--dem", "s.tif", "-o", "tiles.mcap") == CUT
+    )
     whole, tiles = load_run(tmp_path / "whole.mcap"), load_run(tmp_path / "tiles.mcap")
     assert json.loads(tiles.metadata["dem"]) == [
         str(tmp_path.resolve() / "n.tif"),

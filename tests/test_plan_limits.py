@@ -252,3 +252,50 @@ def test_allow_unknown_terrain_on_a_fully_measured_map_is_silent(
     )
     assert rc == 0
     assert "warning" not in capsys.readouterr().err
+
+
+# -- zones that are not circles ------------------------------------------------------------------------
+def test_plan_keeps_out_of_polygon_zones_and_exports_them(tmp_path: Path) -> None:
+    import json
+
+    from planner.mission import load_mission
+    from terrain.load import load_dem
+    from terrain.zones import PolygonZone, load_zones
+    from terrain.zoneset import ZoneSet
+
+    zones_file = str(Path(__file__).resolve().parents[1] / "data/zones/rmnp-polygons.geojson")
+    out = tmp_path / "m.yaml"
+    rc = main(
+        [
+            "plan",
+            RMNP,
+            "--start=-105.85,40.20",
+            "--goal=-105.55,40.50",
+            "--zones",
+            zones_file,
+            "--avoid-zones",
+            "--seed",
+            "2",
+            "-o",
+            str(out),
+        ]
+    )
+    assert rc == 0
+    grid = load_dem(RMNP)
+    zones = load_zones(zones_file, grid)
+    assert sum(isinstance(z, PolygonZone) for z in zones) == 2
+    m = load_mission(out)
+    assert m.danger_zones == zones  # the mission carries the polygons, floors and tops
+    perf = load_vehicle("aerosonde").performance()
+    flown, _ = flown_paths(m.waypoints, perf.turn_radius)
+    inside = ZoneSet.of(zones).segment_lengths(flown[:-1], flown[1:])
+    assert inside.sum() == 0.0  # the flown path stays out of every zone, whatever its kind
+    plan_doc = json.loads(out.with_suffix(".plan").read_text())
+    fence = plan_doc["geoFence"]
+    assert len(fence["circles"]) == 1 and len(fence["polygons"]) == 3  # range + twin-lakes x2
+    assert all(p["inclusion"] is False for p in fence["polygons"])
+    kinds = [
+        f["properties"].get("kind")
+        for f in json.loads(out.with_suffix(".geojson").read_text())["features"]
+    ]
+    assert kinds.count("polygon") == 2 and kinds.count("cylinder") == 1
