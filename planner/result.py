@@ -80,6 +80,13 @@ class PlanResult:
         return s
 
 
+def _at(kind: Any, leg: int, point: FloatArray, amount: float, detail: str) -> Violation:
+    """A violation of ``kind`` on waypoint-list segment ``leg`` at a map ``point`` (x, y, z)."""
+    return Violation(
+        kind, leg, float(point[0]), float(point[1]), float(point[2]), float(amount), detail
+    )
+
+
 def piece_labels(n_points: int, chords: int | None) -> list[str]:
     """What each piece of a flown path is, for messages: ``n_points`` waypoints (S, W_1..W_N, G);
     ``chords`` per turn fillet, or None when the flown path is the polyline itself."""
@@ -129,12 +136,10 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
             seg_len = float(np.linalg.norm(flown[i + 1] - flown[i]))
             below = float((depth > 0).mean() * seg_len)
             out.append(
-                Violation(
+                _at(
                     "terrain",
                     legs[i],
-                    float(pts[k, 0]),
-                    float(pts[k, 1]),
-                    float(pts[k, 2]),
+                    pts[k],
                     below,
                     f"{labels[i]} runs about {below:.0f} m below {what}, "
                     f"{depth[k]:.0f} m deep at x={pts[k, 0]:.0f}, y={pts[k, 1]:.0f}",
@@ -189,12 +194,10 @@ def _unknown_violations(
         dist = samples.distance[on]
         part = float(over[on].mean() * (dist[-1] - dist[0]))
         out.append(
-            Violation(
+            _at(
                 "unknown_terrain",
                 legs[i],
-                float(pts[k, 0]),
-                float(pts[k, 1]),
-                float(pts[k, 2]),
+                pts[k],
                 part,
                 f"{labels[i]} crosses about {part:.0f} m of terrain the DEM did not measure "
                 f"from x={pts[k, 0]:.0f}, y={pts[k, 1]:.0f} (--allow-unknown-terrain accepts it)",
@@ -230,12 +233,10 @@ def _climb_violations(
         mid = 0.5 * (flown[members[0]] + flown[members[-1] + 1])
         verb = "climbs" if climbing else "descends"
         out.append(
-            Violation(
+            _at(
                 "climb",
                 legs[int(i)],
-                float(mid[0]),
-                float(mid[1]),
-                float(mid[2]),
+                mid,
                 excess,
                 f"{label} {verb} {abs(rise):.0f} m in {run / 1000:.2f} km ({100 * grad:.1f} %); "
                 f"the {perf.name} at {perf.speed:g} m/s can {verb[:-1]} at most "
@@ -260,12 +261,10 @@ def _turn_violations(perf: Performance, path: FloatArray) -> list[Violation]:
         )
         mid = 0.5 * (a + b)
         out.append(
-            Violation(
+            _at(
                 "turn",
                 int(j),
-                float(mid[0]),
-                float(mid[1]),
-                float(mid[2]),
+                mid,
                 float(f.leg_excess[0, j]),
                 f"leg {j} (waypoint {j} -> {j + 1}) is {length:.0f} m long but its turns "
                 f"({turns}) need {d[j] + d[j + 1]:.0f} m of it: the {perf.name} turns with a "

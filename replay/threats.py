@@ -107,6 +107,7 @@ import numpy as np
 import numpy.typing as npt
 
 from terrain.docfile import check_header, read_document
+from terrain.docfile import finite_number as _finite
 from terrain.docfile import found as _found
 from terrain.errors import InputError, where
 from terrain.grid import HeightGrid
@@ -142,16 +143,6 @@ def _as_points(p: npt.ArrayLike, name: str = "p") -> FloatArray:
     if a.ndim < 1 or a.shape[-1] != 3:
         raise InputError(f"{name} must be a point (3,) or points (..., 3); got shape {a.shape}")
     return a
-
-
-def _finite(value: Any, what: str) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError, OverflowError):
-        out = math.nan
-    if isinstance(value, bool) or not math.isfinite(out):
-        raise InputError(f"{what} must be a finite number; got {value!r}")
-    return out
 
 
 def _positive(value: Any, what: str) -> float:

@@ -5,6 +5,7 @@ type reports problems the same way (file, line, field, what was expected, what w
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Iterable, Sequence
 from os import PathLike
 from pathlib import Path
@@ -15,6 +16,17 @@ import yaml
 from terrain.errors import DataFileError, InputError, where
 
 FORMAT_VERSION = 1
+
+
+def finite_number(value: Any, what: str) -> float:
+    """``value`` as a finite float (bools, text, NaN and infinities refused: ``what`` names it)."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError, OverflowError):
+        out = math.nan
+    if isinstance(value, bool) or not math.isfinite(out):
+        raise InputError(f"{what} must be a finite number; got {value!r}")
+    return out
 
 
 def found(value: Any) -> str:

@@ -62,6 +62,7 @@ from terrain.docfile import (
     check_header,
     read_document,
 )
+from terrain.docfile import finite_number as _finite
 from terrain.docfile import found as _found
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid
@@ -88,16 +89,6 @@ BoolArray = npt.NDArray[np.bool_]
 Vertex = tuple[float, float]
 Ring = tuple[Vertex, ...]
 Part = tuple[Ring, ...]  # exterior ring, then holes
-
-
-def _finite(value: Any, what: str) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError, OverflowError):
-        out = math.nan
-    if isinstance(value, bool) or not math.isfinite(out):
-        raise InputError(f"{what} must be a finite number; got {value!r}")
-    return out
 
 
 def _altitudes(zone: Any, what: str) -> None:

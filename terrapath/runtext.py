@@ -147,3 +147,13 @@ def threat_lines(m: Mapping[str, Any]) -> list[str]:
     lines = [f"{head[0]:<{w[0]}}  {head[1]:>{w[1]}}  {head[2]:>{w[2]}}  {head[3]}"]
     lines += [f"{a:<{w[0]}}  {b:>{w[1]}}  {c:>{w[2]}}  {d}" for a, b, c, d in rows]
     return [*lines, SEPARATION_NOTE]
+
+
+def report_lines(rows: list[tuple[str, str]], m: Mapping[str, Any]) -> list[str]:
+    """The aligned ``rows`` and, after a blank line, the threat table of metrics ``m`` (if any):
+    what ``replay`` and ``inspect`` print."""
+    out = table(rows)
+    threats = threat_lines(m)
+    if threats:
+        out += ["", *threats]
+    return out

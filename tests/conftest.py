@@ -38,6 +38,24 @@ def make_grid(
     return HeightGrid(np.asarray(heights, dtype=np.float32), Affine(cell, 0, x0, 0, -cell, y0), crs)
 
 
+X0, Y0 = 376313.655, 3807917.83  # Big Tujunga area, UTM 11N: the corner of ``utm_grid``
+
+
+@pytest.fixture
+def local_grid() -> HeightGrid:
+    """100 x 200 cells of 10 m, no CRS: x in [0, 2000], y in [0, 1000], flat at 0 m."""
+    return HeightGrid(np.zeros((100, 200), np.float32), Affine(10, 0, 0, 0, -10, 1000), crs=None)
+
+
+@pytest.fixture
+def utm_grid() -> HeightGrid:
+    """300 x 300 cells of 30 m from (X0, Y0) in UTM 11N (9 km x 9 km), flat at 800 m."""
+    from rasterio.crs import CRS
+
+    heights = np.full((300, 300), 800.0, np.float32)
+    return HeightGrid(heights, Affine(30, 0, X0, 0, -30, Y0), crs=CRS.from_epsg(32611))
+
+
 @pytest.fixture
 def shared_maps() -> Path:
     if not SHARED_MAPS.is_dir():

@@ -9,11 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from affine import Affine
-from rasterio.crs import CRS
 
 from terrain.errors import DataFileError, InputError, TerrapathError
-from terrain.grid import HeightGrid
 from terrain.zones import (
     DangerZone,
     load_zones,
@@ -21,21 +18,7 @@ from terrain.zones import (
     zones_to_geojson,
     zones_to_records,
 )
-
-X0, Y0 = 376313.655, 3807917.83  # Big Tujunga area, UTM 11N
-
-
-@pytest.fixture
-def local_grid() -> HeightGrid:
-    # 100 x 200 cells of 10 m: x in [0, 2000], y in [0, 1000]
-    return HeightGrid(np.zeros((100, 200), np.float32), Affine(10, 0, 0, 0, -10, 1000), crs=None)
-
-
-@pytest.fixture
-def utm_grid() -> HeightGrid:
-    # 300 x 300 cells of 30 m from the UTM corner: 9 km x 9 km
-    heights = np.full((300, 300), 800.0, np.float32)
-    return HeightGrid(heights, Affine(30, 0, X0, 0, -30, Y0), crs=CRS.from_epsg(32611))
+from tests.conftest import X0, Y0  # the Big Tujunga corner of the utm_grid fixture
 
 
 def write(tmp_path: Path, name: str, text: str) -> Path:

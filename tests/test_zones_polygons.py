@@ -5,17 +5,12 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
-from affine import Affine
-from rasterio.crs import CRS
 
 from terrain.cylinders import zones_arrays
 from terrain.errors import InputError
-from terrain.grid import HeightGrid
 from terrain.zones import (
     DangerZone,
     PolygonZone,
@@ -24,39 +19,10 @@ from terrain.zones import (
     zones_to_geojson,
     zones_to_records,
 )
+from tests.conftest import X0, Y0
+from tests.test_zones import error_of, write, write_yaml  # the cylinder zones' test helpers
 
-X0, Y0 = 376313.655, 3807917.83  # Big Tujunga area, UTM 11N
 SQUARE = [[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]]
-
-
-@pytest.fixture
-def local_grid() -> HeightGrid:
-    # 100 x 200 cells of 10 m: x in [0, 2000], y in [0, 1000]
-    return HeightGrid(np.zeros((100, 200), np.float32), Affine(10, 0, 0, 0, -10, 1000), crs=None)
-
-
-@pytest.fixture
-def utm_grid() -> HeightGrid:
-    heights = np.full((300, 300), 800.0, np.float32)
-    return HeightGrid(heights, Affine(30, 0, X0, 0, -30, Y0), crs=CRS.from_epsg(32611))
-
-
-def write(tmp_path: Path, name: str, text: str) -> Path:
-    p = tmp_path / name
-    p.write_text(text, encoding="utf-8")
-    return p
-
-
-def write_yaml(tmp_path: Path, zones: object, name: str = "zones.yaml") -> Path:
-    return write(tmp_path, name, yaml.safe_dump({"terrapath": 1, "danger_zones": zones}))
-
-
-def message(exc_type: type[Exception], *args: object) -> str:
-    with pytest.raises(exc_type) as info:
-        load_zones(*args)  # type: ignore[arg-type]
-    msg = str(info.value)
-    assert "\n" not in msg
-    return msg
 
 
 # -- the dataclasses ----------------------------------------------------------------------------------
@@ -241,7 +207,7 @@ def test_yaml_lonlat_polygon(tmp_path, utm_grid):
     # given clockwise: stored counter-clockwise from the same first vertex; the hole stays
     np.testing.assert_allclose(zone.rings[0], xy[[0, 2, 1]], atol=1e-6)
     np.testing.assert_allclose(zone.rings[1], hole, atol=1e-6)
-    msg = message(InputError, write_yaml(tmp_path, [rec], "b.yaml"))
+    msg = error_of(InputError, write_yaml(tmp_path, [rec], "b.yaml"))
     assert msg.endswith(
         "field 'danger_zones[0]': lon/lat vertices need a georeferenced map, found no map "
         "grid; give vertices in map metres instead"
@@ -302,7 +268,7 @@ def test_yaml_lonlat_polygon(tmp_path, utm_grid):
 )  # fmt: skip
 def test_yaml_polygon_errors(tmp_path, entry, field, expected):
     path = write_yaml(tmp_path, [{"x": 0, "y": 0, "diameter": 1, "id": "a"}, entry])
-    assert message(InputError, path) == f"{str(path)!r}, field {field!r}: {expected}"
+    assert error_of(InputError, path) == f"{str(path)!r}, field {field!r}: {expected}"
 
 
 def test_polygon_outside_the_map(tmp_path, local_grid):
@@ -310,7 +276,7 @@ def test_polygon_outside_the_map(tmp_path, local_grid):
     straddling = {"vertices": [[1900, 0], [2200, 0], [2200, 100]]}
     assert len(load_zones(write_yaml(tmp_path, [straddling]), local_grid)) == 1
     path = write_yaml(tmp_path, [straddling, outside], "out.yaml")
-    assert message(InputError, path, local_grid) == (
+    assert error_of(InputError, path, local_grid) == (
         f"{str(path)!r}, field 'danger_zones[1]': the polygon lies entirely outside the map bounds "
         "(xmin, ymin, xmax, ymax) = (0.000, 0.000, 2000.000, 1000.000)"
     )
@@ -422,7 +388,7 @@ def test_geojson_round_trip_both_kinds(tmp_path, utm_grid):
 def test_geojson_polygon_errors(tmp_path, geometry, props, field, expected):
     doc = {"type": "FeatureCollection", "features": [feature(geometry, **props)]}
     path = write(tmp_path, "bad.geojson", json.dumps(doc))
-    assert message(InputError, path) == f"{str(path)!r}, field {field!r}: {expected}"
+    assert error_of(InputError, path) == f"{str(path)!r}, field {field!r}: {expected}"
 
 
 def test_example_file_loads_on_its_map():

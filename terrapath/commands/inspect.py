@@ -9,7 +9,7 @@ from typing import Any
 import click
 import yaml
 
-from terrapath.runtext import duration, metrics_rows, plural, table, threat_lines
+from terrapath.runtext import duration, metrics_rows, plural, report_lines, table
 
 
 @click.command("inspect")
@@ -64,13 +64,8 @@ def inspect_cmd(run: str, as_json: bool) -> None:
             + (f", {s['warnings']} of them warnings or errors" if n_log else ""),
         )
     )
-    for line in table(rows):
+    for line in report_lines(rows, m):
         click.echo(line)
-    threats = threat_lines(m)
-    if threats:
-        click.echo("")
-        for line in threats:
-            click.echo(line)
     click.echo("")
     for line in table(
         [

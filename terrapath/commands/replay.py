@@ -14,7 +14,7 @@ import yaml
 
 from terrain.errors import DataFileError, InputError
 from terrapath.progress import progress_bar
-from terrapath.runtext import duration, metrics_rows, table, threat_lines
+from terrapath.runtext import duration, metrics_rows, report_lines
 
 EXIT_FAILED = 3  # the flight was recorded but is not a success (as `plan`'s infeasible)
 
@@ -438,13 +438,8 @@ def _report(result: Any, output: str, as_json: bool, threats: Any) -> None:
         )
         return
     metrics = m.as_dict()
-    for line in table(metrics_rows(metrics)):
+    for line in report_lines(metrics_rows(metrics), metrics):
         click.echo(line)
-    threat_text = threat_lines(metrics)
-    if threat_text:
-        click.echo("")
-        for line in threat_text:
-            click.echo(line)
     click.echo(
         f"\nwrote {output} (simulated {duration(m.flight_time_s)} in {result.wall_s:.1f} s of "
         "wall-clock time)"
