@@ -266,8 +266,9 @@ def plan_cmd(
         click.echo(
             f"{result.status}: cost {t['total']:.4f} (length {t['length']:.4f}, altitude "
             f"{t['altitude']:.4f}, collision {t['collision']:.4f}, danger zones "
-            f"{t['dangerzones']:.4f}); path {t['path_length_m'] / 1000:.2f} km, min clearance "
-            f"{t['min_clearance_m']:.0f} m, {result.iterations} iterations, "
+            f"{t['dangerzones']:.4f}, climb {t['climb']:.4f}, turn {t['turn']:.4f}, unknown "
+            f"terrain {t['unknown']:.4f}); flown path {t['path_length_m'] / 1000:.2f} km, min "
+            f"clearance {t['min_clearance_m']:.0f} m, {result.iterations} iterations, "
             f"{result.elapsed_s:.1f} s"
         )
         click.echo(f"  limits    {performance.describe()}")
