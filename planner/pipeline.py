@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -243,20 +243,16 @@ def plan_mission(
         callback=callback,
     )
     mission = to_mission(request, prepared, result, out)
-    share = result.terms.get("over_unknown_share", 0.0)
-    if share > 0:
-        prepared = replace(
-            prepared,
-            warnings=(
-                *prepared.warnings,
-                f"{100 * share:.1f} % of the path ({share * result.terms['path_length_m'] / 1000:.2f}"
-                " km) lies over terrain the DEM did not measure (--allow-unknown-terrain): its "
-                "heights there are interpolated, not measured",
-            ),
-        )
     written: dict[str, Path] = {}
     removed: tuple[Path, ...] = ()
     warnings = list(prepared.warnings)
+    share = result.terms.get("over_unknown_share", 0.0)
+    if share > 0:
+        km = share * result.terms["path_length_m"] / 1000
+        warnings.append(
+            f"{100 * share:.1f} % of the path ({km:.2f} km) lies over terrain the DEM did not "
+            "measure (--allow-unknown-terrain): its heights there are interpolated, not measured"
+        )
     if out is not None:
         written, removed = write_outputs(
             mission, result, prepared, out, alt_frame=alt_frame, force_export=force_export

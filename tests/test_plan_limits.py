@@ -299,3 +299,35 @@ def test_plan_keeps_out_of_polygon_zones_and_exports_them(tmp_path: Path) -> Non
         for f in json.loads(out.with_suffix(".geojson").read_text())["features"]
     ]
     assert kinds.count("polygon") == 2 and kinds.count("cylinder") == 1
+
+
+def test_cli_unknown_terrain_is_infeasible_by_default_and_allowed_with_a_warning(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import rasterio
+
+    # the Olinda DEM with a north-south strip of nodata across the whole map
+    with rasterio.open(OLINDA) as src:
+        profile = src.profile
+        data = src.read(1).astype("float32")
+    profile.update(dtype="float32", nodata=-9999.0)
+    data[:, 50:54] = -9999.0
+    dem = tmp_path / "holed.tif"
+    with rasterio.open(dem, "w", **profile) as dst:
+        dst.write(data, 1)
+    args = [
+        "plan",
+        str(dem),
+        "--map-coords",
+        "--start",
+        "291000,9115000",
+        "--goal",
+        "297000,9116000",
+    ]
+    args += ["--iterations", "60"]
+    assert main([*args, "-o", str(tmp_path / "a.yaml")]) == 3
+    err = capsys.readouterr().err
+    assert "terrain the DEM did not measure" in err and "--allow-unknown-terrain" in err
+    assert main([*args, "--allow-unknown-terrain", "-o", str(tmp_path / "b.yaml")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: " in err and "% of the path" in err and "did not measure" in err
