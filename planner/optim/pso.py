@@ -77,6 +77,16 @@ near 0.58-0.66), which a local polish of the final best does not change (a 5 000
 100-299 (``bench_plan.py --ampso``; without mutation, ``mutation_rate=0``, the same seeds give 0.563
 ± 0.302 with 198/200 feasible), so the defaults stay.
 
+Those figures are for seed 002's problem. With the aircraft's limits that ``terrapath plan`` now
+imposes (issue 12: the aerosonde's climb and descent gradients, turn fillets of 143 m, clearance
+on the conservative safety terrain; ``bench_plan.py --init corridor --runs 200``, seeds 0-199) the
+mutation's edge over AdaptivePSO is gone within the noise on all three maps, and only its
+robustness against plain PSO remains: jacksboro AMPSO 0.559 ± 0.047, AdaptivePSO 0.559 ± 0.044,
+PSO 0.602 ± 0.303 (198/200 feasible), GA 0.587 ± 0.049; rmnp 0.573 ± 0.038, 0.573 ± 0.035,
+0.581 ± 0.044, 0.596 ± 0.051; Big Tujunga 0.532 ± 0.023, 0.531 ± 0.021, 0.537 ± 0.024,
+0.551 ± 0.039 (every other run 200/200 feasible). A 10-run sample shows AMPSO with the lowest
+mean and spread 14-25 % of the time.
+
 With ``mutation_rate = 0`` (or ``m0 = 0``) no mutation draws and no extra evaluations are made and
 AMPSO is exactly its base PSO, bit for bit. The base coefficients are AdaptivePSO's (w 0.9 -> 0.4,
 TVAC): seed 002's own comparison (its Fig. 5) is "improved PSO with adaptive mutation" against the
