@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -89,17 +90,38 @@ class MetricsTracker:
     ) -> None:
         """One chunk: sample times (k,), map positions (k, 3), separation per active threat (k,),
         terrain clearance (k,)."""
+        ids = list(separations)
+        seps = np.zeros((len(times), 0)) if not ids else np.column_stack(list(separations.values()))
+        self.update_columns(times, positions, ids, seps, clearance)
+
+    def update_columns(
+        self,
+        times: FloatArray,
+        positions: FloatArray,
+        ids: Sequence[str],
+        separations: FloatArray,
+        clearance: FloatArray,
+    ) -> None:
+        """:meth:`update` with the separations as one array (k, m), a column per id in ``ids``."""
         pts = positions if self.last is None else np.vstack([self.last[None, :], positions])
         self.length += float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
         self.last = positions[-1].copy()
         k = int(np.argmin(clearance))
         if clearance[k] < self.min_clear[0]:
             self.min_clear = (float(clearance[k]), float(times[k]))
-        for tid, sep in separations.items():
-            j = int(np.argmin(sep))
-            if sep[j] < self.min_sep.get(tid, (math.inf, math.nan))[0]:
-                self.min_sep[tid] = (float(sep[j]), float(times[j]))
-            self._track_violation(tid, times, sep)
+        if not len(ids):
+            return
+        rows = np.argmin(separations, axis=0)
+        lows = separations[rows, np.arange(len(ids))].tolist()
+        when = times[rows].tolist()
+        none = (math.inf, math.nan)
+        for c, tid in enumerate(ids):
+            if lows[c] < self.min_sep.get(tid, none)[0]:
+                self.min_sep[tid] = (float(lows[c]), float(when[c]))
+        # a threat never inside in this chunk, and not inside before it, opens no interval
+        entered = np.flatnonzero((separations < 0.0).any(axis=0)).tolist()
+        for c in sorted({*entered, *(c for c, tid in enumerate(ids) if tid in self.inside)}):
+            self._track_violation(ids[c], times, separations[:, c])
 
     def _track_violation(self, tid: str, times: FloatArray, sep: FloatArray) -> None:
         """Open/close violation intervals at the samples where the separation changes sign."""

@@ -69,13 +69,14 @@ import math
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from replay.frames import course_of
-from replay.threats import StaticThreat, Threat
+from replay.threat_table import ThreatTable
+from replay.threats import Threat
 from terrain.errors import InputError
 
 if TYPE_CHECKING:
@@ -258,7 +259,7 @@ class Radar:
         fan, ring = self._directions()
         self._n_fan = len(fan)
         self._rays = np.vstack([fan, ring])
-        self._static_cache: tuple[Any, Any] | None = None
+        self._table_cache: ThreatTable | None = None
 
     def _directions(self) -> tuple[FloatArray, FloatArray]:
         """Unit rays (clockwise from north): the fan (E * N, 3) and the horizontal ring (N, 3)."""
@@ -325,61 +326,20 @@ class Radar:
     def _threat_points(
         self, t: float, own: FloatArray, threats: Iterable[Threat]
     ) -> tuple[list[str], list[str], FloatArray, BoolArray]:
-        """Candidate threat returns within range (before the line-of-sight test).  Static point
-        threats are tested as one array (a Table 6 scenario has 100 of them, scanned 28 800
-        times); the other kinds one by one, in the order given."""
-        ids: list[str] = []
-        sources: list[str] = []
-        chunks: list[FloatArray] = []
-        ext: list[bool] = []
-        seq = threats if isinstance(threats, tuple) else tuple(threats)
-        slot, centres, t0, t1 = self._static_table(seq)
-        near = (t0 <= t) & (t < t1) & (np.linalg.norm(centres - own, axis=1) <= self.range_m)
-        for i, threat in enumerate(seq):
-            k = slot[i]
-            if k >= 0:  # a static point threat: decided above, in one array operation
-                if near[k]:
-                    ids.append(threat.id)
-                    sources.append(threat.id)
-                    ext.append(False)
-                    chunks.append(centres[k : k + 1])
-                continue
-            if not threat.active(t):
-                continue
-            tids, tp = threat.radar_points(t, own, self.range_m)
-            inside = np.linalg.norm(tp - own, axis=-1) <= self.range_m
-            for k in np.flatnonzero(inside).tolist():
-                ids.append(tids[k])
-                sources.append(threat.id)
-                ext.append(threat.extended)
-            chunks.append(tp[inside])
-        pts = np.vstack(chunks) if chunks else np.zeros((0, 3))
-        return ids, sources, pts, np.array(ext, dtype=bool)
+        """Candidate threat returns within range (before the line-of-sight test), in the order
+        the threats are given: every kind at once (:class:`replay.threat_table.ThreatTable`; a
+        Table 6 scenario has 100 threats, scanned 28 800 times)."""
+        return self._table(threats).radar_points(t, own, self.range_m)
 
-    def _static_table(
-        self, threats: tuple[Threat, ...]
-    ) -> tuple[list[int], FloatArray, FloatArray, FloatArray]:
-        """(slot of each threat in the static table or -1, centres (S, 3), appears (S,),
-        disappears (S,)) of the static point threats, cached for the last tuple seen."""
-        cached = self._static_cache
-        if cached is not None and cached[0] is threats:
-            return cached[1]
-        st = [th for th in threats if isinstance(th, StaticThreat)]
-        slot, k = [], 0
-        for th in threats:
-            slot.append(k if isinstance(th, StaticThreat) else -1)
-            k += isinstance(th, StaticThreat)
-        table = (
-            slot,
-            np.array([th.position(0.0) for th in st], dtype=np.float64).reshape(-1, 3),
-            np.array([th.appears_at for th in st], dtype=np.float64),
-            np.array(
-                [math.inf if th.disappears_at is None else th.disappears_at for th in st],
-                dtype=np.float64,
-            ),
-        )
-        self._static_cache = (threats, table)
-        return table
+    def _table(self, threats: Iterable[Threat]) -> ThreatTable:
+        """The threats as arrays, kept for the last sequence seen (the simulation passes the
+        same tuple at every scan)."""
+        seq = threats if isinstance(threats, tuple) else tuple(threats)
+        cached = self._table_cache
+        if cached is not None and (cached.threats is seq or cached.threats == seq):
+            return cached
+        self._table_cache = ThreatTable(seq)
+        return self._table_cache
 
     def _terrain_points(
         self, own: FloatArray, model: TerrainModel, clearance: float

@@ -31,6 +31,7 @@ from replay.avoidance.base import AvoidanceContext, AvoidanceDecision, Avoider, 
 from replay.frames import PD, PE, PN, PSI, U, V, W, ned_to_map, rotation_body_to_ned
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.radar import Radar
+from replay.threat_table import ThreatTable
 from replay.threats import ThreatSet
 from replay.vehicle.params import VehicleParams
 from replay.vehicle.trim import trim
@@ -188,7 +189,8 @@ def simulate(
     t = 0.0
     end_reason = "time limit"
     contact = False
-    shown: tuple[str, ...] = ()
+    table = ThreatTable(threats.threats)  # activity and separations of every threat at once
+    shown = np.zeros(len(table), dtype=bool)  # the active threats last recorded
     pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
     while t < duration - 1e-9:
         period = min(cfg.radar_period, duration - t)
@@ -208,7 +210,7 @@ def simulate(
             if recorder is not None:
                 _record_samples(recorder, log, pos)
             if ts[keep - 1] - pending[0][0][0] >= _METRICS_BATCH_S:
-                _flush(pending, threats, tracker)
+                _flush(pending, table, tracker)
             if hit.size:
                 contact = True
                 end_reason = "terrain contact"
@@ -225,8 +227,8 @@ def simulate(
                 recorder.write_log(
                     r.t, "info", f"waypoint {r.index} reached ({r.how}, {r.distance:.0f} m)"
                 )
-            active = tuple(th.id for th in threats.active(t))
-            if active != shown or any(getattr(th, "moving", False) for th in threats.active(t)):
+            active = table.active(t)
+            if not np.array_equal(active, shown) or bool((active & table.moving).any()):
                 recorder.write_threats(t, threats.shapes(t))
                 shown = active
         if progress is not None:
@@ -255,7 +257,7 @@ def simulate(
                 decisions.append(
                     _apply(decision, autopilot, t, compute, avoider, tracker, recorder)
                 )
-    _flush(pending, threats, tracker)
+    _flush(pending, table, tracker)
     metrics = tracker.finish(
         t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
     )
@@ -281,7 +283,7 @@ _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much f
 
 def _flush(
     pending: list[tuple[FloatArray, FloatArray, FloatArray]],
-    threats: ThreatSet,
+    table: ThreatTable,
     tracker: MetricsTracker,
 ) -> None:
     """Separation to every active threat and the metrics update, for the buffered samples."""
@@ -291,18 +293,8 @@ def _flush(
     pos = np.concatenate([p[1] for p in pending])
     clearance = np.concatenate([p[2] for p in pending])
     pending.clear()
-    seps = {
-        th.id: np.where(_active(th, ts), th.separation(pos, ts), np.inf) for th in threats.threats
-    }
-    tracker.update(ts, pos, {k: v for k, v in seps.items() if np.isfinite(v).any()}, clearance)
-
-
-def _active(threat: Any, ts: FloatArray) -> npt.NDArray[np.bool_]:
-    """Which sample times a threat is active at (it appears/disappears at fixed times)."""
-    first, last = threat.active(float(ts[0])), threat.active(float(ts[-1]))
-    if first == last and first:
-        return np.ones(len(ts), dtype=bool)
-    return np.fromiter((threat.active(float(t)) for t in ts), dtype=bool, count=len(ts))
+    ids, seps = table.separations(pos, ts)
+    tracker.update_columns(ts, pos, ids, seps, clearance)
 
 
 def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
