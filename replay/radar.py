@@ -397,16 +397,19 @@ class Radar:
         moving[n_threat:] = 0  # terrain does not move
         prev = self.previous
         if prev is not None and n_threat:
-            pairs = [(i, prev.threat_index.get(ident, -1)) for i, ident in enumerate(ids)]
-            a = np.array([i for i, j in pairs if j >= 0], dtype=np.int64)
-            b = np.array([j for i, j in pairs if j >= 0], dtype=np.int64)
+            index = prev.threat_index
+            j = np.fromiter((index.get(ident, -1) for ident in ids), np.int64, n_threat)
+            a = np.flatnonzero(j >= 0)
             if len(a):
-                step = float(np.linalg.norm(own - prev.own_position))
+                b = j[a]
                 moved = np.linalg.norm(positions[a] - prev.positions[b], axis=-1)
                 r = np.maximum(ranges[a], prev.ranges[b])
                 sigma = np.sqrt(self.noise_range_m**2 + (r * self.noise_bearing_rad) ** 2)
                 limit = self.moving_sigmas * math.sqrt(2.0) * sigma + self.moving_floor_m
-                limit = limit + np.where(ext[a], step, 0.0)
+                solid = ext[a]
+                if solid.any():  # returns of solid bodies: + the aircraft's displacement
+                    step = float(np.linalg.norm(own - prev.own_position))
+                    limit = limit + np.where(solid, step, 0.0)
                 moving[a] = (moved > limit).astype(np.int8)
         return RadarPicture(
             t=float(t),

@@ -40,6 +40,7 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 T = TypeVar("T", bound=Threat)
+_BLOCK = 16384  # numbers per temporary array of the separations (128 KiB)
 
 
 def _index(items: Sequence[int]) -> IntArray:
@@ -54,6 +55,56 @@ def _of_kind(threats: Sequence[Threat], cls: type[T]) -> tuple[list[int], list[T
     """Positions and threats of exactly the class ``cls`` (not its subclasses)."""
     rows = [i for i, th in enumerate(threats) if type(th) is cls]
     return rows, [cast(T, threats[i]) for i in rows]
+
+
+def norm3(dx: FloatArray, dy: FloatArray, dz: FloatArray) -> FloatArray:
+    """Euclidean norm from the components: ``sqrt((dx^2 + dy^2) + dz^2)``, the operations of
+    ``numpy.linalg.norm(d, axis=-1)`` over d = (dx, dy, dz) in the same order (so the same bits;
+    the tests check it), without the (..., 3) temporaries and the reduction over a short axis.
+    Works in place: ``dx`` is overwritten with the result, ``dy`` and ``dz`` with their squares."""
+    out = np.multiply(dx, dx, out=dx)
+    out += np.multiply(dy, dy, out=dy)
+    out += np.multiply(dz, dz, out=dz)
+    return np.asarray(np.sqrt(out, out=out))
+
+
+class _Points:
+    """Points of one kind as component arrays: x, y, z (P,), the threat row of each point,
+    its index within the threat, its id and radius, and its threat's activity window."""
+
+    def __init__(
+        self,
+        table: ThreatTable,
+        rows: Sequence[int],
+        points: Sequence[Any],
+        radii: Sequence[float],
+        ids: Sequence[str],
+        index: Sequence[int],
+    ) -> None:
+        p = _floats(points, 3)
+        self.x, self.y, self.z = (np.ascontiguousarray(p[:, j]) for j in range(3))
+        self.xyz = p
+        self.r = _floats(radii)
+        self.rows = _index(rows)
+        self.k = _index(index)
+        self.ids = list(ids)
+        self.t0 = table.appears[self.rows]
+        self.t1 = table.disappears[self.rows]
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def seen(self, t: float, own: FloatArray, max_range: float) -> IntArray:
+        """Points active at t within ``max_range`` of ``own``."""
+        d = norm3(self.x - own[0], self.y - own[1], self.z - own[2])
+        return np.flatnonzero((d <= max_range) & (t >= self.t0) & (t < self.t1))
+
+    def distances(self, pos: FloatArray, on: IntArray) -> FloatArray:
+        """Distance (k, len(on)) of positions (k, 3) from the surfaces of the spheres ``on``."""
+        x, y, z = pos[:, 0, None], pos[:, 1, None], pos[:, 2, None]
+        d = norm3(x - self.x[on], y - self.y[on], z - self.z[on])
+        d -= self.r[on]
+        return d
 
 
 class ThreatTable:
@@ -71,18 +122,26 @@ class ThreatTable:
         self.extended = np.array([th.extended for th in ths], dtype=bool)
 
         st, stat = _of_kind(ths, StaticThreat)
-        self._st = _index(st)
-        self._st_c = _floats([s.center for s in stat], 3)
-        self._st_r = _floats([s.radius for s in stat])
+        self._static = _Points(
+            self,
+            st,
+            [s.center for s in stat],
+            [s.radius for s in stat],
+            [s.id for s in stat],
+            [0] * len(st),
+        )
 
         hl, hills = _of_kind(ths, HillThreat)
         counts = [len(h.points) for h in hills]
+        self._hills = _Points(
+            self,
+            [i for i, c in zip(hl, counts, strict=True) for _ in range(c)],
+            [p for h in hills for p in h.points],
+            [r for h in hills for r in h.radii],
+            [f"{h.id}/{k}" for h, c in zip(hills, counts, strict=True) for k in range(c)],
+            [k for c in counts for k in range(c)],
+        )
         self._hl = _index(hl)
-        self._hl_p = _floats([p for h in hills for p in h.points], 3)
-        self._hl_r = _floats([r for h in hills for r in h.radii])
-        self._hl_owner = np.repeat(self._hl, counts).astype(np.int64)
-        self._hl_k = _index([k for c in counts for k in range(c)])
-        self._hl_ids = [f"{h.id}/{k}" for h, c in zip(hills, counts, strict=True) for k in range(c)]
 
         cy, cyl = _of_kind(ths, CylinderThreat)
         self._cy = _index(cy)
@@ -124,36 +183,34 @@ class ThreatTable:
         """The radar's candidate returns at time t from ``own``: (ids, sources, points (N, 3),
         extended (N,)) of the points of active threats within ``max_range`` (3D), in threat
         order -- :meth:`Threat.radar_points` of each active threat, range-tested."""
-        act = self.active(t)
         blocks: list[tuple[IntArray, IntArray, list[str], FloatArray]] = []
+        for kind in (self._static, self._hills):
+            if len(kind):
+                hit = kind.seen(t, own, max_range)
+                if len(hit):
+                    ids = [kind.ids[j] for j in hit.tolist()]
+                    blocks.append((kind.rows[hit], kind.k[hit], ids, kind.xyz[hit]))
+        act = self.active(t) if len(self._cy) or len(self._iv) or self._other else None
 
         def block(rows: IntArray, k: IntArray, ids: list[str], pts: FloatArray) -> None:
             near = np.flatnonzero(np.linalg.norm(pts - own, axis=-1) <= max_range)
             if len(near):
                 blocks.append((rows[near], k[near], [ids[j] for j in near.tolist()], pts[near]))
 
-        if len(self._st):
-            on = np.flatnonzero(act[self._st])
-            rows = self._st[on]
-            block(rows, np.zeros(len(on), np.int64), [self.ids[i] for i in rows], self._st_c[on])
-        if len(self._hl_p):
-            on = np.flatnonzero(act[self._hl_owner])
-            ids = [self._hl_ids[j] for j in on.tolist()]
-            block(self._hl_owner[on], self._hl_k[on], ids, self._hl_p[on])
-        if len(self._cy):
+        if act is not None and len(self._cy):
             on = np.flatnonzero(act[self._cy])
             if len(on):
                 rows = self._cy[on]
                 pts = self._cylinder_nearest(own, on)
                 block(rows, np.zeros(len(on), np.int64), [self.ids[i] for i in rows], pts)
-        if len(self._iv):
+        if act is not None and len(self._iv):
             on = np.flatnonzero(act[self._iv])
             if len(on):
                 rows = self._iv[on]
                 pts = self._intruder_positions(np.array(t, dtype=np.float64), on)
                 block(rows, np.zeros(len(on), np.int64), [self.ids[i] for i in rows], pts)
         for i in self._other:
-            if act[i]:
+            if act is not None and act[i]:
                 tids, tp = self.threats[i].radar_points(t, own, max_range)
                 block(np.full(len(tp), i, np.int64), np.arange(len(tp)), list(tids), tp)
         return self._merge(blocks)
@@ -197,46 +254,63 @@ class ThreatTable:
 
     # -- separation -----------------------------------------------------------------------------
     def separations(self, positions: FloatArray, ts: FloatArray) -> tuple[list[str], FloatArray]:
-        """Separation of the samples (positions (k, 3) at times ts (k,)) from every threat active
-        at one of them at least: (ids, values (k, m)) in threat order, +inf where the threat is
-        not active -- :meth:`Threat.separation` where it is."""
+        """Separation of the samples (positions (k, 3) at increasing times ts (k,)) from every
+        threat active at one of them at least: (ids, values (k, m)) in threat order, +inf where
+        the threat is not active -- :meth:`Threat.separation` where it is.
+
+        An activity window is an interval, so a threat active at the first and the last sample
+        is active at all of them; the others are masked sample by sample.  The kinds in arrays
+        are computed a block of samples at a time (temporaries of ``_BLOCK`` numbers, which stay
+        in cache); the others in one call over all the samples, as before."""
         pos = np.asarray(positions, dtype=np.float64)
         ts = np.asarray(ts, dtype=np.float64)
-        active = self.active_at(ts)
-        live: BoolArray = np.asarray(active.any(axis=0))
-        out = np.full(active.shape, math.inf)
-
-        def fill(rows: IntArray, values: FloatArray) -> None:
-            out[:, rows] = values
-
-        if len(self._st):
-            on = np.flatnonzero(live[self._st])
-            if len(on):
-                d = np.linalg.norm(pos[:, None, :] - self._st_c[on], axis=-1)
-                fill(self._st[on], d - self._st_r[on])
-        if len(self._hl):
-            on = np.flatnonzero(live[self._hl])
-            if len(on):
-                pts = np.flatnonzero(live[self._hl_owner])
-                d = np.linalg.norm(pos[:, None, :] - self._hl_p[pts], axis=-1) - self._hl_r[pts]
-                counts = np.bincount(self._hl_owner[pts], minlength=len(self.threats))
-                starts = np.concatenate([[0], np.cumsum(counts[self._hl[on]])[:-1]])
-                fill(self._hl[on], np.minimum.reduceat(d, starts, axis=1))
-        if len(self._cy):
-            on = np.flatnonzero(live[self._cy])
-            if len(on):
-                fill(self._cy[on], self._cylinder_separation(pos, on))
-        if len(self._iv):
-            on = np.flatnonzero(live[self._iv])
-            if len(on):
-                d = pos[:, None, :] - self._intruder_positions(ts, on)
-                fill(self._iv[on], np.linalg.norm(d, axis=-1) - self._iv_r[on])
+        k, n = len(ts), len(self.threats)
+        if not n or not k:
+            return [], np.zeros((k, 0))
+        whole = self.active(float(ts[0])) & self.active(float(ts[-1]))
+        part = np.flatnonzero(~whole & (self.appears <= ts[-1]) & (self.disappears > ts[0]))
+        mask = (ts[:, None] >= self.appears[part]) & (ts[:, None] < self.disappears[part])
+        live = whole.copy()
+        live[part] = mask.any(axis=0)
+        cols = np.flatnonzero(live)
+        if not len(cols):
+            return [], np.zeros((k, 0))
+        column = np.full(n, -1, dtype=np.int64)
+        column[cols] = np.arange(len(cols))
+        out = np.empty((k, len(cols)))
+        st = np.flatnonzero(live[self._static.rows])
+        hl = np.flatnonzero(live[self._hills.rows])
+        first = np.flatnonzero(np.diff(self._hills.rows[hl], prepend=-1))  # each hill's first
+        cy = np.flatnonzero(live[self._cy])
+        iv = np.flatnonzero(live[self._iv])
+        step = max(1, _BLOCK // len(cols))
+        for a in range(0, k, step):
+            b = min(a + step, k)
+            p = pos[a:b]
+            if len(st):
+                out[a:b, column[self._static.rows[st]]] = self._static.distances(p, st)
+            if len(hl):  # a hill: the nearest of its spheres (its points are consecutive)
+                d = self._hills.distances(p, hl)
+                out[a:b, column[self._hills.rows[hl[first]]]] = np.minimum.reduceat(d, first, 1)
+            if len(cy):
+                out[a:b, column[self._cy[cy]]] = self._cylinder_separation(p, cy)
+            if len(iv):
+                q = self._intruder_positions(ts[a:b], iv)
+                x, y, z = p[:, 0, None], p[:, 1, None], p[:, 2, None]
+                d = norm3(x - q[..., 0], y - q[..., 1], z - q[..., 2])
+                d -= self._iv_r[iv]
+                out[a:b, column[self._iv[iv]]] = d
         for i in self._other:
             if live[i]:
-                out[:, i] = self.threats[i].separation(pos, ts)
-        seps = np.where(active, out, math.inf)
-        keep = np.flatnonzero(np.isfinite(seps).any(axis=0))
-        return [self.ids[i] for i in keep.tolist()], seps[:, keep]
+                out[:, column[i]] = self.threats[i].separation(pos, ts)
+        if len(part):
+            on = live[part]
+            c = column[part[on]]
+            out[:, c] = np.where(mask[:, on], out[:, c], math.inf)
+        finite = np.isfinite(out).any(axis=0)
+        if not finite.all():
+            cols, out = cols[finite], out[:, finite]
+        return [self.ids[i] for i in cols.tolist()], out
 
     def _cylinder_separation(self, q: FloatArray, on: IntArray) -> FloatArray:
         """:meth:`CylinderThreat.separation` of points q (k, 3) from the cylinders ``on``."""
