@@ -302,6 +302,13 @@ class RunRecorder:
         self._overview_period = max(1, round(track_overview_s * NS_PER_S))
         self._overview_points = int(track_overview_points)
         self._marker = float(marker_size_m)
+        self._detection_size = Vector3(x=self._marker, y=self._marker, z=self._marker)
+        # detection markers: terrain (brown), moving threat (orange), stationary threat (red)
+        self._detection_colors = (
+            _color(0.6, 0.4, 0.2),
+            _color(1.0, 0.55, 0.0),
+            _color(1.0, 0.1, 0.1),
+        )
         self._max_triangles = int(max_terrain_triangles)
         self._compression = compression
         self._chunk_size = int(chunk_size)
@@ -803,22 +810,72 @@ class RunRecorder:
         """One radar scan: a marker per detection (red: stationary threat, orange: moving, brown:
         terrain) replacing the previous scan's, and the list as JSON."""
         ns = self._ns(t)
-        items = [normalize_detection(d, i) for i, d in enumerate(detections)]
+        self._write_detections(ns, [normalize_detection(d, i) for i, d in enumerate(detections)])
+
+    def write_detection_arrays(
+        self,
+        t: float,
+        ids: Sequence[str],
+        positions: npt.ArrayLike,
+        ranges: npt.ArrayLike,
+        terrain: npt.ArrayLike,
+        moving: npt.ArrayLike,
+    ) -> None:
+        """:meth:`write_detections` with the scan as parallel arrays, as a radar picture holds it
+        (ids (N,), positions (N, 3), ranges (N,), ``terrain`` and ``moving`` flags (N,)): the same
+        messages, checked array by array instead of detection by detection."""
+        ns = self._ns(t)
+        n = len(ids)
+        pos = np.asarray(positions, dtype=np.float64)
+        rng = np.asarray(ranges, dtype=np.float64)
+        ground = np.asarray(terrain, dtype=bool)
+        mov = np.asarray(moving, dtype=bool)
+        if pos.shape != (n, 3) or rng.shape != (n,) or ground.shape != (n,) or mov.shape != (n,):
+            raise InputError(
+                f"{self._where}detections: expected {n} positions (N, 3), ranges, terrain and "
+                f"moving flags (N,); found shapes {pos.shape}, {rng.shape}, {ground.shape}, "
+                f"{mov.shape}"
+            )
+        bad = np.flatnonzero(~(np.isfinite(pos).all(axis=1) & np.isfinite(rng)))
+        if len(bad):
+            i = int(bad[0])
+            raise InputError(
+                f"{self._where}detections[{i}]: expected a finite position and range, found "
+                f"{pos[i].tolist()} and {rng[i]}"
+            )
+        items = [
+            {
+                "id": str(ident),
+                "position": xyz,
+                "kind": "terrain" if g else "threat",
+                "moving": m,
+                "range": r,
+            }
+            for ident, xyz, g, m, r in zip(
+                ids, pos.tolist(), ground.tolist(), mov.tolist(), rng.tolist(), strict=True
+            )
+        ]
+        self._write_detections(ns, items)
+
+    def _write_detections(self, ns: int, items: list[dict[str, Any]]) -> None:
+        """The scene update and the JSON list of one scan's (checked) detections."""
         e = self._entity(ns, "detections")
-        size = Vector3(x=self._marker, y=self._marker, z=self._marker)
+        size = self._detection_size
         for d in items:
-            rgb = (
-                (0.6, 0.4, 0.2)
+            color = (
+                self._detection_colors[0]
                 if d["kind"] == "terrain"
-                else (1.0, 0.55, 0.0)
+                else self._detection_colors[1]
                 if d["moving"]
-                else (1.0, 0.1, 0.1)
+                else self._detection_colors[2]
             )
-            e.spheres.append(
-                SpherePrimitive(
-                    pose=_pose(*self._rel(d["position"])), size=size, color=_color(*rgb)
-                )
-            )
+            sphere = e.spheres.add()  # filled in place: the same message as built whole
+            x, y, z = self._rel(d["position"])
+            position = sphere.pose.position
+            position.x, position.y, position.z = x, y, z
+            sphere.pose.orientation.w = 1.0
+            sphere.size.CopyFrom(size)
+            sphere.color.CopyFrom(color)
         self._emit(T.DETECTIONS, ns, SceneUpdate(entities=[e]).SerializeToString())
         self._emit(T.DETECTION_LIST, ns, _dumps({"detections": items}))
 

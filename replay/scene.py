@@ -189,8 +189,11 @@ def jsonable(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not JSON data")
 
 
+_JSON = json.JSONEncoder(separators=(",", ":"), allow_nan=False)  # json.dumps with these settings
+
+
 def _dumps(value: Any) -> bytes:
-    return json.dumps(value, separators=(",", ":"), allow_nan=False).encode()
+    return _JSON.encode(value).encode()
 
 
 def _num(x: float) -> str:

@@ -246,7 +246,15 @@ def simulate(
                 min_clearance=cfg.terrain_clearance,
             )
             if recorder is not None and len(picture):
-                recorder.write_detections(t, _recorded_detections(picture))
+                rows = _recorded_rows(picture)
+                recorder.write_detection_arrays(
+                    t,
+                    [picture.ids[i] for i in rows.tolist()],
+                    picture.positions[rows],
+                    picture.ranges[rows],
+                    rows >= picture.n_threat,
+                    picture.moving_code[rows] == 1,
+                )
             if passive:
                 continue  # "none" never changes the mission: skip building its context
             ctx = _context(t, x, picture, autopilot, params, terrain_model, cfg)
@@ -309,27 +317,17 @@ def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
 RECORDED_TERRAIN_RETURNS = 48  # the nearest terrain returns of a scan that go into the MCAP
 
 
-def _recorded_detections(picture: Any) -> list[dict[str, Any]]:
-    """Every threat return, and the nearest terrain returns (a mountain scan can hold hundreds;
-    recording them all would dominate the run's time and file size)."""
+def _recorded_rows(picture: Any) -> npt.NDArray[np.int64]:
+    """Rows of a picture that go into the MCAP: every threat return, and the nearest terrain
+    returns (a mountain scan can hold hundreds; recording them all would dominate the run's time
+    and file size)."""
     n = picture.n_threat
-    rows = list(range(n))
+    rows = np.arange(n)
     if len(picture) > n:
         terrain = np.arange(n, len(picture))
         near = terrain[np.argsort(picture.ranges[n:], kind="stable")[:RECORDED_TERRAIN_RETURNS]]
-        rows.extend(int(i) for i in near)
-    moving = {-1: None, 0: False, 1: True}
-    ids = picture.ids
-    return [
-        {
-            "id": ids[i],
-            "position": picture.positions[i].tolist(),
-            "range": float(picture.ranges[i]),
-            "kind": "threat" if i < n else "terrain",
-            "moving": moving[int(picture.moving_code[i])],
-        }
-        for i in rows
-    ]
+        rows = np.concatenate([rows, near])
+    return rows
 
 
 def _context(
