@@ -57,3 +57,60 @@ def test_still_inside_at_the_end_is_an_open_violation() -> None:
     m = tr.finish(5.0, True, False, "goal")
     assert len(m.violations) == 1 and m.violations[0].t_exit is None
     assert m.violations[0].t_enter == 2.0 and m.violations[0].min_separation == -3.0
+
+
+class ReferenceTracker(MetricsTracker):
+    """The threat-by-threat update the array form replaced."""
+
+    def update(
+        self,
+        times: np.ndarray,
+        positions: np.ndarray,
+        separations: dict[str, np.ndarray],
+        clearance: np.ndarray,
+    ) -> None:
+        pts = positions if self.last is None else np.vstack([self.last[None, :], positions])
+        self.length += float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+        self.last = positions[-1].copy()
+        k = int(np.argmin(clearance))
+        if clearance[k] < self.min_clear[0]:
+            self.min_clear = (float(clearance[k]), float(times[k]))
+        for tid, sep in separations.items():
+            j = int(np.argmin(sep))
+            if sep[j] < self.min_sep.get(tid, (math.inf, math.nan))[0]:
+                self.min_sep[tid] = (float(sep[j]), float(times[j]))
+            self._track_violation(tid, times, sep)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_array_update_equals_the_threat_by_threat_update(seed: int) -> None:
+    """Many threats entering and leaving, inactive stretches (inf), ties, a threat not known at
+    the start, chunks of every size: the same metrics, violations in the same order."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 300.0, 0.1)
+    ids = [f"th{i}" for i in range(12)]
+    sep = np.round(
+        np.sin(t[:, None] / rng.uniform(2.0, 20.0, 12) + rng.uniform(0, 6, 12)) * 100.0
+        + rng.uniform(-50.0, 150.0, 12),
+        0,
+    )  # rounded: equal minima at several samples
+    sep[rng.random(sep.shape) < 0.05] = np.inf
+    sep[:500, 3] = np.inf  # appears late
+    pos = np.stack([t * 15.0, np.sin(t), np.full_like(t, 200.0)], axis=1)
+    clearance = 100.0 + np.cos(t) * 50.0
+    a = MetricsTracker(ids[:-1], pos[0], pos[-1])  # the last id is not announced
+    b = ReferenceTracker(ids[:-1], pos[0], pos[-1])
+    i = 0
+    while i < len(t):
+        j = min(len(t), i + int(rng.integers(1, 700)))
+        keep = [c for c in range(12) if np.isfinite(sep[i:j, c]).any()]
+        cols = {ids[c]: sep[i:j, c] for c in keep}
+        a.update_columns(
+            t[i:j], pos[i:j], [ids[c] for c in keep], sep[i:j][:, keep], clearance[i:j]
+        )
+        b.update(t[i:j], pos[i:j], cols, clearance[i:j])
+        i = j
+    ma = a.finish(float(t[-1]), True, False, "goal")
+    mb = b.finish(float(t[-1]), True, False, "goal")
+    assert ma.violations and ma == mb
+    assert list(ma.min_separation) == list(mb.min_separation)

@@ -774,3 +774,62 @@ def test_size_and_throughput(tmp_path: Path) -> None:
     )
     assert eight_hours < 200e6
     assert n / elapsed > 2_000  # loose: CI machines are shared; the measured rate is reported
+
+
+def test_detection_arrays_write_the_messages_of_detection_dicts(tmp_path: Path) -> None:
+    """``write_detection_arrays`` (what the simulation uses) writes byte for byte the messages of
+    ``write_detections`` with the same scan as dicts: every colour, zero and negative offsets
+    from the map origin, empty scans."""
+    rng = np.random.default_rng(3)
+    scans = []
+    for k in range(30):
+        n = int(rng.integers(0, 6))
+        pos = ORIGIN + rng.normal(0.0, 3000.0, (n, 3))
+        if n:
+            pos[0] = ORIGIN  # exactly at the origin: zero offsets
+        scans.append(
+            (
+                [f"d{k}/{i}" for i in range(n)],
+                pos,
+                rng.uniform(0.0, 10_000.0, n),
+                rng.random(n) < 0.3,
+                rng.random(n) < 0.5,
+            )
+        )
+    paths = tmp_path / "dicts.mcap", tmp_path / "arrays.mcap"
+    for path in paths:
+        with RunRecorder(path, map_origin=ORIGIN) as rec:
+            for k, (ids, pos, rng_m, terrain, moving) in enumerate(scans):
+                if path.name == "arrays.mcap":
+                    rec.write_detection_arrays(float(k), ids, pos, rng_m, terrain, moving)
+                    continue
+                rec.write_detections(
+                    float(k),
+                    [
+                        {
+                            "id": ids[i],
+                            "position": pos[i].tolist(),
+                            "range": float(rng_m[i]),
+                            "kind": "terrain" if terrain[i] else "threat",
+                            "moving": bool(moving[i]),
+                        }
+                        for i in range(len(ids))
+                    ],
+                )
+    a, b = (
+        [(ch.topic, m.log_time, m.data) for _, ch, m in messages(p) if "radar" in ch.topic]
+        for p in paths
+    )
+    assert len(a) == 2 * len(scans) and a == b
+
+
+def test_detection_arrays_are_checked(tmp_path: Path) -> None:
+    with RunRecorder(tmp_path / "run.mcap") as rec:
+        ok = (["a", "b"], np.zeros((2, 3)), np.ones(2), [False, True], [False, False])
+        rec.write_detection_arrays(0.0, *ok)
+        with pytest.raises(InputError, match=r"expected 2 positions \(N, 3\)"):
+            rec.write_detection_arrays(1.0, ok[0], np.zeros((2, 2)), *ok[2:])
+        with pytest.raises(InputError, match=r"detections\[1\]: expected a finite position"):
+            rec.write_detection_arrays(1.0, ok[0], [[0, 0, 0], [0, math.nan, 0]], *ok[2:])
+        with pytest.raises(InputError, match=r"detections\[0\]: expected a finite position"):
+            rec.write_detection_arrays(1.0, *ok[:2], [math.inf, 1.0], *ok[3:])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -320,3 +321,76 @@ def test_a_time_limit_between_two_integration_steps_ends_the_run() -> None:
     )
     assert r.metrics.end_reason == "time limit"
     assert 4.8 <= r.times[-1] <= 5.0035  # 10 Hz samples
+
+
+def test_threat_shapes_are_recorded_when_the_active_set_changes_or_one_moves() -> None:
+    """The recording rule of the simulation loop, now on the threats as arrays: shapes are
+    written at the end of a period when the set of active threats changed since the last write
+    or an active threat moves -- the same periods as asking every threat."""
+    from replay.threats import threats_from_records
+
+    threats = threats_from_records(
+        [
+            {"id": "always", "kind": "static", "position": [50000, 9000, 200], "radius": 100},
+            {
+                "id": "pop",
+                "kind": "static",
+                "position": [50000, 9000, 200],
+                "radius": 100,
+                "appears_at": 30.5,
+                "disappears_at": 90.2,
+            },
+            {
+                "id": "uav",
+                "kind": "intruder",
+                "position": [60000, 9000, 200],
+                "velocity": [0, 10, 0],
+                "radius": 50,
+                "appears_at": 100.0,
+                "disappears_at": 120.5,
+            },
+            {
+                "id": "late",
+                "kind": "hill",
+                "points": [[0, 9000, 0]],
+                "radius": 10,
+                "appears_at": 150,
+            },
+        ]
+    )
+
+    class Spy:
+        def __init__(self) -> None:
+            self.writes: list[tuple[float, tuple[str, ...]]] = []
+
+        def state_due(self, t: float) -> bool:
+            return False
+
+        def write_threats(self, t: float, shapes: list[dict[str, Any]]) -> None:
+            self.writes.append((t, tuple(s["id"] for s in shapes)))
+
+        def __getattr__(self, name: str) -> Any:
+            return lambda *args, **kwargs: None
+
+    periods: list[float] = []
+    spy = Spy()
+    m = load_mission(MISSION)
+    simulate(
+        m,
+        threats,
+        NoAvoidance(),
+        load_vehicle(m.vehicle),
+        config=ReplayConfig(duration=200.0),
+        recorder=spy,
+        progress=lambda t, total: periods.append(t),
+    )
+    expected, shown = [], ()
+    for t in periods:  # the rule, asked of every threat
+        active = tuple(th.id for th in threats if th.active(t))
+        if active != shown or any(getattr(th, "moving", False) for th in threats if th.active(t)):
+            expected.append((t, active))
+            shown = active
+    assert spy.writes == expected
+    assert [w[1] for w in spy.writes[:3]] == [("always",), ("always", "pop"), ("always",)]
+    assert sum(1 for w in spy.writes if "uav" in w[1]) == 21  # every period while it flies
+    assert spy.writes[-1][1] == ("always", "late")
