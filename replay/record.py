@@ -302,6 +302,7 @@ class RunRecorder:
         self._overview_period = max(1, round(track_overview_s * NS_PER_S))
         self._overview_points = int(track_overview_points)
         self._marker = float(marker_size_m)
+        self._json_ids: dict[str, str] = {}  # detection id -> its JSON string
         self._detection_size = Vector3(x=self._marker, y=self._marker, z=self._marker)
         # detection markers: terrain (brown), moving threat (orange), stationary threat (red)
         self._detection_colors = (
@@ -836,9 +837,8 @@ class RunRecorder:
                 f"moving flags (N,); found shapes {pos.shape}, {rng.shape}, {ground.shape}, "
                 f"{mov.shape}"
             )
-        bad = np.flatnonzero(~(np.isfinite(pos).all(axis=1) & np.isfinite(rng)))
-        if len(bad):
-            i = int(bad[0])
+        if not (np.isfinite(pos).all() and np.isfinite(rng).all()):
+            i = int(np.flatnonzero(~(np.isfinite(pos).all(axis=1) & np.isfinite(rng)))[0])
             raise InputError(
                 f"{self._where}detections[{i}]: expected a finite position and range, found "
                 f"{pos[i].tolist()} and {rng[i]}"
@@ -855,10 +855,33 @@ class RunRecorder:
                 ids, pos.tolist(), ground.tolist(), mov.tolist(), rng.tolist(), strict=True
             )
         ]
-        self._write_detections(ns, items)
+        self._write_detections(ns, items, self._detection_json(items))
 
-    def _write_detections(self, ns: int, items: list[dict[str, Any]]) -> None:
-        """The scene update and the JSON list of one scan's (checked) detections."""
+    def _detection_json(self, items: list[dict[str, Any]]) -> bytes:
+        """``_dumps({"detections": items})`` for complete items (id, position, kind, moving,
+        range; finite numbers) written directly: JSON writes a float as its ``repr``; the id is
+        JSON-encoded once per id.  The tests compare it with ``_dumps``."""
+        names = self._json_ids
+        if len(names) > 100_000:  # ids are re-used scan after scan; keep the memo bounded
+            names.clear()
+        parts = []
+        for d in items:
+            ident = d["id"]
+            name = names.get(ident)
+            if name is None:
+                name = names[ident] = _dumps(ident).decode()
+            x, y, z = d["position"]
+            parts.append(
+                f'{{"id":{name},"position":[{x!r},{y!r},{z!r}],"kind":"{d["kind"]}",'
+                f'"moving":{"true" if d["moving"] else "false"},"range":{d["range"]!r}}}'
+            )
+        return f'{{"detections":[{",".join(parts)}]}}'.encode()
+
+    def _write_detections(
+        self, ns: int, items: list[dict[str, Any]], text: bytes | None = None
+    ) -> None:
+        """The scene update and the JSON list (``text`` if given) of one scan's (checked)
+        detections."""
         e = self._entity(ns, "detections")
         size = self._detection_size
         for d in items:
@@ -877,7 +900,9 @@ class RunRecorder:
             sphere.size.CopyFrom(size)
             sphere.color.CopyFrom(color)
         self._emit(T.DETECTIONS, ns, SceneUpdate(entities=[e]).SerializeToString())
-        self._emit(T.DETECTION_LIST, ns, _dumps({"detections": items}))
+        if text is None:
+            text = _dumps({"detections": items})
+        self._emit(T.DETECTION_LIST, ns, text)
 
     # -- events ------------------------------------------------------------------------------
 

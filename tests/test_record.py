@@ -779,19 +779,19 @@ def test_size_and_throughput(tmp_path: Path) -> None:
 def test_detection_arrays_write_the_messages_of_detection_dicts(tmp_path: Path) -> None:
     """``write_detection_arrays`` (what the simulation uses) writes byte for byte the messages of
     ``write_detections`` with the same scan as dicts: every colour, zero and negative offsets
-    from the map origin, empty scans."""
+    from the map origin, ids JSON must escape, numbers of every size, empty scans."""
     rng = np.random.default_rng(3)
     scans = []
     for k in range(30):
         n = int(rng.integers(0, 6))
-        pos = ORIGIN + rng.normal(0.0, 3000.0, (n, 3))
+        pos = ORIGIN + rng.normal(0.0, 3000.0, (n, 3)) * 10.0 ** rng.integers(-9, 9, (n, 1))
         if n:
             pos[0] = ORIGIN  # exactly at the origin: zero offsets
         scans.append(
             (
-                [f"d{k}/{i}" for i in range(n)],
+                [f"d{k}/{i}" if i % 2 else f'o"b\\s/\u00fc\n{k}' for i in range(n)],
                 pos,
-                rng.uniform(0.0, 10_000.0, n),
+                rng.uniform(0.0, 10_000.0, n) * 10.0 ** rng.integers(-20, 20, n),
                 rng.random(n) < 0.3,
                 rng.random(n) < 0.5,
             )
