@@ -26,9 +26,13 @@ import numpy.typing as npt
 from foxglove_schemas_protobuf.Color_pb2 import Color
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.Point3_pb2 import Point3
+from foxglove_schemas_protobuf.Pose_pb2 import Pose
+from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
+from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf import descriptor_pb2
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
@@ -107,6 +111,31 @@ def _packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
     return _ld(field, np.ascontiguousarray(values, dtype="<u4").tobytes())
 
 
+_DOUBLE = struct.Struct("<d")
+_NO_BITS = bytes(8)
+
+
+def _vector3(x: float, y: float, z: float) -> bytes:
+    """A Vector3 / Point3 message as protobuf writes it: the doubles x (1), y (2), z (3), each
+    left out when its bits are all zero (proto3 default; -0.0 is written)."""
+    out = b""
+    for tag, v in ((b"\x09", x), (b"\x11", y), (b"\x19", z)):
+        raw = _DOUBLE.pack(v)
+        if raw != _NO_BITS:
+            out += tag + raw
+    return out
+
+
+def _sphere_field(field: int, x: float, y: float, z: float, tail: bytes) -> bytes:
+    """One ``SpherePrimitive field``: ``pose {position: (x, y, z), orientation: identity}``
+    followed by ``tail``, the sphere's encoded ``size`` and ``color`` fields (the bytes of
+    SerializeToString; the tests compare them)."""
+    position = _vector3(x, y, z)
+    pose = bytes((_POSE_POSITION_TAG, len(position))) + position + _IDENTITY
+    sphere = bytes((_SPHERE_POSE_TAG, len(pose))) + pose + tail
+    return _ld(field, sphere)
+
+
 def _check_wire_layout() -> None:
     """The hand-encoded fields must be what the installed schemas say (fails at import if not)."""
 
@@ -129,6 +158,14 @@ def _check_wire_layout() -> None:
         if number(msg, name, 1) != num:  # TYPE_DOUBLE
             raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
     number(TriangleListPrimitive, "indices", _FIXED32)
+    for msg in (Vector3, Point3):
+        for j, name in enumerate("xyz"):
+            if number(msg, name, 1) != j + 1:
+                raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
+    if (number(Pose, "position"), number(Pose, "orientation")) != (1, 2) or number(
+        SpherePrimitive, "pose"
+    ) >= min(number(SpherePrimitive, "size"), number(SpherePrimitive, "color")):
+        raise ImportError("unexpected field numbers for foxglove.Pose or SpherePrimitive")
 
 
 _check_wire_layout()
@@ -139,6 +176,12 @@ _LINE_POINTS = LinePrimitive.DESCRIPTOR.fields_by_name["points"].number
 _ENTITY_LINES = SceneEntity.DESCRIPTOR.fields_by_name["lines"].number
 _ENTITY_TRIANGLES = SceneEntity.DESCRIPTOR.fields_by_name["triangles"].number
 _UPDATE_ENTITIES = SceneUpdate.DESCRIPTOR.fields_by_name["entities"].number
+_ENTITY_SPHERES = SceneEntity.DESCRIPTOR.fields_by_name["spheres"].number
+_SPHERE_POSE = SpherePrimitive.DESCRIPTOR.fields_by_name["pose"].number
+_POSE_POSITION = Pose.DESCRIPTOR.fields_by_name["position"].number
+_SPHERE_POSE_TAG = _tag(_SPHERE_POSE, _WIRE_LEN)[0]  # one byte each (fields 1..15), and so are
+_POSE_POSITION_TAG = _tag(_POSE_POSITION, _WIRE_LEN)[0]  # the lengths: a pose is < 128 bytes
+_IDENTITY = Pose(orientation=Quaternion(w=1.0)).SerializeToString()  # the orientation field
 
 
 def descriptor_set(message_class: Any) -> bytes:

@@ -84,6 +84,7 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.int64]
 
 DetectionKind = Literal["threat", "terrain"]
 DEFAULT_ELEVATIONS_DEG = (-0.5, 0.0, 0.5, 1.5, 3.0)
@@ -176,7 +177,7 @@ class RadarPicture:
     @cached_property
     def threat_index(self) -> dict[str, int]:
         """Row of each threat return's id."""
-        return {ident: i for i, ident in enumerate(self.threat_ids)}
+        return dict(zip(self.threat_ids, range(self.n_threat), strict=True))
 
     def get(self, ident: str) -> Detection:
         """The detection with this id (KeyError if it was not seen)."""
@@ -397,15 +398,22 @@ class Radar:
         moving[n_threat:] = 0  # terrain does not move
         prev = self.previous
         if prev is not None and n_threat:
-            index = prev.threat_index
-            j = np.fromiter((index.get(ident, -1) for ident in ids), np.int64, n_threat)
-            a = np.flatnonzero(j >= 0)
-            if len(a):
+            a: slice | IntArray
+            b: slice | IntArray
+            if ids == prev.threat_ids:  # the same returns as the last scan (the usual case)
+                a = b = slice(0, n_threat)
+            else:
+                index = prev.threat_index
+                j = np.fromiter((index.get(ident, -1) for ident in ids), np.int64, n_threat)
+                a = np.flatnonzero(j >= 0)
                 b = j[a]
+            if len(ext[a]):
                 moved = np.linalg.norm(positions[a] - prev.positions[b], axis=-1)
-                r = np.maximum(ranges[a], prev.ranges[b])
-                sigma = np.sqrt(self.noise_range_m**2 + (r * self.noise_bearing_rad) ** 2)
-                limit = self.moving_sigmas * math.sqrt(2.0) * sigma + self.moving_floor_m
+                limit: float | FloatArray = self.moving_floor_m  # exactly that when sigma is 0
+                if self.noise_range_m > 0 or self.noise_bearing_rad > 0:
+                    r = np.maximum(ranges[a], prev.ranges[b])
+                    sigma = np.sqrt(self.noise_range_m**2 + (r * self.noise_bearing_rad) ** 2)
+                    limit = self.moving_sigmas * math.sqrt(2.0) * sigma + self.moving_floor_m
                 solid = ext[a]
                 if solid.any():  # returns of solid bodies: + the aircraft's displacement
                     step = float(np.linalg.norm(own - prev.own_position))

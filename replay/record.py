@@ -104,6 +104,7 @@ from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from replay import topics as T
 from replay.mcapio import (
     _ENTITY_LINES,
+    _ENTITY_SPHERES,
     _ENTITY_TRIANGLES,
     _LINE_POINTS,
     _TRI_COLORS,
@@ -114,6 +115,7 @@ from replay.mcapio import (
     _ld,
     _McapSink,
     _packed_fixed32,
+    _sphere_field,
     descriptor_set,
 )
 from replay.scene import (
@@ -143,6 +145,7 @@ LonLat = Callable[[float, float], tuple[float, float]]
 NS_PER_S = 1_000_000_000
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
 LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
+_MEMO_SIZE = 50_000  # encoded detections kept (a few MB), cleared when full
 COMPRESSIONS = ("zstd", "lz4", "none")
 
 # ---------------------------------------------------------------------------------------------
@@ -302,13 +305,14 @@ class RunRecorder:
         self._overview_period = max(1, round(track_overview_s * NS_PER_S))
         self._overview_points = int(track_overview_points)
         self._marker = float(marker_size_m)
-        self._json_ids: dict[str, str] = {}  # detection id -> its JSON string
-        self._detection_size = Vector3(x=self._marker, y=self._marker, z=self._marker)
-        # detection markers: terrain (brown), moving threat (orange), stationary threat (red)
-        self._detection_colors = (
-            _color(0.6, 0.4, 0.2),
-            _color(1.0, 0.55, 0.0),
-            _color(1.0, 0.1, 0.1),
+        self._sphere_memo: dict[tuple[Any, ...], bytes] = {}  # detection marker bytes
+        self._json_memo: dict[tuple[Any, ...], str] = {}  # detection JSON up to the range
+        size = Vector3(x=self._marker, y=self._marker, z=self._marker)
+        # detection markers' size and colour fields: terrain (brown), moving threat (orange),
+        # stationary threat (red)
+        self._detection_tails = tuple(
+            SpherePrimitive(size=size, color=_color(*rgb)).SerializeToString()
+            for rgb in ((0.6, 0.4, 0.2), (1.0, 0.55, 0.0), (1.0, 0.1, 0.1))
         )
         self._max_triangles = int(max_terrain_triangles)
         self._compression = compression
@@ -811,7 +815,10 @@ class RunRecorder:
         """One radar scan: a marker per detection (red: stationary threat, orange: moving, brown:
         terrain) replacing the previous scan's, and the list as JSON."""
         ns = self._ns(t)
-        self._write_detections(ns, [normalize_detection(d, i) for i, d in enumerate(detections)])
+        items = [normalize_detection(d, i) for i, d in enumerate(detections)]
+        tails = [self._sphere_tail(d["kind"] == "terrain", d["moving"]) for d in items]
+        self._write_markers(ns, [d["position"] for d in items], tails)
+        self._emit(T.DETECTION_LIST, ns, _dumps({"detections": items}))
 
     def write_detection_arrays(
         self,
@@ -843,66 +850,65 @@ class RunRecorder:
                 f"{self._where}detections[{i}]: expected a finite position and range, found "
                 f"{pos[i].tolist()} and {rng[i]}"
             )
-        items = [
-            {
-                "id": str(ident),
-                "position": xyz,
-                "kind": "terrain" if g else "threat",
-                "moving": m,
-                "range": r,
-            }
-            for ident, xyz, g, m, r in zip(
-                ids, pos.tolist(), ground.tolist(), mov.tolist(), rng.tolist(), strict=True
-            )
-        ]
-        self._write_detections(ns, items, self._detection_json(items))
+        xyz, flags = pos.tolist(), list(zip(ground.tolist(), mov.tolist(), strict=True))
+        self._write_markers(ns, xyz, [self._sphere_tail(g, m) for g, m in flags])
+        self._emit(T.DETECTION_LIST, ns, self._detection_json(ids, xyz, flags, rng.tolist()))
 
-    def _detection_json(self, items: list[dict[str, Any]]) -> bytes:
-        """``_dumps({"detections": items})`` for complete items (id, position, kind, moving,
-        range; finite numbers) written directly: JSON writes a float as its ``repr``; the id is
-        JSON-encoded once per id.  The tests compare it with ``_dumps``."""
-        names = self._json_ids
-        if len(names) > 100_000:  # ids are re-used scan after scan; keep the memo bounded
-            names.clear()
+    def _sphere_tail(self, terrain: bool, moving: bool) -> bytes:
+        """Size and colour fields of a detection marker (brown terrain, orange moving, red)."""
+        return self._detection_tails[0 if terrain else 1 if moving else 2]
+
+    def _write_markers(self, ns: int, positions: list[list[float]], tails: list[bytes]) -> None:
+        """The scene update of one scan: a sphere at each position (map CRS metres).  A radar
+        sees a static threat at the same point scan after scan: the encoded spheres are kept."""
+        ox, oy, oz = self.map_origin
+        memo = self._memo(self._sphere_memo)
+        spheres = []
+        for (x, y, z), tail in zip(positions, tails, strict=True):
+            # (0.0 and -0.0 are equal keys with different bits: not kept)
+            key = (x, y, z, tail) if x and y and z else None
+            sphere = memo.get(key)
+            if sphere is None:
+                sphere = _sphere_field(_ENTITY_SPHERES, x - ox, y - oy, z - oz, tail)
+                if key is not None:
+                    memo[key] = sphere
+            spheres.append(sphere)
+        entity = self._entity(ns, "detections").SerializeToString() + b"".join(spheres)
+        self._emit(T.DETECTIONS, ns, _ld(_UPDATE_ENTITIES, entity))
+
+    @staticmethod
+    def _memo(memo: dict[Any, Any]) -> dict[Any, Any]:
+        if len(memo) > _MEMO_SIZE:  # a noisy radar never repeats a point: keep it bounded
+            memo.clear()
+        return memo
+
+    def _detection_json(
+        self,
+        ids: Sequence[str],
+        positions: list[list[float]],
+        flags: list[tuple[bool, bool]],
+        ranges: list[float],
+    ) -> bytes:
+        """``_dumps({"detections": [...]})`` of complete detections (finite numbers) written
+        directly: JSON writes a float as its ``repr``; everything up to the range is kept per
+        id, position and flags.  The tests compare it with ``write_detections``."""
+        memo = self._memo(self._json_memo)
         parts = []
-        for d in items:
-            ident = d["id"]
-            name = names.get(ident)
-            if name is None:
-                name = names[ident] = _dumps(ident).decode()
-            x, y, z = d["position"]
-            parts.append(
-                f'{{"id":{name},"position":[{x!r},{y!r},{z!r}],"kind":"{d["kind"]}",'
-                f'"moving":{"true" if d["moving"] else "false"},"range":{d["range"]!r}}}'
-            )
+        for ident, (x, y, z), (terrain, moving), r in zip(
+            ids, positions, flags, ranges, strict=True
+        ):
+            key = (ident, x, y, z, terrain, moving) if x and y and z else None  # as above
+            head = memo.get(key)
+            if head is None:
+                head = (
+                    f'{{"id":{_dumps(str(ident)).decode()},"position":[{x!r},{y!r},{z!r}],'
+                    f'"kind":"{"terrain" if terrain else "threat"}",'
+                    f'"moving":{"true" if moving else "false"},"range":'
+                )
+                if key is not None:
+                    memo[key] = head
+            parts.append(f"{head}{r!r}}}")
         return f'{{"detections":[{",".join(parts)}]}}'.encode()
-
-    def _write_detections(
-        self, ns: int, items: list[dict[str, Any]], text: bytes | None = None
-    ) -> None:
-        """The scene update and the JSON list (``text`` if given) of one scan's (checked)
-        detections."""
-        e = self._entity(ns, "detections")
-        size = self._detection_size
-        for d in items:
-            color = (
-                self._detection_colors[0]
-                if d["kind"] == "terrain"
-                else self._detection_colors[1]
-                if d["moving"]
-                else self._detection_colors[2]
-            )
-            sphere = e.spheres.add()  # filled in place: the same message as built whole
-            x, y, z = self._rel(d["position"])
-            position = sphere.pose.position
-            position.x, position.y, position.z = x, y, z
-            sphere.pose.orientation.w = 1.0
-            sphere.size.CopyFrom(size)
-            sphere.color.CopyFrom(color)
-        self._emit(T.DETECTIONS, ns, SceneUpdate(entities=[e]).SerializeToString())
-        if text is None:
-            text = _dumps({"detections": items})
-        self._emit(T.DETECTION_LIST, ns, text)
 
     # -- events ------------------------------------------------------------------------------
 

@@ -90,6 +90,8 @@ class _Points:
         self.ids = list(ids)
         self.t0 = table.appears[self.rows]
         self.t1 = table.disappears[self.rows]
+        # no windows: every point is active from t = 0 on (appears_at is >= 0)
+        self.always = bool(np.all(self.t0 == 0.0) and np.all(np.isinf(self.t1)))
 
     def __len__(self) -> int:
         return len(self.rows)
@@ -97,6 +99,8 @@ class _Points:
     def seen(self, t: float, own: FloatArray, max_range: float) -> IntArray:
         """Points active at t within ``max_range`` of ``own``."""
         d = norm3(self.x - own[0], self.y - own[1], self.z - own[2])
+        if self.always:
+            return np.flatnonzero(d <= max_range) if t >= 0.0 else np.zeros(0, np.int64)
         return np.flatnonzero((d <= max_range) & (t >= self.t0) & (t < self.t1))
 
     def distances(self, pos: FloatArray, on: IntArray) -> FloatArray:
@@ -162,6 +166,7 @@ class ThreatTable:
 
         arrayed = {*st, *hl, *cy, *iv}
         self._other = [i for i in range(len(ths)) if i not in arrayed]
+        self._static_only = len(st) == len(ths)
 
     def __len__(self) -> int:
         return len(self.threats)
@@ -190,6 +195,11 @@ class ThreatTable:
                 if len(hit):
                     ids = [kind.ids[j] for j in hit.tolist()]
                     blocks.append((kind.rows[hit], kind.k[hit], ids, kind.xyz[hit]))
+        if self._static_only:  # one block, a static threat's return is named after it
+            if not blocks:
+                return [], [], np.zeros((0, 3)), np.zeros(0, dtype=bool)
+            _, _, ids, pts = blocks[0]
+            return ids, ids.copy(), pts, np.zeros(len(ids), dtype=bool)
         act = self.active(t) if len(self._cy) or len(self._iv) or self._other else None
 
         def block(rows: IntArray, k: IntArray, ids: list[str], pts: FloatArray) -> None:

@@ -782,14 +782,18 @@ def test_detection_arrays_write_the_messages_of_detection_dicts(tmp_path: Path) 
     from the map origin, ids JSON must escape, numbers of every size, empty scans."""
     rng = np.random.default_rng(3)
     scans = []
-    for k in range(30):
+    for k in range(60):
         n = int(rng.integers(0, 6))
         pos = ORIGIN + rng.normal(0.0, 3000.0, (n, 3)) * 10.0 ** rng.integers(-9, 9, (n, 1))
         if n:
             pos[0] = ORIGIN  # exactly at the origin: zero offsets
+        ids = [f"d{k}/{i}" if i % 2 else f'o"b\\s/\u00fc\n{k}' for i in range(n)]
+        if k >= 30:  # seen again (a static threat, no noise): new ranges and flags
+            ids, pos = scans[k - 30][0], scans[k - 30][1]
+            n = len(ids)
         scans.append(
             (
-                [f"d{k}/{i}" if i % 2 else f'o"b\\s/\u00fc\n{k}' for i in range(n)],
+                ids,
                 pos,
                 rng.uniform(0.0, 10_000.0, n) * 10.0 ** rng.integers(-20, 20, n),
                 rng.random(n) < 0.3,
@@ -821,6 +825,53 @@ def test_detection_arrays_write_the_messages_of_detection_dicts(tmp_path: Path) 
         for p in paths
     )
     assert len(a) == 2 * len(scans) and a == b
+    # the markers are the message the foxglove classes build
+    scenes = [data for topic, _, data in a if topic == T.DETECTIONS]
+    for k, (_, pos, _, terrain, moving) in enumerate(scans):
+        assert scenes[k] == reference_markers(k * NS, pos - ORIGIN, terrain, moving), k
+
+
+NS = 1_000_000_000
+
+
+def reference_markers(
+    ns: int, rel: np.ndarray, terrain: np.ndarray, moving: np.ndarray, size: float = 50.0
+) -> bytes:
+    """The detection markers of one scan built with the foxglove protobuf classes."""
+    from foxglove_schemas_protobuf.Color_pb2 import Color
+    from foxglove_schemas_protobuf.Pose_pb2 import Pose
+    from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
+    from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
+    from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
+    from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
+
+    e = SceneEntity(frame_id=T.MAP_FRAME, id="detections")
+    e.timestamp.seconds, e.timestamp.nanos = divmod(ns, NS)
+    for (x, y, z), g, m in zip(rel.tolist(), terrain, moving, strict=True):
+        rgb = (0.6, 0.4, 0.2) if g else (1.0, 0.55, 0.0) if m else (1.0, 0.1, 0.1)
+        e.spheres.append(
+            SpherePrimitive(
+                pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(w=1.0)),
+                size=Vector3(x=size, y=size, z=size),
+                color=Color(r=rgb[0], g=rgb[1], b=rgb[2], a=1.0),
+            )
+        )
+    return bytes(SceneUpdate(entities=[e]).SerializeToString())
+
+
+def test_detection_markers_with_zero_and_negative_zero_offsets(tmp_path: Path) -> None:
+    """Protobuf leaves out a double that is +0.0 and writes -0.0: the hand-written markers too."""
+    pos = np.array([[0.0, 0.0, 0.0], [-0.0, 1.0, -0.0], [0.0, -0.0, 5.0], [-0.0, -0.0, -0.0]])
+    flags = np.array([False, True, False, False]), np.array([False, False, True, False])
+    path = tmp_path / "run.mcap"
+    with RunRecorder(path) as rec:
+        rec.write_detection_arrays(2.5, ["a", "b", "c", "d"], pos, np.ones(4), *flags)
+        rec.write_detections(3.5, [{"id": "e", "position": [-0.0, 0.0, 0.0]}])
+    scenes = [m.data for _, ch, m in messages(path) if ch.topic == T.DETECTIONS]
+    assert scenes[0] == reference_markers(int(2.5 * NS), pos, *flags)
+    assert scenes[1] == reference_markers(
+        int(3.5 * NS), np.array([[-0.0, 0.0, 0.0]]), [False], [False]
+    )
 
 
 def test_detection_arrays_are_checked(tmp_path: Path) -> None:

@@ -255,6 +255,12 @@ def test_radar_points_at_the_window_edges_and_the_range_edge() -> None:
     assert table.radar_points(20.0, own, 10_000.0)[0] == ["a", "h/0"]
     edges = np.array([9.999, 10.0, 19.999, 20.0])
     assert table.active_at(edges).tolist() == [[th.active(t) for th in threats] for t in edges]
+    plain = ThreatTable(threats[:2])  # no windows: active from t = 0 on
+    for t in (-1.0, 0.0):
+        got = plain.radar_points(t, own, 10_000.0)
+        assert_same_points(got, reference_radar_points(threats[:2], t, own, 10_000.0))
+    assert plain.radar_points(-1.0, own, 10_000.0)[0] == []
+    assert plain.radar_points(0.0, own, 10_000.0)[0] == ["h/0"]
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -304,17 +310,18 @@ def ridge() -> TerrainModel:
     return TerrainModel.from_grid(HeightGrid(np.asarray(heights, np.float32), probe.transform))
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("noise", [True, False])
+@pytest.mark.parametrize("seed", range(3))
 def test_scans_equal_the_reference_radar_with_occlusion_and_noise(
-    ridge: TerrainModel, seed: int
+    ridge: TerrainModel, seed: int, noise: bool
 ) -> None:
-    """Forty scans across the ridge, every kind of threat, noise from one seed: the pictures
-    (ids, positions, ranges, bearings, classification, terrain returns) are identical."""
+    """Forty scans across the ridge, every kind of threat, noise from one seed (or none): the
+    pictures (ids, positions, ranges, bearings, classification, terrain returns) are identical."""
     rng = np.random.default_rng(200 + seed)
     threats = random_scene(rng, 60)
     settings: dict[str, Any] = {
-        "noise_range_m": 5.0,
-        "noise_bearing_rad": 1e-3,
+        "noise_range_m": 5.0 * noise,
+        "noise_bearing_rad": 1e-3 * noise,
         "seed": seed,
         "terrain_azimuths": 90,
     }
