@@ -246,15 +246,7 @@ def simulate(
                 min_clearance=cfg.terrain_clearance,
             )
             if recorder is not None and len(picture):
-                rows = _recorded_rows(picture)
-                recorder.write_detection_arrays(
-                    t,
-                    [picture.ids[i] for i in rows.tolist()],
-                    picture.positions[rows],
-                    picture.ranges[rows],
-                    rows >= picture.n_threat,
-                    picture.moving_code[rows] == 1,
-                )
+                _record_picture(recorder, t, picture)
             if passive:
                 continue  # "none" never changes the mission: skip building its context
             ctx = _context(t, x, picture, autopilot, params, terrain_model, cfg)
@@ -317,17 +309,31 @@ def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
 RECORDED_TERRAIN_RETURNS = 48  # the nearest terrain returns of a scan that go into the MCAP
 
 
-def _recorded_rows(picture: Any) -> npt.NDArray[np.int64]:
-    """Rows of a picture that go into the MCAP: every threat return, and the nearest terrain
-    returns (a mountain scan can hold hundreds; recording them all would dominate the run's time
-    and file size)."""
+def _record_picture(recorder: Any, t: float, picture: Any) -> None:
+    """Every threat return of a scan, and its nearest terrain returns (a mountain scan can hold
+    hundreds; recording them all would dominate the run's time and file size)."""
     n = picture.n_threat
-    rows = np.arange(n)
-    if len(picture) > n:
-        terrain = np.arange(n, len(picture))
-        near = terrain[np.argsort(picture.ranges[n:], kind="stable")[:RECORDED_TERRAIN_RETURNS]]
-        rows = np.concatenate([rows, near])
-    return rows
+    if len(picture) == n:  # threat returns only: all of them, as they are
+        terrain = np.zeros(n, dtype=bool)
+        recorder.write_detection_arrays(
+            t,
+            picture.threat_ids,
+            picture.positions,
+            picture.ranges,
+            terrain,
+            picture.moving_code == 1,
+        )
+        return
+    near = np.argsort(picture.ranges[n:], kind="stable")[:RECORDED_TERRAIN_RETURNS] + n
+    rows = np.concatenate([np.arange(n), near])
+    recorder.write_detection_arrays(
+        t,
+        [picture.ids[i] for i in rows.tolist()],
+        picture.positions[rows],
+        picture.ranges[rows],
+        rows >= n,
+        picture.moving_code[rows] == 1,
+    )
 
 
 def _context(

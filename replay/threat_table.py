@@ -84,6 +84,7 @@ class _Points:
         p = _floats(points, 3)
         self.x, self.y, self.z = (np.ascontiguousarray(p[:, j]) for j in range(3))
         self.xyz = p
+        self.columns = np.ascontiguousarray(p.T)  # (3, P): x, y, z rows
         self.r = _floats(radii)
         self.rows = _index(rows)
         self.k = _index(index)
@@ -98,7 +99,8 @@ class _Points:
 
     def seen(self, t: float, own: FloatArray, max_range: float) -> IntArray:
         """Points active at t within ``max_range`` of ``own``."""
-        d = norm3(self.x - own[0], self.y - own[1], self.z - own[2])
+        dx, dy, dz = self.columns - own[:, None]
+        d = norm3(dx, dy, dz)
         if self.always:
             return np.flatnonzero(d <= max_range) if t >= 0.0 else np.zeros(0, np.int64)
         return np.flatnonzero((d <= max_range) & (t >= self.t0) & (t < self.t1))
