@@ -178,7 +178,7 @@ def _load() -> str:
         return "n/a"
 
 
-def bench_obstacles(count: int, repeats: int, seed: int) -> None:
+def bench_obstacles(count: int, repeats: int, seed: int, note: str = "") -> None:
     m = load_mission(MISSION)
     params = load_vehicle(m.vehicle)
     recs = obstacle_records(m.waypoints, count, seed, float(m.cruise_altitude))
@@ -253,7 +253,7 @@ def bench_obstacles(count: int, repeats: int, seed: int) -> None:
         notes=f"obstacles seed {seed}, {NEAR_M / 1000:g}-{FAR_M / 1000:g} km from the path, "
         f"radius {OBSTACLE_RS_M:g} m; medians of {repeats} interleaved runs "
         f"(none, obstacles, ...), each in this process after a warm-up; load average "
-        f"(1/5/15 min) {load_before} before, {_load()} after",
+        f"(1/5/15 min) {load_before} before, {_load()} after" + (f"; {note}" if note else ""),
     )
 
 
@@ -264,9 +264,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     ob.add_argument("--count", type=int, default=100)
     ob.add_argument("--repeats", type=int, default=3)
     ob.add_argument("--seed", type=int, default=13)
+    ob.add_argument("--note", default="", help="added to the notes of the record")
     args = ap.parse_args(argv)
     if args.command == "obstacles":
-        bench_obstacles(args.count, args.repeats, args.seed)
+        bench_obstacles(args.count, args.repeats, args.seed, args.note)
     else:
         bench_empty()
 

@@ -19,7 +19,9 @@ the solid shapes (cylinder, body) the point of the body nearest to the aircraft,
 body (the aircraft's own position when it is inside).  A point is detected when its range is
 <= ``range_m`` and, with a terrain model, the segment aircraft -> point is clear of terrain:
 :meth:`terrain.model.TerrainModel.line_of_sight`, one batched call for all candidate points per
-scan, with ``los_tolerance_m`` (1 m) so a point resting on the ground is still seen.
+scan, with ``los_tolerance_m`` (1 m) so a point resting on the ground is still seen.  The threats
+are asked all at once, as arrays by kind (:class:`replay.threat_table.ThreatTable`, kept while
+the same threats are scanned), with the same results, in the same order, as one by one.
 
 **Terrain returns.**  With a terrain model, a fan of rays is cast in one
 :meth:`~terrain.model.TerrainModel.raycast` call: ``terrain_azimuths`` azimuths (360: one degree,
@@ -407,15 +409,15 @@ class Radar:
                 j = np.fromiter((index.get(ident, -1) for ident in ids), np.int64, n_threat)
                 a = np.flatnonzero(j >= 0)
                 b = j[a]
-            if len(ext[a]):
+            solid = ext[a]  # returns of solid bodies
+            if len(solid):
                 moved = np.linalg.norm(positions[a] - prev.positions[b], axis=-1)
                 limit: float | FloatArray = self.moving_floor_m  # exactly that when sigma is 0
                 if self.noise_range_m > 0 or self.noise_bearing_rad > 0:
                     r = np.maximum(ranges[a], prev.ranges[b])
                     sigma = np.sqrt(self.noise_range_m**2 + (r * self.noise_bearing_rad) ** 2)
                     limit = self.moving_sigmas * math.sqrt(2.0) * sigma + self.moving_floor_m
-                solid = ext[a]
-                if solid.any():  # returns of solid bodies: + the aircraft's displacement
+                if solid.any():  # + the aircraft's displacement
                     step = float(np.linalg.norm(own - prev.own_position))
                     limit = limit + np.where(solid, step, 0.0)
                 moving[a] = (moved > limit).astype(np.int8)

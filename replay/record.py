@@ -58,7 +58,9 @@ Conventions:
   bottom.  Unknown keys are refused.
 - **Detections** (:meth:`RunRecorder.write_detections`): one radar scan, a list of
   ``{"id", "position": [x, y, z], "range", "kind": "threat" | "terrain", "moving": bool}`` (``id``
-  and ``position`` required, ``kind`` defaults to ``"threat"``, ``moving`` to false).
+  and ``position`` required, ``kind`` defaults to ``"threat"``, ``moving`` to false); or
+  :meth:`RunRecorder.write_detection_arrays` with the scan as arrays (what the simulation uses:
+  the same messages, checked as arrays, built without a dict per detection).
 
 The file is written under a temporary name beside ``path`` and renamed into place only when the
 ``with`` block ends cleanly; an exception (or Ctrl-C) removes the temporary file, so a file at

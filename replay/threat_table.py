@@ -168,7 +168,7 @@ class ThreatTable:
 
         arrayed = {*st, *hl, *cy, *iv}
         self._other = [i for i in range(len(ths)) if i not in arrayed]
-        self._static_only = len(st) == len(ths)
+        self._static_only = len(st) == len(ths) > 0
 
     def __len__(self) -> int:
         return len(self.threats)
@@ -190,6 +190,10 @@ class ThreatTable:
         """The radar's candidate returns at time t from ``own``: (ids, sources, points (N, 3),
         extended (N,)) of the points of active threats within ``max_range`` (3D), in threat
         order -- :meth:`Threat.radar_points` of each active threat, range-tested."""
+        if self._static_only:  # a static threat's one return is named after it
+            hit = self._static.seen(t, own, max_range)
+            ids = [self._static.ids[j] for j in hit.tolist()]
+            return ids, ids.copy(), self._static.xyz[hit], np.zeros(len(ids), dtype=bool)
         blocks: list[tuple[IntArray, IntArray, list[str], FloatArray]] = []
         for kind in (self._static, self._hills):
             if len(kind):
@@ -197,11 +201,6 @@ class ThreatTable:
                 if len(hit):
                     ids = [kind.ids[j] for j in hit.tolist()]
                     blocks.append((kind.rows[hit], kind.k[hit], ids, kind.xyz[hit]))
-        if self._static_only:  # one block, a static threat's return is named after it
-            if not blocks:
-                return [], [], np.zeros((0, 3)), np.zeros(0, dtype=bool)
-            _, _, ids, pts = blocks[0]
-            return ids, ids.copy(), pts, np.zeros(len(ids), dtype=bool)
         act = self.active(t) if len(self._cy) or len(self._iv) or self._other else None
 
         def block(rows: IntArray, k: IntArray, ids: list[str], pts: FloatArray) -> None:

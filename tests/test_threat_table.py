@@ -222,6 +222,21 @@ def test_radar_points_equal_the_threat_by_threat_scan(seed: int) -> None:
     assert seen > 100  # the scenes are seen, not only missed
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_radar_points_of_static_threats_only(seed: int) -> None:
+    """The usual scene (seed 000's obstacles): static threats only, with and without windows."""
+    rng = np.random.default_rng(300 + seed)
+    threats = tuple(th for th in random_scene(rng, 400) if type(th) is StaticThreat)
+    table = ThreatTable(threats)
+    seen = 0
+    for t in rng.uniform(0.0, T_END, 60).tolist():
+        own = np.array([rng.uniform(X0, X0 + 12000), rng.uniform(YC - 3000, YC + 3000), 300.0])
+        got = table.radar_points(t, own, 10_000.0)
+        assert_same_points(got, reference_radar_points(threats, t, own, 10_000.0))
+        seen += len(got[0])
+    assert len(threats) == 100 and seen > 1000
+
+
 def test_radar_points_at_the_window_edges_and_the_range_edge() -> None:
     """Active from appears_at (included) to disappears_at (excluded), every kind; 10 km exactly
     is in range."""
