@@ -26,14 +26,15 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.mission import Mission
-from replay.autopilot import GUIDANCE_COLUMNS, Autopilot, AutopilotConfig
-from replay.avoidance.base import AvoidanceContext, AvoidanceDecision, Avoider, NoAvoidance
-from replay.frames import PD, PE, PN, PSI, U, V, W, ned_to_map, rotation_body_to_ned
+from replay.autopilot import GUIDANCE_COLUMNS
+from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
+from replay.flightstack import FixedWingStack, FlightStack
+from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
+from replay.guidance import AvoidanceDecision, FollowWaypoints, GuidanceRefused, command_record
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.radar import Radar
 from replay.threats import ThreatSet
 from replay.vehicle.params import VehicleParams
-from replay.vehicle.trim import trim
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 
@@ -56,10 +57,19 @@ class ReplayConfig:
         None  # radar: terrain above own altitude - this (None: radar default)
     )
     terrain_following: float | None = None  # autopilot: keep at least this clearance (None: off)
-    switch_distance: float = 1000.0
+    switch_distance: float = 1000.0  # fixed wing without turn fillets (seed 000 §3.6)
     airspeed: float | None = None  # None: the mission's cruise speed
+    avoid_period: float | None = None  # s between avoider calls (None: the avoider's, else radar's)
 
     def __post_init__(self) -> None:
+        if self.avoid_period is not None and not (
+            isinstance(self.avoid_period, int | float)
+            and math.isfinite(self.avoid_period)
+            and self.avoid_period > 0
+        ):
+            raise InputError(
+                f"replay setting 'avoid_period' must be a positive number; got {self.avoid_period!r}"
+            )
         for name in ("sample_hz", "radar_range", "radar_period", "switch_distance"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -92,12 +102,24 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
 
 def initial_state(params: VehicleParams, waypoints: FloatArray, airspeed: float) -> FloatArray:
     """Trimmed level flight at ``airspeed`` over the first waypoint, heading for the second."""
-    start, nxt = waypoints[0], waypoints[1]
-    tr = trim(params, airspeed, altitude=float(start[2]))
-    x = np.array(tr.x, dtype=np.float64)
-    x[PN], x[PE], x[PD] = start[1], start[0], -start[2]
-    x[PSI] = math.atan2(nxt[0] - start[0], nxt[1] - start[1])
-    return x
+    return FixedWingStack(params, waypoints, airspeed=airspeed).initial_state()
+
+
+def fixed_wing_stack(
+    mission: Mission, params: VehicleParams, grid: HeightGrid | None, cfg: ReplayConfig
+) -> FixedWingStack:
+    """The fixed-wing stack a mission is flown with: its waypoints at its cruise speed (or the
+    configured one), its turn fillets when it records a turn radius (else seed 000's 1 km leg
+    switch), terrain following when configured."""
+    return FixedWingStack(
+        params,
+        np.array(mission.waypoints, dtype=np.float64),
+        airspeed=float(cfg.airspeed or mission.cruise_speed),
+        turn_radius=mission.turn_radius,
+        switch_distance=cfg.switch_distance,
+        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
+        terrain_clearance=cfg.terrain_following or 0.0,
+    )
 
 
 def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
@@ -131,7 +153,7 @@ def simulate(
     mission: Mission,
     threats: ThreatSet,
     avoider: Avoider,
-    params: VehicleParams,
+    vehicle: VehicleParams | FlightStack,
     *,
     grid: HeightGrid | None = None,
     terrain_model: Any = None,
@@ -139,7 +161,9 @@ def simulate(
     recorder: Any = None,
     progress: Callable[[float, float], None] | None = None,
 ) -> ReplayResult:
-    """Fly ``mission`` with ``params`` among ``threats``, letting ``avoider`` react to the radar."""
+    """Fly ``mission`` with ``vehicle`` (a flight stack, or fixed-wing parameters: then
+    :func:`fixed_wing_stack`) among ``threats``, letting ``avoider`` react to the radar at its
+    own period."""
     cfg = config or ReplayConfig()
     wall0 = time.perf_counter()
     check_mission(mission, grid)
@@ -155,19 +179,12 @@ def simulate(
         def ground(x: FloatArray, y: FloatArray) -> FloatArray:
             return np.zeros_like(np.asarray(x, dtype=np.float64))
 
-    x = initial_state(params, wp0, airspeed)  # first: "cannot trim" names the speeds it can fly
-    ap_cfg = AutopilotConfig(
-        switch_distance=cfg.switch_distance,
-        turn_radius=mission.turn_radius,
-        terrain_clearance=cfg.terrain_following or 0.0,
+    stack: FlightStack = (
+        fixed_wing_stack(mission, vehicle, grid, cfg)
+        if isinstance(vehicle, VehicleParams)
+        else vehicle
     )
-    autopilot = Autopilot(
-        params,
-        wp0,
-        airspeed=airspeed,
-        config=ap_cfg,
-        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
-    )
+    x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
     radar = Radar(
         range_m=cfg.radar_range,
         period_s=cfg.radar_period,
@@ -177,8 +194,11 @@ def simulate(
     )
     avoider.reset(wp0, rng)
     passive = isinstance(avoider, NoAvoidance)
+    avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or cfg.radar_period)
+    tick = min(cfg.radar_period, avoid_period)
+    next_decision = 0.0
     tracker = MetricsTracker(list(threats.ids), wp0[0], wp0[-1])
-    record_every = max(1, int(round(1.0 / (cfg.sample_hz * ap_cfg.dt))))
+    record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
     if recorder is not None:
         recorder.write_waypoints(0.0, wp0, "initial", 1)
 
@@ -190,11 +210,12 @@ def simulate(
     contact = False
     shown: tuple[str, ...] = ()
     pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+    picture: Any = None
     while t < duration - 1e-9:
-        period = min(cfg.radar_period, duration - t)
-        if period < 0.5 * ap_cfg.dt:
+        period = min(tick, duration - t)
+        if period < 0.5 * stack.dt:
             break  # the limit falls between two steps of the integrator: nothing left to fly
-        log = autopilot.fly(x, t, period, record_every=record_every)
+        log = stack.fly(x, t, period, record_every=record_every)
         x, t = log.x, log.t
         ts, xs = log.times, log.states
         if len(ts):
@@ -231,7 +252,7 @@ def simulate(
                 shown = active
         if progress is not None:
             progress(t, duration)
-        if autopilot.done:
+        if stack.done:
             end_reason = "goal"
             break
         if radar.due(t):
@@ -245,16 +266,20 @@ def simulate(
             )
             if recorder is not None and len(picture):
                 recorder.write_detections(t, _recorded_detections(picture))
-            if passive:
-                continue  # "none" never changes the mission: skip building its context
-            ctx = _context(t, x, picture, autopilot, params, terrain_model, cfg)
-            t0 = time.perf_counter()
-            decision = avoider.decide(ctx)
-            compute = time.perf_counter() - t0
-            if decision is not None:
-                decisions.append(
-                    _apply(decision, autopilot, t, compute, avoider, tracker, recorder)
-                )
+        if passive or picture is None or t < next_decision - 1e-9:
+            continue  # "none" never changes the mission: skip building its context
+        next_decision = t + avoid_period
+        ctx = _context(t, x, picture, stack, terrain_model, cfg)
+        t0 = time.perf_counter()
+        decision = avoider.decide(ctx)
+        compute = time.perf_counter() - t0
+        if decision is not None:
+            decisions.append(_apply(decision, stack, t, compute, avoider, tracker, recorder))
+            if decision.end is not None:
+                end_reason = decision.end
+                if recorder is not None:
+                    recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
+                break
     _flush(pending, threats, tracker)
     metrics = tracker.finish(
         t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
@@ -268,7 +293,7 @@ def simulate(
         times=tt,
         states=xx,
         positions=ned_to_map(xx[:, :3]) if len(xx) else np.zeros((0, 3)),
-        waypoints=autopilot.waypoints,
+        waypoints=stack.waypoints,
         initial_waypoints=wp0,
         decisions=tuple(decisions),
         seed=cfg.seed,
@@ -344,8 +369,7 @@ def _context(
     t: float,
     x: FloatArray,
     picture: Any,
-    autopilot: Autopilot,
-    params: VehicleParams,
+    stack: FlightStack,
     terrain: Any,
     cfg: ReplayConfig,
 ) -> AvoidanceContext:
@@ -360,40 +384,46 @@ def _context(
         airspeed=float(np.linalg.norm(x[[U, V, W]])),
         course=math.atan2(vel[0], vel[1]),
         picture=picture,
-        waypoints=autopilot.waypoints,
-        next_index=autopilot.next_index,
-        vehicle=params,
+        waypoints=stack.waypoints,
+        next_index=stack.next_index,
+        vehicle=stack.params,
         terrain=terrain,
         terrain_clearance=float(cfg.terrain_following or 0.0),
-        switch_distance=float(cfg.switch_distance),
+        switch_distance=float(stack.corner_distance),
     )
 
 
 def _apply(
     decision: AvoidanceDecision,
-    autopilot: Autopilot,
+    stack: FlightStack,
     t: float,
     compute: float,
     avoider: Avoider,
     tracker: MetricsTracker,
     recorder: Any,
 ) -> dict[str, Any]:
+    """Hand the decision's command to the flight stack (a refusal is recorded, not raised)."""
     added = 0
-    if decision.waypoints is not None:
-        before = len(autopilot.waypoints)
-        nxt = decision.next_index if decision.next_index is not None else autopilot.next_index
-        autopilot.set_waypoints(decision.waypoints, nxt, direct=decision.direct)
-        added = max(0, len(decision.waypoints) - before)
-        if recorder is not None:
-            recorder.write_waypoints(
-                t, decision.waypoints, f"avoidance: {avoider.name} {decision.reason}".strip(), nxt
-            )
-    if decision.guidance is not None:
-        autopilot.set_override(**decision.guidance)
-    elif decision.waypoints is not None:
-        autopilot.clear_override()
+    refused = None
+    cmd = decision.command
+    if cmd is not None:
+        before = len(stack.waypoints)
+        try:
+            stack.apply(cmd)
+        except GuidanceRefused as exc:
+            refused = str(exc)
+        else:
+            if isinstance(cmd, FollowWaypoints):
+                added = max(0, len(cmd.waypoints) - before)
+                if recorder is not None:
+                    recorder.write_waypoints(
+                        t,
+                        cmd.waypoints,
+                        f"avoidance: {avoider.name} {decision.reason}".strip(),
+                        cmd.next_index,
+                    )
     tracker.decision(compute, added)
-    record = {
+    record: dict[str, Any] = {
         "t": t,
         "algorithm": avoider.name,
         "reason": decision.reason,
@@ -401,6 +431,12 @@ def _apply(
         "waypoints_added": added,
         **decision.info,
     }
+    if cmd is not None and not isinstance(cmd, FollowWaypoints):
+        record["command"] = command_record(cmd)
+    if refused is not None:
+        record["refused"] = refused
+    if decision.end is not None:
+        record["end"] = decision.end
     if recorder is not None:
         recorder.write_decision(t, record)
     return record

@@ -113,7 +113,7 @@ from planner.optim import make_optimizer
 from planner.optim.base import require_real
 from planner.optim.pso import SEED000_PSO
 from planner.optim.termination import MaxIterations, Stall
-from replay.avoidance.base import AVOIDERS, AvoidanceContext, AvoidanceDecision
+from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.pso_ca_geometry import (
     PsoCaParams,
     WaypointProblem,
@@ -123,6 +123,7 @@ from replay.avoidance.pso_ca_geometry import (
     segment_clearance,
     tangent_seed_points,
 )
+from replay.guidance import AvoidanceDecision, FollowWaypoints
 from replay.threats import cluster_terminals
 from terrain.errors import InputError
 
@@ -527,9 +528,7 @@ class PsoCaAvoider:
             else (f"obstacle {hit.ids[0]}" if len(hit.ids) == 1 else f"group of {len(hit.ids)}")
         )
         return AvoidanceDecision(
-            waypoints=new_list,
-            next_index=ctx.next_index,
-            direct=True,
+            FollowWaypoints(new_list, ctx.next_index, direct=True),
             reason=f"inserted 1 for {what}"
             + (f", skipped {target_i - ctx.next_index}" if target_i > ctx.next_index else ""),
             info=info,
@@ -650,6 +649,3 @@ class PsoCaAvoider:
         if hit.side < 0:
             return np.asarray(right[1::2])
         return np.vstack([left[0::2][: N_SEEDS // 2], right[1::2][: N_SEEDS - N_SEEDS // 2]])
-
-
-AVOIDERS["pso-ca"] = PsoCaAvoider
