@@ -222,3 +222,62 @@ def test_importing_the_avoidance_package_imports_no_avoider_module() -> None:
     code = "import sys, replay.avoidance\nprint('replay.avoidance.pso_ca' in sys.modules)\n"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+# -- the replay as a library, and the avoider options on the command line ----------------------------
+def test_run_replay_is_what_the_cli_runs(tmp_path: Any, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from replay.run import ReplayRequest, run_replay
+    from terrapath.cli import main
+    from tests.conftest import ROOT
+
+    mission = str(ROOT / "data/missions/seed000-table4.yaml")
+    threats = str(ROOT / "data/threats/seed000-table4.yaml")
+    req = ReplayRequest(mission, threats=threats, avoid="pso-ca", avoid_options={"rs": 1200.0})
+    lib = run_replay(req)  # no output: nothing written
+    rc = main(
+        [
+            "replay",
+            mission,
+            "--threats",
+            threats,
+            "--avoid",
+            "pso-ca",
+            "--avoid-opt",
+            "rs=1200",
+            "--json",
+            "-o",
+            str(tmp_path / "r.mcap"),
+        ]
+    )
+    cli = json.loads(capsys.readouterr().out)
+    assert rc == 0 and lib.metrics.success
+    assert cli["metrics"]["flown_length_m"] == pytest.approx(lib.metrics.flown_length_m)
+    assert cli["final_waypoints"] == lib.waypoints.tolist()
+    assert lib.decisions and all(
+        d["params"]["rs"] == 1200.0 for d in lib.decisions if "params" in d
+    )
+
+
+def test_avoider_options_on_the_command_line(
+    tmp_path: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from terrapath.cli import main
+    from tests.conftest import ROOT
+
+    mission = str(ROOT / "data/missions/seed000-table4.yaml")
+    out = ["-o", str(tmp_path / "x.mcap")]
+    assert main(["replay", mission, "--avoid", "pso-ca", "--avoid-opt", "radius=3", *out]) == 1
+    err = capsys.readouterr().err
+    assert "has no option 'radius'; its options: " in err and err.count("\n") == 1
+    assert main(["replay", mission, "--avoid", "pso-ca", "--avoid-opt", "rs=-3", *out]) == 1
+    assert "rs must be a positive number" in capsys.readouterr().err
+    assert main(["replay", mission, "--avoid-opt", "nokey", *out]) == 2
+    assert "expected KEY=VALUE" in capsys.readouterr().err
+    assert not (tmp_path / "x.mcap").exists()
+    assert main(["replay", "--help-avoider", "pso-ca"]) == 0
+    text = capsys.readouterr().out
+    assert "--avoid-opt optimizer=...   default 'pso'" in text and "rs=..." in text
+    assert main(["replay", "--help-avoider", "ctga"]) == 2
+    assert "unknown avoider 'ctga'; available: none, pso-ca" in capsys.readouterr().err

@@ -222,6 +222,11 @@ class PsoCaAvoider:
                 f"unknown PSO-CA optimiser {optimizer!r}; choose one of {', '.join(CA_OPTIMIZERS)}"
             )
         self.optimizer = optimizer
+        if params is not None and not isinstance(params, PsoCaParams):
+            raise InputError(
+                f"PSO-CA params must be a PsoCaParams (set rs, mxrsk ... as options instead); "
+                f"got {params!r}"
+            )
         base = params or PsoCaParams(leg_margin=leg_margin)
         if rs is not None:
             base = replace(base, rs=rs)  # re-checked by PsoCaParams
