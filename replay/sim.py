@@ -197,7 +197,8 @@ def simulate(
     avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or cfg.radar_period)
     tick = min(cfg.radar_period, avoid_period)
     next_decision = 0.0
-    tracker = MetricsTracker(list(threats.ids), wp0[0], wp0[-1])
+    zones = {f"zone:{z.id or k}": z for k, z in enumerate(mission.danger_zones)}
+    tracker = MetricsTracker([*threats.ids, *zones], wp0[0], wp0[-1])
     record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
     if recorder is not None:
         recorder.write_waypoints(0.0, wp0, "initial", 1)
@@ -229,7 +230,7 @@ def simulate(
             if recorder is not None:
                 _record_samples(recorder, log, pos)
             if ts[keep - 1] - pending[0][0][0] >= _METRICS_BATCH_S:
-                _flush(pending, threats, tracker)
+                _flush(pending, threats, tracker, zones, grid)
             if hit.size:
                 contact = True
                 end_reason = "terrain contact"
@@ -280,7 +281,7 @@ def simulate(
                 if recorder is not None:
                     recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
                 break
-    _flush(pending, threats, tracker)
+    _flush(pending, threats, tracker, zones, grid)
     metrics = tracker.finish(
         t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
     )
@@ -308,8 +309,11 @@ def _flush(
     pending: list[tuple[FloatArray, FloatArray, FloatArray]],
     threats: ThreatSet,
     tracker: MetricsTracker,
+    zones: dict[str, Any],
+    grid: HeightGrid | None,
 ) -> None:
-    """Separation to every active threat and the metrics update, for the buffered samples."""
+    """Separation to every active threat and to every danger zone of the mission, time off the
+    map and over unknown terrain, and the metrics update, for the buffered samples."""
     if not pending:
         return
     ts = np.concatenate([p[0] for p in pending])
@@ -319,7 +323,15 @@ def _flush(
     seps = {
         th.id: np.where(_active(th, ts), th.separation(pos, ts), np.inf) for th in threats.threats
     }
-    tracker.update(ts, pos, {k: v for k, v in seps.items() if np.isfinite(v).any()}, clearance)
+    seps = {k: v for k, v in seps.items() if np.isfinite(v).any()}
+    for zid, zone in zones.items():
+        seps[zid] = np.asarray(zone.separation(pos), dtype=np.float64)
+    off_map = unknown = None
+    if grid is not None:
+        off_map = ~grid.contains(pos[:, 0], pos[:, 1])
+        if grid.known is not None and grid.has_unknown:
+            unknown = ~grid.known[grid.cell_of(pos[:, 0], pos[:, 1])] & ~off_map
+    tracker.update(ts, pos, seps, clearance, off_map, unknown)
 
 
 def _active(threat: Any, ts: FloatArray) -> npt.NDArray[np.bool_]:
