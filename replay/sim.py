@@ -270,7 +270,7 @@ def simulate(
         if passive or picture is None or t < next_decision - 1e-9:
             continue  # "none" never changes the mission: skip building its context
         next_decision = t + avoid_period
-        ctx = _context(t, x, picture, stack, terrain_model, cfg)
+        ctx = _context(t, x, picture, stack, terrain_model, cfg, mission.danger_zones)
         t0 = time.perf_counter()
         decision = avoider.decide(ctx)
         compute = time.perf_counter() - t0
@@ -384,6 +384,7 @@ def _context(
     stack: FlightStack,
     terrain: Any,
     cfg: ReplayConfig,
+    zones: tuple[Any, ...] = (),
 ) -> AvoidanceContext:
     rot = rotation_body_to_ned(x[6], x[7], x[8])
     v_ned = rot @ x[[U, V, W]]
@@ -402,6 +403,7 @@ def _context(
         terrain=terrain,
         terrain_clearance=float(cfg.terrain_following or 0.0),
         switch_distance=float(stack.corner_distance),
+        zones=tuple(zones),
     )
 
 

@@ -13,7 +13,7 @@ import pytest
 from planner.mission import Mission, save_mission
 from replay.avoidance.base import AvoidanceContext, NoAvoidance
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
-from replay.sim import simulate
+from replay.sim import ReplayConfig, simulate
 from replay.threats import ThreatSet
 from replay.vehicle.presets import load_vehicle
 from terrain.zones import DangerZone, PolygonZone
@@ -103,3 +103,27 @@ def test_the_village_case_from_the_command_line(
     captured = capsys.readouterr()
     assert rc == 3
     assert "zone:village" in captured.out and "safety violation" in captured.err
+
+
+def test_pso_ca_keeps_its_new_legs_out_of_the_mission_zones() -> None:
+    """The village case (issue 13): the obstacle is best passed on the side of a zone; PSO-CA's
+    new waypoint must not lead into it."""
+    from replay.avoidance import make_avoider
+    from replay.threats import threats_from_records
+
+    line = np.array([[0.0, 0.0, 200.0], [20000.0, 0.0, 200.0], [40000.0, 0.0, 200.0]])
+    village = DangerZone(10000.0, 1300.0, 800.0, id="village")
+    mission = Mission("v", line, vehicle="solar-uav", cruise_speed=15.0, danger_zones=(village,))
+    threats = threats_from_records(
+        [{"id": "o1", "kind": "static", "position": [10000, -150, 200], "radius": 1000}]
+    )
+    params = load_vehicle("solar-uav")
+    free = Mission("v", line, vehicle="solar-uav", cruise_speed=15.0)
+    # without the zone PSO-CA passes north of the obstacle, through the village's place
+    r0 = simulate(free, threats, make_avoider("pso-ca"), params, config=ReplayConfig(seed=0))
+    assert r0.metrics.success
+    assert village.separation(r0.positions).min() < 0.0
+    r = simulate(mission, threats, make_avoider("pso-ca"), params, config=ReplayConfig(seed=0))
+    assert r.metrics.success, r.metrics
+    assert r.metrics.min_separation["zone:village"]["value"] > 0.0
+    assert r.metrics.min_separation["o1"]["value"] >= 0.0

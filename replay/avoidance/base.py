@@ -39,6 +39,7 @@ class AvoidanceContext:
     terrain: Any = None  # terrain.model.TerrainModel or None (flat ground)
     terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
     switch_distance: float = 0.0  # the stack turns to the next leg this far from a waypoint
+    zones: tuple[Any, ...] = ()  # the mission's danger zones (terrain.zones): no-fly volumes
 
 
 class Avoider(Protocol):

@@ -102,6 +102,7 @@ scan (measured on the rmnp demo before the margin: 36 decisions for one threat).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass, replace
 from typing import Any
@@ -188,6 +189,22 @@ class _Solution:
     target_i: int
     stage: str
     feasible: bool
+
+
+def zone_points(zones: tuple[Any, ...], altitude: float, spacing: float) -> FloatArray:
+    """(K, 2) points every ``spacing`` metres along the outlines of the zones that reach
+    ``altitude`` (floor <= altitude <= top)."""
+    out: list[FloatArray] = []
+    for z in zones:
+        if (z.floor is not None and altitude < z.floor) or (z.top is not None and altitude > z.top):
+            continue
+        for ring in z.outline(n=max(12, int(math.ceil(2 * math.pi * z.size / 2 / spacing)))):
+            closed = np.vstack([ring, ring[:1]])
+            for a, b in itertools.pairwise(closed):
+                n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / spacing)))
+                t = np.arange(n)[:, None] / n
+                out.append(a[None, :] + t * (b - a)[None, :])
+    return np.vstack(out) if out else np.zeros((0, 2))
 
 
 class PsoCaAvoider:
@@ -558,6 +575,10 @@ class PsoCaAvoider:
         moving_xy = [
             tr.xy for ident, tr in self._tracks.items() if ident not in hit.ids and tr.t == ctx.t
         ]
+        # the mission's danger zones at this altitude keep the new legs out (our addition: the
+        # paper has none): their outlines, sampled every RS, are obstacles like the others -- a
+        # leg that crossed an outline would pass within RS / 2 of a sample
+        moving_xy += list(zone_points(ctx.zones, float(ctx.position[2]), params.rs))
         mine = np.array([k in hit.ids for k in keys], dtype=bool)
         for search in range(MERGE_ROUNDS):
             others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
