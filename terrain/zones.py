@@ -390,6 +390,28 @@ class PolygonZone:
         return _prism_separation(horizontal, q[..., 2], self.floor, self.top)
 
 
+def inflated(zone: Zone, margin: float) -> Zone:
+    """``zone`` grown by ``margin`` metres all round: wider, its top higher and its floor lower
+    (a polygon is buffered with round joins, 16 segments a quarter circle). The planner keeps its
+    paths out of the inflated zones, so the aircraft flying them keeps that margin."""
+    if margin <= 0:
+        return zone
+    top = None if zone.top is None else zone.top + margin
+    floor = None if zone.floor is None else zone.floor - margin
+    if isinstance(zone, DangerZone):
+        return DangerZone(zone.x, zone.y, zone.diameter + 2 * margin, top, zone.id, floor)
+    grown = zone.geometry.buffer(margin, quad_segs=16)
+    polys = list(getattr(grown, "geoms", [grown]))
+    parts = tuple(
+        (
+            tuple(poly.exterior.coords)[:-1],
+            *(tuple(h.coords)[:-1] for h in poly.interiors),
+        )
+        for poly in polys
+    )
+    return PolygonZone(parts, floor, top, zone.id)
+
+
 def points_in_polygon_xy(zone: PolygonZone, x: npt.ArrayLike, y: npt.ArrayLike) -> BoolArray:
     """Whether map points lie inside a polygon zone's outline, whatever the altitude."""
     from terrain.prisms import points_in_edges
