@@ -389,11 +389,16 @@ class PerceptionState:
 
 
 # -- the memory --------------------------------------------------------------------------------
-_FLOAT_COLUMNS = ("last_seen", "measured_at", "first_seen", "since", "radii", "tops")
+# columns of the memory's float table; those before _FIRST are overwritten by every sighting
+_X, _VX, _LAST, _MEAS, _RADIUS, _TOP, _FIRST, _SINCE = 0, 3, 6, 7, 8, 9, 10, 11
+_NCOL = 12
 
 
 class Perception:
-    """Obstacle memory and tracker across scans; :meth:`update` after every scan."""
+    """Obstacle memory and tracker across scans; :meth:`update` after every scan.
+
+    Rows are kept in the state's order (module docstring), so a state is a copy of the tables:
+    an entry that gets or changes its classification is moved to the end."""
 
     def __init__(self, config: PerceptionConfig | None = None) -> None:
         self.config = config or PerceptionConfig()
@@ -405,18 +410,14 @@ class Perception:
         self._keys: list[str] = []
         self._sources: list[str] = []
         self._index: dict[str, int] = {}
-        self._pos = np.zeros((0, 3))
-        self._vel = np.zeros((0, 3))
-        self._f = {name: np.zeros(0) for name in _FLOAT_COLUMNS}
+        self._f = np.zeros((0, _NCOL))
         self._code = np.zeros(0, dtype=np.int8)
-        self._seq = np.zeros(0, dtype=np.int64)
         self._terrain = np.zeros(0, dtype=bool)
         self._extended = np.zeros(0, dtype=bool)
         self._hist_t = np.zeros((0, n))
         self._hist_p = np.zeros((0, n, 3))
         self._hist_r = np.zeros((0, n))
         self._hist_n = np.zeros(0, dtype=np.int64)
-        self._counter = 0
         self._t: float | None = None
         self.state: PerceptionState | None = None
 
@@ -434,138 +435,137 @@ class Perception:
             )
         n = len(scan)
         if keep is None:
-            mask = np.ones(n, dtype=bool)
+            rows_in = np.arange(n)
         else:
             mask = np.asarray(keep)
             if mask.dtype != np.bool_ or mask.shape != (n,):
                 raise InputError(
                     f"keep must be a bool mask of shape ({n},); got {mask.dtype} {mask.shape}"
                 )
+            rows_in = np.flatnonzero(mask)
         self._t = scan.t
-        rows_in = np.flatnonzero(mask)
-        self._ingest(scan, rows_in)
+        if len(rows_in):
+            self._ingest(scan, rows_in)
         self._forget(scan.t)
-        tracks = self._tracks(scan.t)
-        self.state = self._snapshot(scan, tracks)
+        self.state = self._snapshot(scan)
         return self.state
 
     # -- ingest ------------------------------------------------------------------------------------
-    def _keys_of(self, scan: Scan, rows: IntArray) -> list[str]:
-        keys = [scan.ids[i] for i in rows.tolist()]
+    def _keys_of(self, scan: Scan, rows: IntArray) -> tuple[list[str], IntArray]:
+        """Memory keys of the returns ``rows`` (body-surface returns per cell); when several
+        returns of one scan fall in one cell, the last one stands."""
+        ids = scan.ids
+        keys = [ids[i] for i in rows.tolist()]
         ext = np.flatnonzero(scan.extended[rows])
-        if ext.size:
-            cells = np.floor(scan.positions[rows[ext], :2] / self.config.body_cell_m).astype(
-                np.int64
-            )
-            for k, (ci, cj) in zip(ext.tolist(), cells.tolist(), strict=True):
-                keys[k] = f"{keys[k]}@{ci}/{cj}"
-        return keys
+        if not ext.size:
+            return keys, rows
+        cells = np.floor(scan.positions[rows[ext], :2] / self.config.body_cell_m).astype(np.int64)
+        for k, (ci, cj) in zip(ext.tolist(), cells.tolist(), strict=True):
+            keys[k] = f"{keys[k]}@{ci}/{cj}"
+        last = {key: k for k, key in enumerate(keys)}
+        if len(last) == len(keys):
+            return keys, rows
+        pick = sorted(last.values())
+        return [keys[k] for k in pick], rows[pick]
 
-    def _grow(self, new_keys: list[str], new_sources: list[str]) -> None:
-        m = len(new_keys)
-        if not m:
-            return
-        base = len(self._keys)
-        for k, key in enumerate(new_keys):
-            self._index[key] = base + k
-        self._keys.extend(new_keys)
-        self._sources.extend(new_sources)
+    def _grow(self, scan: Scan, keys: list[str], rows_in: IntArray) -> None:
+        """Append new entries (unknown class, NaN fields) for ``keys`` / returns ``rows_in``."""
+        m, base = len(keys), len(self._keys)
+        self._index.update(zip(keys, range(base, base + m), strict=True))
+        self._keys.extend(keys)
+        self._sources.extend(scan.sources[i] for i in rows_in.tolist())
         n = self.config.track_scans
-        self._pos = np.vstack([self._pos, np.zeros((m, 3))])
-        self._vel = np.vstack([self._vel, np.full((m, 3), np.nan)])
-        for name in _FLOAT_COLUMNS:
-            self._f[name] = np.concatenate([self._f[name], np.full(m, np.nan)])
+        fresh = np.full((m, _NCOL), np.nan)
+        fresh[:, _FIRST] = scan.t
+        self._f = np.vstack([self._f, fresh])
         self._code = np.concatenate([self._code, np.full(m, -1, dtype=np.int8)])
-        self._seq = np.concatenate([self._seq, np.zeros(m, dtype=np.int64)])
-        self._terrain = np.concatenate([self._terrain, np.zeros(m, dtype=bool)])
-        self._extended = np.concatenate([self._extended, np.zeros(m, dtype=bool)])
+        self._terrain = np.concatenate([self._terrain, scan.terrain[rows_in]])
+        self._extended = np.concatenate([self._extended, scan.extended[rows_in]])
         self._hist_t = np.vstack([self._hist_t, np.full((m, n), np.nan)])
         self._hist_p = np.concatenate([self._hist_p, np.full((m, n, 3), np.nan)])
         self._hist_r = np.vstack([self._hist_r, np.full((m, n), np.nan)])
         self._hist_n = np.concatenate([self._hist_n, np.zeros(m, dtype=np.int64)])
 
     def _ingest(self, scan: Scan, rows_in: IntArray) -> None:
-        keys = self._keys_of(scan, rows_in)
-        # several returns of one scan may fall in one body cell: the last one stands
-        last: dict[str, int] = {}
-        for k, key in enumerate(keys):
-            last[key] = k
-        if len(last) < len(keys):
-            pick = np.array(sorted(last.values()), dtype=np.int64)
-            rows_in = rows_in[pick]
-            keys = [keys[k] for k in pick.tolist()]
-        new = [k for k, key in enumerate(keys) if key not in self._index]
-        self._grow([keys[k] for k in new], [scan.sources[i] for i in rows_in[new].tolist()])
-        rows = np.array([self._index[key] for key in keys], dtype=np.int64)
+        keys, rows_in = self._keys_of(scan, rows_in)
+        get = self._index.get
+        rows = np.fromiter((get(key, -1) for key in keys), dtype=np.int64, count=len(keys))
+        new = np.flatnonzero(rows < 0)
+        if new.size:
+            base = len(self._keys)
+            self._grow(scan, [keys[k] for k in new.tolist()], rows_in[new])
+            rows[new] = base + np.arange(new.size)
         t = scan.t
-        fresh = np.isnan(self._f["first_seen"][rows])
-        self._f["first_seen"][rows[fresh]] = t
-        self._terrain[rows] = scan.terrain[rows_in]
-        self._extended[rows] = scan.extended[rows_in]
-        self._pos[rows] = scan.positions[rows_in]
-        self._vel[rows] = scan.velocities[rows_in]
-        self._f["radii"][rows] = scan.radii[rows_in]
-        self._f["tops"][rows] = scan.tops[rows_in]
-        self._f["last_seen"][rows] = t
-        self._f["measured_at"][rows] = scan.measured_at[rows_in]
-        code = scan.moving_code[rows_in].astype(np.int8)
-        code = np.where(self._terrain[rows], np.int8(0), code)
-        # fixes of trackable returns (not terrain, not body-surface cells)
-        trackable = ~(self._terrain[rows] | self._extended[rows])
+        block = self._f[rows]
+        block[:, _X : _X + 3] = scan.positions[rows_in]
+        block[:, _VX : _VX + 3] = scan.velocities[rows_in]
+        block[:, _LAST] = t
+        block[:, _MEAS] = scan.measured_at[rows_in]
+        block[:, _RADIUS] = scan.radii[rows_in]
+        block[:, _TOP] = scan.tops[rows_in]
+        # fixes of trackable returns (neither terrain nor body-surface cells)
+        terrain = self._terrain[rows]
+        trackable = np.flatnonzero(~(terrain | self._extended[rows]))
         tr = rows[trackable]
         if tr.size:
+            src = rows_in[trackable]
             for arr in (self._hist_t, self._hist_p, self._hist_r):
                 arr[tr, :-1] = arr[tr, 1:]
-            self._hist_t[tr, -1] = scan.measured_at[rows_in[trackable]]
-            self._hist_p[tr, -1] = scan.positions[rows_in[trackable]]
-            self._hist_r[tr, -1] = scan.ranges[rows_in[trackable]]
+            self._hist_t[tr, -1] = scan.measured_at[src]
+            self._hist_p[tr, -1] = scan.positions[src]
+            self._hist_r[tr, -1] = scan.ranges[src]
             self._hist_n[tr] = np.minimum(self._hist_n[tr] + 1, self.config.track_scans)
+        code = np.where(terrain, np.int8(0), scan.moving_code[rows_in]).astype(np.int8)
         if self.config.moving_speed_mps is not None and tr.size:
             fit = fit_lines(self._hist_t[tr], self._hist_p[tr], self._hist_n[tr])
             decided = self._hist_n[tr] >= 2
-            speed = np.linalg.norm(fit.velocity, axis=1)
-            sub = np.flatnonzero(trackable)
-            code[sub[decided]] = (speed[decided] > self.config.moving_speed_mps).astype(np.int8)
+            speed = np.linalg.norm(fit.velocity[decided], axis=1)
+            code[trackable[decided]] = speed > self.config.moving_speed_mps
         old = self._code[rows]
-        new_code = np.where(code >= 0, code, old).astype(np.int8)
-        changed = (new_code != old) | fresh
-        ch = rows[changed]
-        self._code[rows] = new_code
-        self._f["since"][ch] = t
-        self._seq[ch] = self._counter + np.arange(len(ch))
-        self._counter += len(ch)
+        code = np.where(code >= 0, code, old).astype(np.int8)
+        changed = (code != old) | (rows >= len(self._keys) - new.size)
+        block[changed, _SINCE] = t
+        self._f[rows] = block
+        self._code[rows] = code
+        if changed.any():
+            self._move_to_end(rows[changed])
 
-    def _forget(self, t: float) -> None:
-        stale = t - self._f["last_seen"] > self.config.memory_s
-        if not stale.any():
+    def _move_to_end(self, rows: IntArray) -> None:
+        """Reorder the tables: the other rows as they are, then ``rows`` in the order given."""
+        stay = np.ones(len(self._keys), dtype=bool)
+        stay[rows] = False
+        order = np.concatenate([np.flatnonzero(stay), rows])
+        if np.array_equal(order, np.arange(len(order))):
             return
-        live = ~stale
-        idx = np.flatnonzero(live).tolist()
+        self._apply(order)
+
+    def _apply(self, order: IntArray) -> None:
+        """Keep the rows ``order`` (a permutation or a subset), in that order."""
+        idx = order.tolist()
         self._keys = [self._keys[i] for i in idx]
         self._sources = [self._sources[i] for i in idx]
         self._index = {key: i for i, key in enumerate(self._keys)}
-        self._pos, self._vel = self._pos[live], self._vel[live]
-        for name in _FLOAT_COLUMNS:
-            self._f[name] = self._f[name][live]
-        self._code, self._seq = self._code[live], self._seq[live]
-        self._terrain, self._extended = self._terrain[live], self._extended[live]
-        self._hist_t, self._hist_p = self._hist_t[live], self._hist_p[live]
-        self._hist_r, self._hist_n = self._hist_r[live], self._hist_n[live]
+        self._f, self._code = self._f[order], self._code[order]
+        self._terrain, self._extended = self._terrain[order], self._extended[order]
+        self._hist_t, self._hist_p = self._hist_t[order], self._hist_p[order]
+        self._hist_r, self._hist_n = self._hist_r[order], self._hist_n[order]
+
+    def _forget(self, t: float) -> None:
+        stale = t - self._f[:, _LAST] > self.config.memory_s
+        if stale.any():
+            self._apply(np.flatnonzero(~stale))
 
     # -- tracks and the state ----------------------------------------------------------------------
-    def _tracks(self, t: float) -> tuple[Track, ...]:
-        moving = np.flatnonzero(self._code == 1)
-        moving = moving[np.argsort(self._seq[moving], kind="stable")]
+    def _tracks(self) -> tuple[Track, ...]:
+        moving = np.flatnonzero((self._code == 1) & (self._hist_n > 0))
         if not moving.size:
             return ()
         fit = fit_lines(self._hist_t[moving], self._hist_p[moving], self._hist_n[moving])
         out = []
         for k, row in enumerate(moving.tolist()):
             n = int(self._hist_n[row])
-            if n == 0:
-                continue
             fitted = n >= 2
-            vel = fit.velocity[k] if fitted else self._vel[row]
+            vel = fit.velocity[k] if fitted else self._f[row, _VX : _VX + 3]
             if not np.isfinite(vel).all():
                 continue  # one fix and no reported velocity: no track yet
             times = self._hist_t[row, -n:].copy()
@@ -574,12 +574,12 @@ class Perception:
                     id=self._keys[row],
                     source=self._sources[row],
                     t=float(times[-1]),
-                    position=fit.position[k].copy() if fitted else self._hist_p[row, -1].copy(),
+                    position=(fit.position[k] if fitted else self._hist_p[row, -1]).copy(),
                     velocity=np.array(vel, dtype=np.float64),
                     residual=float(fit.residual[k]) if fitted else 0.0,
                     sigma=float(fit.sigma[k]),
                     n=n,
-                    since=float(self._f["since"][row]),
+                    since=float(self._f[row, _SINCE]),
                     fitted=fitted,
                     times=times,
                     positions=self._hist_p[row, -n:].copy(),
@@ -588,25 +588,24 @@ class Perception:
             )
         return tuple(out)
 
-    def _snapshot(self, scan: Scan, tracks: tuple[Track, ...]) -> PerceptionState:
-        order = np.argsort(self._seq, kind="stable")
-        f = {name: self._f[name][order] for name in _FLOAT_COLUMNS}
+    def _snapshot(self, scan: Scan) -> PerceptionState:
+        f = self._f
         return PerceptionState(
             t=scan.t,
             sensor=scan.sensor,
             own_position=np.array(scan.own_position, dtype=np.float64),
-            ids=tuple(self._keys[i] for i in order.tolist()),
-            sources=tuple(self._sources[i] for i in order.tolist()),
-            positions=self._pos[order],
-            terrain=self._terrain[order],
-            extended=self._extended[order],
-            moving_code=self._code[order],
-            last_seen=f["last_seen"],
-            measured_at=f["measured_at"],
-            first_seen=f["first_seen"],
-            since=f["since"],
-            radii=f["radii"],
-            tops=f["tops"],
-            velocities=self._vel[order],
-            tracks=tracks,
+            ids=tuple(self._keys),
+            sources=tuple(self._sources),
+            positions=f[:, _X : _X + 3].copy(),
+            terrain=self._terrain.copy(),
+            extended=self._extended.copy(),
+            moving_code=self._code.copy(),
+            last_seen=f[:, _LAST].copy(),
+            measured_at=f[:, _MEAS].copy(),
+            first_seen=f[:, _FIRST].copy(),
+            since=f[:, _SINCE].copy(),
+            radii=f[:, _RADIUS].copy(),
+            tops=f[:, _TOP].copy(),
+            velocities=f[:, _VX : _VX + 3].copy(),
+            tracks=self._tracks(),
         )
