@@ -58,7 +58,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -77,6 +77,23 @@ Int8Array = npt.NDArray[np.int8]
 
 ObstacleKind = Literal["threat", "terrain"]
 _MOVING = {-1: None, 0: False, 1: True}
+_SCAN_ARRAYS: dict[str, type] = {
+    "own_position": np.float64,
+    "positions": np.float64,
+    "measured_at": np.float64,
+    "ranges": np.float64,
+    "terrain": np.bool_,
+    "extended": np.bool_,
+    "moving_code": np.int8,
+    "velocities": np.float64,
+    "radii": np.float64,
+    "tops": np.float64,
+}
+
+
+def _frozen(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
+    a.setflags(write=False)
+    return a
 
 
 # -- the sensor-neutral scan -----------------------------------------------------------------------
@@ -103,7 +120,9 @@ class Scan:
 
     def __post_init__(self) -> None:
         n = len(self.ids)
-        own = np.asarray(self.own_position, dtype=np.float64)
+        for name, dtype in _SCAN_ARRAYS.items():
+            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=dtype))
+        own = self.own_position
         if own.shape != (3,) or not np.isfinite(own).all():
             raise InputError(
                 f"scan own_position must be 3 finite numbers; got {self.own_position!r}"
@@ -128,6 +147,8 @@ class Scan:
                 raise InputError(f"scan {name} must have shape {want} for {n} ids; got {shape}")
         if not np.isfinite(self.positions).all():
             raise InputError("scan positions must be finite")
+        if n and not ((self.moving_code >= -1) & (self.moving_code <= 1)).all():
+            raise InputError("scan moving_code must be -1 (unknown), 0 (stationary) or 1 (moving)")
         if len(set(self.ids)) != n:
             raise InputError("scan ids must be unique")
 
@@ -257,7 +278,8 @@ class Cluster:
 class PerceptionState:
     """What the avoiders read after a scan: the remembered obstacles as parallel arrays (K rows,
     in the module docstring's order; as :class:`Obstacle` objects in :attr:`obstacles`), the
-    tracks, and on demand the clusters."""
+    tracks, and on demand the clusters.  Its arrays (and its tracks') are read-only copies:
+    nothing an avoider does to them reaches the memory or another reader."""
 
     t: float
     sensor: str
@@ -341,6 +363,8 @@ class PerceptionState:
         horizontal distance unless ``horizontal`` is False), ordered by their first member, each
         with its fitted circle (module docstring).  Computed once per link and kept."""
         link = float(link_m)
+        if not (0.0 < link < math.inf):
+            raise InputError(f"link distance must be a positive number of metres; got {link_m!r}")
         key = (link, bool(horizontal))
         if key not in self._clusters:
             self._clusters[key] = self._make_clusters(link, horizontal)
@@ -574,16 +598,16 @@ class Perception:
                     id=self._keys[row],
                     source=self._sources[row],
                     t=float(times[-1]),
-                    position=(fit.position[k] if fitted else self._hist_p[row, -1]).copy(),
-                    velocity=np.array(vel, dtype=np.float64),
+                    position=_frozen((fit.position[k] if fitted else self._hist_p[row, -1]).copy()),
+                    velocity=_frozen(np.array(vel, dtype=np.float64)),
                     residual=float(fit.residual[k]) if fitted else 0.0,
                     sigma=float(fit.sigma[k]),
                     n=n,
                     since=float(self._f[row, _SINCE]),
                     fitted=fitted,
-                    times=times,
-                    positions=self._hist_p[row, -n:].copy(),
-                    ranges=self._hist_r[row, -n:].copy(),
+                    times=_frozen(times),
+                    positions=_frozen(self._hist_p[row, -n:].copy()),
+                    ranges=_frozen(self._hist_r[row, -n:].copy()),
                 )
             )
         return tuple(out)
@@ -593,19 +617,19 @@ class Perception:
         return PerceptionState(
             t=scan.t,
             sensor=scan.sensor,
-            own_position=np.array(scan.own_position, dtype=np.float64),
+            own_position=_frozen(scan.own_position.copy()),
             ids=tuple(self._keys),
             sources=tuple(self._sources),
-            positions=f[:, _X : _X + 3].copy(),
-            terrain=self._terrain.copy(),
-            extended=self._extended.copy(),
-            moving_code=self._code.copy(),
-            last_seen=f[:, _LAST].copy(),
-            measured_at=f[:, _MEAS].copy(),
-            first_seen=f[:, _FIRST].copy(),
-            since=f[:, _SINCE].copy(),
-            radii=f[:, _RADIUS].copy(),
-            tops=f[:, _TOP].copy(),
-            velocities=f[:, _VX : _VX + 3].copy(),
+            positions=_frozen(f[:, _X : _X + 3].copy()),
+            terrain=_frozen(self._terrain.copy()),
+            extended=_frozen(self._extended.copy()),
+            moving_code=_frozen(self._code.copy()),
+            last_seen=_frozen(f[:, _LAST].copy()),
+            measured_at=_frozen(f[:, _MEAS].copy()),
+            first_seen=_frozen(f[:, _FIRST].copy()),
+            since=_frozen(f[:, _SINCE].copy()),
+            radii=_frozen(f[:, _RADIUS].copy()),
+            tops=_frozen(f[:, _TOP].copy()),
+            velocities=_frozen(f[:, _VX : _VX + 3].copy()),
             tracks=self._tracks(),
         )

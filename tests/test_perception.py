@@ -313,6 +313,23 @@ def test_bad_config_is_refused(kwargs: dict[str, Any], message: str) -> None:
         PerceptionConfig(**kwargs)
 
 
+def test_the_state_is_read_only() -> None:
+    per = Perception()
+    per.update(scan(0.0, [("a", (1, 2, 3), -1)]))
+    st = per.update(scan(1.0, [("a", (5, 2, 3), 1)]))
+    for arr in (
+        st.positions,
+        st.moving_code,
+        st.last_seen,
+        st.tracks[0].velocity,
+        st.get("a").position,
+    ):
+        with pytest.raises(ValueError, match="read-only"):
+            arr[0] = 0
+    with pytest.raises(InputError, match="link distance must be a positive number"):
+        st.clusters(0.0)
+
+
 def test_bad_scans_are_refused() -> None:
     good = scan(0.0, [("a", (1, 2, 3), 0)])
     with pytest.raises(InputError, match="unique"):
@@ -321,5 +338,9 @@ def test_bad_scans_are_refused() -> None:
         Scan(**{**good.__dict__, "positions": np.zeros((2, 3))})
     with pytest.raises(InputError, match="finite"):
         Scan(**{**good.__dict__, "positions": np.full((1, 3), np.nan)})
+    with pytest.raises(InputError, match="moving_code must be -1"):
+        Scan(**{**good.__dict__, "moving_code": [2]})
+    with pytest.raises(InputError, match="own_position must be 3 finite"):
+        Scan(**{**good.__dict__, "own_position": [0, 0]})
     with pytest.raises(InputError, match="reads a RadarPicture, a CooperativePicture or a Scan"):
         Perception().update({"ids": ()})  # type: ignore[arg-type]
