@@ -46,7 +46,7 @@ class Approaches:
     other_at: FloatArray
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ClosestApproach:
     """Closest approach of one track: at ``t`` (absolute), ``time_to`` seconds from now."""
 
@@ -174,8 +174,19 @@ class LineFit:
 
 def fit_lines(times: FloatArray, positions: FloatArray, counts: IntArray) -> LineFit:
     """Least-squares lines through the last ``counts[k]`` fixes of each row (histories right
-    aligned, (K, N) and (K, N, 3)); rows with fewer than two fixes get NaN."""
+    aligned, (K, N) and (K, N, 3), ``counts`` (K,) in [0, N]); rows with fewer than two fixes
+    (or all at one time) get NaN.  See the module docstring for the formulas."""
+    times = np.asarray(times, dtype=np.float64)
+    positions = np.asarray(positions, dtype=np.float64)
+    counts = np.asarray(counts, dtype=np.int64)
+    if times.ndim != 2 or positions.shape != (*times.shape, 3) or counts.shape != times.shape[:1]:
+        raise InputError(
+            f"fit_lines needs times (K, N), positions (K, N, 3) and counts (K,); got "
+            f"{times.shape}, {positions.shape}, {counts.shape}"
+        )
     n_max = times.shape[1]
+    if counts.size and (counts.min() < 0 or counts.max() > n_max):
+        raise InputError(f"fit_lines counts must lie in [0, {n_max}]")
     w = (np.arange(n_max)[None, :] >= n_max - counts[:, None]).astype(np.float64)  # (K, N)
     nw = np.maximum(w.sum(axis=1), 1.0)
     t = np.where(w > 0, times, 0.0)

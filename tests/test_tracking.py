@@ -68,6 +68,13 @@ def test_short_histories_use_their_own_fixes_only() -> None:
     assert np.isnan(fit.velocity[1]).all() and np.isnan(fit.position[1]).all()
 
 
+def test_bad_histories_are_refused() -> None:
+    with pytest.raises(InputError, match=r"times \(K, N\), positions \(K, N, 3\)"):
+        fit_lines(np.zeros((2, 3)), np.zeros((2, 3)), np.array([3, 3]))
+    with pytest.raises(InputError, match=r"counts must lie in \[0, 3\]"):
+        fit_lines(np.zeros((1, 3)), np.zeros((1, 3, 3)), np.array([4]))
+
+
 def test_noisy_fits_follow_least_squares_statistics() -> None:
     """Gaussian position noise sigma on each axis, n fixes 1 s apart: each velocity error is
     N(0, sigma^2 / S_tt) and sigma^2 is estimated without bias.  4000 tracks, fixed seed."""
