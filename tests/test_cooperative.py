@@ -8,9 +8,12 @@ from typing import Any
 import numpy as np
 import pytest
 
+from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.pso_ca import PsoCaAvoider
 from replay.cooperative import CooperativePicture, CooperativeSensor
 from replay.radar import Radar
 from replay.threats import BodyThreat, CylinderThreat, HillThreat, IntruderThreat, StaticThreat
+from replay.vehicle.presets import load_vehicle
 from terrain.errors import InputError
 
 OWN = np.array([1000.0, 2000.0, 300.0])
@@ -67,6 +70,33 @@ def test_same_ids_and_order_as_the_radar() -> None:
         assert len(getattr(coop, name)) == len(coop) == coop.n_threat
     assert coop.terrain_cells.shape == (0, 2) and not coop.is_terrain.any()
     assert coop.get("i").source == "i"
+
+
+def test_an_avoider_written_for_the_radar_reads_it() -> None:
+    """PSO-CA, which reads radar pictures, acts on a cooperative one -- at the first report,
+    since a report is classified at once (the radar needs two scans)."""
+    wps = np.array([[0.0, 0.0, 200.0], [20000.0, 0.0, 200.0]])
+    avoider = PsoCaAvoider()
+    avoider.reset(wps, np.random.default_rng(0))
+    own = np.array([0.0, 0.0, 200.0])
+    pic = CooperativeSensor().scan(0.0, own, (static("s", 8000.0, 0.0, 200.0, radius=1000.0),))
+    ctx = AvoidanceContext(
+        t=0.0,
+        state=np.zeros(12),
+        position=own,
+        velocity=np.array([15.0, 0.0, 0.0]),
+        airspeed=15.0,
+        course=math.pi / 2,
+        picture=pic,
+        waypoints=wps,
+        next_index=1,
+        vehicle=load_vehicle("solar-uav"),
+    )
+    decision = avoider.decide(ctx)
+    assert decision is not None and decision.waypoints is not None
+    assert decision.info["obstacles"] == ["s"] and decision.info["feasible"]
+    new = decision.waypoints[1]
+    assert math.hypot(new[0] - 8000.0, new[1]) > 1000.0 and decision.waypoints.shape == (3, 3)
 
 
 def test_range_limit_counts_from_the_surface_of_solids() -> None:
