@@ -50,7 +50,9 @@ steps join (:func:`replay.threats.cluster_hill_points`) -- horizontally by defau
 distance is the caller's (PSO-CA's 1 km of seed 000 §5.3 is PSO-CA's parameter).  Each cluster
 has the minimum enclosing circle of its members' (x, y) (:func:`replay.circles.min_enclosing_circle`,
 seed 001 eqs 1-2 corrected), the highest altitude of its members, and ``outer_radius``, the radius
-about the same centre that also encloses each member's reported size.
+about the same centre that also encloses each member's reported size.  :attr:`PerceptionState.bodies`
+groups the same obstacles by the threat they belong to instead (one circle per hill or solid body,
+from the points seen on it), whatever their distances.
 """
 
 from __future__ import annotations
@@ -372,28 +374,37 @@ class PerceptionState:
 
     def _make_clusters(self, link: float, horizontal: bool) -> tuple[Cluster, ...]:
         rows = self.stationary
+        if not len(rows):
+            return ()
         pts = self.positions[rows]
         if horizontal:
             pts = np.column_stack([pts[:, :2], np.zeros(len(pts))])
-        out = []
-        for g in cluster_hill_points(pts, link) if len(rows) else ():
-            idx = rows[g]
-            circle = min_enclosing_circle(self.positions[idx, :2])
-            size = np.nan_to_num(self.radii[idx], nan=0.0)
-            outer = float(np.max(circle.distance(self.positions[idx]) + size))
-            top = float(
-                np.max(np.where(np.isnan(self.tops[idx]), self.positions[idx, 2], self.tops[idx]))
-            )
-            out.append(
-                Cluster(
-                    tuple(self.ids[i] for i in idx.tolist()),
-                    idx,
-                    circle,
-                    top,
-                    max(outer, circle.radius),
-                )
-            )
-        return tuple(out)
+        return tuple(self._cluster(rows[g]) for g in cluster_hill_points(pts, link))
+
+    @cached_property
+    def bodies(self) -> tuple[Cluster, ...]:
+        """The stationary threat obstacles grouped by the threat they belong to (``sources``:
+        a hill's points, a solid body's surface cells, a static point alone), ordered by their
+        first member, each with its fitted circle -- seed 001's obstacle circle of one body from
+        the points sampled on it.  Terrain returns have no body and are left out."""
+        rows = self.stationary[~self.terrain[self.stationary]]
+        groups: dict[str, list[int]] = {}
+        for i in rows.tolist():
+            groups.setdefault(self.sources[i], []).append(i)
+        return tuple(self._cluster(np.array(g, dtype=np.int64)) for g in groups.values())
+
+    def _cluster(self, idx: IntArray) -> Cluster:
+        circle = min_enclosing_circle(self.positions[idx, :2])
+        size = np.nan_to_num(self.radii[idx], nan=0.0)
+        outer = float(np.max(circle.distance(self.positions[idx]) + size))
+        tops = np.where(np.isnan(self.tops[idx]), self.positions[idx, 2], self.tops[idx])
+        return Cluster(
+            tuple(self.ids[i] for i in idx.tolist()),
+            idx,
+            circle,
+            float(np.max(tops)),
+            max(outer, circle.radius),
+        )
 
     def approaches(
         self,

@@ -175,6 +175,30 @@ def test_cluster_circle_is_the_minimum_enclosing_circle_and_outer_radius_holds_s
     assert cl.top == 650.0  # the reported tops (point z + safety radius)
 
 
+def test_bodies_group_by_threat_whatever_the_distances() -> None:
+    """A hill whose points are 1.5 km apart is one body (two link clusters at 1 km); a static
+    point next to it is its own body although it joins the hill's cluster; terrain has none."""
+    hill = HillThreat(
+        id="h",
+        points=((3000.0, 0.0, 300.0), (4500.0, 0.0, 300.0), (3750.0, 900.0, 300.0)),
+        radii=(200.0,),
+    )
+    post = StaticThreat(id="s", center=(3000.0, 600.0, 300.0), radius=100.0)
+    radar, per = Radar(), Perception()
+    per.update(radar.scan(0.0, OWN, (hill, post)))
+    st = per.update(radar.scan(1.0, OWN, (hill, post)))
+    st = per.update(scan(2.0, [("terrain/5/5", (550.0, 550.0, 900.0), 0, "terrain")]))
+    by_link = [c.members for c in st.clusters(1000.0)]
+    assert by_link == [("h/0", "h/2", "s"), ("h/1",), ("terrain/5/5",)]
+    bodies = st.bodies
+    assert [b.members for b in bodies] == [("h/0", "h/1", "h/2"), ("s",)]
+    h = bodies[0]
+    np.testing.assert_allclose(h.circle.center, min_enclosing_circle(np.array(hill.points)).center)
+    assert h.radius == pytest.approx(min_enclosing_circle(np.array(hill.points)).radius)
+    assert bodies[1].radius == 0.0 and bodies[1].center.tolist() == [3000.0, 600.0]
+    assert st.bodies is bodies
+
+
 # -- tracks ----------------------------------------------------------------------------------------
 def test_radar_track_of_a_constant_velocity_intruder_is_exact() -> None:
     intruder = IntruderThreat(
