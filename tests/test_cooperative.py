@@ -11,6 +11,7 @@ import pytest
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.pso_ca import PsoCaAvoider
 from replay.cooperative import CooperativePicture, CooperativeSensor
+from replay.guidance import FollowWaypoints
 from replay.radar import Radar
 from replay.threats import BodyThreat, CylinderThreat, HillThreat, IntruderThreat, StaticThreat
 from replay.vehicle.presets import load_vehicle
@@ -93,10 +94,11 @@ def test_an_avoider_written_for_the_radar_reads_it() -> None:
         vehicle=load_vehicle("solar-uav"),
     )
     decision = avoider.decide(ctx)
-    assert decision is not None and decision.waypoints is not None
+    assert decision is not None and isinstance(decision.command, FollowWaypoints)
     assert decision.info["obstacles"] == ["s"] and decision.info["feasible"]
-    new = decision.waypoints[1]
-    assert math.hypot(new[0] - 8000.0, new[1]) > 1000.0 and decision.waypoints.shape == (3, 3)
+    wps_new = decision.command.waypoints
+    new = wps_new[1]
+    assert math.hypot(new[0] - 8000.0, new[1]) > 1000.0 and wps_new.shape == (3, 3)
 
 
 def test_range_limit_counts_from_the_surface_of_solids() -> None:
