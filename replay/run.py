@@ -47,6 +47,10 @@ class ReplayRequest:
     log_rate: float = 10.0
     radar_range: float = 10_000.0
     radar_noise: float = 0.0
+    sensor: str = "radar"  # or "cooperative": every threat in range reports itself (ADS-B-like)
+    coop_noise_position: float = 0.0
+    coop_noise_velocity: float = 0.0
+    coop_latency: float = 0.0
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
     terrain_mesh: bool = True
     command: str = "terrapath replay"  # recorded in the MCAP
@@ -100,6 +104,10 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         radar_range=r.radar_range,
         radar_noise_range=r.radar_noise,
         terrain_following=following,
+        sensor=r.sensor,
+        coop_noise_position=r.coop_noise_position,
+        coop_noise_velocity=r.coop_noise_velocity,
+        coop_latency=r.coop_latency,
     )
     planned = estimated_flight_time(mission.waypoints, config.airspeed or mission.cruise_speed)
     limit = r.duration or 1.5 * planned + 600.0
@@ -150,7 +158,7 @@ def run_replay(
     if not out.lower().endswith(".mcap"):
         raise InputError(f"the output must end in .mcap; got {out!r}")
     mission_doc = mission_to_dict(mission, out)
-    extra = {"vehicle": prep.params.name, "source": str(r.source)}
+    extra = {"vehicle": prep.params.name, "source": str(r.source), "sensor": r.sensor}
     if mission.terrain is not None:
         extra["dem"] = json.dumps(list(mission.terrain.dem))
     options = "".join(f" {k}={v}" for k, v in r.avoid_options.items())

@@ -60,6 +60,10 @@ class ReplayConfig:
     switch_distance: float = 1000.0  # fixed wing without turn fillets (seed 000 §3.6)
     airspeed: float | None = None  # None: the mission's cruise speed
     avoid_period: float | None = None  # s between avoider calls (None: the avoider's, else radar's)
+    sensor: str = "radar"  # "radar" (seed 000) or "cooperative" (ADS-B-like: replay.cooperative)
+    coop_noise_position: float = 0.0  # cooperative sensor: 1-sigma position noise (m)
+    coop_noise_velocity: float = 0.0  # cooperative sensor: 1-sigma velocity noise (m/s)
+    coop_latency: float = 0.0  # cooperative sensor: age of the reports (s)
 
     def __post_init__(self) -> None:
         if self.avoid_period is not None and not (
@@ -70,6 +74,12 @@ class ReplayConfig:
             raise InputError(
                 f"replay setting 'avoid_period' must be a positive number; got {self.avoid_period!r}"
             )
+        if self.sensor not in SENSORS:
+            raise InputError(f"unknown sensor {self.sensor!r}; choose one of {', '.join(SENSORS)}")
+        for name in ("coop_noise_position", "coop_noise_velocity", "coop_latency"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise InputError(f"replay setting {name!r} must be a number >= 0; got {v!r}")
         for name in ("sample_hz", "radar_range", "radar_period", "switch_distance"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -185,13 +195,26 @@ def simulate(
         else vehicle
     )
     x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
-    radar = Radar(
-        range_m=cfg.radar_range,
-        period_s=cfg.radar_period,
-        noise_range_m=cfg.radar_noise_range,
-        noise_bearing_rad=cfg.radar_noise_bearing,
-        seed=rng,
-    )
+    radar: Any
+    if cfg.sensor == "cooperative":
+        from replay.cooperative import CooperativeSensor
+
+        radar = CooperativeSensor(
+            range_m=cfg.radar_range,
+            period_s=cfg.radar_period,
+            noise_position_m=cfg.coop_noise_position,
+            noise_velocity_mps=cfg.coop_noise_velocity,
+            latency_s=cfg.coop_latency,
+            seed=rng,
+        )
+    else:
+        radar = Radar(
+            range_m=cfg.radar_range,
+            period_s=cfg.radar_period,
+            noise_range_m=cfg.radar_noise_range,
+            noise_bearing_rad=cfg.radar_noise_bearing,
+            seed=rng,
+        )
     avoider.reset(wp0, rng)
     passive = isinstance(avoider, NoAvoidance)
     avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or cfg.radar_period)
@@ -302,6 +325,7 @@ def simulate(
     )
 
 
+SENSORS = ("radar", "cooperative")
 _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much flight at once
 
 

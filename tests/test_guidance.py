@@ -281,3 +281,82 @@ def test_avoider_options_on_the_command_line(
     assert "--avoid-opt optimizer=...   default 'pso'" in text and "rs=..." in text
     assert main(["replay", "--help-avoider", "ctga"]) == 2
     assert "unknown avoider 'ctga'; available: none, pso-ca" in capsys.readouterr().err
+
+
+# -- the sensor ---------------------------------------------------------------------------------------
+def test_cooperative_sensor_drives_pso_ca_and_is_recorded(
+    tmp_path: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    from replay.reader import load_run
+    from terrapath.cli import main
+    from tests.conftest import ROOT
+
+    mission = str(ROOT / "data/missions/seed000-table4.yaml")
+    threats = str(ROOT / "data/threats/seed000-table4.yaml")
+    out = tmp_path / "coop.mcap"
+    rc = main(
+        [
+            "replay",
+            mission,
+            "--threats",
+            threats,
+            "--avoid",
+            "pso-ca",
+            "--sensor",
+            "cooperative",
+            "--coop-noise",
+            "5",
+            "0.5",
+            "--coop-latency",
+            "0.5",
+            "--seed",
+            "2",
+            "--json",
+            "-o",
+            str(out),
+        ]
+    )
+    report = json.loads(capsys.readouterr().out)
+    assert rc == 0 and report["metrics"]["success"] and report["metrics"]["decisions"] >= 1
+    assert load_run(out, with_states=False).metadata["sensor"] == "cooperative"
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--sensor", "sonar"], "Invalid value for '--sensor'"),
+        (
+            ["--sensor", "cooperative", "--coop-noise", "-1", "0"],
+            "Invalid value for '--coop-noise'",
+        ),
+        (["--coop-latency", "-2"], "Invalid value for '--coop-latency'"),
+    ],
+)
+def test_bad_sensor_options(
+    tmp_path: Any, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    from terrapath.cli import main
+    from tests.conftest import ROOT
+
+    rc = main(
+        [
+            "replay",
+            str(ROOT / "data/missions/seed000-table4.yaml"),
+            *extra,
+            "-o",
+            str(tmp_path / "x.mcap"),
+        ]
+    )
+    assert rc == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_replay_config_refuses_unknown_sensors_and_negative_noise() -> None:
+    with pytest.raises(
+        InputError, match="unknown sensor 'sonar'; choose one of radar, cooperative"
+    ):
+        ReplayConfig(sensor="sonar")
+    with pytest.raises(InputError, match="'coop_noise_position' must be a number >= 0"):
+        ReplayConfig(sensor="cooperative", coop_noise_position=-1.0)

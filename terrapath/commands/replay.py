@@ -175,6 +175,28 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     help="Radar range noise, 1 sigma (m).",
 )
 @click.option(
+    "--sensor",
+    type=click.Choice(["radar", "cooperative"]),
+    default="radar",
+    show_default=True,
+    help="What the avoider sees: radar (seed 000: returns in range and line of sight, terrain "
+    "too) or cooperative (ADS-B-like: every threat in range reports its true position, "
+    "velocity and size, with --coop-noise and --coop-latency).",
+)
+@click.option(
+    "--coop-noise",
+    type=(click.FloatRange(min=0.0), click.FloatRange(min=0.0)),
+    default=(0.0, 0.0),
+    metavar="POS VEL",
+    help="Cooperative sensor: 1-sigma noise of the reported position (m) and velocity (m/s).",
+)
+@click.option(
+    "--coop-latency",
+    type=click.FloatRange(min=0.0),
+    default=0.0,
+    help="Cooperative sensor: age of the reports (s).",
+)
+@click.option(
     "--terrain-following",
     type=click.FloatRange(min=0.0),
     default=None,
@@ -202,6 +224,9 @@ def replay_cmd(
     log_rate: float,
     radar_range: float,
     radar_noise: float,
+    sensor: str,
+    coop_noise: tuple[float, float],
+    coop_latency: float,
     terrain_following: float | None,
     no_terrain_mesh: bool,
     output: str,
@@ -247,6 +272,10 @@ def replay_cmd(
         log_rate=log_rate,
         radar_range=radar_range,
         radar_noise=radar_noise,
+        sensor=sensor,
+        coop_noise_position=coop_noise[0],
+        coop_noise_velocity=coop_noise[1],
+        coop_latency=coop_latency,
         terrain_following=terrain_following,
         terrain_mesh=not no_terrain_mesh,
         command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
