@@ -1,19 +1,22 @@
-"""The simulation loop: vehicle + autopilot, threats, radar and an avoider, wired together.
+"""The simulation loop: a flight stack, threats, a sensor and an avoider, wired together.
 
-Per radar period (1 s by default) the loop
+Per tick (the shorter of the sensor's period, 1 s by default, and the avoider's) the loop
 
-1. flies the 6-DOF aircraft with its autopilot for one period in one compiled call
-   (:meth:`replay.autopilot.Autopilot.fly`, RK4 at 100 Hz), sampling the state at ``sample_hz``;
+1. flies the vehicle for one tick in one compiled call of its flight stack
+   (:class:`replay.flightstack.FixedWingStack`: the 6-DOF aircraft under its autopilot, RK4 at
+   100 Hz), sampling the state at ``sample_hz``;
 2. advances the threats (intruders move on their own schedule) and measures, at every sample, the
-   separation to each active threat's safety volume and the clearance above the terrain;
+   separation to each active threat's safety volume and to each of the mission's danger zones,
+   the clearance above the terrain, and whether the aircraft is over the map;
 3. records the samples (the recorder keeps its own log rate), leg changes and threat changes;
-4. scans with the radar and asks the avoider; a new waypoint list goes to the autopilot at once,
-   and every decision is recorded with its compute time.
+4. scans with the sensor when it is due (``radar``, or the ADS-B-like ``cooperative``), and asks
+   the avoider when it is due; its command goes to the flight stack at once (a command the stack
+   refuses is recorded with the reason), and every decision is recorded with its compute time.
 
 The run ends when the final waypoint is reached (``goal``), the aircraft touches the terrain
-(``terrain contact``) or the time limit passes (``time limit``).
+(``terrain contact``), the avoider ends it with an outcome (e.g. ``target unreachable``) or the
+time limit passes (``time limit``).
 """
-
 from __future__ import annotations
 
 import math
