@@ -74,6 +74,7 @@ class PlanRequest:
     strict: bool = False
     cruise_agl: float = DEFAULT_CRUISE_AGL
     allow_unknown: bool = False
+    zone_margin: float = 25.0
     name: str | None = None
 
 
@@ -210,6 +211,7 @@ def build_problem(request: PlanRequest) -> Prepared:
         r.avoid_zones,
         performance=r.performance,
         allow_unknown=r.allow_unknown,
+        zone_margin=r.zone_margin if r.avoid_zones else 0.0,
     )
     _check_reach(problem, r.performance)
     return Prepared(grid, tuple(zlist), problem, tuple(warnings))
@@ -287,6 +289,7 @@ def to_mission(
         "clearance": r.clearance,
         "altitude_band": list(problem.band),
         "avoid_zones": r.avoid_zones,
+        "zone_margin": r.zone_margin if r.avoid_zones else 0.0,
         "vehicle_limits": r.performance.as_dict(),
         "violations": [v.as_dict() for v in result.violations],
     }

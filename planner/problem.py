@@ -13,7 +13,8 @@ Defaults and choices:
 - start and goal must lie inside the map and at or above the terrain (+ clearance) — the
   conservative terrain the cost checks (see ``conservative``), or no path could be feasible;
 - feasibility: no length below terrain + clearance and, with ``avoid_zones``, no length inside any
-  danger zone;
+  danger zone grown by ``zone_margin`` (the aircraft tracks the flown path within metres, not
+  exactly: the margin keeps it out of the real zone);
 - with ``conservative`` (the default) the Bresenham check runs on the terrain dilated by one cell
   (:func:`dilated`), so a feasible path clears the bilinear terrain surface too — without it a
   path can slip diagonally between the visited cells of a ridge;
@@ -41,7 +42,7 @@ from planner.flown import CHORDS, climb_excess, flown_paths
 from planner.performance import Performance
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
-from terrain.zones import Zone
+from terrain.zones import Zone, inflated
 from terrain.zoneset import ZoneSet
 
 FloatArray = npt.NDArray[np.float64]
@@ -110,6 +111,7 @@ class PlanningProblem:
     performance: Performance | None = None
     chords: int = CHORDS
     allow_unknown: bool = False
+    zone_margin: float = 0.0
     _zones: ZoneSet = field(init=False, repr=False)
     _check_grid: HeightGrid = field(init=False, repr=False)
     _unknown: HeightGrid | None = field(init=False, repr=False)
@@ -170,7 +172,12 @@ class PlanningProblem:
         set_(self, "zmin", zmin)
         set_(self, "zmax", zmax)
         set_(self, "zones", tuple(self.zones))
-        set_(self, "_zones", ZoneSet.of(self.zones))
+        if not (math.isfinite(self.zone_margin) and self.zone_margin >= 0):
+            raise InputError(
+                f"zone margin must be a number of metres >= 0; got {self.zone_margin!r}"
+            )
+        # the cost and the feasibility see every zone grown by the margin (terrain.zones.inflated)
+        set_(self, "_zones", ZoneSet.of(tuple(inflated(z, self.zone_margin) for z in self.zones)))
         safety = g.safety()
         set_(self, "safety_grid", safety)
         set_(self, "_check_grid", dilated(safety) if self.conservative else safety)

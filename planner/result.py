@@ -12,6 +12,7 @@ from planner.flown import TOLERANCE, fillets
 from planner.performance import Performance
 from planner.problem import PlanningProblem
 from planner.profile import PathSamples, sample_path
+from terrain.zones import inflated
 from terrain.zoneset import ZoneSet
 
 FloatArray = npt.NDArray[np.float64]
@@ -146,7 +147,8 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
                 )
             )
     if problem.avoid_zones and problem.zones:
-        inside = ZoneSet.of(problem.zones).segment_lengths(flown[:-1], flown[1:])
+        grown = tuple(inflated(z, problem.zone_margin) for z in problem.zones)
+        inside = ZoneSet.of(grown).segment_lengths(flown[:-1], flown[1:])
         per_label: dict[tuple[str, int], float] = {}
         for i, k in zip(*np.nonzero(inside > 0), strict=True):
             key = (labels[int(i)], int(k))
@@ -163,7 +165,9 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
                     float(cy),
                     float("nan") if zone.top is None else zone.top,
                     amount,
-                    f"{label} enters danger zone {name} for {amount:.0f} m",
+                    f"{label} enters danger zone {name}"
+                    + (f" (or its {problem.zone_margin:g} m margin)" if problem.zone_margin else "")
+                    + f" for {amount:.0f} m",
                 )
             )
     out.extend(_unknown_violations(problem, samples, labels, legs))

@@ -160,6 +160,7 @@ import numpy.typing as npt
 
 from planner.flown import Fillets, fillets
 from replay.frames import N_CONTROLS, N_STATES, map_to_ned
+from replay.guidance import GuidanceRefused
 from replay.vehicle import _kernels as kern
 from replay.vehicle.dynamics import DT, drag_coefficient
 from replay.vehicle.params import G, VehicleParams
@@ -435,6 +436,10 @@ def design_gains(
     )
 
 
+class OrbitRefused(GuidanceRefused):
+    """An orbit the aircraft cannot fly (tighter than its minimum turn radius)."""
+
+
 # ---- results ----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class WaypointReached:
@@ -560,8 +565,9 @@ class Autopilot:
         self._pending_direct = False
         # (index, map position): the direct-to leg to waypoint index started at that position
         self._origin: tuple[int, FloatArray] | None = None
-        self._override_lat: str | None = None  # None, "course", "bank"
-        self._override_alt = False
+        self._override_lat: str | None = None  # None, "course", "bank", "orbit"
+        self._override_alt: str | None = None  # None, "altitude", "climb"
+        self._hold_alt_pending = False  # hold the altitude flown at the next control step
         self._override_speed = False
         self.reached: list[WaypointReached] = []
         self._hold_pending = waypoints is None
@@ -721,11 +727,18 @@ class Autopilot:
         bank: float | None = None,
         altitude: float | None = None,
         airspeed: float | None = None,
+        climb_rate: float | None = None,
     ) -> None:
-        """Hold a course (rad, clockwise from north) or a bank angle (rad), an altitude (m) and/or
-        an airspeed (m/s) instead of the waypoint guidance; ``None`` leaves an axis as it is."""
+        """Hold a course (rad, clockwise from north) or a bank angle (rad), an altitude (m) or a
+        climb rate (m/s, + up, within the vehicle's climb and descent limits) and/or an airspeed
+        (m/s) instead of the waypoint guidance; ``None`` leaves an axis as it is."""
         if course is not None and bank is not None:
             raise InputError("override either the course or the bank angle, not both")
+        if altitude is not None and climb_rate is not None:
+            raise InputError("override either the altitude or the climb rate, not both")
+        for name, value in (("course", course), ("bank", bank), ("altitude", altitude)):
+            if value is not None and not math.isfinite(value):
+                raise InputError(f"{name} must be a finite number; got {value!r}")
         if course is not None:
             self._override_lat = "course"
             self._cmd[kern.C_COURSE] = float(course)
@@ -733,17 +746,73 @@ class Autopilot:
             self._override_lat = "bank"
             self._cmd[kern.C_BANK] = float(bank)
         if altitude is not None:
-            self._override_alt = True
+            self._override_alt = "altitude"
             self._cmd[kern.C_ALT] = float(altitude)
+        if climb_rate is not None:
+            p = self.params
+            if not -p.descent_rate_max <= climb_rate <= p.climb_rate_max:  # also refuses NaN
+                raise InputError(
+                    f"climb rate {climb_rate:g} m/s is outside {p.name}'s limits "
+                    f"-{p.descent_rate_max:g}..{p.climb_rate_max:g} m/s (descent_rate_max, "
+                    "climb_rate_max)"
+                )
+            self._override_alt = "climb"
+            self._cmd[kern.C_CLIMB] = float(climb_rate)
         if airspeed is not None:
             self._override_speed = True
             self._cmd[kern.C_AIRSPEED] = self._check_airspeed(airspeed)
         self._apply_modes()
 
+    def min_orbit_radius(self) -> float:
+        """The tightest orbit at the commanded airspeed: V^2 / (g tan(bank_max))."""
+        return self.params.min_turn_radius(self.airspeed)
+
+    def set_orbit(
+        self,
+        center: Sequence[float],
+        radius: float,
+        *,
+        clockwise: bool = True,
+        altitude: float | None = None,
+        center_velocity: Sequence[float] = (0.0, 0.0),
+    ) -> None:
+        """Orbit ``center`` (map x, y) at ``radius`` m, clockwise seen from above or not, holding
+        ``altitude`` (default: the altitude flown now); a moving centre has ``center_velocity``
+        (map m/s east, north). An orbit tighter than the aircraft can fly at its airspeed is
+        refused (:class:`OrbitRefused`): it is never silently flown wider."""
+        c = [float(v) for v in center]
+        cv = [float(v) for v in center_velocity]
+        if len(c) != 2 or len(cv) != 2 or not all(math.isfinite(v) for v in (*c, *cv)):
+            raise InputError(
+                f"orbit centre and its velocity must be two finite numbers each; got {center!r}, "
+                f"{center_velocity!r}"
+            )
+        if not (math.isfinite(radius) and radius > 0):
+            raise InputError(f"orbit radius must be a number of metres > 0; got {radius!r}")
+        tightest = self.min_orbit_radius()
+        if radius < tightest:
+            raise OrbitRefused(
+                f"orbit radius {radius:.0f} m is tighter than {self.params.name} can fly at "
+                f"{self.airspeed:g} m/s: at least {tightest:.0f} m (V^2 / (g tan "
+                f"{self.params.bank_max_deg:g} deg))"
+            )
+        cmd = self._cmd
+        cmd[kern.C_ORB_N], cmd[kern.C_ORB_E] = c[1], c[0]
+        cmd[kern.C_ORB_VN], cmd[kern.C_ORB_VE] = cv[1], cv[0]
+        cmd[kern.C_ORB_R] = float(radius)
+        cmd[kern.C_ORB_LAM] = 1.0 if clockwise else -1.0
+        self._override_lat = "orbit"
+        if altitude is not None:
+            self.set_override(altitude=altitude)
+        elif not self._override_alt:
+            self._hold_alt_pending = True
+        self._apply_modes()
+
     def clear_override(self) -> None:
         """Return every axis to waypoint guidance (and the commanded airspeed)."""
         self._override_lat = None
-        self._override_alt = False
+        self._override_alt = None
+        self._hold_alt_pending = False
         self._override_speed = False
         self._cmd[kern.C_AIRSPEED] = self.airspeed
         self._apply_modes()
@@ -753,11 +822,16 @@ class Autopilot:
         following = self._leg[kern.L_ACTIVE] > 0.5 and not self._done
         if self._override_lat == "bank":
             cmd[kern.C_LAT_MODE] = 2
+        elif self._override_lat == "orbit":
+            cmd[kern.C_LAT_MODE] = 3
         elif self._override_lat == "course" or not following:
             cmd[kern.C_LAT_MODE] = 1
         else:
             cmd[kern.C_LAT_MODE] = 0
-        cmd[kern.C_ALT_MODE] = 1 if (self._override_alt or not following) else 0
+        if self._override_alt == "climb":
+            cmd[kern.C_ALT_MODE] = 2
+        else:
+            cmd[kern.C_ALT_MODE] = 1 if (self._override_alt or not following) else 0
         if not self._override_speed:
             cmd[kern.C_AIRSPEED] = self.airspeed
 
@@ -810,6 +884,11 @@ class Autopilot:
             self._apply_modes()
         if self._hold_pending:
             self._hold_current(x)
+        if self._hold_alt_pending:
+            self._override_alt = "altitude"
+            self._cmd[kern.C_ALT] = -x[2]
+            self._hold_alt_pending = False
+            self._apply_modes()
         while True:
             ev = int(kern.leg_done(x, self._leg))
             if ev == 0:
@@ -1011,6 +1090,7 @@ __all__ = [
     "Gains",
     "GuidanceState",
     "LoopDesign",
+    "OrbitRefused",
     "WaypointReached",
     "design_gains",
 ]

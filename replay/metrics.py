@@ -1,9 +1,11 @@
 """Metrics of a replay run (DESIGN.md §4), accumulated chunk by chunk by the simulation loop.
 
-- success: the goal was reached with no safety-sphere violation and no terrain contact;
+- success: the goal was reached with no safety-volume violation (threats, and the mission's danger
+  zones: ids ``zone:<id>``), no terrain contact and no time off the map;
 - minimum separation to each threat (distance to its safety surface; negative = inside) and when;
 - violations: every interval spent inside a threat's safety volume, with entry/exit times;
 - minimum terrain clearance (height above the terrain under the aircraft) and when;
+- time spent off the map (where the terrain is unknown) and over terrain the DEM did not measure;
 - flown length (3D), path-length ratio PLR = flown length / straight source-destination distance
   (seed 000 §6), flight time, waypoints added by the avoider, time spent in the avoider per decision.
 """
@@ -47,6 +49,8 @@ class RunMetrics:
     decisions: int
     decision_time_mean_s: float
     decision_time_max_s: float
+    off_map_s: float = 0.0
+    unknown_terrain_s: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
@@ -80,6 +84,9 @@ class MetricsTracker:
         self.min_clear = (math.inf, math.nan)
         self.decision_times: list[float] = []
         self.added = 0
+        self.off_map_s = 0.0
+        self.unknown_s = 0.0
+        self.t_last: float | None = None
 
     def update(
         self,
@@ -87,12 +94,15 @@ class MetricsTracker:
         positions: FloatArray,
         separations: dict[str, FloatArray],
         clearance: FloatArray,
+        off_map: npt.NDArray[np.bool_] | None = None,
+        unknown: npt.NDArray[np.bool_] | None = None,
     ) -> None:
-        """One chunk: sample times (k,), map positions (k, 3), separation per active threat (k,),
-        terrain clearance (k,)."""
+        """One chunk: sample times (k,), map positions (k, 3), separation per active threat or
+        zone (k,), terrain clearance (k,), and where the aircraft was off the map or over unknown
+        terrain (k,) (each sample counts for the time since the previous one)."""
         ids = list(separations)
         seps = np.zeros((len(times), 0)) if not ids else np.column_stack(list(separations.values()))
-        self.update_columns(times, positions, ids, seps, clearance)
+        self.update_columns(times, positions, ids, seps, clearance, off_map, unknown)
 
     def update_columns(
         self,
@@ -101,8 +111,17 @@ class MetricsTracker:
         ids: Sequence[str],
         separations: FloatArray,
         clearance: FloatArray,
+        off_map: npt.NDArray[np.bool_] | None = None,
+        unknown: npt.NDArray[np.bool_] | None = None,
     ) -> None:
         """:meth:`update` with the separations as one array (k, m), a column per id in ``ids``."""
+        prev = self.t_last if self.t_last is not None else float(times[0])
+        step = np.diff(np.concatenate([[prev], times]))
+        self.t_last = float(times[-1])
+        if off_map is not None:
+            self.off_map_s += float(step[off_map].sum())
+        if unknown is not None:
+            self.unknown_s += float(step[unknown].sum())
         pts = positions if self.last is None else np.vstack([self.last[None, :], positions])
         self.length += float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
         self.last = positions[-1].copy()
@@ -155,7 +174,9 @@ class MetricsTracker:
         straight = float(np.linalg.norm(self.goal - self.start))
         dt = self.decision_times
         return RunMetrics(
-            success=bool(reached_goal and not terrain_contact and not self.violations),
+            success=bool(
+                reached_goal and not terrain_contact and not self.violations and not self.off_map_s
+            ),
             end_reason=end_reason,
             reached_goal=reached_goal,
             terrain_contact=terrain_contact,
@@ -171,4 +192,6 @@ class MetricsTracker:
             decisions=len(dt),
             decision_time_mean_s=float(np.mean(dt)) if dt else 0.0,
             decision_time_max_s=float(np.max(dt)) if dt else 0.0,
+            off_map_s=self.off_map_s,
+            unknown_terrain_s=self.unknown_s,
         )

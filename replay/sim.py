@@ -1,17 +1,21 @@
-"""The simulation loop: vehicle + autopilot, threats, radar and an avoider, wired together.
+"""The simulation loop: a flight stack, threats, a sensor and an avoider, wired together.
 
-Per radar period (1 s by default) the loop
+Per tick (the shorter of the sensor's period, 1 s by default, and the avoider's) the loop
 
-1. flies the 6-DOF aircraft with its autopilot for one period in one compiled call
-   (:meth:`replay.autopilot.Autopilot.fly`, RK4 at 100 Hz), sampling the state at ``sample_hz``;
+1. flies the vehicle for one tick in one compiled call of its flight stack
+   (:class:`replay.flightstack.FixedWingStack`: the 6-DOF aircraft under its autopilot, RK4 at
+   100 Hz), sampling the state at ``sample_hz``;
 2. advances the threats (intruders move on their own schedule) and measures, at every sample, the
-   separation to each active threat's safety volume and the clearance above the terrain;
+   separation to each active threat's safety volume and to each of the mission's danger zones,
+   the clearance above the terrain, and whether the aircraft is over the map;
 3. records the samples (the recorder keeps its own log rate), leg changes and threat changes;
-4. scans with the radar and asks the avoider; a new waypoint list goes to the autopilot at once,
-   and every decision is recorded with its compute time.
+4. scans with the sensor when it is due (``radar``, or the ADS-B-like ``cooperative``), and asks
+   the avoider when it is due; its command goes to the flight stack at once (a command the stack
+   refuses is recorded with the reason), and every decision is recorded with its compute time.
 
 The run ends when the final waypoint is reached (``goal``), the aircraft touches the terrain
-(``terrain contact``) or the time limit passes (``time limit``).
+(``terrain contact``), the avoider ends it with an outcome (e.g. ``target unreachable``) or the
+time limit passes (``time limit``).
 """
 
 from __future__ import annotations
@@ -26,15 +30,16 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.mission import Mission
-from replay.autopilot import GUIDANCE_COLUMNS, Autopilot, AutopilotConfig
-from replay.avoidance.base import AvoidanceContext, AvoidanceDecision, Avoider, NoAvoidance
-from replay.frames import PD, PE, PN, PSI, U, V, W, ned_to_map, rotation_body_to_ned
+from replay.autopilot import GUIDANCE_COLUMNS
+from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
+from replay.flightstack import FixedWingStack, FlightStack
+from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
+from replay.guidance import AvoidanceDecision, FollowWaypoints, GuidanceRefused, command_record
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.radar import Radar
 from replay.threat_table import ThreatTable
 from replay.threats import ThreatSet
 from replay.vehicle.params import VehicleParams
-from replay.vehicle.trim import trim
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 
@@ -57,10 +62,29 @@ class ReplayConfig:
         None  # radar: terrain above own altitude - this (None: radar default)
     )
     terrain_following: float | None = None  # autopilot: keep at least this clearance (None: off)
-    switch_distance: float = 1000.0
+    switch_distance: float = 1000.0  # fixed wing without turn fillets (seed 000 §3.6)
     airspeed: float | None = None  # None: the mission's cruise speed
+    avoid_period: float | None = None  # s between avoider calls (None: the avoider's, else radar's)
+    sensor: str = "radar"  # "radar" (seed 000) or "cooperative" (ADS-B-like: replay.cooperative)
+    coop_noise_position: float = 0.0  # cooperative sensor: 1-sigma position noise (m)
+    coop_noise_velocity: float = 0.0  # cooperative sensor: 1-sigma velocity noise (m/s)
+    coop_latency: float = 0.0  # cooperative sensor: age of the reports (s)
 
     def __post_init__(self) -> None:
+        if self.avoid_period is not None and not (
+            isinstance(self.avoid_period, int | float)
+            and math.isfinite(self.avoid_period)
+            and self.avoid_period > 0
+        ):
+            raise InputError(
+                f"replay setting 'avoid_period' must be a positive number; got {self.avoid_period!r}"
+            )
+        if self.sensor not in SENSORS:
+            raise InputError(f"unknown sensor {self.sensor!r}; choose one of {', '.join(SENSORS)}")
+        for name in ("coop_noise_position", "coop_noise_velocity", "coop_latency"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise InputError(f"replay setting {name!r} must be a number >= 0; got {v!r}")
         for name in ("sample_hz", "radar_range", "radar_period", "switch_distance"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -93,12 +117,24 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
 
 def initial_state(params: VehicleParams, waypoints: FloatArray, airspeed: float) -> FloatArray:
     """Trimmed level flight at ``airspeed`` over the first waypoint, heading for the second."""
-    start, nxt = waypoints[0], waypoints[1]
-    tr = trim(params, airspeed, altitude=float(start[2]))
-    x = np.array(tr.x, dtype=np.float64)
-    x[PN], x[PE], x[PD] = start[1], start[0], -start[2]
-    x[PSI] = math.atan2(nxt[0] - start[0], nxt[1] - start[1])
-    return x
+    return FixedWingStack(params, waypoints, airspeed=airspeed).initial_state()
+
+
+def fixed_wing_stack(
+    mission: Mission, params: VehicleParams, grid: HeightGrid | None, cfg: ReplayConfig
+) -> FixedWingStack:
+    """The fixed-wing stack a mission is flown with: its waypoints at its cruise speed (or the
+    configured one), its turn fillets when it records a turn radius (else seed 000's 1 km leg
+    switch), terrain following when configured."""
+    return FixedWingStack(
+        params,
+        np.array(mission.waypoints, dtype=np.float64),
+        airspeed=float(cfg.airspeed or mission.cruise_speed),
+        turn_radius=mission.turn_radius,
+        switch_distance=cfg.switch_distance,
+        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
+        terrain_clearance=cfg.terrain_following or 0.0,
+    )
 
 
 def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
@@ -132,7 +168,7 @@ def simulate(
     mission: Mission,
     threats: ThreatSet,
     avoider: Avoider,
-    params: VehicleParams,
+    vehicle: VehicleParams | FlightStack,
     *,
     grid: HeightGrid | None = None,
     terrain_model: Any = None,
@@ -140,7 +176,9 @@ def simulate(
     recorder: Any = None,
     progress: Callable[[float, float], None] | None = None,
 ) -> ReplayResult:
-    """Fly ``mission`` with ``params`` among ``threats``, letting ``avoider`` react to the radar."""
+    """Fly ``mission`` with ``vehicle`` (a flight stack, or fixed-wing parameters: then
+    :func:`fixed_wing_stack`) among ``threats``, letting ``avoider`` react to the radar at its
+    own period."""
     cfg = config or ReplayConfig()
     wall0 = time.perf_counter()
     check_mission(mission, grid)
@@ -156,30 +194,40 @@ def simulate(
         def ground(x: FloatArray, y: FloatArray) -> FloatArray:
             return np.zeros_like(np.asarray(x, dtype=np.float64))
 
-    x = initial_state(params, wp0, airspeed)  # first: "cannot trim" names the speeds it can fly
-    ap_cfg = AutopilotConfig(
-        switch_distance=cfg.switch_distance,
-        turn_radius=mission.turn_radius,
-        terrain_clearance=cfg.terrain_following or 0.0,
+    stack: FlightStack = (
+        fixed_wing_stack(mission, vehicle, grid, cfg)
+        if isinstance(vehicle, VehicleParams)
+        else vehicle
     )
-    autopilot = Autopilot(
-        params,
-        wp0,
-        airspeed=airspeed,
-        config=ap_cfg,
-        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
-    )
-    radar = Radar(
-        range_m=cfg.radar_range,
-        period_s=cfg.radar_period,
-        noise_range_m=cfg.radar_noise_range,
-        noise_bearing_rad=cfg.radar_noise_bearing,
-        seed=rng,
-    )
+    x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
+    radar: Any
+    if cfg.sensor == "cooperative":
+        from replay.cooperative import CooperativeSensor
+
+        radar = CooperativeSensor(
+            range_m=cfg.radar_range,
+            period_s=cfg.radar_period,
+            noise_position_m=cfg.coop_noise_position,
+            noise_velocity_mps=cfg.coop_noise_velocity,
+            latency_s=cfg.coop_latency,
+            seed=rng,
+        )
+    else:
+        radar = Radar(
+            range_m=cfg.radar_range,
+            period_s=cfg.radar_period,
+            noise_range_m=cfg.radar_noise_range,
+            noise_bearing_rad=cfg.radar_noise_bearing,
+            seed=rng,
+        )
     avoider.reset(wp0, rng)
     passive = isinstance(avoider, NoAvoidance)
-    tracker = MetricsTracker(list(threats.ids), wp0[0], wp0[-1])
-    record_every = max(1, int(round(1.0 / (cfg.sample_hz * ap_cfg.dt))))
+    avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or cfg.radar_period)
+    tick = min(cfg.radar_period, avoid_period)
+    next_decision = 0.0
+    zones = {f"zone:{z.id or k}": z for k, z in enumerate(mission.danger_zones)}
+    tracker = MetricsTracker([*threats.ids, *zones], wp0[0], wp0[-1])
+    record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
     if recorder is not None:
         recorder.write_waypoints(0.0, wp0, "initial", 1)
 
@@ -192,11 +240,12 @@ def simulate(
     table = ThreatTable(threats.threats)  # activity and separations of every threat at once
     shown = np.zeros(len(table), dtype=bool)  # the active threats last recorded
     pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+    picture: Any = None
     while t < duration - 1e-9:
-        period = min(cfg.radar_period, duration - t)
-        if period < 0.5 * ap_cfg.dt:
+        period = min(tick, duration - t)
+        if period < 0.5 * stack.dt:
             break  # the limit falls between two steps of the integrator: nothing left to fly
-        log = autopilot.fly(x, t, period, record_every=record_every)
+        log = stack.fly(x, t, period, record_every=record_every)
         x, t = log.x, log.t
         ts, xs = log.times, log.states
         if len(ts):
@@ -210,7 +259,7 @@ def simulate(
             if recorder is not None:
                 _record_samples(recorder, log, pos)
             if ts[keep - 1] - pending[0][0][0] >= _METRICS_BATCH_S:
-                _flush(pending, table, tracker)
+                _flush(pending, table, tracker, zones, grid)
             if hit.size:
                 contact = True
                 end_reason = "terrain contact"
@@ -233,7 +282,7 @@ def simulate(
                 shown = active
         if progress is not None:
             progress(t, duration)
-        if autopilot.done:
+        if stack.done:
             end_reason = "goal"
             break
         if radar.due(t):
@@ -247,17 +296,21 @@ def simulate(
             )
             if recorder is not None and len(picture):
                 _record_picture(recorder, t, picture)
-            if passive:
-                continue  # "none" never changes the mission: skip building its context
-            ctx = _context(t, x, picture, autopilot, params, terrain_model, cfg)
-            t0 = time.perf_counter()
-            decision = avoider.decide(ctx)
-            compute = time.perf_counter() - t0
-            if decision is not None:
-                decisions.append(
-                    _apply(decision, autopilot, t, compute, avoider, tracker, recorder)
-                )
-    _flush(pending, table, tracker)
+        if passive or picture is None or t < next_decision - 1e-9:
+            continue  # "none" never changes the mission: skip building its context
+        next_decision = t + avoid_period
+        ctx = _context(t, x, picture, stack, terrain_model, cfg, mission.danger_zones)
+        t0 = time.perf_counter()
+        decision = avoider.decide(ctx)
+        compute = time.perf_counter() - t0
+        if decision is not None:
+            decisions.append(_apply(decision, stack, t, compute, avoider, tracker, recorder))
+            if decision.end is not None:
+                end_reason = decision.end
+                if recorder is not None:
+                    recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
+                break
+    _flush(pending, table, tracker, zones, grid)
     metrics = tracker.finish(
         t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
     )
@@ -270,7 +323,7 @@ def simulate(
         times=tt,
         states=xx,
         positions=ned_to_map(xx[:, :3]) if len(xx) else np.zeros((0, 3)),
-        waypoints=autopilot.waypoints,
+        waypoints=stack.waypoints,
         initial_waypoints=wp0,
         decisions=tuple(decisions),
         seed=cfg.seed,
@@ -278,6 +331,7 @@ def simulate(
     )
 
 
+SENSORS = ("radar", "cooperative")
 _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much flight at once
 
 
@@ -285,8 +339,11 @@ def _flush(
     pending: list[tuple[FloatArray, FloatArray, FloatArray]],
     table: ThreatTable,
     tracker: MetricsTracker,
+    zones: dict[str, Any],
+    grid: HeightGrid | None,
 ) -> None:
-    """Separation to every active threat and the metrics update, for the buffered samples."""
+    """Separation to every active threat and to every danger zone of the mission, time off the
+    map and over unknown terrain, and the metrics update, for the buffered samples."""
     if not pending:
         return
     ts = np.concatenate([p[0] for p in pending])
@@ -294,7 +351,17 @@ def _flush(
     clearance = np.concatenate([p[2] for p in pending])
     pending.clear()
     ids, seps = table.separations(pos, ts)
-    tracker.update_columns(ts, pos, ids, seps, clearance)
+    if zones:  # the mission's danger zones, after the threats, at every sample
+        ids = [*ids, *zones]
+        seps = np.column_stack(
+            [seps, *(np.asarray(z.separation(pos), dtype=np.float64) for z in zones.values())]
+        )
+    off_map = unknown = None
+    if grid is not None:
+        off_map = ~grid.contains(pos[:, 0], pos[:, 1])
+        if grid.known is not None and grid.has_unknown:
+            unknown = ~grid.known[grid.cell_of(pos[:, 0], pos[:, 1])] & ~off_map
+    tracker.update_columns(ts, pos, ids, seps, clearance, off_map, unknown)
 
 
 def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
@@ -340,10 +407,10 @@ def _context(
     t: float,
     x: FloatArray,
     picture: Any,
-    autopilot: Autopilot,
-    params: VehicleParams,
+    stack: FlightStack,
     terrain: Any,
     cfg: ReplayConfig,
+    zones: tuple[Any, ...] = (),
 ) -> AvoidanceContext:
     rot = rotation_body_to_ned(x[6], x[7], x[8])
     v_ned = rot @ x[[U, V, W]]
@@ -356,40 +423,47 @@ def _context(
         airspeed=float(np.linalg.norm(x[[U, V, W]])),
         course=math.atan2(vel[0], vel[1]),
         picture=picture,
-        waypoints=autopilot.waypoints,
-        next_index=autopilot.next_index,
-        vehicle=params,
+        waypoints=stack.waypoints,
+        next_index=stack.next_index,
+        vehicle=stack.params,
         terrain=terrain,
         terrain_clearance=float(cfg.terrain_following or 0.0),
-        switch_distance=float(cfg.switch_distance),
+        switch_distance=float(stack.corner_distance),
+        zones=tuple(zones),
     )
 
 
 def _apply(
     decision: AvoidanceDecision,
-    autopilot: Autopilot,
+    stack: FlightStack,
     t: float,
     compute: float,
     avoider: Avoider,
     tracker: MetricsTracker,
     recorder: Any,
 ) -> dict[str, Any]:
+    """Hand the decision's command to the flight stack (a refusal is recorded, not raised)."""
     added = 0
-    if decision.waypoints is not None:
-        before = len(autopilot.waypoints)
-        nxt = decision.next_index if decision.next_index is not None else autopilot.next_index
-        autopilot.set_waypoints(decision.waypoints, nxt, direct=decision.direct)
-        added = max(0, len(decision.waypoints) - before)
-        if recorder is not None:
-            recorder.write_waypoints(
-                t, decision.waypoints, f"avoidance: {avoider.name} {decision.reason}".strip(), nxt
-            )
-    if decision.guidance is not None:
-        autopilot.set_override(**decision.guidance)
-    elif decision.waypoints is not None:
-        autopilot.clear_override()
+    refused = None
+    cmd = decision.command
+    if cmd is not None:
+        before = len(stack.waypoints)
+        try:
+            stack.apply(cmd)
+        except GuidanceRefused as exc:
+            refused = str(exc)
+        else:
+            if isinstance(cmd, FollowWaypoints):
+                added = max(0, len(cmd.waypoints) - before)
+                if recorder is not None:
+                    recorder.write_waypoints(
+                        t,
+                        cmd.waypoints,
+                        f"avoidance: {avoider.name} {decision.reason}".strip(),
+                        cmd.next_index,
+                    )
     tracker.decision(compute, added)
-    record = {
+    record: dict[str, Any] = {
         "t": t,
         "algorithm": avoider.name,
         "reason": decision.reason,
@@ -397,6 +471,12 @@ def _apply(
         "waypoints_added": added,
         **decision.info,
     }
+    if cmd is not None and not isinstance(cmd, FollowWaypoints):
+        record["command"] = command_record(cmd)
+    if refused is not None:
+        record["refused"] = refused
+    if decision.end is not None:
+        record["end"] = decision.end
     if recorder is not None:
         recorder.write_decision(t, record)
     return record

@@ -109,6 +109,19 @@ def _altitudes(zone: Any, what: str) -> None:
         raise InputError(f"{what} id must be text or None; got {zone.id!r}")
 
 
+def _prism_separation(
+    horizontal: FloatArray, z: FloatArray, floor: float | None, top: float | None
+) -> FloatArray:
+    """Signed distance to a vertical prism from the signed horizontal distance to its outline
+    (negative inside) and the altitude: outside both ways the Euclidean combination, otherwise
+    the larger of the two (negative inside: minus the depth)."""
+    lo = -math.inf if floor is None else floor
+    hi = math.inf if top is None else top
+    dz = np.maximum(lo - z, z - hi)  # > 0 below the floor or above the top
+    both = (horizontal > 0) & (dz > 0)
+    return np.asarray(np.where(both, np.hypot(horizontal, dz), np.maximum(horizontal, dz)))
+
+
 def _vertical(z: npt.ArrayLike, floor: float | None, top: float | None) -> BoolArray:
     za = np.asarray(z, dtype=np.float64)
     ok = np.ones(za.shape, dtype=np.bool_)
@@ -176,6 +189,12 @@ class DangerZone:
         wx, wy = xa - self.x, ya - self.y
         r = self.radius
         return np.asarray((wx * wx + wy * wy <= r * r) & _vertical(za, self.floor, self.top))
+
+    def separation(self, points: npt.ArrayLike) -> FloatArray:
+        """Signed distance (m) from map points (..., 3) to the zone's surface: negative inside."""
+        q = np.asarray(points, dtype=np.float64)
+        horizontal = np.hypot(q[..., 0] - self.x, q[..., 1] - self.y) - self.radius
+        return _prism_separation(horizontal, q[..., 2], self.floor, self.top)
 
 
 def _ring_area(ring: FloatArray) -> float:
@@ -356,6 +375,50 @@ class PolygonZone:
         if vertical.any():
             out[vertical] = points_in_edges(xa[vertical], ya[vertical], self.edges)
         return out
+
+    def separation(self, points: npt.ArrayLike) -> FloatArray:
+        """Signed distance (m) from map points (..., 3) to the prism's surface: negative inside
+        (the horizontal distance to the outline from shapely, its sign from :meth:`contains`)."""
+        import shapely
+
+        q = np.asarray(points, dtype=np.float64)
+        flat = q.reshape(-1, 3)
+        boundary = self.geometry.boundary
+        d = shapely.distance(shapely.points(flat[:, 0], flat[:, 1]), boundary)
+        inside = points_in_polygon_xy(self, flat[:, 0], flat[:, 1])
+        horizontal = np.where(inside, -d, d).reshape(q.shape[:-1])
+        return _prism_separation(horizontal, q[..., 2], self.floor, self.top)
+
+
+def inflated(zone: Zone, margin: float) -> Zone:
+    """``zone`` grown by ``margin`` metres all round: wider, its top higher and its floor lower
+    (a polygon is buffered with round joins, 16 segments a quarter circle). The planner keeps its
+    paths out of the inflated zones, so the aircraft flying them keeps that margin."""
+    if margin <= 0:
+        return zone
+    top = None if zone.top is None else zone.top + margin
+    floor = None if zone.floor is None else zone.floor - margin
+    if isinstance(zone, DangerZone):
+        return DangerZone(zone.x, zone.y, zone.diameter + 2 * margin, top, zone.id, floor)
+    grown = zone.geometry.buffer(margin, quad_segs=16)
+    polys = list(getattr(grown, "geoms", [grown]))
+    parts = tuple(
+        (
+            tuple(poly.exterior.coords)[:-1],
+            *(tuple(h.coords)[:-1] for h in poly.interiors),
+        )
+        for poly in polys
+    )
+    return PolygonZone(parts, floor, top, zone.id)
+
+
+def points_in_polygon_xy(zone: PolygonZone, x: npt.ArrayLike, y: npt.ArrayLike) -> BoolArray:
+    """Whether map points lie inside a polygon zone's outline, whatever the altitude."""
+    from terrain.prisms import points_in_edges
+
+    xa = np.asarray(x, dtype=np.float64)
+    ya = np.asarray(y, dtype=np.float64)
+    return np.asarray(points_in_edges(xa, ya, zone.edges), dtype=np.bool_)
 
 
 Zone: TypeAlias = DangerZone | PolygonZone

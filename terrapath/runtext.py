@@ -69,7 +69,10 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
     rows: list[tuple[str, str]] = []
     if "success" in m:
         if m["success"]:
-            verdict = "yes (reached the goal, no safety volume entered, no terrain contact)"
+            verdict = (
+                "yes (reached the goal, no safety volume or danger zone entered, no terrain "
+                "contact, always over the map)"
+            )
         else:
             why = []
             if m.get("end_reason") not in (None, "goal"):
@@ -78,6 +81,8 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
                 why.append("terrain contact")
             if m.get("violations"):
                 why.append(plural(len(m["violations"]), "safety violation"))
+            if _number(m.get("off_map_s")):
+                why.append(f"{seconds(m['off_map_s'])} off the map")
             verdict = "NO" + (f" ({', '.join(why)})" if why else "")
         rows.append(("success", verdict))
     if "flight_time_s" in m:
@@ -100,6 +105,12 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
         t = m.get("min_terrain_clearance_t")
         at = f" at t = {seconds(t)}" if _number(t) is not None else ""
         rows.append(("min terrain clearance", metres(m["min_terrain_clearance_m"]) + at))
+    if _number(m.get("off_map_s")):
+        rows.append(("off the map", seconds(m["off_map_s"]) + " (terrain unknown there)"))
+    if _number(m.get("unknown_terrain_s")):
+        rows.append(
+            ("over unknown terrain", seconds(m["unknown_terrain_s"]) + " (the DEM filled it)")
+        )
     if "waypoints_added" in m:
         rows.append(("waypoints added", str(m["waypoints_added"])))
     if "decisions" in m:

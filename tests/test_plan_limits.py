@@ -290,6 +290,12 @@ def test_plan_keeps_out_of_polygon_zones_and_exports_them(tmp_path: Path) -> Non
     flown, _ = flown_paths(m.waypoints, perf.turn_radius)
     inside = ZoneSet.of(zones).segment_lengths(flown[:-1], flown[1:])
     assert inside.sum() == 0.0  # the flown path stays out of every zone, whatever its kind
+    # ... by the default 25 m margin (the arcs' chords lie within 5 m of the arcs)
+    from planner.profile import sample_path
+
+    dense = sample_path(grid, flown, step=10.0).points
+    assert min(float(z.separation(dense).min()) for z in zones) >= 20.0
+    assert m.plan["zone_margin"] == 25.0
     plan_doc = json.loads(out.with_suffix(".plan").read_text())
     fence = plan_doc["geoFence"]
     assert len(fence["circles"]) == 1 and len(fence["polygons"]) == 3  # range + twin-lakes x2
@@ -331,3 +337,18 @@ def test_cli_unknown_terrain_is_infeasible_by_default_and_allowed_with_a_warning
     assert main([*args, "--allow-unknown-terrain", "-o", str(tmp_path / "b.yaml")]) == 0
     err = capsys.readouterr().err
     assert "warning: " in err and "% of the path" in err and "did not measure" in err
+
+
+def test_inflated_zones_grow_by_the_margin_all_round() -> None:
+    from terrain.zones import DangerZone, PolygonZone, inflated
+
+    c = inflated(DangerZone(0.0, 0.0, 200.0, top=500.0, id="c", floor=100.0), 25.0)
+    assert (c.diameter, c.top, c.floor, c.id) == (250.0, 525.0, 75.0, "c")
+    sq = PolygonZone.from_vertices([[0, 0], [100, 0], [100, 100], [0, 100]], top=300.0, id="p")
+    g = inflated(sq, 25.0)
+    assert isinstance(g, PolygonZone) and g.top == 325.0 and g.id == "p"
+    # every point of the original outline lies 25 m inside the grown one
+    ring = np.array(sq.outline()[0])
+    pts = np.column_stack([ring, np.full(len(ring), 200.0)])
+    np.testing.assert_allclose(g.separation(pts), -25.0, atol=0.1)
+    assert inflated(sq, 0.0) is sq

@@ -606,3 +606,18 @@ def test_constructors_validate_too() -> None:
         BodyThreat(id="b", center=(0, 0, 0), axes=(1, 1, 1), exponents=(0.4, 1, 1))
     with pytest.raises(InputError, match="duplicate"):
         ThreatSet((StaticThreat(id="s", center=(0, 0, 0), radius=1),) * 2)
+
+
+def test_an_exponent_within_rounding_of_one_half_is_an_edge() -> None:
+    """Found by Hypothesis: exponents (0.5 + 1 ulp, 0.5, 0.5) were treated as smooth and the
+    separation fell 5 % short of the distance to the nearest surface point."""
+    b = BodyThreat(
+        id="b",
+        center=(3e5, 4e6, 500.0),
+        axes=(5.0, 5.0, 5.0),
+        exponents=(0.5000000000000001, 0.5, 0.5),
+    )
+    assert b.exponents == (0.5, 0.5, 0.5)
+    p = np.array(b.center) + np.array([0.5, 0.0, 2.0]) * 5.0
+    dist = float(np.linalg.norm(p - b.nearest_point(p)))
+    assert abs(dist - float(b.separation(p))) <= 1e-6 * (1.0 + dist)

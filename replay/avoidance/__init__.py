@@ -1,13 +1,9 @@
-"""Online avoiders: one interface (:class:`replay.avoidance.base.Avoider`), one module each."""
+"""Online avoiders: one interface (:class:`replay.avoidance.base.Avoider`), one module each, listed
+in an explicit table (:mod:`replay.avoidance.registry`)."""
 
-from replay.avoidance.base import (
-    AVOIDERS,
-    AvoidanceContext,
-    AvoidanceDecision,
-    Avoider,
-    NoAvoidance,
-    make_avoider,
-)
+from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
+from replay.avoidance.registry import AVOIDERS, avoider_options, make_avoider
+from replay.guidance import AvoidanceDecision
 
 __all__ = [
     "AVOIDERS",
@@ -15,5 +11,6 @@ __all__ = [
     "AvoidanceDecision",
     "Avoider",
     "NoAvoidance",
+    "avoider_options",
     "make_avoider",
 ]

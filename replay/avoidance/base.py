@@ -1,22 +1,23 @@
-"""The avoider interface the simulation loop calls after every radar scan.
+"""The avoider interface the simulation loop calls, and the baseline that never avoids.
 
-An avoider receives an :class:`AvoidanceContext` (time, vehicle state, radar picture, the current
-waypoint list and the index of the waypoint being flown to) and returns an
-:class:`AvoidanceDecision` — a new waypoint list (and the index to fly to next) and/or a guidance
-override — or ``None`` to keep flying the mission. The loop records every decision with its
-compute time. ``none`` (:class:`NoAvoidance`) keeps the mission: the baseline of seed 000 Fig. 17.
+An avoider receives an :class:`AvoidanceContext` (time, vehicle state, the latest sensor picture,
+the waypoint list being flown and the index of the waypoint flown to, the flight stack's limits)
+at its own period (``period`` attribute, default: the radar's) and returns an
+:class:`~replay.guidance.AvoidanceDecision` -- one typed guidance command
+(:mod:`replay.guidance`), or none to keep going, and optionally an end outcome -- or ``None``
+(nothing to decide). The loop records every decision with its compute time. ``none``
+(:class:`NoAvoidance`) keeps the mission: the baseline of seed 000 Fig. 17.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from terrain.errors import InputError
+from replay.guidance import AvoidanceDecision
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -37,23 +38,8 @@ class AvoidanceContext:
     vehicle: Any = None  # replay.vehicle.VehicleParams (limits: bank, pitch, climb rate)
     terrain: Any = None  # terrain.model.TerrainModel or None (flat ground)
     terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
-    switch_distance: float = 0.0  # the autopilot turns to the next leg this far from a waypoint
-
-
-@dataclass(frozen=True)
-class AvoidanceDecision:
-    """An avoider's answer: a replacement waypoint list and/or a guidance override.
-
-    ``guidance`` keys (all optional): ``course`` (rad, clockwise from north), ``altitude`` (m AMSL),
-    ``airspeed`` (m/s); ``None`` returns control to waypoint following.
-    """
-
-    waypoints: FloatArray | None = None
-    next_index: int | None = None
-    guidance: dict[str, float] | None = None
-    direct: bool = False  # fly from the aircraft's position to waypoints[next_index]
-    reason: str = ""
-    info: dict[str, Any] = field(default_factory=dict)
+    switch_distance: float = 0.0  # the stack turns to the next leg this far from a waypoint
+    zones: tuple[Any, ...] = ()  # the mission's danger zones (terrain.zones): no-fly volumes
 
 
 class Avoider(Protocol):
@@ -65,7 +51,7 @@ class Avoider(Protocol):
 
 
 class NoAvoidance:
-    """Keep the mission whatever the radar sees."""
+    """Keep the mission whatever the sensors see."""
 
     name = "none"
 
@@ -76,21 +62,4 @@ class NoAvoidance:
         return None
 
 
-AVOIDERS: dict[str, Callable[..., Avoider]] = {"none": NoAvoidance}
-
-
-def _register_builtin() -> None:
-    """Import the avoider modules so they add themselves to :data:`AVOIDERS`."""
-    import replay.avoidance.pso_ca  # noqa: F401
-
-
-def make_avoider(name: str, **options: Any) -> Avoider:
-    """The avoider registered under ``name`` (later issues add pso-ca, ctga, fga, priority)."""
-    _register_builtin()
-    try:
-        factory = AVOIDERS[name]
-    except KeyError:
-        raise InputError(
-            f"unknown avoider {name!r}; available: {', '.join(sorted(AVOIDERS))}"
-        ) from None
-    return factory(**options)
+__all__ = ["AvoidanceContext", "AvoidanceDecision", "Avoider", "NoAvoidance"]

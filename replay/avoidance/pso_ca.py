@@ -102,6 +102,7 @@ scan (measured on the rmnp demo before the margin: 36 decisions for one threat).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass, replace
 from typing import Any
@@ -113,7 +114,7 @@ from planner.optim import make_optimizer
 from planner.optim.base import require_real
 from planner.optim.pso import SEED000_PSO
 from planner.optim.termination import MaxIterations, Stall
-from replay.avoidance.base import AVOIDERS, AvoidanceContext, AvoidanceDecision
+from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.pso_ca_geometry import (
     PsoCaParams,
     WaypointProblem,
@@ -123,6 +124,7 @@ from replay.avoidance.pso_ca_geometry import (
     segment_clearance,
     tangent_seed_points,
 )
+from replay.guidance import AvoidanceDecision, FollowWaypoints
 from replay.threats import cluster_terminals
 from terrain.errors import InputError
 
@@ -189,6 +191,22 @@ class _Solution:
     feasible: bool
 
 
+def zone_points(zones: tuple[Any, ...], altitude: float, spacing: float) -> FloatArray:
+    """(K, 2) points every ``spacing`` metres along the outlines of the zones that reach
+    ``altitude`` (floor <= altitude <= top)."""
+    out: list[FloatArray] = []
+    for z in zones:
+        if (z.floor is not None and altitude < z.floor) or (z.top is not None and altitude > z.top):
+            continue
+        for ring in z.outline(n=max(12, int(math.ceil(2 * math.pi * z.size / 2 / spacing)))):
+            closed = np.vstack([ring, ring[:1]])
+            for a, b in itertools.pairwise(closed):
+                n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / spacing)))
+                t = np.arange(n)[:, None] / n
+                out.append(a[None, :] + t * (b - a)[None, :])
+    return np.vstack(out) if out else np.zeros((0, 2))
+
+
 class PsoCaAvoider:
     """Radar-driven waypoint re-planning of seed 000 (see the module docstring)."""
 
@@ -221,6 +239,11 @@ class PsoCaAvoider:
                 f"unknown PSO-CA optimiser {optimizer!r}; choose one of {', '.join(CA_OPTIMIZERS)}"
             )
         self.optimizer = optimizer
+        if params is not None and not isinstance(params, PsoCaParams):
+            raise InputError(
+                f"PSO-CA params must be a PsoCaParams (set rs, mxrsk ... as options instead); "
+                f"got {params!r}"
+            )
         base = params or PsoCaParams(leg_margin=leg_margin)
         if rs is not None:
             base = replace(base, rs=rs)  # re-checked by PsoCaParams
@@ -527,9 +550,7 @@ class PsoCaAvoider:
             else (f"obstacle {hit.ids[0]}" if len(hit.ids) == 1 else f"group of {len(hit.ids)}")
         )
         return AvoidanceDecision(
-            waypoints=new_list,
-            next_index=ctx.next_index,
-            direct=True,
+            FollowWaypoints(new_list, ctx.next_index, direct=True),
             reason=f"inserted 1 for {what}"
             + (f", skipped {target_i - ctx.next_index}" if target_i > ctx.next_index else ""),
             info=info,
@@ -554,6 +575,10 @@ class PsoCaAvoider:
         moving_xy = [
             tr.xy for ident, tr in self._tracks.items() if ident not in hit.ids and tr.t == ctx.t
         ]
+        # the mission's danger zones at this altitude keep the new legs out (our addition: the
+        # paper has none): their outlines, sampled every RS, are obstacles like the others -- a
+        # leg that crossed an outline would pass within RS / 2 of a sample
+        moving_xy += list(zone_points(ctx.zones, float(ctx.position[2]), params.rs))
         mine = np.array([k in hit.ids for k in keys], dtype=bool)
         for search in range(MERGE_ROUNDS):
             others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
@@ -650,6 +675,3 @@ class PsoCaAvoider:
         if hit.side < 0:
             return np.asarray(right[1::2])
         return np.vstack([left[0::2][: N_SEEDS // 2], right[1::2][: N_SEEDS - N_SEEDS // 2]])
-
-
-AVOIDERS["pso-ca"] = PsoCaAvoider

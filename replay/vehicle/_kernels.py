@@ -108,14 +108,17 @@ K_ORBIT = 40  # orbit-following gain k_orbit (Beard & McLain eq. 10.13)
 N_GAINS = 41
 
 # ---- commands ---------------------------------------------------------------------------------
-C_LAT_MODE = 0  # 0: follow the leg, 1: hold course, 2: hold bank
+C_LAT_MODE = 0  # 0: follow the leg, 1: hold course, 2: hold bank, 3: orbit
 C_COURSE, C_BANK = 1, 2  # rad
-C_ALT_MODE = 3  # 0: altitude from the leg, 1: hold C_ALT
+C_ALT_MODE = 3  # 0: altitude from the leg, 1: hold C_ALT, 2: climb at C_CLIMB
 C_ALT = 4  # m (up)
 C_AIRSPEED = 5  # m/s
 C_FLOOR = 6  # m: terrain floor (altitude command is at least this); -inf when off
 C_ALT_DIRECT = 7  # 1: on a leg, command the next waypoint's altitude at once (else linear)
-N_CMD = 8
+C_CLIMB = 8  # m/s: the climb rate of altitude mode 2 (+ up)
+C_ORB_N, C_ORB_E, C_ORB_R, C_ORB_LAM = 9, 10, 11, 12  # orbit centre (N, E), radius, +1 clockwise
+C_ORB_VN, C_ORB_VE = 13, 14  # m/s: velocity of a moving orbit centre (integrated each step)
+N_CMD = 15
 
 # ---- the current leg (NED horizontal, altitude up) --------------------------------------------
 L_N0, L_E0, L_H0, L_N1, L_E1, L_H1 = 0, 1, 2, 3, 4, 5
@@ -346,6 +349,18 @@ def wrap(a):  # pragma: no cover - jit
     return a
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def orbit_course(pn, pe, cn, ce, rho, lam, k_orbit):  # pragma: no cover - jit
+    """Course command of the orbit-following vector field (Beard & McLain eq. 10.13):
+    chi_c = gamma + lam (pi/2 + atan(k_orbit (d - rho) / rho)), gamma the angle of the position
+    seen from the centre (clockwise from north), lam +1 for a clockwise orbit."""
+    dn = pn - cn
+    de = pe - ce
+    d = math.sqrt(dn * dn + de * de)
+    gam = atan2f(de, dn)
+    return gam + lam * (0.5 * math.pi + math.atan(k_orbit * (d - rho) / rho))
+
+
 @nb.njit(cache=True, nogil=True)
 def set_leg(leg, n0, e0, h0, n1, e1, h1, switch):  # pragma: no cover - jit
     """Fill ``leg`` for the leg (n0, e0, h0) -> (n1, e1, h1) (NED horizontal, altitude up)."""
@@ -507,13 +522,27 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     on_arc = leg[L_ARC] > 0.5 and leg[L_ACTIVE] > 0.5
     phi_ff = 0.0
     if mode == 0 and on_arc:
-        # orbit following (Beard & McLain eq. 10.13) with the steady bank of the turn as
-        # feed-forward: chi_c = gamma + lam (pi/2 + atan(k_orbit (d - rho) / rho))
+        # a turn fillet: orbit following with the steady bank of the turn as feed-forward
         rho = leg[L_RHO]
-        d_c, gam_c, _ = arc_progress(x, leg)
         lam = leg[L_LAM]
-        chi_c = gam_c + lam * (0.5 * math.pi + math.atan(gk[K_ORBIT] * (d_c - rho) / rho))
+        chi_c = orbit_course(x[0], x[1], leg[L_CN], leg[L_CE], rho, lam, gk[K_ORBIT])
         phi_ff = lam * math.atan(vg2 / (p[I_GRAV] * rho))
+    elif mode == 3:
+        # orbit a (possibly moving) centre: the vector field gives the course relative to the
+        # centre; the centre's velocity is added to the commanded ground velocity
+        rho = cmd[C_ORB_R]
+        lam = cmd[C_ORB_LAM]
+        cvn = cmd[C_ORB_VN]
+        cve = cmd[C_ORB_VE]
+        chi_r = orbit_course(x[0], x[1], cmd[C_ORB_N], cmd[C_ORB_E], rho, lam, gk[K_ORBIT])
+        wn_ = va * math.cos(chi_r) + cvn
+        we_ = va * math.sin(chi_r) + cve
+        chi_c = atan2f(we_, wn_)
+        rvn = vn - cvn
+        rve = ve - cve
+        phi_ff = lam * math.atan((rvn * rvn + rve * rve) / (p[I_GRAV] * rho))
+        cmd[C_ORB_N] += cvn * dtc
+        cmd[C_ORB_E] += cve * dtc
     elif mode == 0:
         chi_c = leg[L_CHI] - gk[K_CHI_INF] * (2.0 / math.pi) * math.atan(gk[K_PATH] * xtrack)
     else:
@@ -566,6 +595,10 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
             h_c = leg[L_H0] + f * (leg[L_H1] - leg[L_H0])
             if 0.0 < f < 1.0:
                 hdot_ff = (leg[L_H1] - leg[L_H0]) / length * (leg[L_QN] * vn + leg[L_QE] * ve)
+    elif int(cmd[C_ALT_MODE] + 0.5) == 2:
+        # climb-rate mode: the altitude command runs with the aircraft (no altitude error term)
+        h_c = h
+        hdot_ff = cmd[C_CLIMB]
     else:
         h_c = cmd[C_ALT]
     if cmd[C_FLOOR] > h_c:

@@ -117,6 +117,14 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "--avoid-zones", is_flag=True, help="A path inside any danger zone counts as infeasible."
 )
 @click.option(
+    "--zone-margin",
+    type=click.FloatRange(min=0.0),
+    default=25.0,
+    show_default=True,
+    help="With --avoid-zones, keep the path this far (m) from every zone, sideways and above "
+    "its top (the aircraft tracks the planned path within a few metres, not exactly).",
+)
+@click.option(
     "--strict",
     is_flag=True,
     help="Refuse (instead of warning) a start or goal inside a danger zone.",
@@ -186,6 +194,7 @@ def plan_cmd(
     zmin: float | None,
     zmax: float | None,
     avoid_zones: bool,
+    zone_margin: float,
     strict: bool,
     cruise_agl: float,
     speed: float | None,
@@ -237,6 +246,7 @@ def plan_cmd(
         zmin=zmin,
         zmax=zmax,
         avoid_zones=avoid_zones,
+        zone_margin=zone_margin,
         strict=strict,
         cruise_agl=cruise_agl,
         allow_unknown=allow_unknown_terrain,

@@ -1,0 +1,78 @@
+"""The avoiders terrapath knows: an explicit table, name -> (module, class), imported on use.
+
+No module registers itself as a side effect of being imported, so there is no import cycle:
+:func:`make_avoider` imports the one module it needs. Options are checked against the class's
+keyword arguments (the names it accepts are listed when one is wrong); ranges are checked by the
+avoider itself. A new avoider joins by adding its row here.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from dataclasses import dataclass
+from typing import Any
+
+from replay.avoidance.base import Avoider
+from terrain.errors import InputError
+
+
+@dataclass(frozen=True)
+class AvoiderEntry:
+    module: str
+    cls: str
+    summary: str
+
+
+AVOIDERS: dict[str, AvoiderEntry] = {
+    "none": AvoiderEntry(
+        "replay.avoidance.base", "NoAvoidance", "keep the mission whatever the sensors see"
+    ),
+    "pso-ca": AvoiderEntry(
+        "replay.avoidance.pso_ca",
+        "PsoCaAvoider",
+        "seed 000: radar-driven waypoint re-planning with PSO (or GA, SA, MAFOA, GCPSO, MPSO)",
+    ),
+}
+
+
+def avoider_class(name: str) -> type:
+    """The class registered under ``name`` (imported now)."""
+    try:
+        entry = AVOIDERS[name]
+    except KeyError:
+        raise InputError(
+            f"unknown avoider {name!r}; available: {', '.join(sorted(AVOIDERS))}"
+        ) from None
+    cls = getattr(importlib.import_module(entry.module), entry.cls)
+    assert isinstance(cls, type)
+    return cls
+
+
+def avoider_options(name: str) -> dict[str, Any]:
+    """The options an avoider accepts, with their defaults (``inspect.Parameter.empty`` when
+    there is none)."""
+    sig = inspect.signature(avoider_class(name))
+    return {
+        p.name: p.default
+        for p in sig.parameters.values()
+        if p.name != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    }
+
+
+def make_avoider(name: str, **options: Any) -> Avoider:
+    """The avoider registered under ``name``, built with ``options`` (unknown ones refused with
+    the allowed names)."""
+    cls = avoider_class(name)
+    allowed = avoider_options(name)
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        listed = ", ".join(sorted(allowed)) if allowed else "none"
+        raise InputError(
+            f"avoider {name!r} has no option {', '.join(map(repr, unknown))}; its options: {listed}"
+        )
+    avoider: Avoider = cls(**options)
+    return avoider
+
+
+__all__ = ["AVOIDERS", "AvoiderEntry", "avoider_class", "avoider_options", "make_avoider"]

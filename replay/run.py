@@ -1,0 +1,321 @@
+"""A replay as one library call: a mission (or an earlier run), threats, vehicle, avoider and
+settings in; the typed result out, and the MCAP written when asked. ``terrapath replay``, the
+benchmarks and the campaigns call :func:`run_replay`.
+
+:func:`prepare_replay` does everything that can fail on bad input before anything is written:
+it reads the source (a mission YAML, or the mission attached to an earlier run's MCAP, whose DEM
+tiles are looked for beside the MCAP, then as written, then where that run found them), finds the
+DEM tiles (or takes ``dem`` instead), the vehicle (``vehicle``; else a re-flown run's own, else the
+mission's, a vehicle file looked for beside the mission), the threats (``threats``; else a re-flown
+run's), builds the avoider from the explicit registry with its options, and the settings
+(terrain following defaults to the clearance the mission was planned with).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from planner.mission import Mission
+from replay.avoidance import Avoider, make_avoider
+from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate
+from replay.threats import ThreatSet, load_threats
+from replay.vehicle.params import VehicleParams
+from terrain.errors import DataFileError, InputError
+from terrain.grid import HeightGrid
+
+
+@dataclass(frozen=True)
+class ReplayRequest:
+    """What a replay is made of (``terrapath replay``'s options). ``source`` is a mission YAML or
+    an earlier run's ``.mcap``; ``avoid_options`` are the avoider's keyword options."""
+
+    source: str
+    threats: str | None = None
+    avoid: str = "none"
+    avoid_options: dict[str, Any] = field(default_factory=dict)
+    vehicle: str | None = None
+    dem: tuple[str, ...] = ()
+    seed: int = 0
+    duration: float | None = None
+    log_rate: float = 10.0
+    radar_range: float = 10_000.0
+    radar_noise: float = 0.0
+    sensor: str = "radar"  # or "cooperative": every threat in range reports itself (ADS-B-like)
+    coop_noise_position: float = 0.0
+    coop_noise_velocity: float = 0.0
+    coop_latency: float = 0.0
+    terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
+    terrain_mesh: bool = True
+    command: str = "terrapath replay"  # recorded in the MCAP
+    software_version: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedReplay:
+    """Everything a replay needs, validated; ``warnings`` for the user."""
+
+    request: ReplayRequest
+    mission: Mission
+    grid: HeightGrid | None
+    params: VehicleParams
+    vehicle_file: bytes | None
+    avoider: Avoider
+    threats: ThreatSet
+    threat_text: str | None
+    config: ReplayConfig
+    time_limit: float
+    warnings: tuple[str, ...]
+
+
+def prepare_replay(request: ReplayRequest) -> PreparedReplay:
+    """Read and check everything a replay needs (nothing is written)."""
+    r = request
+    mission, old_run = _load_source(r.source)
+    mission = _terrain(mission, r.dem)
+    grid = mission.terrain.load() if mission.terrain is not None else None
+    params, vehicle_file = _vehicle(r.vehicle, mission, r.source, old_run)
+    avoider = make_avoider(r.avoid, **r.avoid_options)
+    threat_text: str | None = None
+    old_threats = old_run.attachments.get("threats.yaml") if old_run is not None else None
+    if r.threats:
+        threats = load_threats(r.threats, grid)
+        threat_text = Path(r.threats).read_text(encoding="utf-8")
+    elif old_threats is not None:
+        threat_text = old_threats.decode("utf-8")
+        threats = _recorded_threats(threat_text, r.source, grid)
+    else:
+        threats = ThreatSet(())
+    following = r.terrain_following
+    if following is None and grid is not None:
+        # keep the clearance the mission was planned with (0 turns it off)
+        following = float(mission.plan.get("clearance", 0.0) or 0.0) or None
+    elif following == 0:
+        following = None
+    config = ReplayConfig(
+        seed=r.seed,
+        duration=r.duration,
+        radar_range=r.radar_range,
+        radar_noise_range=r.radar_noise,
+        terrain_following=following,
+        sensor=r.sensor,
+        coop_noise_position=r.coop_noise_position,
+        coop_noise_velocity=r.coop_noise_velocity,
+        coop_latency=r.coop_latency,
+    )
+    planned = estimated_flight_time(mission.waypoints, config.airspeed or mission.cruise_speed)
+    limit = r.duration or 1.5 * planned + 600.0
+    warnings = tuple(threats.warn_after(planned))
+    return PreparedReplay(
+        r,
+        mission,
+        grid,
+        params,
+        vehicle_file,
+        avoider,
+        threats,
+        threat_text,
+        config,
+        limit,
+        warnings,
+    )
+
+
+def run_replay(
+    request: ReplayRequest | PreparedReplay,
+    output: str | Path | None = None,
+    *,
+    progress: Callable[[float, float], None] | None = None,
+) -> ReplayResult:
+    """Fly the replay; with ``output`` (an ``.mcap`` path) record it (mission, threats and vehicle
+    attached; DEM paths relative to the MCAP's folder, where they were found in the metadata)."""
+    prep = request if isinstance(request, PreparedReplay) else prepare_replay(request)
+    r = prep.request
+    mission, grid = prep.mission, prep.grid
+    terrain_model = None
+    if grid is not None:
+        from terrain.model import TerrainModel
+
+        terrain_model = TerrainModel.from_grid(grid, max_faces=2_000_000)
+    kwargs: dict[str, Any] = {
+        "grid": grid,
+        "terrain_model": terrain_model,
+        "config": prep.config,
+        "progress": progress,
+    }
+    if output is None:
+        return simulate(mission, prep.threats, prep.avoider, prep.params, **kwargs)
+    from planner.mission import mission_to_dict
+    from replay.record import RunRecorder
+
+    out = str(output)
+    if not out.lower().endswith(".mcap"):
+        raise InputError(f"the output must end in .mcap; got {out!r}")
+    mission_doc = mission_to_dict(mission, out)
+    extra = {"vehicle": prep.params.name, "source": str(r.source), "sensor": r.sensor}
+    if mission.terrain is not None:
+        extra["dem"] = json.dumps(list(mission.terrain.dem))
+    options = "".join(f" {k}={v}" for k, v in r.avoid_options.items())
+    with RunRecorder(
+        out,
+        map_origin=_map_origin(mission, grid),
+        crs=mission.crs,
+        seed=r.seed,
+        command=r.command,
+        avoid=r.avoid + options,
+        software_version=r.software_version,
+        to_lonlat=_lonlat(grid),
+        log_rate_hz=r.log_rate,
+        metadata=extra,
+    ) as rec:
+        rec.attach(
+            "mission.yaml",
+            yaml.safe_dump(mission_doc, sort_keys=False, default_flow_style=None).encode(),
+            "application/yaml",
+        )
+        if prep.threat_text is not None:
+            rec.attach("threats.yaml", prep.threat_text.encode("utf-8"), "application/yaml")
+        if prep.vehicle_file is not None:
+            rec.attach("vehicle.yaml", prep.vehicle_file, "application/yaml")
+        if grid is not None and r.terrain_mesh:
+            from terrain.model import TerrainModel
+
+            mesh = TerrainModel.from_grid(grid, max_faces=400_000).mesh
+            rec.write_terrain(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        result = simulate(mission, prep.threats, prep.avoider, prep.params, recorder=rec, **kwargs)
+    return result
+
+
+def _lonlat(grid: HeightGrid | None) -> Any:
+    """A fast map -> (lon, lat) for the recorder, or None without a georeferenced map."""
+    if grid is None or not grid.is_georeferenced:
+        return None
+    return grid.lonlat_interpolator()
+
+
+def _load_source(source: str) -> tuple[Any, Any]:
+    """(mission, the earlier run when SOURCE is an .mcap, else None).
+
+    The mission inside a run names its DEM tiles relative to the run's folder (see
+    :func:`_recorded_mission`); they are looked for there, then as given, then where the run
+    found them (metadata ``dem``)."""
+    from planner.mission import load_mission, mission_from_dict
+
+    if not source.lower().endswith(".mcap"):
+        return load_mission(source), None
+    from replay.reader import load_run
+
+    run = load_run(source, with_states=False)
+    text = run.attachments.get("mission.yaml")
+    if text is None:
+        raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
+    try:
+        doc = yaml.safe_load(text.decode("utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError):
+        raise DataFileError(
+            f"{source!r}, attachment 'mission.yaml': not a valid mission YAML"
+        ) from None
+    mission = mission_from_dict(doc, source, attachment="mission.yaml")
+    if mission.terrain is not None:
+        try:
+            flown = json.loads(run.metadata.get("dem", "[]"))
+        except json.JSONDecodeError:
+            flown = []
+        if isinstance(flown, list) and all(isinstance(d, str) for d in flown):
+            mission = replace(mission, terrain=mission.terrain.also_look_in(flown))
+    return mission, run
+
+
+def _terrain(mission: Any, dem_tiles: tuple[str, ...]) -> Any:
+    """The mission with its DEM tiles found (absolute paths), or replaced by ``--dem``; raises
+    before anything is written when a tile is found nowhere."""
+    from planner.mission import TerrainRef
+
+    ref = mission.terrain
+    if dem_tiles:
+        cell = ref.cell_size if ref is not None else None
+        ref = TerrainRef(tuple(str(Path(t).absolute()) for t in dem_tiles), cell)
+    if ref is None:
+        return mission
+    found = tuple(str(Path(t).resolve()) for t in ref.paths())
+    return replace(mission, terrain=TerrainRef(found, ref.cell_size))
+
+
+def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[Any, bytes | None]:
+    """(vehicle parameters, the vehicle file to attach or None).
+
+    ``--vehicle`` paths are relative to the working directory.  Re-flying a run flies the
+    vehicle that run flew (its ``vehicle.yaml`` attachment, or its preset).  A mission's
+    ``vehicle:`` file is looked for beside the mission, then as given."""
+    from replay.vehicle.presets import PRESETS, load_vehicle, vehicle_from_dict
+    from terrain.docfile import find_reference, reference_places
+
+    if vehicle:
+        params = load_vehicle(vehicle, base_dir=Path.cwd())
+        path = Path(vehicle)
+        is_file = path.suffix.lower() in (".yaml", ".yml") and path.is_file()
+        return params, path.read_bytes() if is_file else None
+    if run is not None:
+        text = run.attachments.get("vehicle.yaml")
+        if text is not None:
+            label = f"{source} (attachment vehicle.yaml)"
+            try:
+                data = yaml.safe_load(text.decode("utf-8"))
+            except (yaml.YAMLError, UnicodeDecodeError):
+                raise DataFileError(f"{label!r}: not a valid vehicle YAML") from None
+            return vehicle_from_dict(data, label), text
+        flown = run.metadata.get("vehicle", "")
+        if flown in PRESETS:
+            return PRESETS[flown], None
+    name = mission.vehicle
+    if name in PRESETS:
+        return PRESETS[name], None
+    places = reference_places(name, source)
+    if (
+        Path(name).suffix.lower() in (".yaml", ".yml")
+        or "/" in name
+        or any(Path(q).exists() for q in places)
+    ):
+        path = Path(
+            find_reference(
+                places,
+                name,
+                holder=source,
+                attachment="mission.yaml" if run is not None else None,
+                field="vehicle",
+                what="vehicle file",
+                hint="; give it with --vehicle",
+            )
+        )
+        return load_vehicle(path), path.read_bytes()
+    return load_vehicle(name), None  # not a preset: says which presets exist
+
+
+def _recorded_threats(text: str, source: str, grid: Any) -> Any:
+    """The threats an earlier run recorded (its ``threats.yaml`` attachment)."""
+    from replay.threats import threats_from_records
+
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError:
+        data = None
+    if not isinstance(data, dict):
+        raise DataFileError(f"{source!r}, attachment 'threats.yaml': not a threat file")
+    name = data.get("name")
+    return threats_from_records(
+        data.get("threats"), grid, source=source, name=name if isinstance(name, str) else None
+    )
+
+
+def _map_origin(mission: Any, grid: Any) -> tuple[float, float, float]:
+    if grid is not None:
+        xmin, ymin, xmax, ymax = grid.bounds
+        return (round((xmin + xmax) / 2.0), round((ymin + ymax) / 2.0), 0.0)
+    w = mission.waypoints
+    return (float(w[0, 0]), float(w[0, 1]), 0.0)
