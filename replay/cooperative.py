@@ -76,6 +76,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.frames import course_of
+from replay.radar import sensor_number, sensor_rng
 from replay.threats import BodyThreat, HillThreat, StaticThreat, Threat
 from terrain.errors import InputError
 
@@ -188,17 +189,7 @@ class CooperativePicture:
 
 
 def _number(name: str, value: Any, minimum: float, strict: bool) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        out = math.nan
-    ok = math.isfinite(out) and (out > minimum if strict else out >= minimum)
-    if isinstance(value, bool) or not ok:
-        rel = ">" if strict else ">="
-        raise InputError(
-            f"cooperative sensor {name} must be a finite number {rel} {minimum:g}; got {value!r}"
-        )
-    return out
+    return sensor_number("cooperative sensor", name, value, minimum, strict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -276,16 +267,7 @@ class CooperativeSensor:
                 f"cooperative sensor extrapolate must be true or false; got {extrapolate!r}"
             )
         self.extrapolate = extrapolate
-        if isinstance(seed, np.random.Generator):
-            self.rng = seed
-            self.seed: int | None = None
-        else:
-            if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
-                raise InputError(
-                    f"cooperative sensor seed must be an integer or a numpy Generator; got {seed!r}"
-                )
-            self.rng = np.random.default_rng(int(seed))
-            self.seed = int(seed)
+        self.rng, self.seed = sensor_rng("cooperative sensor", seed)
         self.last_scan_t: float | None = None
         self._table: _PointTable | None = None
 

@@ -71,7 +71,7 @@ import math
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -192,7 +192,9 @@ class RadarPicture:
         return self.detections[self.n_threat :]
 
 
-def _number(name: str, value: float, minimum: float, strict: bool) -> float:
+def sensor_number(sensor: str, name: str, value: Any, minimum: float, strict: bool) -> float:
+    """A sensor parameter as a finite float above (``strict``) or at least ``minimum``; else a
+    one-line error naming the sensor and the parameter."""
     try:
         out = float(value)
     except (TypeError, ValueError):
@@ -200,8 +202,23 @@ def _number(name: str, value: float, minimum: float, strict: bool) -> float:
     ok = math.isfinite(out) and (out > minimum if strict else out >= minimum)
     if isinstance(value, bool) or not ok:
         rel = ">" if strict else ">="
-        raise InputError(f"radar {name} must be a finite number {rel} {minimum:g}; got {value!r}")
+        raise InputError(
+            f"{sensor} {name} must be a finite number {rel} {minimum:g}; got {value!r}"
+        )
     return out
+
+
+def sensor_rng(sensor: str, seed: Any) -> tuple[np.random.Generator, int | None]:
+    """(the sensor's random generator, its integer seed or None when a Generator was given)."""
+    if isinstance(seed, np.random.Generator):
+        return seed, None
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
+        raise InputError(f"{sensor} seed must be an integer or a numpy Generator; got {seed!r}")
+    return np.random.default_rng(int(seed)), int(seed)
+
+
+def _number(name: str, value: float, minimum: float, strict: bool) -> float:
+    return sensor_number("radar", name, value, minimum, strict)
 
 
 class Radar:
@@ -247,16 +264,7 @@ class Radar:
         if any(e > 90.0 for e in elev):
             raise InputError(f"radar terrain elevations must lie in [-90, 90] degrees; got {elev}")
         self.terrain_elevations_deg = elev
-        if isinstance(seed, np.random.Generator):
-            self.rng = seed
-            self.seed: int | None = None
-        else:
-            if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
-                raise InputError(
-                    f"radar seed must be an integer or a numpy Generator; got {seed!r}"
-                )
-            self.rng = np.random.default_rng(int(seed))
-            self.seed = int(seed)
+        self.rng, self.seed = sensor_rng("radar", seed)
         self.previous: RadarPicture | None = None
         self.last_scan_t: float | None = None
         fan, ring = self._directions()
