@@ -3,7 +3,8 @@
 - success: the goal was reached with no safety-volume violation (threats, and the mission's danger
   zones: ids ``zone:<id>``), no terrain contact and no time off the map;
 - minimum separation to each threat (distance to its safety surface; negative = inside) and when;
-- violations: every interval spent inside a threat's safety volume, with entry/exit times;
+- violations: every interval spent inside a threat's safety volume -- or closer to its surface
+  than the success margin asked (FGA's d_m, CTGA's R_safe; 0 by default) -- with entry/exit times;
 - minimum terrain clearance (height above the terrain under the aircraft) and when;
 - time spent off the map (where the terrain is unknown) and over terrain the DEM did not measure;
 - flown length (3D), path-length ratio PLR = flown length / straight source-destination distance
@@ -51,6 +52,7 @@ class RunMetrics:
     decision_time_max_s: float
     off_map_s: float = 0.0
     unknown_terrain_s: float = 0.0
+    margin_m: float = 0.0  # separations below this count as violations (0: the surface)
     extra: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
@@ -73,7 +75,12 @@ def _finite(value: Any) -> Any:
 class MetricsTracker:
     """Feed it the trajectory chunk by chunk; :meth:`finish` gives the :class:`RunMetrics`."""
 
-    def __init__(self, threat_ids: list[str], start: FloatArray, goal: FloatArray) -> None:
+    def __init__(
+        self, threat_ids: list[str], start: FloatArray, goal: FloatArray, margin: float = 0.0
+    ) -> None:
+        if not (math.isfinite(margin) and margin >= 0.0):
+            raise ValueError(f"success margin must be a number of metres >= 0; got {margin!r}")
+        self.margin = float(margin)
         self.start = np.asarray(start, dtype=np.float64)
         self.goal = np.asarray(goal, dtype=np.float64)
         self.length = 0.0
@@ -138,13 +145,14 @@ class MetricsTracker:
             if lows[c] < self.min_sep.get(tid, none)[0]:
                 self.min_sep[tid] = (float(lows[c]), float(when[c]))
         # a threat never inside in this chunk, and not inside before it, opens no interval
-        entered = np.flatnonzero((separations < 0.0).any(axis=0)).tolist()
+        entered = np.flatnonzero((separations < self.margin).any(axis=0)).tolist()
         for c in sorted({*entered, *(c for c, tid in enumerate(ids) if tid in self.inside)}):
             self._track_violation(ids[c], times, separations[:, c])
 
     def _track_violation(self, tid: str, times: FloatArray, sep: FloatArray) -> None:
-        """Open/close violation intervals at the samples where the separation changes sign."""
-        inside = sep < 0.0
+        """Open/close violation intervals at the samples where the separation crosses the margin
+        (0: the threat's surface)."""
+        inside = sep < self.margin
         was_inside = tid in self.inside
         t0, low = self.inside.get(tid, (math.nan, math.inf))
         before = np.concatenate([[was_inside], inside[:-1]])
@@ -193,5 +201,6 @@ class MetricsTracker:
             decision_time_mean_s=float(np.mean(dt)) if dt else 0.0,
             decision_time_max_s=float(np.max(dt)) if dt else 0.0,
             off_map_s=self.off_map_s,
+            margin_m=self.margin,
             unknown_terrain_s=self.unknown_s,
         )

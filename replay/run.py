@@ -51,6 +51,7 @@ class ReplayRequest:
     coop_noise_position: float = 0.0
     coop_noise_velocity: float = 0.0
     coop_latency: float = 0.0
+    margin: float = 0.0  # success needs every separation >= this (m)
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
     terrain_mesh: bool = True
     command: str = "terrapath replay"  # recorded in the MCAP
@@ -108,6 +109,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         coop_noise_position=r.coop_noise_position,
         coop_noise_velocity=r.coop_noise_velocity,
         coop_latency=r.coop_latency,
+        margin=r.margin,
     )
     planned = estimated_flight_time(mission.waypoints, config.airspeed or mission.cruise_speed)
     limit = r.duration or 1.5 * planned + 600.0

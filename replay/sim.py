@@ -66,6 +66,7 @@ class ReplayConfig:
     airspeed: float | None = None  # None: the mission's cruise speed
     avoid_period: float | None = None  # s between avoider calls (None: the avoider's, else radar's)
     sensor: str = "radar"  # "radar" (seed 000) or "cooperative" (ADS-B-like: replay.cooperative)
+    margin: float = 0.0  # success needs every separation >= this (m; 0: outside the surfaces)
     coop_noise_position: float = 0.0  # cooperative sensor: 1-sigma position noise (m)
     coop_noise_velocity: float = 0.0  # cooperative sensor: 1-sigma velocity noise (m/s)
     coop_latency: float = 0.0  # cooperative sensor: age of the reports (s)
@@ -81,7 +82,7 @@ class ReplayConfig:
             )
         if self.sensor not in SENSORS:
             raise InputError(f"unknown sensor {self.sensor!r}; choose one of {', '.join(SENSORS)}")
-        for name in ("coop_noise_position", "coop_noise_velocity", "coop_latency"):
+        for name in ("coop_noise_position", "coop_noise_velocity", "coop_latency", "margin"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise InputError(f"replay setting {name!r} must be a number >= 0; got {v!r}")
@@ -226,7 +227,7 @@ def simulate(
     tick = min(cfg.radar_period, avoid_period)
     next_decision = 0.0
     zones = {f"zone:{z.id or k}": z for k, z in enumerate(mission.danger_zones)}
-    tracker = MetricsTracker([*threats.ids, *zones], wp0[0], wp0[-1])
+    tracker = MetricsTracker([*threats.ids, *zones], wp0[0], wp0[-1], cfg.margin)
     record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
     if recorder is not None:
         recorder.write_waypoints(0.0, wp0, "initial", 1)

@@ -10,7 +10,8 @@ from typing import Any
 
 SEPARATION_NOTE = (
     "separation: distance from the threat's surface (the sphere of its radius around a point, "
-    "its cylinder or body); negative = inside its safety volume"
+    "its cylinder or body; a zone:<id> is a danger zone of the mission); negative = inside its "
+    "safety volume"
 )
 PLR_MEANING = "flown length / straight-line distance from the first to the last waypoint"
 
@@ -134,7 +135,13 @@ def threat_lines(m: Mapping[str, Any]) -> list[str]:
     if not isinstance(seps, dict) or not seps:
         return []
     violations = [v for v in m.get("violations") or [] if isinstance(v, dict)]
-    head = ("threat", "min separation", "at t", "inside its safety volume")
+    margin = _number(m.get("margin_m")) or 0.0
+    head = (
+        "threat",
+        "min separation",
+        "at t",
+        f"closer than {metres(margin)}" if margin else "inside its safety volume",
+    )
     rows = []
     for tid, sep in seps.items():
         sep = sep if isinstance(sep, dict) else {}

@@ -127,3 +127,43 @@ def test_pso_ca_keeps_its_new_legs_out_of_the_mission_zones() -> None:
     assert r.metrics.success, r.metrics
     assert r.metrics.min_separation["zone:village"]["value"] > 0.0
     assert r.metrics.min_separation["o1"]["value"] >= 0.0
+
+
+def test_success_can_require_a_margin_from_every_surface(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 13: a run that keeps 100 m from a zone succeeds with no margin and fails with a
+    150 m one; the metrics (and inspect --json) carry the margin asked."""
+    import json
+
+    zone = DangerZone(6000.0, 3000.0, 800.0, top=200.0, id="low")  # flown 100 m above its top
+    params = load_vehicle("small-uas")
+    ok = simulate(_mission((zone,)), ThreatSet(()), NoAvoidance(), params, grid=GRID)
+    strict = simulate(
+        _mission((zone,)),
+        ThreatSet(()),
+        NoAvoidance(),
+        params,
+        grid=GRID,
+        config=ReplayConfig(margin=150.0),
+    )
+    assert ok.metrics.success and ok.metrics.margin_m == 0.0
+    assert not strict.metrics.success and strict.metrics.margin_m == 150.0
+    (v,) = strict.metrics.violations
+    assert v.threat == "zone:low" and v.min_separation == pytest.approx(100.0, abs=1.0)
+    # from the command line, and read back by inspect
+    out = tmp_path / "m.yaml"
+    save_mission(_mission((zone,)), out, GRID)
+    tif = tmp_path / "flat.tif"
+    GRID.to_geotiff(tif)
+    out.write_text(
+        out.read_text().replace(
+            "terrapath: 1\n", f"terrapath: 1\nterrain: {{dem: [{tif.name}]}}\n", 1
+        )
+    )
+    run = tmp_path / "r.mcap"
+    assert main(["replay", str(out), "--margin", "150", "--no-terrain-mesh", "-o", str(run)]) == 3
+    assert "closer than 150.0 m" in capsys.readouterr().out
+    assert main(["inspect", str(run), "--json"]) == 0
+    metrics = json.loads(capsys.readouterr().out)["metrics"]
+    assert metrics["margin_m"] == 150.0 and metrics["min_separation"]["zone:low"]["value"] > 99.0

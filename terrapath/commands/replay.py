@@ -197,6 +197,14 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     help="Cooperative sensor: age of the reports (s).",
 )
 @click.option(
+    "--margin",
+    type=click.FloatRange(min=0.0),
+    default=0.0,
+    show_default=True,
+    help="Success needs every threat's and zone's separation (distance from its surface) to "
+    "stay >= this many metres (e.g. FGA's d_m, CTGA's R_safe); reported with the metrics.",
+)
+@click.option(
     "--terrain-following",
     type=click.FloatRange(min=0.0),
     default=None,
@@ -227,6 +235,7 @@ def replay_cmd(
     sensor: str,
     coop_noise: tuple[float, float],
     coop_latency: float,
+    margin: float,
     terrain_following: float | None,
     no_terrain_mesh: bool,
     output: str,
@@ -276,6 +285,7 @@ def replay_cmd(
         coop_noise_position=coop_noise[0],
         coop_noise_velocity=coop_noise[1],
         coop_latency=coop_latency,
+        margin=margin,
         terrain_following=terrain_following,
         terrain_mesh=not no_terrain_mesh,
         command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
