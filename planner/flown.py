@@ -60,6 +60,23 @@ class Fillets:
     turn_excess: FloatArray
     leg_excess: FloatArray
 
+    def at(self, k: int) -> Fillets:
+        """The fillet at interior waypoint ``k`` (1-based, as in the path) of a single path; the
+        per-path excesses are kept as they are."""
+        sel = slice(k - 1, k)
+        return Fillets(
+            angle=self.angle[:1, sel],
+            side=self.side[:1, sel],
+            wanted=self.wanted[:1, sel],
+            distance=self.distance[:1, sel],
+            radius=self.radius[:1, sel],
+            t1=self.t1[:1, sel],
+            t2=self.t2[:1, sel],
+            center=self.center[:1, sel],
+            turn_excess=self.turn_excess,
+            leg_excess=self.leg_excess,
+        )
+
 
 def fillets(paths: npt.ArrayLike, radius: float) -> Fillets:
     """Fillets of radius ``radius`` at the interior points of (P, W, 3) (or one (W, 3)) paths."""
@@ -77,7 +94,8 @@ def fillets(paths: npt.ArrayLike, radius: float) -> Fillets:
     angle = np.where(degenerate, 0.0, angle)
     cross = qa[..., 0] * qb[..., 1] - qa[..., 1] * qb[..., 0]
     side = np.where(cross >= 0.0, 1.0, -1.0)
-    wanted = float(radius) * np.tan(0.5 * np.minimum(angle, MAX_TURN))
+    tan_half = np.tan(0.5 * np.minimum(angle, MAX_TURN))
+    wanted = float(radius) * tan_half
     # tangent distance at every point of the path (0 at the start and the goal)
     d_all = np.zeros(p.shape[:2])
     d_all[:, 1:-1] = wanted
@@ -85,7 +103,6 @@ def fillets(paths: npt.ArrayLike, radius: float) -> Fillets:
     leg_excess = np.maximum(0.0, need - length - TOLERANCE)
     scale = np.where(need > length, length / np.where(need > 0, need, 1.0), 1.0)
     used = wanted * np.minimum(scale[:, :-1], scale[:, 1:])
-    tan_half = np.tan(0.5 * np.minimum(angle, MAX_TURN))
     arc_r = np.where(tan_half > _EPS, used / np.where(tan_half > _EPS, tan_half, 1.0), radius)
     w = p[:, 1:-1, :]
     t1 = np.empty_like(w)
@@ -164,13 +181,3 @@ def climb_excess(
         0.0, -dz - descent_gradient * h - TOLERANCE
     )
     return np.asarray(over.sum(axis=-1), dtype=np.float64)
-
-
-def steepest(flown: npt.ArrayLike) -> tuple[int, float]:
-    """(piece index, gradient dz/h) of the steepest piece of one flown polyline (M, 3)."""
-    p = np.asarray(flown, dtype=np.float64)
-    d = np.diff(p, axis=0)
-    h = np.hypot(d[:, 0], d[:, 1])
-    grad = np.where(h > _EPS, d[:, 2] / np.where(h > _EPS, h, 1.0), np.sign(d[:, 2]) * np.inf)
-    k = int(np.argmax(np.abs(grad)))
-    return k, float(grad[k])

@@ -22,26 +22,23 @@ DEFAULT_ALGORITHM = "ampso"
 SWARM_RADIUS_EPS = 1e-4
 
 
-def min_clearance(problem: PlanningProblem, path: np.ndarray) -> float:
-    """Smallest height of the flown path above the terrain (the conservative safety grid, bilinear
-    between its cells), sampled every half cell — a finer check than the Bresenham walk the cost
-    uses, reported so users see the true margin. ``path`` is the waypoint path."""
-    return float(sample_path(problem.safety_grid, problem.flown(path)).clearance.min())
-
-
-def over_unknown_share(problem: PlanningProblem, path: np.ndarray) -> float:
-    """Share of the flown path (by horizontal distance, sampled every half cell) over cells the
-    DEM did not measure; 0 on a fully measured grid."""
+def flown_figures(problem: PlanningProblem, flown: np.ndarray) -> tuple[float, float]:
+    """(smallest height of the flown path above the terrain, share of it over unknown terrain),
+    from one dense sampling (every half cell) -- finer than the Bresenham walk of the cost,
+    reported so users see the true margin. The height is above the conservative safety grid
+    (bilinear between its cells); the share is by horizontal distance over cells the DEM did not
+    measure, 0 on a fully measured grid."""
+    s = sample_path(problem.safety_grid, flown)
+    clearance = float(s.clearance.min())
     grid = problem.grid
     if grid.known is None or not grid.has_unknown:
-        return 0.0
-    s = sample_path(grid, problem.flown(path))
+        return clearance, 0.0
     over = ~grid.known[grid.cell_of(s.points[:, 0], s.points[:, 1])]
     step = np.diff(s.distance)
     total = float(step.sum())
     if total <= 0:
-        return float(over.any())
-    return float((step * (over[:-1] | over[1:])).sum() / total)
+        return clearance, float(over.any())
+    return clearance, float((step * (over[:-1] | over[1:])).sum() / total)
 
 
 def attempt_seed(seed: int, attempt: int) -> int:
@@ -148,9 +145,9 @@ def _plan_once(
     terms = problem.terms(res.x[None, :])
     feasible = bool(problem.feasible(terms)[0])
     path = problem.paths(res.x)
+    flown = problem.flown(path)
     row = terms.row(0)
-    row["min_clearance_m"] = min_clearance(problem, path)
-    row["over_unknown_share"] = over_unknown_share(problem, path)
+    row["min_clearance_m"], row["over_unknown_share"] = flown_figures(problem, flown)
     return PlanResult(
         status="feasible" if feasible else "infeasible",
         waypoints=path,
@@ -170,5 +167,5 @@ def _plan_once(
         history_best=np.asarray(res.history_best),
         history_mean=np.asarray(res.history_mean),
         violations=() if feasible else find_violations(problem, path),
-        flown=problem.flown(path),
+        flown=flown,
     )

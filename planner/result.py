@@ -88,29 +88,23 @@ def _at(kind: Any, leg: int, point: FloatArray, amount: float, detail: str) -> V
     )
 
 
-def piece_labels(n_points: int, chords: int | None) -> list[str]:
-    """What each piece of a flown path is, for messages: ``n_points`` waypoints (S, W_1..W_N, G);
-    ``chords`` per turn fillet, or None when the flown path is the polyline itself."""
+def pieces(n_points: int, chords: int | None) -> tuple[list[str], list[int]]:
+    """What each piece of a flown path is, for messages, and the waypoint-list segment it
+    belongs to (a turn: the leg into it): ``n_points`` waypoints (S, W_1..W_N, G), ``chords`` per
+    turn fillet, or None when the flown path is the polyline itself."""
     if chords is None:
-        return [f"segment {i} (waypoint {i} -> {i + 1})" for i in range(n_points - 1)]
-    out: list[str] = []
+        legs = list(range(n_points - 1))
+        return [f"segment {i} (waypoint {i} -> {i + 1})" for i in legs], legs
+    labels: list[str] = []
+    legs = []
     for k in range(1, n_points - 1):
-        out.append(f"leg {k - 1} (waypoint {k - 1} -> {k})")
-        out.extend([f"the turn at waypoint {k}"] * chords)
-    out.append(f"leg {n_points - 2} (waypoint {n_points - 2} -> {n_points - 1})")
-    return out
-
-
-def _piece_leg(n_points: int, chords: int | None) -> list[int]:
-    """The waypoint-list segment each piece of a flown path belongs to (turns: the leg into it)."""
-    if chords is None:
-        return list(range(n_points - 1))
-    out: list[int] = []
-    for k in range(1, n_points - 1):
-        out.append(k - 1)
-        out.extend([k - 1] * chords)
-    out.append(n_points - 2)
-    return out
+        labels += [f"leg {k - 1} (waypoint {k - 1} -> {k})"] + [
+            f"the turn at waypoint {k}"
+        ] * chords
+        legs += [k - 1] * (chords + 1)
+    labels.append(f"leg {n_points - 2} (waypoint {n_points - 2} -> {n_points - 1})")
+    legs.append(n_points - 2)
+    return labels, legs
 
 
 def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violation, ...]:
@@ -121,8 +115,7 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
     flown = problem.flown(path)
     perf = problem.performance
     chords = problem.chords if perf is not None else None
-    labels = piece_labels(len(path), chords)
-    legs = _piece_leg(len(path), chords)
+    labels, legs = pieces(len(path), chords)
     samples = sample_path(problem.safety_grid, flown)
     out: list[Violation] = []
     what = "terrain + clearance" if problem.clearance else "terrain"

@@ -676,19 +676,7 @@ class Autopilot:
         f = fillets(path, radius)
         if k < 1 or f.angle[0, k - 1] < math.radians(1.0):
             return None
-        sel = slice(k - 1, k)
-        return Fillets(
-            angle=f.angle[:, sel],
-            side=f.side[:, sel],
-            wanted=f.wanted[:, sel],
-            distance=f.distance[:, sel],
-            radius=f.radius[:, sel],
-            t1=f.t1[:, sel],
-            t2=f.t2[:, sel],
-            center=f.center[:, sel],
-            turn_excess=f.turn_excess,
-            leg_excess=f.leg_excess,
-        )
+        return f.at(k)
 
     def _start_arc(self, f: Fillets) -> None:
         """Fly the turn fillet ``f`` (map coordinates) into the leg to waypoint ``_next``."""
@@ -751,7 +739,7 @@ class Autopilot:
         if climb_rate is not None:
             p = self.params
             if not -p.descent_rate_max <= climb_rate <= p.climb_rate_max:  # also refuses NaN
-                raise InputError(
+                raise GuidanceRefused(
                     f"climb rate {climb_rate:g} m/s is outside {p.name}'s limits "
                     f"-{p.descent_rate_max:g}..{p.climb_rate_max:g} m/s (descent_rate_max, "
                     "climb_rate_max)"

@@ -178,19 +178,11 @@ class FixedWingStack:
                 center_velocity=cmd.center_velocity,
             )
         elif isinstance(cmd, ClimbRate):
-            self._climb(cmd.rate)
+            ap.set_override(climb_rate=cmd.rate)
         elif isinstance(cmd, FlightPathAngle):
-            self._climb(ap.airspeed * math.sin(cmd.gamma))
+            ap.set_override(climb_rate=ap.airspeed * math.sin(cmd.gamma))
         elif isinstance(cmd, HoldAltitude):
             ap.set_override(altitude=cmd.altitude)
-
-    def _climb(self, rate: float) -> None:
-        try:
-            self.autopilot.set_override(climb_rate=rate)
-        except GuidanceRefused:
-            raise
-        except ValueError as exc:
-            raise GuidanceRefused(str(exc)) from None
 
     # -- flying ---------------------------------------------------------------------------------
     def fly(self, state: FloatArray, t: float, duration: float, *, record_every: int) -> FlightLog:

@@ -116,11 +116,6 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
     return float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum() / speed)
 
 
-def initial_state(params: VehicleParams, waypoints: FloatArray, airspeed: float) -> FloatArray:
-    """Trimmed level flight at ``airspeed`` over the first waypoint, heading for the second."""
-    return FixedWingStack(params, waypoints, airspeed=airspeed).initial_state()
-
-
 def fixed_wing_stack(
     mission: Mission, params: VehicleParams, grid: HeightGrid | None, cfg: ReplayConfig
 ) -> FixedWingStack:
