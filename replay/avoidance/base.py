@@ -5,7 +5,9 @@ the waypoint list being flown and the index of the waypoint flown to, the flight
 at its own period (``period`` attribute, default: the radar's) and returns an
 :class:`~replay.guidance.AvoidanceDecision` -- one typed guidance command
 (:mod:`replay.guidance`), or none to keep going, and optionally an end outcome -- or ``None``
-(nothing to decide). The loop records every decision with its compute time. ``none``
+(nothing to decide). The loop records every decision with its compute time.  Avoiders read the
+sensor's pictures through :mod:`replay.perception` (obstacle memory, tracks, clusters, fitted
+circles), each with the settings it needs, updated once per scan.  ``none``
 (:class:`NoAvoidance`) keeps the mission: the baseline of seed 000 Fig. 17.
 """
 
@@ -32,7 +34,7 @@ class AvoidanceContext:
     velocity: FloatArray  # (3,) map, m/s
     airspeed: float
     course: float  # rad, clockwise from north
-    picture: Any  # replay.radar.RadarPicture
+    picture: Any  # latest scan: replay.radar.RadarPicture or replay.cooperative.CooperativePicture
     waypoints: FloatArray  # (W, 3) current list, map metres
     next_index: int  # index in ``waypoints`` of the waypoint being flown to
     vehicle: Any = None  # replay.vehicle.VehicleParams (limits: bank, pitch, climb rate)

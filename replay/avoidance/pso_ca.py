@@ -2,14 +2,17 @@
 
 After every radar scan (Fig. 4 / Fig. 5, main module):
 
-1. **What is an obstacle.**  Threat returns the radar calls stationary (Fig. 7), and the terrain
-   returns of hills that rise above what the aircraft can fly over (below), are remembered for
-   ``memory_s`` seconds by id -- so a piece of a hill or of a solid body that the radar saw a few
-   scans ago still counts when it drops out of view behind another.  Returns of solid bodies
-   (cylinders, bodies: the radar gives the nearest point of the body, which slides along its
-   surface as the aircraft moves) are remembered per 100 m cell, so the surface seen over time
-   builds up as a group of points.  Threat returns the radar calls moving are *intruders*;
-   returns seen for the first time (not yet classified) wait one scan.
+1. **What is an obstacle.**  The avoider reads the sensor through its own
+   :class:`~replay.perception.Perception` (memory ``memory_s`` seconds, solid bodies per
+   ``BODY_CELL_M`` = 100 m cell, tracks of the last two fixes): the obstacles perception calls
+   stationary (the radar: Fig. 7), and the terrain returns of hills that rise above what the
+   aircraft can fly over (below; the others are left out of the memory with ``keep``) -- so a
+   piece of a hill or of a solid body that the radar saw a few scans ago still counts when it
+   drops out of view behind another, and the surface of a solid body seen over time builds up
+   as a group of points.  The tracks of obstacles called moving are *intruders*; returns seen
+   for the first time (not yet classified) wait one scan.  A track's velocity is its two-fix
+   fit, ``(p_now - p_prev) / (t_now - t_prev)``.  Perception is updated once per scan: asked
+   again before the next scan, the avoider reasons on the same picture.
 2. **Terrain** (issue 5: "hills that rise above the flight altitude ... as continuous obstacles").
    A terrain return at height ``z_t`` and horizontal distance ``d`` is an obstacle when it rises
    above the flight altitude, ``z_t > z - terrain_margin`` (0 m), and -- with terrain following
@@ -125,7 +128,9 @@ from replay.avoidance.pso_ca_geometry import (
     tangent_seed_points,
 )
 from replay.guidance import AvoidanceDecision, FollowWaypoints
+from replay.perception import Perception, PerceptionConfig, PerceptionState
 from replay.threats import cluster_terminals
+from replay.tracking import Track
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -153,20 +158,6 @@ def compile_cost() -> None:
         WaypointProblem(pts[0], pts[1], pts[2:], np.zeros((0, 2)))(np.zeros((1, 2)))
         segment_clearance(pts[:1], pts[1:2], pts[2:])
         _COST_COMPILED = True
-
-
-@dataclass
-class _Seen:
-    xy: FloatArray
-    z: float
-    t: float
-
-
-@dataclass
-class _Track:
-    t: float
-    xy: FloatArray
-    range: float
 
 
 @dataclass(frozen=True)
@@ -271,9 +262,10 @@ class PsoCaAvoider:
         self.corners = bool(corners)
         self._grid_evaluations = 0
         self.rng = np.random.default_rng(0)
-        self._seen: dict[str, _Seen] = {}
-        self._tracks: dict[str, _Track] = {}
-        self._prev_tracks: dict[str, _Track] = {}
+        self._perception = Perception(
+            PerceptionConfig(memory_s=self.memory_s, body_cell_m=BODY_CELL_M, track_scans=2)
+        )
+        self._state: PerceptionState | None = None
         self._hold: dict[str, float] = {}
         self._sides: dict[str, int] = {}
         self._retry_stationary = -math.inf
@@ -282,9 +274,8 @@ class PsoCaAvoider:
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         compile_cost()
         self.rng = rng
-        self._seen.clear()
-        self._tracks.clear()
-        self._prev_tracks.clear()
+        self._perception.reset()
+        self._state = None
         self._hold.clear()
         self._sides.clear()
         self._retry_stationary = -math.inf
@@ -317,40 +308,29 @@ class PsoCaAvoider:
         gamma = math.asin(min(1.0, veh.climb_rate_max / v))
         return math.tan(min(gamma, math.radians(veh.pitch_max_deg)))
 
-    def _observe(self, ctx: AvoidanceContext) -> None:
-        """Update the memory of stationary points and the intruder tracks from the picture."""
+    def _observe(self, ctx: AvoidanceContext) -> PerceptionState | None:
+        """Perception after the latest scan: updated when ``ctx.picture`` is a scan it has not
+        seen, with the terrain returns the aircraft can fly over left out (module docstring,
+        step 2)."""
         pic = ctx.picture
-        t = ctx.t
-        pos = ctx.position
+        if pic is None or (self._state is not None and pic.t <= self._state.t):
+            return self._state
         n = pic.n_threat
-        ids = pic.ids
-        self._prev_tracks = dict(self._tracks)
-        for i in range(n):
-            code = int(pic.moving_code[i])
-            xy = np.asarray(pic.positions[i, :2], dtype=np.float64)
-            if code == 1:
-                self._tracks[ids[i]] = _Track(t, xy, float(pic.ranges[i]))
-                self._seen.pop(ids[i], None)
-            elif code == 0:
-                key = ids[i]
-                if bool(pic.extended[i]):
-                    c = np.floor(xy / BODY_CELL_M).astype(int)
-                    key = f"{key}@{c[0]}/{c[1]}"
-                self._seen[key] = _Seen(xy, float(pic.positions[i, 2]), t)
-        if self.terrain and len(pic) > n:
+        keep = np.ones(len(pic), dtype=bool)
+        if not self.terrain:
+            keep[n:] = False
+        elif len(pic) > n:
+            pos = ctx.position
             pts = np.asarray(pic.positions[n:], dtype=np.float64)
-            d = np.hypot(pts[:, 0] - pos[0], pts[:, 1] - pos[1])
-            clearance = float(ctx.terrain_clearance)
             blocking = pts[:, 2] > pos[2] - self.terrain_margin
+            clearance = float(ctx.terrain_clearance)
             if clearance > 0:
+                d = np.hypot(pts[:, 0] - pos[0], pts[:, 1] - pos[1])
                 need = pts[:, 2] + clearance - pos[2]
                 blocking &= need > self.climb_share * d * self._climb_gradient(ctx)
-            for k in np.flatnonzero(blocking).tolist():
-                self._seen[ids[n + k]] = _Seen(pts[k, :2].copy(), float(pts[k, 2]), t)
-        for key in [k for k, s in self._seen.items() if t - s.t > self.memory_s]:
-            del self._seen[key]
-        for key in [k for k, s in self._tracks.items() if t - s.t > self.memory_s]:
-            del self._tracks[key]
+            keep[n:] = blocking
+        self._state = self._perception.update(pic, keep=keep)
+        return self._state
 
     # ----------------------------------------------------------------------------- decisions
     def _stationary_hits(
@@ -395,33 +375,43 @@ class PsoCaAvoider:
             out.append(_Hit(key, dist, pts[g], members, rs, moving=False))
         return out
 
-    def _moving_hits(self, ctx: AvoidanceContext, target: FloatArray) -> list[_Hit]:
+    @staticmethod
+    def _tracks_now(st: PerceptionState) -> list[Track]:
+        """The tracks seen in the latest scan, in perception's order."""
+        seen, index = st.seen_now, st.index
+        return [tr for tr in st.tracks if seen[index[tr.id]]]
+
+    def _moving_hits(
+        self, ctx: AvoidanceContext, st: PerceptionState, target: FloatArray
+    ) -> list[_Hit]:
         pos = ctx.position[:2]
         speed_own = max(ctx.airspeed, 1.0)
         out = []
         leg = target - pos
         leg_len = max(float(np.hypot(*leg)), 1e-9)
-        for ident, tr in self._tracks.items():
-            prev = self._prev_tracks.get(ident)
-            if tr.t != ctx.t or prev is None or prev.t >= tr.t:
-                continue  # not seen in this scan, or no earlier fix to confirm with
-            if not (tr.range < prev.range and tr.range < self.act_range):
+        for tr in self._tracks_now(st):
+            if tr.n < 2 or tr.since >= st.t:
+                continue  # no earlier moving fix to confirm with
+            rng, prev_rng = float(tr.ranges[-1]), float(tr.ranges[-2])
+            if not (rng < prev_rng and rng < self.act_range):
                 continue  # Fig. 13: Confirm_Collision needs the range to fall; §5.7: act < 8 km
+            ident = tr.id
             key = "m:" + ident
             if self._hold.get(key, -math.inf) > ctx.t:
                 continue
-            vel = (tr.xy - prev.xy) / (tr.t - prev.t)
+            xy = tr.positions[-1, :2]
+            vel = tr.velocity[:2]
             side = self._sides.get(ident, 0)
             if side:
                 # re-test on the predicted closest approach along the current leg
-                rel_p, rel_v = tr.xy - pos, vel - leg / leg_len * speed_own
+                rel_p, rel_v = xy - pos, vel - leg / leg_len * speed_own
                 vv = float(rel_v @ rel_v)
                 t_cpa = -float(rel_p @ rel_v) / vv if vv > 0 else 0.0
                 t_cpa = min(t_cpa, leg_len / speed_own)
                 if t_cpa <= 0.0 or float(np.hypot(*(rel_p + rel_v * t_cpa))) >= self.moving_rs:
                     continue
             else:
-                if segment_clearance(pos[None, :], target[None, :], tr.xy[None, :])[0, 0] >= (
+                if segment_clearance(pos[None, :], target[None, :], xy[None, :])[0, 0] >= (
                     self.moving_rs
                 ):
                     continue
@@ -430,37 +420,39 @@ class PsoCaAvoider:
                 if speed > 0 and abs(lateral) >= self.head_on_ratio * speed:
                     side = -1 if lateral > 0 else 1  # §5.7: intruder heading left -> turn right
                 else:
-                    rel = tr.xy - pos
+                    rel = xy - pos
                     left_of_leg = leg[0] * rel[1] - leg[1] * rel[0] > 0
                     side = -1 if left_of_leg else 1  # head-on: pass on the other side
-            dist = float(np.hypot(*(tr.xy - pos)))
-            out.append(_Hit(key, dist, tr.xy[None, :], (ident,), self.moving_rs, True, side))
+            dist = float(np.hypot(*(xy - pos)))
+            out.append(_Hit(key, dist, xy[None, :], (ident,), self.moving_rs, True, side))
         return out
 
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
-        self._observe(ctx)
+        st = self._observe(ctx)
         wps = ctx.waypoints
-        if ctx.next_index >= len(wps) or (not self._seen and not self._tracks):
+        if st is None or ctx.next_index >= len(wps) or not (len(st.stationary) or st.tracks):
             return None
         pos = np.asarray(ctx.position[:2], dtype=np.float64)
         target = np.asarray(wps[ctx.next_index, :2], dtype=np.float64)
-        keys = list(self._seen)
-        pts = (
-            np.array([self._seen[k].xy for k in keys], dtype=np.float64)
-            if keys
-            else np.zeros((0, 2))
-        )
+        rows = st.stationary
+        keys = [st.ids[i] for i in rows.tolist()]
+        pts = np.array(st.positions[rows, :2], dtype=np.float64)
         after = wps[ctx.next_index + 1, :2] if ctx.next_index + 1 < len(wps) else None
         hits = self._stationary_hits(
             pos, target, after, self._switch(ctx), keys, pts, ctx.t
-        ) + self._moving_hits(ctx, target)
+        ) + self._moving_hits(ctx, st, target)
         if not hits:
             return None
         hit = min(hits, key=lambda h: h.distance)  # §5.3: the closest first
-        return self._avoid(ctx, hit, keys, pts)
+        return self._avoid(ctx, st, hit, keys, pts)
 
     def _avoid(
-        self, ctx: AvoidanceContext, hit: _Hit, keys: list[str], pts: FloatArray
+        self,
+        ctx: AvoidanceContext,
+        st: PerceptionState,
+        hit: _Hit,
+        keys: list[str],
+        pts: FloatArray,
     ) -> AvoidanceDecision:
         wps = ctx.waypoints
         pos = np.asarray(ctx.position[:2], dtype=np.float64)
@@ -472,7 +464,7 @@ class PsoCaAvoider:
             switch_distance=self._switch(ctx),
         )
         self._grid_evaluations = 0
-        sol = self._solve(ctx, hit, keys, pts, params, "paper", ctx.next_index)
+        sol = self._solve(ctx, st, hit, keys, pts, params, "paper", ctx.next_index)
         narrow = replace(params, tolerance=params.leg_margin)
         use_narrow = self.narrow and params.tolerance > params.leg_margin
         stages = [("narrow", narrow, 0)] if use_narrow else []
@@ -486,7 +478,7 @@ class PsoCaAvoider:
             # as unsafe as one next to it (Fig. 23)
             if sol.feasible or ctx.next_index + extra >= len(ctx.waypoints):
                 break
-            sol = self._solve(ctx, hit, keys, pts, stage_params, stage, ctx.next_index + extra)
+            sol = self._solve(ctx, st, hit, keys, pts, stage_params, stage, ctx.next_index + extra)
         if not sol.feasible:
             sol = replace(sol, stage="failed")
         res, xy, problem, hit, target_i = sol.res, sol.xy, sol.problem, sol.hit, sol.target_i
@@ -559,6 +551,7 @@ class PsoCaAvoider:
     def _solve(
         self,
         ctx: AvoidanceContext,
+        st: PerceptionState,
         hit: _Hit,
         keys: list[str],
         pts: FloatArray,
@@ -572,9 +565,7 @@ class PsoCaAvoider:
         pos = np.asarray(ctx.position[:2], dtype=np.float64)
         target_i = self._skip_unsafe(wps, first, hit, params)
         target = wps[target_i]
-        moving_xy = [
-            tr.xy for ident, tr in self._tracks.items() if ident not in hit.ids and tr.t == ctx.t
-        ]
+        moving_xy = [tr.positions[-1, :2] for tr in self._tracks_now(st) if tr.id not in hit.ids]
         # the mission's danger zones at this altitude keep the new legs out (our addition: the
         # paper has none): their outlines, sampled every RS, are obstacles like the others -- a
         # leg that crossed an outline would pass within RS / 2 of a sample
