@@ -75,15 +75,14 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import record  # noqa: E402
 from planner.mission import Mission, load_mission  # noqa: E402
-from replay.avoidance import make_avoider  # noqa: E402
 from replay.avoidance.pso_ca_geometry import (  # noqa: E402
     PsoCaParams,
     WaypointProblem,
     brute_force_waypoint,
 )
-from replay.sim import ReplayConfig, ReplayResult, simulate  # noqa: E402
+from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
+from replay.sim import ReplayResult  # noqa: E402
 from replay.threats import ThreatSet, load_threats, threats_from_records  # noqa: E402
-from replay.vehicle.presets import load_vehicle  # noqa: E402
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -337,7 +336,6 @@ _CACHE: dict[str, Any] = {}
 def _mission() -> Mission:
     if "mission" not in _CACHE:
         _CACHE["mission"] = load_mission(MISSION)
-        _CACHE["params"] = load_vehicle(_CACHE["mission"].vehicle)
     mission: Mission = _CACHE["mission"]
     return mission
 
@@ -348,13 +346,24 @@ def _warm_up(optimizer: str) -> None:
     key = f"warm:{optimizer}"
     if key in _CACHE:
         return
-    m = _mission()
     threats = threat_set(
         [{"id": "w", "kind": "static", "position": [6000.0, 300.0, 200.0], "radius": RS_M}], "warm"
     )
-    avoider = make_avoider("pso-ca", optimizer=optimizer)
-    simulate(m, threats, avoider, _CACHE["params"], config=ReplayConfig(duration=10.0))
+    run_replay(_request(threats, optimizer, seed=0, duration=10.0))
     _CACHE[key] = True
+
+
+def _request(threats: ThreatSet, optimizer: str, seed: int, **kw: Any) -> ReplayRequest:
+    """The replay of the seed 000 mission with ``threats`` and PSO-CA over ``optimizer``."""
+    return ReplayRequest(
+        str(MISSION),
+        threats=threats,
+        avoid="pso-ca",
+        avoid_options={"optimizer": optimizer},
+        seed=seed,
+        command="bench_pso_ca",
+        **kw,
+    )
 
 
 def polyline_length(waypoints: npt.ArrayLike) -> float:
@@ -492,10 +501,10 @@ def run_case(case: Case) -> dict[str, Any]:
         else:
             recs, seed = scenario_records(case.scenario, case.run, m)
             threats = threat_set(recs, case.scenario.label)
-        avoider = make_avoider("pso-ca", optimizer=case.optimizer)
-        base = getattr(avoider, "params", None) or PsoCaParams()
+        prep = prepare_replay(_request(threats, case.optimizer, seed))
+        base = getattr(prep.avoider, "params", None) or PsoCaParams()
         first = "first_decision_done" not in _CACHE
-        res = simulate(m, threats, avoider, _CACHE["params"], config=ReplayConfig(seed=seed))
+        res = run_replay(prep)
         out = summarise(res, case, base, threats, seed)
         if first and out["decisions"]:
             out["decisions"][0]["first_in_process"] = True

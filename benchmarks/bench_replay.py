@@ -18,6 +18,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -31,32 +32,23 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import record  # noqa: E402
 from planner.mission import load_mission  # noqa: E402
-from replay.avoidance import NoAvoidance  # noqa: E402
 from replay.reader import load_run  # noqa: E402
-from replay.record import RunRecorder  # noqa: E402
-from replay.sim import ReplayConfig, simulate  # noqa: E402
-from replay.threats import ThreatSet, load_threats  # noqa: E402
-from replay.vehicle.presets import load_vehicle  # noqa: E402
+from replay.run import ReplayRequest, run_replay  # noqa: E402
+from replay.threats import load_threats  # noqa: E402
 
 MISSION = ROOT / "data" / "missions" / "seed000-table4.yaml"
 
 
 def bench_empty() -> None:
-    m = load_mission(MISSION)
-    params = load_vehicle(m.vehicle)
-    simulate(
-        m, ThreatSet(()), NoAvoidance(), params, config=ReplayConfig(duration=5.0)
-    )  # JIT warm-up
+    request = ReplayRequest(str(MISSION), seed=0, command="bench_replay")
+    run_replay(replace(request, duration=5.0))  # JIT warm-up
     t = time.perf_counter()
-    bare = simulate(m, ThreatSet(()), NoAvoidance(), params, config=ReplayConfig(seed=0))
+    bare = run_replay(request)
     t_bare = time.perf_counter() - t
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "run.mcap"
         t = time.perf_counter()
-        with RunRecorder(out, map_origin=(0.0, 0.0, 0.0), seed=0, command="bench_replay") as rec:
-            res = simulate(
-                m, ThreatSet(()), NoAvoidance(), params, config=ReplayConfig(seed=0), recorder=rec
-            )
+        res = run_replay(request, out)
         t_rec = time.perf_counter() - t
         size = out.stat().st_size
         t = time.perf_counter()
@@ -180,7 +172,6 @@ def _load() -> str:
 
 def bench_obstacles(count: int, repeats: int, seed: int, note: str = "") -> None:
     m = load_mission(MISSION)
-    params = load_vehicle(m.vehicle)
     recs = obstacle_records(m.waypoints, count, seed, float(m.cruise_altitude))
     cases = ("none", "obstacles")
     # (kind of run, case) -> wall and CPU seconds of each repeat
@@ -203,10 +194,8 @@ def bench_obstacles(count: int, repeats: int, seed: int, note: str = "") -> None
                 w, c, reports[case] = _timed(partial(_cli_replay, file, folder / f"{case}.mcap"))
                 wall["cli", case].append(w)
                 cpu["cli", case].append(c)
-                ts = threats if file else ThreatSet(())
-                w, c, res = _timed(
-                    partial(simulate, m, ts, NoAvoidance(), params, config=ReplayConfig())
-                )
+                lib = ReplayRequest(str(MISSION), threats=threats if file else None)
+                w, c, res = _timed(partial(run_replay, lib))
                 wall["lib", case].append(w)
                 cpu["lib", case].append(c)
                 flights[case] = res.metrics.flight_time_s
@@ -226,7 +215,7 @@ def bench_obstacles(count: int, repeats: int, seed: int, note: str = "") -> None
     rows = []
     for kind, label, target in (
         ("cli", "terrapath replay --avoid none (MCAP)", "<= 1.3"),
-        ("lib", "no recording (replay.sim.simulate)", ""),
+        ("lib", "no recording (replay.run.run_replay)", ""),
     ):
         a, b = _median(wall[kind, "none"]), _median(wall[kind, "obstacles"])
         ca, cb = _median(cpu[kind, "none"]), _median(cpu[kind, "obstacles"])

@@ -25,7 +25,7 @@ import yaml
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
 from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate
-from replay.threats import ThreatSet, load_threats
+from replay.threats import ThreatSet, load_threats, threats_to_records
 from replay.vehicle.params import VehicleParams
 from terrain.errors import DataFileError, InputError
 from terrain.grid import HeightGrid
@@ -34,10 +34,11 @@ from terrain.grid import HeightGrid
 @dataclass(frozen=True)
 class ReplayRequest:
     """What a replay is made of (``terrapath replay``'s options). ``source`` is a mission YAML or
-    an earlier run's ``.mcap``; ``avoid_options`` are the avoider's keyword options."""
+    an earlier run's ``.mcap``; ``threats`` a threat file or threats built in memory (recorded in
+    the MCAP as a threat file); ``avoid_options`` are the avoider's keyword options."""
 
     source: str
-    threats: str | None = None
+    threats: str | ThreatSet | None = None
     avoid: str = "none"
     avoid_options: dict[str, Any] = field(default_factory=dict)
     vehicle: str | None = None
@@ -85,7 +86,11 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     avoider = make_avoider(r.avoid, **r.avoid_options)
     threat_text: str | None = None
     old_threats = old_run.attachments.get("threats.yaml") if old_run is not None else None
-    if r.threats:
+    if isinstance(r.threats, ThreatSet):
+        threats = r.threats
+        doc = {"terrapath": 1, "name": threats.name, "threats": threats_to_records(threats)}
+        threat_text = yaml.safe_dump(doc, sort_keys=False)
+    elif r.threats:
         threats = load_threats(r.threats, grid)
         threat_text = Path(r.threats).read_text(encoding="utf-8")
     elif old_threats is not None:
