@@ -42,6 +42,7 @@ from replay.threats import ThreatSet
 from replay.vehicle.params import VehicleParams
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
+from terrain.validity import ValidityChecker
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -221,7 +222,7 @@ def simulate(
     avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or cfg.radar_period)
     tick = min(cfg.radar_period, avoid_period)
     next_decision = 0.0
-    zones = {f"zone:{z.id or k}": z for k, z in enumerate(mission.danger_zones)}
+    zones = tuple(f"zone:{z.id or k}" for k, z in enumerate(mission.danger_zones))
     tracker = MetricsTracker([*threats.ids, *zones], wp0[0], wp0[-1], cfg.margin)
     record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
     if recorder is not None:
@@ -234,6 +235,9 @@ def simulate(
     end_reason = "time limit"
     contact = False
     table = ThreatTable(threats.threats)  # activity and separations of every threat at once
+    # what the metrics judge the flight by: the map, its measured terrain, the mission's danger
+    # zones (no-fly volumes) and the threats' safety volumes
+    validity = ValidityChecker(grid=grid, zones=mission.danger_zones, volumes=table)
     shown = np.zeros(len(table), dtype=bool)  # the active threats last recorded
     pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
     picture: Any = None
@@ -255,7 +259,7 @@ def simulate(
             if recorder is not None:
                 _record_samples(recorder, log, pos)
             if ts[keep - 1] - pending[0][0][0] >= _METRICS_BATCH_S:
-                _flush(pending, table, tracker, zones, grid)
+                _flush(pending, validity, tracker, zones)
             if hit.size:
                 contact = True
                 end_reason = "terrain contact"
@@ -306,7 +310,7 @@ def simulate(
                 if recorder is not None:
                     recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
                 break
-    _flush(pending, table, tracker, zones, grid)
+    _flush(pending, validity, tracker, zones)
     metrics = tracker.finish(
         t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
     )
@@ -333,30 +337,28 @@ _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much f
 
 def _flush(
     pending: list[tuple[FloatArray, FloatArray, FloatArray]],
-    table: ThreatTable,
+    validity: ValidityChecker,
     tracker: MetricsTracker,
-    zones: dict[str, Any],
-    grid: HeightGrid | None,
+    zones: tuple[str, ...],
 ) -> None:
     """Separation to every active threat and to every danger zone of the mission, time off the
-    map and over unknown terrain, and the metrics update, for the buffered samples."""
+    map and over unknown terrain (all from ``validity``), and the metrics update, for the
+    buffered samples."""
     if not pending:
         return
     ts = np.concatenate([p[0] for p in pending])
     pos = np.concatenate([p[1] for p in pending])
     clearance = np.concatenate([p[2] for p in pending])
     pending.clear()
-    ids, seps = table.separations(pos, ts)
-    if zones:  # the mission's danger zones, after the threats, at every sample
-        ids = [*ids, *zones]
-        seps = np.column_stack(
-            [seps, *(np.asarray(z.separation(pos), dtype=np.float64) for z in zones.values())]
-        )
+    pv = validity.points(pos, ts)
+    ids = [*pv.volume_ids, *zones]  # the mission's danger zones after the threats
+    seps = np.column_stack([pv.volumes, pv.zones])
     off_map = unknown = None
+    grid = validity.grid
     if grid is not None:
-        off_map = ~grid.contains(pos[:, 0], pos[:, 1])
+        off_map = ~pv.on_map
         if grid.known is not None and grid.has_unknown:
-            unknown = ~grid.known[grid.cell_of(pos[:, 0], pos[:, 1])] & ~off_map
+            unknown = ~pv.known & pv.on_map
     tracker.update_columns(ts, pos, ids, seps, clearance, off_map, unknown)
 
 
