@@ -238,6 +238,9 @@ def simulate(
     # what the metrics judge the flight by: the map, its measured terrain, the mission's danger
     # zones (no-fly volumes) and the threats' safety volumes
     validity = ValidityChecker(grid=grid, zones=mission.danger_zones, volumes=table)
+    # what an avoider's new waypoints and legs must pass: the same without the threats, which
+    # the avoider knows only through its sensor
+    candidates = ValidityChecker(grid=grid, zones=mission.danger_zones)
     shown = np.zeros(len(table), dtype=bool)  # the active threats last recorded
     pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
     picture: Any = None
@@ -299,7 +302,7 @@ def simulate(
         if passive or picture is None or t < next_decision - 1e-9:
             continue  # "none" never changes the mission: skip building its context
         next_decision = t + avoid_period
-        ctx = _context(t, x, picture, stack, terrain_model, cfg, mission.danger_zones)
+        ctx = _context(t, x, picture, stack, terrain_model, cfg, mission.danger_zones, candidates)
         t0 = time.perf_counter()
         decision = avoider.decide(ctx)
         compute = time.perf_counter() - t0
@@ -409,6 +412,7 @@ def _context(
     terrain: Any,
     cfg: ReplayConfig,
     zones: tuple[Any, ...] = (),
+    validity: ValidityChecker | None = None,
 ) -> AvoidanceContext:
     rot = rotation_body_to_ned(x[6], x[7], x[8])
     v_ned = rot @ x[[U, V, W]]
@@ -428,6 +432,7 @@ def _context(
         terrain_clearance=float(cfg.terrain_following or 0.0),
         switch_distance=float(stack.corner_distance),
         zones=tuple(zones),
+        validity=validity,
     )
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -385,6 +386,30 @@ def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:
         feasible = pr.terms(X).report.feasible
         both.append(feasible.any() and not feasible.all())
     assert any(both)  # feasible and penalised candidates were both compared
+
+
+def test_g7_the_world_check_enters_both_costs_alike() -> None:
+    """A world check (g7: metres of the new legs that break the map's or the zones' validity)
+    makes a candidate infeasible in the compiled cost exactly as in the documented terms, whether
+    the paper's constraints already refused it or not."""
+    rng = np.random.default_rng(3)
+    pr0 = WaypointProblem([0, 0], [20000, 500], np.array([[10000.0, 0.0]]))
+
+    def north_is_off(X: np.ndarray) -> np.ndarray:  # a map edge at y = 1500
+        return np.clip(X[:, 1] - 1500.0, 0.0, None)
+
+    pr = dataclasses.replace(pr0, world=north_is_off)
+    lo, hi = pr.bounds()
+    X = rng.uniform(lo, hi, (400, 2))
+    t0, t = pr0.terms(X), pr.terms(X)
+    np.testing.assert_allclose(pr(X), t.penalised, rtol=1e-12, atol=1e-6)
+    np.testing.assert_array_equal(t.report.g7, -north_is_off(X))
+    off = X[:, 1] > 1500.0
+    assert not t.report.feasible[off].any()
+    np.testing.assert_array_equal(t.report.feasible[~off], t0.report.feasible[~off])
+    # refused by g7 alone, and by g7 on top of the paper's constraints: both are compared
+    assert (off & t0.report.feasible).any() and (off & ~t0.report.feasible).any()
+    assert (pr(X)[off] > pr0(X)[off]).all()
 
 
 def test_compiled_cost_has_one_specialisation_for_every_caller() -> None:

@@ -167,3 +167,30 @@ def test_success_can_require_a_margin_from_every_surface(
     assert main(["inspect", str(run), "--json"]) == 0
     metrics = json.loads(capsys.readouterr().out)["metrics"]
     assert metrics["margin_m"] == 150.0 and metrics["min_separation"]["zone:low"]["value"] > 99.0
+
+
+def test_pso_ca_keeps_its_new_waypoints_on_the_map() -> None:
+    """Off the map the terrain is unknown, so invalid (terrain.validity): the obstacle is best
+    passed north, where the detour would leave a map whose edge lies 1 km north of the line;
+    PSO-CA passes south instead and never leaves the map."""
+    from replay.avoidance import make_avoider
+    from replay.threats import threats_from_records
+
+    grid = make_grid(np.zeros((40, 400)), cell=100.0, x0=0.0, y0=4000.0)  # y from 0 to 4000
+    line = np.array([[500.0, 3000.0, 200.0], [20000.0, 3000.0, 200.0], [39500.0, 3000.0, 200.0]])
+    mission = Mission("edge", line, vehicle="solar-uav", cruise_speed=15.0, crs="local")
+    threats = threats_from_records(
+        [{"id": "o1", "kind": "static", "position": [10000, 2850, 200], "radius": 1000}]
+    )
+    params = load_vehicle("solar-uav")
+    # without a map PSO-CA passes north of the obstacle, beyond where the map ends
+    r0 = simulate(mission, threats, make_avoider("pso-ca"), params, config=ReplayConfig(seed=0))
+    assert r0.metrics.success and r0.positions[:, 1].max() > 4100.0
+    r = simulate(
+        mission, threats, make_avoider("pso-ca"), params, grid=grid, config=ReplayConfig(seed=0)
+    )
+    assert r.metrics.success, r.metrics
+    assert r.metrics.off_map_s == 0.0 and r.metrics.min_separation["o1"]["value"] >= 0.0
+    added = [d for d in r.decisions if d["feasible"]]
+    assert added and all(d["new_waypoint"][1] < 2850.0 for d in added)  # passed south
+    assert all(d["g"]["g7"] == 0.0 for d in added)

@@ -1,7 +1,8 @@
 """Compiled (numba) penalised cost of :class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`.
 
 The same arithmetic as ``WaypointProblem.terms(X).penalised`` (f = Wt f1 + Wo f2 plus the penalty
-of the checked constraints g1-g6), one candidate at a time with no temporary arrays: an optimiser
+of the checked constraints g1-g6; ``WaypointProblem.__call__`` adds g7, the world check, outside
+it), one candidate at a time with no temporary arrays: an optimiser
 evaluates 10 candidates per call, where numpy's per-call overhead (about 1 ms for the vectorised
 version) would dominate a decision.  ``tests/test_pso_ca_geometry.py`` checks both agree.
 """

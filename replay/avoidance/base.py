@@ -42,6 +42,8 @@ class AvoidanceContext:
     terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
     switch_distance: float = 0.0  # the stack turns to the next leg this far from a waypoint
     zones: tuple[Any, ...] = ()  # the mission's danger zones (terrain.zones): no-fly volumes
+    # what a new waypoint or leg must pass: the map, its measured terrain and the danger zones
+    validity: Any = None  # terrain.validity.ValidityChecker, or None: nothing to check
 
 
 class Avoider(Protocol):

@@ -49,8 +49,10 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    from the aircraft) and half round the right one, the first of each the exact tangent point.
    The chosen optimiser of planner.optim (``pso`` = Table 2: N = 10, I = 30, w 0.09 -> 0.02,
    C1 = C2 = 2, vmax 0.1 of the zone; or ``ga``, ``sa``, ``mafoa``, ``gcpso``, ``mpso`` with
-   seed 000 §6's parameters) minimises f = Wt f1 + Wo f2 under g1-g5 (and g6 for intruders)
-   (:class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`), stopping at 30 iterations or
+   seed 000 §6's parameters) minimises f = Wt f1 + Wo f2 under g1-g5 (and g6 for intruders),
+   and g7 (our addition): the two new legs stay on the map, over measured terrain and out of
+   the mission's danger zones (the context's ``validity``, :mod:`terrain.validity`; off the map
+   the terrain is unknown) (:class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`), stopping at 30 iterations or
    when the best fitness changes by less than 200 for 5 iterations (§5.5).  The other obstacles
    in view enter f2 (risk).
 6. **Intruders** (§5.7): the obstacle is the intruder's current position with a ``moving_rs``
@@ -89,7 +91,7 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    ``skip 1``, ``skip 1, narrow``) or ``failed``.
 8. **Result.**  A feasible waypoint (at the altitude of the waypoint it leads to) is inserted and
    flown "direct to" from the aircraft's position; the decision records the obstacle, its inputs,
-   the waypoint, f, f1, f2, g1-g6, iterations, evaluations (the loop adds the compute time).  When
+   the waypoint, f, f1, f2, g1-g7, iterations, evaluations (the loop adds the compute time).  When
    no candidate meets the constraints the decision is recorded as failed, the aircraft flies on
    with the old list and that obstacle (for stationary ones: any stationary obstacle, since a
    group's membership changes as more of it comes into view) is retried after ``retry_s`` (5 s)
@@ -107,6 +109,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -196,6 +199,30 @@ def zone_points(zones: tuple[Any, ...], altitude: float, spacing: float) -> Floa
                 t = np.arange(n)[:, None] / n
                 out.append(a[None, :] + t * (b - a)[None, :])
     return np.vstack(out) if out else np.zeros((0, 2))
+
+
+def leg_check(
+    ctx: AvoidanceContext, position: FloatArray, target: FloatArray
+) -> Callable[[FloatArray], FloatArray] | None:
+    """g7 of the waypoint search (:class:`~replay.avoidance.pso_ca_geometry.ConstraintReport`):
+    for candidates (P, 2), the metres of their two new legs -- aircraft -> candidate at the
+    target's altitude -> target -- that ``ctx.validity`` refuses: off the map, over unknown terrain
+    or inside one of the mission's danger zones.  None when there is nothing to check."""
+    chk = ctx.validity
+    if chk is None or (chk.grid is None and not chk.zones):
+        return None
+    pos, tgt = np.asarray(position, dtype=np.float64), np.asarray(target, dtype=np.float64)
+
+    def violation(X: FloatArray) -> FloatArray:
+        n = len(X)
+        wp = np.column_stack([X, np.full(n, tgt[2])])
+        a = np.vstack([np.broadcast_to(pos, (n, 3)), wp])
+        b = np.vstack([wp, np.broadcast_to(tgt, (n, 3))])
+        sv = chk.segments(a, b, clearance=False)
+        v = sv.zone_lengths.sum(axis=1) + sv.off_map_lengths + sv.unknown_lengths
+        return np.asarray(v[:n] + v[n:])
+
+    return violation
 
 
 class PsoCaAvoider:
@@ -501,7 +528,7 @@ class PsoCaAvoider:
             "feasible": feasible,
             "g": {
                 k: float(getattr(report, k)[0])
-                for k in ("g1", "g2", "g3", "g4", "g5", "g6")
+                for k in ("g1", "g2", "g3", "g4", "g5", "g6", "g7")
                 if math.isfinite(float(getattr(report, k)[0]))
             },
             "optimizer": self.optimizer,
@@ -530,7 +557,7 @@ class PsoCaAvoider:
             else:  # all stationary ones: a group's membership (its key) changes as more is seen
                 self._retry_stationary = ctx.t + self.retry_s
             return AvoidanceDecision(
-                reason=f"failed: no waypoint meets g1-g6 for {', '.join(hit.ids[:3])}"
+                reason=f"failed: no waypoint meets g1-g7 for {', '.join(hit.ids[:3])}"
                 + (" ..." if len(hit.ids) > 3 else "")
                 + "; keeping the current waypoints",
                 info=info,
@@ -571,12 +598,13 @@ class PsoCaAvoider:
         # leg that crossed an outline would pass within RS / 2 of a sample
         moving_xy += list(zone_points(ctx.zones, float(ctx.position[2]), params.rs))
         mine = np.array([k in hit.ids for k in keys], dtype=bool)
+        world = leg_check(ctx, np.asarray(ctx.position, dtype=np.float64), target)
         for search in range(MERGE_ROUNDS):
             others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
             others = np.array(others_list) if others_list else np.zeros((0, 2))
             after = wps[target_i + 1, :2] if target_i + 1 < len(wps) else None
             problem = WaypointProblem(
-                pos, target[:2], hit.points, others, params, side=hit.side, after=after
+                pos, target[:2], hit.points, others, params, side=hit.side, after=after, world=world
             )
             res, xy = self._search(problem, pos, hit, params)
             if hit.moving or not len(pts) or search == MERGE_ROUNDS - 1:

@@ -48,6 +48,7 @@ Choices where the paper is silent or inconsistent (see each docstring):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -416,9 +417,12 @@ class ConstraintReport:
       (e.g. the nearest point of a large body) must fly a leg that does not get closer to it;
     - ``g6 = side * (signed distance of p left of the line pos -> X_fin)``: the side a moving
       intruder's heading imposes (§5.7: "if the obstacle is heading towards left, the UAV turns
-      right"); ``+inf`` when the problem has no side (``side = 0``).
+      right"); ``+inf`` when the problem has no side (``side = 0``);
+    - ``g7 = - (metres of the two new legs that break the world's validity)`` (not in the paper):
+      off the map, over unknown terrain, inside a danger zone -- :class:`WaypointProblem`'s
+      ``world`` (:mod:`terrain.validity`); 0 when the problem has none.
 
-    ``feasible`` holds g1, g2, g4 and g6, g3 unless ``check_outbound`` is off (a moving
+    ``feasible`` holds g1, g2, g4, g6 and g7, g3 unless ``check_outbound`` is off (a moving
     intruder: the next leg is flown later, when it is elsewhere) and g5 when ``check_inbound``;
     ``violation`` is the sum of the negative parts of the checked ones (capped at 1e9 m each).
     """
@@ -432,6 +436,7 @@ class ConstraintReport:
     turn_angle: FloatArray
     feasible: BoolArray
     violation: FloatArray
+    g7: FloatArray
 
 
 @dataclass(frozen=True)
@@ -464,6 +469,8 @@ class WaypointProblem:
     params: PsoCaParams = field(default_factory=PsoCaParams)
     side: int = 0  # +1: the waypoint must lie left of the leg pos -> target, -1: right, 0: either
     after: FloatArray | None = None  # the waypoint after the target (its corner is cut too)
+    # g7: candidates (P, 2) -> metres (P,) of their two legs that break the world's validity
+    world: Callable[[FloatArray], FloatArray] | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if self.side not in (-1, 0, 1):
@@ -564,15 +571,24 @@ class WaypointProblem:
         with np.errstate(over="ignore"):
             lead = pr.turn_radius * np.tan(np.minimum(theta, math.pi * (1 - 1e-12)) / 2.0)
         g4 = np.minimum(l_in, l_out) - lead
+        g7 = -self._world(p)
         checked = (
-            [g1, g2, g4, g6]
+            [g1, g2, g4, g6, g7]
             + ([g3] if pr.check_outbound else [])
             + ([g5] if pr.check_inbound else [])
         )
         neg = [np.clip(-g, 0.0, _BIG) for g in checked]
         violation = np.sum(neg, axis=0)
         feasible = np.all([g >= 0.0 for g in checked], axis=0)
-        return ConstraintReport(g1, g2, g3, g4, g5, g6, theta, np.asarray(feasible), violation)
+        return ConstraintReport(
+            g1, g2, g3, g4, g5, g6, theta, np.asarray(feasible), violation, np.asarray(g7)
+        )
+
+    def _world(self, p: FloatArray) -> FloatArray:
+        """Metres (P,) of each candidate's legs that break the world's validity (0: none)."""
+        if self.world is None:
+            return np.zeros(len(p))
+        return np.asarray(self.world(p), dtype=np.float64).reshape(len(p))
 
     def terms(self, X: npt.ArrayLike) -> ObjectiveTerms:
         """Eq 6 ``f = Wt f1 + Wo f2`` with its parts, the constraints and the penalised cost."""
@@ -628,11 +644,18 @@ class WaypointProblem:
         )
         after = self.target if self.after is None else self.after
         # the fields are writable C copies already (__post_init__)
-        return np.asarray(
+        cost = np.asarray(
             penalised_costs(
                 p, self.position, self.target, after, self.avoided, self.others, consts, flags
             )
         )
+        if self.world is None:
+            return cost
+        # g7 outside the kernel: a candidate it alone makes infeasible gets the offset too
+        # (any cost >= penalty_offset is infeasible already: f < penalty_offset, see above)
+        v = np.clip(self._world(p), 0.0, _BIG)
+        offset = np.where(cost >= pr.penalty_offset, 0.0, pr.penalty_offset)
+        return np.asarray(cost + np.where(v > 0, offset + pr.penalty_weight * v, 0.0))
 
     def search_centres(self) -> FloatArray:
         """Centres (C, 2) of the g2 discs: the avoided obstacle(s) or the aircraft."""
