@@ -82,7 +82,8 @@ from replay.avoidance.pso_ca_geometry import (  # noqa: E402
     brute_force_waypoint,
 )
 from replay.sim import ReplayConfig, ReplayResult, simulate  # noqa: E402
-from replay.threats import ThreatSet, load_threats, threats_from_records  # noqa: E402
+from replay.threat_file import load_threats, threats_from_records  # noqa: E402
+from replay.threats import ThreatSet  # noqa: E402
 from replay.vehicle.presets import load_vehicle  # noqa: E402
 
 FloatArray = npt.NDArray[np.float64]

@@ -35,7 +35,8 @@ from replay.avoidance import NoAvoidance  # noqa: E402
 from replay.reader import load_run  # noqa: E402
 from replay.record import RunRecorder  # noqa: E402
 from replay.sim import ReplayConfig, simulate  # noqa: E402
-from replay.threats import ThreatSet, load_threats  # noqa: E402
+from replay.threat_file import load_threats  # noqa: E402
+from replay.threats import ThreatSet  # noqa: E402
 from replay.vehicle.presets import load_vehicle  # noqa: E402
 
 MISSION = ROOT / "data" / "missions" / "seed000-table4.yaml"

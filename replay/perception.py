@@ -66,9 +66,9 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.circles import Circle, min_enclosing_circle
+from replay.clustering import cluster_hill_points
 from replay.cooperative import CooperativePicture
 from replay.radar import RadarPicture
-from replay.threats import cluster_hill_points
 from replay.tracking import Approaches, Track, closest_approaches, fit_lines
 from terrain.errors import InputError
 

@@ -109,7 +109,7 @@ def test_pso_ca_keeps_its_new_legs_out_of_the_mission_zones() -> None:
     """The village case (issue 13): the obstacle is best passed on the side of a zone; PSO-CA's
     new waypoint must not lead into it."""
     from replay.avoidance import make_avoider
-    from replay.threats import threats_from_records
+    from replay.threat_file import threats_from_records
 
     line = np.array([[0.0, 0.0, 200.0], [20000.0, 0.0, 200.0], [40000.0, 0.0, 200.0]])
     village = DangerZone(10000.0, 1300.0, 800.0, id="village")

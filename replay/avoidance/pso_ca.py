@@ -124,8 +124,8 @@ from replay.avoidance.pso_ca_geometry import (
     segment_clearance,
     tangent_seed_points,
 )
+from replay.clustering import cluster_terminals
 from replay.guidance import AvoidanceDecision, FollowWaypoints
-from replay.threats import cluster_terminals
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
