@@ -24,7 +24,7 @@ body        the centre (x0, y0, z0)           ``body_radius_at(own z)``     z0 +
 =========== ================================= ============================= ======================
 
 (seed 001 eq 3: a body's size is the radius of its horizontal section at the aircraft's altitude,
-:meth:`~replay.threats.BodyThreat.body_radius_at`; 0 when the aircraft flies above or below it --
+:meth:`~replay.body_threat.BodyThreat.body_radius_at`; 0 when the aircraft flies above or below it --
 ``top`` then says where it ends.)  The velocity is :meth:`~replay.threats.Threat.velocity` (zero for
 everything but intruders).  Sizes and tops are reported exactly (no noise).
 
@@ -75,9 +75,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from replay.body_threat import BodyThreat
 from replay.frames import course_of
 from replay.radar import sensor_number, sensor_rng
-from replay.threats import BodyThreat, HillThreat, StaticThreat, Threat
+from replay.threats import HillThreat, StaticThreat, Threat
 from terrain.errors import InputError
 
 if TYPE_CHECKING:

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from terrain.errors import InputError
+
 FloatArray = npt.NDArray[np.float64]
 
 # indices into the 12-state vector
@@ -25,6 +27,14 @@ N_STATES = 12
 # indices into the control vector
 DE, DA, DR, DT = range(4)
 N_CONTROLS = 4
+
+
+def as_points(p: npt.ArrayLike, name: str = "p") -> FloatArray:
+    """Map point(s) as a float array (3,) or (..., 3); anything else is an InputError naming ``name``."""
+    a = np.asarray(p, dtype=np.float64)
+    if a.ndim < 1 or a.shape[-1] != 3:
+        raise InputError(f"{name} must be a point (3,) or points (..., 3); got shape {a.shape}")
+    return a
 
 
 def map_to_ned(xyz: npt.ArrayLike) -> FloatArray:

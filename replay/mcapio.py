@@ -1,38 +1,30 @@
-"""The low-level MCAP writing of :mod:`replay.record`: a lean chunked MCAP stream writer
-(:class:`_McapSink`) and protobuf wire-format helpers for large arrays.
+"""How a run is written to disk: an MCAP file under a temporary name, renamed into place when
+complete (:class:`McapFile`), and the lean chunked MCAP stream writer behind it (:class:`McapSink`).
 
-Messages are framed into chunks here (:class:`_McapSink`, the records themselves are serialised by
+The file is written under a temporary name beside its path (``terrain.atomic.atomic_output``) and
+renamed into place only when it ends cleanly; an exception (or Ctrl-C) removes the temporary file,
+so a file at the path is always complete.
+
+Messages are framed into chunks here (:class:`McapSink`, the records themselves are serialised by
 ``mcap.records``) rather than with ``mcap.writer.Writer``, whose pure-Python ``add_message`` costs
 about 10 µs a message on the project machines: 3 messages a state sample, 288,000 samples for an
-8-hour mission.  The stream is indexed, chunked (zstd, lz4 or uncompressed) and every CRC is
-written (chunks, data section, summary).
-
-Large point arrays (terrain, track) are encoded as protobuf wire format with numpy (``_ld``,
-``_doubles_messages``, ``_packed_fixed32``); the field numbers used are checked against the
-installed foxglove schemas at import.  :func:`descriptor_set` gives the schema data MCAP expects
-for the ``protobuf`` encoding.
+8-hour mission.  The stream is indexed, chunked (``COMPRESSIONS``: zstd, lz4 or uncompressed) and
+every CRC is written (chunks, data section, summary).  :func:`descriptor_set` gives the schema data
+MCAP expects for the ``protobuf`` encoding.  What goes into the file is :mod:`replay.record`'s
+business; how a message's bytes are made, :mod:`replay.encoding`'s.
 """
 
 from __future__ import annotations
 
-import functools
+import contextlib
 import struct
 import zlib
 from collections.abc import Mapping
+from os import PathLike
+from types import TracebackType
 from typing import IO, Any
 
 import numpy as np
-import numpy.typing as npt
-from foxglove_schemas_protobuf.Color_pb2 import Color
-from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
-from foxglove_schemas_protobuf.Point3_pb2 import Point3
-from foxglove_schemas_protobuf.Pose_pb2 import Pose
-from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
-from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
-from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
-from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
-from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
-from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf import descriptor_pb2
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
@@ -54,134 +46,9 @@ from mcap.records import (
 )
 
 from replay import topics as T
+from terrain.atomic import atomic_output
 
-FloatArray = npt.NDArray[np.float64]
-
-# ---------------------------------------------------------------------------------------------
-# protobuf wire format for large arrays (fields checked against the schema descriptors below)
-
-_WIRE_DOUBLE = 1
-_WIRE_LEN = 2
-_FIXED32 = 7  # FieldDescriptor.TYPE_FIXED32
-
-
-def _tag(field: int, wire: int) -> bytes:
-    return _varint(field << 3 | wire)
-
-
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while n > 0x7F:
-        out.append(n & 0x7F | 0x80)
-        n >>= 7
-    out.append(n)
-    return bytes(out)
-
-
-def _ld(field: int, payload: bytes) -> bytes:
-    """A length-delimited field (embedded message, string, packed array)."""
-    return _tag(field, _WIRE_LEN) + _varint(len(payload)) + payload
-
-
-def _doubles_messages(field: int, values: FloatArray) -> bytes:
-    """``repeated M field`` where M has only double fields 1..k (Point3, Color): one embedded
-    message per row of ``values`` (n, k), every field written (also zeros, which is valid)."""
-    n, k = values.shape
-    out = np.empty((n, 2 + 9 * k), dtype=np.uint8)
-    out[:] = _row_template(field, k)
-    raw = np.ascontiguousarray(values, dtype="<f8").view(np.uint8).reshape(n, k, 8)
-    for j in range(k):
-        out[:, 3 + 9 * j : 11 + 9 * j] = raw[:, j]
-    return out.tobytes()
-
-
-@functools.cache
-def _row_template(field: int, k: int) -> npt.NDArray[np.uint8]:
-    """The bytes of one embedded message of ``_doubles_messages`` with all doubles zero."""
-    tag = _tag(field, _WIRE_LEN)
-    if len(tag) != 1 or k > 15:
-        raise ValueError("only fields 1..15 with up to 15 doubles are supported")
-    row = [tag[0], 9 * k]
-    for j in range(k):
-        row += [(j + 1) << 3 | _WIRE_DOUBLE] + [0] * 8
-    return np.array(row, dtype=np.uint8)
-
-
-def _packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
-    return _ld(field, np.ascontiguousarray(values, dtype="<u4").tobytes())
-
-
-_DOUBLE = struct.Struct("<d")
-_NO_BITS = bytes(8)
-
-
-def _vector3(x: float, y: float, z: float) -> bytes:
-    """A Vector3 / Point3 message as protobuf writes it: the doubles x (1), y (2), z (3), each
-    left out when its bits are all zero (proto3 default; -0.0 is written)."""
-    out = b""
-    for tag, v in ((b"\x09", x), (b"\x11", y), (b"\x19", z)):
-        raw = _DOUBLE.pack(v)
-        if raw != _NO_BITS:
-            out += tag + raw
-    return out
-
-
-def _sphere_field(field: int, x: float, y: float, z: float, tail: bytes) -> bytes:
-    """One ``SpherePrimitive field``: ``pose {position: (x, y, z), orientation: identity}``
-    followed by ``tail``, the sphere's encoded ``size`` and ``color`` fields (the bytes of
-    SerializeToString; the tests compare them)."""
-    position = _vector3(x, y, z)
-    pose = bytes((_POSE_POSITION_TAG, len(position))) + position + _IDENTITY
-    sphere = bytes((_SPHERE_POSE_TAG, len(pose))) + pose + tail
-    return _ld(field, sphere)
-
-
-def _check_wire_layout() -> None:
-    """The hand-encoded fields must be what the installed schemas say (fails at import if not)."""
-
-    def number(msg: Any, name: str, ftype: int | None = None) -> int:
-        f = msg.DESCRIPTOR.fields_by_name[name]
-        if ftype is not None and f.type != ftype:
-            raise ImportError(f"unexpected type for {msg.DESCRIPTOR.full_name}.{name}")
-        return int(f.number)
-
-    expected: dict[tuple[Any, str], int] = {
-        (Point3, "x"): 1,
-        (Point3, "y"): 2,
-        (Point3, "z"): 3,
-        (Color, "r"): 1,
-        (Color, "g"): 2,
-        (Color, "b"): 3,
-        (Color, "a"): 4,
-    }
-    for (msg, name), num in expected.items():
-        if number(msg, name, 1) != num:  # TYPE_DOUBLE
-            raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
-    number(TriangleListPrimitive, "indices", _FIXED32)
-    for msg in (Vector3, Point3):
-        for j, name in enumerate("xyz"):
-            if number(msg, name, 1) != j + 1:
-                raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
-    if (number(Pose, "position"), number(Pose, "orientation")) != (1, 2) or number(
-        SpherePrimitive, "pose"
-    ) >= min(number(SpherePrimitive, "size"), number(SpherePrimitive, "color")):
-        raise ImportError("unexpected field numbers for foxglove.Pose or SpherePrimitive")
-
-
-_check_wire_layout()
-_TRI_POINTS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["points"].number
-_TRI_COLORS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["colors"].number
-_TRI_INDICES = TriangleListPrimitive.DESCRIPTOR.fields_by_name["indices"].number
-_LINE_POINTS = LinePrimitive.DESCRIPTOR.fields_by_name["points"].number
-_ENTITY_LINES = SceneEntity.DESCRIPTOR.fields_by_name["lines"].number
-_ENTITY_TRIANGLES = SceneEntity.DESCRIPTOR.fields_by_name["triangles"].number
-_UPDATE_ENTITIES = SceneUpdate.DESCRIPTOR.fields_by_name["entities"].number
-_ENTITY_SPHERES = SceneEntity.DESCRIPTOR.fields_by_name["spheres"].number
-_SPHERE_POSE = SpherePrimitive.DESCRIPTOR.fields_by_name["pose"].number
-_POSE_POSITION = Pose.DESCRIPTOR.fields_by_name["position"].number
-_SPHERE_POSE_TAG = _tag(_SPHERE_POSE, _WIRE_LEN)[0]  # one byte each (fields 1..15), and so are
-_POSE_POSITION_TAG = _tag(_POSE_POSITION, _WIRE_LEN)[0]  # the lengths: a pose is < 128 bytes
-_IDENTITY = Pose(orientation=Quaternion(w=1.0)).SerializeToString()  # the orientation field
+COMPRESSIONS = ("zstd", "lz4", "none")
 
 
 def descriptor_set(message_class: Any) -> bytes:
@@ -229,7 +96,7 @@ class _OpenChunk:
         self.t1 = 0
 
 
-class _McapSink:
+class McapSink:
     """Writes an indexed, chunked MCAP stream with CRCs (data section, chunks, summary).
 
     Schemas and channels are written in the data section before the first chunk and repeated in
@@ -422,3 +289,41 @@ class _McapSink:
         self._write(bytes(summary))
         self._write_record(Footer(summary_start, offsets_start, crc))
         self._write(_MAGIC)
+
+
+class McapFile:
+    """One MCAP file being written to ``path``: a :class:`McapSink` (``sink``) on a temporary file
+    beside it (buffered 1 MiB), renamed into place by :meth:`close` after a clean end."""
+
+    def __init__(
+        self, path: str | PathLike[str], *, compression: str, chunk_size: int, library: str
+    ) -> None:
+        stack = contextlib.ExitStack()
+        try:
+            tmp = stack.enter_context(atomic_output(path))
+            out = stack.enter_context(open(tmp, "wb", buffering=1 << 20))
+            self.sink = McapSink(
+                out, compression=compression, chunk_size=chunk_size, library=library
+            )
+        except BaseException as err:  # the temporary file goes, nothing is renamed
+            stack.__exit__(type(err), err, err.__traceback__)
+            raise
+        self._stack = stack
+
+    def close(
+        self,
+        exc_type: type[BaseException] | None = None,
+        exc: BaseException | None = None,
+        tb: TracebackType | None = None,
+    ) -> bool:
+        """Without an exception: finish the stream and rename the file into place.  With one (the
+        arguments of ``__exit__``): remove the temporary file.  Returns whether the exception is
+        suppressed (as ``__exit__``)."""
+        if exc_type is None:
+            try:
+                self.sink.finish()
+            except BaseException as err:
+                if not self._stack.__exit__(type(err), err, err.__traceback__):
+                    raise
+                return False
+        return bool(self._stack.__exit__(exc_type, exc, tb))

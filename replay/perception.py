@@ -46,7 +46,7 @@ track's closest point of approach to the own aircraft.
 
 **Clusters** (:meth:`PerceptionState.clusters`): the stationary obstacles grouped by single
 linkage -- two belong together when their distance is strictly below ``link_m``, and chains of such
-steps join (:func:`replay.threats.cluster_hill_points`) -- horizontally by default.  The link
+steps join (:func:`replay.clustering.cluster_hill_points`) -- horizontally by default.  The link
 distance is the caller's (PSO-CA's 1 km of seed 000 §5.3 is PSO-CA's parameter).  Each cluster
 has the minimum enclosing circle of its members' (x, y) (:func:`replay.circles.min_enclosing_circle`,
 seed 001 eqs 1-2 corrected), the highest altitude of its members, and ``outer_radius``, the radius
@@ -66,9 +66,9 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.circles import Circle, min_enclosing_circle
+from replay.clustering import cluster_hill_points
 from replay.cooperative import CooperativePicture
 from replay.radar import RadarPicture
-from replay.threats import cluster_hill_points
 from replay.tracking import Approaches, Track, closest_approaches, fit_lines
 from terrain.errors import InputError
 

@@ -32,8 +32,9 @@ Conventions:
   ``-map_origin``) so that ``map`` stays the root of the frame tree, the frame Foxglove displays by
   default: a display frame at CRS coordinates (millions of metres) would jitter in float32.
   ``base_link`` is the vehicle (x forward, y left, z up).  The JSON messages keep absolute map
-  coordinates: ``/vehicle/state`` to ``DIGITS`` (12) significant digits (1e-5 m at 10,000 km;
-  17 would round-trip exactly but costs twice as much to format), the events in full.
+  coordinates: ``/vehicle/state`` to ``DIGITS`` (12, :mod:`replay.encoding`) significant digits
+  (1e-5 m at 10,000 km; 17 would round-trip exactly but costs twice as much to format), the
+  events in full.
 - **Rates**: :meth:`RunRecorder.write_state` may be called at any rate (e.g. every 100 Hz step): the
   *recorder* drops the calls between ticks of ``log_rate_hz`` (a sample is written for the first
   call at or after each tick ``k / log_rate_hz``; ``force=True`` writes anyway) and returns whether
@@ -62,19 +63,19 @@ Conventions:
   :meth:`RunRecorder.write_detection_arrays` with the scan as arrays (what the simulation uses:
   the same messages, checked as arrays, built without a dict per detection).
 
-The file is written under a temporary name beside ``path`` and renamed into place only when the
-``with`` block ends cleanly; an exception (or Ctrl-C) removes the temporary file, so a file at
-``path`` is always complete.  Chunks are zstd-compressed (``compression="lz4"`` or ``"none"`` also
-work) and every CRC is written (chunks, data section, summary).
-
-Messages are framed into chunks by :mod:`replay.mcapio` (a lean MCAP stream writer; large point
-arrays are encoded there as protobuf wire format with numpy); everything else uses the foxglove
-protobuf classes.  Drawing helpers and the threat/detection checks are in :mod:`replay.scene`.
+This module decides *what* is recorded: the channels, the content of each message and when it is
+written.  How it is written is elsewhere: the channels' schemas and the threat/detection checks
+are in :mod:`replay.messages`, the drawing pieces in :mod:`replay.scene`, the hand-made encoders
+of large and frequent messages (wire format, state text, radar scans) in :mod:`replay.encoding`,
+and the file in :mod:`replay.mcapio`: written under a temporary name beside ``path`` and renamed
+into place only when the ``with`` block ends cleanly (an exception, or Ctrl-C, removes the
+temporary file, so a file at ``path`` is always complete), chunks zstd-compressed
+(``compression="lz4"`` or ``"none"`` also work), every CRC written (chunks, data section,
+summary).
 """
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -104,42 +105,43 @@ from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrim
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
 from replay import topics as T
-from replay.mcapio import (
-    _ENTITY_LINES,
-    _ENTITY_SPHERES,
-    _ENTITY_TRIANGLES,
-    _LINE_POINTS,
-    _TRI_COLORS,
-    _TRI_INDICES,
-    _TRI_POINTS,
-    _UPDATE_ENTITIES,
-    _doubles_messages,
-    _ld,
-    _McapSink,
-    _packed_fixed32,
-    _sphere_field,
-    descriptor_set,
-)
-from replay.scene import (
-    DIGITS,
-    FloatArray,
-    _color,
-    _dumps,
-    _finite,
-    _height_colors,
-    _line_head,
-    _num,
-    _pose,
-    _positive,
-    _vector,
-    decimate_mesh,
+from replay.encoding import (
+    ENTITY_LINES,
+    ENTITY_TRIANGLES,
+    LINE_POINTS,
+    TRI_COLORS,
+    TRI_INDICES,
+    TRI_POINTS,
+    UPDATE_ENTITIES,
+    ScanEncoder,
+    StateText,
+    doubles_messages,
+    dumps,
     jsonable,
+    ld,
+    packed_fixed32,
+)
+from replay.mcapio import COMPRESSIONS, McapFile, McapSink, descriptor_set
+from replay.messages import (
+    JSON_SCHEMAS,
+    PROTOBUF_CLASSES,
+    STATE_KEYS,
+    check_finite,
+    check_positive,
+    check_vector,
     normalize_detection,
     normalize_threat,
+)
+from replay.scene import (
+    FloatArray,
+    color,
+    decimate_mesh,
+    height_colors,
+    line_head,
+    pose,
     quaternion_map,
     superellipsoid_mesh,
 )
-from terrain.atomic import atomic_output
 from terrain.errors import InputError, where
 
 LonLat = Callable[[float, float], tuple[float, float]]
@@ -147,104 +149,6 @@ LonLat = Callable[[float, float], tuple[float, float]]
 NS_PER_S = 1_000_000_000
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
 LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
-_MEMO_SIZE = 50_000  # encoded detections kept (a few MB), cleared when full
-COMPRESSIONS = ("zstd", "lz4", "none")
-
-# ---------------------------------------------------------------------------------------------
-# Foxglove protobuf schemas of the channels (schema data: replay.mcapio.descriptor_set)
-
-PROTOBUF_CLASSES: dict[str, Any] = {
-    T.FRAME_TRANSFORM: FrameTransform,
-    T.POSE_IN_FRAME: PoseInFrame,
-    T.LOCATION_FIX: LocationFix,
-    T.SCENE_UPDATE: SceneUpdate,
-    T.LOG_SCHEMA: Log,
-}
-
-# ---------------------------------------------------------------------------------------------
-# JSON schemas of the terrapath channels
-
-_NUM = {"type": ["number", "null"]}
-_VEC3 = {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3}
-
-
-def _object(props: Mapping[str, Any], title: str, required: Sequence[str] = ()) -> dict[str, Any]:
-    return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": title,
-        "type": "object",
-        "properties": dict(props),
-        "required": list(required),
-    }
-
-
-_STATE_DOCS = {
-    "pn": "north, map metres (NED origin = map CRS origin)",
-    "pe": "east, map metres",
-    "pd": "down, metres (-altitude AMSL)",
-    "alt": "altitude, metres AMSL (= -pd)",
-    "u": "body x velocity, m/s",
-    "v": "body y velocity, m/s",
-    "w": "body z velocity, m/s",
-    "phi": "roll, rad",
-    "theta": "pitch, rad",
-    "psi": "yaw (heading), rad clockwise from north",
-    "p": "roll rate, rad/s",
-    "q": "pitch rate, rad/s",
-    "r": "yaw rate, rad/s",
-    "airspeed": "|(u, v, w)|, m/s (no wind)",
-    "alpha": "angle of attack atan2(w, u), rad",
-    "beta": "sideslip asin(v / airspeed), rad",
-    "delta_e": "elevator, rad",
-    "delta_a": "aileron, rad",
-    "delta_r": "rudder, rad",
-    "delta_t": "throttle, 0..1",
-}
-_STATE_KEYS = tuple(_STATE_DOCS)
-JSON_SCHEMAS: dict[str, dict[str, Any]] = {
-    T.STATE_SCHEMA: _object(
-        {
-            **{k: {**_NUM, "description": d} for k, d in _STATE_DOCS.items()},
-            "extras": {
-                "type": "object",
-                "additionalProperties": _NUM,
-                "description": "caller's values: commanded course/altitude, cross-track error, leg...",
-            },
-        },
-        T.STATE_SCHEMA,
-        _STATE_KEYS,
-    ),
-    T.WAYPOINT_LIST_SCHEMA: _object(
-        {
-            "waypoints": {"type": "array", "items": _VEC3, "description": "map metres"},
-            "active_index": {"type": "integer"},
-            "reason": {"type": "string"},
-        },
-        T.WAYPOINT_LIST_SCHEMA,
-        ("waypoints", "active_index", "reason"),
-    ),
-    T.THREAT_LIST_SCHEMA: _object(
-        {
-            "threats": {"type": "array", "items": {"type": "object"}},
-            "appeared": {"type": "array", "items": {"type": "string"}},
-            "changed": {"type": "array", "items": {"type": "string"}},
-            "removed": {"type": "array", "items": {"type": "string"}},
-        },
-        T.THREAT_LIST_SCHEMA,
-        ("threats", "appeared", "changed", "removed"),
-    ),
-    T.DETECTION_LIST_SCHEMA: _object(
-        {"detections": {"type": "array", "items": {"type": "object"}}},
-        T.DETECTION_LIST_SCHEMA,
-        ("detections",),
-    ),
-    T.DECISION_SCHEMA: _object(
-        {"algorithm": {"type": "string"}, "compute_s": {"type": "number"}},
-        T.DECISION_SCHEMA,
-        ("algorithm", "compute_s"),
-    ),
-    T.METRICS_SCHEMA: _object({}, T.METRICS_SCHEMA),
-}
 
 # ---------------------------------------------------------------------------------------------
 # the recorder
@@ -285,14 +189,14 @@ class RunRecorder:
         self.path = Path(path)
         loc = where(self.path)
         self._where = loc
-        self.map_origin = tuple(_vector(map_origin, 3, f"{loc}map_origin"))
+        self.map_origin = tuple(check_vector(map_origin, 3, f"{loc}map_origin"))
         for name, value in (
             ("log_rate_hz", log_rate_hz),
             ("track_rate_hz", track_rate_hz),
             ("track_overview_s", track_overview_s),
             ("marker_size_m", marker_size_m),
         ):
-            _positive(value, f"{loc}{name}")
+            check_positive(value, f"{loc}{name}")
         if compression not in COMPRESSIONS:
             raise InputError(
                 f"{loc}compression: expected one of {COMPRESSIONS}, found {compression!r}"
@@ -307,13 +211,12 @@ class RunRecorder:
         self._overview_period = max(1, round(track_overview_s * NS_PER_S))
         self._overview_points = int(track_overview_points)
         self._marker = float(marker_size_m)
-        self._sphere_memo: dict[tuple[Any, ...], bytes] = {}  # detection marker bytes
-        self._json_memo: dict[tuple[Any, ...], str] = {}  # detection JSON up to the range
+        self._scan = ScanEncoder(self.map_origin)
         size = Vector3(x=self._marker, y=self._marker, z=self._marker)
         # detection markers' size and colour fields: terrain (brown), moving threat (orange),
         # stationary threat (red)
         self._detection_tails = tuple(
-            SpherePrimitive(size=size, color=_color(*rgb)).SerializeToString()
+            SpherePrimitive(size=size, color=color(*rgb)).SerializeToString()
             for rgb in ((0.6, 0.4, 0.2), (1.0, 0.55, 0.0), (1.0, 0.1, 0.1))
         )
         self._max_triangles = int(max_terrain_triangles)
@@ -338,8 +241,8 @@ class RunRecorder:
             if not isinstance(key, str) or not isinstance(text, str):
                 raise InputError(f"{loc}metadata: keys and values must be text ({key!r})")
             self.run_metadata[key] = text
-        self._sink: _McapSink | None = None
-        self._stack: contextlib.ExitStack | None = None
+        self._sink: McapSink | None = None
+        self._file: McapFile | None = None
         self._channels: dict[str, int] = {}
         self._t_max = 0
         self._last_state = -1
@@ -351,7 +254,7 @@ class RunRecorder:
         self._track_n = 0
         self._recent_from = 0  # index in the track where the recent line starts
         self._threats: dict[str, dict[str, Any]] = {}
-        self._formats: dict[tuple[str, ...], str] = {(): "{" + _STATE_FORMAT + ',"extras":{}}'}
+        self._state_text = StateText(STATE_KEYS, loc)
         self._floor_z = 0.0
         self._attachments: set[str] = set()
         self.samples_written = 0
@@ -362,23 +265,21 @@ class RunRecorder:
     # -- life cycle --------------------------------------------------------------------------
 
     def __enter__(self) -> Self:
-        if self._stack is not None:
+        if self._file is not None:
             raise InputError(f"{self._where}the recorder is already open")
-        stack = contextlib.ExitStack()
+        file = McapFile(
+            self.path,
+            compression=self._compression,
+            chunk_size=self._chunk_size,
+            library=f"{T.LIBRARY} {self.run_metadata['software_version']}",
+        )
         try:
-            tmp = stack.enter_context(atomic_output(self.path))
-            out = stack.enter_context(open(tmp, "wb", buffering=1 << 20))
-            self._sink = _McapSink(
-                out,
-                compression=self._compression,
-                chunk_size=self._chunk_size,
-                library=f"{T.LIBRARY} {self.run_metadata['software_version']}",
-            )
+            self._sink = file.sink
             self._start()
         except BaseException as err:  # the temporary file goes, nothing is renamed
-            stack.__exit__(type(err), err, err.__traceback__)
+            file.close(type(err), err, err.__traceback__)
             raise
-        self._stack = stack
+        self._file = file
         return self
 
     def __exit__(
@@ -387,18 +288,11 @@ class RunRecorder:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> bool:
-        stack, sink = self._stack, self._sink
-        self._stack = self._sink = None
-        if stack is None:
+        file = self._file
+        self._file = self._sink = None
+        if file is None:
             return False
-        if exc_type is None and sink is not None:
-            try:
-                sink.finish()
-            except BaseException as err:
-                if not stack.__exit__(type(err), err, err.__traceback__):
-                    raise
-                return False
-        return bool(stack.__exit__(exc_type, exc, tb))
+        return file.close(exc_type, exc, tb)
 
     def _start(self) -> None:
         sink = self._require()
@@ -427,7 +321,7 @@ class RunRecorder:
         )
         self._emit(T.TF_STATIC, 0, static.SerializeToString())
 
-    def _require(self) -> _McapSink:
+    def _require(self) -> McapSink:
         if self._sink is None:
             raise InputError(f"{self._where}the recorder is not open (use 'with RunRecorder(...)')")
         return self._sink
@@ -505,13 +399,8 @@ class RunRecorder:
         alpha = math.atan2(w, u)
         beta = math.asin(max(-1.0, min(1.0, v / va))) if va > 0 else 0.0
         values = (*s[:3], -pd, *s[3:], va, alpha, beta, *c)
-        if extras:
-            fmt = self._formats.get(tuple(extras)) or self._state_format(extras)
-            values += tuple(extras.values())
-        else:
-            fmt = self._formats[()]
         try:
-            text = fmt % values if math.isfinite(sum(values)) else self._state_text(values, extras)
+            text = self._state_text.text(values, extras)
         except TypeError:
             raise InputError(f"{self._where}extras: expected numbers, found {extras!r}") from None
 
@@ -533,26 +422,6 @@ class RunRecorder:
             self._track_point(ns, (x, y, z))
         self.samples_written += 1
         return True
-
-    def _state_format(self, extras: Mapping[str, float]) -> str:
-        """The %-format of a state message with these extras names (cached per name tuple)."""
-        names = tuple(extras)
-        for name in names:
-            if not isinstance(name, str) or not name:
-                raise InputError(f"{self._where}extras: names must be non-empty text ({name!r})")
-        fields = ",".join(f"{json.dumps(name)}:%.{DIGITS}g" for name in names)
-        fmt = self._formats[names] = "{" + _STATE_FORMAT + ',"extras":{' + fields + "}}"
-        return fmt
-
-    def _state_text(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
-        """The state message when some value is not finite (written as null)."""
-        nums = [_num(float(x)) for x in values]
-        body = ",".join(f'"{k}":{n}' for k, n in zip(_STATE_KEYS, nums, strict=False))
-        names = tuple(extras or ())
-        more = ",".join(
-            f"{json.dumps(k)}:{n}" for k, n in zip(names, nums[len(_STATE_KEYS) :], strict=True)
-        )
-        return "{" + body + ',"extras":{' + more + "}}"
 
     def _track_point(self, ns: int, xyz: tuple[float, float, float]) -> None:
         if self._track_n == len(self._track):
@@ -585,9 +454,9 @@ class RunRecorder:
         pts: FloatArray,
         rgba: tuple[float, float, float, float],
     ) -> None:
-        line = _line_head(rgba) + _doubles_messages(_LINE_POINTS, pts)
-        entity = self._entity(ns, ident).SerializeToString() + _ld(_ENTITY_LINES, line)
-        self._emit(topic, ns, _ld(_UPDATE_ENTITIES, entity))
+        line = line_head(rgba) + doubles_messages(LINE_POINTS, pts)
+        entity = self._entity(ns, ident).SerializeToString() + ld(ENTITY_LINES, line)
+        self._emit(topic, ns, ld(UPDATE_ENTITIES, entity))
 
     def _entity(self, ns: int, ident: str, **fields: Any) -> SceneEntity:
         e = SceneEntity(frame_id=T.MAP_FRAME, id=ident, **fields)
@@ -623,14 +492,14 @@ class RunRecorder:
         if len(v):
             self._floor_z = float(v[:, 2].min())
         tri = (
-            TriangleListPrimitive(pose=_pose()).SerializeToString()
-            + _doubles_messages(_TRI_POINTS, v - np.asarray(self.map_origin))
-            + _doubles_messages(_TRI_COLORS, _height_colors(v[:, 2]))
-            + _packed_fixed32(_TRI_INDICES, f.reshape(-1))
+            TriangleListPrimitive(pose=pose()).SerializeToString()
+            + doubles_messages(TRI_POINTS, v - np.asarray(self.map_origin))
+            + doubles_messages(TRI_COLORS, height_colors(v[:, 2]))
+            + packed_fixed32(TRI_INDICES, f.reshape(-1))
         )
         entity = self._entity(ns, "terrain")
         entity.frame_id = frame
-        data = _ld(_UPDATE_ENTITIES, entity.SerializeToString() + _ld(_ENTITY_TRIANGLES, tri))
+        data = ld(UPDATE_ENTITIES, entity.SerializeToString() + ld(ENTITY_TRIANGLES, tri))
         self._emit(T.TERRAIN, ns, data)
         return len(f)
 
@@ -650,10 +519,10 @@ class RunRecorder:
             entity.lines.append(
                 LinePrimitive(
                     type=LinePrimitive.LINE_STRIP,
-                    pose=_pose(),
+                    pose=pose(),
                     thickness=2.0,
                     scale_invariant=True,
-                    color=_color(0.3, 0.6, 1.0, 0.9),
+                    color=color(0.3, 0.6, 1.0, 0.9),
                     points=[Point3(x=a, y=b, z=c) for a, b, c in rel.tolist()],
                 )
             )
@@ -666,22 +535,20 @@ class RunRecorder:
                 if i == active
                 else (0.3, 0.6, 1.0)
             )
-            entity.spheres.append(
-                SpherePrimitive(pose=_pose(a, b, c), size=size, color=_color(*rgb))
-            )
+            entity.spheres.append(SpherePrimitive(pose=pose(a, b, c), size=size, color=color(*rgb)))
             entity.texts.append(
                 TextPrimitive(
-                    pose=_pose(a, b, c + self._marker),
+                    pose=pose(a, b, c + self._marker),
                     billboard=True,
                     font_size=14.0,
                     scale_invariant=True,
-                    color=_color(1, 1, 1),
+                    color=color(1, 1, 1),
                     text=str(i),
                 )
             )
         self._emit(T.WAYPOINTS, ns, SceneUpdate(entities=[entity]).SerializeToString())
         doc = {"waypoints": wps.tolist(), "active_index": active, "reason": str(reason)}
-        self._emit(T.WAYPOINT_LIST, ns, _dumps(doc))
+        self._emit(T.WAYPOINT_LIST, ns, dumps(doc))
 
     def write_threats(self, t: float, threats: Iterable[Mapping[str, Any]]) -> bool:
         """The current threats (module docstring).  Compared with the last set written: new ones
@@ -728,7 +595,7 @@ class RunRecorder:
             "changed": changed,
             "removed": removed,
         }
-        self._emit(T.THREAT_LIST, ns, _dumps(doc))
+        self._emit(T.THREAT_LIST, ns, dumps(doc))
         self._threats = current
         return True
 
@@ -747,7 +614,7 @@ class RunRecorder:
         e.metadata.extend(
             [KeyValuePair(key="id", value=th["id"]), KeyValuePair(key="kind", value=th["kind"])]
         )
-        color = _color(0.9, 0.15, 0.1, 0.35)
+        fill = color(0.9, 0.15, 0.1, 0.35)
         kind = th["kind"]
         if kind == "sphere":
             centers = th["center"] if isinstance(th["center"][0], list) else [th["center"]]
@@ -755,9 +622,9 @@ class RunRecorder:
             for c, r in zip(centers, radii, strict=True):
                 e.spheres.append(
                     SpherePrimitive(
-                        pose=_pose(*self._rel(c)),
+                        pose=pose(*self._rel(c)),
                         size=Vector3(x=2 * r, y=2 * r, z=2 * r),
-                        color=color,
+                        color=fill,
                     )
                 )
             top = max(c[2] + r for c, r in zip(centers, radii, strict=True))
@@ -773,11 +640,11 @@ class RunRecorder:
             cx, cy = th["center"][:2]
             e.cylinders.append(
                 CylinderPrimitive(
-                    pose=_pose(*self._rel((cx, cy, 0.5 * (bottom + top)))),
+                    pose=pose(*self._rel((cx, cy, 0.5 * (bottom + top)))),
                     size=Vector3(x=2 * r, y=2 * r, z=top - bottom),
                     bottom_scale=1.0,
                     top_scale=1.0,
-                    color=color,
+                    color=fill,
                 )
             )
             label = self._rel((cx, cy, top))
@@ -787,15 +654,15 @@ class RunRecorder:
             if all(x == 1.0 for x in th["exponents"]):
                 e.spheres.append(
                     SpherePrimitive(
-                        pose=_pose(*center), size=Vector3(x=2 * a, y=2 * b, z=2 * c), color=color
+                        pose=pose(*center), size=Vector3(x=2 * a, y=2 * b, z=2 * c), color=fill
                     )
                 )
             else:
                 pts, faces = superellipsoid_mesh(th["axes"], th["exponents"])
                 e.triangles.append(
                     TriangleListPrimitive(
-                        pose=_pose(*center),
-                        color=color,
+                        pose=pose(*center),
+                        color=fill,
                         points=[Point3(x=px, y=py, z=pz) for px, py, pz in pts.tolist()],
                         indices=faces.reshape(-1).tolist(),
                     )
@@ -803,11 +670,11 @@ class RunRecorder:
             label = (center[0], center[1], center[2] + c)
         e.texts.append(
             TextPrimitive(
-                pose=_pose(label[0], label[1], label[2] + self._marker),
+                pose=pose(label[0], label[1], label[2] + self._marker),
                 billboard=True,
                 font_size=14.0,
                 scale_invariant=True,
-                color=_color(1.0, 0.6, 0.6),
+                color=color(1.0, 0.6, 0.6),
                 text=th["id"],
             )
         )
@@ -820,7 +687,7 @@ class RunRecorder:
         items = [normalize_detection(d, i) for i, d in enumerate(detections)]
         tails = [self._sphere_tail(d["kind"] == "terrain", d["moving"]) for d in items]
         self._write_markers(ns, [d["position"] for d in items], tails)
-        self._emit(T.DETECTION_LIST, ns, _dumps({"detections": items}))
+        self._emit(T.DETECTION_LIST, ns, dumps({"detections": items}))
 
     def write_detection_arrays(
         self,
@@ -854,63 +721,16 @@ class RunRecorder:
             )
         xyz, flags = pos.tolist(), list(zip(ground.tolist(), mov.tolist(), strict=True))
         self._write_markers(ns, xyz, [self._sphere_tail(g, m) for g, m in flags])
-        self._emit(T.DETECTION_LIST, ns, self._detection_json(ids, xyz, flags, rng.tolist()))
+        self._emit(T.DETECTION_LIST, ns, self._scan.json(ids, xyz, flags, rng.tolist()))
 
     def _sphere_tail(self, terrain: bool, moving: bool) -> bytes:
         """Size and colour fields of a detection marker (brown terrain, orange moving, red)."""
         return self._detection_tails[0 if terrain else 1 if moving else 2]
 
     def _write_markers(self, ns: int, positions: list[list[float]], tails: list[bytes]) -> None:
-        """The scene update of one scan: a sphere at each position (map CRS metres).  A radar
-        sees a static threat at the same point scan after scan: the encoded spheres are kept."""
-        ox, oy, oz = self.map_origin
-        memo = self._memo(self._sphere_memo)
-        spheres = []
-        for (x, y, z), tail in zip(positions, tails, strict=True):
-            # (0.0 and -0.0 are equal keys with different bits: not kept)
-            key = (x, y, z, tail) if x and y and z else None
-            sphere = memo.get(key)
-            if sphere is None:
-                sphere = _sphere_field(_ENTITY_SPHERES, x - ox, y - oy, z - oz, tail)
-                if key is not None:
-                    memo[key] = sphere
-            spheres.append(sphere)
-        entity = self._entity(ns, "detections").SerializeToString() + b"".join(spheres)
-        self._emit(T.DETECTIONS, ns, _ld(_UPDATE_ENTITIES, entity))
-
-    @staticmethod
-    def _memo(memo: dict[Any, Any]) -> dict[Any, Any]:
-        if len(memo) > _MEMO_SIZE:  # a noisy radar never repeats a point: keep it bounded
-            memo.clear()
-        return memo
-
-    def _detection_json(
-        self,
-        ids: Sequence[str],
-        positions: list[list[float]],
-        flags: list[tuple[bool, bool]],
-        ranges: list[float],
-    ) -> bytes:
-        """``_dumps({"detections": [...]})`` of complete detections (finite numbers) written
-        directly: JSON writes a float as its ``repr``; everything up to the range is kept per
-        id, position and flags.  The tests compare it with ``write_detections``."""
-        memo = self._memo(self._json_memo)
-        parts = []
-        for ident, (x, y, z), (terrain, moving), r in zip(
-            ids, positions, flags, ranges, strict=True
-        ):
-            key = (ident, x, y, z, terrain, moving) if x and y and z else None  # as above
-            head = memo.get(key)
-            if head is None:
-                head = (
-                    f'{{"id":{_dumps(str(ident)).decode()},"position":[{x!r},{y!r},{z!r}],'
-                    f'"kind":"{"terrain" if terrain else "threat"}",'
-                    f'"moving":{"true" if moving else "false"},"range":'
-                )
-                if key is not None:
-                    memo[key] = head
-            parts.append(f"{head}{r!r}}}")
-        return f'{{"detections":[{",".join(parts)}]}}'.encode()
+        """The scene update of one scan: a sphere at each position (map CRS metres)."""
+        entity = self._entity(ns, "detections").SerializeToString()
+        self._emit(T.DETECTIONS, ns, self._scan.markers(entity, positions, tails))
 
     # -- events ------------------------------------------------------------------------------
 
@@ -925,14 +745,14 @@ class RunRecorder:
             )
         if not isinstance(decision.get("algorithm"), str):
             raise InputError(f"{self._where}decision: 'algorithm' (text) is required")
-        compute = _finite(decision.get("compute_s"), f"{self._where}decision compute_s")
+        compute = check_finite(decision.get("compute_s"), f"{self._where}decision compute_s")
         if compute < 0:
             raise InputError(f"{self._where}decision compute_s: expected >= 0, found {compute}")
         try:
             doc = jsonable(decision)
         except TypeError as err:
             raise InputError(f"{self._where}decision: {err}") from None
-        self._emit(T.DECISION, ns, _dumps(doc))
+        self._emit(T.DECISION, ns, dumps(doc))
 
     def write_log(self, t: float, level: str, text: str) -> None:
         """A human-readable event (``level``: debug, info, warning, error or fatal)."""
@@ -954,7 +774,7 @@ class RunRecorder:
             raise InputError(f"{self._where}metrics: {err}") from None
         if not isinstance(doc, dict):
             raise InputError(f"{self._where}metrics: expected a mapping")
-        self._emit(T.METRICS, self._t_max, _dumps(doc))
+        self._emit(T.METRICS, self._t_max, dumps(doc))
         self._require().add_metadata(T.METRICS_METADATA, {k: json.dumps(v) for k, v in doc.items()})
 
     def attach(self, name: str, data: bytes, media_type: str = "application/octet-stream") -> None:
@@ -970,9 +790,6 @@ class RunRecorder:
             )
         self._attachments.add(name)
         self._require().add_attachment(name, media_type, bytes(data), self._t_max)
-
-
-_STATE_FORMAT = ",".join(f'"{k}":%.{DIGITS}g' for k in _STATE_KEYS)
 
 
 def _sample(values: Sequence[float] | FloatArray, n: int, what: str) -> list[float]:
@@ -997,17 +814,3 @@ def _package_version() -> str:
         return version("terrapath")
     except PackageNotFoundError:
         return "unknown"
-
-
-__all__ = [
-    "JSON_SCHEMAS",
-    "PROTOBUF_CLASSES",
-    "RunRecorder",
-    "decimate_mesh",
-    "descriptor_set",
-    "jsonable",
-    "normalize_detection",
-    "normalize_threat",
-    "quaternion_map",
-    "superellipsoid_mesh",
-]

@@ -25,7 +25,8 @@ import yaml
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
 from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate
-from replay.threats import ThreatSet, load_threats, threats_to_records
+from replay.threat_file import load_threats, threats_to_records
+from replay.threats import ThreatSet
 from replay.vehicle.params import VehicleParams
 from terrain.errors import DataFileError, InputError
 from terrain.grid import HeightGrid
@@ -306,7 +307,7 @@ def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[
 
 def _recorded_threats(text: str, source: str, grid: Any) -> Any:
     """The threats an earlier run recorded (its ``threats.yaml`` attachment)."""
-    from replay.threats import threats_from_records
+    from replay.threat_file import threats_from_records
 
     try:
         data = yaml.safe_load(text)

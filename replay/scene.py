@@ -1,23 +1,16 @@
-"""Drawing helpers and input normalisation of :mod:`replay.record`.
+"""How a run looks in Foxglove: the drawing pieces of :mod:`replay.record`.
 
-- Geometry: the vehicle attitude as a map-frame quaternion (:func:`quaternion_map`), poses,
-  colours, terrain colours by height, terrain mesh decimation (:func:`decimate_mesh`) and the
-  triangle mesh of a superellipsoid threat (:func:`superellipsoid_mesh`).
-- JSON: plain JSON data from numpy values (:func:`jsonable`; NaN and infinities become ``null``)
-  and compact encoding.
-- Input validation: threat and detection dicts (their shapes are described in the
-  :mod:`replay.record` docstring) are checked and normalised to plain types
-  (:func:`normalize_threat`, :func:`normalize_detection`); unknown keys are refused and errors are
-  :class:`terrain.errors.InputError`.
+The vehicle attitude as a map-frame quaternion (:func:`quaternion_map`), poses, colours, the head
+of a track line strip (:func:`line_head`), terrain colours by height (:func:`height_colors`),
+terrain mesh decimation (:func:`decimate_mesh`) and the triangle mesh of a superellipsoid threat
+(:func:`superellipsoid_mesh`).
 """
 
 from __future__ import annotations
 
 import functools
-import json
 import math
-from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -27,16 +20,7 @@ from foxglove_schemas_protobuf.Pose_pb2 import Pose
 from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
-from terrain.errors import InputError
-
 FloatArray = npt.NDArray[np.float64]
-
-# significant digits of the numbers in /vehicle/state: 1e-5 m at 10,000 km; formatting 17 (exact
-# round trip) costs twice as much, and this message is written 288,000 times in an 8-hour mission
-DIGITS = 12
-THREAT_KINDS = ("sphere", "cylinder", "ellipsoid")
-THREAT_KEYS = ("id", "kind", "center", "radius", "axes", "exponents", "top", "bottom")
-DETECTION_KEYS = ("id", "position", "range", "kind", "moving")
 
 # ---------------------------------------------------------------------------------------------
 # geometry helpers
@@ -59,29 +43,30 @@ def quaternion_map(phi: float, theta: float, psi: float) -> tuple[float, float, 
 
 
 @functools.cache
-def _line_head(rgba: tuple[float, float, float, float]) -> bytes:
+def line_head(rgba: tuple[float, float, float, float]) -> bytes:
     """A track line strip without its points (they are appended as wire bytes)."""
     return bytes(
         LinePrimitive(
             type=LinePrimitive.LINE_STRIP,
-            pose=_pose(),
+            pose=pose(),
             thickness=3.0,
             scale_invariant=True,
-            color=_color(*rgba),
+            color=color(*rgba),
         ).SerializeToString()
     )
 
 
-def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Pose:
+def pose(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Pose:
     """A pose at (x, y, z) with the identity orientation (never the all-zero quaternion)."""
     return Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(w=1.0))
 
 
-def _color(r: float, g: float, b: float, a: float = 1.0) -> Color:
+def color(r: float, g: float, b: float, a: float = 1.0) -> Color:
+    """An RGBA colour (0..1)."""
     return Color(r=r, g=g, b=b, a=a)
 
 
-def _height_colors(z: FloatArray) -> FloatArray:
+def height_colors(z: FloatArray) -> FloatArray:
     """(n, 4) RGBA: green lowlands, brown hills, grey-white tops (min..max of z)."""
     span = float(np.ptp(z)) if z.size else 0.0
     h = (z - float(np.min(z))) / span if span > 0 else np.zeros_like(z)
@@ -162,153 +147,3 @@ def superellipsoid_mesh(
         top = (rows - 1) * cols
         faces.append((north, top + j, top + (j + 1) % cols))
     return points, np.asarray(faces, dtype=np.int64)
-
-
-# ---------------------------------------------------------------------------------------------
-# JSON
-
-
-def jsonable(value: Any) -> Any:
-    """Plain JSON data from numbers, numpy scalars and arrays, tuples, mappings; NaN and infinities
-    become ``null`` (JSON has no such numbers)."""
-    if isinstance(value, str | bool) or value is None:
-        return value
-    if isinstance(value, int | np.integer):
-        return int(value)
-    if isinstance(value, float | np.floating):
-        f = float(value)
-        return f if math.isfinite(f) else None
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, Iterable):
-        return [jsonable(v) for v in value]
-    raise TypeError(f"{type(value).__name__} is not JSON data")
-
-
-_JSON = json.JSONEncoder(separators=(",", ":"), allow_nan=False)  # json.dumps with these settings
-
-
-def _dumps(value: Any) -> bytes:
-    return _JSON.encode(value).encode()
-
-
-def _num(x: float) -> str:
-    return f"{x:.{DIGITS}g}" if math.isfinite(x) else "null"
-
-
-# ---------------------------------------------------------------------------------------------
-# input validation
-
-
-def _finite(value: Any, what: str) -> float:
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{what}: expected a number, found {value!r}") from None
-    if not math.isfinite(f):
-        raise InputError(f"{what}: expected a finite number, found {value!r}")
-    return f
-
-
-def _vector(value: Any, n: int | tuple[int, ...], what: str) -> list[float]:
-    sizes = (n,) if isinstance(n, int) else n
-    try:
-        items = list(value)
-    except TypeError:
-        raise InputError(f"{what}: expected {sizes[0]} numbers, found {value!r}") from None
-    if len(items) not in sizes:
-        raise InputError(
-            f"{what}: expected {' or '.join(map(str, sizes))} numbers, found {len(items)}"
-        )
-    return [_finite(v, what) for v in items]
-
-
-def _keys(item: Any, allowed: Sequence[str], what: str) -> Mapping[str, Any]:
-    if not isinstance(item, Mapping):
-        raise InputError(f"{what}: expected a mapping, found {type(item).__name__}")
-    unknown = sorted(set(map(str, item)) - set(allowed))
-    if unknown:
-        raise InputError(f"{what}: unknown key(s) {unknown}; allowed: {', '.join(allowed)}")
-    if "id" not in item:
-        raise InputError(f"{what}: missing 'id'")
-    return item
-
-
-def normalize_threat(item: Any, index: int = 0) -> dict[str, Any]:
-    """A threat dict (module docstring) checked and with plain floats; raises InputError."""
-    item = _keys(item, THREAT_KEYS, f"threats[{index}]")
-    ident = str(item["id"])
-    what = f"threat {ident!r}"
-    kind = item.get("kind")
-    if kind not in THREAT_KINDS:
-        raise InputError(f"{what} kind: expected one of {', '.join(THREAT_KINDS)}, found {kind!r}")
-    out: dict[str, Any] = {"id": ident, "kind": kind}
-    if "center" not in item:
-        raise InputError(f"{what}: missing 'center'")
-    if kind == "sphere":
-        first = next(iter(item["center"]), None) if isinstance(item["center"], Iterable) else None
-        if isinstance(first, Iterable) and not isinstance(first, str):  # a hill: several spheres
-            centers = [_vector(c, 3, f"{what} center") for c in item["center"]]
-            radii = item.get("radius")
-            rs = [radii] * len(centers) if not isinstance(radii, Iterable) else list(radii)
-            if len(rs) != len(centers):
-                raise InputError(f"{what} radius: expected one or {len(centers)} radii")
-            out["center"] = centers
-            out["radius"] = [_positive(r, f"{what} radius") for r in rs]
-        else:
-            out["center"] = _vector(item["center"], 3, f"{what} center")
-            out["radius"] = _positive(item.get("radius"), f"{what} radius")
-    elif kind == "cylinder":
-        out["center"] = _vector(item["center"], (2, 3), f"{what} center")
-        out["radius"] = _positive(item.get("radius"), f"{what} radius")
-        for key in ("bottom", "top"):
-            value = item.get(key)
-            out[key] = None if value is None else _finite(value, f"{what} {key}")
-        if out["bottom"] is not None and out["top"] is not None and out["top"] <= out["bottom"]:
-            raise InputError(f"{what}: top {out['top']} must be above bottom {out['bottom']}")
-    else:
-        out["center"] = _vector(item["center"], 3, f"{what} center")
-        out["axes"] = [
-            _positive(a, f"{what} axes") for a in _vector(item.get("axes"), 3, f"{what} axes")
-        ]
-        exps = item.get("exponents")
-        out["exponents"] = (
-            [1.0, 1.0, 1.0]
-            if exps is None
-            else [_positive(e, f"{what} exponents") for e in _vector(exps, 3, f"{what} exponents")]
-        )
-    for key in ("top", "bottom"):
-        if kind != "cylinder" and item.get(key) is not None:
-            out[key] = _finite(item[key], f"{what} {key}")
-    return out
-
-
-def _positive(value: Any, what: str) -> float:
-    f = _finite(value, what)
-    if f <= 0:
-        raise InputError(f"{what}: expected a number > 0, found {value!r}")
-    return f
-
-
-def normalize_detection(item: Any, index: int = 0) -> dict[str, Any]:
-    """A detection dict (module docstring) checked and with plain types; raises InputError."""
-    item = _keys(item, DETECTION_KEYS, f"detections[{index}]")
-    what = f"detections[{index}]"
-    if "position" not in item:
-        raise InputError(f"{what}: missing 'position'")
-    kind = item.get("kind", "threat")
-    if kind not in ("threat", "terrain"):
-        raise InputError(f"{what} kind: expected 'threat' or 'terrain', found {kind!r}")
-    out: dict[str, Any] = {
-        "id": str(item["id"]),
-        "position": _vector(item["position"], 3, f"{what} position"),
-        "kind": kind,
-        "moving": bool(item.get("moving", False)),
-    }
-    if item.get("range") is not None:
-        out["range"] = _finite(item["range"], f"{what} range")
-    return out

@@ -20,7 +20,7 @@ import pytest
 from planner.mission import mission_from_dict
 from replay.avoidance import AVOIDERS, make_avoider
 from replay.sim import ReplayConfig, ReplayResult, simulate
-from replay.threats import threats_from_records
+from replay.threat_file import threats_from_records
 from replay.vehicle.presets import load_vehicle
 
 R = 1000.0  # every threat's safety radius (seed 000: RS = 1 km)

@@ -10,7 +10,7 @@ import pytest
 from benchmarks import bench_pso_ca as b
 from planner.mission import load_mission
 from replay.avoidance.pso_ca_geometry import PsoCaParams, WaypointProblem
-from replay.threats import cluster_hill_points
+from replay.clustering import cluster_hill_points
 
 
 @pytest.fixture(scope="module")

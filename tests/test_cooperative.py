@@ -10,10 +10,11 @@ import pytest
 
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.pso_ca import PsoCaAvoider
+from replay.body_threat import BodyThreat
 from replay.cooperative import CooperativePicture, CooperativeSensor
 from replay.guidance import FollowWaypoints
 from replay.radar import Radar
-from replay.threats import BodyThreat, CylinderThreat, HillThreat, IntruderThreat, StaticThreat
+from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat
 from replay.vehicle.presets import load_vehicle
 from terrain.errors import InputError
 

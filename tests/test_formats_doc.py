@@ -11,7 +11,7 @@ import pytest
 
 from planner.mission import MISSION_KEYS, load_mission
 from replay.sim import check_mission
-from replay.threats import COMMON_KEYS, KIND_KEYS, load_threats
+from replay.threat_file import COMMON_KEYS, KIND_KEYS, load_threats
 from replay.vehicle.presets import FIELD_NAMES, load_vehicle
 from terrain.load import load_dem
 from terrain.zones import POLYGON_KEYS, ZONE_KEYS, PolygonZone, load_zones

@@ -18,7 +18,7 @@ from replay.avoidance.pso_ca import PsoCaAvoider
 from replay.avoidance.pso_ca_geometry import PsoCaParams
 from replay.reader import load_run
 from replay.sim import ReplayConfig, ReplayResult, simulate
-from replay.threats import threats_from_records
+from replay.threat_file import threats_from_records
 from replay.vehicle.presets import load_vehicle
 from terrain.errors import InputError
 from terrain.grid import HeightGrid

@@ -10,15 +10,9 @@ import numpy as np
 import pytest
 from affine import Affine
 
+from replay.body_threat import BodyThreat
 from replay.radar import Radar, RadarPicture
-from replay.threats import (
-    BodyThreat,
-    CylinderThreat,
-    HillThreat,
-    IntruderThreat,
-    StaticThreat,
-    Threat,
-)
+from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, Threat
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.model import TerrainModel
@@ -350,7 +344,7 @@ def test_scan_cost_on_a_real_map(shared_maps: Path) -> None:
 def test_static_threats_in_one_array_keep_order_windows_and_range() -> None:
     """Static point threats are tested as one array; the returns must be exactly those of the
     threat-by-threat rule, in the order the threats are given, interleaved with other kinds."""
-    from replay.threats import threats_from_records
+    from replay.threat_file import threats_from_records
 
     threats = threats_from_records(
         [

@@ -25,15 +25,11 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import Writer
 
 from replay import topics as T
+from replay.encoding import DIGITS
 from replay.frames import quaternion_map_from_euler
 from replay.reader import load_run, summary
-from replay.record import (
-    DIGITS,
-    RunRecorder,
-    decimate_mesh,
-    quaternion_map,
-    superellipsoid_mesh,
-)
+from replay.record import RunRecorder
+from replay.scene import decimate_mesh, quaternion_map, superellipsoid_mesh
 from terrain.errors import DataFileError, InputError
 
 ORIGIN = (500_000.0, 4_000_000.0, 0.0)

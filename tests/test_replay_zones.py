@@ -109,7 +109,7 @@ def test_pso_ca_keeps_its_new_legs_out_of_the_mission_zones() -> None:
     """The village case (issue 13): the obstacle is best passed on the side of a zone; PSO-CA's
     new waypoint must not lead into it."""
     from replay.avoidance import make_avoider
-    from replay.threats import threats_from_records
+    from replay.threat_file import threats_from_records
 
     line = np.array([[0.0, 0.0, 200.0], [20000.0, 0.0, 200.0], [40000.0, 0.0, 200.0]])
     village = DangerZone(10000.0, 1300.0, 800.0, id="village")
@@ -174,7 +174,7 @@ def test_pso_ca_keeps_its_new_waypoints_on_the_map() -> None:
     passed north, where the detour would leave a map whose edge lies 1 km north of the line;
     PSO-CA passes south instead and never leaves the map."""
     from replay.avoidance import make_avoider
-    from replay.threats import threats_from_records
+    from replay.threat_file import threats_from_records
 
     grid = make_grid(np.zeros((40, 400)), cell=100.0, x0=0.0, y0=4000.0)  # y from 0 to 4000
     line = np.array([[500.0, 3000.0, 200.0], [20000.0, 3000.0, 200.0], [39500.0, 3000.0, 200.0]])

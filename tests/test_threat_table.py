@@ -16,16 +16,10 @@ import numpy.typing as npt
 import pytest
 from affine import Affine
 
+from replay.body_threat import BodyThreat
 from replay.radar import Radar, RadarPicture
 from replay.threat_table import ThreatTable, norm3
-from replay.threats import (
-    BodyThreat,
-    CylinderThreat,
-    HillThreat,
-    IntruderThreat,
-    StaticThreat,
-    Threat,
-)
+from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, Threat
 from terrain.grid import HeightGrid
 from terrain.model import TerrainModel
 

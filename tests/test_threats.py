@@ -1,4 +1,5 @@
-"""Tests of `replay.threats`: the threat file, its validation, and the geometry of each kind."""
+"""Tests of the threats: the threat file (`replay.threat_file`), its validation, and the geometry of
+each kind (`replay.threats`, `replay.body_threat`) and hill clustering (`replay.clustering`)."""
 
 from __future__ import annotations
 
@@ -12,19 +13,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rasterio.crs import CRS
 
-from replay.threats import (
-    BodyThreat,
-    CylinderThreat,
-    HillThreat,
-    IntruderThreat,
-    StaticThreat,
-    ThreatSet,
-    cluster_hill_points,
-    cluster_terminals,
-    load_threats,
-    threats_from_records,
-    threats_to_records,
-)
+from replay.body_threat import BodyThreat
+from replay.clustering import cluster_hill_points, cluster_terminals
+from replay.threat_file import load_threats, threats_from_records, threats_to_records
+from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, ThreatSet
 from terrain.errors import DataFileError, InputError
 from tests.conftest import make_grid
 

@@ -130,9 +130,9 @@ from replay.avoidance.pso_ca_geometry import (
     segment_clearance,
     tangent_seed_points,
 )
+from replay.clustering import cluster_terminals
 from replay.guidance import AvoidanceDecision, FollowWaypoints
 from replay.perception import Perception, PerceptionConfig, PerceptionState
-from replay.threats import cluster_terminals
 from replay.tracking import Track
 from terrain.errors import InputError
 

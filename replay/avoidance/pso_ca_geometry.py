@@ -11,7 +11,7 @@ Coordinates are map metres (x east, y north; :mod:`replay.frames`).  The pieces:
   :func:`segment_hits_sphere`, restricted to the segment ``t in [0, 1]`` (the paper tests the
   infinite line), and :func:`segment_clearance` (closest approach of segments to centres).
 - **Classification** (§3.7, Figs 8-10, §5.3): :func:`group_obstacles` (single linkage < 1 km,
-  :func:`replay.threats.cluster_hill_points`), :func:`continuous_mask`, :func:`near_end_waypoint`,
+  :func:`replay.clustering.cluster_hill_points`), :func:`continuous_mask`, :func:`near_end_waypoint`,
   :func:`obstacle_between`, :func:`closest_first`.
 - **Seeds** (eq 27, Fig. 14): :func:`tangent_points`, :func:`tangent_seed_points`.
 - **Objective and constraints** (§2.3, eqs 2-12): :class:`PsoCaParams`, :class:`WaypointProblem`
@@ -55,7 +55,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from replay.threats import HILL_LINK_M, cluster_hill_points
+from replay.clustering import HILL_LINK_M, cluster_hill_points
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -179,7 +179,7 @@ def segment_clearance(p0: npt.ArrayLike, p1: npt.ArrayLike, centers: npt.ArrayLi
 # -- 2. grouping and classification (Figs 8-10, §5.3) ---------------------------------------------
 def group_obstacles(points: npt.ArrayLike, link: float = HILL_LINK_M) -> tuple[IntArray, ...]:
     """Continuous obstacles (Fig. 8, §5.3): index arrays of points (N, 2 or 3) whose chains of
-    distances are < ``link`` (1 km), via :func:`replay.threats.cluster_hill_points`.  2D points
+    distances are < ``link`` (1 km), via :func:`replay.clustering.cluster_hill_points`.  2D points
     are grouped on the plane (z = 0)."""
     p = _points(points, "points").reshape(-1, np.shape(points)[-1])
     if p.shape[1] == 2:
