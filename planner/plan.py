@@ -143,9 +143,12 @@ def _plan_once(
     )
     elapsed = time.perf_counter() - t0
     terms = problem.terms(res.x[None, :])
-    feasible = bool(problem.feasible(terms)[0])
     path = problem.paths(res.x)
     flown = problem.flown(path)
+    # feasible: the cost's hard terms hold (the swarm's check, on the Bresenham cells) and the
+    # validity layer passes the flown path sampled every half cell
+    check = problem.validity.path(flown)
+    feasible = bool(problem.feasible(terms)[0]) and bool(check.valid.all())
     row = terms.row(0)
     row["min_clearance_m"], row["over_unknown_share"] = flown_figures(problem, flown)
     return PlanResult(
@@ -166,6 +169,6 @@ def _plan_once(
         stop_reason=str(res.status),
         history_best=np.asarray(res.history_best),
         history_mean=np.asarray(res.history_mean),
-        violations=() if feasible else find_violations(problem, path),
+        violations=() if feasible else find_violations(problem, path, check),
         flown=flown,
     )

@@ -42,6 +42,7 @@ from planner.flown import CHORDS, climb_excess, flown_paths
 from planner.performance import Performance
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
+from terrain.validity import ValidityChecker
 from terrain.zones import Zone, inflated
 from terrain.zoneset import ZoneSet
 
@@ -116,6 +117,7 @@ class PlanningProblem:
     _check_grid: HeightGrid = field(init=False, repr=False)
     _unknown: HeightGrid | None = field(init=False, repr=False)
     safety_grid: HeightGrid = field(init=False, repr=False)
+    validity: ValidityChecker = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         g = self.grid
@@ -182,6 +184,22 @@ class PlanningProblem:
         set_(self, "safety_grid", safety)
         set_(self, "_check_grid", dilated(safety) if self.conservative else safety)
         set_(self, "_unknown", None if self.allow_unknown else unknown_mask_grid(g))
+        # the hard conditions on a result, on the densely sampled flown path: terrain +
+        # clearance on the safety heights, unknown terrain (the same mask as the cost), the zones
+        # grown by the margin when they must be avoided (terrain.validity)
+        set_(
+            self,
+            "validity",
+            ValidityChecker(
+                grid=g,
+                ground=safety.height_at,
+                terrain_clearance=self.clearance,
+                unknown=self._unknown,
+                allow_unknown=self.allow_unknown,
+                zones=self.zones if self.avoid_zones else (),
+                zone_margin=self.zone_margin,
+            ),
+        )
         if self._unknown is not None:
             for name, p in (("start", self.start), ("goal", self.goal)):
                 if float(self._unknown.heights[self._unknown.cell_of(p[0], p[1])]) > 0:

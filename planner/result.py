@@ -12,8 +12,7 @@ from planner.flown import TOLERANCE, fillets
 from planner.performance import Performance
 from planner.problem import PlanningProblem
 from planner.profile import PathSamples, sample_path
-from terrain.zones import inflated
-from terrain.zoneset import ZoneSet
+from terrain.validity import SegmentValidity
 
 FloatArray = npt.NDArray[np.float64]
 Status = Literal["feasible", "infeasible"]
@@ -107,11 +106,15 @@ def pieces(n_points: int, chords: int | None) -> tuple[list[str], list[int]]:
     return labels, legs
 
 
-def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violation, ...]:
+def find_violations(
+    problem: PlanningProblem, path: FloatArray, check: SegmentValidity | None = None
+) -> tuple[Violation, ...]:
     """Where a waypoint path breaks its constraints, on the path the aircraft flies: the deepest
     point below terrain + clearance of each colliding piece (a leg or a turn), each zone entered
     (with ``avoid_zones``), each piece climbing or descending beyond the aircraft's gradients and
-    each leg too short for the turn fillets at its ends."""
+    each leg too short for the turn fillets at its ends.  ``check``: the validity layer's verdict
+    on the flown path's pieces (computed when None); a piece it refuses that none of the above
+    explains is reported as such, so an infeasible result always says where."""
     flown = problem.flown(path)
     perf = problem.performance
     chords = problem.chords if perf is not None else None
@@ -140,8 +143,7 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
                 )
             )
     if problem.avoid_zones and problem.zones:
-        grown = tuple(inflated(z, problem.zone_margin) for z in problem.zones)
-        inside = ZoneSet.of(grown).segment_lengths(flown[:-1], flown[1:])
+        inside = problem.validity.segments(flown[:-1], flown[1:], clearance=False).zone_lengths
         per_label: dict[tuple[str, int], float] = {}
         for i, k in zip(*np.nonzero(inside > 0), strict=True):
             key = (labels[int(i)], int(k))
@@ -167,6 +169,24 @@ def find_violations(problem: PlanningProblem, path: FloatArray) -> tuple[Violati
     if perf is not None:
         out.extend(_climb_violations(perf, flown, labels, legs))
         out.extend(_turn_violations(perf, path))
+    if check is None:
+        check = problem.validity.path(flown)
+    named = {v.segment for v in out}
+    for i in np.flatnonzero(~check.valid).tolist():
+        if legs[i] in named:
+            continue
+        named.add(legs[i])
+        mid = 0.5 * (flown[i] + flown[i + 1])
+        out.append(
+            _at(
+                "terrain",
+                legs[i],
+                mid,
+                float(-check.clearance[i]),
+                f"{labels[i]} fails the validity check (terrain + clearance, unknown terrain or "
+                f"zones): {check.clearance[i]:.0f} m clearance on the densely sampled flown path",
+            )
+        )
     return tuple(out)
 
 

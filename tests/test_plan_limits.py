@@ -352,3 +352,29 @@ def test_inflated_zones_grow_by_the_margin_all_round() -> None:
     pts = np.column_stack([ring, np.full(len(ring), 200.0)])
     np.testing.assert_allclose(g.separation(pts), -25.0, atol=0.1)
     assert inflated(sq, 0.0) is sq
+
+
+def test_the_result_is_judged_by_the_validity_layer_too() -> None:
+    """A plan is feasible only when the validity layer (terrain.validity) passes its flown path
+    sampled every half cell, as well as the cost's hard terms; a piece the layer refuses that no
+    other check explains is still reported, with where it is."""
+    import dataclasses
+
+    from planner.result import find_violations
+    from terrain.zones import DangerZone
+
+    zone = DangerZone(2000.0, 2000.0, 600.0, id="v")
+    pr = _flat_problem(zones=(zone,), avoid_zones=True)
+    r = plan(pr, "ampso", seed=1, population=30, iterations=60)
+    assert r.feasible and pr.validity.path(r.path).valid.all()
+    through = np.array([1000.0, 2000.0, 100.0, 3000.0, 2000.0, 100.0])
+    check = pr.validity.path(pr.flown(pr.paths(through)))
+    assert not check.valid.all() and check.zone_lengths.max() == pytest.approx(600.0, rel=0.01)
+    assert not pr.feasible(pr.terms(through[None]))[0]
+    # a path the cost passes, with a refusal only the layer knows of: still named
+    clear = np.array([1000.0, 1000.0, 100.0, 3000.0, 1000.0, 100.0])
+    ok = pr.validity.path(pr.flown(pr.paths(clear)))
+    assert ok.valid.all() and find_violations(pr, pr.paths(clear), ok) == ()
+    refused = dataclasses.replace(ok, valid=np.r_[False, ok.valid[1:]])
+    (v,) = find_violations(pr, pr.paths(clear), refused)
+    assert v.segment == 0 and "fails the validity check" in v.detail
