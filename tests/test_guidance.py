@@ -5,6 +5,7 @@ avoider registry."""
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 
 from planner.mission import Mission
 from replay.avoidance import AvoidanceContext, make_avoider
-from replay.avoidance.registry import AVOIDERS, avoider_options
+from replay.avoidance.registry import AVOIDERS, avoider_class, avoider_options
 from replay.flightstack import FixedWingStack
 from replay.frames import ned_to_map, rotation_body_to_ned
 from replay.guidance import (
@@ -278,7 +279,14 @@ def test_avoider_options_on_the_command_line(
     assert not (tmp_path / "x.mcap").exists()
     assert main(["replay", "--help-avoider", "pso-ca"]) == 0
     text = capsys.readouterr().out
-    assert "--avoid-opt optimizer=...   default 'pso'" in text and "rs=..." in text
+    lines = text.splitlines()
+    assert lines[0].startswith("pso-ca: seed 000")
+    opts = avoider_options("pso-ca")
+    assert len(lines) == 1 + len(opts)  # one line per option, each with its default and meaning
+    assert re.fullmatch(r"  --avoid-opt optimizer=\.\.\. +default 'pso': optimiser .*", lines[1])
+    assert re.fullmatch(r"  --avoid-opt rs=\.\.\. +default None: safety radius RS .*", lines[3])
+    for name in AVOIDERS:  # every option of every avoider says what it means
+        assert set(avoider_options(name)) <= set(getattr(avoider_class(name), "OPTION_HELP", {}))
     assert main(["replay", "--help-avoider", "ctga"]) == 2
     assert "unknown avoider 'ctga'; available: none, pso-ca" in capsys.readouterr().err
 

@@ -111,7 +111,7 @@ import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -229,6 +229,27 @@ class PsoCaAvoider:
     """Radar-driven waypoint re-planning of seed 000 (see the module docstring)."""
 
     name = "pso-ca"
+    # what each option means, for ``terrapath replay --help-avoider pso-ca``
+    OPTION_HELP: ClassVar[dict[str, str]] = {
+        "optimizer": "optimiser of the new waypoint: pso (Table 2), ga, sa, mafoa, gcpso, mpso",
+        "params": "a full PsoCaParams (Python only; None: seed 000's)",
+        "rs": "safety radius RS kept from stationary obstacles, m (None: 1000, seed 000)",
+        "mxrsk": "risk distance of the f2 term, m (None: 3000; the paper gives none)",
+        "leg_margin": "extra clearance of the two new legs beyond RS, m",
+        "moving_rs": "radius kept from intruders, m (seed 000 §5.7)",
+        "act_range": "intruders are acted on below this range, m (seed 000 §5.7)",
+        "moving_hold_s": "no new decision for the same intruder within this time, s",
+        "head_on_ratio": "lateral / total intruder speed below which it counts as head-on",
+        "retry_s": "a failed decision is retried after this time, s",
+        "memory_s": "obstacles not seen for this long are forgotten, s",
+        "climb_share": "share of the steepest climb counted on when climbing over terrain",
+        "terrain_margin": "terrain returns this far below the flight altitude still count, m",
+        "terrain": "avoid terrain that rises above the flight altitude (true/false)",
+        "narrow": "when the search fails, retry with g1 = RS + leg margin (true/false)",
+        "rescue": "when the search fails, scan the zone on a grid and re-seed (true/false)",
+        "max_skip": "waypoints that may be left out when no leg reaches them clear",
+        "corners": "test the corners the autopilot cuts before each waypoint (true/false)",
+    }
 
     def __init__(
         self,

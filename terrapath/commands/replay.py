@@ -46,7 +46,7 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
         return
     import inspect
 
-    from replay.avoidance.registry import AVOIDERS, avoider_options
+    from replay.avoidance.registry import AVOIDERS, avoider_class, avoider_options
 
     if value not in AVOIDERS:
         raise click.BadParameter(
@@ -57,9 +57,12 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     opts = avoider_options(value)
     if not opts:
         click.echo("  no options")
+    meaning = getattr(avoider_class(value), "OPTION_HELP", {})
+    width = max(len(k) for k in opts) if opts else 0
     for k, default in opts.items():
         shown = "(required)" if default is inspect.Parameter.empty else repr(default)
-        click.echo(f"  --avoid-opt {k}=...   default {shown}")
+        text = f"  --avoid-opt {k + '=...':<{width + 4}}  default {shown}"
+        click.echo(f"{text}: {meaning[k]}" if k in meaning else text)
     ctx.exit(0)
 
 
