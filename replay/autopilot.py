@@ -159,6 +159,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.flown import Fillets, fillets
+from replay.atmosphere import check_offset, density, true_airspeed
 from replay.frames import N_CONTROLS, N_STATES, map_to_ned
 from replay.guidance import GuidanceRefused
 from replay.vehicle import _kernels as kern
@@ -279,6 +280,9 @@ class Gains:
     roll_wn: float
     course_wn: float
     pitch_wn: float
+    altitude: float = 0.0  # m AMSL, where the gains were designed (the air's density there)
+    airspeed_min: float = 0.0  # the true-airspeed envelope there (the vehicle's EAS envelope)
+    airspeed_max: float = math.inf
 
     def pack(
         self, params: VehicleParams, chi_inf: float, path_gain: float, orbit_gain: float = 4.0
@@ -317,8 +321,8 @@ class Gains:
         gk[kern.K_THETA_MAX] = math.radians(params.pitch_max_deg)
         gk[kern.K_CLIMB_MAX] = (1.0 - self.climb_margin) * params.climb_rate_max
         gk[kern.K_DESCENT_MAX] = (1.0 - self.climb_margin) * params.descent_rate_max
-        gk[kern.K_VA_MIN] = params.airspeed_min
-        gk[kern.K_VA_MAX] = params.airspeed_max
+        gk[kern.K_VA_MIN] = self.airspeed_min
+        gk[kern.K_VA_MAX] = self.airspeed_max
         gk[kern.K_CHI_INF] = chi_inf
         gk[kern.K_PATH] = path_gain
         gk[kern.K_VACC_MAX] = self.climb_slew
@@ -330,18 +334,24 @@ class Gains:
 
 
 def design_gains(
-    params: VehicleParams, airspeed: float | None = None, design: LoopDesign | None = None
+    params: VehicleParams,
+    airspeed: float | None = None,
+    design: LoopDesign | None = None,
+    altitude: float = 0.0,
+    temperature_offset: float = 0.0,
 ) -> Gains:
-    """Gains of every loop from the transfer-function coefficients at ``airspeed`` (default
-    cruise) and the level trim there (Beard & McLain §5.4 and ch. 6)."""
+    """Gains of every loop from the transfer-function coefficients at true ``airspeed`` (default
+    cruise) and the level trim there (Beard & McLain §5.4 and ch. 6), in the standard
+    atmosphere's air at ``altitude`` (m AMSL; ``temperature_offset`` K off standard)."""
     d = design or LoopDesign()
     p = params
     va = p.cruise_speed if airspeed is None else float(airspeed)
-    x_t, u_t = trim(p, va)
+    x_t, u_t = trim(p, va, altitude, temperature_offset=temperature_offset)
     alpha_t = math.atan2(x_t[5], x_t[3])
     de_t, dt_t = float(u_t[0]), float(u_t[3])
     _, _, _, g3, g4, _, _, _, _ = p.gammas()
-    rho, s, b, c = p.rho, p.S, p.b, p.c
+    rho = float(density(altitude, temperature_offset))
+    s, b, c = p.S, p.b, p.c
     lo, hi = p.control_limits()
 
     # roll
@@ -395,7 +405,7 @@ def design_gains(
     for rate in (p.climb_rate_max, -p.descent_rate_max):
         gam = math.asin(max(-0.9, min(0.9, rate / va)))
         try:
-            x_g, u_g = trim(p, va, gamma=gam)
+            x_g, u_g = trim(p, va, altitude, gam, temperature_offset=temperature_offset)
             slopes.append(((x_g[7] - x_t[7]) / gam, (u_g[0] - de_t) / gam))
         except InputError:  # e.g. an idle descent that needs negative thrust: gamma alone
             slopes.append((1.0, 0.0))
@@ -433,6 +443,9 @@ def design_gains(
         roll_wn=wn_phi,
         course_wn=wn_chi,
         pitch_wn=wn_th,
+        altitude=float(altitude),
+        airspeed_min=float(true_airspeed(p.airspeed_min, altitude, temperature_offset)),
+        airspeed_max=float(true_airspeed(p.airspeed_max, altitude, temperature_offset)),
     )
 
 
@@ -511,8 +524,11 @@ class Autopilot:
     """Waypoint-following autopilot of one vehicle.
 
     ``waypoints`` are map coordinates (W, 3): x east, y north, z altitude (m AMSL); the first leg
-    runs from W[0] to W[1]. ``airspeed`` is the commanded airspeed (default: the vehicle's cruise);
-    ``wind`` must be the wind the dynamics use (the autopilot reads true air data).
+    runs from W[0] to W[1]. ``airspeed`` is the commanded true airspeed (default: the vehicle's
+    cruise); ``wind`` and ``temperature_offset`` must be those the dynamics use (the autopilot
+    reads true air data). The gains are designed in the air at ``design_altitude`` (default: the
+    mean altitude of the waypoints, 0 without), where the vehicle's equivalent-airspeed envelope
+    gives the true airspeeds it accepts.
     ``terrain_height(x, y)`` (arrays of map coordinates -> heights) turns on terrain following.
     """
 
@@ -526,12 +542,19 @@ class Autopilot:
         wind: npt.ArrayLike = (0.0, 0.0, 0.0),
         terrain_height: TerrainHeight | None = None,
         gains: Gains | None = None,
+        temperature_offset: float = 0.0,
+        design_altitude: float | None = None,
     ) -> None:
         self.params = params
         self.config = config or AutopilotConfig()
+        self.temperature_offset = check_offset(temperature_offset)
+        if design_altitude is None:
+            wps = None if waypoints is None else np.asarray(waypoints, dtype=np.float64)
+            design_altitude = float(wps[:, 2].mean()) if wps is not None and wps.size else 0.0
+        self.design_altitude = float(design_altitude)
         self.airspeed = self._check_airspeed(params.cruise_speed if airspeed is None else airspeed)
-        self.gains = gains or design_gains(params, self._design_speed(), self.config.design)
-        self.packed = params.pack(wind)
+        self.gains = gains or self._design()
+        self.packed = params.pack(wind, self.temperature_offset)
         self.wind = np.asarray(wind, dtype=np.float64)
         cfg = self.config
         self.path_gain = (
@@ -577,17 +600,34 @@ class Autopilot:
             self._apply_modes()
 
     def _check_airspeed(self, airspeed: float) -> float:
+        """``airspeed`` (true) if it lies in the vehicle's envelope at the design altitude (the
+        envelope is in equivalent airspeed: its true speeds grow with altitude)."""
         p = self.params
         v = float(airspeed)
-        if not p.airspeed_min <= v <= p.airspeed_max:  # also refuses NaN
+        h, dt = self.design_altitude, self.temperature_offset
+        lo = float(true_airspeed(p.airspeed_min, h, dt))
+        hi = float(true_airspeed(p.airspeed_max, h, dt))
+        if not lo - 1e-9 <= v <= hi + 1e-9:  # also refuses NaN
+            at = f" at {h:.0f} m" if abs(h) >= 0.5 else ""
+            eas = (
+                f" (true airspeed; {p.airspeed_min:g}–{p.airspeed_max:g} m/s equivalent)"
+                if abs(h) >= 0.5 or dt
+                else " (airspeed_min, airspeed_max)"
+            )
             raise InputError(
-                f"commanded airspeed {v:g} m/s is outside {p.name}'s envelope "
-                f"{p.airspeed_min:g}–{p.airspeed_max:g} m/s (airspeed_min, airspeed_max)"
+                f"commanded airspeed {v:g} m/s is outside {p.name}'s envelope{at} "
+                f"{round(lo, 1):g}–{round(hi, 1):g} m/s{eas}"
             )
         return v
 
-    def _design_speed(self) -> float:
-        return self.airspeed
+    def _design(self) -> Gains:
+        return design_gains(
+            self.params,
+            self.airspeed,
+            self.config.design,
+            self.design_altitude,
+            self.temperature_offset,
+        )
 
     # ---- waypoints and overrides --------------------------------------------------------------
     @property
@@ -1049,7 +1089,7 @@ class Autopilot:
     def retune(self, airspeed: float) -> None:
         """Redesign the gains for a new commanded airspeed (and command it)."""
         self.airspeed = self._check_airspeed(airspeed)
-        self.gains = design_gains(self.params, self._design_speed(), self.config.design)
+        self.gains = self._design()
         self._gk = self.gains.pack(
             self.params,
             math.radians(self.config.approach_angle_deg),

@@ -95,8 +95,10 @@ class FixedWingStack:
         arrival_distance: float = ARRIVAL_M,
         terrain_height: TerrainHeight | None = None,
         terrain_clearance: float = 0.0,
+        temperature_offset: float = 0.0,
     ) -> None:
         self.params = params
+        self.temperature_offset = float(temperature_offset)
         self.name = params.name
         self.airspeed = float(params.cruise_speed if airspeed is None else airspeed)
         self.config = AutopilotConfig(
@@ -115,6 +117,7 @@ class FixedWingStack:
             airspeed=self.airspeed,
             config=self.config,
             terrain_height=terrain_height if terrain_clearance > 0 else None,
+            temperature_offset=self.temperature_offset,
         )
         self.arrival_distance = float(arrival_distance)
         self.switch_distance = 0.0 if turn_radius is not None else float(switch_distance)
@@ -146,8 +149,14 @@ class FixedWingStack:
         return self._x0.copy()
 
     def _trimmed_start(self) -> FloatArray:
+        """The start state; first the level trim at the mission's highest waypoint, where the
+        air is thinnest: a mission the aircraft cannot fly up there is refused before take-off,
+        naming the altitude and the speeds it can fly there."""
+        dtemp = self.temperature_offset
+        top = float(self._wp0[:, 2].max())
+        trim(self.params, self.airspeed, altitude=top, temperature_offset=dtemp)
         start, nxt = self._wp0[0], self._wp0[min(1, len(self._wp0) - 1)]
-        tr = trim(self.params, self.airspeed, altitude=float(start[2]))
+        tr = trim(self.params, self.airspeed, altitude=float(start[2]), temperature_offset=dtemp)
         x = np.array(tr.x, dtype=np.float64)
         x[PN], x[PE], x[PD] = start[1], start[0], -start[2]
         x[PSI] = math.atan2(nxt[0] - start[0], nxt[1] - start[1])

@@ -54,6 +54,7 @@ class ReplayRequest:
     coop_noise_velocity: float = 0.0
     coop_latency: float = 0.0
     margin: float = 0.0  # success needs every separation >= this (m)
+    temperature_offset: float = 0.0  # K off the ISA standard day
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
     terrain_mesh: bool = True
     command: str = "terrapath replay"  # recorded in the MCAP
@@ -116,6 +117,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         coop_noise_velocity=r.coop_noise_velocity,
         coop_latency=r.coop_latency,
         margin=r.margin,
+        temperature_offset=r.temperature_offset,
     )
     planned = estimated_flight_time(mission.waypoints, config.airspeed or mission.cruise_speed)
     limit = r.duration or 1.5 * planned + 600.0
@@ -166,7 +168,12 @@ def run_replay(
     if not out.lower().endswith(".mcap"):
         raise InputError(f"the output must end in .mcap; got {out!r}")
     mission_doc = mission_to_dict(mission, out)
-    extra = {"vehicle": prep.params.name, "source": str(r.source), "sensor": r.sensor}
+    extra = {
+        "vehicle": prep.params.name,
+        "source": str(r.source),
+        "sensor": r.sensor,
+        "atmosphere": f"ISA{r.temperature_offset:+g} K",
+    }
     if mission.terrain is not None:
         extra["dem"] = json.dumps(list(mission.terrain.dem))
     options = "".join(f" {k}={v}" for k, v in r.avoid_options.items())

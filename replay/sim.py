@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.mission import Mission
+from replay.atmosphere import check_offset
 from replay.autopilot import GUIDANCE_COLUMNS
 from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
 from replay.flightstack import FixedWingStack, FlightStack
@@ -71,6 +72,7 @@ class ReplayConfig:
     coop_noise_position: float = 0.0  # cooperative sensor: 1-sigma position noise (m)
     coop_noise_velocity: float = 0.0  # cooperative sensor: 1-sigma velocity noise (m/s)
     coop_latency: float = 0.0  # cooperative sensor: age of the reports (s)
+    temperature_offset: float = 0.0  # K off the ISA standard day (hot day > 0), within +-50
 
     def __post_init__(self) -> None:
         if self.avoid_period is not None and not (
@@ -81,6 +83,7 @@ class ReplayConfig:
             raise InputError(
                 f"replay setting 'avoid_period' must be a positive number; got {self.avoid_period!r}"
             )
+        check_offset(self.temperature_offset, "replay setting 'temperature_offset'")
         if self.sensor not in SENSORS:
             raise InputError(f"unknown sensor {self.sensor!r}; choose one of {', '.join(SENSORS)}")
         for name in ("coop_noise_position", "coop_noise_velocity", "coop_latency", "margin"):
@@ -131,6 +134,7 @@ def fixed_wing_stack(
         switch_distance=cfg.switch_distance,
         terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
         terrain_clearance=cfg.terrain_following or 0.0,
+        temperature_offset=cfg.temperature_offset,
     )
 
 

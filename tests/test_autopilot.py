@@ -263,7 +263,10 @@ def test_fly_records_and_reports_guidance() -> None:
     assert ap.guidance.airspeed_cmd == 22.0
     ap.clear_override()
     assert ap.guidance.mode == "waypoints"
-    with pytest.raises(InputError, match="outside aerosonde's envelope 18–40 m/s"):
+    with pytest.raises(
+        InputError,
+        match=r"outside aerosonde's envelope at 225 m 18.2–40.4 m/s \(true airspeed; 18–40 m/s",
+    ):
         ap.set_override(airspeed=50.0)
 
 

@@ -171,9 +171,15 @@ def test_refly_a_recorded_run_with_new_threats(
         ),
         (
             "terrapath: 1\nvehicle: aerosonde\ncruise: {speed: 200}\nwaypoints: [[0, 0, 100], [5000, 0, 100]]\n",
-            "cannot trim at 200 m/s.*level trim exists for",
+            "cannot trim at 200 m/s.*level trim exists there for",
         ),
         ("terrapath: 1\nvehicle: jumbo\nwaypoints: [[0, 0, 100], [5000, 0, 100]]\n", "jumbo"),
+        (  # fine at 100 m, below the stall speed up at 4,000 m (true airspeed: thinner air)
+            "terrapath: 1\nvehicle: aerosonde\ncruise: {speed: 16}\n"
+            "waypoints: [[0, 0, 100], [5000, 0, 4000], [9000, 0, 100]]\n",
+            r"aerosonde cannot trim at 16 m/s at 4000 m, below its stall speed.*level trim exists "
+            r"there for 1[78](\.\d)?–",
+        ),
     ],
 )
 def test_bad_missions(
@@ -395,3 +401,26 @@ def test_threat_shapes_are_recorded_when_the_active_set_changes_or_one_moves() -
     assert [w[1] for w in spy.writes[:3]] == [("always",), ("always", "pop"), ("always",)]
     assert sum(1 for w in spy.writes if "uav" in w[1]) == 21  # every period while it flies
     assert spy.writes[-1][1] == ("always", "late")
+
+
+def test_a_hot_day_is_flown_and_recorded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--temperature-offset: ISA + dT air (thinner on a hot day: the trim needs more angle of
+    attack), recorded in the MCAP's metadata; outside +-50 K it is refused."""
+    m = _write(
+        tmp_path / "m.yaml",
+        "terrapath: 1\nvehicle: aerosonde\nwaypoints: [[0, 0, 1500], [6000, 0, 1500]]\n",
+    )
+    std, hot = tmp_path / "std.mcap", tmp_path / "hot.mcap"
+    assert main(["replay", str(m), "--duration", "20", "-o", str(std)]) == CUT
+    args = ["replay", str(m), "--duration", "20", "--temperature-offset", "30", "-o", str(hot)]
+    assert main(args) == CUT
+    a, b = load_run(std), load_run(hot)
+    assert (a.metadata["atmosphere"], b.metadata["atmosphere"]) == ("ISA+0 K", "ISA+30 K")
+    alpha = [float(np.arctan2(r.states[0, 5], r.states[0, 3])) for r in (a, b)]
+    assert alpha[1] > alpha[0] + 0.002  # 10 % thinner air at the same true airspeed
+    capsys.readouterr()
+    bad = ["replay", str(m), "--temperature-offset", "60", "-o", str(tmp_path / "x.mcap")]
+    assert main(bad) == 2
+    assert "--temperature-offset" in capsys.readouterr().err

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from replay.atmosphere import density
 from replay.frames import rotation_body_to_ned
 from replay.vehicle import (
     PRESETS,
@@ -24,8 +25,8 @@ from replay.vehicle import (
     trim_range,
 )
 from replay.vehicle.dynamics import air_data, drag_coefficient, lift_coefficient
-from replay.vehicle.params import I_RHO
-from replay.vehicle.trim import alpha_max_lift
+from replay.vehicle.params import I_S, I_SPROP
+from replay.vehicle.trim import alpha_max_lift, best_climb
 from terrain.errors import DataFileError, InputError
 
 G = 9.81
@@ -102,6 +103,7 @@ def test_vehicle_file_with_base_and_overrides(tmp_path: Path) -> None:
         ("terrapath: 1\nmass: 3\n", InputError, "name", "missing"),
         ("terrapath: 1\nname: x\ncruise_speed: 99\n", InputError, "cruise_speed", "inside"),
         ("terrapath: 1\nname: x\nbank_max_deg: 95\n", InputError, "bank_max_deg", "(0, 80)"),
+        ("terrapath: 1\nname: x\nrho: 0.9\n", InputError, "rho", "ISA standard atmosphere"),
         ("- just\n- a list\n", DataFileError, None, "expected a mapping"),
         ("terrapath: 1\nname: [unclosed\n", DataFileError, None, "not valid YAML"),
     ],
@@ -131,8 +133,6 @@ def test_params_refuse_impossible_values_directly() -> None:
     base = PRESETS["aerosonde"]
     with pytest.raises(InputError, match="'Jxz'"):
         dataclasses.replace(base, Jxz=1.3)
-    with pytest.raises(InputError, match="'rho'"):
-        dataclasses.replace(base, rho=0.0)
     with pytest.raises(InputError, match="'airspeed_min/airspeed_max'"):
         dataclasses.replace(base, airspeed_min=50.0)
     with pytest.raises(InputError, match="'Cmalpha'"):
@@ -223,11 +223,16 @@ def test_cannot_trim_names_speed_and_range() -> None:
     with pytest.raises(InputError) as fast:
         trim(p, 100.0)
     msg = str(fast.value)
-    assert msg.startswith("aerosonde cannot trim at 100 m/s")
-    assert f"level trim exists for {lo:g}–{hi:g} m/s" in msg
+    assert msg.startswith("aerosonde cannot trim at 100 m/s at 0 m")
+    assert f"level trim exists there for {lo:g}–{hi:g} m/s (true airspeed)" in msg
     assert "thrust" in msg
-    with pytest.raises(InputError, match=r"cannot trim at 9 m/s, below its stall speed"):
+    with pytest.raises(InputError, match=r"cannot trim at 9 m/s at 0 m, below its stall speed"):
         trim(p, 9.0)
+    # up high the air is thinner: the stall speed (true airspeed) is higher, as 1/sqrt(sigma)
+    lo4, _ = trim_range(p, 4000.0)  # type: ignore[misc]
+    assert lo4 == pytest.approx(lo * math.sqrt(1.225 / 0.81935), abs=0.15)
+    with pytest.raises(InputError, match=r"cannot trim at 16 m/s at 4000 m, below its stall"):
+        trim(p, 16.0, 4000.0)
     # the ends of the range really are the ends
     trim(p, lo + 0.05)
     trim(p, hi - 0.05)
@@ -239,7 +244,7 @@ def test_cannot_trim_names_speed_and_range() -> None:
 def test_free_fall_without_aerodynamics_is_9_81() -> None:
     p = PRESETS["aerosonde"]
     packed = p.pack()
-    packed[I_RHO] = 0.0  # no air: no lift, drag, side force, moments or thrust
+    packed[I_S] = packed[I_SPROP] = 0.0  # no wing, no propeller: no lift, drag, moments, thrust
     rng = np.random.default_rng(3)
     x = np.zeros(12)
     x[3:6] = rng.normal(0, 10, 3)
@@ -271,13 +276,31 @@ def test_glide_with_zero_thrust_has_the_airframe_lift_to_drag(name: str) -> None
     u[3] = 0.0  # engine off, elevator held at its trim
     packed = p.pack()
     x = step_n(x, u, 30000, 0.01, packed)  # 300 s for the phugoid to settle
-    start = x.copy()
-    x = step_n(x, u, 30000, 0.01, packed)
-    glide_ratio = math.hypot(x[0] - start[0], x[1] - start[1]) / (x[2] - start[2])
-    va, alpha, _ = air_data(x)
-    cl = lift_coefficient(alpha, p) + p.CLde * u[0]
-    cd = drag_coefficient(alpha, p) + p.CDde * u[0]
-    assert glide_ratio == pytest.approx(cl / cd, rel=2e-3)  # tan(glide angle) = D / L
-    assert 6.0 < glide_ratio < 16.0  # a small UAV or a Cessna, not a brick or a sailplane
+    # the glide is quasi-steady: the air thickens as it descends, so the true airspeed falls
+    # slowly (a < 0) and the glide is that much flatter: tan(glide angle) = (D + m a) / L
     xdot = derivatives(x, u, p)
+    glide_ratio = math.hypot(xdot[0], xdot[1]) / xdot[2]
+    va, alpha, _ = air_data(x)
+    accel = float(x[3:6] @ xdot[3:6]) / va
+    assert -0.05 < accel < 0.0
+    qs = 0.5 * density(-x[2]) * va * va * p.S
+    lift = qs * (lift_coefficient(alpha, p) + p.CLde * u[0])
+    drag = qs * (drag_coefficient(alpha, p) + p.CDde * u[0])
+    assert glide_ratio == pytest.approx(lift / (drag + p.mass * accel), rel=2e-3)
+    assert 6.0 < glide_ratio < 16.0  # a small UAV or a Cessna, not a brick or a sailplane
     assert -xdot[2] == pytest.approx(-va / math.hypot(glide_ratio, 1.0), rel=2e-3)
+
+
+# the UAV presets join when their propellers have a power limit (issue 14): the 2012 propeller of
+# the Aerosonde still climbs at 60 deg at every altitude here
+@pytest.mark.parametrize("name", ["cessna172"])
+def test_the_climb_rate_falls_with_altitude(name: str) -> None:
+    """Thinner air, less thrust and lift: the best climb at cruise falls with height."""
+    p = PRESETS[name]
+    rates = [best_climb(p, p.cruise_speed * 1.1, h) for h in (0.0, 1500.0, 3000.0)]
+    assert rates[0] > rates[1] > rates[2] > 0.0
+    # the rate found is the limit: a little steeper does not trim
+    gamma = math.asin(rates[2] / (p.cruise_speed * 1.1))
+    trim(p, p.cruise_speed * 1.1, 3000.0, gamma)
+    with pytest.raises(InputError):
+        trim(p, p.cruise_speed * 1.1, 3000.0, gamma + 0.01)

@@ -21,6 +21,7 @@ import math
 import numba as nb
 import numpy as np
 
+from replay.atmosphere import density_at
 from replay.vehicle.params import (
     I_ALPHA0,
     I_B,
@@ -61,6 +62,7 @@ from replay.vehicle.params import (
     I_DE_MIN,
     I_DR_MAX,
     I_DR_MIN,
+    I_DTEMP,
     I_G1,
     I_G2,
     I_G3,
@@ -77,7 +79,6 @@ from replay.vehicle.params import (
     I_KTP,
     I_M,
     I_MASS,
-    I_RHO,
     I_S,
     I_SPROP,
     I_WD,
@@ -211,6 +212,7 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
     h2 = ur * ur + wr * wr
     va2 = h2 + vr * vr
     va = math.sqrt(va2)
+    rho = density_at(-x[2], p[I_DTEMP])  # the standard atmosphere at the aircraft's altitude
     if va >= 1e-6:
         alpha = atan2f(wr, ur)
         if h2 > 0.0:
@@ -223,7 +225,7 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
         sb = vr / va
         sb = min(max(sb, -1.0), 1.0)
         beta = math.asin(sb)
-        qs = 0.5 * p[I_RHO] * va2 * p[I_S]
+        qs = 0.5 * rho * va2 * p[I_S]
         inv2va = 0.5 / va
         cq = p[I_C] * inv2va
         bv = p[I_B] * inv2va
@@ -271,7 +273,7 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
             + p[I_CNDR] * dr
         )
     k = p[I_KMOTOR] * dt
-    fx += 0.5 * p[I_RHO] * p[I_SPROP] * p[I_CPROP] * max(0.0, k * k - va2)
+    fx += 0.5 * rho * p[I_SPROP] * p[I_CPROP] * max(0.0, k * k - va2)
     kw = p[I_KOMEGA] * dt
     ml -= p[I_KTP] * kw * kw
     out[0] = r00 * uu + r01 * vv + r02 * ww
@@ -631,7 +633,7 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     va_c = min(max(cmd[C_AIRSPEED], gk[K_VA_MIN]), gk[K_VA_MAX])
     e_v = va_c - va
     t_ff = gk[K_THRUST0] + p[I_MASS] * p[I_GRAV] * sgam
-    kprop = 0.5 * p[I_RHO] * p[I_SPROP] * p[I_CPROP]
+    kprop = 0.5 * density_at(-x[2], p[I_DTEMP]) * p[I_SPROP] * p[I_CPROP]
     dt_ff = math.sqrt(max(0.0, t_ff / kprop + va * va)) / p[I_KMOTOR]
     raw = dt_ff + gk[K_SPEED_P] * e_v + gk[K_SPEED_I] * ap[A_I_SPEED]
     thr = min(max(raw, 0.0), 1.0)

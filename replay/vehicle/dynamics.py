@@ -17,7 +17,8 @@ and ch. 4::
 Forces and moments: gravity ``m g [-sin(theta), cos(theta) sin(phi), cos(theta) cos(phi)]``;
 aerodynamics from the air-relative velocity ``[ur, vr, wr] = [u, v, w] - R^T wind`` (constant wind in
 NED, default zero): ``Va = |(ur, vr, wr)|``, ``alpha = atan2(wr, ur)``, ``beta = asin(vr / Va)``,
-dynamic pressure ``qbar = rho Va^2 / 2``::
+dynamic pressure ``qbar = rho Va^2 / 2`` with ``rho`` the ISA density at the altitude ``-pd``
+(:mod:`replay.atmosphere`; ``temperature_offset`` K off standard)::
 
     lift = qbar S (CL(alpha) + CLq c q / (2 Va) + CLde de)
     drag = qbar S (CD(alpha) + CDq c q / (2 Va) + CDde de)
@@ -42,6 +43,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from replay.atmosphere import RHO0, check_offset, density_at
 from replay.frames import N_STATES, rotation_body_to_ned
 from replay.vehicle import _kernels
 from replay.vehicle.params import G, VehicleParams
@@ -72,10 +74,10 @@ def drag_coefficient(alpha: float, p: VehicleParams) -> float:
     return p.CDp + cl * cl / (math.pi * p.e * p.aspect_ratio)
 
 
-def thrust(airspeed: float, throttle: float, p: VehicleParams) -> float:
-    """Propeller thrust (N), eq. 4.18 clamped at zero (see ``params.py``)."""
+def thrust(airspeed: float, throttle: float, p: VehicleParams, rho: float = RHO0) -> float:
+    """Propeller thrust (N) in air of density ``rho``, eq. 4.18 clamped at zero (``params.py``)."""
     k = p.k_motor * throttle
-    return 0.5 * p.rho * p.S_prop * p.C_prop * max(0.0, k * k - airspeed * airspeed)
+    return 0.5 * rho * p.S_prop * p.C_prop * max(0.0, k * k - airspeed * airspeed)
 
 
 def air_data(x: npt.ArrayLike, wind: npt.ArrayLike = (0.0, 0.0, 0.0)) -> tuple[float, float, float]:
@@ -95,10 +97,16 @@ def clip_controls(u: npt.ArrayLike, p: VehicleParams) -> FloatArray:
 
 
 def forces_moments(
-    x: npt.ArrayLike, u: npt.ArrayLike, p: VehicleParams, wind: npt.ArrayLike = (0.0, 0.0, 0.0)
+    x: npt.ArrayLike,
+    u: npt.ArrayLike,
+    p: VehicleParams,
+    wind: npt.ArrayLike = (0.0, 0.0, 0.0),
+    temperature_offset: float = 0.0,
 ) -> tuple[FloatArray, FloatArray]:
-    """Body-frame force (N) and moment (N m) on the aircraft, gravity included."""
+    """Body-frame force (N) and moment (N m) on the aircraft, gravity included, in the standard
+    atmosphere at its altitude (``temperature_offset`` K off standard)."""
     s = np.asarray(x, dtype=np.float64)
+    rho = density_at(-float(s[2]), check_offset(temperature_offset))
     de, da, dr, dt = clip_controls(u, p)
     phi, theta = s[6], s[7]
     pr, qr, rr = s[9], s[10], s[11]
@@ -113,7 +121,7 @@ def forces_moments(
     mom = np.zeros(3)
     va, alpha, beta = air_data(s, wind)
     if va >= 1e-6:
-        qbar = 0.5 * p.rho * va * va
+        qbar = 0.5 * rho * va * va
         cq = p.c / (2.0 * va)
         bv = p.b / (2.0 * va)
         lift = qbar * p.S * (lift_coefficient(alpha, p) + p.CLq * cq * qr + p.CLde * de)
@@ -160,20 +168,24 @@ def forces_moments(
                 + p.Cndr * dr
             )
         )
-    f[0] += thrust(va, dt, p)
+    f[0] += thrust(va, dt, p, rho)
     kw = p.k_Omega * dt
     mom[0] -= p.k_Tp * kw * kw
     return f, mom
 
 
 def derivatives(
-    x: npt.ArrayLike, u: npt.ArrayLike, params: VehicleParams, wind: npt.ArrayLike = (0.0, 0.0, 0.0)
+    x: npt.ArrayLike,
+    u: npt.ArrayLike,
+    params: VehicleParams,
+    wind: npt.ArrayLike = (0.0, 0.0, 0.0),
+    temperature_offset: float = 0.0,
 ) -> FloatArray:
     """xdot = f(x, u) of the 12-state model (numpy reference of the compiled kernel)."""
     s = np.asarray(x, dtype=np.float64)
     if s.shape != (N_STATES,):
         raise InputError(f"state must have {N_STATES} elements, found shape {s.shape}")
-    f, mom = forces_moments(s, u, params, wind)
+    f, mom = forces_moments(s, u, params, wind, temperature_offset)
     uu, vv, ww, phi, theta, psi, pr, qr, rr = s[3:12]
     m = params.mass
     _, g1, g2, g3, g4, g5, g6, g7, g8 = params.gammas()
@@ -214,7 +226,8 @@ def rk4_step(
 class Aircraft:
     """The vehicle as a system object: state, time, ``step`` (compiled RK4 at ``dt``).
 
-    ``wind`` is the constant velocity of the air mass (NED, m/s).
+    ``wind`` is the constant velocity of the air mass (NED, m/s); ``temperature_offset`` the day's
+    offset from the standard atmosphere (K).
     """
 
     def __init__(
@@ -223,6 +236,7 @@ class Aircraft:
         x0: npt.ArrayLike,
         *,
         wind: npt.ArrayLike = (0.0, 0.0, 0.0),
+        temperature_offset: float = 0.0,
         dt: float = DT,
         t0: float = 0.0,
     ) -> None:
@@ -233,7 +247,7 @@ class Aircraft:
             raise InputError(f"time step must be > 0 s, found {dt!r}")
         self.params = params
         self.wind = np.asarray(wind, dtype=np.float64)
-        self.packed = params.pack(self.wind)
+        self.packed = params.pack(self.wind, temperature_offset)
         self.dt = float(dt)
         self.x = x
         self.t = float(t0)

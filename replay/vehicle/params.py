@@ -18,6 +18,10 @@ Aerodynamic model (Beard & McLain eqs 4.9-4.11, the "nonlinear" lift and drag)::
     CD(a) = CDp + (CL0 + CLalpha a)^2 / (pi e AR),   AR = b^2 / S
 
 so ``M`` and ``alpha0`` set where the linear lift curve blends into the flat plate (stall).
+Air density ``rho`` is the ISA standard atmosphere's at the aircraft's altitude
+(:mod:`replay.atmosphere`, optionally on a day ``temperature_offset`` K off standard, given to
+:meth:`VehicleParams.pack`): the aerodynamics and the propeller lose force with height.
+
 Propulsion (Beard & McLain eq. 4.18, the 2012 propeller model)::
 
     T = 1/2 rho S_prop C_prop ((k_motor delta_t)^2 - Va^2),   clamped at T >= 0
@@ -43,6 +47,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.performance import Performance
+from replay.atmosphere import check_offset
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -64,7 +69,6 @@ class VehicleParams:
     S: float  # wing area, m^2
     b: float  # span, m
     c: float  # mean aerodynamic chord, m
-    rho: float  # air density, kg/m^3 (constant: no atmosphere model)
     e: float  # Oswald efficiency of the drag polar
     # longitudinal derivatives
     CL0: float
@@ -182,9 +186,13 @@ class VehicleParams:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
-    def pack(self, wind: npt.ArrayLike = (0.0, 0.0, 0.0)) -> FloatArray:
+    def pack(
+        self, wind: npt.ArrayLike = (0.0, 0.0, 0.0), temperature_offset: float = 0.0
+    ) -> FloatArray:
         """The flat float64 array the compiled kernels take (``I_*`` layout), with a constant
-        wind vector (NED, m/s: the velocity of the air mass)."""
+        wind vector (NED, m/s: the velocity of the air mass) and the day's temperature offset
+        from the standard atmosphere (K, within +-50)."""
+        dtemp = check_offset(temperature_offset)
         w = np.asarray(wind, dtype=np.float64).reshape(-1)
         if w.shape != (3,) or not np.isfinite(w).all():
             raise InputError(f"wind must be three finite numbers (north, east, down); got {wind!r}")
@@ -197,7 +205,7 @@ class VehicleParams:
         p[I_S] = self.S
         p[I_B] = self.b
         p[I_C] = self.c
-        p[I_RHO] = self.rho
+        p[I_DTEMP] = dtemp
         p[I_KIND] = 1.0 / (math.pi * self.e * self.aspect_ratio)
         for i, name in _PACKED_DERIVS:
             p[i] = getattr(self, name)
@@ -213,7 +221,7 @@ FIELD_NAMES: tuple[str, ...] = tuple(f.name for f in fields(VehicleParams))
 # ---- packed layout (shared with _kernels.py; numba reads these module globals as constants) ----
 I_MASS, I_JY = 0, 1
 I_G1, I_G2, I_G3, I_G4, I_G5, I_G6, I_G7, I_G8 = range(2, 10)
-I_S, I_B, I_C, I_RHO, I_KIND = range(10, 15)
+I_S, I_B, I_C, I_DTEMP, I_KIND = range(10, 15)
 I_CL0, I_CLA, I_CLQ, I_CLDE, I_CDP, I_CDQ, I_CDDE = range(15, 22)
 I_CM0, I_CMA, I_CMQ, I_CMDE = range(22, 26)
 I_CY0, I_CYB, I_CYP, I_CYR, I_CYDA, I_CYDR = range(26, 32)
@@ -264,7 +272,7 @@ _PACKED_DERIVS: tuple[tuple[int, str], ...] = (
 )
 
 # ---- validation ------------------------------------------------------------------------------
-_POSITIVE = ("mass", "Jx", "Jy", "Jz", "S", "b", "c", "rho", "e", "M", "cruise_speed")
+_POSITIVE = ("mass", "Jx", "Jy", "Jz", "S", "b", "c", "e", "M", "cruise_speed")
 _NON_NEGATIVE = ("S_prop", "C_prop", "k_motor", "k_Tp", "k_Omega")
 
 

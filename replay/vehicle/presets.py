@@ -18,7 +18,7 @@ Presets (``load_vehicle(name)``):
     derivatives are kept); inertias scaled as ``Jx, Jz, Jxz ~ m b^2`` (wing-dominated) and
     ``Jy ~ m S``; parasitic drag lowered to CDp = 0.025 (a clean sailplane-like airframe: best
     L/D about 20, L/D 18 at 15 m/s); propeller resized (same model) so that level flight tops out
-    near 25 m/s and a 3.5 m/s climb is available at 15 m/s; rho = 1.225 (ISA sea level).
+    near 25 m/s and a 3.5 m/s climb is available at 15 m/s (ISA sea level).
     Climb limit 3 m/s (the paper), descent limit 1.5 m/s (a clean glider sinks 0.8 m/s at idle and
     has no airbrakes), envelope 11-22 m/s. The Aerosonde's small rudder makes its 30 deg turns at
     15 m/s about 9 % tighter than V^2 / (g tan(phi)) (see ``replay/autopilot.py``).
@@ -84,7 +84,6 @@ AEROSONDE = VehicleParams(
     S=0.55,
     b=2.8956,
     c=0.18994,
-    rho=1.2682,
     e=0.9,
     CL0=0.28,
     CLalpha=3.45,
@@ -171,7 +170,6 @@ SOLAR_UAV = _scaled(
     mass=6.0,
     b=3.5,
     S=0.75,
-    rho=1.225,
     CDp=0.025,
     S_prop=_prop_for(0.0239, 1.225),
     k_motor=30.6,
@@ -194,7 +192,6 @@ SMALL_UAS = _scaled(
     mass=3.0,
     b=2.2,
     S=0.48,
-    rho=1.225,
     S_prop=_prop_for(0.00746, 1.225),
     k_motor=39.9,
     cruise_speed=15.0,
@@ -220,7 +217,6 @@ CESSNA172 = VehicleParams(
     S=_c172_S,
     b=_c172_b,
     c=4.9 * _FT,
-    rho=1.225,
     e=1.0 / (math.pi * (_c172_b**2 / _c172_S) * 0.054),
     CL0=0.25,
     CLalpha=5.5,
@@ -329,6 +325,12 @@ def vehicle_from_dict(data: Any, path: str | None = None) -> VehicleParams:
         raise DataFileError(
             f"{where(path)}expected a mapping (terrapath: 1, name: ..., base: ..., fields), "
             f"found {type(data).__name__}"
+        )
+    if "rho" in data:
+        raise InputError(
+            f"{where(path, 'rho')}air density is no longer a vehicle parameter: it comes from the "
+            "ISA standard atmosphere at the aircraft's altitude; remove it (replay "
+            "--temperature-offset sets a hot or cold day)"
         )
     unknown = sorted(str(k) for k in data if k not in FILE_KEYS)
     if unknown:

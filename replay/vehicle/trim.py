@@ -32,9 +32,10 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import least_squares
 
+from replay.atmosphere import density_at
 from replay.vehicle import _kernels
 from replay.vehicle.dynamics import lift_coefficient
-from replay.vehicle.params import VehicleParams
+from replay.vehicle.params import I_DTEMP, VehicleParams
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -71,20 +72,22 @@ def _state(z: FloatArray, va: float, altitude: float, psi_dot: float) -> FloatAr
     return x
 
 
-def _initial(params: VehicleParams, va: float, gamma: float, turn_radius: float) -> FloatArray:
+def _initial(
+    params: VehicleParams, va: float, gamma: float, turn_radius: float, rho: float
+) -> FloatArray:
     phi = (
         0.0
         if math.isinf(turn_radius)
         else math.atan(va * va * math.cos(gamma) / (9.81 * turn_radius))
     )
-    qs = 0.5 * params.rho * va * va * params.S
+    qs = 0.5 * rho * va * va * params.S
     cl = params.weight * math.cos(gamma) / (qs * max(math.cos(phi), 0.2))
     alpha = (cl - params.CL0) / params.CLalpha
     alpha = min(max(alpha, -0.2), alpha_max_lift(params) - 1e-3)
     de = -(params.Cm0 + params.Cmalpha * alpha) / params.Cmde
     drag = qs * (params.CDp + cl * cl / (math.pi * params.e * params.aspect_ratio))
     need = max(drag + params.weight * math.sin(gamma), 0.0)
-    kp = 0.5 * params.rho * params.S_prop * params.C_prop
+    kp = 0.5 * rho * params.S_prop * params.C_prop
     dt = math.sqrt(need / kp + va * va) / params.k_motor
     z = np.array([alpha, phi, alpha + gamma, de, 0.0, 0.0, dt])
     zlo, zhi = _bounds(params)
@@ -121,7 +124,8 @@ def _solve(
 
     zlo, zhi = _bounds(params)
     starts = [] if z0 is None else [np.clip(z0, zlo, zhi)]
-    starts.append(_initial(params, va, gamma, turn_radius))
+    rho = density_at(float(altitude), float(packed[I_DTEMP]))
+    starts.append(_initial(params, va, gamma, turn_radius, rho))
     best_z, best_r = starts[0], math.inf
     for s in starts:
         sol = least_squares(
@@ -148,12 +152,14 @@ def trim(
     altitude: float = 0.0,
     gamma: float = 0.0,
     turn_radius: float = math.inf,
+    temperature_offset: float = 0.0,
 ) -> Trim:
-    """Trimmed state and controls at ``airspeed`` (m/s), ``altitude`` (m up), flight-path angle
+    """Trimmed state and controls at true ``airspeed`` (m/s), ``altitude`` (m AMSL: the standard
+    atmosphere's density there, ``temperature_offset`` K off standard), flight-path angle
     ``gamma`` (rad, climb positive) and ``turn_radius`` (m; + right, - left, inf straight).
 
     Raises :class:`InputError` when the aircraft cannot hold that flight (stall, not enough thrust,
-    elevator travel), naming the speed range in which it can.
+    elevator travel), naming the altitude and the speed range in which it can.
     """
     va = float(airspeed)
     if not math.isfinite(va) or va <= 0:
@@ -164,10 +170,10 @@ def trim(
         raise InputError(
             f"trim turn radius must be non-zero (inf for straight), found {turn_radius!r}"
         )
-    packed = params.pack()
+    packed = params.pack(temperature_offset=temperature_offset)
     z, r = _solve(params, packed, va, altitude, gamma, turn_radius, None)
     if r >= TOLERANCE:
-        raise InputError(_cannot_trim(params, va, altitude, gamma, turn_radius))
+        raise InputError(_cannot_trim(params, va, altitude, gamma, turn_radius, temperature_offset))
     psi_dot = 0.0 if math.isinf(turn_radius) else va * math.cos(gamma) / turn_radius
     return Trim(_state(z, va, altitude, psi_dot), np.array(z[3:7], dtype=np.float64))
 
@@ -177,9 +183,11 @@ def trim_range(
     altitude: float = 0.0,
     gamma: float = 0.0,
     turn_radius: float = math.inf,
+    temperature_offset: float = 0.0,
 ) -> tuple[float, float] | None:
-    """(lowest, highest) airspeed (m/s, to 0.1 m/s) at which the manoeuvre trims, or None."""
-    packed = params.pack()
+    """(lowest, highest) true airspeed (m/s, to 0.1 m/s) at which the manoeuvre trims at
+    ``altitude``, or None."""
+    packed = params.pack(temperature_offset=temperature_offset)
     step = params.cruise_speed / 10.0
     speeds = np.arange(step, 4.0 * params.cruise_speed + step, step)
 
@@ -216,7 +224,12 @@ def trim_range(
 
 
 def _cannot_trim(
-    params: VehicleParams, va: float, altitude: float, gamma: float, turn_radius: float
+    params: VehicleParams,
+    va: float,
+    altitude: float,
+    gamma: float,
+    turn_radius: float,
+    temperature_offset: float = 0.0,
 ) -> str:
     what = "level" if gamma == 0 and math.isinf(turn_radius) else "this"
     cond = []
@@ -225,9 +238,14 @@ def _cannot_trim(
     if not math.isinf(turn_radius):
         cond.append(f"turn radius {turn_radius:g} m")
     at = f" ({', '.join(cond)})" if cond else ""
-    rng = trim_range(params, altitude, gamma, turn_radius)
+    day = f", ISA{temperature_offset:+g} K" if temperature_offset else ""
+    where_ = f" at {altitude:.0f} m{day}"
+    rng = trim_range(params, altitude, gamma, turn_radius, temperature_offset)
     if rng is None:
-        return f"{params.name} cannot trim at {va:g} m/s{at}: no airspeed trims {what} flight"
+        return (
+            f"{params.name} cannot trim at {va:g} m/s{where_}{at}: no airspeed trims {what} "
+            "flight there"
+        )
     lo, hi = rng
     why = (
         "below its stall speed (or elevator travel)"
@@ -237,6 +255,32 @@ def _cannot_trim(
         else "outside its controls' travel"
     )
     return (
-        f"{params.name} cannot trim at {va:g} m/s{at}, {why}: "
-        f"{what} trim exists for {lo:g}–{hi:g} m/s"
+        f"{params.name} cannot trim at {va:g} m/s{where_}{at}, {why}: "
+        f"{what} trim exists there for {lo:g}–{hi:g} m/s (true airspeed)"
     )
+
+
+def best_climb(
+    params: VehicleParams,
+    airspeed: float,
+    altitude: float = 0.0,
+    temperature_offset: float = 0.0,
+) -> float:
+    """The steepest steady climb rate (m/s) at true ``airspeed`` and ``altitude``: the largest
+    flight-path angle that still trims (full throttle at most), to 1 mm/s; 0 when not even level
+    flight trims there."""
+    packed = params.pack(temperature_offset=temperature_offset)
+    va = float(airspeed)
+
+    def ok(gamma: float) -> bool:
+        return _solve(params, packed, va, altitude, gamma, math.inf, None)[1] < TOLERANCE
+
+    if not ok(0.0):
+        return 0.0
+    lo, hi = 0.0, math.radians(60.0)
+    if ok(hi):
+        return va * math.sin(hi)
+    while va * (math.sin(hi) - math.sin(lo)) > 1e-3:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return va * math.sin(lo)

@@ -208,6 +208,15 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "stay >= this many metres (e.g. FGA's d_m, CTGA's R_safe); reported with the metrics.",
 )
 @click.option(
+    "--temperature-offset",
+    type=click.FloatRange(min=-50.0, max=50.0),
+    default=0.0,
+    show_default=True,
+    help="The day's temperature offset from the ISA standard atmosphere (K; a hot day > 0: "
+    "thinner air, less lift and thrust). The air's density at the aircraft's altitude comes "
+    "from the standard atmosphere.",
+)
+@click.option(
     "--terrain-following",
     type=click.FloatRange(min=0.0),
     default=None,
@@ -239,6 +248,7 @@ def replay_cmd(
     coop_noise: tuple[float, float],
     coop_latency: float,
     margin: float,
+    temperature_offset: float,
     terrain_following: float | None,
     no_terrain_mesh: bool,
     output: str,
@@ -289,6 +299,7 @@ def replay_cmd(
         coop_noise_velocity=coop_noise[1],
         coop_latency=coop_latency,
         margin=margin,
+        temperature_offset=temperature_offset,
         terrain_following=terrain_following,
         terrain_mesh=not no_terrain_mesh,
         command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
