@@ -286,7 +286,20 @@ class Jsbsim:
 
         self._jsbsim = jsbsim
         jsbsim.set_logger(jsbsim.DefaultLogger(jsbsim.LogLevel.FATAL))
-        fdm = jsbsim.FGFDMExec(None)
+        self.fdm = self._load()
+        self.name = "JSBSim c172p"
+        self._init(50.0, 0.0)
+        weight = float(self.fdm["inertia/weight-lbs"])
+        if abs(weight - GROSS_LB) > 0.5:
+            raise RuntimeError(f"c172p loaded to {weight:.1f} lb, expected {GROSS_LB:g} lb")
+        self.cg_in = float(self.fdm["inertia/cg-x-in"])
+        self.g = float(self.fdm["accelerations/gravity-ft_sec2"]) * FT
+
+    def _load(self) -> Any:
+        """A fresh c172p, loaded to 2,300 lb. The flown manoeuvres start from a fresh one: JSBSim's
+        trimmer starts from what the last trim left, and after a failed search its turn trim can
+        fail where a fresh model trims at once."""
+        fdm = self._jsbsim.FGFDMExec(None)
         fdm.set_debug_level(0)
         if not fdm.load_model("c172p"):
             raise RuntimeError("JSBSim could not load its c172p model")
@@ -298,14 +311,7 @@ class Jsbsim:
         fdm["inertia/pointmass-weight-lbs[3]"] = 35.0
         fdm["propulsion/fuel_freeze"] = 1
         fdm.set_dt(DT_S)
-        self.fdm = fdm
-        self.name = "JSBSim c172p"
-        self._init(50.0, 0.0)
-        weight = float(fdm["inertia/weight-lbs"])
-        if abs(weight - GROSS_LB) > 0.5:
-            raise RuntimeError(f"c172p loaded to {weight:.1f} lb, expected {GROSS_LB:g} lb")
-        self.cg_in = float(fdm["inertia/cg-x-in"])
-        self.g = float(fdm["accelerations/gravity-ft_sec2"]) * FT
+        return fdm
 
     def __getitem__(self, prop: str) -> float:
         return float(self.fdm[prop])
@@ -370,6 +376,7 @@ class Jsbsim:
         return self["propulsion/engine/engine-rpm"], self["propulsion/engine/power-hp"]
 
     def turn(self, airspeed: float, altitude: float, bank: float, seconds: float) -> Series:
+        self.fdm = self._load()
         self._init(airspeed, altitude, bank=bank)
         if not self._trim(5):
             raise RuntimeError(f"JSBSim cannot trim a {math.degrees(bank):g} deg turn")
@@ -378,6 +385,7 @@ class Jsbsim:
     def doublet(
         self, airspeed: float, altitude: float, amplitude: float, pulse: float, seconds: float
     ) -> Series:
+        self.fdm = self._load()
         self._init(airspeed, altitude)
         if not self._trim(1):
             raise RuntimeError(f"JSBSim cannot trim level flight at {airspeed:g} m/s")
@@ -393,6 +401,7 @@ class Jsbsim:
         return self._fly(controls, seconds)
 
     def roll(self, airspeed: float, altitude: float, direction: int, seconds: float) -> Series:
+        self.fdm = self._load()
         self._init(airspeed, altitude)
         if not self._trim(1):
             raise RuntimeError(f"JSBSim cannot trim level flight at {airspeed:g} m/s")
