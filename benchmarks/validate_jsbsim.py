@@ -296,9 +296,8 @@ class Jsbsim:
         self.g = float(self.fdm["accelerations/gravity-ft_sec2"]) * FT
 
     def _load(self) -> Any:
-        """A fresh c172p, loaded to 2,300 lb. The flown manoeuvres start from a fresh one: JSBSim's
-        trimmer starts from what the last trim left, and after a failed search its turn trim can
-        fail where a fresh model trims at once."""
+        """A fresh c172p, loaded to 2,300 lb. The flown manoeuvres and every condition after a failed
+        trim start from a fresh one: JSBSim's trimmer starts from what the last trim left."""
         fdm = self._jsbsim.FGFDMExec(None)
         fdm.set_debug_level(0)
         if not fdm.load_model("c172p"):
@@ -341,6 +340,9 @@ class Jsbsim:
         try:
             self.fdm["simulation/do_simple_trim"] = mode
         except self._jsbsim.TrimFailureError:
+            # a failed trim can leave the model in a state later trims do not recover from
+            # (seen: NaN rpm for the rest of the run), so the next condition starts afresh
+            self.fdm = self._load()
             return False
         return True
 
