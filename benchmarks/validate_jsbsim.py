@@ -62,7 +62,7 @@ The reference, JSBSim's ``c172p`` as shipped with the ``jsbsim`` package:
   in this engine model at 0, 1,500 and 3,000 m (full rich at sea level).
 - The ground is put 1,000 m below sea level (``ic/terrain-elevation-ft``) so that flights at
   0 m are clear of the gear and of ground effect. JSBSim's atmosphere is its standard atmosphere
-  (1.225 kg/m^3 at sea level, the same as our constant density); all airspeeds are true airspeeds.
+  (1.225 kg/m^3 at sea level), as ours (replay.atmosphere); all airspeeds are true airspeeds.
 - Its ``c172x`` counts lift twice and is not a usable reference.
 
 Figures are appended to benchmarks/RESULTS.md through ``_record.record`` (machine, date, command)
@@ -713,7 +713,7 @@ def main(argv: list[str] | None = None) -> int:
     summary = (
         f"jsbsim {jsbsim.__version__}; {passed}/{judged} targets met; "
         f"c172p cg {ref.cg_in:.1f} in; {'quick run' if args.quick else 'full run'}; "
-        "ours has constant density today (same figures at every altitude)"
+        "both fly the ISA standard atmosphere"
     )
     if args.no_record:
         print(f"\n## {title}\n- notes: {summary}\n\n| figure | value | target |\n|---|---|---|")

@@ -117,14 +117,15 @@ and the limit is the vehicle's, not the command's — flown climb rates stay wit
 
 Airspeed (throttle), ``Va' = -a_V1 Va + a_V2 delta_t``::
 
-    a_V1 = rho Va* S (CD(alpha*) + CDde de*) / m + rho S_prop C_prop Va* / m,
-    a_V2 = rho S_prop C_prop k_motor^2 delta_t* / m
+    a_V1 = rho Va* S (CD(alpha*) + CDde |de*|) / m - (dT/dVa)* / m,
+    a_V2 = (dT/d delta_t)* / m            (slopes of the engine model at the trim, numerically)
     k_i = wn_V^2 / a_V2,  k_p = max(0, (2 zeta wn_V - a_V1) / a_V2),  wn_V = 0.5 rad/s, zeta = 1
     delta_t = delta_t_ff + k_p e_V + k_i int e_V,
-    delta_t_ff: the throttle giving T* + m g sin(gamma_c) at the current airspeed
+    delta_t_ff: the throttle giving T* + m g sin(gamma_c) at the current airspeed and air density
+    (the engine model inverted by bisection)
 
-The throttle's lower saturation for anti-windup is ``Va / k_motor``, below which the propeller
-gives no thrust (the clamped 2012 propeller model), not 0.
+The throttle's lower saturation for anti-windup is the throttle of zero thrust at the current
+airspeed (below it the propeller only brakes), not 0.
 
 Yaw (rudder): sideslip hold (coordinated flight in Beard & McLain's sense, beta = 0, on
 ``sin(beta) = v_r / Va``) plus a yaw damper washed out with tau = 1 s (so steady turns are not
@@ -135,9 +136,9 @@ opposed), written as a yawing-moment coefficient and divided by Cndr (no rudder 
 
 (the rudder doubles the weathercock stability and the yaw damping and trims the sideslip out).
 With beta = 0 the rudder's own side force (CYdr delta_r) still acts, so a steady 30 deg turn is
-tighter or wider than V^2 / (g tan(phi)) by that force: measured -2.1 % (aerosonde), +0.5 %
-(cessna172), -9 % (solar-uav) and -7.5 % (small-uas, whose scaled airframes fly tighter turns at
-their low speed). Holding zero side force instead was tried and rejected: with the Aerosonde's
+tighter or wider than V^2 / (g tan(phi)) by that force: the trimmed 30 deg turn at cruise is
+-1.2 % (aerosonde), +0.5 % (cessna172), -8.5 % (solar-uav) and -6.7 % (small-uas, whose scaled
+airframes fly tighter turns at their low speed). Holding zero side force instead was tried and rejected: with the Aerosonde's
 CYdr < 0 the required sideslip grows with the rudder and the loop runs into the stop.
 
 Every saturation (bank, pitch, surfaces, throttle) has anti-windup: an integrator stops while its
@@ -390,15 +391,23 @@ def design_gains(
         pitch_d = 0.0
     k_dc = pitch_p * a_th3 / (a_th2 + pitch_p * a_th3)
 
-    # airspeed
-    kprop = rho * p.S_prop * p.C_prop
-    a_v1 = (
-        rho * va * s * (drag_coefficient(alpha_t, p) + p.CDde * de_t) / p.mass + kprop * va / p.mass
-    )
-    a_v2 = kprop * p.k_motor**2 * dt_t / p.mass
+    # airspeed: the thrust's slopes in airspeed and throttle at the trim, numerically from the
+    # engine model (params.py)
+    packed = p.pack(temperature_offset=temperature_offset)
+
+    def thrust_at(v: float, throttle: float) -> float:
+        return float(kern.propeller(v, min(max(throttle, 0.0), 1.0), rho, packed)[0])
+
+    dv, ddt = 0.01 * va, 0.01
+    t_dv = (thrust_at(va + dv, dt_t) - thrust_at(va - dv, dt_t)) / (2.0 * dv)
+    lo_t, hi_t = max(dt_t - ddt, 0.0), min(dt_t + ddt, 1.0)
+    t_ddt = (thrust_at(va, hi_t) - thrust_at(va, lo_t)) / (hi_t - lo_t)
+    cd_t = drag_coefficient(alpha_t, p) + p.CDde * abs(de_t)
+    a_v1 = rho * va * s * cd_t / p.mass - t_dv / p.mass
+    a_v2 = max(t_ddt / p.mass, 1e-6)
     speed_i = d.airspeed_wn**2 / a_v2
     speed_p = max(0.0, (2.0 * d.airspeed_zeta * d.airspeed_wn - a_v1) / a_v2)
-    thrust_t = 0.5 * kprop * max(0.0, (p.k_motor * dt_t) ** 2 - va * va)
+    thrust_t = thrust_at(va, dt_t)
 
     # pitch and elevator feed-forwards from the climb and descent trims at the limits
     slopes = []

@@ -265,7 +265,7 @@ def test_fly_records_and_reports_guidance() -> None:
     assert ap.guidance.mode == "waypoints"
     with pytest.raises(
         InputError,
-        match=r"outside aerosonde's envelope at 225 m 18.2–40.4 m/s \(true airspeed; 18–40 m/s",
+        match=r"outside aerosonde's envelope at 225 m 18.2–30.3 m/s \(true airspeed; 18–30 m/s",
     ):
         ap.set_override(airspeed=50.0)
 

@@ -222,7 +222,7 @@ def test_cli_refuses_speed_zero_and_speeds_outside_the_envelope(
     assert main([*args, "--speed", "0", *out]) == 2
     assert "expected a speed > 0" in capsys.readouterr().err
     assert main([*args, "--speed", "60", *out]) == 1
-    assert "airspeed envelope 18–40 m/s" in capsys.readouterr().err
+    assert "airspeed envelope 18–30 m/s" in capsys.readouterr().err
     assert not (tmp_path / "m.yaml").exists()
 
 

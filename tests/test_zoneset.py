@@ -172,8 +172,10 @@ def test_points_in_cylinders_floor_closed():
     np.testing.assert_array_equal(got[:, 0], [True, False, True, True])
 
 
-coord = st.floats(-1000, 1000, allow_nan=False)
-alt = st.floats(-200, 1200, allow_nan=False)
+# subnormal numbers (below 2.2e-308 m) are left out: a segment 1e-309 m below a floor is on it
+# for the analytic clip and under it for the dense sampling, a difference of no meaning
+coord = st.floats(-1000, 1000, allow_nan=False, allow_subnormal=False)
+alt = st.floats(-200, 1200, allow_nan=False, allow_subnormal=False)
 point = st.tuples(coord, coord, alt)
 
 

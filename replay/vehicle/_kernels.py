@@ -21,7 +21,7 @@ import math
 import numba as nb
 import numpy as np
 
-from replay.atmosphere import density_at
+from replay.atmosphere import RHO0, density_at
 from replay.vehicle.params import (
     I_ALPHA0,
     I_B,
@@ -49,7 +49,15 @@ from replay.vehicle.params import (
     I_CNDR,
     I_CNP,
     I_CNR,
-    I_CPROP,
+    I_CP0,
+    I_CP1,
+    I_CP2,
+    I_CQ0,
+    I_CQ1,
+    I_CQ2,
+    I_CT0,
+    I_CT1,
+    I_CT2,
     I_CY0,
     I_CYB,
     I_CYDA,
@@ -60,9 +68,11 @@ from replay.vehicle.params import (
     I_DA_MIN,
     I_DE_MAX,
     I_DE_MIN,
+    I_DPROP,
     I_DR_MAX,
     I_DR_MIN,
     I_DTEMP,
+    I_ENGINE,
     I_G1,
     I_G2,
     I_G3,
@@ -72,15 +82,18 @@ from replay.vehicle.params import (
     I_G7,
     I_G8,
     I_GRAV,
+    I_I0,
     I_JY,
     I_KIND,
-    I_KMOTOR,
-    I_KOMEGA,
-    I_KTP,
+    I_KQ,
+    I_KV,
     I_M,
     I_MASS,
+    I_PMAX,
+    I_RMOT,
+    I_RPM,
     I_S,
-    I_SPROP,
+    I_VBAT,
     I_WD,
     I_WE,
     I_WN,
@@ -157,6 +170,79 @@ def atan2f(y, x):  # pragma: no cover - jit
     if y < 0.0:
         return -0.5 * math.pi
     return 0.0
+
+
+@nb.njit(cache=True, nogil=True)
+def _positive_root(a, b, c):  # pragma: no cover - jit
+    """The larger root of a x^2 + b x + c = 0 if it is positive, else 0."""
+    if a > 0.0:
+        disc = b * b - 4.0 * a * c
+        return max((-b + math.sqrt(disc)) / (2.0 * a), 0.0) if disc >= 0.0 else 0.0
+    return max(-c / b, 0.0) if b > 0.0 else 0.0
+
+
+@nb.njit(cache=True, nogil=True)
+def propeller(va, dt, rho, p):  # pragma: no cover - jit
+    """(thrust N, torque N m) of the engine and propeller at true airspeed ``va``, throttle
+    ``dt`` and air density ``rho`` (``params.py``: electric, or piston)."""
+    dt = min(max(dt, 0.0), 1.0)
+    d = p[I_DPROP]
+    if p[I_ENGINE] == 0.0:  # electric: Beard & McLain 2nd ed. §4.3
+        kq = p[I_KQ]
+        r = p[I_RMOT]
+        vin = dt * p[I_VBAT]
+        d3 = d * d * d
+        a = rho * d3 * d * d * p[I_CQ0] / (4.0 * math.pi * math.pi)
+        b0 = rho * d3 * d * p[I_CQ1] * va / (2.0 * math.pi)
+        c0 = rho * d3 * p[I_CQ2] * va * va + kq * p[I_I0]
+        om = _positive_root(a, b0 + kq * p[I_KV] / r, c0 - kq * vin / r)
+        if p[I_KV] * om > vin:
+            # the propeller turns faster than the voltage drives it: the controller draws no
+            # current (no regenerative braking) and it freewheels against the motor's friction
+            om = _positive_root(a, b0, c0)
+        if om <= 0.0:
+            return 0.0, 0.0
+        n = om / (2.0 * math.pi)
+        j = va / (n * d)
+        ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
+        cq = (p[I_CQ2] * j + p[I_CQ1]) * j + p[I_CQ0]
+        k = rho * n * n * d3 * d
+        return k * ct, k * d * cq
+    # piston: fixed-pitch propeller on a constant-torque engine, Gagg-Ferrar power lapse
+    d3 = d * d * d
+    d4 = d3 * d
+    n_r = p[I_RPM] / 60.0
+    phi = max((rho / RHO0 - 0.117) / 0.883, 0.0)
+    n = _positive_root(
+        p[I_CP0] * rho * d4 * d,
+        p[I_CP1] * rho * d4 * va,
+        p[I_CP2] * rho * d3 * va * va - dt * phi * p[I_PMAX] / n_r,
+    )
+    n = min(n, n_r)  # the throttle held back at the rated rpm
+    if n <= 0.0:
+        return 0.0, 0.0
+    j = va / (n * d)
+    ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
+    return rho * n * n * d4 * ct, 0.0
+
+
+@nb.njit(cache=True, nogil=True)
+def throttle_for(thrust, va, rho, p):  # pragma: no cover - jit
+    """The throttle (0..1) giving ``thrust`` at ``va`` and ``rho`` (thrust grows with the
+    throttle); 0 or 1 when it lies outside what the engine gives. Bisection to 2.5e-4."""
+    if propeller(va, 1.0, rho, p)[0] <= thrust:
+        return 1.0
+    if propeller(va, 0.0, rho, p)[0] >= thrust:
+        return 0.0
+    lo = 0.0
+    hi = 1.0
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        if propeller(va, mid, rho, p)[0] < thrust:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -241,7 +327,7 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
         cl = (1.0 - sig) * cl_lin + sig * plate
         cd = p[I_CDP] + cl_lin * cl_lin * p[I_KIND]
         lift = qs * (cl + p[I_CLQ] * cq * qr + p[I_CLDE] * de)
-        drag = qs * (cd + p[I_CDQ] * cq * qr + p[I_CDDE] * de)
+        drag = qs * (cd + p[I_CDQ] * cq * qr + p[I_CDDE] * abs(de))
         fx += -ca * drag + sa * lift
         fz += -sa * drag - ca * lift
         bp = bv * pr
@@ -272,10 +358,9 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
             + p[I_CNDA] * da
             + p[I_CNDR] * dr
         )
-    k = p[I_KMOTOR] * dt
-    fx += 0.5 * rho * p[I_SPROP] * p[I_CPROP] * max(0.0, k * k - va2)
-    kw = p[I_KOMEGA] * dt
-    ml -= p[I_KTP] * kw * kw
+    thrust, torque = propeller(va, dt, rho, p)
+    fx += thrust
+    ml -= torque
     out[0] = r00 * uu + r01 * vv + r02 * ww
     out[1] = r10 * uu + r11 * vv + r12 * ww
     out[2] = r20 * uu + r21 * vv + r22 * ww
@@ -633,12 +718,12 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     va_c = min(max(cmd[C_AIRSPEED], gk[K_VA_MIN]), gk[K_VA_MAX])
     e_v = va_c - va
     t_ff = gk[K_THRUST0] + p[I_MASS] * p[I_GRAV] * sgam
-    kprop = 0.5 * density_at(-x[2], p[I_DTEMP]) * p[I_SPROP] * p[I_CPROP]
-    dt_ff = math.sqrt(max(0.0, t_ff / kprop + va * va)) / p[I_KMOTOR]
+    rho_here = density_at(-x[2], p[I_DTEMP])
+    dt_ff = throttle_for(t_ff, va, rho_here, p)
     raw = dt_ff + gk[K_SPEED_P] * e_v + gk[K_SPEED_I] * ap[A_I_SPEED]
     thr = min(max(raw, 0.0), 1.0)
-    # below va / k_motor the propeller gives no thrust: that is the lower saturation
-    thr_idle = va / p[I_KMOTOR]
+    # below the throttle of zero thrust the propeller only brakes: the lower saturation
+    thr_idle = throttle_for(0.0, va, rho_here, p)
     if (thr_idle <= raw <= 1.0) or (raw > 1.0 and e_v < 0.0) or (raw < thr_idle and e_v > 0.0):
         ap[A_I_SPEED] += dtc * e_v
 

@@ -21,7 +21,7 @@ dynamic pressure ``qbar = rho Va^2 / 2`` with ``rho`` the ISA density at the alt
 (:mod:`replay.atmosphere`; ``temperature_offset`` K off standard)::
 
     lift = qbar S (CL(alpha) + CLq c q / (2 Va) + CLde de)
-    drag = qbar S (CD(alpha) + CDq c q / (2 Va) + CDde de)
+    drag = qbar S (CD(alpha) + CDq c q / (2 Va) + CDde |de|)   (a deflected surface adds drag)
     fx = -cos(alpha) drag + sin(alpha) lift + T,   fz = -sin(alpha) drag - cos(alpha) lift
     fy = qbar S (CY0 + CYbeta beta + CYp b p / (2 Va) + CYr b r / (2 Va) + CYda da + CYdr dr)
     l  = qbar S b (Cl0 + Clbeta beta + Clp b p/(2Va) + Clr b r/(2Va) + Clda da + Cldr dr) + l_prop
@@ -74,10 +74,18 @@ def drag_coefficient(alpha: float, p: VehicleParams) -> float:
     return p.CDp + cl * cl / (math.pi * p.e * p.aspect_ratio)
 
 
+def propeller(
+    airspeed: float, throttle: float, p: VehicleParams, rho: float = RHO0
+) -> tuple[float, float]:
+    """(thrust N, torque N m) of the engine and propeller (``params.py``) at true ``airspeed``,
+    ``throttle`` (0..1) and air density ``rho`` -- the compiled function itself."""
+    t, q = _kernels.propeller(float(airspeed), float(throttle), float(rho), p.pack())
+    return float(t), float(q)
+
+
 def thrust(airspeed: float, throttle: float, p: VehicleParams, rho: float = RHO0) -> float:
-    """Propeller thrust (N) in air of density ``rho``, eq. 4.18 clamped at zero (``params.py``)."""
-    k = p.k_motor * throttle
-    return 0.5 * rho * p.S_prop * p.C_prop * max(0.0, k * k - airspeed * airspeed)
+    """Propeller thrust (N): see :func:`propeller`."""
+    return propeller(airspeed, throttle, p, rho)[0]
 
 
 def air_data(x: npt.ArrayLike, wind: npt.ArrayLike = (0.0, 0.0, 0.0)) -> tuple[float, float, float]:
@@ -125,7 +133,7 @@ def forces_moments(
         cq = p.c / (2.0 * va)
         bv = p.b / (2.0 * va)
         lift = qbar * p.S * (lift_coefficient(alpha, p) + p.CLq * cq * qr + p.CLde * de)
-        drag = qbar * p.S * (drag_coefficient(alpha, p) + p.CDq * cq * qr + p.CDde * de)
+        drag = qbar * p.S * (drag_coefficient(alpha, p) + p.CDq * cq * qr + p.CDde * abs(de))
         ca, sa = math.cos(alpha), math.sin(alpha)
         f[0] += -ca * drag + sa * lift
         f[2] += -sa * drag - ca * lift
@@ -168,9 +176,9 @@ def forces_moments(
                 + p.Cndr * dr
             )
         )
-    f[0] += thrust(va, dt, p, rho)
-    kw = p.k_Omega * dt
-    mom[0] -= p.k_Tp * kw * kw
+    t_prop, q_prop = propeller(va, dt, p, rho)
+    f[0] += t_prop
+    mom[0] -= q_prop
     return f, mom
 
 

@@ -22,15 +22,38 @@ Air density ``rho`` is the ISA standard atmosphere's at the aircraft's altitude
 (:mod:`replay.atmosphere`, optionally on a day ``temperature_offset`` K off standard, given to
 :meth:`VehicleParams.pack`): the aerodynamics and the propeller lose force with height.
 
-Propulsion (Beard & McLain eq. 4.18, the 2012 propeller model)::
+Propulsion: ``engine`` is one of two power-limited models (the 2012 book's propeller,
+``T = 1/2 rho S_prop C_prop ((k_motor delta_t)^2 - Va^2)``, had no power limit: 6.2 times the
+Aerosonde's weight of static thrust, a Cessna climbing 5.3 m/s; it is gone).
 
-    T = 1/2 rho S_prop C_prop ((k_motor delta_t)^2 - Va^2),   clamped at T >= 0
-    l_prop = -k_Tp (k_Omega delta_t)^2
+``electric`` -- the motor and propeller of Beard & McLain's second edition (2021, §4.3): the
+throttle sets the motor voltage ``V_in = delta_t battery_voltage``; the propeller speed Omega
+balances motor and propeller torque::
 
-The clamp is our choice: unclamped, the model brakes with ``1/2 rho S_prop C_prop Va^2`` when the
-throttle is closed — for the Aerosonde a drag coefficient of 0.37 on the wing area, ten times any
-windmilling propeller — which makes gliding flight meaningless. With the clamp a closed throttle
-means no thrust and no braking (a folding propeller).
+    rho D^5 CQ0 / (4 pi^2) Omega^2 + (rho D^4 CQ1 Va / (2 pi) + KQ^2 / R) Omega
+        + (rho D^3 CQ2 Va^2 - KQ V_in / R + KQ i0) = 0          (positive root; 0 if none)
+    J = 2 pi Va / (Omega D),   CT = CT2 J^2 + CT1 J + CT0,   CQ = CQ2 J^2 + CQ1 J + CQ0
+    T = rho (Omega / (2 pi))^2 D^4 CT,   Q = rho (Omega / (2 pi))^2 D^5 CQ,   l_prop = -Q
+
+so the thrust falls with airspeed and with the air's density.  The motor controller draws no
+negative current (no regenerative braking, our choice): when the propeller would turn faster than
+the voltage drives it (``KV Omega > V_in``, e.g. at closed throttle) it freewheels -- the same
+balance with the motor's no-load friction ``KQ i0`` alone -- and its thrust is the small
+windmilling drag of the propeller.
+
+``piston`` -- a fixed-pitch propeller on a piston engine: the engine's torque is taken constant
+with rpm (shaft power ``P_e = delta_t phi(sigma) power_max n / n_r`` at propeller speed n rev/s,
+``n_r = rated_rpm / 60``) with the Gagg-Ferrar lapse ``phi = (sigma - 0.117) / 0.883``
+(sigma = rho / rho0, a normally aspirated engine); the propeller absorbs
+``P_p = CP(J) rho n^3 D^5`` and gives ``T = CT(J) rho n^2 D^4`` (``J = Va / (n D)``, CT and CP
+quadratics in J).  P_e = P_p is a quadratic in n::
+
+    CP0 rho D^5 n^2 + CP1 rho D^4 Va n + CP2 rho D^3 Va^2 - delta_t phi power_max / n_r = 0
+
+(positive root).  Above the rated rpm the throttle is held back to keep n = n_r, as the pilot
+of a fixed-pitch propeller does (and as JSBSim's c172p is held in the validation).  At closed
+throttle the propeller windmills where CP(J) = 0, its (negative) thrust the windmilling drag.
+No engine torque on the airframe.
 
 Angles of the envelope and of the control-surface travel are stored in degrees (field names end in
 ``_deg``); ``alpha0`` is in radians as in the book. :meth:`VehicleParams.pack` flattens the
@@ -101,12 +124,6 @@ class VehicleParams:
     Cnr: float
     Cnda: float
     Cndr: float
-    # propulsion (Beard & McLain 2012 propeller model)
-    S_prop: float  # m^2
-    C_prop: float
-    k_motor: float  # m/s at full throttle
-    k_Tp: float
-    k_Omega: float
     # stall blending
     M: float  # sharpness of the blend
     alpha0: float  # rad, centre of the blend
@@ -124,6 +141,25 @@ class VehicleParams:
     pitch_min_deg: float = -20.0
     climb_rate_max: float = 3.0  # m/s (seed 000 §2.3: 3 m/s for its solar UAV)
     descent_rate_max: float = 3.0  # m/s, positive number
+    # propulsion (module docstring)
+    engine: str = "electric"  # "electric" or "piston"
+    prop_diameter: float = 0.0  # m
+    battery_voltage: float = 0.0  # electric: V at full throttle
+    motor_kv: float = 0.0  # electric: back-EMF constant, V s/rad
+    motor_kq: float = 0.0  # electric: torque constant, N m/A
+    motor_resistance: float = 0.0  # electric: ohm
+    motor_no_load_current: float = 0.0  # electric: A
+    CT0: float = 0.0  # thrust coefficient CT(J) = CT2 J^2 + CT1 J + CT0
+    CT1: float = 0.0
+    CT2: float = 0.0
+    CQ0: float = 0.0  # electric: torque coefficient CQ(J) = CQ2 J^2 + CQ1 J + CQ0
+    CQ1: float = 0.0
+    CQ2: float = 0.0
+    power_max: float = 0.0  # piston: shaft power at sea level, full throttle, rated rpm, W
+    rated_rpm: float = 0.0  # piston: rev/min
+    CP0: float = 0.0  # piston: power coefficient CP(J) = CP2 J^2 + CP1 J + CP0 (CT as above)
+    CP1: float = 0.0
+    CP2: float = 0.0
     source: str = ""  # where the numbers come from (free text)
 
     def __post_init__(self) -> None:
@@ -213,6 +249,7 @@ class VehicleParams:
         p[I_DE_MAX], p[I_DA_MAX], p[I_DR_MAX] = hi[0], hi[1], hi[2]
         p[I_GRAV] = G
         p[I_WN], p[I_WE], p[I_WD] = w
+        p[I_ENGINE] = ENGINES.index(self.engine)
         return p
 
 
@@ -227,10 +264,15 @@ I_CM0, I_CMA, I_CMQ, I_CMDE = range(22, 26)
 I_CY0, I_CYB, I_CYP, I_CYR, I_CYDA, I_CYDR = range(26, 32)
 I_CL_0, I_CL_B, I_CL_P, I_CL_R, I_CL_DA, I_CL_DR = range(32, 38)  # rolling moment (C_ell)
 I_CN0, I_CNB, I_CNP, I_CNR, I_CNDA, I_CNDR = range(38, 44)
-I_SPROP, I_CPROP, I_KMOTOR, I_KTP, I_KOMEGA, I_M, I_ALPHA0 = range(44, 51)
-I_DE_MIN, I_DE_MAX, I_DA_MIN, I_DA_MAX, I_DR_MIN, I_DR_MAX = range(51, 57)
-I_GRAV, I_WN, I_WE, I_WD = range(57, 61)
-N_PACKED = 61
+I_M, I_ALPHA0 = 44, 45
+I_DE_MIN, I_DE_MAX, I_DA_MIN, I_DA_MAX, I_DR_MIN, I_DR_MAX = range(46, 52)
+I_GRAV, I_WN, I_WE, I_WD = range(52, 56)
+# propulsion: I_ENGINE is 0 (electric) or 1 (piston)
+I_ENGINE, I_DPROP, I_VBAT, I_KV, I_KQ, I_RMOT, I_I0 = range(56, 63)
+I_CT0, I_CT1, I_CT2, I_CQ0, I_CQ1, I_CQ2 = range(63, 69)
+I_PMAX, I_RPM, I_CP0, I_CP1, I_CP2 = range(69, 74)
+N_PACKED = 74
+ENGINES = ("electric", "piston")
 
 _PACKED_DERIVS: tuple[tuple[int, str], ...] = (
     (I_CL0, "CL0"),
@@ -262,18 +304,43 @@ _PACKED_DERIVS: tuple[tuple[int, str], ...] = (
     (I_CNR, "Cnr"),
     (I_CNDA, "Cnda"),
     (I_CNDR, "Cndr"),
-    (I_SPROP, "S_prop"),
-    (I_CPROP, "C_prop"),
-    (I_KMOTOR, "k_motor"),
-    (I_KTP, "k_Tp"),
-    (I_KOMEGA, "k_Omega"),
     (I_M, "M"),
     (I_ALPHA0, "alpha0"),
+    (I_DPROP, "prop_diameter"),
+    (I_VBAT, "battery_voltage"),
+    (I_KV, "motor_kv"),
+    (I_KQ, "motor_kq"),
+    (I_RMOT, "motor_resistance"),
+    (I_I0, "motor_no_load_current"),
+    (I_CT0, "CT0"),
+    (I_CT1, "CT1"),
+    (I_CT2, "CT2"),
+    (I_CQ0, "CQ0"),
+    (I_CQ1, "CQ1"),
+    (I_CQ2, "CQ2"),
+    (I_PMAX, "power_max"),
+    (I_RPM, "rated_rpm"),
+    (I_CP0, "CP0"),
+    (I_CP1, "CP1"),
+    (I_CP2, "CP2"),
 )
 
 # ---- validation ------------------------------------------------------------------------------
 _POSITIVE = ("mass", "Jx", "Jy", "Jz", "S", "b", "c", "e", "M", "cruise_speed")
-_NON_NEGATIVE = ("S_prop", "C_prop", "k_motor", "k_Tp", "k_Omega")
+# what each engine needs (> 0); the thrust and torque coefficients may have either sign
+ENGINE_FIELDS: dict[str, tuple[str, ...]] = {
+    "electric": (
+        "prop_diameter",
+        "battery_voltage",
+        "motor_kv",
+        "motor_kq",
+        "motor_resistance",
+        "CT0",
+        "CQ0",
+    ),
+    "piston": ("prop_diameter", "power_max", "rated_rpm", "CT0", "CP0"),
+}
+_NON_NEGATIVE = ("motor_no_load_current",)
 
 
 def _bad(field: str, expected: str, found: Any) -> InputError:
@@ -284,8 +351,10 @@ def validate(p: VehicleParams) -> None:
     """Refuse impossible values; the message names the field, what was expected and found."""
     if not isinstance(p.name, str) or not p.name:
         raise _bad("name", "a non-empty string", p.name)
+    if p.engine not in ENGINES:
+        raise _bad("engine", f"one of {', '.join(ENGINES)}", p.engine)
     for f in fields(p):
-        if f.name in ("name", "source"):
+        if f.name in ("name", "source", "engine"):
             continue
         v = getattr(p, f.name)
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
@@ -352,5 +421,6 @@ def validate(p: VehicleParams) -> None:
         raise _bad("Cmde", "a working elevator (Cmde != 0)", p.Cmde)
     if p.Clda == 0:
         raise _bad("Clda", "working ailerons (Clda != 0)", p.Clda)
-    if p.k_motor * p.S_prop * p.C_prop <= 0:
-        raise _bad("k_motor", "a propeller that can give thrust (k_motor, S_prop, C_prop > 0)", 0)
+    for k in ENGINE_FIELDS[p.engine]:
+        if getattr(p, k) <= 0:
+            raise _bad(k, f"a number > 0 (the {p.engine} engine needs it)", getattr(p, k))

@@ -5,11 +5,19 @@ Presets (``load_vehicle(name)``):
 ``aerosonde`` (default)
     The Aerosonde UAV parameter set of Beard & McLain, *Small Unmanned Aircraft: Theory and
     Practice* (Princeton University Press, 2012), Appendix E (Tables E.1-E.2, their
-    ``aerosonde_parameters``): 13.5 kg, 2.9 m span, every derivative and the propeller constants
-    as printed (including ``CLde = -0.36`` and the ``k_motor = 80`` propeller). Not in the book and
-    chosen here: surface travel +-25 deg, cruise 25 m/s (the default cruise of terrapath missions),
-    envelope 18-40 m/s, climb limit 5 m/s, descent limit 3 m/s (with the throttle closed it glides
-    at 2.1 m/s sink at 25 m/s; a steeper descent has to trade height for speed).
+    ``aerosonde_parameters``): 13.5 kg, 2.9 m span, every derivative as printed except the
+    elevator's: the book pairs ``CLde = -0.36`` with ``Cmde = -0.5``, inconsistent for a tail
+    behind the centre of gravity (a trailing-edge-down elevator lifts the tail: more lift and a
+    nose-down moment), so ``CLde = 0.13, Cmde = -0.99`` of Beard's later published parameter
+    files (the MAVsim ``aerosonde_parameters`` of the second edition, 2021). Their rudder pair
+    (``CYdr = 0.19, Cndr = -0.069``) is not taken yet: with this autopilot's beta = 0
+    coordination it turns the 30 deg turns 3-8 % wide instead of 1-9 % tight (issue 14).
+    Propulsion: the second edition's motor and propeller (§4.3: 44.4 V, KV = KQ = 0.0659,
+    0.042 ohm, 1.5 A, a 0.508 m propeller and its CT/CQ), which replace the 2012 propeller
+    (``k_motor = 80``, 6.2 times the weight of static thrust): static thrust 0.62 W, top level
+    speed 32 m/s, best climb 6.0 m/s at sea level and 4.2 m/s at 3,000 m. Not in the book and
+    chosen here: surface travel +-25 deg, cruise 25 m/s (the default cruise of terrapath
+    missions), envelope 18-30 m/s (equivalent airspeed), climb limit 5 m/s, descent limit 3 m/s.
 ``solar-uav``
     Seed 000's UAV (Krishnan & Manimala 2020 §2.1: a 6-DOF solar UAV at 15 m/s, bank limit 30 deg,
     climb speed 3 m/s). The paper does not print its airframe, so this is a consistent set derived
@@ -17,11 +25,11 @@ Presets (``load_vehicle(name)``):
     6 kg, 3.5 m span and 0.75 m^2 (AR 16.3, near the Aerosonde's 15.2, so the non-dimensional
     derivatives are kept); inertias scaled as ``Jx, Jz, Jxz ~ m b^2`` (wing-dominated) and
     ``Jy ~ m S``; parasitic drag lowered to CDp = 0.025 (a clean sailplane-like airframe: best
-    L/D about 20, L/D 18 at 15 m/s); propeller resized (same model) so that level flight tops out
-    near 25 m/s and a 3.5 m/s climb is available at 15 m/s (ISA sea level).
-    Climb limit 3 m/s (the paper), descent limit 1.5 m/s (a clean glider sinks 0.8 m/s at idle and
-    has no airbrakes), envelope 11-22 m/s. The Aerosonde's small rudder makes its 30 deg turns at
-    15 m/s about 9 % tighter than V^2 / (g tan(phi)) (see ``replay/autopilot.py``).
+    L/D about 20, L/D 18 at 15 m/s); an electric drive of the Aerosonde's propeller family sized
+    here (0.47 m propeller, 15.6 V, KV = KQ = 0.0273, 0.1 ohm): top level speed 23.5 m/s, best
+    climb 3.5 m/s at sea level and 2.8 m/s at 3,000 m. Climb limit 3 m/s (the paper), descent
+    limit 1.5 m/s, envelope 11-22 m/s. The Aerosonde's rudder derivatives make its 30 deg turns
+    at 15 m/s about 8 % tighter than V^2 / (g tan(phi)) (see ``replay/autopilot.py``).
 ``cessna172``
     A Cessna-172-class aircraft for seed 001 (Guo et al. 2021 §4.1: 50 m/s cruise, roll +-30 deg,
     pitch +-20 deg). Derivatives from the LaRCsim ``c172_aero.c`` model by Tony Peden in
@@ -29,18 +37,25 @@ Presets (``load_vehicle(name)``):
     geometry, weight (2300 lb) and inertias (948/1346/1967 slug ft^2) from the UIUC Cessna 172
     model pages (J. Scott, M. Selig, 2000, after Sivier's Frasca data), converted to SI. CL0 = 0.25
     and CLalpha = 5.5 /rad are the linear part of Peden's CL(alpha) table (CLmax 1.47 at 16 deg,
-    reproduced with alpha0 = 0.35 rad, M = 20); e = 0.80 reproduces his induced-drag factor
-    1/(pi e AR) = 0.054. His aileron is positive right-wing-up, so Clda and Cnda change sign
-    here. The alpha-dot terms (CLadot, Cmadot) are not modelled. The propeller constants are ours:
-    the 2012 propeller model fitted to about 2.8 kN static thrust and a top level speed near
-    60 m/s, which gives about 3.6 m/s climb at 50 m/s (the real 172 climbs about 3.7 m/s).
-    Envelope 35-58 m/s, climb limit 3 m/s, descent limit 4 m/s.
+    reproduced with alpha0 = 0.35 rad, M = 20). His aileron is positive right-wing-up, so Clda
+    and Cnda change sign here. The alpha-dot terms (CLadot, Cmadot) are not modelled. Changed
+    from LaRCsim after the comparison with JSBSim's c172p (benchmarks/validate_jsbsim.py): the
+    drag polar (his CD0 0.046 and induced factor 0.054 gave 1.4 times JSBSim's power required at
+    50 m/s) is JSBSim's level-trim polar at 30-60 m/s, CD = 0.031 + 0.079 CL^2 with its elevator
+    drag taken out: CDp = 0.0244 and 1/(pi e AR) = 0.0942, with CDde = 0.06 now on |delta_e|
+    (LaRCsim's signed 0.06 delta_e made an up elevator reduce drag); the aileron's Clda is 0.23
+    (JSBSim's c172 models; LaRCsim's 0.09 rolled at 30 deg/s against their 67-96). Propulsion:
+    a 160 hp engine (Gagg-Ferrar lapse) on a fixed-pitch 75 in propeller held to 2,700 rpm, its
+    CT(J) and CP(J) chosen here (static thrust 2.6 kN; efficiency 0.70 at 46 m/s and 0.84 at
+    65 m/s at full power, near JSBSim's 0.71 and 0.84): top level speed 68 m/s, best climb
+    3.0 m/s at sea level (JSBSim-held 3.75) -- but only 0.3 m/s at 3,000 m (JSBSim-held 2.64;
+    issue 14 stays open on it). Envelope 35-58 m/s, climb limit 3 m/s, descent limit 4 m/s.
 ``small-uas``
     Seed 004's small UAS (Lin, Castano & Xu: a UMD RMRC Anaconda-class aircraft, 13-19 m/s,
     cruise 15 m/s, Table II). Scaled from the Aerosonde like ``solar-uav``: 3 kg, 2.2 m span,
-    0.48 m^2 (AR 10), Aerosonde non-dimensional derivatives, propeller sized for a top level speed
-    near 24 m/s and a 3.5 m/s climb at 15 m/s; envelope 13-19 m/s as in the paper; climb limit
-    3 m/s, descent limit 2 m/s.
+    0.48 m^2 (AR 10), Aerosonde non-dimensional derivatives; electric drive sized here (0.35 m
+    propeller, 14.8 V, KV = KQ = 0.0195, 0.12 ohm): top level speed 21 m/s, best climb 3.9 m/s
+    at sea level; envelope 13-19 m/s as in the paper; climb limit 3 m/s, descent limit 2 m/s.
 
 Vehicle files (``load_vehicle(path)``): YAML read with ``yaml.safe_load``::
 
@@ -63,8 +78,27 @@ from typing import Any
 
 import yaml
 
-from replay.vehicle.params import FIELD_NAMES, VehicleParams
+from replay.vehicle.params import ENGINES, FIELD_NAMES, VehicleParams
 from terrain.errors import DataFileError, InputError, where
+
+# every parameter of each engine model (params.py), for a vehicle file that changes the engine
+ENGINE_PARAMETERS: dict[str, tuple[str, ...]] = {
+    "electric": (
+        "prop_diameter",
+        "battery_voltage",
+        "motor_kv",
+        "motor_kq",
+        "motor_resistance",
+        "motor_no_load_current",
+        "CT0",
+        "CT1",
+        "CT2",
+        "CQ0",
+        "CQ1",
+        "CQ2",
+    ),
+    "piston": ("prop_diameter", "power_max", "rated_rpm", "CT0", "CT1", "CT2", "CP0", "CP1", "CP2"),
+}
 
 FORMAT_VERSION = 1
 DEFAULT_VEHICLE = "aerosonde"
@@ -88,14 +122,14 @@ AEROSONDE = VehicleParams(
     CL0=0.28,
     CLalpha=3.45,
     CLq=0.0,
-    CLde=-0.36,
+    CLde=0.13,
     CDp=0.0437,
     CDq=0.0,
     CDde=0.0,
     Cm0=-0.02338,
     Cmalpha=-0.38,
     Cmq=-3.6,
-    Cmde=-0.5,
+    Cmde=-0.99,
     CY0=0.0,
     CYbeta=-0.98,
     CYp=0.0,
@@ -114,11 +148,6 @@ AEROSONDE = VehicleParams(
     Cnr=-0.35,
     Cnda=0.06,
     Cndr=-0.032,
-    S_prop=0.2027,
-    C_prop=1.0,
-    k_motor=80.0,
-    k_Tp=0.0,
-    k_Omega=0.0,
     M=50.0,
     alpha0=0.4712,
     elevator_min_deg=-25.0,
@@ -127,10 +156,26 @@ AEROSONDE = VehicleParams(
     rudder_max_deg=25.0,
     cruise_speed=25.0,
     airspeed_min=18.0,
-    airspeed_max=40.0,
+    airspeed_max=30.0,
     climb_rate_max=5.0,
     descent_rate_max=3.0,
-    source="Beard & McLain, Small Unmanned Aircraft (2012), Appendix E (Aerosonde)",
+    engine="electric",
+    prop_diameter=0.508,
+    battery_voltage=44.4,
+    motor_kv=0.0659,
+    motor_kq=0.0659,
+    motor_resistance=0.042,
+    motor_no_load_current=1.5,
+    CT0=0.09357,
+    CT1=-0.06044,
+    CT2=-0.1079,
+    CQ0=0.005230,
+    CQ1=0.004970,
+    CQ2=-0.01664,
+    source=(
+        "Beard & McLain, Small Unmanned Aircraft (2012), Appendix E (Aerosonde); motor and "
+        "propeller of the second edition (2021, §4.3)"
+    ),
 )
 
 
@@ -157,13 +202,23 @@ def _scaled(
     )
 
 
-def _prop_for(s_prop_area_rho: float, rho: float) -> float:
-    """S_prop giving the thrust factor K = 1/2 rho S_prop C_prop (C_prop = 1)."""
-    return 2.0 * s_prop_area_rho / rho
+def _motor(diameter: float, voltage: float, k: float, resistance: float) -> dict[str, float]:
+    """An electric drive of the Aerosonde's propeller family (its CT, CQ) resized: propeller
+    ``diameter`` (m), battery ``voltage`` (V), motor constants KV = KQ = ``k``, ``resistance``;
+    the no-load current scaled with KQ (1.5 A for the Aerosonde's 0.0659)."""
+    return {
+        "prop_diameter": diameter,
+        "battery_voltage": voltage,
+        "motor_kv": k,
+        "motor_kq": k,
+        "motor_resistance": resistance,
+        "motor_no_load_current": 1.5 * k / 0.0659,
+    }
 
 
-# Propeller sizing (T = K ((k delta_t)^2 - V^2)): K and k solve T(1, V_top) = D(V_top) and
-# T(1, V_cruise) = D(V_cruise) + W sin(gamma_climb); the numbers below are those solutions.
+# Electric drives sized here by a search over propeller diameter, voltage and KV = KQ (the
+# Aerosonde's propeller coefficients kept): best climb at the 15 m/s cruise 3.5 m/s at sea level,
+# top level speed 23.6 m/s (solar-uav) and 21.1 m/s (small-uas).
 SOLAR_UAV = _scaled(
     AEROSONDE,
     "solar-uav",
@@ -171,8 +226,7 @@ SOLAR_UAV = _scaled(
     b=3.5,
     S=0.75,
     CDp=0.025,
-    S_prop=_prop_for(0.0239, 1.225),
-    k_motor=30.6,
+    **_motor(0.47, 15.6, 0.0273, 0.1),
     elevator_min_deg=-25.0,
     elevator_max_deg=25.0,
     cruise_speed=15.0,
@@ -192,8 +246,7 @@ SMALL_UAS = _scaled(
     mass=3.0,
     b=2.2,
     S=0.48,
-    S_prop=_prop_for(0.00746, 1.225),
-    k_motor=39.9,
+    **_motor(0.35, 14.8, 0.0195, 0.12),
     cruise_speed=15.0,
     airspeed_min=13.0,
     airspeed_max=19.0,
@@ -217,12 +270,12 @@ CESSNA172 = VehicleParams(
     S=_c172_S,
     b=_c172_b,
     c=4.9 * _FT,
-    e=1.0 / (math.pi * (_c172_b**2 / _c172_S) * 0.054),
+    e=1.0 / (math.pi * (_c172_b**2 / _c172_S) * 0.0942),
     CL0=0.25,
     CLalpha=5.5,
     CLq=3.9,
     CLde=1.28 / 3.682,
-    CDp=0.046,
+    CDp=0.0244,
     CDq=0.0,
     CDde=0.06,
     Cm0=-0.02,
@@ -239,7 +292,7 @@ CESSNA172 = VehicleParams(
     Clbeta=-0.089,
     Clp=-0.47,
     Clr=0.096,
-    Clda=0.09,
+    Clda=0.23,
     Cldr=0.0147,
     Cn0=0.0,
     Cnbeta=0.065,
@@ -247,11 +300,6 @@ CESSNA172 = VehicleParams(
     Cnr=-0.099,
     Cnda=0.0053,
     Cndr=-0.0657,
-    S_prop=_prop_for(0.2783, 1.225),
-    C_prop=1.0,
-    k_motor=100.3,
-    k_Tp=0.0,
-    k_Omega=0.0,
     M=20.0,
     alpha0=0.35,
     elevator_min_deg=-28.0,
@@ -263,6 +311,16 @@ CESSNA172 = VehicleParams(
     airspeed_max=58.0,
     climb_rate_max=3.0,
     descent_rate_max=4.0,
+    engine="piston",
+    prop_diameter=75.0 * 0.0254,
+    power_max=160.0 * 745.699872,
+    rated_rpm=2700.0,
+    CT0=0.095,
+    CT1=0.0095,
+    CT2=-0.0952,
+    CP0=0.050,
+    CP1=0.046,
+    CP2=-0.0731,
     source=(
         "LaRCsim c172_aero.c (T. Peden, FlightGear; after Roskam Part I) derivatives; UIUC "
         "Cessna 172 model (Scott & Selig 2000, Sivier) mass and geometry; propeller fitted here"
@@ -354,12 +412,26 @@ def vehicle_from_dict(data: Any, path: str | None = None) -> VehicleParams:
     for k, v in data.items():
         if k in ("terrapath", "base"):
             continue
-        if k in ("name", "source"):
+        if k in ("name", "source", "engine"):
             if not isinstance(v, str) or not v:
                 raise InputError(f"{where(path, k)}expected a non-empty string, found {v!r}")
+            if k == "engine" and v not in ENGINES:
+                raise InputError(
+                    f"{where(path, k)}expected one of {', '.join(ENGINES)}, found {v!r}"
+                )
         elif isinstance(v, bool) or not isinstance(v, int | float):
             raise InputError(f"{where(path, k)}expected a number, found {v!r}")
-        overrides[k] = float(v) if k not in ("name", "source") else v
+        overrides[k] = float(v) if k not in ("name", "source", "engine") else v
+    engine = overrides.get("engine")
+    if engine is not None and engine != PRESETS[base_name].engine:
+        # a new engine takes nothing from the base's: every parameter must be in the file
+        needed = ENGINE_PARAMETERS[engine]
+        missing = [k for k in needed if k not in overrides]
+        if missing:
+            raise InputError(
+                f"{where(path, missing[0])}missing: engine {engine!r} (the base {base_name!r} has "
+                f"{PRESETS[base_name].engine!r}) needs {', '.join(needed)}"
+            )
     overrides.setdefault("source", f"{path or 'vehicle document'} (base {base_name})")
     try:
         return dataclasses.replace(PRESETS[base_name], **overrides)

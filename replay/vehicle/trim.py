@@ -73,7 +73,12 @@ def _state(z: FloatArray, va: float, altitude: float, psi_dot: float) -> FloatAr
 
 
 def _initial(
-    params: VehicleParams, va: float, gamma: float, turn_radius: float, rho: float
+    params: VehicleParams,
+    packed: FloatArray,
+    va: float,
+    gamma: float,
+    turn_radius: float,
+    rho: float,
 ) -> FloatArray:
     phi = (
         0.0
@@ -87,8 +92,7 @@ def _initial(
     de = -(params.Cm0 + params.Cmalpha * alpha) / params.Cmde
     drag = qs * (params.CDp + cl * cl / (math.pi * params.e * params.aspect_ratio))
     need = max(drag + params.weight * math.sin(gamma), 0.0)
-    kp = 0.5 * rho * params.S_prop * params.C_prop
-    dt = math.sqrt(need / kp + va * va) / params.k_motor
+    dt = _kernels.throttle_for(need, va, rho, packed)
     z = np.array([alpha, phi, alpha + gamma, de, 0.0, 0.0, dt])
     zlo, zhi = _bounds(params)
     return np.asarray(np.clip(z, zlo + 1e-9, zhi - 1e-9))
@@ -125,7 +129,7 @@ def _solve(
     zlo, zhi = _bounds(params)
     starts = [] if z0 is None else [np.clip(z0, zlo, zhi)]
     rho = density_at(float(altitude), float(packed[I_DTEMP]))
-    starts.append(_initial(params, va, gamma, turn_radius, rho))
+    starts.append(_initial(params, packed, va, gamma, turn_radius, rho))
     best_z, best_r = starts[0], math.inf
     for s in starts:
         sol = least_squares(
