@@ -229,20 +229,36 @@ def propeller(va, dt, rho, p):  # pragma: no cover - jit
 @nb.njit(cache=True, nogil=True)
 def throttle_for(thrust, va, rho, p):  # pragma: no cover - jit
     """The throttle (0..1) giving ``thrust`` at ``va`` and ``rho`` (thrust grows with the
-    throttle); 0 or 1 when it lies outside what the engine gives. Bisection to 2.5e-4."""
-    if propeller(va, 1.0, rho, p)[0] <= thrust:
+    throttle); 0 or 1 when it lies outside what the engine gives.  Regula falsi with the Illinois
+    step on the bracket [0, 1] (a few evaluations for 1e-4 N on these smooth curves)."""
+    fhi = propeller(va, 1.0, rho, p)[0] - thrust
+    if fhi <= 0.0:
         return 1.0
-    if propeller(va, 0.0, rho, p)[0] >= thrust:
+    flo = propeller(va, 0.0, rho, p)[0] - thrust
+    if flo >= 0.0:
         return 0.0
     lo = 0.0
     hi = 1.0
-    for _ in range(12):
-        mid = 0.5 * (lo + hi)
-        if propeller(va, mid, rho, p)[0] < thrust:
-            lo = mid
+    x = 0.5
+    side = 0
+    for _ in range(30):
+        x = (lo * fhi - hi * flo) / (fhi - flo)
+        fx = propeller(va, x, rho, p)[0] - thrust
+        if abs(fx) < 1e-4 or hi - lo < 1e-9:
+            break
+        if fx > 0.0:
+            hi = x
+            fhi = fx
+            if side == -1:
+                flo *= 0.5
+            side = -1
         else:
-            hi = mid
-    return 0.5 * (lo + hi)
+            lo = x
+            flo = fx
+            if side == 1:
+                fhi *= 0.5
+            side = 1
+    return x
 
 
 @nb.njit(cache=True, nogil=True)
@@ -722,8 +738,10 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     dt_ff = throttle_for(t_ff, va, rho_here, p)
     raw = dt_ff + gk[K_SPEED_P] * e_v + gk[K_SPEED_I] * ap[A_I_SPEED]
     thr = min(max(raw, 0.0), 1.0)
-    # below the throttle of zero thrust the propeller only brakes: the lower saturation
-    thr_idle = throttle_for(0.0, va, rho_here, p)
+    # below the throttle of zero thrust the propeller only brakes: the lower saturation (the
+    # thrust grows with the throttle, so a command above the feed-forward of a non-negative
+    # thrust is above it: no need to find it then)
+    thr_idle = 0.0 if (t_ff >= 0.0 and raw >= dt_ff) else throttle_for(0.0, va, rho_here, p)
     if (thr_idle <= raw <= 1.0) or (raw > 1.0 and e_v < 0.0) or (raw < thr_idle and e_v > 0.0):
         ap[A_I_SPEED] += dtc * e_v
 
