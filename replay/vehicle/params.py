@@ -327,19 +327,26 @@ _PACKED_DERIVS: tuple[tuple[int, str], ...] = (
 
 # ---- validation ------------------------------------------------------------------------------
 _POSITIVE = ("mass", "Jx", "Jy", "Jz", "S", "b", "c", "e", "M", "cruise_speed")
-# what each engine needs (> 0); the thrust and torque coefficients may have either sign
-ENGINE_FIELDS: dict[str, tuple[str, ...]] = {
+# every parameter of each engine model (the module docstring); all must be > 0 but the slopes
+# of the coefficient curves (either sign) and the no-load current (>= 0)
+ENGINE_PARAMETERS: dict[str, tuple[str, ...]] = {
     "electric": (
         "prop_diameter",
         "battery_voltage",
         "motor_kv",
         "motor_kq",
         "motor_resistance",
+        "motor_no_load_current",
         "CT0",
+        "CT1",
+        "CT2",
         "CQ0",
+        "CQ1",
+        "CQ2",
     ),
-    "piston": ("prop_diameter", "power_max", "rated_rpm", "CT0", "CP0"),
+    "piston": ("prop_diameter", "power_max", "rated_rpm", "CT0", "CT1", "CT2", "CP0", "CP1", "CP2"),
 }
+_ANY_SIGN = ("CT1", "CT2", "CQ1", "CQ2", "CP1", "CP2")
 _NON_NEGATIVE = ("motor_no_load_current",)
 
 
@@ -421,6 +428,6 @@ def validate(p: VehicleParams) -> None:
         raise _bad("Cmde", "a working elevator (Cmde != 0)", p.Cmde)
     if p.Clda == 0:
         raise _bad("Clda", "working ailerons (Clda != 0)", p.Clda)
-    for k in ENGINE_FIELDS[p.engine]:
-        if getattr(p, k) <= 0:
+    for k in ENGINE_PARAMETERS[p.engine]:
+        if k not in _ANY_SIGN + _NON_NEGATIVE and getattr(p, k) <= 0:
             raise _bad(k, f"a number > 0 (the {p.engine} engine needs it)", getattr(p, k))

@@ -78,27 +78,8 @@ from typing import Any
 
 import yaml
 
-from replay.vehicle.params import ENGINES, FIELD_NAMES, VehicleParams
+from replay.vehicle.params import ENGINE_PARAMETERS, ENGINES, FIELD_NAMES, VehicleParams
 from terrain.errors import DataFileError, InputError, where
-
-# every parameter of each engine model (params.py), for a vehicle file that changes the engine
-ENGINE_PARAMETERS: dict[str, tuple[str, ...]] = {
-    "electric": (
-        "prop_diameter",
-        "battery_voltage",
-        "motor_kv",
-        "motor_kq",
-        "motor_resistance",
-        "motor_no_load_current",
-        "CT0",
-        "CT1",
-        "CT2",
-        "CQ0",
-        "CQ1",
-        "CQ2",
-    ),
-    "piston": ("prop_diameter", "power_max", "rated_rpm", "CT0", "CT1", "CT2", "CP0", "CP1", "CP2"),
-}
 
 FORMAT_VERSION = 1
 DEFAULT_VEHICLE = "aerosonde"
