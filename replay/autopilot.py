@@ -127,19 +127,22 @@ Airspeed (throttle), ``Va' = -a_V1 Va + a_V2 delta_t``::
 The throttle's lower saturation for anti-windup is the throttle of zero thrust at the current
 airspeed (below it the propeller only brakes), not 0.
 
-Yaw (rudder): sideslip hold (coordinated flight in Beard & McLain's sense, beta = 0, on
-``sin(beta) = v_r / Va``) plus a yaw damper washed out with tau = 1 s (so steady turns are not
+Yaw (rudder): coordinated flight in the pilot's sense -- no aerodynamic side force, the ball
+centred -- by a sideslip hold on the sideslip of zero side force ``beta_ref = -(CY0 + CYp b p /
+(2 Va) + CYr b r / (2 Va) + CYda da + CYdr dr) / CYbeta`` (the rudder of the previous step,
+beta_ref within +-0.2 rad), plus a yaw damper washed out with tau = 1 s (so steady turns are not
 opposed), written as a yawing-moment coefficient and divided by Cndr (no rudder when Cndr = 0)::
 
-    dCn = Cnbeta sin(beta) + 0.5 Cnbeta int sin(beta) - |Cnr| b r_hp / (2 Va),
+    e = sin(beta) - beta_ref
+    dCn = Cnbeta e + 0.5 Cnbeta int e - |Cnr| b r_hp / (2 Va),
     delta_r = dCn / Cndr
 
-(the rudder doubles the weathercock stability and the yaw damping and trims the sideslip out).
-With beta = 0 the rudder's own side force (CYdr delta_r) still acts, so a steady 30 deg turn is
-tighter or wider than V^2 / (g tan(phi)) by that force: the trimmed 30 deg turn at cruise is
--1.2 % (aerosonde), +0.5 % (cessna172), -8.5 % (solar-uav) and -6.7 % (small-uas, whose scaled
-airframes fly tighter turns at their low speed). Holding zero side force instead was tried and rejected: with the Aerosonde's
-CYdr < 0 the required sideslip grows with the rudder and the loop runs into the stop.
+(the rudder doubles the weathercock stability and the yaw damping and trims the side force
+out). A steady turn then has the radius V^2 / (g tan(phi)) (trimmed 30 deg turns at cruise:
++0.9 % aerosonde, +0.3 % solar-uav, +0.1 % cessna172, +0.1 % small-uas). Holding beta = 0
+instead (Beard & McLain) leaves the rudder's side force in the turn: 1-9 % off. The rudder in
+beta_ref closes a loop through the previous step; with a tail behind the centre of gravity
+(CYdr > 0 > Cndr) its gain is below one (the Aerosonde's printed CYdr < 0 made it diverge).
 
 Every saturation (bank, pitch, surfaces, throttle) has anti-windup: an integrator stops while its
 loop is saturated and the error would push it further.

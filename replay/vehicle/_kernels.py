@@ -745,21 +745,29 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     if (thr_idle <= raw <= 1.0) or (raw > 1.0 and e_v < 0.0) or (raw < thr_idle and e_v > 0.0):
         ap[A_I_SPEED] += dtc * e_v
 
-    # ---- yaw: sideslip hold (coordinated flight, beta = 0) and washed-out yaw damper (rudder)
+    # ---- yaw: coordinated flight (no aerodynamic side force: the ball centred) by a sideslip
+    # hold on the sideslip of zero side force, and a washed-out yaw damper (rudder)
     ap[A_R_LOW] += (dtc / (gk[K_WASHOUT_TAU] + dtc)) * (rr - ap[A_R_LOW])
     r_hp = rr - ap[A_R_LOW]
+    beta_ref = 0.0
+    if p[I_CYB] < -1e-9:
+        cy_rest = (
+            p[I_CY0] + p[I_CYP] * bv * pr + p[I_CYR] * bv * rr + p[I_CYDA] * da + p[I_CYDR] * u[2]
+        )
+        beta_ref = min(max(-cy_rest / p[I_CYB], -0.2), 0.2)
+    e_beta = sbeta - beta_ref
     cndr = p[I_CNDR]
     dr = 0.0
     if abs(cndr) > 1e-9:
-        dcn = gk[K_YAW_BETA] * sbeta + gk[K_YAW_BETA_I] * ap[A_I_BETA] - gk[K_YAW_R] * bv * r_hp
+        dcn = gk[K_YAW_BETA] * e_beta + gk[K_YAW_BETA_I] * ap[A_I_BETA] - gk[K_YAW_R] * bv * r_hp
         raw = dcn / cndr
         dr = min(max(raw, p[I_DR_MIN]), p[I_DR_MAX])
         if (
             dr == raw
-            or (raw > p[I_DR_MAX] and sbeta * cndr > 0.0)
-            or (raw < p[I_DR_MIN] and sbeta * cndr < 0.0)
+            or (raw > p[I_DR_MAX] and e_beta * cndr > 0.0)
+            or (raw < p[I_DR_MIN] and e_beta * cndr < 0.0)
         ):
-            ap[A_I_BETA] += dtc * sbeta
+            ap[A_I_BETA] += dtc * e_beta
 
     u[0] = de
     u[1] = da

@@ -9,9 +9,9 @@ Presets (``load_vehicle(name)``):
     elevator's: the book pairs ``CLde = -0.36`` with ``Cmde = -0.5``, inconsistent for a tail
     behind the centre of gravity (a trailing-edge-down elevator lifts the tail: more lift and a
     nose-down moment), so ``CLde = 0.13, Cmde = -0.99`` of Beard's later published parameter
-    files (the MAVsim ``aerosonde_parameters`` of the second edition, 2021). Their rudder pair
-    (``CYdr = 0.19, Cndr = -0.069``) is not taken yet: with this autopilot's beta = 0
-    coordination it turns the 30 deg turns 3-8 % wide instead of 1-9 % tight (issue 14).
+    files (the MAVsim ``aerosonde_parameters`` of the second edition, 2021); likewise the rudder:
+    ``CYdr = -0.17`` with ``Cndr = -0.032`` becomes their ``CYdr = 0.19, Cndr = -0.069`` (a
+    rudder deflected to yaw the nose left pushes the tail right).
     Propulsion: the second edition's motor and propeller (§4.3: 44.4 V, KV = KQ = 0.0659,
     0.042 ohm, 1.5 A, a 0.508 m propeller and its CT/CQ), which replace the 2012 propeller
     (``k_motor = 80``, 6.2 times the weight of static thrust): static thrust 0.62 W, top level
@@ -28,8 +28,8 @@ Presets (``load_vehicle(name)``):
     L/D about 20, L/D 18 at 15 m/s); an electric drive of the Aerosonde's propeller family sized
     here (0.47 m propeller, 15.6 V, KV = KQ = 0.0273, 0.1 ohm): top level speed 23.5 m/s, best
     climb 3.5 m/s at sea level and 2.8 m/s at 3,000 m. Climb limit 3 m/s (the paper), descent
-    limit 1.5 m/s, envelope 11-22 m/s. The Aerosonde's rudder derivatives make its 30 deg turns
-    at 15 m/s about 8 % tighter than V^2 / (g tan(phi)) (see ``replay/autopilot.py``).
+    limit 1.5 m/s, envelope 11-22 m/s. Its coordinated 30 deg turns at 15 m/s need 12 deg of
+    rudder (the Aerosonde's yaw damping at a low speed).
 ``cessna172``
     A Cessna-172-class aircraft for seed 001 (Guo et al. 2021 §4.1: 50 m/s cruise, roll +-30 deg,
     pitch +-20 deg). Derivatives from the LaRCsim ``c172_aero.c`` model by Tony Peden in
@@ -116,7 +116,7 @@ AEROSONDE = VehicleParams(
     CYp=0.0,
     CYr=0.0,
     CYda=0.0,
-    CYdr=-0.17,
+    CYdr=0.19,
     Cl0=0.0,
     Clbeta=-0.12,
     Clp=-0.26,
@@ -128,7 +128,7 @@ AEROSONDE = VehicleParams(
     Cnp=0.022,
     Cnr=-0.35,
     Cnda=0.06,
-    Cndr=-0.032,
+    Cndr=-0.069,
     M=50.0,
     alpha0=0.4712,
     elevator_min_deg=-25.0,

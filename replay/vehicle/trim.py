@@ -7,14 +7,16 @@ radius ``R`` (``R > 0`` turns right, ``R < 0`` left), in still air. The desired 
 
 and the trim minimises |f(x, u) - xdot*| (position rates north/east excluded). Unlike the book,
 which searches alpha, beta, phi with theta = alpha + gamma and computes the controls in closed form,
-we solve for ``z = (alpha, phi, theta, delta_e, delta_a, delta_r, delta_t)`` together with
+we solve for ``z = (alpha, phi, theta, delta_e, delta_a, delta_r, delta_t, beta)`` together with
 ``scipy.optimize.least_squares`` inside bounds: the surfaces within their travel, the throttle in
 [0, 1] and ``alpha`` below the angle of maximum lift (the front side of the lift curve — no stalled
-trims). ``theta`` is free because theta = alpha + gamma only holds wings level. The sideslip is
-zero (coordinated flight): with beta free, the lateral equations (v', p', r' = 0) have one unknown
-too many and straight flight has a whole family of cross-controlled trims. From z::
+trims). ``theta`` is free because theta = alpha + gamma only holds wings level. The flight is
+coordinated in the pilot's sense: no aerodynamic side force (the ball centred), one more
+residual ``qbar S CY / m = 0`` -- so a steady turn has the radius V^2 / (g tan(phi)) whatever
+the rudder's side force (Beard & McLain's beta = 0 left the rudder's side force in the turn:
+1-9 % tighter or wider turns). From z::
 
-    u = Va cos(alpha),  v = 0,  w = Va sin(alpha)
+    u = Va cos(alpha) cos(beta),  v = Va sin(beta),  w = Va sin(alpha) cos(beta)
     [p, q, r] = psi_dot [-sin(theta), sin(phi) cos(theta), cos(phi) cos(theta)]
 
 with ``psi = 0`` (heading north) and ``pd = -altitude``. A trim is accepted when every residual is
@@ -59,11 +61,12 @@ def alpha_max_lift(params: VehicleParams) -> float:
 
 
 def _state(z: FloatArray, va: float, altitude: float, psi_dot: float) -> FloatArray:
-    alpha, phi, theta = z[0], z[1], z[2]
+    alpha, phi, theta, beta = z[0], z[1], z[2], z[7]
     x = np.zeros(12)
     x[2] = -altitude
-    x[3] = va * math.cos(alpha)
-    x[5] = va * math.sin(alpha)
+    x[3] = va * math.cos(alpha) * math.cos(beta)
+    x[4] = va * math.sin(beta)
+    x[5] = va * math.sin(alpha) * math.cos(beta)
     x[6] = phi
     x[7] = theta
     x[9] = -psi_dot * math.sin(theta)
@@ -93,7 +96,7 @@ def _initial(
     drag = qs * (params.CDp + cl * cl / (math.pi * params.e * params.aspect_ratio))
     need = max(drag + params.weight * math.sin(gamma), 0.0)
     dt = _kernels.throttle_for(need, va, rho, packed)
-    z = np.array([alpha, phi, alpha + gamma, de, 0.0, 0.0, dt])
+    z = np.array([alpha, phi, alpha + gamma, de, 0.0, 0.0, dt, 0.0])
     zlo, zhi = _bounds(params)
     return np.asarray(np.clip(z, zlo + 1e-9, zhi - 1e-9))
 
@@ -101,8 +104,8 @@ def _initial(
 def _bounds(params: VehicleParams) -> tuple[FloatArray, FloatArray]:
     lo, hi = params.control_limits()
     amax = alpha_max_lift(params)
-    zlo = np.array([-0.3, -1.4, -1.4, lo[0], lo[1], lo[2], 0.0])
-    zhi = np.array([amax, 1.4, 1.4, hi[0], hi[1], hi[2], 1.0])
+    zlo = np.array([-0.3, -1.4, -1.4, lo[0], lo[1], lo[2], 0.0, -0.3])
+    zhi = np.array([amax, 1.4, 1.4, hi[0], hi[1], hi[2], 1.0, 0.3])
     return zlo, zhi
 
 
@@ -121,10 +124,23 @@ def _solve(
     target[6] = psi_dot
     out = np.empty(12)
 
+    half_b = 0.5 * params.b / va
+    side = 0.5 * density_at(float(altitude), float(packed[I_DTEMP])) * va * va * params.S
+    side /= params.mass
+
     def residual(z: FloatArray) -> FloatArray:
         x = _state(z, va, altitude, psi_dot)
         _kernels.derivs(x, np.ascontiguousarray(z[3:7]), packed, out)
-        return np.asarray(out[2:12] - target)
+        # coordinated: no aerodynamic side force (as m/s^2, like the other residuals)
+        cy = (
+            params.CY0
+            + params.CYbeta * z[7]
+            + params.CYp * half_b * x[9]
+            + params.CYr * half_b * x[11]
+            + params.CYda * z[4]
+            + params.CYdr * z[5]
+        )
+        return np.concatenate([out[2:12] - target, [side * cy]])
 
     zlo, zhi = _bounds(params)
     starts = [] if z0 is None else [np.clip(z0, zlo, zhi)]
@@ -197,7 +213,7 @@ def trim_range(
 
     def ok(v: float, z0: FloatArray | None) -> tuple[bool, FloatArray]:
         if not math.isinf(turn_radius) and v * v / abs(turn_radius) > 9.81 * math.tan(1.35):
-            return False, np.zeros(7)
+            return False, np.zeros(8)
         z, r = _solve(params, packed, v, altitude, gamma, turn_radius, z0)
         return r < TOLERANCE, z
 
