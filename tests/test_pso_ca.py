@@ -367,3 +367,18 @@ def test_pso_ca_avoids_with_the_cooperative_sensor(latency: float) -> None:
     assert {d["obstacle_kind"] for d in r.decisions if d["feasible"]} == {"moving", "stationary"}
     for ident in ("crosser", "rock"):
         assert r.metrics.min_separation[ident]["value"] >= 0.0
+
+
+def test_with_the_cooperative_sensor_a_reported_size_wider_than_rs_is_kept() -> None:
+    """The cooperative sensor reports a 2.5 km cylinder by its centre and radius (the radar
+    returns points of its surface): PSO-CA keeps the reported radius, not RS = 1 km, from the
+    centre, and stays out of it."""
+    legs = [[0, 0, 200], [40000, 0, 200]]
+    storm = {"id": "storm", "kind": "cylinder", "center": [15000, 200], "radius": 2500, "top": 900}
+    cfg = {"sensor": "cooperative"}
+    assert not _fly(legs, [storm], avoider="none", config=dict(cfg)).metrics.success
+    r = _fly(legs, [storm], config=cfg)
+    assert r.metrics.success, r.metrics
+    assert r.metrics.min_separation["storm"]["value"] >= 0.0
+    feasible = [d for d in r.decisions if d["feasible"]]
+    assert feasible and all(d["inputs"]["params"]["rs"] == 2500.0 for d in feasible)

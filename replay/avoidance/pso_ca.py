@@ -31,7 +31,9 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    leg 1105 m clear of an obstacle, flown 990 m from it).  The same corners enter g3 and g5.
    For intruders (§5.7, Fig. 13 ``Confirm_Collision``): the range fell since the previous scan, it
    is below ``act_range`` (8 km), and the leg meets the ``moving_rs`` (2 km) sphere around the
-   intruder's *current* position.
+   intruder's *current* position.  A sensor that reports sizes (``--sensor cooperative``: a body
+   by its centre and radius, where the radar returns points of its surface) widens the circle
+   kept from an obstacle to its reported radius when that is larger than RS (``moving_rs``).
 4. **Closest first** (§5.3).  The nearest hit is handled; for a stationary hit its whole group
    (points chained closer than 1 km, Fig. 8) is the obstacle and every member is avoided (the
    paper avoids the terminal points of a continuous obstacle; all members is the same for a
@@ -390,10 +392,10 @@ class PsoCaAvoider:
         keys: list[str],
         pts: FloatArray,
         t: float,
+        rs: FloatArray,
     ) -> list[_Hit]:
         if not len(pts) or self._retry_stationary > t:
             return []
-        rs = self.params.rs
         clear = segment_clearance(pos[None, :], target[None, :], pts)[0]
         if after is not None and switch > 0:
             # the corner the autopilot cuts at the next waypoint: it turns towards ``after``
@@ -420,7 +422,7 @@ class PsoCaAvoider:
             members = tuple(sorted(keys[i] for i in g))
             key = "s:" + members[0]
             dist = float(np.hypot(*(pts[g] - pos).T).min())
-            out.append(_Hit(key, dist, pts[g], members, rs, moving=False))
+            out.append(_Hit(key, dist, pts[g], members, float(rs[g].max()), moving=False))
         return out
 
     @staticmethod
@@ -449,6 +451,9 @@ class PsoCaAvoider:
                 continue
             xy = tr.positions[-1, :2]
             vel = tr.velocity[:2]
+            # a reported size (the cooperative sensor) widens the sphere kept from it
+            size = float(st.radii[st.index[ident]])
+            rs_m = max(self.moving_rs, size) if math.isfinite(size) else self.moving_rs
             side = self._sides.get(ident, 0)
             if side:
                 # re-test on the predicted closest approach along the current leg
@@ -456,12 +461,10 @@ class PsoCaAvoider:
                 vv = float(rel_v @ rel_v)
                 t_cpa = -float(rel_p @ rel_v) / vv if vv > 0 else 0.0
                 t_cpa = min(t_cpa, leg_len / speed_own)
-                if t_cpa <= 0.0 or float(np.hypot(*(rel_p + rel_v * t_cpa))) >= self.moving_rs:
+                if t_cpa <= 0.0 or float(np.hypot(*(rel_p + rel_v * t_cpa))) >= rs_m:
                     continue
             else:
-                if segment_clearance(pos[None, :], target[None, :], xy[None, :])[0, 0] >= (
-                    self.moving_rs
-                ):
+                if segment_clearance(pos[None, :], target[None, :], xy[None, :])[0, 0] >= rs_m:
                     continue
                 speed = float(np.hypot(*vel))
                 lateral = (leg[0] * vel[1] - leg[1] * vel[0]) / leg_len  # > 0: moving left
@@ -472,7 +475,7 @@ class PsoCaAvoider:
                     left_of_leg = leg[0] * rel[1] - leg[1] * rel[0] > 0
                     side = -1 if left_of_leg else 1  # head-on: pass on the other side
             dist = float(np.hypot(*(xy - pos)))
-            out.append(_Hit(key, dist, xy[None, :], (ident,), self.moving_rs, True, side))
+            out.append(_Hit(key, dist, xy[None, :], (ident,), rs_m, True, side))
         return out
 
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
@@ -485,9 +488,12 @@ class PsoCaAvoider:
         rows = st.stationary
         keys = [st.ids[i] for i in rows.tolist()]
         pts = np.array(st.positions[rows, :2], dtype=np.float64)
+        # the circle kept from each point: RS, or the size the sensor reported if larger (the
+        # cooperative sensor reports a body by its centre and radius, the radar by points)
+        rs = np.maximum(self.params.rs, np.nan_to_num(st.radii[rows], nan=0.0))
         after = wps[ctx.next_index + 1, :2] if ctx.next_index + 1 < len(wps) else None
         hits = self._stationary_hits(
-            pos, target, after, self._switch(ctx), keys, pts, ctx.t
+            pos, target, after, self._switch(ctx), keys, pts, ctx.t, rs
         ) + self._moving_hits(ctx, st, target)
         if not hits:
             return None
