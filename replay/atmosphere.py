@@ -79,6 +79,9 @@ def density_at(z: float, dt: float) -> float:  # pragma: no cover - jit
     return p / (R_AIR * (t + dt))
 
 
+_LAYERS = np.vectorize(_temperature_pressure, otypes=[np.float64, np.float64])
+
+
 def check_offset(dt: float, what: str = "temperature offset") -> float:
     """``dt`` as a float, refused unless a finite number of kelvin within +-50."""
     if (
@@ -100,15 +103,8 @@ def air(altitude: npt.ArrayLike, dt: float = 0.0) -> Air:
     z = np.asarray(altitude, dtype=np.float64)
     if not np.isfinite(z).all() or (z < -1000.0).any():
         raise InputError(f"altitude must be finite metres above -1000 m; got {altitude!r}")
-    h = R_EARTH * z / (R_EARTH + z)
-    tropo = h <= H_TROPOPAUSE
-    t_std = np.where(tropo, T0 - LAPSE * h, T11)
-    with np.errstate(over="ignore"):
-        p = np.where(
-            tropo,
-            P0 * (np.maximum(t_std, 1.0) / T0) ** (G0 / (R_AIR * LAPSE)),
-            P11 * np.exp(-G0 * (h - H_TROPOPAUSE) / (R_AIR * T11)),
-        )
+    # the standard's layers once, in the compiled function the dynamics call
+    t_std, p = _LAYERS(z)
     t = t_std + dt
     rho = p / (R_AIR * t)
     a = np.sqrt(GAMMA_AIR * R_AIR * t)
@@ -124,11 +120,8 @@ def density(altitude: npt.ArrayLike, dt: float = 0.0) -> FloatArray | float:
 
 def density_ratio(altitude: npt.ArrayLike, dt: float = 0.0) -> FloatArray | float:
     """sigma = rho / rho0."""
-    return (
-        np.asarray(density(altitude, dt)) / RHO0
-        if np.ndim(altitude)
-        else float(density(altitude, dt)) / RHO0
-    )
+    sigma = np.asarray(density(altitude, dt)) / RHO0
+    return float(sigma) if sigma.ndim == 0 else sigma
 
 
 def true_airspeed(

@@ -163,7 +163,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.flown import Fillets, fillets
-from replay.atmosphere import check_offset, density, true_airspeed
+from replay.atmosphere import check_offset, density
 from replay.frames import N_CONTROLS, N_STATES, map_to_ned
 from replay.guidance import GuidanceRefused
 from replay.vehicle import _kernels as kern
@@ -422,6 +422,7 @@ def design_gains(
         except InputError:  # e.g. an idle descent that needs negative thrust: gamma alone
             slopes.append((1.0, 0.0))
 
+    envelope = p.airspeed_range(altitude, temperature_offset)
     return Gains(
         airspeed=va,
         roll_p=roll_p,
@@ -456,8 +457,8 @@ def design_gains(
         course_wn=wn_chi,
         pitch_wn=wn_th,
         altitude=float(altitude),
-        airspeed_min=float(true_airspeed(p.airspeed_min, altitude, temperature_offset)),
-        airspeed_max=float(true_airspeed(p.airspeed_max, altitude, temperature_offset)),
+        airspeed_min=envelope[0],
+        airspeed_max=envelope[1],
     )
 
 
@@ -617,8 +618,7 @@ class Autopilot:
         p = self.params
         v = float(airspeed)
         h, dt = self.design_altitude, self.temperature_offset
-        lo = float(true_airspeed(p.airspeed_min, h, dt))
-        hi = float(true_airspeed(p.airspeed_max, h, dt))
+        lo, hi = p.airspeed_range(h, dt)
         if not lo - 1e-9 <= v <= hi + 1e-9:  # also refuses NaN
             at = f" at {h:.0f} m" if abs(h) >= 0.5 else ""
             eas = (

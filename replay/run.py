@@ -24,7 +24,7 @@ import yaml
 
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
-from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate
+from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate, time_limit
 from replay.threat_file import load_threats, threats_to_records
 from replay.threats import ThreatSet
 from replay.vehicle.params import VehicleParams
@@ -120,7 +120,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         temperature_offset=r.temperature_offset,
     )
     planned = estimated_flight_time(mission.waypoints, config.airspeed or mission.cruise_speed)
-    limit = r.duration or 1.5 * planned + 600.0
+    limit = time_limit(mission, config)
     warnings = tuple(threats.warn_after(planned))
     return PreparedReplay(
         r,

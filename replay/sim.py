@@ -120,6 +120,15 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
     return float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum() / speed)
 
 
+def time_limit(mission: Mission, cfg: ReplayConfig) -> float:
+    """How long a replay may fly (s): the configured duration, else 1.5 x the mission's flight
+    time at its airspeed + 10 minutes."""
+    if cfg.duration:
+        return float(cfg.duration)
+    speed = float(cfg.airspeed or mission.cruise_speed)
+    return 1.5 * estimated_flight_time(np.asarray(mission.waypoints, np.float64), speed) + 600.0
+
+
 def fixed_wing_stack(
     mission: Mission, params: VehicleParams, grid: HeightGrid | None, cfg: ReplayConfig
 ) -> FixedWingStack:
@@ -184,8 +193,7 @@ def simulate(
     wall0 = time.perf_counter()
     check_mission(mission, grid)
     wp0 = np.array(mission.waypoints, dtype=np.float64)
-    airspeed = float(cfg.airspeed or mission.cruise_speed)
-    duration = cfg.duration or 1.5 * estimated_flight_time(wp0, airspeed) + 600.0
+    duration = time_limit(mission, cfg)
     rng = np.random.default_rng(cfg.seed)
     ground: Callable[[FloatArray, FloatArray], FloatArray]
     if grid is not None:

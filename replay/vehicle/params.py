@@ -70,7 +70,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.performance import Performance
-from replay.atmosphere import check_offset
+from replay.atmosphere import check_offset, true_airspeed
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -200,6 +200,16 @@ class VehicleParams:
             [d(self.elevator_max_deg), d(self.aileron_max_deg), d(self.rudder_max_deg), 1.0]
         )
         return lo, hi
+
+    def airspeed_range(
+        self, altitude: float = 0.0, temperature_offset: float = 0.0
+    ) -> tuple[float, float]:
+        """The envelope (airspeed_min, airspeed_max: equivalent airspeeds) as true airspeeds
+        at ``altitude`` (m AMSL) on a day ``temperature_offset`` K off standard."""
+        lo, hi = np.asarray(
+            true_airspeed([self.airspeed_min, self.airspeed_max], altitude, temperature_offset)
+        )
+        return float(lo), float(hi)
 
     def min_turn_radius(self, speed: float | None = None) -> float:
         """V^2 / (g tan(bank_max)) (seed 000 eq. 13) at ``speed`` (default: cruise)."""
