@@ -17,7 +17,7 @@ What is measured, identically on both sides (``FlightModel`` below is all a side
 - **Power-off glide** at 1,500 m: the same search for the shallowest descent at closed throttle
   (the lowest flight-path angle that trims with the throttle >= 0): best glide ratio 1/tan(-gamma)
   and least sink rate over V. JSBSim's closed throttle is its engine at idle (windmilling propeller,
-  some idle thrust); ours gives zero thrust at closed throttle (issue 14, item 2).
+  some idle thrust); ours is the propeller windmilling with the engine giving no torque (drag).
 - **30 deg banked turn** at 50 m/s, 1,500 m: trimmed (ours: the turn radius whose coordinated trim
   banks 30 deg; JSBSim: its turn trim at 30 deg of bank), flown 30 s with the controls held; the
   radius is the mean horizontal speed over the course rate, compared with V^2 / (g tan(phi)) at the
@@ -33,9 +33,8 @@ What is measured, identically on both sides (``FlightModel`` below is all a side
 
 Our side uses only public APIs: ``replay.vehicle.trim.trim`` (an ``InputError`` means "does not
 trim") and ``replay.vehicle.dynamics.Aircraft`` (RK4 at 100 Hz). Altitude enters only through
-``trim(..., altitude=h)`` and the state's down position: today the model's density is a constant,
-so its figures are the same at every altitude (the defect issue 14 fixes); the script passes the
-altitude through so it measures the right thing once density depends on it.
+``trim(..., altitude=h)`` and the state's down position (the standard atmosphere at that
+altitude, as on JSBSim's side).
 
 The reference, JSBSim's ``c172p`` as shipped with the ``jsbsim`` package:
 
@@ -51,10 +50,22 @@ The reference, JSBSim's ``c172p`` as shipped with the ``jsbsim`` package:
   nothing on it, and the engine's rated power and rpm are file constants, not properties. So it is
   held the way a pilot holds it, with the throttle: a flight condition counts as flyable only if
   JSBSim trims it (its trimmer solves for the throttle in [0, 1]) with the engine at or below
-  2,700 rpm (``propulsion/engine/engine-rpm``) and 160 hp (``propulsion/engine/power-hp``). That
-  is a throttle stop where the rated limits are reached, condition by condition: at sea level the
-  160 hp limit binds first, higher up the 2,700 rpm. It applies to climb and top speed; every
-  other manoeuvre is well inside both limits.
+  2,700 rpm (``propulsion/engine/engine-rpm``) and the rated power of the next point
+  (``propulsion/engine/power-hp``). That is a throttle stop where the rated limits are reached,
+  condition by condition. It applies to climb and top speed, the figures the engine sets. The
+  level trims and the stall are the airframe's figures and are flown unheld: held, JSBSim's
+  lowest level trim speed at 1,500 m is set by power, not by the stall (it cannot fly 30 m/s
+  there with 125 hp at 2,350 rpm; the table shows that speed too).
+- **The stop is the rated engine's torque, lapsing with altitude as JSBSim's own engine does.**
+  160 hp at 2,700 rpm is a torque: at full throttle a fixed-pitch engine below 2,700 rpm makes
+  proportionally less power, as JSBSim's own engine does (at sea level 221 hp at 2,722 rpm and
+  230 hp at 2,843 rpm: power in proportion to rpm within 0.5 %). And a constant 160 hp stop hides
+  the lapse: the overpowered engine still makes 200 hp at full throttle at 1,500 m, so held at
+  160 hp it climbs there almost as at sea level (3.57 against 3.75 m/s, RESULTS.md 2026-11-24
+  00:42), which no 160 hp engine does. So the stop is ``160 hp x (rpm / 2,700) x L(h)``, L(h)
+  JSBSim's full-throttle torque (power over rpm) at the altitude over that at sea level (level
+  flight at 38, 47 and 55 m/s, the mean of the three ratios; printed in the table): JSBSim's
+  engine scaled to its rating, with its own lapse, not ours.
 - **Mixture leaned for best power.** JSBSim's piston engine burns an equivalence ratio of
   1.3 x mixture x (sea-level pressure / ambient pressure): full rich is right at sea level but far
   too rich higher up (at 3,000 m the engine stops). A pilot leans for best power; here the mixture
@@ -76,7 +87,8 @@ import argparse
 import importlib.util
 import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -101,7 +113,9 @@ from benchmarks._validate import (  # noqa: E402
     tally,
     turn_radius,
 )
+from replay.atmosphere import density  # noqa: E402
 from replay.frames import DA, DE, DT, PD, PHI, PSI, THETA, rotation_body_to_ned  # noqa: E402
+from replay.vehicle._kernels import piston_lapse  # noqa: E402
 from replay.vehicle.dynamics import Aircraft, air_data  # noqa: E402
 from replay.vehicle.params import G, VehicleParams  # noqa: E402
 from replay.vehicle.presets import load_vehicle  # noqa: E402
@@ -116,6 +130,7 @@ FT = 0.3048  # m per ft
 HP = 745.69987  # W per hp
 RPM_HELD = 2700.0
 HP_HELD = 160.0
+LAPSE_SPEEDS = (38.0, 47.0, 55.0)  # m/s: where JSBSim's full-throttle power lapse is measured
 GROSS_LB = 2300.0
 BEST_POWER_PHI = 1.4  # JSBSim piston: equivalence ratio = 1.3 mixture p_sl / p
 DT_S = 0.01  # both sides step at 100 Hz
@@ -288,6 +303,8 @@ class Jsbsim:
         jsbsim.set_logger(jsbsim.DefaultLogger(jsbsim.LogLevel.FATAL))
         self.fdm = self._load()
         self.name = "JSBSim c172p"
+        self._lapse: dict[int, float] = {}
+        self.holding = True
         self._init(50.0, 0.0)
         weight = float(self.fdm["inertia/weight-lbs"])
         if abs(weight - GROSS_LB) > 0.5:
@@ -346,11 +363,39 @@ class Jsbsim:
             return False
         return True
 
+    @contextmanager
+    def unheld(self) -> Iterator[None]:
+        """Fly without the rated-engine stop (the airframe's figures: level trims, stall)."""
+        self.holding = False
+        try:
+            yield
+        finally:
+            self.holding = True
+
     def held(self) -> bool:
-        return (
-            self["propulsion/engine/engine-rpm"] <= RPM_HELD
-            and self["propulsion/engine/power-hp"] <= HP_HELD
-        )
+        if not self.holding:
+            return True
+        rpm, hp = self["propulsion/engine/engine-rpm"], self["propulsion/engine/power-hp"]
+        altitude = self["ic/h-sl-ft"] * FT  # read before lapse() flies other conditions
+        return rpm <= RPM_HELD and hp <= HP_HELD * rpm / RPM_HELD * self.lapse(altitude)
+
+    def lapse(self, altitude: float) -> float:
+        """JSBSim's full-throttle torque at ``altitude`` over that at sea level: the mean ratio in
+        level flight at :data:`LAPSE_SPEEDS` (see the module docstring). Flies conditions of its
+        own: call it for every altitude before the trims that are held to it."""
+        key = round(altitude)
+        if key not in self._lapse:
+            if key == 0:
+                self._lapse[key] = 1.0
+            else:
+                ratios = []
+                for v in LAPSE_SPEEDS:
+                    rpm, hp = self.full_throttle(v, altitude)
+                    rpm0, hp0 = self.full_throttle(v, 0.0)
+                    ratios.append((hp / rpm) / (hp0 / rpm0))
+                self._lapse[key] = float(np.mean(ratios))
+                self.fdm = self._load()
+        return self._lapse[key]
 
     def level(self, airspeed: float, altitude: float) -> LevelTrim | None:
         self._init(airspeed, altitude)
@@ -449,11 +494,15 @@ def _elevator_norm(deg: float) -> float:
 # --- the manoeuvres, the same for both sides ----------------------------------------------------
 
 
-def stall_and_top(m: FlightModel, altitude: float, tol: float) -> tuple[float, float]:
-    def ok(v: float) -> bool:
-        return m.trims(v, altitude, 0.0)
+def stall(m: FlightModel, altitude: float, tol: float) -> float:
+    """The lowest level trim speed (m/s)."""
+    return boundary(lambda v: m.trims(v, altitude, 0.0), 40.0, 15.0, tol)
 
-    return boundary(ok, 40.0, 15.0, tol), boundary(ok, 50.0, 95.0, tol)
+
+def stall_and_top(m: FlightModel, altitude: float, tol: float) -> tuple[float, float]:
+    """(lowest, highest) level trim speed (m/s)."""
+    top = boundary(lambda v: m.trims(v, altitude, 0.0), 50.0, 95.0, tol)
+    return stall(m, altitude, tol), top
 
 
 def steepest(m: FlightModel, airspeed: float, altitude: float, tol: float, sign: int) -> float:
@@ -542,11 +591,15 @@ def compare(
     rows: list[Comparison] = []
     notes: list[tuple[str, str, str]] = []
     km = "m/s"
+    for h in {*plan.trim_altitudes, *plan.climb_altitudes, plan.glide_altitude}:
+        ref.lapse(h)  # before any held trim (it flies conditions of its own)
 
     log("level trims")
     for h in plan.trim_altitudes:
         for v in plan.trim_speeds:
-            a, b = ours.level(v, h), ref.level(v, h)
+            a = ours.level(v, h)
+            with ref.unheld():
+                b = ref.level(v, h)
             fig = f"level trim α at {v:g} m/s, {h:,.0f} m"
             rows.append(
                 Comparison(
@@ -562,10 +615,17 @@ def compare(
     log("stall and top speed")
     for h in plan.trim_altitudes:
         s_o, t_o = stall_and_top(ours, h, plan.speed_tol)
-        s_r, t_r = stall_and_top(ref, h, plan.speed_tol)
+        s_held, t_r = stall_and_top(ref, h, plan.speed_tol)
+        with ref.unheld():
+            s_r = stall(ref, h, plan.speed_tol)
         rows.append(
             Comparison(
-                f"lowest level trim speed (stall), {h:,.0f} m", km, s_o, s_r, Target("ratio", 0.05)
+                f"lowest level trim speed (stall), {h:,.0f} m",
+                km,
+                s_o,
+                s_r,
+                Target("ratio", 0.05),
+                note=f"JSBSim unheld; held, its lowest level trim speed is {s_held:.2f} m/s",
             )
         )
         rows.append(
@@ -575,7 +635,7 @@ def compare(
                 t_o,
                 t_r,
                 Target("ratio", 0.05),
-                note="JSBSim held to 2,700 rpm / 160 hp",
+                note=f"JSBSim held to 2,700 rpm / {HP_HELD * ref.lapse(h):.0f} hp at 2,700",
             )
         )
 
@@ -590,7 +650,10 @@ def compare(
                 c_o,
                 c_r,
                 Target("ratio", 0.20),
-                note=f"at {v_o:.1f} / {v_r:.1f} m/s; JSBSim held to 2,700 rpm / 160 hp",
+                note=(
+                    f"at {v_o:.1f} / {v_r:.1f} m/s; JSBSim held to 2,700 rpm and the torque "
+                    f"of {HP_HELD * ref.lapse(h):.0f} hp at 2,700"
+                ),
             )
         )
     unheld = ", ".join(
@@ -602,6 +665,16 @@ def compare(
         (
             "why JSBSim is held: its c172p unheld at full throttle, level, 0 m",
             f"{unheld} (the IO-320 is rated 160 hp at 2,700 rpm)",
+            "",
+        )
+    )
+    lapses = ", ".join(f"{h:,.0f} m: {ref.lapse(h):.3f}" for h in plan.climb_altitudes)
+    notes.append(
+        (
+            "JSBSim's full-throttle torque lapse (its torque over its sea-level torque)",
+            f"{lapses} (ISA Gagg-Ferrar, ours: "
+            + ", ".join(f"{piston_lapse(float(density(h))):.3f}" for h in plan.climb_altitudes)
+            + ")",
             "",
         )
     )
@@ -709,7 +782,10 @@ def main(argv: list[str] | None = None) -> int:
     table = table_rows(rows) + extra
     import jsbsim
 
-    title = "validate_jsbsim: cessna172 against JSBSim c172p (2,300 lb, held to 2,700 rpm / 160 hp)"
+    title = (
+        "validate_jsbsim: cessna172 against JSBSim c172p "
+        "(2,300 lb, held to 2,700 rpm and the torque of 160 hp at 2,700, with its own lapse)"
+    )
     summary = (
         f"jsbsim {jsbsim.__version__}; {passed}/{judged} targets met; "
         f"c172p cg {ref.cg_in:.1f} in; {'quick run' if args.quick else 'full run'}; "

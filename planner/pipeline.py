@@ -19,6 +19,7 @@ Everything is written to a temporary name and renamed when complete (``terrain.a
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -59,6 +60,9 @@ class PlanRequest:
     performance: Performance
     vehicle: str
     map_coords: bool = False
+    # the vehicle's limits over the altitude band the plan may fly, (lowest, highest) m AMSL:
+    # replaces ``performance`` once the map gives the band (VehicleParams.performance)
+    performance_at: Callable[[float, float], Performance] | None = None
     dem_options: dict[str, Any] = field(default_factory=dict)
     zones: str | Sequence[dict[str, Any]] | None = None
     algorithm: str = DEFAULT_ALGORITHM
@@ -213,7 +217,12 @@ def build_problem(request: PlanRequest) -> Prepared:
         allow_unknown=r.allow_unknown,
         zone_margin=r.zone_margin if r.avoid_zones else 0.0,
     )
-    _check_reach(problem, r.performance)
+    if r.performance_at is not None:
+        zmin, zmax = problem.band
+        low = max(zmin, grid.zmin + r.clearance)
+        problem = dataclasses.replace(problem, performance=r.performance_at(low, zmax))
+    assert problem.performance is not None
+    _check_reach(problem, problem.performance)
     return Prepared(grid, tuple(zlist), problem, tuple(warnings))
 
 
@@ -274,6 +283,7 @@ def to_mission(
     replay flies the fillets the plan was checked with), zones and the plan's provenance."""
     r = request
     problem = prepared.problem
+    perf = problem.performance or r.performance
     provenance = {
         "algorithm": r.algorithm,
         "parameters": result.params,
@@ -290,7 +300,7 @@ def to_mission(
         "altitude_band": list(problem.band),
         "avoid_zones": r.avoid_zones,
         "zone_margin": r.zone_margin if r.avoid_zones else 0.0,
-        "vehicle_limits": r.performance.as_dict(),
+        "vehicle_limits": perf.as_dict(),
         "violations": [v.as_dict() for v in result.violations],
     }
     return Mission(
@@ -301,9 +311,9 @@ def to_mission(
             tuple(str(Path(d).resolve()) for d in r.dem), r.dem_options.get("cell_size")
         ),
         vehicle=r.vehicle,
-        cruise_speed=r.performance.speed,
+        cruise_speed=perf.speed,
         cruise_altitude=round(float(np.mean(result.waypoints[:, 2])), 1),
-        turn_radius=r.performance.turn_radius,
+        turn_radius=perf.turn_radius,
         danger_zones=prepared.zones,
         plan=provenance,
     )

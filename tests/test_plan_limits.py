@@ -15,6 +15,7 @@ from planner.pipeline import PlanRequest, build_problem
 from planner.plan import plan
 from planner.problem import PlanningProblem
 from replay.vehicle.presets import load_vehicle
+from replay.vehicle.trim import best_climb
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrapath.cli import main
@@ -222,8 +223,42 @@ def test_cli_refuses_speed_zero_and_speeds_outside_the_envelope(
     assert main([*args, "--speed", "0", *out]) == 2
     assert "expected a speed > 0" in capsys.readouterr().err
     assert main([*args, "--speed", "60", *out]) == 1
-    assert "airspeed envelope 18–30 m/s" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "speed 60 m/s (true airspeed) is outside aerosonde's envelope at 49 m" in err
+    assert "(18–30 m/s equivalent)" in err
+    assert main([*args, "--speed", "17", *out]) == 2  # below the envelope anywhere
+    assert "below aerosonde's slowest airspeed at any altitude (18 m/s" in capsys.readouterr().err
     assert not (tmp_path / "m.yaml").exists()
+
+
+def test_cli_refuses_a_speed_below_the_stall_margin_at_the_top_of_the_band(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The envelope is equivalent airspeed: over the Rocky Mountains (2,300-4,300 m) the Cessna's
+    35 m/s minimum is 43.6 m/s true, and the error says where, how fast, and what it can fly."""
+    args = ["plan", RMNP, "--start=-105.85,40.20", "--goal=-105.55,40.50", "--vehicle"]
+    out = ["-o", str(tmp_path / "m.yaml")]
+    assert main([*args, "cessna172", "--speed", "40", *out]) == 1
+    err = capsys.readouterr().err
+    assert "speed 40 m/s (true airspeed) is outside cessna172's envelope at 4,338 m" in err
+    assert "it can fly 43.6–72.2 m/s true there (35–58 m/s equivalent)" in err
+    assert not (tmp_path / "m.yaml").exists()
+
+
+def test_the_planned_climb_is_what_the_aircraft_makes_at_the_top_of_the_band() -> None:
+    """The autopilot's climb limit is what it commands; the plan holds the aircraft to the
+    climb it can deliver at the highest altitude it may fly (thinner air, less power)."""
+    c172 = load_vehicle("cessna172")
+    sea = c172.performance(50.0, (0.0, 200.0))
+    assert sea.climb_rate == c172.climb_rate_max == 3.0  # the limit binds low down
+    high = c172.performance(50.0, (2000.0, 3000.0))
+    assert high.climb_rate == pytest.approx(best_climb(c172, 50.0, 3000.0))
+    assert 1.0 < high.climb_rate < 1.6  # JSBSim's c172p, held to its rating: 1.39 m/s
+    aero = load_vehicle("aerosonde")
+    assert 2.5 < aero.performance(25.0, (2300.0, 4338.0)).climb_rate < 3.2  # its limit: 5 m/s
+    # the envelope's top is 64.0 m/s true at 2,000 m (67.3 m/s at 3,000 m)
+    with pytest.raises(InputError, match=r"speed 66 m/s .* at 2,000 m, the lowest altitude"):
+        c172.performance(66.0, (2000.0, 3000.0))
 
 
 def test_cli_lon_lat_outside_the_map_answers_in_lon_lat(

@@ -182,6 +182,13 @@ def _positive_root(a, b, c):  # pragma: no cover - jit
 
 
 @nb.njit(cache=True, nogil=True)
+def piston_lapse(rho):  # pragma: no cover - jit
+    """A piston engine's full-throttle power over its sea-level power at density ``rho``:
+    Gagg and Ferrar's (sigma - 0.117) / 0.883, sigma = rho / rho0 (normally aspirated)."""
+    return max((rho / RHO0 - 0.117) / 0.883, 0.0)
+
+
+@nb.njit(cache=True, nogil=True)
 def propeller(va, dt, rho, p):  # pragma: no cover - jit
     """(thrust N, torque N m) of the engine and propeller at true airspeed ``va``, throttle
     ``dt`` and air density ``rho`` (``params.py``: electric, or piston)."""
@@ -212,7 +219,7 @@ def propeller(va, dt, rho, p):  # pragma: no cover - jit
     d3 = d * d * d
     d4 = d3 * d
     n_r = p[I_RPM] / 60.0
-    phi = max((rho / RHO0 - 0.117) / 0.883, 0.0)
+    phi = piston_lapse(rho)
     n = _positive_root(
         p[I_CP0] * rho * d4 * d,
         p[I_CP1] * rho * d4 * va,
@@ -339,9 +346,9 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
         plate = 2.0 * sa * sa * ca
         if alpha < 0.0:
             plate = -plate
-        cl_lin = p[I_CL0] + p[I_CLA] * alpha
-        cl = (1.0 - sig) * cl_lin + sig * plate
-        cd = p[I_CDP] + cl_lin * cl_lin * p[I_KIND]
+        cl_att = (1.0 - sig) * (p[I_CL0] + p[I_CLA] * alpha)  # the attached flow's lift
+        cl = cl_att + sig * plate
+        cd = p[I_CDP] + cl_att * cl_att * p[I_KIND] + sig * 2.0 * abs(sa) * sa * sa
         lift = qs * (cl + p[I_CLQ] * cq * qr + p[I_CLDE] * de)
         drag = qs * (cd + p[I_CDQ] * cq * qr + p[I_CDDE] * abs(de))
         fx += -ca * drag + sa * lift

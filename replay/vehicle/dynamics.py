@@ -69,9 +69,12 @@ def lift_coefficient(alpha: float, p: VehicleParams) -> float:
 
 
 def drag_coefficient(alpha: float, p: VehicleParams) -> float:
-    """CD(alpha) = CDp + (CL0 + CLalpha alpha)^2 / (pi e AR) (eq. 4.11)."""
-    cl = p.CL0 + p.CLalpha * alpha
-    return p.CDp + cl * cl / (math.pi * p.e * p.aspect_ratio)
+    """CD(alpha): the attached flow's induced drag plus the flat plate's past the stall
+    (``params.py``; eq. 4.11 below the stall)."""
+    s = stall_blend(alpha, p)
+    cl = (1.0 - s) * (p.CL0 + p.CLalpha * alpha)
+    sa = abs(math.sin(alpha))
+    return p.CDp + cl * cl / (math.pi * p.e * p.aspect_ratio) + s * 2.0 * sa * sa * sa
 
 
 def propeller(

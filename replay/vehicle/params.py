@@ -15,9 +15,14 @@ Aerodynamic model (Beard & McLain eqs 4.9-4.11, the "nonlinear" lift and drag)::
     CL(a) = (1 - s(a)) (CL0 + CLalpha a) + s(a) 2 sign(a) sin(a)^2 cos(a)
     s(a)  = (1 + e^-M(a-a0) + e^M(a+a0)) / ((1 + e^-M(a-a0)) (1 + e^M(a+a0)))
           = 1 - L(M (a0 - a)) L(M (a0 + a)),    L(z) = 1 / (1 + e^-z)   (same value, no overflow)
-    CD(a) = CDp + (CL0 + CLalpha a)^2 / (pi e AR),   AR = b^2 / S
+    CD(a) = CDp + ((1 - s(a)) (CL0 + CLalpha a))^2 / (pi e AR) + s(a) 2 |sin(a)|^3,  AR = b^2 / S
 
-so ``M`` and ``alpha0`` set where the linear lift curve blends into the flat plate (stall).
+so ``M`` and ``alpha0`` set where the linear lift curve blends into the flat plate (stall). The
+drag is eq. 4.11 where the flow is attached (s ~ 0: unchanged for every UAV preset in flight)
+but not near and past the stall: eq. 4.11 squares the *linear* lift coefficient, so as the lift
+curve bends the induced drag keeps growing as if it did not (the Cessna at 12 deg: 0.21 against
+JSBSim's c172p table's 0.157). Here the induced drag is that of the attached-flow part of the
+lift, and the flat plate's part brings its own drag (its normal force 2 sin^2 a, times sin a).
 Air density ``rho`` is the ISA standard atmosphere's at the aircraft's altitude
 (:mod:`replay.atmosphere`, optionally on a day ``temperature_offset`` K off standard, given to
 :meth:`VehicleParams.pack`): the aerodynamics and the propeller lose force with height.
@@ -216,18 +221,59 @@ class VehicleParams:
         v = self.cruise_speed if speed is None else speed
         return v * v / (G * math.tan(math.radians(self.bank_max_deg)))
 
-    def performance(self, speed: float | None = None) -> Performance:
-        """What the planner needs of this aircraft at ``speed`` (default: cruise), checked
-        against the airspeed envelope."""
+    def performance(
+        self,
+        speed: float | None = None,
+        altitudes: tuple[float, float] | None = None,
+        temperature_offset: float = 0.0,
+    ) -> Performance:
+        """What the planner needs of this aircraft at true airspeed ``speed`` (default: cruise).
+
+        Without ``altitudes`` the speed is checked against the envelope at sea level, where
+        equivalent and true airspeed agree, and the climb rate is the autopilot's limit. With
+        ``altitudes`` = (lowest, highest) m AMSL the plan may fly: the speed must lie in the
+        true-airspeed envelope at both ends (the envelope is equivalent airspeed: its true speeds
+        grow with height, so the highest altitude sets the slowest speed and the lowest the
+        fastest), and the climb rate is the smaller of the autopilot's limit and the best
+        steady climb the aircraft makes at that speed at the highest altitude (thinner air, less
+        power: the Cessna's 3 m/s limit is 1.3 m/s at 3,000 m)."""
         v = self.cruise_speed if speed is None else float(speed)
-        if not (math.isfinite(v) and self.airspeed_min <= v <= self.airspeed_max):
+        if altitudes is None:
+            if not (math.isfinite(v) and self.airspeed_min <= v <= self.airspeed_max):
+                raise InputError(
+                    f"speed {v:g} m/s is outside {self.name}'s airspeed envelope "
+                    f"{self.airspeed_min:g}–{self.airspeed_max:g} m/s"
+                )
+            climb = self.climb_rate_max
+        else:
+            climb = self._climb_over(v, altitudes, temperature_offset)
+        return Performance(self.name, v, climb, self.descent_rate_max, self.bank_max_deg)
+
+    def _climb_over(
+        self, v: float, altitudes: tuple[float, float], temperature_offset: float
+    ) -> float:
+        from replay.vehicle.trim import best_climb  # trim imports this module
+
+        low, high = (float(a) for a in altitudes)
+        eas = f"{self.airspeed_min:g}–{self.airspeed_max:g} m/s equivalent"
+        for h, bad in ((high, lambda lo, hi: v < lo), (low, lambda lo, hi: v > hi)):
+            lo, hi = self.airspeed_range(h, temperature_offset)
+            if not math.isfinite(v) or bad(lo, hi):
+                where = "highest" if h == high else "lowest"
+                raise InputError(
+                    f"speed {v:g} m/s (true airspeed) is outside {self.name}'s envelope at "
+                    f"{h:,.0f} m, the {where} altitude the plan may fly: it can fly "
+                    f"{lo:.1f}–{hi:.1f} m/s true there ({eas}); choose a speed in it "
+                    "(--speed) or a narrower altitude band (--zmin/--zmax)"
+                )
+        best = best_climb(self, v, high, temperature_offset)
+        if best <= 0.0:
             raise InputError(
-                f"speed {v:g} m/s is outside {self.name}'s airspeed envelope "
-                f"{self.airspeed_min:g}–{self.airspeed_max:g} m/s"
+                f"{self.name} cannot hold level flight at {v:g} m/s (true airspeed) at "
+                f"{high:,.0f} m, the highest altitude the plan may fly; choose another speed "
+                "(--speed) or a lower band (--zmax)"
             )
-        return Performance(
-            self.name, v, self.climb_rate_max, self.descent_rate_max, self.bank_max_deg
-        )
+        return min(self.climb_rate_max, best)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -35,21 +35,26 @@ Presets (``load_vehicle(name)``):
     pitch +-20 deg). Derivatives from the LaRCsim ``c172_aero.c`` model by Tony Peden in
     FlightGear (based on Roskam, *Airplane Flight Dynamics and Automatic Flight Controls* Part I),
     geometry, weight (2300 lb) and inertias (948/1346/1967 slug ft^2) from the UIUC Cessna 172
-    model pages (J. Scott, M. Selig, 2000, after Sivier's Frasca data), converted to SI. CL0 = 0.25
-    and CLalpha = 5.5 /rad are the linear part of Peden's CL(alpha) table (CLmax 1.47 at 16 deg,
-    reproduced with alpha0 = 0.35 rad, M = 20). His aileron is positive right-wing-up, so Clda
-    and Cnda change sign here. The alpha-dot terms (CLadot, Cmadot) are not modelled. Changed
-    from LaRCsim after the comparison with JSBSim's c172p (benchmarks/validate_jsbsim.py): the
-    drag polar (his CD0 0.046 and induced factor 0.054 gave 1.4 times JSBSim's power required at
-    50 m/s) is JSBSim's level-trim polar at 30-60 m/s, CD = 0.031 + 0.079 CL^2 with its elevator
-    drag taken out: CDp = 0.0244 and 1/(pi e AR) = 0.0942, with CDde = 0.06 now on |delta_e|
-    (LaRCsim's signed 0.06 delta_e made an up elevator reduce drag); the aileron's Clda is 0.23
-    (JSBSim's c172 models; LaRCsim's 0.09 rolled at 30 deg/s against their 67-96). Propulsion:
-    a 160 hp engine (Gagg-Ferrar lapse) on a fixed-pitch 75 in propeller held to 2,700 rpm, its
-    CT(J) and CP(J) chosen here (static thrust 2.6 kN; efficiency 0.70 at 46 m/s and 0.84 at
-    65 m/s at full power, near JSBSim's 0.71 and 0.84): top level speed 68 m/s, best climb
-    3.0 m/s at sea level (JSBSim-held 3.75) -- but only 0.3 m/s at 3,000 m (JSBSim-held 2.64;
-    issue 14 stays open on it). Envelope 35-58 m/s, climb limit 3 m/s, descent limit 4 m/s.
+    model pages (J. Scott, M. Selig, 2000, after Sivier's Frasca data), converted to SI. His
+    aileron is positive right-wing-up, so Clda and Cnda change sign here. The alpha-dot terms
+    (CLadot, Cmadot) are not modelled. Changed from LaRCsim after the comparison with JSBSim's
+    c172p (benchmarks/validate_jsbsim.py), whose aerodynamic tables are Peden's: lift and drag
+    are fitted (least squares, alpha -5..16 deg) to its CLwbh(alpha) and CDo + CDwbh(alpha)
+    tables through this model's blend and its drag of the attached-flow lift (``params.py``):
+    CL0 0.25, CLalpha 5.75 /rad, M = 10.8, alpha0 = 0.39 rad (lift within 0.04 of the table to
+    the stall, CLmax 1.48 against its 1.47: the smooth blend peaks at 18 deg, the table at 16),
+    CDp 0.0278 and 1/(pi e AR) 0.0816 (drag within 6 %). Peden's linear CLalpha 5.5 with M = 20
+    kept the lift curve straight to 14 deg, and eq. 4.11 on it gave a third too much drag at 12 deg:
+    the Cessna could not fly 30 m/s at 1,500 m, which JSBSim trims at 13.6 deg. CDde = 0.06 is on
+    |delta_e| (LaRCsim's signed 0.06 delta_e made an up elevator reduce drag); the aileron's
+    Clda is 0.23 (JSBSim's c172 models; LaRCsim's 0.09 rolled at 30 deg/s against their 67-96);
+    Cm0 is JSBSim's 0.10 (LaRCsim's -0.02 trimmed with 7 deg of up elevator at 40 m/s where
+    JSBSim needs half a degree: 30 % more parasitic drag from the elevator, and 0.35 deg too much
+    angle of attack). Propulsion: a 160 hp engine (Gagg-Ferrar lapse) on a fixed-pitch 75 in propeller
+    held to 2,700 rpm, its CT(J) and CP(J) chosen here (static thrust 2.6 kN; efficiency 0.70 at
+    46 m/s and 0.84 at 65 m/s at full power, near JSBSim's 0.71 and 0.84); closed throttle
+    windmills (CP = 0). Top level speed and best climb: see benchmarks/RESULTS.md
+    (validate_jsbsim). Envelope 35-58 m/s, climb limit 3 m/s, descent limit 4 m/s.
 ``small-uas``
     Seed 004's small UAS (Lin, Castano & Xu: a UMD RMRC Anaconda-class aircraft, 13-19 m/s,
     cruise 15 m/s, Table II). Scaled from the Aerosonde like ``solar-uav``: 3 kg, 2.2 m span,
@@ -251,15 +256,15 @@ CESSNA172 = VehicleParams(
     S=_c172_S,
     b=_c172_b,
     c=4.9 * _FT,
-    e=1.0 / (math.pi * (_c172_b**2 / _c172_S) * 0.0942),
+    e=1.0 / (math.pi * (_c172_b**2 / _c172_S) * 0.0816),
     CL0=0.25,
-    CLalpha=5.5,
+    CLalpha=5.75,
     CLq=3.9,
     CLde=1.28 / 3.682,
-    CDp=0.0244,
+    CDp=0.0278,
     CDq=0.0,
     CDde=0.06,
-    Cm0=-0.02,
+    Cm0=0.10,
     Cmalpha=-1.8,
     Cmq=-12.4,
     Cmde=-1.28,
@@ -281,8 +286,8 @@ CESSNA172 = VehicleParams(
     Cnr=-0.099,
     Cnda=0.0053,
     Cndr=-0.0657,
-    M=20.0,
-    alpha0=0.35,
+    M=10.8,
+    alpha0=0.39,
     elevator_min_deg=-28.0,
     elevator_max_deg=23.0,
     aileron_max_deg=17.5,

@@ -36,7 +36,7 @@ from scipy.optimize import least_squares
 
 from replay.atmosphere import density_at
 from replay.vehicle import _kernels
-from replay.vehicle.dynamics import lift_coefficient
+from replay.vehicle.dynamics import drag_coefficient, lift_coefficient
 from replay.vehicle.params import I_DTEMP, VehicleParams
 from terrain.errors import InputError
 
@@ -93,7 +93,7 @@ def _initial(
     alpha = (cl - params.CL0) / params.CLalpha
     alpha = min(max(alpha, -0.2), alpha_max_lift(params) - 1e-3)
     de = -(params.Cm0 + params.Cmalpha * alpha) / params.Cmde
-    drag = qs * (params.CDp + cl * cl / (math.pi * params.e * params.aspect_ratio))
+    drag = qs * drag_coefficient(alpha, params)
     need = max(drag + params.weight * math.sin(gamma), 0.0)
     dt = _kernels.throttle_for(need, va, rho, packed)
     z = np.array([alpha, phi, alpha + gamma, de, 0.0, 0.0, dt, 0.0])

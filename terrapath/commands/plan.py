@@ -217,6 +217,7 @@ def plan_cmd(
     """
     import json
 
+    from planner.performance import Performance
     from planner.pipeline import PlanRequest
     from replay.vehicle.presets import load_vehicle
 
@@ -226,12 +227,25 @@ def plan_cmd(
         )
     if speed is not None and not speed > 0:
         raise click.BadParameter(f"expected a speed > 0 m/s; got {speed:g}", param_hint="--speed")
-    performance = load_vehicle(vehicle, base_dir=Path.cwd()).performance(speed)
+    params = load_vehicle(vehicle, base_dir=Path.cwd())
+    v = params.cruise_speed if speed is None else float(speed)
+    if not v >= params.airspeed_min:
+        raise click.BadParameter(
+            f"{v:g} m/s is below {params.name}'s slowest airspeed at any altitude "
+            f"({params.airspeed_min:g} m/s, at sea level)",
+            param_hint="--speed",
+        )
+    # the limits at sea level until the map gives the altitude band; then the true-airspeed
+    # envelope over the band and the climb the aircraft makes at its top (VehicleParams)
+    performance = Performance(
+        params.name, v, params.climb_rate_max, params.descent_rate_max, params.bank_max_deg
+    )
     request = PlanRequest(
         dem=tuple(dem),
         start=start,
         goal=goal,
         performance=performance,
+        performance_at=lambda low, high: params.performance(v, (low, high)),
         vehicle=vehicle,
         map_coords=map_coords,
         dem_options=opts,
