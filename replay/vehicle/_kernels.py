@@ -37,10 +37,12 @@ from replay.vehicle.params import (
     I_CL_P,
     I_CL_R,
     I_CLA,
+    I_CLAD,
     I_CLDE,
     I_CLQ,
     I_CM0,
     I_CMA,
+    I_CMAD,
     I_CMDE,
     I_CMQ,
     I_CN0,
@@ -269,6 +271,26 @@ def throttle_for(thrust, va, rho, p):  # pragma: no cover - jit
 
 
 @nb.njit(cache=True, nogil=True)
+def alpha_rate(uu, vv, ww, ur, vr, wr, pr, qr, rr, ax, az, kad_m):  # pragma: no cover - jit
+    """d(alpha)/dt (rad/s) with the alpha-dot lift included: ``ax``, ``az`` the body force per
+    unit mass without it, ``kad_m`` its lift per rad/s of alpha-dot per unit mass.
+
+    alpha = atan(wr / ur) with (ur, wr) the air-relative velocity; a constant wind's body
+    components turn with the body (d(w_b)/dt = -omega x w_b). The alpha-dot lift L = k alpha_dot
+    (acting at alpha) changes alpha_dot by -L / (m sqrt(ur^2 + wr^2)), so alpha_dot is the root
+    of a linear equation: alpha_dot0 / (1 + k / (m sqrt(ur^2 + wr^2)))."""
+    h2 = ur * ur + wr * wr
+    if h2 <= 0.0:
+        return 0.0
+    wbx = uu - ur  # the wind in body axes
+    wby = vv - vr
+    wbz = ww - wr
+    udot = rr * vv - qr * ww + ax + (qr * wbz - rr * wby)
+    wdot = qr * uu - pr * vv + az + (pr * wby - qr * wbx)
+    return (ur * wdot - wr * udot) / h2 / (1.0 + kad_m / math.sqrt(h2))
+
+
+@nb.njit(cache=True, nogil=True)
 def derivs(x, u, p, out):  # pragma: no cover - jit
     """xdot = f(x, u) into ``out`` (the twin of ``dynamics.derivatives``).
 
@@ -322,6 +344,10 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
     va2 = h2 + vr * vr
     va = math.sqrt(va2)
     rho = density_at(-x[2], p[I_DTEMP])  # the standard atmosphere at the aircraft's altitude
+    kad = 0.0  # N per rad/s of alpha-dot (lift), N m per rad/s (pitch): set with the air data
+    mad = 0.0
+    ca = 1.0
+    sa = 0.0
     if va >= 1e-6:
         alpha = atan2f(wr, ur)
         if h2 > 0.0:
@@ -373,6 +399,9 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
             + p[I_CL_DR] * dr
         )
         mm = qs * p[I_C] * (p[I_CM0] + p[I_CMA] * alpha + p[I_CMQ] * cq * qr + p[I_CMDE] * de)
+        if h2 > 0.0:
+            kad = qs * p[I_CLAD] * cq
+            mad = qs * p[I_C] * p[I_CMAD] * cq
         mn = qsb * (
             p[I_CN0]
             + p[I_CNB] * beta
@@ -384,6 +413,11 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
     thrust, torque = propeller(va, dt, rho, p)
     fx += thrust
     ml -= torque
+    if kad != 0.0 or mad != 0.0:
+        adot = alpha_rate(uu, vv, ww, ur, vr, wr, pr, qr, rr, fx / m, fz / m, kad / m)
+        fx += sa * kad * adot
+        fz -= ca * kad * adot
+        mm += mad * adot
     out[0] = r00 * uu + r01 * vv + r02 * ww
     out[1] = r10 * uu + r11 * vv + r12 * ww
     out[2] = r20 * uu + r21 * vv + r22 * ww

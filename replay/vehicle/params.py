@@ -165,6 +165,10 @@ class VehicleParams:
     CP0: float = 0.0  # piston: power coefficient CP(J) = CP2 J^2 + CP1 J + CP0 (CT as above)
     CP1: float = 0.0
     CP2: float = 0.0
+    # alpha-dot derivatives (per rad of alpha-dot c / (2 Va)): the tail meets the downwash the
+    # wing shed a moment ago (Beard & McLain leave them out: zero for their airframes)
+    CLadot: float = 0.0
+    Cmadot: float = 0.0
     source: str = ""  # where the numbers come from (free text)
 
     def __post_init__(self) -> None:
@@ -327,7 +331,8 @@ I_GRAV, I_WN, I_WE, I_WD = range(52, 56)
 I_ENGINE, I_DPROP, I_VBAT, I_KV, I_KQ, I_RMOT, I_I0 = range(56, 63)
 I_CT0, I_CT1, I_CT2, I_CQ0, I_CQ1, I_CQ2 = range(63, 69)
 I_PMAX, I_RPM, I_CP0, I_CP1, I_CP2 = range(69, 74)
-N_PACKED = 74
+I_CLAD, I_CMAD = 74, 75
+N_PACKED = 76
 ENGINES = ("electric", "piston")
 
 _PACKED_DERIVS: tuple[tuple[int, str], ...] = (
@@ -341,6 +346,8 @@ _PACKED_DERIVS: tuple[tuple[int, str], ...] = (
     (I_CM0, "Cm0"),
     (I_CMA, "Cmalpha"),
     (I_CMQ, "Cmq"),
+    (I_CLAD, "CLadot"),
+    (I_CMAD, "Cmadot"),
     (I_CMDE, "Cmde"),
     (I_CY0, "CY0"),
     (I_CYB, "CYbeta"),

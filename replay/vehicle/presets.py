@@ -37,7 +37,7 @@ Presets (``load_vehicle(name)``):
     geometry, weight (2300 lb) and inertias (948/1346/1967 slug ft^2) from the UIUC Cessna 172
     model pages (J. Scott, M. Selig, 2000, after Sivier's Frasca data), converted to SI. His
     aileron is positive right-wing-up, so Clda and Cnda change sign here. The alpha-dot terms
-    (CLadot, Cmadot) are not modelled. Changed from LaRCsim after the comparison with JSBSim's
+    are JSBSim's c172p's (CLadot 1.7, Cmadot -7.27). Changed from LaRCsim after the comparison with JSBSim's
     c172p (benchmarks/validate_jsbsim.py), whose aerodynamic tables are Peden's: lift and drag
     are fitted (least squares, alpha -5..16 deg) to its CLwbh(alpha) and CDo + CDwbh(alpha)
     tables through this model's blend and its drag of the attached-flow lift (``params.py``):
@@ -307,6 +307,8 @@ CESSNA172 = VehicleParams(
     CP0=0.050,
     CP1=0.046,
     CP2=-0.0731,
+    CLadot=1.7,
+    Cmadot=-7.27,
     source=(
         "LaRCsim c172_aero.c (T. Peden, FlightGear; after Roskam Part I) derivatives; UIUC "
         "Cessna 172 model (Scott & Selig 2000, Sivier) mass and geometry; propeller fitted here"

@@ -141,8 +141,10 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "--speed",
     type=float,
     default=None,
-    help="Cruise airspeed (m/s; default: the vehicle's cruise speed). The plan keeps the "
-    "vehicle's climb, descent and turn limits at this speed.",
+    help="Cruise true airspeed (m/s; default: the vehicle's cruise speed). It must lie in the "
+    "vehicle's envelope (equivalent airspeed: its true speeds grow with height) over the whole "
+    "altitude band; the plan keeps the descent and turn limits at this speed and the climb the "
+    "aircraft makes at the top of the band.",
 )
 @click.option(
     "--vehicle",
