@@ -33,6 +33,11 @@ AVOIDERS: dict[str, AvoiderEntry] = {
         "PsoCaAvoider",
         "seed 000: radar-driven waypoint re-planning with PSO (or GA, SA, MAFOA, GCPSO, MPSO)",
     ),
+    "ctga": AvoiderEntry(
+        "replay.avoidance.ctga",
+        "CtgaAvoider",
+        "seed 001: circular arcs round convex obstacles, flown in the aircraft's orbit mode",
+    ),
 }
 
 

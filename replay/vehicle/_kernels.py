@@ -672,16 +672,25 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
         chi_c = orbit_course(x[0], x[1], leg[L_CN], leg[L_CE], rho, lam, gk[K_ORBIT])
         phi_ff = lam * math.atan(vg2 / (p[I_GRAV] * rho))
     elif mode == 3:
-        # orbit a (possibly moving) centre: the vector field gives the course relative to the
-        # centre; the centre's velocity is added to the commanded ground velocity
+        # orbit a (possibly moving) centre: the vector field gives the direction u of the
+        # velocity relative to the centre; the commanded course is the one whose ground velocity
+        # (of magnitude va) less the centre's points along u: va u(chi) = s u + v_c, s > 0 (the
+        # root of a quadratic). When no course does (the centre outruns the aircraft across u),
+        # the course is u itself, which gains most along it.
         rho = cmd[C_ORB_R]
         lam = cmd[C_ORB_LAM]
         cvn = cmd[C_ORB_VN]
         cve = cmd[C_ORB_VE]
         chi_r = orbit_course(x[0], x[1], cmd[C_ORB_N], cmd[C_ORB_E], rho, lam, gk[K_ORBIT])
-        wn_ = va * math.cos(chi_r) + cvn
-        we_ = va * math.sin(chi_r) + cve
-        chi_c = atan2f(we_, wn_)
+        un = math.cos(chi_r)
+        ue = math.sin(chi_r)
+        dot = cvn * un + cve * ue
+        disc = va * va - (cvn * cvn + cve * cve - dot * dot)
+        srel = -dot + math.sqrt(disc) if disc > 0.0 else -1.0
+        if srel > 0.0:
+            chi_c = atan2f(srel * ue + cve, srel * un + cvn)
+        else:
+            chi_c = chi_r
         rvn = vn - cvn
         rve = ve - cve
         phi_ff = lam * math.atan((rvn * rvn + rve * rve) / (p[I_GRAV] * rho))
