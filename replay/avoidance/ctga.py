@@ -87,6 +87,7 @@ TURN_MARGIN = 1.05  # §3.1: "the turning radius can be slightly increased in ac
 JOIN_TOLERANCE = 0.03  # on the arc (T2) when within 3 % of its radius
 REISSUE_ALT_M = 5.0
 REISSUE_RADIUS = 0.02
+REISSUE_SPEED = 1.0  # m/s: a moving obstacle's velocity changed this much: the orbit follows
 SWITCH_SLACK = 0.3  # the next body's arc may pass the current body at 70 % of R_safe
 COMPLEX_S = 5.0  # a body found this soon after an arc is left belongs to the same obstacle
 
@@ -248,6 +249,7 @@ class _Arc:
     first_key: str  # the complex obstacle's first body
     seen_t: float  # when the obstacle was last seen
     floor: float = 0.0  # widened to keep the previous body of a complex obstacle inside
+    issued_t: float = 0.0  # when the orbit was last commanded (its centre moves from there)
 
 
 class CtgaAvoider:
@@ -407,6 +409,7 @@ class CtgaAvoider:
             first_key or obs.key,
             ctx.t,
             at_least or 0.0,
+            ctx.t,
         )
         self._done.add(obs.key)
         side = "clockwise" if clockwise else "counter-clockwise"
@@ -492,10 +495,16 @@ class CtgaAvoider:
             )
         radius = max(arc_radius(current.radius, self.r_safe, speed, bank), arc.floor)
         altitude = self._altitude(ctx)
+        # where the orbit's centre is now (it moves with the velocity it was given)
+        o, age = arc.obstacle, ctx.t - arc.issued_t
         shift = math.hypot(
-            current.center[0] - arc.obstacle.center[0], current.center[1] - arc.obstacle.center[1]
+            current.center[0] - (o.center[0] + o.velocity[0] * age),
+            current.center[1] - (o.center[1] + o.velocity[1] * age),
         )
-        moved = not current.moving and shift > REISSUE_RADIUS * arc.radius
+        turned = math.hypot(
+            current.velocity[0] - o.velocity[0], current.velocity[1] - o.velocity[1]
+        )
+        moved = shift > REISSUE_RADIUS * arc.radius or turned > REISSUE_SPEED
         if (
             abs(radius - arc.radius) > REISSUE_RADIUS * arc.radius
             or abs(altitude - arc.altitude) > REISSUE_ALT_M
@@ -504,6 +513,7 @@ class CtgaAvoider:
             arc.obstacle = current
             arc.radius = radius
             arc.altitude = altitude
+            arc.issued_t = ctx.t
             return AvoidanceDecision(
                 self._orbit(arc),
                 reason=f"arc update {current.key}: {radius:.0f} m at {altitude:.0f} m",
