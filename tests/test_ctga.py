@@ -4,12 +4,14 @@ three scenarios flown by the 6-DOF Cessna at 50 m/s with the cooperative sensor.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 
-from planner.mission import mission_from_dict
+from planner.mission import load_mission
 from replay.avoidance import make_avoider
 from replay.avoidance.ctga import (
     CtgaAvoider,
@@ -111,14 +113,15 @@ def test_bad_options_are_refused() -> None:
 
 
 # -- the paper's scenarios (§4.2) -------------------------------------------------------------------
+SCENARIO_DIR = Path(__file__).resolve().parents[1] / "data" / "scenarios"
 PATH = [[0.0, 0.0, 200.0], [2000.0, 4000.0, 300.0]]  # NED (0,0,-200) -> (4000, 2000, -300)
 _U = np.array([2000.0, 4000.0]) / math.hypot(2000.0, 4000.0)
 _N = np.array([_U[1], -_U[0]])  # right of the path
 
 
 def _body(ident: str, along: float, lateral: float, radius: float) -> dict[str, Any]:
-    """A near-cylinder standing on the ground (seed 001 eq 3: p = q = 1, r = 4), 600 m tall:
-    its section at 200-300 m is ``radius`` within 0.1 %."""
+    """A near-cylinder standing on the ground (seed 001 eq 3: p = q = 1, r = 4), as the scenario
+    files' bodies: its section at 200-300 m is ``radius`` within 0.1 %."""
     x, y = _U * along + _N * lateral
     return {
         "id": ident,
@@ -129,26 +132,14 @@ def _body(ident: str, along: float, lateral: float, radius: float) -> dict[str, 
     }
 
 
+def _scenario(name: str) -> list[dict[str, Any]]:
+    text = (SCENARIO_DIR / f"seed001-{name}-threats.yaml").read_text()
+    records: list[dict[str, Any]] = yaml.safe_load(text)["threats"]
+    return records
+
+
 SCENARIOS: dict[str, list[dict[str, Any]]] = {
-    "simple": [_body("obstacle-1", 1450, 60, 350), _body("obstacle-2", 3500, -80, 350)],
-    # a chain of three bodies across the way round the first: each found from the arc of the
-    # one before, 990 m apart (closer, the next arc would cut the body being passed and is widened)
-    "complex": [
-        _body("body-1", 1200, 60, 360),
-        _body("body-2", 1900, -650, 360),
-        _body("body-3", 2600, -1350, 360),
-    ],
-    # NED (north 1500, east 300) = map (300, 1500); 20 m/s east, 10 m/s north, stops after 40 s
-    "moving": [
-        {
-            "id": "mover",
-            "kind": "intruder",
-            "position": [300.0, 1500.0, 250.0],
-            "velocity": [20.0, 10.0, 0.0],
-            "stops_at": 40.0,
-            "radius": 350.0,
-        }
-    ],
+    name: _scenario(name) for name in ("simple", "complex", "moving")
 }
 PAPER_TIMES = {
     "simple": "obstacle I detected at 8 s, avoided by 33 s; obstacle II 49-78 s",
@@ -158,16 +149,8 @@ PAPER_TIMES = {
 
 
 def fly(scenario: str, avoider: str, sensor: str = "cooperative") -> ReplayResult:
-    mission = mission_from_dict(
-        {
-            "terrapath": 1,
-            "name": f"seed001-{scenario}",
-            "crs": "local",
-            "vehicle": "cessna172",
-            "cruise": {"speed": 50.0, "altitude": 200.0},
-            "waypoints": PATH,
-        }
-    )
+    mission = load_mission(SCENARIO_DIR / "seed001-mission.yaml")
+    assert mission.waypoints.tolist() == PATH and mission.cruise_speed == 50.0
     return simulate(
         mission,
         threats_from_records(SCENARIOS[scenario]),
