@@ -58,7 +58,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.frames import as_points
-from replay.threats import Threat, Vec3, finite_vec3
+from replay.threats import EDGE_SUFFIXES, Threat, Vec3, finite_vec3, outline_edges
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -323,10 +323,38 @@ class BodyThreat(Threat):
     def radar_points(
         self, t: float, observer: npt.ArrayLike, max_range: float = math.inf
     ) -> tuple[list[str], FloatArray]:
+        """The nearest point, then the outline's left and right edges of the section at the
+        nearest point's altitude, as a scanning radar sees the body's extent."""
         o = as_points(observer).reshape(1, 3)
         if np.linalg.norm(o - self._c) - np.linalg.norm(self._ax) > max_range:
             return [], np.zeros((0, 3))  # the body lies inside the sphere of radius |axes|
-        return [self.id], self.nearest_point(o)
+        near = self.nearest_point(o)
+        z = float(near[0, 2])
+        boundary = self.section_boundary(z)
+        edges = None if boundary is None else outline_edges(o[0], boundary, z)
+        if edges is None:
+            return [self.id], near
+        return [self.id, *(self.id + s for s in EDGE_SUFFIXES)], np.vstack([near, edges])
+
+    def section_boundary(self, z: float, n: int = 360) -> FloatArray | None:
+        """``n`` points (n, 2) of the horizontal section's boundary at altitude ``z`` (one per
+        degree about the axis, by bisection on Gamma = 1), None where the section is empty."""
+        if not float(self.body_radius_at(z)) > 0.0:
+            return None
+        theta = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+        u = np.column_stack([np.cos(theta), np.sin(theta)])
+        lo = np.zeros(n)
+        hi = np.full(n, float(np.hypot(self._ax[0], self._ax[1])) * 1.01)
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            pts = np.column_stack(
+                [self._c[0] + mid * u[:, 0], self._c[1] + mid * u[:, 1], np.full(n, z)]
+            )
+            inside = self.gamma(pts) <= 1.0
+            lo = np.where(inside, mid, lo)
+            hi = np.where(inside, hi, mid)
+        r = 0.5 * (lo + hi)
+        return np.column_stack([self._c[0] + r * u[:, 0], self._c[1] + r * u[:, 1]])
 
     def shape(self, t: float = 0.0) -> dict[str, Any]:
         return {

@@ -10,9 +10,9 @@ seconds, m/s.
 
 **Memory.**  Returns are remembered by id.  A return of a solid body (the radar's ``extended``
 returns: the nearest point of a cylinder or convex body, which slides over its surface as the
-aircraft moves) is remembered per horizontal cell of ``body_cell_m`` (100 m) under the id
-``"<id>@<i>/<j>"`` (``i = floor(x / cell)``, ``j = floor(y / cell)``), so the surface seen over
-time builds up as a set of points.  Each entry keeps the latest position, the scan time it was last
+aircraft moves, and the edges of its outline) is remembered per horizontal cell of
+``body_cell_m`` (100 m) under its threat's id ``"<source>@<i>/<j>"`` (``i = floor(x / cell)``,
+``j = floor(y / cell)``), so the surface seen over time builds up as a set of points.  Each entry keeps the latest position, the scan time it was last
 seen (``last_seen``) and the time its position describes (``measured_at``: the same for the radar,
 earlier for a cooperative report with latency), when it was first seen, its classification and
 since when it has held it, and what the sensor said of its size, top and velocity (NaN: not
@@ -492,6 +492,8 @@ class Perception:
         ids = scan.ids
         keys = [ids[i] for i in rows.tolist()]
         ext = np.flatnonzero(scan.extended[rows])
+        for k in ext.tolist():  # a solid's nearest point and outline edges: one surface
+            keys[k] = scan.sources[int(rows[k])]
         if not ext.size:
             return keys, rows
         cells = np.floor(scan.positions[rows[ext], :2] / self.config.body_cell_m).astype(np.int64)

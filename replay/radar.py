@@ -16,7 +16,12 @@ points the radar can see (:meth:`replay.threats.Threat.radar_points`): the centr
 threat, each point of a hill (ids ``"<hill id>/<k>"``, so an avoider can cluster them as seed 000
 §5.3 does: points closer than 1 km are one obstacle), the current position of an intruder, and for
 the solid shapes (cylinder, body) the point of the body nearest to the aircraft, clipped to the
-body (the aircraft's own position when it is inside).  A point is detected when its range is
+body (the aircraft's own position when it is inside), and the left and right edges of its outline
+-- the tangent points of its horizontal section at that point's altitude, ids ``"<id>#left"`` and
+``"<id>#right"``, none from inside it -- as a scanning radar sees a solid's extent (seed 001 fits
+its obstacle circles to such returns).  An edge slides round the body faster than the aircraft
+moves when the aircraft is close: it is never judged on its own but takes its nearest point's
+classification (unknown without it).  A point is detected when its range is
 <= ``range_m`` and, with a terrain model, the segment aircraft -> point is clear of terrain:
 :meth:`terrain.model.TerrainModel.line_of_sight`, one batched call for all candidate points per
 scan, with ``los_tolerance_m`` (1 m) so a point resting on the ground is still seen.  The threats
@@ -78,7 +83,7 @@ import numpy.typing as npt
 
 from replay.frames import course_of
 from replay.threat_table import ThreatTable
-from replay.threats import Threat
+from replay.threats import EDGE_SUFFIXES, Threat
 from terrain.errors import InputError
 
 if TYPE_CHECKING:
@@ -429,6 +434,14 @@ class Radar:
                     step = float(np.linalg.norm(own - prev.own_position))
                     limit = limit + np.where(solid, step, 0.0)
                 moving[a] = (moved > limit).astype(np.int8)
+        if ext[:n_threat].any():
+            # an outline edge of a solid slides round it faster than the aircraft moves: the
+            # body's motion is judged on its nearest point, and its edges take that verdict
+            row_of = {ident: k for k, ident in enumerate(ids)}
+            for k, ident in enumerate(ids):
+                if ident.endswith(EDGE_SUFFIXES):
+                    near = row_of.get(sources[k], -1)
+                    moving[k] = moving[near] if near >= 0 else np.int8(-1)
         return RadarPicture(
             t=float(t),
             own_position=own.copy(),

@@ -35,7 +35,15 @@ from typing import Any, TypeVar, cast
 import numpy as np
 import numpy.typing as npt
 
-from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, Threat
+from replay.threats import (
+    EDGE_SUFFIXES,
+    CylinderThreat,
+    HillThreat,
+    IntruderThreat,
+    StaticThreat,
+    Threat,
+    circle_edges,
+)
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -215,6 +223,17 @@ class ThreatTable:
                 rows = self._cy[on]
                 pts = self._cylinder_nearest(own, on)
                 block(rows, np.zeros(len(on), np.int64), [self.ids[i] for i in rows], pts)
+                # the outline's edges (CylinderThreat.radar_points)
+                for k, (j, row) in enumerate(zip(on.tolist(), rows.tolist(), strict=True)):
+                    c = (float(self._cy_c[j, 0]), float(self._cy_c[j, 1]))
+                    edges = circle_edges(own, c, float(self._cy_r[j]), float(pts[k, 2]))
+                    if edges is not None:
+                        block(
+                            np.full(2, row, np.int64),
+                            np.arange(1, 3),
+                            [self.ids[row] + s for s in EDGE_SUFFIXES],
+                            edges,
+                        )
         if act is not None and len(self._iv):
             on = np.flatnonzero(act[self._iv])
             if len(on):

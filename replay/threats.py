@@ -277,6 +277,48 @@ class HillThreat(Threat):
         return {**super().to_record(), "points": [list(p) for p in self.points], "radius": radius}
 
 
+EDGE_SUFFIXES = ("#left", "#right")  # the outline returns of a solid (radar_points)
+
+
+def outline_edges(observer: npt.ArrayLike, boundary: npt.ArrayLike, z: float) -> FloatArray | None:
+    """The left and right edges (2, 3) of a solid's horizontal section as seen from
+    ``observer``: of the section's ``boundary`` points (K, 2), the two at the extreme bearings
+    about the bearing of their centroid (left: counter-clockwise), at altitude ``z``; None when
+    the observer is inside the section (the outline then surrounds it)."""
+    o = np.asarray(observer, dtype=np.float64).reshape(-1)
+    b = np.asarray(boundary, dtype=np.float64).reshape(-1, 2)
+    rel = b - o[:2]
+    c = rel.mean(axis=0)
+    ang = np.arctan2(rel[:, 0], rel[:, 1]) - math.atan2(float(c[0]), float(c[1]))
+    ang = (ang + np.pi) % (2.0 * np.pi) - np.pi
+    if float(ang.max() - ang.min()) >= math.pi - 1e-9 or float(np.hypot(*c)) < 1e-9:
+        return None
+    out = np.empty((2, 3))
+    out[0, :2] = b[int(np.argmin(ang))]
+    out[1, :2] = b[int(np.argmax(ang))]
+    out[:, 2] = z
+    return out
+
+
+def circle_edges(
+    observer: npt.ArrayLike, center: Sequence[float], radius: float, z: float
+) -> FloatArray | None:
+    """:func:`outline_edges` of a circle, in closed form: the two tangent points from the
+    observer (None inside it)."""
+    o = np.asarray(observer, dtype=np.float64).reshape(-1)
+    dx, dy = center[0] - o[0], center[1] - o[1]
+    d = math.hypot(dx, dy)
+    if d <= radius:
+        return None
+    beta = math.atan2(dx, dy)
+    alpha = math.asin(radius / d)
+    length = math.sqrt(d * d - radius * radius)
+    out = np.empty((2, 3))
+    for k, bearing in enumerate((beta - alpha, beta + alpha)):
+        out[k] = (o[0] + length * math.sin(bearing), o[1] + length * math.cos(bearing), z)
+    return out
+
+
 @dataclass(frozen=True, kw_only=True)
 class CylinderThreat(Threat):
     """A solid vertical cylinder: centre (x, y), radius, top and bottom (default -inf) AMSL."""
@@ -328,7 +370,14 @@ class CylinderThreat(Threat):
     def radar_points(
         self, t: float, observer: npt.ArrayLike, max_range: float = math.inf
     ) -> tuple[list[str], FloatArray]:
-        return [self.id], self.nearest_point(as_points(observer).reshape(1, 3))
+        """The nearest point, then the outline's left and right edges at the observer's
+        altitude (clipped to the cylinder), as a scanning radar sees its extent."""
+        o = as_points(observer).reshape(1, 3)
+        near = self.nearest_point(o)
+        edges = circle_edges(o[0], self.center, self.radius, float(near[0, 2]))
+        if edges is None:
+            return [self.id], near
+        return [self.id, *(self.id + s for s in EDGE_SUFFIXES)], np.vstack([near, edges])
 
     def shape(self, t: float = 0.0) -> dict[str, Any]:
         bottom = None if self.bottom == -math.inf else self.bottom

@@ -129,10 +129,21 @@ def test_hill_points_cylinders_and_bodies(flat: TerrainModel) -> None:
         exponents=(1, 1, 4),
     )
     pic = Radar(terrain_azimuths=0).scan(0.0, own, [hill, cyl, tower], flat)
-    assert pic.threat_ids == ("hill/0", "hill/1", "sam", "tower")
-    assert [d.source for d in pic.threats()] == ["hill", "hill", "sam", "tower"]
-    # solid shapes are seen at their point nearest to the aircraft
+    solid = ("sam", "sam#left", "sam#right", "tower", "tower#left", "tower#right")
+    assert pic.threat_ids == ("hill/0", "hill/1", *solid)
+    assert [d.source for d in pic.threats()] == ["hill", "hill", *(["sam"] * 3), *(["tower"] * 3)]
+    # solid shapes are seen at their point nearest to the aircraft, and at their outline's edges:
+    # the tangent points of the section at the aircraft's altitude (clipped to the body)
     np.testing.assert_allclose(pic.get("sam").position, [X0 + 1000.0, YC + 2000.0, 400.0])
+    half = math.asin(1000.0 / 3000.0)
+    length = math.sqrt(3000.0**2 - 1000.0**2)
+    for ident, sign in (("sam#left", -1), ("sam#right", 1)):
+        want = [X0 + 1000.0 + length * math.sin(sign * half), YC + length * math.cos(sign * half)]
+        np.testing.assert_allclose(pic.get(ident).position, [*want, 400.0], atol=1e-6)
+    near_z = pic.get("tower").position[2]  # the tower narrows to its top at 500 m: lower
+    for ident in ("tower#left", "tower#right"):  # on its surface, level with the nearest point
+        p = pic.get(ident).position
+        assert float(tower.gamma(p)) == pytest.approx(1.0, abs=1e-6) and p[2] == near_z
     np.testing.assert_allclose(pic.get("tower").position, tower.nearest_point(own))
     assert pic.get("tower").range == pytest.approx(float(tower.separation(own)), rel=1e-9)
     # inside the cylinder the nearest point is the aircraft itself
@@ -217,7 +228,11 @@ def test_classification_without_noise() -> None:
             "hill/0": False,
             "hill/1": False,
             "sam": False,
+            "sam#left": False,
+            "sam#right": False,
             "tower": False,
+            "tower#left": False,
+            "tower#right": False,
             "uav": True,
         }
 
@@ -227,7 +242,7 @@ def test_no_false_moving_with_noise_over_100_scans() -> None:
     radar = Radar(noise_range_m=10.0, noise_bearing_rad=2e-3, seed=20240607)
     pics = fly(radar, stationary_set(), 100)
     codes = np.concatenate([p.moving_code[: len(p.threat_ids)] for p in pics[1:]])
-    assert len(codes) == 99 * 5
+    assert len(codes) == 99 * 9  # 5 returns and the outline edges of the cylinder and the tower
     assert np.all(codes == 0)
     # the noise is really there
     obs = np.array([p.get("obs").position for p in pics])

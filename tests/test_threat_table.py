@@ -19,7 +19,14 @@ from affine import Affine
 from replay.body_threat import BodyThreat
 from replay.radar import Radar, RadarPicture
 from replay.threat_table import ThreatTable, norm3
-from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, Threat
+from replay.threats import (
+    EDGE_SUFFIXES,
+    CylinderThreat,
+    HillThreat,
+    IntruderThreat,
+    StaticThreat,
+    Threat,
+)
 from terrain.grid import HeightGrid
 from terrain.model import TerrainModel
 
@@ -171,6 +178,10 @@ class ReferenceRadar(Radar):
                 limit = self.moving_sigmas * math.sqrt(2.0) * sigma + self.moving_floor_m
                 limit = limit + np.where(ext[a], step, 0.0)
                 moving[a] = (moved > limit).astype(np.int8)
+        for i, ident in enumerate(ids):  # a solid's outline edges take its nearest point's verdict
+            if ident.endswith(EDGE_SUFFIXES):
+                near = ids.index(sources[i]) if sources[i] in ids else -1
+                moving[i] = moving[near] if near >= 0 else -1
         pic.moving_code[:] = moving
         return pic
 
@@ -257,7 +268,8 @@ def test_radar_points_at_the_window_edges_and_the_range_edge() -> None:
     for t in (9.999, 10.0, 19.999, 20.0):
         got = table.radar_points(t, own, 10_000.0)
         assert_same_points(got, reference_radar_points(threats, t, own, 10_000.0))
-    windowed = ["s", "hw/0", "c", "b", "i", "w", "tw/a", "tw/b"]
+    windowed = ["s", "hw/0", "c", "c#left", "c#right", "b", "b#left", "b#right", "i", "w", "tw/a"]
+    windowed.append("tw/b")
     assert table.radar_points(9.999, own, 10_000.0)[0] == ["h/0"]
     assert table.radar_points(10.0, own, 10_000.0)[0] == ["a", "h/0", *windowed]
     assert table.radar_points(19.999, own, 10_000.0)[0] == ["a", "h/0", *windowed]
