@@ -18,6 +18,7 @@ Topics (names in :mod:`replay.topics`; Foxglove schemas are the protobuf ones of
     /radar/detections        foxglove.SceneUpdate      a marker per detection of the last scan
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
     /avoidance/decision      terrapath.Decision        algorithm, inputs, choice, costs, compute_s
+    /avoidance/guidance      foxglove.SceneUpdate      an orbit commanded (CTGA's arc), as a circle
     /log                     foxglove.Log              human-readable events
     /metrics                 terrapath.Metrics         run metrics (also metadata record "metrics")
 
@@ -147,6 +148,8 @@ from terrain.errors import InputError, where
 LonLat = Callable[[float, float], tuple[float, float]]
 
 NS_PER_S = 1_000_000_000
+ORBIT_ENTITY = "guidance/orbit"  # the avoider's orbit on /avoidance/guidance
+ORBIT_SEGMENTS = 72
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
 LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
 
@@ -753,6 +756,31 @@ class RunRecorder:
         except TypeError as err:
             raise InputError(f"{self._where}decision: {err}") from None
         self._emit(T.DECISION, ns, dumps(doc))
+        command = doc.get("command")
+        if isinstance(command, dict):
+            self._guidance(ns, command, doc)
+
+    def _guidance(self, ns: int, command: dict[str, Any], doc: dict[str, Any]) -> None:
+        """An orbit command drawn as its circle (at the commanded altitude, else the arc's or
+        the aircraft's; a moving centre where it was at the decision); any other command
+        removes it."""
+        if command.get("command") != "Orbit":
+            gone = SceneEntityDeletion(type=SceneEntityDeletion.MATCHING_ID, id=ORBIT_ENTITY)
+            gone.timestamp.seconds, gone.timestamp.nanos = divmod(ns, NS_PER_S)
+            self._emit(T.GUIDANCE, ns, SceneUpdate(deletions=[gone]).SerializeToString())
+            return
+        cx, cy = (float(v) for v in command["center"])
+        radius = float(command["radius"])
+        z = command.get("altitude")
+        if z is None:
+            z = (doc.get("arc") or {}).get("altitude")
+        if z is None:
+            z = float(self._track[self._track_n - 1, 2]) if self._track_n else 0.0
+        a = np.linspace(0.0, 2.0 * math.pi, ORBIT_SEGMENTS + 1)
+        pts = np.column_stack(
+            [cx + radius * np.sin(a), cy + radius * np.cos(a), np.full(len(a), float(z))]
+        ) - np.asarray(self.map_origin)
+        self._line_update(T.GUIDANCE, ns, ORBIT_ENTITY, pts, (1.0, 0.3, 0.9, 1.0))
 
     def write_log(self, t: float, level: str, text: str) -> None:
         """A human-readable event (``level``: debug, info, warning, error or fatal)."""

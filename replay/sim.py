@@ -486,7 +486,13 @@ def _apply(
         "waypoints_added": added,
         **decision.info,
     }
-    if cmd is not None and not isinstance(cmd, FollowWaypoints):
+    if isinstance(cmd, FollowWaypoints):  # its list goes to the waypoint topics
+        record["command"] = {
+            "command": "FollowWaypoints",
+            "next_index": cmd.next_index,
+            "direct": cmd.direct,
+        }
+    elif cmd is not None:
         record["command"] = command_record(cmd)
     if refused is not None:
         record["refused"] = refused

@@ -21,6 +21,7 @@ Topics and their schemas (Foxglove schemas are protobuf, from ``foxglove-schemas
     /radar/detections        foxglove.SceneUpdate      one marker per detection of the last scan
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
     /avoidance/decision      terrapath.Decision        one avoidance decision and its compute time
+    /avoidance/guidance      foxglove.SceneUpdate      the avoider's orbit (CTGA's arc) as a circle
     /log                     foxglove.Log              human-readable events
     /metrics                 terrapath.Metrics         run metrics, once at the end
 
@@ -50,6 +51,7 @@ THREAT_LIST = "/threats/list"
 DETECTIONS = "/radar/detections"
 DETECTION_LIST = "/radar/detection_list"
 DECISION = "/avoidance/decision"
+GUIDANCE = "/avoidance/guidance"
 LOG = "/log"
 METRICS = "/metrics"
 
@@ -90,6 +92,7 @@ SCHEMAS: dict[str, str] = {
     DETECTIONS: SCENE_UPDATE,
     DETECTION_LIST: DETECTION_LIST_SCHEMA,
     DECISION: DECISION_SCHEMA,
+    GUIDANCE: SCENE_UPDATE,
     LOG: LOG_SCHEMA,
     METRICS: METRICS_SCHEMA,
 }

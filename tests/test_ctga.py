@@ -3,6 +3,7 @@ three scenarios flown by the 6-DOF Cessna at 50 m/s with the cooperative sensor.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -238,3 +239,42 @@ def test_paper_scenario_with_the_radar(scenario: str) -> None:
     seps = {k: v["value"] for k, v in met.min_separation.items()}
     assert min(seps.values()) >= 70.0, seps
     print(f"\n{scenario} (radar): " + ", ".join(f"{k} {v:.0f} m" for k, v in seps.items()))
+
+
+def test_the_arc_is_drawn_for_foxglove(tmp_path: Path) -> None:
+    """Every orbit CTGA commands is drawn on /avoidance/guidance as a closed circle of its radius
+    at its altitude (map frame, relative to the map origin), and removed when it leaves the arc."""
+    from mcap.reader import make_reader
+
+    from replay.run import ReplayRequest, prepare_replay, run_replay
+
+    out = tmp_path / "simple.mcap"
+    request = ReplayRequest(
+        str(SCENARIO_DIR / "seed001-mission.yaml"),
+        threats=str(SCENARIO_DIR / "seed001-simple-threats.yaml"),
+        avoid="ctga",
+        sensor="cooperative",
+    )
+    run_replay(prepare_replay(request), out)
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    from replay.reader import load_run
+
+    run = load_run(out, with_states=False)
+    origin = np.array(json.loads(run.metadata["map_origin"]), dtype=float)
+    orbits = [d.decision for d in run.decisions if d.decision["command"]["command"] == "Orbit"]
+    updates = []
+    with out.open("rb") as f:
+        for _, _, msg in make_reader(f).iter_messages(topics=["/avoidance/guidance"]):
+            updates.append(SceneUpdate.FromString(msg.data))
+    drawn = [u for u in updates if u.entities]
+    assert len(drawn) == len(orbits) and len(updates) == len(run.decisions)
+    for update, decision in zip(drawn, orbits, strict=True):
+        pts = np.array([[p.x, p.y, p.z] for p in update.entities[0].lines[0].points]) + origin
+        cmd = decision["command"]
+        r = np.hypot(pts[:, 0] - cmd["center"][0], pts[:, 1] - cmd["center"][1])
+        np.testing.assert_allclose(r, cmd["radius"], rtol=1e-9)
+        np.testing.assert_allclose(pts[:, 2], cmd["altitude"])
+        np.testing.assert_allclose(pts[0], pts[-1])
+    gone = [u for u in updates if u.deletions]
+    assert len(gone) == 2 and all(u.deletions[0].id == "guidance/orbit" for u in gone)
