@@ -103,8 +103,13 @@ def min_enclosing_circle(points: npt.ArrayLike, seed: int | np.random.Generator 
     diameter, or three whose triangle contains the centre."""
     p = _xy(points, "points")
     origin = p[0].copy()
+    if len(p) == 1:
+        return Circle(origin, 0.0, np.array([0], dtype=np.int64))
     local = p - origin
-    uniq, first = np.unique(local, axis=0, return_index=True)
+    # the distinct points in lexicographic (x, y) order, as np.unique(axis=0) gives them, by a
+    # one-dimensional unique of x + iy (complex numbers sort by real, then imaginary part)
+    _, first = np.unique(local[:, 0] + 1j * local[:, 1], return_index=True)
+    uniq = local[first]
     if len(uniq) == 1:
         return Circle(origin, 0.0, np.array([0], dtype=np.int64))
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)

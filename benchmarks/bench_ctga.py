@@ -1,0 +1,190 @@
+"""CTGA benchmark (issue 15): the time of one decision, and CTGA beside PSO-CA on the same flights.
+
+Run: ``.venv/bin/python benchmarks/bench_ctga.py decision-time`` and
+``.venv/bin/python benchmarks/bench_ctga.py compare`` (``--no-record`` to print only).
+
+``decision-time``: CTGA's geometry is closed-form (target: <= 0.2 ms a decision). Two figures:
+the avoider's whole ``decide`` as the replay loop times it (``compute_s`` of every decision of
+the seed 001 scenarios with the cooperative sensor: the perception update of a new scan, the
+obstacles' circles and the geometry), and the geometry alone (threat test, arc radius, joining
+test and leave angle for one obstacle), timed over 100,000 calls.
+
+``compare``: PSO-CA and CTGA fly the same missions: the avoider contract's six scenarios (the
+solar UAV at 15 m/s, radar, 1 km safety radii: tests/test_avoidance_contract.py), seed 000's
+Table 4 mission (8 h, its threat file) and seed 001's three scenarios (the Cessna at 50 m/s,
+cooperative sensor). One seed each (the avoiders are deterministic given it). Per flight:
+success, the smallest separation from any threat's surface, PLR, flight time, decisions and the
+mean time per decision.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks._record import record  # noqa: E402
+from planner.mission import load_mission  # noqa: E402
+from replay.avoidance import make_avoider  # noqa: E402
+from replay.avoidance.ctga import (  # noqa: E402
+    CtgaObstacle,
+    arc_radius,
+    can_join,
+    leave_angle,
+    threat_test,
+)
+from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
+from replay.sim import ReplayConfig, ReplayResult, simulate  # noqa: E402
+from replay.threat_file import threats_from_records  # noqa: E402
+from replay.vehicle.presets import load_vehicle  # noqa: E402
+from tests.test_avoidance_contract import SCENARIOS as CONTRACT  # noqa: E402
+from tests.test_avoidance_contract import STRAIGHT  # noqa: E402
+
+SCENARIO_DIR = ROOT / "data" / "scenarios"
+SEED001 = ("simple", "complex", "moving")
+
+
+def seed001(name: str, avoider: str, sensor: str = "cooperative") -> ReplayResult:
+    request = ReplayRequest(
+        str(SCENARIO_DIR / "seed001-mission.yaml"),
+        threats=str(SCENARIO_DIR / f"seed001-{name}-threats.yaml"),
+        avoid=avoider,
+        sensor=sensor,
+        seed=1,
+        command="bench_ctga",
+    )
+    return run_replay(prepare_replay(request))
+
+
+def contract(name: str, avoider: str) -> ReplayResult:
+    from planner.mission import mission_from_dict
+
+    mission = mission_from_dict(
+        {
+            "terrapath": 1,
+            "name": f"contract-{name}",
+            "crs": "local",
+            "vehicle": "solar-uav",
+            "cruise": {"speed": 15.0, "altitude": 200.0},
+            "waypoints": STRAIGHT,
+        }
+    )
+    return simulate(
+        mission,
+        threats_from_records(CONTRACT[name]),
+        make_avoider(avoider),
+        load_vehicle("solar-uav"),
+        config=ReplayConfig(seed=0),
+    )
+
+
+def table4(avoider: str) -> ReplayResult:
+    request = ReplayRequest(
+        str(ROOT / "data" / "missions" / "seed000-table4.yaml"),
+        threats=str(ROOT / "data" / "threats" / "seed000-table4.yaml"),
+        avoid=avoider,
+        seed=0,
+        command="bench_ctga",
+    )
+    return run_replay(prepare_replay(request))
+
+
+def figures(res: ReplayResult) -> dict[str, Any]:
+    m = res.metrics
+    seps = [v["value"] for v in m.min_separation.values() if not str(v).startswith("zone:")]
+    times = [float(d["compute_s"]) for d in res.decisions]
+    return {
+        "success": m.success,
+        "min_sep": min(seps) if seps else math.nan,
+        "plr": m.plr,
+        "time_min": m.flight_time_s / 60.0,
+        "decisions": len(res.decisions),
+        "ms": 1e3 * statistics.fmean(times) if times else math.nan,
+    }
+
+
+def decision_time(no_record: bool) -> None:
+    for name in SEED001:  # warm-up: compilation and first-call imports
+        seed001(name, "ctga")
+    whole = [float(d["compute_s"]) for name in SEED001 for d in seed001(name, "ctga").decisions]
+    obs = CtgaObstacle("o", (50.0, 900.0), 350.0)
+    n = 100_000
+    t0 = time.perf_counter()
+    for _ in range(n):
+        hit = threat_test((0.0, 0.0), 0.0, (0.0, 50.0), obs, 700.0, 100.0)
+        r = arc_radius(obs.radius, 100.0, 50.0, 30.0)
+        can_join((0.0, 0.0), 0.0, obs.center, r, 463.0, hit.delta > 0)
+        leave_angle((0.0, 0.0), (0.0, 4000.0), obs.center)
+    geometry = (time.perf_counter() - t0) / n
+    whole_med = statistics.median(whole)
+    rows = [
+        (
+            "one decide() (perception update, circles, geometry), median",
+            f"{1e3 * whole_med:.3f} ms over {len(whole)} decisions (max {1e3 * max(whole):.3f} ms)",
+            "<= 0.2 ms" + (": PASS" if whole_med <= 2e-4 else ": FAIL"),
+        ),
+        (
+            "the geometry alone (threat test, arc, join test, leave angle)",
+            f"{1e3 * geometry:.4f} ms",
+            "<= 0.2 ms" + (": PASS" if geometry <= 2e-4 else ": FAIL"),
+        ),
+    ]
+    title = "ctga decision time: seed 001's three scenarios, cooperative sensor"
+    _out(title, rows, "whole decide() as the replay loop times it (compute_s)", no_record)
+
+
+def compare(no_record: bool) -> None:
+    rows: list[tuple[str, str, str]] = []
+    flights: list[tuple[str, Any]] = [
+        *((f"contract {n}", lambda a, n=n: contract(n, a)) for n in CONTRACT),
+        ("seed 000 Table 4 mission (8 h)", table4),
+        *((f"seed 001 {n}", lambda a, n=n: seed001(n, a)) for n in SEED001),
+    ]
+    for label, fly in flights:
+        for avoider in ("pso-ca", "ctga"):
+            f = figures(fly(avoider))
+            rows.append(
+                (
+                    f"{label}: {avoider}",
+                    f"success {'yes' if f['success'] else 'NO'}, min separation "
+                    f"{f['min_sep']:.0f} m, PLR {f['plr']:.3f}, {f['time_min']:.1f} min, "
+                    f"{f['decisions']} decisions, {f['ms']:.2f} ms each",
+                    "",
+                )
+            )
+            print(rows[-1][0], rows[-1][1], file=sys.stderr, flush=True)
+    title = "PSO-CA vs CTGA on the same flights"
+    _out(title, rows, "one seed per flight; separations from the threats' surfaces", no_record)
+
+
+def _out(title: str, rows: list[tuple[str, str, str]], notes: str, no_record: bool) -> None:
+    if no_record:
+        print(f"\n## {title}\n- notes: {notes}\n\n| figure | value | target |\n|---|---|---|")
+        for a, b, c in rows:
+            print(f"| {a} | {b} | {c} |")
+    else:
+        record(title, rows, notes)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("what", choices=("decision-time", "compare"))
+    ap.add_argument("--no-record", action="store_true", help="print only")
+    args = ap.parse_args(argv)
+    load_mission(SCENARIO_DIR / "seed001-mission.yaml")  # fail early on a broken checkout
+    if args.what == "decision-time":
+        decision_time(args.no_record)
+    else:
+        compare(args.no_record)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
