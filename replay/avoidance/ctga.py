@@ -333,7 +333,9 @@ class CtgaAvoider:
             else:
                 points = not bool(st.extended[idx].all())
                 r = float(body.radius) + (self.point_radius if points else 0.0)
-                top = body.top + (self.point_radius if points else 0.0)
+                # a solid's returns are where the radar meets it, not its top (a dome is met
+                # below the aircraft from afar): its top is unknown, it is never flown over
+                top = body.top + self.point_radius if points else math.inf
             if r <= 0.0 or z - top > self.r_safe:
                 continue  # above or below it: nothing to go round at this altitude
             c = body.center
