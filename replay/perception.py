@@ -395,7 +395,8 @@ class PerceptionState:
 
     def _cluster(self, idx: IntArray) -> Cluster:
         circle = min_enclosing_circle(self.positions[idx, :2])
-        size = np.nan_to_num(self.radii[idx], nan=0.0)
+        radii = self.radii[idx]
+        size = np.where(np.isnan(radii), 0.0, radii)
         outer = float(np.max(circle.distance(self.positions[idx]) + size))
         tops = np.where(np.isnan(self.tops[idx]), self.positions[idx, 2], self.tops[idx])
         return Cluster(

@@ -135,26 +135,30 @@ def threat_test(
     r_det: float,
     r_safe: float,
 ) -> Threat:
-    """Eqs 9-12 as the module docstring reads them (static and moving)."""
-    p = np.asarray(position, dtype=np.float64)[:2]
-    o = np.asarray(obs.center, dtype=np.float64)
-    d = float(np.hypot(*(o - p)))
-    delta = wrap(bearing(p, o) - course)
+    """Eqs 9-12 as the module docstring reads them (static and moving). Plain floats: this
+    runs for every obstacle at every decision."""
+    pos = np.asarray(position, dtype=np.float64)
+    px, py = float(pos[0]), float(pos[1])
+    rx, ry = obs.center[0] - px, obs.center[1] - py  # P -> O
+    d = math.hypot(rx, ry)
+    to_obs = math.atan2(rx, ry)
     keep = obs.radius + r_safe
     if not obs.moving:
+        delta = wrap(to_obs - course)
         miss = d * abs(math.sin(delta))
         hit = math.cos(delta) > 0.0 and d <= r_det + obs.radius and miss < keep
         return Threat(obs, d, delta, hit, miss)
-    rel = o - p
-    own = np.asarray(ground_velocity, dtype=np.float64)[:2]
-    w = np.asarray(obs.velocity, dtype=np.float64) - own
-    ww = float(w @ w)
-    t_cpa = -float(rel @ w) / ww if ww > 1e-9 else 0.0
-    miss = float(np.hypot(*(rel + w * max(t_cpa, 0.0))))
+    vel = np.asarray(ground_velocity, dtype=np.float64)
+    wx = obs.velocity[0] - float(vel[0])
+    wy = obs.velocity[1] - float(vel[1])
+    ww = wx * wx + wy * wy
+    t_cpa = -(rx * wx + ry * wy) / ww if ww > 1e-9 else 0.0
+    ahead = max(t_cpa, 0.0)
+    miss = math.hypot(rx + wx * ahead, ry + wy * ahead)
     hit = d <= r_det + obs.radius and t_cpa > 0.0 and miss < keep
     # eq 12 in the obstacle's frame, where it stands still: the course of the relative velocity
-    rel_course = math.atan2(float(-w[0]), float(-w[1])) if ww > 1e-9 else course
-    return Threat(obs, d, wrap(bearing(p, o) - rel_course), hit, miss)
+    rel_course = math.atan2(-wx, -wy) if ww > 1e-9 else course
+    return Threat(obs, d, wrap(to_obs - rel_course), hit, miss)
 
 
 def arc_radius(r_obs: float, r_safe: float, speed: float, bank_max_deg: float) -> float:
@@ -299,6 +303,8 @@ class CtgaAvoider:
         self._arc: _Arc | None = None
         self._done: set[str] = set()
         self._complex: tuple[bool, str, float] | None = None
+        self._bodies_of: PerceptionState | None = None
+        self._bodies: list[tuple[CtgaObstacle, float]] = []
 
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         self._perception.reset()
@@ -306,6 +312,7 @@ class CtgaAvoider:
         self._arc = None
         self._done = set()
         self._complex = None
+        self._bodies_of = None
 
     # -- perception ------------------------------------------------------------------------------
     def _observe(self, ctx: AvoidanceContext) -> PerceptionState | None:
@@ -323,23 +330,8 @@ class CtgaAvoider:
         if st is None:
             return []
         z = float(ctx.position[2])
-        out: list[CtgaObstacle] = []
-        for body in st.bodies:
-            idx = body.index
-            reported = st.radii[idx]
-            if np.isfinite(reported).any():
-                r = float(body.outer_radius)  # cooperative: the section at this altitude
-                top = body.top
-            else:
-                points = not bool(st.extended[idx].all())
-                r = float(body.radius) + (self.point_radius if points else 0.0)
-                # a solid's returns are where the radar meets it, not its top (a dome is met
-                # below the aircraft from afar): its top is unknown, it is never flown over
-                top = body.top + self.point_radius if points else math.inf
-            if r <= 0.0 or z - top > self.r_safe:
-                continue  # above or below it: nothing to go round at this altitude
-            c = body.center
-            out.append(CtgaObstacle(st.sources[int(idx[0])], (float(c[0]), float(c[1])), r))
+        # above or below a body: nothing to go round at this altitude
+        out = [o for o, top in self._stationary(st) if o.radius > 0.0 and z - top <= self.r_safe]
         for tr in st.tracks:
             i = st.index[tr.id]
             size = float(st.radii[i])
@@ -354,6 +346,29 @@ class CtgaAvoider:
                     True,
                 )
             )
+        return out
+
+    def _stationary(self, st: PerceptionState) -> list[tuple[CtgaObstacle, float]]:
+        """The stationary obstacles of a perception state with their tops (once per scan)."""
+        if self._bodies_of is st:
+            return self._bodies
+        out: list[tuple[CtgaObstacle, float]] = []
+        for body in st.bodies:
+            idx = body.index
+            reported = st.radii[idx]
+            if np.isfinite(reported).any():
+                r = float(body.outer_radius)  # cooperative: the section at this altitude
+                top = body.top
+            else:
+                points = not bool(st.extended[idx].all())
+                r = float(body.radius) + (self.point_radius if points else 0.0)
+                # a solid's returns are where the radar meets it, not its top (a dome is met
+                # below the aircraft from afar): its top is unknown, it is never flown over
+                top = body.top + self.point_radius if points else math.inf
+            c = body.center
+            key = st.sources[int(idx[0])]
+            out.append((CtgaObstacle(key, (float(c[0]), float(c[1])), r), top))
+        self._bodies_of, self._bodies = st, out
         return out
 
     # -- decisions -------------------------------------------------------------------------------
