@@ -332,3 +332,17 @@ def test_a_hill_the_plan_did_not_know_is_flown_round_on_a_real_map() -> None:
     assert met.min_terrain_clearance_m >= 100.0 - 5.0
     assert float(r.positions[:, 2].max()) <= alt + 30.0  # round the side, not over the top
     assert any("arc of" in d["reason"] for d in r.decisions)
+
+
+def test_a_large_obstacle_seen_piece_by_piece_is_several_circles() -> None:
+    """The avoider contract's ridge (seven radar points over 3.6 km, 1 km safety radius each): one
+    circle per 1 km square of returns (§2.1, Figs 2, 3, 5), gone round in turn in one direction
+    (a complex obstacle), 100 m from the safety surface."""
+    from tests.test_avoidance_contract import _run
+
+    r = _run("hill", "ctga")
+    arcs = [d for d in r.decisions if "arc of" in d["reason"]]
+    assert len(arcs) >= 2 and all(d["obstacle"].startswith("ridge@") for d in arcs)
+    assert len({d["clockwise"] for d in arcs}) == 1
+    met = r.metrics
+    assert met.success and 70.0 <= met.min_separation["ridge"]["value"] <= 130.0

@@ -17,9 +17,12 @@ circle equals it whenever the farthest pair spans them all).  Its radius ``R_obs
   arc's radius follows the altitude (eq 6's ``R(t) ~ H(t)``), re-evaluated at every scan; zero
   above or below it (the aircraft passes over or under: nothing to avoid).  The no-fly set is
   ``Gamma <= 1`` (§2.2's "``Gamma > 1``" is a misprint);
-- with the radar, the circle of the returns seen so far (a large body seen piece by piece grows,
-  and its circle with it), plus ``point_radius`` when the returns are points without extent
-  (a sphere's centre, a hill's points), as PSO-CA's RS.
+- with the radar, the circle of the returns seen so far (a solid's nearest points and outline
+  edges), plus ``point_radius`` when the returns are points without extent (a sphere's centre, a
+  hill's points), as PSO-CA's RS.  An obstacle whose circle is wider than ``piece_m`` (1 km) is
+  cut into pieces, one per ``piece_m`` square of the map grid its returns fall in, each with its
+  own circle (named ``"<id>@<i>/<j>"``, stable from scan to scan): a large obstacle seen piece by
+  piece becomes several circles (§2.1, Figs 2, 3, 5), gone round in turn as a complex one.
 
 Moving obstacles are the perception's tracks (constant-velocity fits); their size is the reported
 one (cooperative) or ``moving_radius``.
@@ -76,6 +79,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.avoidance.base import AvoidanceContext
+from replay.circles import min_enclosing_circle
 from replay.guidance import AvoidanceDecision, FollowWaypoints, Orbit
 from replay.perception import Perception, PerceptionConfig, PerceptionState
 from terrain.errors import InputError
@@ -267,6 +271,7 @@ class CtgaAvoider:
         "point_radius": "radius of an obstacle the radar sees as points without extent, m",
         "moving_radius": "radius of a moving obstacle that reports no size, m",
         "memory_s": "obstacles not seen for this long are forgotten, s",
+        "piece_m": "a radar obstacle wider than twice this is cut into circles of squares this size",
     }
 
     def __init__(
@@ -277,6 +282,7 @@ class CtgaAvoider:
         point_radius: float = 1000.0,
         moving_radius: float = 1000.0,
         memory_s: float = 60.0,
+        piece_m: float = 1000.0,
     ) -> None:
         for what, v, low in (
             ("r_safe", r_safe, 0.0),
@@ -284,6 +290,7 @@ class CtgaAvoider:
             ("point_radius", point_radius, 0.0),
             ("moving_radius", moving_radius, 0.0),
             ("memory_s", memory_s, 1e-9),
+            ("piece_m", piece_m, 1.0),
         ):
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
                 raise InputError(f"CTGA option {what} must be a number; got {v!r}")
@@ -298,6 +305,7 @@ class CtgaAvoider:
         self.r_det = float(r_det)
         self.point_radius = float(point_radius)
         self.moving_radius = float(moving_radius)
+        self.piece_m = float(piece_m)
         self._perception = Perception(PerceptionConfig(memory_s=float(memory_s)))
         self._state: PerceptionState | None = None
         self._arc: _Arc | None = None
@@ -361,14 +369,40 @@ class CtgaAvoider:
                 top = body.top
             else:
                 points = not bool(st.extended[idx].all())
-                r = float(body.radius) + (self.point_radius if points else 0.0)
+                pad = self.point_radius if points else 0.0
                 # a solid's returns are where the radar meets it, not its top (a dome is met
                 # below the aircraft from afar): its top is unknown, it is never flown over
                 top = body.top + self.point_radius if points else math.inf
+                if body.radius > self.piece_m:  # a large obstacle: one circle per piece
+                    out.extend((o, top) for o in self._pieces(st, idx, pad))
+                    continue
+                r = float(body.radius) + pad
             c = body.center
             key = st.sources[int(idx[0])]
             out.append((CtgaObstacle(key, (float(c[0]), float(c[1])), r), top))
         self._bodies_of, self._bodies = st, out
+        return out
+
+    def _pieces(
+        self, st: PerceptionState, idx: npt.NDArray[np.int64], pad: float
+    ) -> list[CtgaObstacle]:
+        """A large obstacle's returns as several circles (§2.1, Figs 2, 3, 5): one per square of
+        ``piece_m`` of the map grid they fall in (named ``"<id>@<i>/<j>"``, so a piece keeps its
+        name from scan to scan), each the smallest circle round its returns (+ ``pad``)."""
+        xy = st.positions[idx, :2]
+        tiles = np.floor(xy / self.piece_m).astype(np.int64)
+        source = st.sources[int(idx[0])]
+        out = []
+        for tile in np.unique(tiles, axis=0):
+            mine = xy[(tiles == tile).all(axis=1)]
+            c = min_enclosing_circle(mine)
+            out.append(
+                CtgaObstacle(
+                    f"{source}@{tile[0]}/{tile[1]}",
+                    (float(c.center[0]), float(c.center[1])),
+                    float(c.radius) + pad,
+                )
+            )
         return out
 
     # -- decisions -------------------------------------------------------------------------------
