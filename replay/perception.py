@@ -158,6 +158,16 @@ class Scan:
         return len(self.ids)
 
     @classmethod
+    def _of_sensor(cls, **fields: Any) -> Scan:
+        """A scan of one of terrapath's own sensors, whose pictures are built to this layout
+        (their arrays already of these dtypes and shapes, ids unique): not checked again."""
+        scan = object.__new__(cls)
+        for name, value in fields.items():
+            dtype = _SCAN_ARRAYS.get(name)
+            object.__setattr__(scan, name, value if dtype is None else np.asarray(value, dtype))
+        return scan
+
+    @classmethod
     def of(cls, picture: RadarPicture | CooperativePicture | Scan) -> Scan:
         """The scan of a radar or cooperative picture (a Scan is returned as it is)."""
         if isinstance(picture, Scan):
@@ -166,7 +176,7 @@ class Scan:
         nan3 = np.full((n, 3), np.nan)
         nan1 = np.full(n, np.nan)
         if isinstance(picture, RadarPicture):
-            return cls(
+            return cls._of_sensor(
                 t=picture.t,
                 own_position=picture.own_position,
                 sensor="radar",
@@ -183,7 +193,7 @@ class Scan:
                 tops=nan1,
             )
         if isinstance(picture, CooperativePicture):
-            return cls(
+            return cls._of_sensor(
                 t=picture.t,
                 own_position=picture.own_position,
                 sensor=picture.sensor,
