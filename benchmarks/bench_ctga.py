@@ -35,7 +35,6 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import record  # noqa: E402
 from planner.mission import load_mission  # noqa: E402
-from replay.avoidance import make_avoider  # noqa: E402
 from replay.avoidance.ctga import (  # noqa: E402
     CtgaObstacle,
     arc_radius,
@@ -44,11 +43,9 @@ from replay.avoidance.ctga import (  # noqa: E402
     threat_test,
 )
 from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
-from replay.sim import ReplayConfig, ReplayResult, simulate  # noqa: E402
-from replay.threat_file import threats_from_records  # noqa: E402
-from replay.vehicle.presets import load_vehicle  # noqa: E402
+from replay.sim import ReplayResult  # noqa: E402
 from tests.test_avoidance_contract import SCENARIOS as CONTRACT  # noqa: E402
-from tests.test_avoidance_contract import STRAIGHT  # noqa: E402
+from tests.test_avoidance_contract import _run as contract_run  # noqa: E402
 
 SCENARIO_DIR = ROOT / "data" / "scenarios"
 SEED001 = ("simple", "complex", "moving")
@@ -73,25 +70,7 @@ def seed001(name: str, avoider: str, sensor: str = "cooperative", **options: Any
 
 
 def contract(name: str, avoider: str) -> ReplayResult:
-    from planner.mission import mission_from_dict
-
-    mission = mission_from_dict(
-        {
-            "terrapath": 1,
-            "name": f"contract-{name}",
-            "crs": "local",
-            "vehicle": "solar-uav",
-            "cruise": {"speed": 15.0, "altitude": 200.0},
-            "waypoints": STRAIGHT,
-        }
-    )
-    return simulate(
-        mission,
-        threats_from_records(CONTRACT[name]),
-        make_avoider(avoider),
-        load_vehicle("solar-uav"),
-        config=ReplayConfig(seed=0),
-    )
+    return contract_run(name, avoider)
 
 
 def table4(avoider: str) -> ReplayResult:

@@ -105,7 +105,7 @@ def test_can_join_the_arc_from_outside_at_the_bank_limit() -> None:
 
 
 def test_bad_options_are_refused() -> None:
-    with pytest.raises(InputError, match="r_safe must be >= 0"):
+    with pytest.raises(InputError, match=r"r_safe must be a finite number in \[0.0, inf\]"):
         CtgaAvoider(r_safe=-1.0)
     with pytest.raises(InputError, match=r"r_det \(50 m\) must not be smaller than r_safe"):
         CtgaAvoider(r_det=50.0, r_safe=100.0)
@@ -149,13 +149,17 @@ PAPER_TIMES = {
 }
 
 
-def fly(scenario: str, avoider: str, sensor: str = "cooperative") -> ReplayResult:
+def fly(
+    threats: str | list[dict[str, Any]], avoider: str, sensor: str = "cooperative", **options: Any
+) -> ReplayResult:
+    """Seed 001's path flown with a scenario (by name) or threat records."""
     mission = load_mission(SCENARIO_DIR / "seed001-mission.yaml")
     assert mission.waypoints.tolist() == PATH and mission.cruise_speed == 50.0
+    records = SCENARIOS[threats] if isinstance(threats, str) else threats
     return simulate(
         mission,
-        threats_from_records(SCENARIOS[scenario]),
-        make_avoider(avoider),
+        threats_from_records(records),
+        make_avoider(avoider, **options),
         load_vehicle("cessna172"),
         config=ReplayConfig(seed=1, sensor=sensor),
     )
@@ -193,12 +197,7 @@ def test_paper_scenario_passes_each_obstacle_at_r_safe(scenario: str) -> None:
 
 def test_an_obstacle_already_around_the_aircraft_is_escaped_not_a_crash() -> None:
     """Found already inside its radius: recorded "already violated", the escape flown."""
-    threats = [dict(_body("popup", 600, 0, 350), appears_at=10.0)]
-    SCENARIOS["popup"] = threats
-    try:
-        r = fly("popup", "ctga")
-    finally:
-        del SCENARIOS["popup"]
+    r = fly([dict(_body("popup", 600, 0, 350), appears_at=10.0)], "ctga")
     reasons = [d["reason"] for d in r.decisions]
     assert any(x.startswith("already violated") for x in reasons), reasons
     assert r.metrics.reached_goal
@@ -207,12 +206,7 @@ def test_an_obstacle_already_around_the_aircraft_is_escaped_not_a_crash() -> Non
 def test_an_obstacle_too_close_to_go_round_is_a_recorded_failure() -> None:
     """Appearing 600 m ahead: the minimum-radius turn cannot meet its arc from outside; the
     decision says it failed and the flight goes on."""
-    threats = [dict(_body("late", 1500, 0, 150), appears_at=19.0)]
-    SCENARIOS["late"] = threats
-    try:
-        r = fly("late", "ctga")
-    finally:
-        del SCENARIOS["late"]
+    r = fly([dict(_body("late", 1500, 0, 150), appears_at=19.0)], "ctga")
     first = r.decisions[0]
     assert first["reason"].startswith("failed:") and first["feasible"] is False
     assert r.metrics.reached_goal
@@ -225,16 +219,8 @@ def test_paper_scenario_with_the_radar(scenario: str) -> None:
     the aircraft than the true centre, so the arcs pass wider. The intruder reports no size:
     ``moving_radius`` is the user's (350 m, its class). Never inside, never closer than
     R_safe - 30 %, the goal reached."""
-    mission = load_mission(SCENARIO_DIR / "seed001-mission.yaml")
     options = {"moving_radius": 350.0} if scenario == "moving" else {}
-    r = simulate(
-        mission,
-        threats_from_records(SCENARIOS[scenario]),
-        make_avoider("ctga", **options),
-        load_vehicle("cessna172"),
-        config=ReplayConfig(seed=1, sensor="radar"),
-    )
-    met = r.metrics
+    met = fly(scenario, "ctga", "radar", **options).metrics
     assert met.reached_goal and met.success and not met.violations, met.as_dict()
     seps = {k: v["value"] for k, v in met.min_separation.items()}
     assert min(seps.values()) >= 70.0, seps

@@ -78,6 +78,7 @@ from typing import Any, ClassVar
 import numpy as np
 import numpy.typing as npt
 
+from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
 from replay.circles import min_enclosing_circle
 from replay.guidance import AvoidanceDecision, FollowWaypoints, Orbit
@@ -284,18 +285,12 @@ class CtgaAvoider:
         memory_s: float = 60.0,
         piece_m: float = 1000.0,
     ) -> None:
-        for what, v, low in (
-            ("r_safe", r_safe, 0.0),
-            ("r_det", r_det, 0.0),
-            ("point_radius", point_radius, 0.0),
-            ("moving_radius", moving_radius, 0.0),
-            ("memory_s", memory_s, 1e-9),
-            ("piece_m", piece_m, 1.0),
-        ):
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise InputError(f"CTGA option {what} must be a number; got {v!r}")
-            if v < low:
-                raise InputError(f"CTGA option {what} must be >= {low:g}; got {v!r}")
+        r_safe = require_real("CTGA option r_safe", r_safe, 0.0)
+        r_det = require_real("CTGA option r_det", r_det, 0.0)
+        point_radius = require_real("CTGA option point_radius", point_radius, 0.0)
+        moving_radius = require_real("CTGA option moving_radius", moving_radius, 0.0)
+        memory_s = require_real("CTGA option memory_s", memory_s, 0.0, open_low=True)
+        piece_m = require_real("CTGA option piece_m", piece_m, 0.0, open_low=True)
         if r_det < r_safe:
             raise InputError(
                 f"CTGA option r_det ({r_det:g} m) must not be smaller than r_safe ({r_safe:g} m): "
