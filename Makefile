@@ -68,6 +68,7 @@ demo: $(VENV)/.run-stamp
 	@echo "  rmnp-flown.mcap      the aerosonde flying the plan with terrain following off: clear of the terrain"
 	@echo "  rmnp-replay-none.mcap  the 6-DOF replay with three pop-up threats, no avoidance: all three violated"
 	@echo "  rmnp-replay.mcap     the same with PSO-CA avoidance (seed 000): every threat kept clear"
+	@echo "  *.png beside each .mcap   a picture of the run: plan view, separation to each threat, height above the terrain"
 	@echo
 	@echo "open the replay in Foxglove (app.foxglove.dev or the desktop app): Open local file ->"
 	@echo "  $(OUT)/rmnp-replay.mcap; add a 3D panel (display frame 'map', follow 'base_link') and"

@@ -81,7 +81,7 @@ class PreparedReplay:
 def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     """Read and check everything a replay needs (nothing is written)."""
     r = request
-    mission, old_run = _load_source(r.source)
+    mission, old_run = load_source(r.source)
     mission = _terrain(mission, r.dem)
     grid = mission.terrain.load() if mission.terrain is not None else None
     params, vehicle_file = _vehicle(r.vehicle, mission, r.source, old_run)
@@ -97,7 +97,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         threat_text = Path(r.threats).read_text(encoding="utf-8")
     elif old_threats is not None:
         threat_text = old_threats.decode("utf-8")
-        threats = _recorded_threats(threat_text, r.source, grid)
+        threats = recorded_threats(threat_text, r.source, grid)
     else:
         threats = ThreatSet(())
     following = r.terrain_following
@@ -214,7 +214,7 @@ def _lonlat(grid: HeightGrid | None) -> Any:
     return grid.lonlat_interpolator()
 
 
-def _load_source(source: str) -> tuple[Any, Any]:
+def load_source(source: str) -> tuple[Any, Any]:
     """(mission, the earlier run when SOURCE is an .mcap, else None).
 
     The mission inside a run names its DEM tiles relative to the run's folder (see
@@ -312,7 +312,7 @@ def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[
     return load_vehicle(name), None  # not a preset: says which presets exist
 
 
-def _recorded_threats(text: str, source: str, grid: Any) -> Any:
+def recorded_threats(text: str, source: str, grid: Any) -> Any:
     """The threats an earlier run recorded (its ``threats.yaml`` attachment)."""
     from replay.threat_file import threats_from_records
 

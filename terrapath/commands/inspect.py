@@ -15,11 +15,28 @@ from terrapath.runtext import duration, metrics_rows, plural, report_lines, tabl
 @click.command("inspect")
 @click.argument("run", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
-def inspect_cmd(run: str, as_json: bool) -> None:
+@click.option(
+    "--png",
+    "png",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also draw the run's picture to this PNG (as terrapath replay writes beside the MCAP).",
+)
+def inspect_cmd(run: str, as_json: bool, png: str | None) -> None:
     """Summarise a replay MCAP: what was flown (mission, terrain, vehicle, seed, avoidance), the
     metrics (success, PLR, terrain clearance, minimum separation to each threat), topics and
-    attachments; --json adds the final waypoint list."""
+    attachments; --json adds the final waypoint list; --png draws the run."""
     from replay.reader import load_run, summary
+
+    if png is not None:
+        if not png.lower().endswith(".png"):
+            raise click.BadParameter(
+                f"the picture must end in .png; got {png!r}", param_hint="--png"
+            )
+        from replay.picture import run_picture
+
+        run_picture(run, png)
+        click.echo(f"wrote {png}", err=True)
 
     record = load_run(run, with_states=False)
     s = summary(record)

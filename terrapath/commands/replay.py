@@ -224,6 +224,12 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 )
 @click.option("--no-terrain-mesh", is_flag=True, help="Do not store the terrain mesh in the MCAP.")
 @click.option(
+    "--no-picture",
+    is_flag=True,
+    help="Do not write RUN.png beside the MCAP (plan view with the planned and flown tracks, "
+    "threats and decisions; separation to each threat and height above the terrain against time).",
+)
+@click.option(
     "-o", "--output", required=True, type=click.Path(dir_okay=False), help="MCAP file to write."
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the metrics as JSON.")
@@ -251,6 +257,7 @@ def replay_cmd(
     temperature_offset: float,
     terrain_following: float | None,
     no_terrain_mesh: bool,
+    no_picture: bool,
     output: str,
     as_json: bool,
 ) -> int:
@@ -316,7 +323,12 @@ def replay_cmd(
                 report(int(t), None)
 
         result = run_replay(prepared, output, progress=progress)
-    _report(result, output, as_json)
+    picture = None
+    if not no_picture:
+        from replay.picture import run_picture
+
+        picture = run_picture(output, Path(output).with_suffix(".png"))
+    _report(result, output, as_json, picture)
     m = result.metrics
     if not m.success:
         reasons = []
@@ -334,13 +346,14 @@ def replay_cmd(
     return 0
 
 
-def _report(result: Any, output: str, as_json: bool) -> None:
+def _report(result: Any, output: str, as_json: bool, picture: Path | None = None) -> None:
     m = result.metrics
     if as_json:
         click.echo(
             json.dumps(
                 {
                     "output": output,
+                    "picture": None if picture is None else str(picture),
                     "seed": result.seed,
                     "wall_s": result.wall_s,
                     "metrics": m.as_dict(),
@@ -357,6 +370,8 @@ def _report(result: Any, output: str, as_json: bool) -> None:
         f"\nwrote {output} (simulated {duration(m.flight_time_s)} in {result.wall_s:.1f} s of "
         "wall-clock time)"
     )
+    if picture is not None:
+        click.echo(f"wrote {picture} (plan view, separations and height above the terrain)")
     click.echo(
         "open it in Foxglove: Open local file, 3D panel with display frame 'map'; plots from /vehicle/state"
     )

@@ -1,0 +1,238 @@
+"""A picture of a recorded run (``RUN.png``): what ``terrapath replay`` writes beside the MCAP and
+``terrapath inspect RUN.mcap --png OUT.png`` makes from any recorded run.
+
+Everything comes from the MCAP itself (its states, waypoint changes, decisions and attachments: the
+mission, the threat file) and the DEM tiles it names; a run over flat ground (no DEM, or tiles no
+longer where they were recorded) is drawn without a map, and the title says so.
+
+- **Plan view** (top): the hillshade of the DEM, the mission's danger zones, the planned waypoints
+  (the list the run started with, dashed), the flown track, the final waypoint list when the
+  avoider changed it, every threat's footprint (a circle of its safety radius about each point --
+  a static threat, a hill's points, an intruder at its closest approach, whose track is drawn too
+  -- a cylinder's circle, a convex body's widest section), the orbits an avoider commanded (CTGA's
+  arcs, dotted) and the points of the track inside a threat's volume or a zone, in red.
+- **Separation** (middle): the distance from each threat's surface against time (NaN while it is
+  not active), the success margin and zero, violations in red.
+- **Above the ground** (bottom): the altitude above the terrain under the aircraft against time
+  (with a DEM), or the altitude (flat ground).
+
+At most :data:`MAX_POINTS` samples of the trajectory are drawn (a regular stride: the 8-hour seed
+000 flight has 290,000 states); the separations are computed on those samples.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from replay.frames import PD, PE, PN
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+MAX_POINTS = 20_000
+RED = "#d62728"
+
+
+def run_picture(run: str | Path, out: str | Path) -> Path:
+    """Write the picture of the recorded run ``run`` (an MCAP) to ``out`` (PNG, through a
+    temporary name); a one-line error when the run has no trajectory."""
+    from replay.reader import load_run
+    from replay.run import load_source, recorded_threats
+    from terrain.plot import draw_hillshade, draw_zones, legend_below, new_figure, save_figure
+
+    src = Path(run)
+    mission, _ = load_source(str(src))
+    record = load_run(src)
+    if len(record.times) < 2:
+        raise InputError(f"{src}: the run has no trajectory to draw (fewer than 2 states)")
+    grid, note = _grid(mission)
+    threat_text = record.attachments.get("threats.yaml")
+    threats = (
+        recorded_threats(threat_text.decode("utf-8"), str(src), grid)
+        if threat_text is not None
+        else ()
+    )
+    step = max(1, math.ceil(len(record.times) / MAX_POINTS))
+    t = record.times[::step]
+    s = record.states[::step]
+    xyz = np.column_stack([s[:, PE], s[:, PN], -s[:, PD]])
+
+    width = 9.0
+    if grid is not None:
+        xmin, ymin, xmax, ymax = grid.bounds
+        map_h = max(3.5, min(width * (ymax - ymin) / (xmax - xmin), 10.0))
+    else:
+        map_h = 6.0
+    fig = new_figure(width, map_h + 5.6)
+    gs = fig.add_gridspec(3, 1, height_ratios=[map_h, 2.4, 2.2])
+    ax = fig.add_subplot(gs[0])
+    m = record.metrics
+    verdict = "success" if m.get("success") else "FAILED"
+    title = f"{src.name}: {record.metadata.get('avoid') or 'no avoidance'}, {verdict}"
+    if grid is not None:
+        draw_hillshade(fig, ax, grid, title + note)
+    else:
+        ax.set_title(title + note)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x east (m)")
+        ax.set_ylabel("y north (m)")
+    if mission.danger_zones:
+        draw_zones(ax, mission.danger_zones)
+    sep = {th.id: _separation(th, xyz, t) for th in threats}
+    for th in threats:
+        _draw_threat(ax, th, xyz, t, sep[th.id])
+    start = record.waypoints[0].waypoints if record.waypoints else mission.waypoints
+    ax.plot(start[:, 0], start[:, 1], "--o", color="#1f77b4", ms=4, lw=1.2, label="planned")
+    final = record.waypoints[-1].waypoints if record.waypoints else start
+    if len(final) != len(start) or not np.allclose(final, start):
+        ax.plot(
+            final[:, 0],
+            final[:, 1],
+            "o",
+            color="#ff7f0e",
+            mec="black",
+            ms=5,
+            ls="",
+            label="waypoints after avoidance",
+        )
+    from matplotlib.patheffects import Normal, Stroke
+
+    ax.plot(
+        xyz[:, 0],
+        xyz[:, 1],
+        "-",
+        color="white",
+        lw=1.4,
+        label="flown",
+        path_effects=[Stroke(linewidth=2.8, foreground="black"), Normal()],
+    )
+    inside = np.zeros(len(t), dtype=bool)
+    for v in sep.values():
+        inside |= np.nan_to_num(v, nan=np.inf) < 0.0
+    if inside.any():
+        ax.plot(xyz[inside, 0], xyz[inside, 1], ".", color=RED, ms=3, label="inside a threat")
+    drawn: set[tuple[int, int, int]] = set()
+    for d in record.decisions:  # each distinct orbit once (an arc's updates move it little)
+        cmd = d.decision.get("command")
+        if isinstance(cmd, dict) and cmd.get("command") == "Orbit":
+            cx, cy = cmd["center"]
+            r = cmd["radius"]
+            key = (round(cx / 50.0), round(cy / 50.0), round(r / 50.0))
+            if key in drawn:
+                continue
+            drawn.add(key)
+            a = np.linspace(0.0, 2.0 * math.pi, 73)
+            label = "avoider's orbits" if len(drawn) == 1 else None
+            ax.plot(
+                cx + r * np.sin(a), cy + r * np.cos(a), ":", color="#e377c2", lw=1.0, label=label
+            )
+    if not grid:
+        _frame(ax, xyz, start)
+    legend_below(ax)
+
+    ax2 = fig.add_subplot(gs[1])
+    margin = float(m.get("margin_m") or 0.0)
+    for ident, v in sep.items():
+        ax2.plot(t / 60.0, v, lw=1.0, label=ident)
+        bad = v < margin
+        if bad.any():
+            ax2.plot(t[bad] / 60.0, v[bad], ".", color=RED, ms=2)
+    ax2.axhline(0.0, color="black", lw=0.8)
+    if margin:
+        ax2.axhline(margin, color=RED, lw=0.8, ls="--", label=f"margin {margin:g} m")
+    ax2.set_ylabel("separation from\nthe surface (m)")
+    ax2.set_xlim(t[0] / 60.0, t[-1] / 60.0)
+    if sep:
+        finite = np.concatenate([v[np.isfinite(v)] for v in sep.values()] + [np.zeros(1)])
+        closest = max(float(np.nanmin(v)) if np.isfinite(v).any() else 0.0 for v in sep.values())
+        # the close passes matter: up to four times the largest of the threats' minimum
+        top = max(4.0 * closest, margin + 500.0, 1000.0)
+        ax2.set_ylim(min(float(finite.min()), 0.0) - 0.05 * top, top)
+        ax2.legend(fontsize=7, ncol=4, loc="upper right")
+    else:
+        ax2.text(0.5, 0.5, "no threats", transform=ax2.transAxes, ha="center")
+
+    ax3 = fig.add_subplot(gs[2], sharex=ax2)
+    if grid is not None:
+        agl = xyz[:, 2] - np.asarray(grid.height_at(xyz[:, 0], xyz[:, 1]), dtype=np.float64)
+        ax3.plot(t / 60.0, agl, color="#2ca02c", lw=1.0)
+        low = agl < 0.0
+        if low.any():
+            ax3.plot(t[low] / 60.0, agl[low], ".", color=RED, ms=2)
+        ax3.axhline(0.0, color="#8c6d46", lw=1.2)
+        ax3.set_ylabel("above the\nterrain (m)")
+    else:
+        ax3.plot(t / 60.0, xyz[:, 2], color="#2ca02c", lw=1.0)
+        ax3.set_ylabel("altitude (m)")
+    ax3.set_xlabel(
+        "time (min)" + (f"; every {step}th of {len(record.times)} states drawn" if step > 1 else "")
+    )
+    return save_figure(fig, out)
+
+
+def _grid(mission: Any) -> tuple[Any, str]:
+    """The run's DEM, or None with a note for the title (flat ground, or tiles not found)."""
+    if mission.terrain is None:
+        return None, " (flat ground)"
+    try:
+        return mission.terrain.load(), ""
+    except InputError:
+        return None, " (its DEM is not where it was recorded: drawn without the map)"
+
+
+def _separation(th: Any, xyz: FloatArray, t: FloatArray) -> FloatArray:
+    """Distance from the threat's surface at each sample, NaN while it is not active."""
+    sep = np.asarray(th.separation(xyz, t), dtype=np.float64).reshape(-1)
+    return np.where(_active(th, t), sep, np.nan)
+
+
+def _active(th: Any, t: FloatArray) -> npt.NDArray[np.bool_]:
+    """``appears_at <= t < disappears_at`` at each time."""
+    end = math.inf if th.disappears_at is None else th.disappears_at
+    return np.asarray((t >= th.appears_at) & (t < end))
+
+
+def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArray) -> None:
+    """A threat's footprint: circles of its shapes (a body's widest section), an intruder's track
+    and its circle where it came closest."""
+    from matplotlib.patches import Circle
+
+    colour = "#9467bd"
+    if th.kind == "intruder":
+        active = _active(th, t)
+        if active.any():
+            track = np.asarray(th.position(t[active]), dtype=np.float64).reshape(-1, 3)
+            ax.plot(track[:, 0], track[:, 1], "-", color=colour, lw=1.0)
+            k = int(np.nanargmin(np.where(active, sep, np.inf)))
+            p = np.asarray(th.position(t[k]), dtype=np.float64).reshape(3)
+            ax.add_patch(Circle((p[0], p[1]), th.radius, fill=False, ec=colour, lw=1.2))
+            ax.annotate(th.id, (p[0], p[1]), color=colour, fontsize=7)
+        return
+    shapes = th.shapes(float(t[0]))
+    for sh in shapes:
+        c = np.asarray(sh["center"], dtype=np.float64).reshape(-1, 3)
+        r = np.atleast_1d(np.asarray(sh.get("radius", 0.0), dtype=np.float64))
+        if sh.get("kind") == "body" or "axes" in sh:
+            axes = sh.get("axes") or (r[0], r[0])
+            r = np.array([max(float(axes[0]), float(axes[1]))])
+        for k in range(len(c)):
+            rk = float(r[min(k, len(r) - 1)])
+            ax.add_patch(Circle((c[k, 0], c[k, 1]), rk, fill=False, ec=colour, lw=1.2))
+    c0 = np.asarray(shapes[0]["center"], dtype=np.float64).reshape(-1, 3)[0]
+    ax.annotate(th.id, (c0[0], c0[1]), color=colour, fontsize=7)
+
+
+def _frame(ax: Any, xyz: FloatArray, wps: FloatArray) -> None:
+    """Limits round the track and the waypoints (flat ground: no map to set them)."""
+    pts = np.vstack([xyz[:, :2], np.asarray(wps, dtype=np.float64)[:, :2]])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.08 * float(max(hi - lo)) + 100.0
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+
+
+__all__ = ["MAX_POINTS", "run_picture"]
