@@ -17,6 +17,7 @@ from terrapath import __version__
 from terrapath.commands.hillshade import hillshade
 from terrapath.commands.info import info
 from terrapath.commands.inspect import inspect_cmd
+from terrapath.commands.layout import layout_cmd
 from terrapath.commands.plan import plan_cmd
 from terrapath.commands.replay import replay_cmd
 
@@ -42,6 +43,7 @@ cli.add_command(hillshade)
 cli.add_command(plan_cmd)
 cli.add_command(replay_cmd)
 cli.add_command(inspect_cmd)
+cli.add_command(layout_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,58 @@
+"""The Foxglove layout (issue 16): its tree and its panels agree, and every topic and message path
+it names is one a replay MCAP has."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from replay.layout import PANEL_3D, SCENE_TOPICS, check_layout, foxglove_layout
+from terrapath.cli import main
+
+
+def test_the_layout_names_only_what_the_recorder_writes() -> None:
+    layout = foxglove_layout()
+    assert check_layout(layout) == []
+    cfg = layout["configById"][PANEL_3D]
+    assert cfg["followTf"] == "base_link" and set(cfg["topics"]) == set(SCENE_TOPICS)
+    assert all(v == {"visible": True} for v in cfg["topics"].values())
+    assert layout["configById"]["RawMessages!decisions"]["topicPath"] == "/avoidance/decision"
+
+
+def test_check_layout_finds_what_is_wrong() -> None:
+    layout = foxglove_layout()
+    layout["configById"]["Plot!altitude"]["paths"][0]["value"] = "/vehicle/state.altitude"
+    layout["configById"][PANEL_3D]["topics"]["/no/such"] = {"visible": True}
+    layout["configById"]["Gauge!x"] = {}
+    problems = check_layout(layout)
+    assert any("/vehicle/state.altitude is not a recorded state field" in p for p in problems)
+    assert any("no such topic /no/such" in p for p in problems)
+    assert any("unknown panel type 'Gauge'" in p for p in problems)
+    assert any("the tree places" in p for p in problems)
+
+
+def test_the_layout_topics_are_in_a_recorded_run(tmp_path: Path) -> None:
+    """A real run has every topic the 3D panel shows (the guidance one once an orbit is flown)."""
+    from mcap.reader import make_reader
+
+    root = Path(__file__).resolve().parents[1] / "data" / "scenarios"
+    out = tmp_path / "run.mcap"
+    args = ["replay", str(root / "seed001-mission.yaml"), "--no-picture", "-o", str(out)]
+    threats = ["--threats", str(root / "seed001-simple-threats.yaml"), "--avoid", "ctga"]
+    main([*args, *threats, "--sensor", "cooperative"])
+    with out.open("rb") as f:
+        channels = {c.topic for c in make_reader(f).get_summary().channels.values()}
+    assert set(SCENE_TOPICS) <= channels and "/avoidance/decision" in channels
+
+
+def test_cli_prints_and_writes_the_layout(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["layout"]) in (0, None)
+    assert json.loads(capsys.readouterr().out) == foxglove_layout()
+    out = tmp_path / "terrapath.json"
+    assert main(["layout", "-o", str(out)]) in (0, None)
+    assert json.loads(out.read_text()) == foxglove_layout()
+    assert main(["layout", "-o", str(tmp_path / "x.txt")]) == 2
