@@ -1,9 +1,11 @@
 """A picture of a recorded run (``RUN.png``): what ``terrapath replay`` writes beside the MCAP and
 ``terrapath inspect RUN.mcap --png OUT.png`` makes from any recorded run.
 
-Everything comes from the MCAP itself (its states, waypoint changes, decisions and attachments: the
-mission, the threat file) and the DEM tiles it names; a run over flat ground (no DEM, or tiles no
-longer where they were recorded) is drawn without a map, and the title says so.
+``inspect`` draws from the MCAP itself (its states, waypoint changes, decisions and attachments:
+the mission, the threat file) and the DEM tiles it names (:func:`recorded_view`); ``replay`` draws
+the same from the flight it has in memory (:func:`replay_view`: nothing read back). A run over
+flat ground (no DEM, or tiles no longer where they were recorded) is drawn without a map, and the
+title says so.
 
 - **Plan view** (top): the hillshade of the DEM, the mission's danger zones, the planned waypoints
   (the list the run started with, dashed), the flown track, the final waypoint list when the
@@ -23,6 +25,7 @@ At most :data:`MAX_POINTS` samples of the trajectory are drawn (a regular stride
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -37,29 +40,96 @@ MAX_POINTS = 20_000
 RED = "#d62728"
 
 
-def run_picture(run: str | Path, out: str | Path) -> Path:
-    """Write the picture of the recorded run ``run`` (an MCAP) to ``out`` (PNG, through a
-    temporary name); a one-line error when the run has no trajectory."""
+@dataclass(frozen=True, eq=False)
+class RunView:
+    """What the picture draws of one run: from its MCAP (:func:`recorded_view`) or from the
+    replay just flown (:func:`replay_view`, nothing read back)."""
+
+    title: str
+    mission: Any
+    grid: Any  # HeightGrid or None (flat ground, or a DEM no longer where it was)
+    note: str  # said in the title when there is no map
+    threats: tuple[Any, ...]
+    times: FloatArray  # (K,)
+    positions: FloatArray  # (K, 3) map
+    initial_waypoints: FloatArray
+    final_waypoints: FloatArray
+    decisions: tuple[dict[str, Any], ...]
+    margin: float
+
+
+def _title(name: str, avoid: str | None, success: bool) -> str:
+    return f"{name}: {avoid or 'no avoidance'}, {'success' if success else 'FAILED'}"
+
+
+def recorded_view(run: str | Path) -> RunView:
+    """The view of a recorded run (one read of the MCAP); a one-line error when it has no
+    trajectory."""
     from replay.reader import load_run
-    from replay.run import load_source, recorded_threats
-    from terrain.plot import draw_hillshade, draw_zones, legend_below, new_figure, save_figure
+    from replay.run import mission_of_run, recorded_threats
 
     src = Path(run)
-    mission, _ = load_source(str(src))
     record = load_run(src)
     if len(record.times) < 2:
         raise InputError(f"{src}: the run has no trajectory to draw (fewer than 2 states)")
+    mission = mission_of_run(record, str(src))
     grid, note = _grid(mission)
     threat_text = record.attachments.get("threats.yaml")
     threats = (
-        recorded_threats(threat_text.decode("utf-8"), str(src), grid)
+        tuple(recorded_threats(threat_text.decode("utf-8"), str(src), grid))
         if threat_text is not None
         else ()
     )
-    step = max(1, math.ceil(len(record.times) / MAX_POINTS))
-    t = record.times[::step]
-    s = record.states[::step]
-    xyz = np.column_stack([s[:, PE], s[:, PN], -s[:, PD]])
+    s = record.states
+    start = record.waypoints[0].waypoints if record.waypoints else mission.waypoints
+    m = record.metrics
+    return RunView(
+        _title(src.name, record.metadata.get("avoid"), bool(m.get("success"))),
+        mission,
+        grid,
+        note,
+        threats,
+        record.times,
+        np.column_stack([s[:, PE], s[:, PN], -s[:, PD]]),
+        start,
+        record.waypoints[-1].waypoints if record.waypoints else start,
+        tuple(d.decision for d in record.decisions),
+        float(m.get("margin_m") or 0.0),
+    )
+
+
+def replay_view(prepared: Any, result: Any, name: str) -> RunView:
+    """The view of the replay just flown (``replay.run.PreparedReplay`` and its result)."""
+    grid = prepared.grid
+    return RunView(
+        _title(name, prepared.request.avoid, result.metrics.success),
+        prepared.mission,
+        grid,
+        "" if grid is not None else " (flat ground)",
+        tuple(prepared.threats),
+        result.times,
+        result.positions,
+        result.initial_waypoints,
+        result.waypoints,
+        tuple(result.decisions),
+        float(result.metrics.margin_m),
+    )
+
+
+def run_picture(run: str | Path, out: str | Path) -> Path:
+    """Write the picture of the recorded run ``run`` (an MCAP) to ``out``."""
+    return draw_run(recorded_view(run), out)
+
+
+def draw_run(view: RunView, out: str | Path) -> Path:
+    """Write the picture of ``view`` to ``out`` (PNG, through a temporary name)."""
+    from terrain.plot import draw_hillshade, draw_zones, legend_below, new_figure, save_figure
+
+    grid, mission, note = view.grid, view.mission, view.note
+    n = len(view.times)
+    step = max(1, math.ceil(n / MAX_POINTS))
+    t = view.times[::step]
+    xyz = view.positions[::step]
 
     width = 9.0
     if grid is not None:
@@ -70,24 +140,20 @@ def run_picture(run: str | Path, out: str | Path) -> Path:
     fig = new_figure(width, map_h + 5.6)
     gs = fig.add_gridspec(3, 1, height_ratios=[map_h, 2.4, 2.2])
     ax = fig.add_subplot(gs[0])
-    m = record.metrics
-    verdict = "success" if m.get("success") else "FAILED"
-    title = f"{src.name}: {record.metadata.get('avoid') or 'no avoidance'}, {verdict}"
     if grid is not None:
-        draw_hillshade(fig, ax, grid, title + note)
+        draw_hillshade(fig, ax, grid, view.title + note)
     else:
-        ax.set_title(title + note)
+        ax.set_title(view.title + note)
         ax.set_aspect("equal")
         ax.set_xlabel("x east (m)")
         ax.set_ylabel("y north (m)")
     if mission.danger_zones:
         draw_zones(ax, mission.danger_zones)
-    sep = {th.id: _separation(th, xyz, t) for th in threats}
-    for th in threats:
+    sep = {th.id: _separation(th, xyz, t) for th in view.threats}
+    for th in view.threats:
         _draw_threat(ax, th, xyz, t, sep[th.id])
-    start = record.waypoints[0].waypoints if record.waypoints else mission.waypoints
+    start, final = view.initial_waypoints, view.final_waypoints
     ax.plot(start[:, 0], start[:, 1], "--o", color="#1f77b4", ms=4, lw=1.2, label="planned")
-    final = record.waypoints[-1].waypoints if record.waypoints else start
     if len(final) != len(start) or not np.allclose(final, start):
         ax.plot(
             final[:, 0],
@@ -116,8 +182,8 @@ def run_picture(run: str | Path, out: str | Path) -> Path:
     if inside.any():
         ax.plot(xyz[inside, 0], xyz[inside, 1], ".", color=RED, ms=3, label="inside a threat")
     drawn: set[tuple[int, int, int]] = set()
-    for d in record.decisions:  # each distinct orbit once (an arc's updates move it little)
-        cmd = d.decision.get("command")
+    for d in view.decisions:  # each distinct orbit once (an arc's updates move it little)
+        cmd = d.get("command")
         if isinstance(cmd, dict) and cmd.get("command") == "Orbit":
             cx, cy = cmd["center"]
             r = cmd["radius"]
@@ -130,12 +196,12 @@ def run_picture(run: str | Path, out: str | Path) -> Path:
             ax.plot(
                 cx + r * np.sin(a), cy + r * np.cos(a), ":", color="#e377c2", lw=1.0, label=label
             )
-    if not grid:
+    if grid is None:
         _frame(ax, xyz, start)
     legend_below(ax)
 
     ax2 = fig.add_subplot(gs[1])
-    margin = float(m.get("margin_m") or 0.0)
+    margin = view.margin
     for ident, v in sep.items():
         ax2.plot(t / 60.0, v, lw=1.0, label=ident)
         bad = v < margin
@@ -168,9 +234,7 @@ def run_picture(run: str | Path, out: str | Path) -> Path:
     else:
         ax3.plot(t / 60.0, xyz[:, 2], color="#2ca02c", lw=1.0)
         ax3.set_ylabel("altitude (m)")
-    ax3.set_xlabel(
-        "time (min)" + (f"; every {step}th of {len(record.times)} states drawn" if step > 1 else "")
-    )
+    ax3.set_xlabel("time (min)" + (f"; every {step}th of {n} states drawn" if step > 1 else ""))
     return save_figure(fig, out)
 
 
@@ -235,4 +299,4 @@ def _frame(ax: Any, xyz: FloatArray, wps: FloatArray) -> None:
     ax.set_ylim(lo[1] - pad, hi[1] + pad)
 
 
-__all__ = ["MAX_POINTS", "run_picture"]
+__all__ = ["MAX_POINTS", "RunView", "draw_run", "recorded_view", "replay_view", "run_picture"]

@@ -220,13 +220,21 @@ def load_source(source: str) -> tuple[Any, Any]:
     The mission inside a run names its DEM tiles relative to the run's folder (see
     :func:`_recorded_mission`); they are looked for there, then as given, then where the run
     found them (metadata ``dem``)."""
-    from planner.mission import load_mission, mission_from_dict
+    from planner.mission import load_mission
 
     if not source.lower().endswith(".mcap"):
         return load_mission(source), None
     from replay.reader import load_run
 
     run = load_run(source, with_states=False)
+    return mission_of_run(run, source), run
+
+
+def mission_of_run(run: Any, source: str) -> Any:
+    """The mission a recorded run flew (its ``mission.yaml`` attachment), with its DEM tiles
+    looked for where :func:`load_source` says."""
+    from planner.mission import mission_from_dict
+
     text = run.attachments.get("mission.yaml")
     if text is None:
         raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
@@ -244,7 +252,7 @@ def load_source(source: str) -> tuple[Any, Any]:
             flown = []
         if isinstance(flown, list) and all(isinstance(d, str) for d in flown):
             mission = replace(mission, terrain=mission.terrain.also_look_in(flown))
-    return mission, run
+    return mission
 
 
 def _terrain(mission: Any, dem_tiles: tuple[str, ...]) -> Any:

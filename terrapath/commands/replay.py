@@ -324,10 +324,11 @@ def replay_cmd(
 
         result = run_replay(prepared, output, progress=progress)
     picture = None
-    if not no_picture:
-        from replay.picture import run_picture
+    if not no_picture:  # drawn from the replay in memory, not read back from the MCAP
+        from replay.picture import draw_run, replay_view
 
-        picture = run_picture(output, Path(output).with_suffix(".png"))
+        view = replay_view(prepared, result, Path(output).name)
+        picture = draw_run(view, Path(output).with_suffix(".png"))
     _report(result, output, as_json, picture)
     m = result.metrics
     if not m.success:
