@@ -83,11 +83,11 @@ from replay.avoidance.base import AvoidanceContext
 from replay.circles import min_enclosing_circle
 from replay.guidance import AvoidanceDecision, FollowWaypoints, Orbit
 from replay.perception import Perception, PerceptionConfig, PerceptionState
+from replay.vehicle.params import G
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 
-G = 9.81
 TURN_MARGIN = 1.05  # §3.1: "the turning radius can be slightly increased in actual flight"
 JOIN_TOLERANCE = 0.03  # on the arc (T2) when within 3 % of its radius
 REISSUE_ALT_M = 5.0
@@ -166,10 +166,14 @@ def threat_test(
     return Threat(obs, d, wrap(to_obs - rel_course), hit, miss)
 
 
+def turn_radius(speed: float, bank_max_deg: float) -> float:
+    """Eq 8's minimum turn radius at ``speed``, times :data:`TURN_MARGIN`."""
+    return TURN_MARGIN * speed * speed / (G * math.tan(math.radians(bank_max_deg)))
+
+
 def arc_radius(r_obs: float, r_safe: float, speed: float, bank_max_deg: float) -> float:
-    """Eq 7 with eq 8's minimum turn radius at ``speed`` (times :data:`TURN_MARGIN`)."""
-    r_min = TURN_MARGIN * speed * speed / (G * math.tan(math.radians(bank_max_deg)))
-    return max(r_min, r_obs + r_safe)
+    """Eq 7 with eq 8's minimum turn radius (:func:`turn_radius`)."""
+    return max(turn_radius(speed, bank_max_deg), r_obs + r_safe)
 
 
 def clockwise_for(delta: float) -> bool:
@@ -437,7 +441,7 @@ class CtgaAvoider:
     ) -> AvoidanceDecision:
         obs = hit.obstacle
         radius = max(arc_radius(obs.radius, self.r_safe, speed, bank), at_least or 0.0)
-        turn = TURN_MARGIN * speed * speed / (G * math.tan(math.radians(bank)))
+        turn = turn_radius(speed, bank)
         altitude = self._altitude(ctx)
         violated = hit.distance < obs.radius
         # the first body is met from outside; the next body of a complex obstacle is taken up
@@ -612,5 +616,6 @@ __all__ = [
     "leave_angle",
     "leg_altitude",
     "threat_test",
+    "turn_radius",
     "wrap",
 ]

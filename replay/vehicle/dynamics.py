@@ -182,18 +182,16 @@ def forces_moments(
     t_prop, q_prop = propeller(va, dt, p, rho)
     f[0] += t_prop
     mom[0] -= q_prop
-    if va >= 1e-6 and (p.CLadot or p.Cmadot):
-        qbar = 0.5 * rho * va * va
-        cq = p.c / (2.0 * va)
+    if va >= 1e-6 and (p.CLadot or p.Cmadot):  # qbar, cq, alpha of the aerodynamics above
         kad = qbar * p.S * p.CLadot * cq
         rel = s[3:6] - rotation_body_to_ned(s[6], s[7], s[8]).T @ np.asarray(wind, dtype=float)
         uu, vv, ww = (float(c) for c in s[3:6])
         ur, vr, wr = (float(c) for c in rel)
-        pr_, qr_, rr_ = (float(c) for c in s[9:12])
         adot = float(
-            _kernels.alpha_rate(uu, vv, ww, ur, vr, wr, pr_, qr_, rr_, f[0] / m, f[2] / m, kad / m)
+            _kernels.alpha_rate(
+                uu, vv, ww, ur, vr, wr, float(pr), float(qr), float(rr), f[0] / m, f[2] / m, kad / m
+            )
         )
-        _, alpha, _ = air_data(s, wind)
         f[0] += math.sin(alpha) * kad * adot
         f[2] -= math.cos(alpha) * kad * adot
         mom[1] += qbar * p.S * p.c * p.Cmadot * cq * adot
