@@ -503,13 +503,12 @@ class Perception:
         ids = scan.ids
         keys = [ids[i] for i in rows.tolist()]
         ext = np.flatnonzero(scan.extended[rows])
-        for k in ext.tolist():  # a solid's nearest point and outline edges: one surface
-            keys[k] = scan.sources[int(rows[k])]
         if not ext.size:
             return keys, rows
         cells = np.floor(scan.positions[rows[ext], :2] / self.config.body_cell_m).astype(np.int64)
+        # a solid's nearest point and outline edges are one surface: keyed by the threat's id
         for k, (ci, cj) in zip(ext.tolist(), cells.tolist(), strict=True):
-            keys[k] = f"{keys[k]}@{ci}/{cj}"
+            keys[k] = f"{scan.sources[int(rows[k])]}@{ci}/{cj}"
         last = {key: k for k, key in enumerate(keys)}
         if len(last) == len(keys):
             return keys, rows
