@@ -72,6 +72,10 @@ demo: $(VENV)/.run-stamp
 	$(BIN)/terrapath replay $(OUT)/rmnp-mission.yaml --threats data/threats/rmnp-demo.yaml \
 	  --avoid pso-ca --seed 1 -o $(OUT)/rmnp-replay.mcap
 	@echo
+	@echo "== see it: both runs in one interactive page, and a Foxglove layout:"
+	$(BIN)/terrapath view $(OUT)/rmnp-replay-none.mcap $(OUT)/rmnp-replay.mcap -o $(OUT)/rmnp-view.html
+	$(BIN)/terrapath layout -o $(OUT)/terrapath-layout.json
+	@echo
 	@echo "demo outputs (in $(OUT)/):"
 	@echo "  rmnp-hillshade.png   the map with its two danger zones (unknown terrain hatched)"
 	@echo "  rmnp-mission.yaml    the planned mission (source of truth: waypoints, vehicle, turn radius, cost terms, seed)"
@@ -81,10 +85,11 @@ demo: $(VENV)/.run-stamp
 	@echo "  rmnp-replay-none.mcap  the 6-DOF replay with three pop-up threats, no avoidance: all three violated"
 	@echo "  rmnp-replay.mcap     the same with PSO-CA avoidance (seed 000): every threat kept clear"
 	@echo "  *.png beside each .mcap   a picture of the run: plan view, separation to each threat, height above the terrain"
+	@echo "  rmnp-view.html       open in any browser: the 3D scene with a time slider, the 2-D map, time plots (both runs)"
 	@echo
-	@echo "open the replay in Foxglove (app.foxglove.dev or the desktop app): Open local file ->"
-	@echo "  $(OUT)/rmnp-replay.mcap; add a 3D panel (display frame 'map', follow 'base_link') and"
-	@echo "  a Plot panel (e.g. /vehicle/state.alt). Summary: .venv/bin/terrapath inspect $(OUT)/rmnp-replay.mcap"
+	@echo "open the replay in Foxglove (app.foxglove.dev or the desktop app): Layouts -> Import from file ->"
+	@echo "  $(OUT)/terrapath-layout.json once, then Open local file -> $(OUT)/rmnp-replay.mcap."
+	@echo "  Summary: .venv/bin/terrapath inspect $(OUT)/rmnp-replay.mcap"
 
 lint: $(VENV)/.test-stamp
 	$(BIN)/ruff check .

@@ -8,13 +8,15 @@ The layout (Foxglove's layout JSON: ``configById`` -- each panel's settings unde
   the mission's waypoints, the flown track, the radar's detections and the avoider's orbits
   visible (:data:`SCENE_TOPICS`);
 - **plots** from ``/vehicle/state``: altitude and its command, airspeed and its command, bank and
-  its command (radians, as recorded);
+  its command (radians, as recorded); from ``/vehicle/separation``: the separation from the
+  nearest active threat and from the nearest danger zone against the run's margin;
 - a **raw messages** panel on ``/avoidance/decision``: each decision with its inputs, its
   command and its compute time.
 
 Every topic and message path it names is one the recorder writes (:mod:`replay.topics`,
-:data:`replay.messages.STATE_KEYS`, :data:`replay.autopilot.GUIDANCE_COLUMNS`): ``check_layout``
-says so, and the tests hold it to that.
+:data:`replay.messages.STATE_KEYS`, :data:`replay.autopilot.GUIDANCE_COLUMNS`,
+:data:`replay.messages.SEPARATION_DOCS`): ``check_layout`` says so, and the tests hold it to
+that.
 """
 
 from __future__ import annotations
@@ -35,10 +37,15 @@ SCENE_TOPICS = (
     T.GUIDANCE,
 )
 PANEL_3D = "3D!terrapath"
+_S, _D = T.VEHICLE_STATE, T.SEPARATION
 PLOTS = {
-    "Plot!altitude": ("altitude (m AMSL)", ("alt", "extras.altitude_cmd")),
-    "Plot!airspeed": ("airspeed (m/s)", ("airspeed", "extras.airspeed_cmd")),
-    "Plot!bank": ("bank (rad)", ("phi", "extras.bank_cmd")),
+    "Plot!altitude": ("altitude (m AMSL)", (f"{_S}.alt", f"{_S}.extras.altitude_cmd")),
+    "Plot!airspeed": ("airspeed (m/s)", (f"{_S}.airspeed", f"{_S}.extras.airspeed_cmd")),
+    "Plot!bank": ("bank (rad)", (f"{_S}.phi", f"{_S}.extras.bank_cmd")),
+    "Plot!separation": (
+        "separation (m)",
+        (f"{_D}.nearest_m", f"{_D}.zone_m", f"{_D}.margin_m"),
+    ),
 }
 PANEL_DECISIONS = "RawMessages!decisions"
 PANEL_TYPES = ("3D", "Plot", "RawMessages")
@@ -73,12 +80,8 @@ def foxglove_layout() -> dict[str, Any]:
         config[panel] = {
             "title": title,
             "paths": [
-                {
-                    "value": f"{T.VEHICLE_STATE}.{f}",
-                    "enabled": True,
-                    "timestampMethod": "receiveTime",
-                }
-                for f in fields
+                {"value": path, "enabled": True, "timestampMethod": "receiveTime"}
+                for path in fields
             ],
             "showLegend": True,
             "legendDisplay": "floating",
@@ -95,12 +98,17 @@ def foxglove_layout() -> dict[str, Any]:
             "second": {
                 "direction": "column",
                 "first": plots[2],
-                "second": PANEL_DECISIONS,
-                "splitPercentage": 45.0,
+                "second": {
+                    "direction": "column",
+                    "first": plots[3],
+                    "second": PANEL_DECISIONS,
+                    "splitPercentage": 50.0,
+                },
+                "splitPercentage": 25.0,
             },
-            "splitPercentage": 30.0,
+            "splitPercentage": 22.0,
         },
-        "splitPercentage": 22.0,
+        "splitPercentage": 18.0,
     }
     return {
         "configById": config,
@@ -122,7 +130,7 @@ def check_layout(layout: dict[str, Any]) -> list[str]:
     each split has a direction and two children, the panel types are Foxglove's, and every topic
     and ``/vehicle/state`` path is one the recorder writes."""
     from replay.autopilot import GUIDANCE_COLUMNS
-    from replay.messages import STATE_KEYS
+    from replay.messages import SEPARATION_DOCS, STATE_KEYS
 
     problems: list[str] = []
     config = layout.get("configById", {})
@@ -144,7 +152,10 @@ def check_layout(layout: dict[str, Any]) -> list[str]:
         splits(node["second"])
 
     splits(layout["layout"])
-    fields = {*STATE_KEYS, *(f"extras.{c}" for c in GUIDANCE_COLUMNS)}
+    fields = {
+        T.VEHICLE_STATE: {*STATE_KEYS, *(f"extras.{c}" for c in GUIDANCE_COLUMNS)},
+        T.SEPARATION: set(SEPARATION_DOCS),
+    }
     for panel, cfg in config.items():
         kind = panel.split("!", 1)[0]
         if kind not in PANEL_TYPES:
@@ -154,8 +165,8 @@ def check_layout(layout: dict[str, Any]) -> list[str]:
                 problems.append(f"{panel}: no such topic {topic}")
         for path in cfg.get("paths", []):
             topic, _, field = path["value"].partition(".")
-            if topic != T.VEHICLE_STATE or field not in fields:
-                problems.append(f"{panel}: {path['value']} is not a recorded state field")
+            if field not in fields.get(topic, ()):
+                problems.append(f"{panel}: {path['value']} is not a recorded message field")
         if "topicPath" in cfg and cfg["topicPath"] not in T.SCHEMAS:
             problems.append(f"{panel}: no such topic {cfg['topicPath']}")
     return problems

@@ -81,6 +81,11 @@ STATE_DOCS = {
     "delta_t": "throttle, 0..1",
 }
 STATE_KEYS = tuple(STATE_DOCS)
+SEPARATION_DOCS = {
+    "nearest_m": "separation from the surface of the nearest active threat, m (absent: none)",
+    "zone_m": "separation from the nearest danger zone of the mission, m (absent: none)",
+    "margin_m": "the run's success margin, m (a separation below it is a violation)",
+}
 JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     T.STATE_SCHEMA: _object(
         {
@@ -124,6 +129,20 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
         ("algorithm", "compute_s"),
     ),
     T.METRICS_SCHEMA: _object({}, T.METRICS_SCHEMA),
+    T.SEPARATION_SCHEMA: _object(
+        {k: {**_NUM, "description": d} for k, d in SEPARATION_DOCS.items()}
+        | {
+            "nearest": {"type": "string", "description": "id of the nearest active threat"},
+            "zone": {"type": "string", "description": "id of the nearest danger zone"},
+            "threats": {
+                "type": "object",
+                "additionalProperties": _NUM,
+                "description": "the nearest active threats (at most 4): id -> separation, m",
+            },
+        },
+        T.SEPARATION_SCHEMA,
+        ("margin_m", "threats"),
+    ),
 }
 
 

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from replay import topics as T
 from replay.frames import PD, PE, PHI, PN, U, V, W
 from terrain.errors import InputError
 
@@ -64,20 +65,22 @@ class RunView:
     changes: tuple[tuple[float, FloatArray, str], ...] = ()
     success: bool = True
     avoid: str | None = None
+    stride: int = 1  # times/positions hold every stride-th recorded state
+    n_states: int = 0  # states recorded (0: len(times))
 
 
 def _title(name: str, avoid: str | None, success: bool) -> str:
     return f"{name}: {avoid or 'no avoidance'}, {'success' if success else 'FAILED'}"
 
 
-def recorded_view(run: str | Path) -> RunView:
-    """The view of a recorded run (one read of the MCAP); a one-line error when it has no
-    trajectory."""
+def recorded_view(run: str | Path, max_states: int | None = MAX_POINTS) -> RunView:
+    """The view of a recorded run (one read of the MCAP, decoding at most about ``max_states``
+    states, a regular stride); a one-line error when it has no trajectory."""
     from replay.reader import load_run
     from replay.run import mission_of_run, recorded_threats
 
     src = Path(run)
-    record = load_run(src)
+    record = load_run(src, max_states=max_states)
     if len(record.times) < 2:
         raise InputError(f"{src}: the run has no trajectory to draw (fewer than 2 states)")
     mission = mission_of_run(record, str(src))
@@ -108,6 +111,8 @@ def recorded_view(run: str | Path) -> RunView:
         tuple((c.t, c.waypoints, c.reason) for c in record.waypoints[1:]),
         bool(m.get("success")),
         record.metadata.get("avoid"),
+        record.state_stride,
+        record.topic_counts.get(T.VEHICLE_STATE, 0),
     )
 
 
@@ -143,8 +148,8 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     from terrain.plot import draw_hillshade, draw_zones, legend_below, new_figure, save_figure
 
     grid, mission, note = view.grid, view.mission, view.note
-    n = len(view.times)
-    step = max(1, math.ceil(n / MAX_POINTS))
+    n = view.n_states or len(view.times)
+    step = max(1, math.ceil(len(view.times) / MAX_POINTS))
     t = view.times[::step]
     xyz = view.positions[::step]
 
@@ -251,7 +256,8 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     else:
         ax3.plot(t / 60.0, xyz[:, 2], color="#2ca02c", lw=1.0)
         ax3.set_ylabel("altitude (m)")
-    ax3.set_xlabel("time (min)" + (f"; every {step}th of {n} states drawn" if step > 1 else ""))
+    every = step * view.stride
+    ax3.set_xlabel("time (min)" + (f"; 1 in {every} of {n} states drawn" if every > 1 else ""))
     return save_figure(fig, out)
 
 

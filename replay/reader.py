@@ -144,6 +144,7 @@ class RunRecord:
     topic_counts: dict[str, int]
     start_ns: int
     end_ns: int
+    state_stride: int = 1  # the states decoded are every state_stride-th recorded (max_states)
 
     @property
     def times(self) -> FloatArray:
@@ -172,12 +173,15 @@ class _Incomplete(Exception):
     """The file is not a complete MCAP file (reason in the message)."""
 
 
-def load_run(path: str | PathLike[str], *, with_states: bool = True) -> RunRecord:
+def load_run(
+    path: str | PathLike[str], *, with_states: bool = True, max_states: int | None = None
+) -> RunRecord:
     """Read and check a recorded run (see the module docstring); raises DataFileError.
 
     ``with_states=False`` skips decoding the state samples (``times``/``states`` come back
-    empty): what ``inspect`` and re-flying need, several times faster on long runs. The whole
-    file's CRCs are checked either way."""
+    empty): what ``inspect`` and re-flying need, several times faster on long runs.
+    ``max_states`` decodes at most about that many, a regular stride of them (what a picture
+    draws); the rest are skipped undecoded. The whole file's CRCs are checked either way."""
     name = str(path)
     try:
         f = open(path, "rb")
@@ -186,7 +190,7 @@ def load_run(path: str | PathLike[str], *, with_states: bool = True) -> RunRecor
     try:
         with f:
             _check_integrity(f)
-            return _read(f, name, with_states)
+            return _read(f, name, with_states, max_states)
     except DataFileError:
         raise
     except Exception as err:  # anything a damaged file can make the parsers raise
@@ -244,7 +248,9 @@ def _crc(f: IO[bytes], start: int, end: int) -> int:
     return crc
 
 
-def _read(f: IO[bytes], name: str, with_states: bool = True) -> RunRecord:
+def _read(
+    f: IO[bytes], name: str, with_states: bool = True, max_states: int | None = None
+) -> RunRecord:
     reader = make_reader(f, validate_crcs=True)
     metadata: dict[str, dict[str, str]] = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
     run = metadata.get(T.RUN_METADATA)
@@ -283,9 +289,15 @@ def _read(f: IO[bytes], name: str, with_states: bool = True) -> RunRecord:
     metrics: dict[str, Any] | None = None
     keys = (*T.STATE_FIELDS, *T.CONTROL_FIELDS)
     wanted = T.DATA_TOPICS if with_states else [t for t in T.DATA_TOPICS if t != T.VEHICLE_STATE]
+    n_states = counts.get(T.VEHICLE_STATE, 0)
+    stride = max(1, -(-n_states // max_states)) if max_states else 1
+    seen = -1
     for _schema, channel, message in reader.iter_messages(wanted, log_time_order=False):
         topic, ns = channel.topic, message.log_time
         if topic == T.VEHICLE_STATE:
+            seen += 1
+            if seen % stride:
+                continue
             doc = json.loads(message.data)
             times.append(ns)
             rows.append([doc[k] for k in keys])
@@ -346,6 +358,7 @@ def _read(f: IO[bytes], name: str, with_states: bool = True) -> RunRecord:
         topic_counts=dict(sorted(counts.items())),
         start_ns=start,
         end_ns=end,
+        state_stride=stride,
     )
 
 

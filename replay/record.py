@@ -9,6 +9,7 @@ Topics (names in :mod:`replay.topics`; Foxglove schemas are the protobuf ones of
     /vehicle/pose            foxglove.PoseInFrame      vehicle pose in ``map``
     /vehicle/state           terrapath.VehicleState    12 states, airspeed, alpha, beta, controls, extras
     /vehicle/fix             foxglove.LocationFix      WGS84 position (only with ``to_lonlat``)
+    /vehicle/separation      terrapath.Separation      nearest threat and zone, margin (batches: later in the file)
     /vehicle/track           foxglove.SceneUpdate      track flown since the last overview
     /vehicle/track_overview  foxglove.SceneUpdate      whole track so far (decimated)
     /mission/waypoints       foxglove.SceneUpdate      waypoint line strip, spheres and labels
@@ -250,6 +251,7 @@ class RunRecorder:
         self._t_max = 0
         self._last_state = -1
         self._next_state = 0
+        self._next_separation = 0
         self._next_track = 0
         self._next_overview = self._overview_period
         self._next_threat_move = 0
@@ -736,6 +738,62 @@ class RunRecorder:
         self._emit(T.DETECTIONS, ns, self._scan.markers(entity, positions, tails))
 
     # -- events ------------------------------------------------------------------------------
+
+    def write_separations(
+        self,
+        ts: npt.ArrayLike,
+        ids: Sequence[str],
+        separations: npt.ArrayLike,
+        *,
+        margin_m: float = 0.0,
+    ) -> int:
+        """``/vehicle/separation`` at the samples ``ts`` (s, increasing) that fall on the state
+        log's ticks (the first sample of each tick, as :meth:`write_state` keeps): the
+        separation from each of ``ids`` (a threat, or a danger zone when it starts with
+        ``zone:``), ``separations`` (K, len(ids)) metres, NaN while a threat is inactive.  Each
+        message holds the nearest active threat (``nearest_m``, ``nearest``), the nearest danger
+        zone (``zone_m``, ``zone``), ``margin_m`` and ``threats``, the (at most) four nearest
+        active threats by id.  Separations are computed in batches after the states they
+        belong to, so these messages come later in the file than the states of their time
+        (MCAP readers order by log time); successive calls must not go back in time.  Returns
+        how many messages were written."""
+        t = np.asarray(ts, dtype=np.float64).reshape(-1)
+        seps = np.asarray(separations, dtype=np.float64).reshape(len(t), len(ids))
+        if not len(t):
+            return 0
+        ns = np.round(t * NS_PER_S).astype(np.int64)
+        period = self._state_period
+        tick = ns // period
+        first = np.ones(len(t), dtype=bool)
+        first[1:] = tick[1:] != tick[:-1]
+        rows = np.flatnonzero(first & (ns >= self._next_separation))
+        if not len(rows):
+            return 0
+        self._next_separation = int((tick[rows[-1]] + 1) * period)
+        is_zone = np.array([i.startswith("zone:") for i in ids], dtype=bool)
+        names = list(ids)
+        threat_cols = np.flatnonzero(~is_zone)
+        zone_cols = np.flatnonzero(is_zone)
+        margin = float(margin_m)
+        for k in rows.tolist():
+            doc: dict[str, Any] = {"margin_m": margin, "threats": {}}
+            row = seps[k]
+            if len(threat_cols):
+                v = row[threat_cols]
+                live = np.flatnonzero(np.isfinite(v))
+                if len(live):
+                    order = live[np.argsort(v[live], kind="stable")[:4]]
+                    doc["nearest_m"] = round(float(v[order[0]]), 2)
+                    doc["nearest"] = names[threat_cols[order[0]]]
+                    doc["threats"] = {names[threat_cols[j]]: round(float(v[j]), 2) for j in order}
+            if len(zone_cols):
+                z = row[zone_cols]
+                if np.isfinite(z).any():
+                    j = int(np.nanargmin(z))
+                    doc["zone_m"] = round(float(z[j]), 2)
+                    doc["zone"] = names[zone_cols[j]]
+            self._emit(T.SEPARATION, int(ns[k]), dumps(doc))
+        return len(rows)
 
     def write_decision(self, t: float, decision: Mapping[str, Any]) -> None:
         """An avoidance decision: a JSON object with at least ``algorithm`` (text) and

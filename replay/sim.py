@@ -274,7 +274,7 @@ def simulate(
             if recorder is not None:
                 _record_samples(recorder, log, pos)
             if ts[keep - 1] - pending[0][0][0] >= _METRICS_BATCH_S:
-                _flush(pending, validity, tracker, zones)
+                _flush(pending, validity, tracker, zones, recorder)
             if hit.size:
                 contact = True
                 end_reason = "terrain contact"
@@ -325,7 +325,7 @@ def simulate(
                 if recorder is not None:
                     recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
                 break
-    _flush(pending, validity, tracker, zones)
+    _flush(pending, validity, tracker, zones, recorder)
     metrics = tracker.finish(
         t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
     )
@@ -355,10 +355,11 @@ def _flush(
     validity: ValidityChecker,
     tracker: MetricsTracker,
     zones: tuple[str, ...],
+    recorder: Any = None,
 ) -> None:
     """Separation to every active threat and to every danger zone of the mission, time off the
     map and over unknown terrain (all from ``validity``), and the metrics update, for the
-    buffered samples."""
+    buffered samples; the separations are recorded (``/vehicle/separation``) too."""
     if not pending:
         return
     ts = np.concatenate([p[0] for p in pending])
@@ -375,6 +376,8 @@ def _flush(
         if grid.known is not None and grid.has_unknown:
             unknown = ~pv.known & pv.on_map
     tracker.update_columns(ts, pos, ids, seps, clearance, off_map, unknown)
+    if recorder is not None:
+        recorder.write_separations(ts, ids, seps, margin_m=tracker.margin)
 
 
 def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:

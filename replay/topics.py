@@ -41,6 +41,7 @@ TF_STATIC = "/tf_static"
 TERRAIN = "/map/terrain"
 VEHICLE_POSE = "/vehicle/pose"
 VEHICLE_STATE = "/vehicle/state"
+SEPARATION = "/vehicle/separation"
 VEHICLE_FIX = "/vehicle/fix"
 VEHICLE_TRACK = "/vehicle/track"
 VEHICLE_TRACK_OVERVIEW = "/vehicle/track_overview"
@@ -69,6 +70,7 @@ THREAT_LIST_SCHEMA = "terrapath.ThreatList"
 DETECTION_LIST_SCHEMA = "terrapath.DetectionList"
 DECISION_SCHEMA = "terrapath.Decision"
 METRICS_SCHEMA = "terrapath.Metrics"
+SEPARATION_SCHEMA = "terrapath.Separation"
 
 # schema and message encodings (MCAP registry names)
 PROTOBUF = "protobuf"
@@ -82,6 +84,7 @@ SCHEMAS: dict[str, str] = {
     TERRAIN: SCENE_UPDATE,
     VEHICLE_POSE: POSE_IN_FRAME,
     VEHICLE_STATE: STATE_SCHEMA,
+    SEPARATION: SEPARATION_SCHEMA,
     VEHICLE_FIX: LOCATION_FIX,
     VEHICLE_TRACK: SCENE_UPDATE,
     VEHICLE_TRACK_OVERVIEW: SCENE_UPDATE,

@@ -27,15 +27,18 @@ def test_check_layout_finds_what_is_wrong() -> None:
     layout["configById"][PANEL_3D]["topics"]["/no/such"] = {"visible": True}
     layout["configById"]["Gauge!x"] = {}
     problems = check_layout(layout)
-    assert any("/vehicle/state.altitude is not a recorded state field" in p for p in problems)
+    assert any("/vehicle/state.altitude is not a recorded message field" in p for p in problems)
     assert any("no such topic /no/such" in p for p in problems)
     assert any("unknown panel type 'Gauge'" in p for p in problems)
     assert any("the tree places" in p for p in problems)
 
 
 def test_the_layout_topics_are_in_a_recorded_run(tmp_path: Path) -> None:
-    """A real run has every topic the 3D panel shows (the guidance one once an orbit is flown)."""
+    """A real run has every topic the 3D panel shows (the guidance one once an orbit is flown)
+    and every field the plots draw; its separation topic agrees with the run's metrics."""
     from mcap.reader import make_reader
+
+    from replay.reader import load_run
 
     root = Path(__file__).resolve().parents[1] / "data" / "scenarios"
     out = tmp_path / "run.mcap"
@@ -45,6 +48,32 @@ def test_the_layout_topics_are_in_a_recorded_run(tmp_path: Path) -> None:
     with out.open("rb") as f:
         channels = {c.topic for c in make_reader(f).get_summary().channels.values()}
     assert set(SCENE_TOPICS) <= channels and "/avoidance/decision" in channels
+    plotted = {
+        p["value"] for cfg in foxglove_layout()["configById"].values() for p in cfg.get("paths", [])
+    }
+    found: set[str] = set()
+    docs: dict[str, list[tuple[int, dict]]] = {}
+    with out.open("rb") as f:
+        topics = {p.partition(".")[0] for p in plotted}
+        for _s, ch, msg in make_reader(f).iter_messages(topics=topics, log_time_order=True):
+            doc = json.loads(msg.data)
+            docs.setdefault(ch.topic, []).append((msg.log_time, doc))
+            for path in plotted:
+                topic, _, field = path.partition(".")
+                node = doc
+                for part in field.split("."):
+                    node = node.get(part) if isinstance(node, dict) else None
+                if topic == ch.topic and isinstance(node, (int, float)):
+                    found.add(path)
+    # the zone plot is empty here: the mission has no danger zones
+    assert found == plotted - {"/vehicle/separation.zone_m"}
+    seps = docs["/vehicle/separation"]
+    states = docs["/vehicle/state"]
+    assert [t for t, _ in seps] == [t for t, _ in states]  # one at each state sample
+    metrics = load_run(out, with_states=False).metrics
+    for ident in ("obstacle-1", "obstacle-2"):
+        low = min(d["threats"][ident] for _, d in seps if ident in d["threats"])
+        assert low == pytest.approx(metrics["min_separation"][ident]["value"], abs=0.5)
 
 
 def test_cli_prints_and_writes_the_layout(

@@ -45,6 +45,7 @@ MAX_IMAGE = 1600  # pixels along the longer side of the 2-D map's hillshade
 MAX_LINE = 4_000  # points of a run's 3D line and map track
 PLOT_POINTS = 6_000  # points of a run's altitude, airspeed and bank plots
 FRAMES = 200  # slider positions
+MIN_Z_ASPECT = 0.12  # the 3D box is at least this high for its width (a long flight is flat)
 # runs stand out from the green-brown terrain and from the red of violations
 RUN_COLOURS = ("#1f4fff", "#111111", "#c51b7d", "#00a5c8", "#ffb000", "#6a3d9a", "#8c564b")
 THREAT_COLOUR = "#9467bd"
@@ -479,8 +480,14 @@ def scene_figure(
     else:
         for i in threat_traces:
             fig.data[i].visible = True
-    _scene_layout(fig, sources, grid, floor, top, exaggeration)
-    notes.append(f"3D: vertical exaggeration x{exaggeration:g} (hover values are true)")
+    shown = _scene_layout(fig, sources, grid, floor, top, exaggeration)
+    if shown > exaggeration * 1.01:
+        notes.append(
+            f"3D: vertical exaggeration x{shown:.3g} (x{exaggeration:g} asked: raised so that "
+            f"the height is at least {MIN_Z_ASPECT:g} of the width; hover values are true)"
+        )
+    else:
+        notes.append(f"3D: vertical exaggeration x{exaggeration:g} (hover values are true)")
     return fig, notes
 
 
@@ -529,7 +536,9 @@ def _extent(sources: list[Source], grid: Any) -> tuple[float, float, float, floa
 
 def _scene_layout(
     fig: Any, sources: list[Source], grid: Any, floor: float, top: float, exaggeration: float
-) -> None:
+) -> float:
+    """The scene's axes and aspect; returns the vertical exaggeration drawn (``exaggeration``,
+    or more when the scene would be flatter than :data:`MIN_Z_ASPECT`)."""
     import plotly.graph_objects as go
 
     xmin, ymin, xmax, ymax = _extent(sources, grid)
@@ -547,7 +556,7 @@ def _scene_layout(
             )
         )
     span = max(xmax - xmin, ymax - ymin)
-    zr = (top - floor) * exaggeration / span
+    zr = max((top - floor) * exaggeration / span, MIN_Z_ASPECT)
     fig.update_layout(
         scene={
             "xaxis": {"title": {"text": "x east (m)"}, "range": [xmin, xmax]},
@@ -557,7 +566,7 @@ def _scene_layout(
             "aspectratio": {
                 "x": (xmax - xmin) / span,
                 "y": (ymax - ymin) / span,
-                "z": max(zr, 0.05),
+                "z": zr,
             },
             "camera": {"eye": {"x": -0.55, "y": -1.0, "z": 0.75}},
             "domain": {"x": [0.0, 1.0], "y": [0.08, 1.0]},
@@ -573,6 +582,7 @@ def _scene_layout(
         margin={"l": 0, "r": 0, "t": 10, "b": 0},
         height=760,
     )
+    return zr * span / max(top - floor, 1e-9)
 
 
 # -- the 2-D map ----------------------------------------------------------------------------------

@@ -47,7 +47,11 @@ function terrapathTab(name) {
   for (const el of document.querySelectorAll('nav button')) el.classList.toggle('on', el.dataset.tab === name);
   terrapathDraw(name);
 }
-window.addEventListener('DOMContentLoaded', function () { terrapathDraw('scene'); });
+// view.html#map (or #plots) opens on that tab
+window.addEventListener('DOMContentLoaded', function () {
+  const asked = location.hash.slice(1);
+  terrapathTab(document.getElementById('tab-' + asked) ? asked : 'scene');
+});
 """
 
 

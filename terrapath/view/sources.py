@@ -74,7 +74,7 @@ def read_source(path: str | Path) -> Source:
     with p.open("rb") as f:
         head = f.read(len(MCAP_MAGIC))
     if head == MCAP_MAGIC:
-        run = recorded_view(p)
+        run = recorded_view(p, MAX_TRACK)
         return Source(p, run.mission, run.grid, run.note, run, track_of(run))
     try:
         mission = load_mission(p)
@@ -133,6 +133,7 @@ def track_of(run: Any, max_points: int = MAX_TRACK) -> Track:
 
     n = len(run.times)
     step = max(1, math.ceil(n / max_points))
+    stride = run.stride
     t = np.asarray(run.times[::step], dtype=np.float64)
     xyz = np.asarray(run.positions[::step], dtype=np.float64)
     if run.grid is not None:
@@ -152,8 +153,8 @@ def track_of(run: Any, max_points: int = MAX_TRACK) -> Track:
         nearest = np.full(len(t), np.nan)
         nearest_id = ("",) * len(t)
     return Track(
-        step,
-        n,
+        step * stride,
+        run.n_states or n,
         t,
         xyz,
         agl,
