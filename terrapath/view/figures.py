@@ -56,6 +56,11 @@ RED = "#d62728"
 COLOR_BY = ("time", "clearance", "run")
 
 
+def _colour(sources: list[Source], s: Source) -> str:
+    """Each source's colour, the same in every tab (by its place among the sources)."""
+    return RUN_COLOURS[sources.index(s) % len(RUN_COLOURS)]
+
+
 def _stride(n: int, most: int) -> int:
     return max(1, math.ceil(n / most))
 
@@ -231,7 +236,7 @@ def scene_figure(
         fig.data[-1].name = "danger zones" if k == 0 else f"danger zone {zone.id or k}"
     planned_seen: set[bytes] = set()
     for n, s in enumerate(sources):
-        colour = RUN_COLOURS[n % len(RUN_COLOURS)]
+        colour = _colour(sources, s)
         wps = np.asarray(s.run.initial_waypoints if s.run is not None else s.mission.waypoints)
         key = np.round(wps).tobytes()
         if key not in planned_seen:
@@ -288,7 +293,7 @@ def scene_figure(
                 colorbar={"title": {"text": "above terrain (m)"}, "len": 0.6, "x": 1.0},
             )
         else:
-            line.update(color=RUN_COLOURS[n % len(RUN_COLOURS)])
+            line.update(color=_colour(sources, s))
         fig.add_trace(
             go.Scatter3d(
                 x=xyz[:, 0],
@@ -740,7 +745,7 @@ def map_figure(sources: list[Source]) -> Any:
                     x=path[:, 0],
                     y=path[:, 1],
                     mode="lines",
-                    line={"color": RUN_COLOURS[n % len(RUN_COLOURS)], "width": 2.5},
+                    line={"color": _colour(sources, s), "width": 2.5},
                     name=f"{s.path.name}: path with turn fillets",
                     hoverinfo="name",
                 )
@@ -756,7 +761,7 @@ def map_figure(sources: list[Source]) -> Any:
                 x=tr.xyz[::k, 0],
                 y=tr.xyz[::k, 1],
                 mode="lines",
-                line={"color": RUN_COLOURS[n % len(RUN_COLOURS)], "width": 2.5},
+                line={"color": _colour(sources, s), "width": 2.5},
                 name=f"flown: {s.label}",
                 customdata=np.column_stack([custom, tr.xyz[:, 2]])[::k],
                 text=list(tr.nearest_id[::k]),
@@ -804,6 +809,9 @@ def map_figure(sources: list[Source]) -> Any:
             "constrain": "domain",
         },
         plot_bgcolor="#f4f1ea" if grid is None else "white",
+        # the hillshade shows through: no grid lines across it
+        xaxis_showgrid=grid is None,
+        yaxis_showgrid=grid is None,
         margin={"l": 60, "r": 10, "t": 10, "b": 50},
         height=760,
         legend={"groupclick": "togglegroup"},
@@ -868,7 +876,7 @@ def time_figure(sources: list[Source]) -> Any:
     for n, s in enumerate(runs):
         tr = s.track
         assert tr is not None
-        colour = RUN_COLOURS[n % len(RUN_COLOURS)]
+        colour = _colour(sources, s)
         k = _stride(len(tr.t), PLOT_POINTS)
         tm = (tr.t[::k] / 60.0).astype(np.float32)
         name = s.path.name
