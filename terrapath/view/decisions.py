@@ -26,8 +26,9 @@ FloatArray = npt.NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False)
 class Mark:
-    """A polyline (``mode="lines"``) or points (``"markers"``), (N, 3) map metres; NaN rows
-    split a polyline; ``text`` is each point's hover text."""
+    """A polyline (``mode="lines"``), points (``"markers"``) or both, (N, 3) map metres, that
+    the 3D scene and the 2-D map draw alike; NaN rows split a polyline; ``text`` is each
+    point's hover text."""
 
     name: str
     xyz: FloatArray
@@ -38,6 +39,12 @@ class Mark:
     symbol: str = "circle"
     # marks with equal keys are drawn once (default: the points in plan, to 10 m)
     key: tuple[Any, ...] | None = None
+    width: float = 1.5  # line width on the 2-D map (the 3D scene draws it wider)
+    size: float = 8.0  # marker size on the 2-D map
+    customdata: Any = None  # per-point hover values for ``template``
+    template: str = "%{text}<extra></extra>"  # plotly hover template ("": the name only)
+    group: str = ""  # legend group (toggled together)
+    legend: bool = True  # listed in the legend
 
 
 Drawing = Callable[[dict[str, Any], Any], list[Mark]]

@@ -23,6 +23,7 @@ from __future__ import annotations
 import base64
 import io
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -135,17 +136,6 @@ def _active(th: Any, t: float) -> bool:
     return bool(th.appears_at <= t and (th.disappears_at is None or t < th.disappears_at))
 
 
-def _hover_track(track: Any, grid: Any) -> tuple[FloatArray, str]:
-    above = "above the terrain" if grid is not None else "(flat ground)"
-    data = np.column_stack([track.t / 60.0, track.agl, track.nearest])
-    template = (
-        "t %{customdata[0]:.2f} min<br>alt %{z:.0f} m AMSL, %{customdata[1]:.0f} m "
-        + above
-        + "<br>nearest threat %{text}: %{customdata[2]:.0f} m<extra>%{fullData.name}</extra>"
-    )
-    return data, template
-
-
 def _terrain_colourscale() -> list[list[Any]]:
     from matplotlib import colormaps
 
@@ -234,99 +224,13 @@ def scene_figure(
             )
         )
         fig.data[-1].name = "danger zones" if k == 0 else f"danger zone {zone.id or k}"
-    planned_seen: set[bytes] = set()
-    for n, s in enumerate(sources):
-        colour = _colour(sources, s)
-        wps = np.asarray(s.run.initial_waypoints if s.run is not None else s.mission.waypoints)
-        key = np.round(wps).tobytes()
-        if key not in planned_seen:
-            planned_seen.add(key)
-            fig.add_trace(
-                go.Scatter3d(
-                    x=wps[:, 0],
-                    y=wps[:, 1],
-                    z=wps[:, 2],
-                    mode="lines+markers",
-                    line={"color": "#1f3f77", "width": 3, "dash": "dash"},
-                    marker={"size": 3, "color": "#1f3f77"},
-                    name=f"planned: {s.path.name}" if len(sources) > 1 else "planned waypoints",
-                    hovertemplate="waypoint %{pointNumber}<br>%{z:.0f} m AMSL<extra></extra>",
-                )
-            )
-        if s.run is None and s.mission.turn_radius:
-            from planner.flown import flown_paths
-
-            path, _ = flown_paths(wps, float(s.mission.turn_radius))
-            fig.add_trace(
-                go.Scatter3d(
-                    x=path[:, 0],
-                    y=path[:, 1],
-                    z=path[:, 2],
-                    mode="lines",
-                    line={"color": colour, "width": 5},
-                    name=f"{s.path.name}: path with turn fillets (r {s.mission.turn_radius:.0f} m)",
-                    hoverinfo="name",
-                )
-            )
+    for mark, line3d in _layers(sources, color_by):
+        fig.add_trace(_trace(mark, line3d))
     aircraft: list[int] = []
-    for n, s in enumerate(runs):
+    for s in runs:
         tr = s.track
         assert tr is not None
         k = _stride(len(tr.t), MAX_LINE)
-        xyz = tr.xyz[::k]
-        custom, template = _hover_track(tr, grid)
-        line: dict[str, Any] = {"width": 8}
-        if color_by == "time":
-            line.update(
-                color=tr.t[::k] / 60.0,
-                colorscale="Viridis",
-                showscale=n == 0,
-                colorbar={"title": {"text": "time (min)"}, "len": 0.6, "x": 1.0},
-            )
-        elif color_by == "clearance":
-            line.update(
-                color=tr.agl[::k],
-                colorscale="RdYlGn",
-                cmin=0.0,
-                cmax=max(float(np.nanpercentile(tr.agl, 95)), 1.0),
-                showscale=n == 0,
-                colorbar={"title": {"text": "above terrain (m)"}, "len": 0.6, "x": 1.0},
-            )
-        else:
-            line.update(color=_colour(sources, s))
-        fig.add_trace(
-            go.Scatter3d(
-                x=xyz[:, 0],
-                y=xyz[:, 1],
-                z=xyz[:, 2],
-                mode="lines",
-                line=line,
-                name=f"flown: {s.label}",
-                customdata=custom[::k],
-                text=list(tr.nearest_id[::k]),
-                hovertemplate=template,
-            )
-        )
-        bad = np.zeros(len(tr.t), dtype=bool)
-        for v in tr.separations.values():
-            bad |= np.nan_to_num(v, nan=np.inf) < 0.0
-        bad |= tr.agl < 0.0 if grid is not None else False
-        if bad.any():
-            fig.add_trace(
-                go.Scatter3d(
-                    x=tr.xyz[bad, 0],
-                    y=tr.xyz[bad, 1],
-                    z=tr.xyz[bad, 2],
-                    mode="markers",
-                    marker={"size": 3, "color": RED},
-                    name=f"inside a threat / below ground: {s.path.name}",
-                    hoverinfo="name",
-                )
-            )
-        for mark in decision_marks(s.run):
-            fig.add_trace(
-                _mark3d(mark, f"{mark.name}: {s.path.name}" if len(runs) > 1 else mark.name)
-            )
         plot_step = tr.step * _stride(len(tr.t), PLOT_POINTS)
         notes.append(
             f"{s.path.name}: of its {tr.n_states} recorded states, the 3D line and the map "
@@ -356,22 +260,7 @@ def scene_figure(
     movers: list[tuple[int, Any]] = []
     for n, th in enumerate(threats):
         if th.kind == "intruder":
-            tt = np.linspace(th.appears_at, th.disappears_at or t_end, 200)
-            tt = tt[tt <= max(t_end, th.appears_at)]
-            track = np.asarray(th.position(tt), dtype=np.float64).reshape(-1, 3)
-            fig.add_trace(
-                go.Scatter3d(
-                    x=track[:, 0],
-                    y=track[:, 1],
-                    z=track[:, 2],
-                    mode="lines",
-                    line={"color": THREAT_COLOUR, "width": 2, "dash": "dot"},
-                    name=f"{th.id} track",
-                    legendgroup="threats",
-                    showlegend=False,
-                    hoverinfo="name",
-                )
-            )
+            fig.add_trace(_trace(_intruder_track(th, t_end), {}))
             mesh = sphere_mesh(np.asarray(th.position(0.0)).reshape(3), th.radius, 8, 12)
             movers.append((len(fig.data), th))
         else:
@@ -507,24 +396,134 @@ def _unit_sphere(n_lat: int, n_lon: int) -> FloatArray:
     return v
 
 
-def _mark3d(mark: Mark, name: str) -> Any:
+def _layers(
+    sources: list[Source], color_by: str | None = None
+) -> list[tuple[Mark, dict[str, Any]]]:
+    """What the 3D scene and the 2-D map both draw, in drawing order: the planned waypoints
+    (each distinct list once), a mission's path with its turn fillets, each run's flown track
+    (hover: time, altitude, height above the terrain, the nearest threat), its samples inside a
+    threat or below the terrain, and its avoider's decisions.  With each, the 3D line's colouring
+    (``color_by`` time or clearance; empty: the mark's colour)."""
+    grid = sources[0].grid
+    runs = [s for s in sources if s.run is not None]
+    color_by = color_by or ("time" if len(runs) == 1 else "run")
+    out: list[tuple[Mark, dict[str, Any]]] = []
+    planned_seen: set[bytes] = set()
+    for s in sources:
+        wps = np.asarray(s.run.initial_waypoints if s.run is not None else s.mission.waypoints)
+        key = np.round(wps).tobytes()
+        if key not in planned_seen:
+            planned_seen.add(key)
+            name = f"planned: {s.path.name}" if len(sources) > 1 else "planned waypoints"
+            hover = "waypoint %{pointNumber}: %{customdata:.0f} m AMSL<extra></extra>"
+            mark = Mark(name, wps, "lines+markers", "#1f3f77", (), "dash", width=1.5)
+            out.append((replace(mark, customdata=wps[:, 2], template=hover), {}))
+        if s.run is None and s.mission.turn_radius:
+            from planner.flown import flown_paths
+
+            path, _ = flown_paths(wps, float(s.mission.turn_radius))
+            name = f"{s.path.name}: path with turn fillets (r {s.mission.turn_radius:.0f} m)"
+            out.append((Mark(name, path, "lines", _colour(sources, s), (), width=2.5), {}))
+    above = "above the terrain" if grid is not None else "(flat ground)"
+    template = (
+        "t %{customdata[0]:.2f} min<br>alt %{customdata[3]:.0f} m AMSL, %{customdata[1]:.0f} m "
+        + above
+        + "<br>nearest threat %{text}: %{customdata[2]:.0f} m<extra>%{fullData.name}</extra>"
+    )
+    for n, s in enumerate(runs):
+        tr = s.track
+        assert tr is not None
+        k = _stride(len(tr.t), MAX_LINE)
+        custom = np.column_stack([tr.t / 60.0, tr.agl, tr.nearest, tr.xyz[:, 2]])[::k]
+        flown = Mark(
+            f"flown: {s.label}",
+            tr.xyz[::k],
+            "lines",
+            _colour(sources, s),
+            tr.nearest_id[::k],
+            width=2.5,
+            customdata=custom,
+            template=template,
+        )
+        out.append((flown, _colouring(tr, k, color_by, n == 0)))
+        bad = tr.agl < 0.0 if grid is not None else np.zeros(len(tr.t), dtype=bool)
+        for v in tr.separations.values():
+            bad |= np.nan_to_num(v, nan=np.inf) < 0.0
+        if bad.any():
+            name = f"inside a threat / below ground: {s.path.name}"
+            out.append((Mark(name, tr.xyz[bad], "markers", RED, (), size=4.0, template=""), {}))
+        for mark in decision_marks(s.run):
+            if len(runs) > 1:
+                mark = replace(mark, name=f"{mark.name}: {s.path.name}")
+            out.append((mark, {}))
+    return out
+
+
+def _intruder_track(th: Any, t_end: float) -> Mark:
+    """An intruder's path from its appearance to its disappearance (or the end of the flights;
+    an hour when there is none)."""
+    end = th.disappears_at or (t_end if t_end > th.appears_at else th.appears_at + 3600.0)
+    track = np.asarray(th.position(np.linspace(th.appears_at, end, 200)), dtype=np.float64)
+    mark = Mark(f"{th.id} track", track.reshape(-1, 3), "lines", THREAT_COLOUR, (), "dot")
+    return replace(mark, width=1.0, template="", group="threats", legend=False)
+
+
+def _colouring(tr: Any, k: int, color_by: str, scale: bool) -> dict[str, Any]:
+    """The 3D flown line's colours: by time, by height above the terrain, or none (by run)."""
+    if color_by == "time":
+        return {
+            "color": tr.t[::k] / 60.0,
+            "colorscale": "Viridis",
+            "showscale": scale,
+            "colorbar": {"title": {"text": "time (min)"}, "len": 0.6, "x": 1.0},
+        }
+    if color_by == "clearance":
+        return {
+            "color": tr.agl[::k],
+            "colorscale": "RdYlGn",
+            "cmin": 0.0,
+            "cmax": max(float(np.nanpercentile(tr.agl, 95)), 1.0),
+            "showscale": scale,
+            "colorbar": {"title": {"text": "above terrain (m)"}, "len": 0.6, "x": 1.0},
+        }
+    return {}
+
+
+def _trace(mark: Mark, line3d: dict[str, Any] | None = None) -> Any:
+    """A mark as a 3D trace (``line3d`` given: its line's colouring, maybe empty; lines 2.5
+    times wider and markers 0.6 times the size, as a 3D scene shows them) or a 2-D one."""
     import plotly.graph_objects as go
 
-    style: dict[str, Any] = {}
-    if mark.mode == "lines":
-        style["line"] = {"color": mark.color, "width": 3, "dash": mark.dash}
+    three = line3d is not None
+    kw: dict[str, Any] = {
+        "x": mark.xyz[:, 0],
+        "y": mark.xyz[:, 1],
+        "mode": mark.mode,
+        "name": mark.name,
+    }
+    if mark.template:
+        kw["hovertemplate"] = mark.template
     else:
-        style["marker"] = {"color": mark.color, "size": 5, "symbol": mark.symbol}
-    return go.Scatter3d(
-        x=mark.xyz[:, 0],
-        y=mark.xyz[:, 1],
-        z=mark.xyz[:, 2],
-        mode=mark.mode,
-        name=name,
-        text=list(mark.text),
-        hovertemplate="%{text}<extra></extra>",
-        **style,
-    )
+        kw["hoverinfo"] = "name"
+    if mark.text:
+        kw["text"] = list(mark.text)
+    if mark.customdata is not None:
+        kw["customdata"] = mark.customdata
+    if mark.group:
+        kw["legendgroup"] = mark.group
+    if not mark.legend:
+        kw["showlegend"] = False
+    if "lines" in mark.mode:
+        line = {"color": mark.color, "width": mark.width * (3.0 if three else 1.0)}
+        if mark.dash != "solid":
+            line["dash"] = mark.dash
+        kw["line"] = {**line, **(line3d or {})}
+    if "markers" in mark.mode:
+        size = mark.size * (0.6 if three else 1.0)
+        kw["marker"] = {"color": mark.color, "size": size, "symbol": mark.symbol}
+    if three:
+        return go.Scatter3d(z=mark.xyz[:, 2], **kw)
+    return go.Scatter(**kw)
 
 
 def _extent(sources: list[Source], grid: Any) -> tuple[float, float, float, float]:
@@ -700,105 +699,10 @@ def map_figure(sources: list[Source]) -> Any:
             )
         )
         if th.kind == "intruder":
-            end = th.disappears_at or max(
-                (float(s.run.times[-1]) for s in sources if s.run is not None), default=3600.0
-            )
-            tt = np.linspace(th.appears_at, end, 200)
-            track = np.asarray(th.position(tt), dtype=np.float64).reshape(-1, 3)
-            fig.add_trace(
-                go.Scatter(
-                    x=track[:, 0],
-                    y=track[:, 1],
-                    mode="lines",
-                    line={"color": THREAT_COLOUR, "width": 1, "dash": "dot"},
-                    name=f"{th.id} track",
-                    legendgroup="threats",
-                    showlegend=False,
-                    hoverinfo="name",
-                )
-            )
-    planned_seen: set[bytes] = set()
-    runs = [s for s in sources if s.run is not None]
-    for n, s in enumerate(sources):
-        wps = np.asarray(s.run.initial_waypoints if s.run is not None else s.mission.waypoints)
-        key = np.round(wps).tobytes()
-        if key not in planned_seen:
-            planned_seen.add(key)
-            fig.add_trace(
-                go.Scatter(
-                    x=wps[:, 0],
-                    y=wps[:, 1],
-                    mode="lines+markers",
-                    line={"color": "#1f3f77", "width": 1.5, "dash": "dash"},
-                    marker={"size": 6},
-                    name=f"planned: {s.path.name}" if len(sources) > 1 else "planned waypoints",
-                    customdata=wps[:, 2],
-                    hovertemplate="waypoint %{pointNumber}: %{customdata:.0f} m AMSL<extra></extra>",
-                )
-            )
-        if s.run is None and s.mission.turn_radius:
-            from planner.flown import flown_paths
-
-            path, _ = flown_paths(wps, float(s.mission.turn_radius))
-            fig.add_trace(
-                go.Scatter(
-                    x=path[:, 0],
-                    y=path[:, 1],
-                    mode="lines",
-                    line={"color": _colour(sources, s), "width": 2.5},
-                    name=f"{s.path.name}: path with turn fillets",
-                    hoverinfo="name",
-                )
-            )
-    for n, s in enumerate(runs):
-        tr = s.track
-        assert tr is not None
-        k = _stride(len(tr.t), MAX_LINE)
-        custom, template = _hover_track(tr, grid)
-        template = template.replace("alt %{z:.0f}", "alt %{customdata[3]:.0f}")
-        fig.add_trace(
-            go.Scatter(
-                x=tr.xyz[::k, 0],
-                y=tr.xyz[::k, 1],
-                mode="lines",
-                line={"color": _colour(sources, s), "width": 2.5},
-                name=f"flown: {s.label}",
-                customdata=np.column_stack([custom, tr.xyz[:, 2]])[::k],
-                text=list(tr.nearest_id[::k]),
-                hovertemplate=template,
-            )
-        )
-        bad = np.zeros(len(tr.t), dtype=bool)
-        for v in tr.separations.values():
-            bad |= np.nan_to_num(v, nan=np.inf) < 0.0
-        if bad.any():
-            fig.add_trace(
-                go.Scatter(
-                    x=tr.xyz[bad, 0],
-                    y=tr.xyz[bad, 1],
-                    mode="markers",
-                    marker={"size": 4, "color": RED},
-                    name=f"inside a threat: {s.path.name}",
-                    hoverinfo="name",
-                )
-            )
-        for mark in decision_marks(s.run):
-            style: dict[str, Any] = (
-                {"line": {"color": mark.color, "width": 1.5, "dash": mark.dash}}
-                if mark.mode == "lines"
-                else {"marker": {"color": mark.color, "size": 8, "symbol": mark.symbol}}
-            )
-            fig.add_trace(
-                go.Scatter(
-                    x=mark.xyz[:, 0],
-                    y=mark.xyz[:, 1],
-                    mode=mark.mode,
-                    name=f"{mark.name}: {s.path.name}" if len(runs) > 1 else mark.name,
-                    text=list(mark.text),
-                    hovertemplate="%{text}<extra></extra>",
-                    **style,
-                )
-            )
+            t_end = max((float(s.run.times[-1]) for s in sources if s.run is not None), default=0)
+            fig.add_trace(_trace(_intruder_track(th, t_end)))
+    for mark, _ in _layers(sources):
+        fig.add_trace(_trace(mark))
     fig.update_layout(
         xaxis={"title": {"text": "x east (m)"}, "range": [xmin, xmax], "constrain": "domain"},
         yaxis={
@@ -906,30 +810,19 @@ def time_figure(sources: list[Source]) -> Any:
                 row=1,
                 col=1,
             )
-        fig.add_trace(
-            go.Scatter(
-                x=tm,
-                y=tr.airspeed[::k].astype(np.float32),
-                name=f"{name}: airspeed",
-                line={"color": colour},
-                legendgroup=name,
-                showlegend=False,
-            ),
-            row=2,
-            col=1,
-        )
-        fig.add_trace(
-            go.Scatter(
-                x=tm,
-                y=np.degrees(tr.bank[::k]).astype(np.float32),
-                name=f"{name}: bank",
-                line={"color": colour},
-                legendgroup=name,
-                showlegend=False,
-            ),
-            row=3,
-            col=1,
-        )
+        for row, what, values in ((2, "airspeed", tr.airspeed), (3, "bank", np.degrees(tr.bank))):
+            fig.add_trace(
+                go.Scatter(
+                    x=tm,
+                    y=values[::k].astype(np.float32),
+                    name=f"{name}: {what}",
+                    line={"color": colour},
+                    legendgroup=name,
+                    showlegend=False,
+                ),
+                row=row,
+                col=1,
+            )
         dashes = ("solid", "dot", "dash", "longdash", "dashdot")
         for j, (ident, v) in enumerate(tr.separations.items()):
             ts, vs = _below(tr.t / 60.0, v, top)
