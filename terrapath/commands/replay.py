@@ -374,5 +374,6 @@ def _report(result: Any, output: str, as_json: bool, picture: Path | None = None
     if picture is not None:
         click.echo(f"wrote {picture} (plan view, separations and height above the terrain)")
     click.echo(
-        "open it in Foxglove: Open local file, 3D panel with display frame 'map'; plots from /vehicle/state"
+        f"see it: terrapath view {output} -o view.html (any browser), or in Foxglove "
+        "(Open local file; the panels: terrapath layout -o layout.json, Layouts -> Import)"
     )
