@@ -14,6 +14,7 @@ import click
 
 from terrain.errors import TerrapathError
 from terrapath import __version__
+from terrapath.commands.campaign import campaign_cmd
 from terrapath.commands.hillshade import hillshade
 from terrapath.commands.info import info
 from terrapath.commands.inspect import inspect_cmd
@@ -46,6 +47,7 @@ cli.add_command(replay_cmd)
 cli.add_command(inspect_cmd)
 cli.add_command(layout_cmd)
 cli.add_command(view_cmd)
+cli.add_command(campaign_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

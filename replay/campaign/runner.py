@@ -1,0 +1,276 @@
+"""Running a campaign: each run a 6-DOF replay (:func:`execute`, a plain function of a picklable
+:class:`~replay.campaign.spec.Run`), on one of three executors, every finished run written to the
+store at once by the calling process (the only writer):
+
+- ``pool`` (default): a process pool on this machine (``jobs`` processes; 1: in this process);
+- ``dask-local``: a local Dask distributed cluster of ``jobs`` single-threaded worker processes;
+- ``scheduler``: a running Dask scheduler (``tcp://HOST:PORT``), whose workers must have this
+  terrapath installed.
+
+A run's result depends only on its :class:`Run` (its seeds are in it), so every executor gives
+the same rows; only ``wall_s`` and ``finished_utc`` differ.  A run that raises is stored as an
+error with its message, and the campaign goes on.
+
+MCAPs: ``keep="all"`` records every run; ``"failures"`` (the default) flies each run unrecorded
+and re-flies a failed one with the recorder (a replay is deterministic: the same result, now
+recorded); ``"none"`` records nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Iterator
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from replay.campaign.spec import Run, Spec
+from replay.campaign.store import Store
+from terrain.errors import InputError
+
+KEEP = ("none", "failures", "all")
+EXECUTORS = ("pool", "dask-local", "scheduler")
+CLUSTER_EXTRA = "pip install 'terrapath[cluster]'"
+SCHEDULER_TIMEOUT_S = 8.0  # the issue: a clear error within 10 s
+_MISSIONS: dict[str, Any] = {}  # per process: the missions read so far
+
+
+def scenario(run: Run) -> Any:
+    """The run's threats: its row's file (a path: the replay reads it over the mission's map),
+    or its generator's draw from the scenario seed."""
+    import numpy as np
+
+    from planner.mission import load_mission
+    from replay.campaign.generators import GENERATORS, file_records
+    from replay.threat_file import threats_from_records
+
+    if run.row.file is not None:
+        return str(run.row.file)  # read by the replay, with the mission's map
+    mission = _MISSIONS.get(str(run.mission))
+    if mission is None:
+        mission = _MISSIONS[str(run.mission)] = load_mission(run.mission)
+    assert run.generator is not None and run.row.count is not None
+    rng = np.random.default_rng(run.scenario_seed)
+    records = GENERATORS[run.generator](mission, run.row.count, rng, run.params)
+    return threats_from_records(file_records(records), name=f"{run.key} ({run.generator})")
+
+
+def mcap_name(run: Run) -> str:
+    return run.key.replace("/", "__").replace("[", "(").replace("]", ")") + ".mcap"
+
+
+def execute(
+    run: Run,
+    spec_name: str,
+    spec_hash: str,
+    version: str,
+    command: str,
+    keep: str,
+    mcap_dir: str | None,
+) -> dict[str, Any]:
+    """Fly one run and return its store row (never raises: an error becomes the row)."""
+    from replay.run import ReplayRequest, run_replay
+
+    t0 = time.perf_counter()
+    row: dict[str, Any] = {
+        "run_hash": run.run_hash,
+        "spec_name": spec_name,
+        "spec_hash": spec_hash,
+        "key": run.key,
+        "mission": run.mission.stem,
+        "row": run.row.label,
+        "count": run.row.count,
+        "avoider": run.avoider.label,
+        "run": run.index,
+        "seed": run.seed,
+        "scenario_seed": run.scenario_seed,
+        "version": version,
+        "mcap": None,
+    }
+    try:
+        request = ReplayRequest(
+            str(run.mission),
+            threats=scenario(run),
+            avoid=run.avoider.name,
+            avoid_options=dict(run.avoider.options),
+            seed=run.seed,
+            sensor=run.sensor,
+            margin=run.margin,
+            duration=run.duration,
+            command=f"{command} --only '{run.key}'",
+            software_version=version,
+        )
+        out = None if keep != "all" or mcap_dir is None else str(Path(mcap_dir) / mcap_name(run))
+        result = run_replay(request, out)
+        if keep == "failures" and mcap_dir is not None and not result.metrics.success:
+            out = str(Path(mcap_dir) / mcap_name(run))
+            result = run_replay(request, out)
+        m = result.metrics
+        row.update(
+            status="ok",
+            success=bool(m.success),
+            end_reason=m.end_reason,
+            metrics=m.as_dict(),
+            mcap=out,
+            error=None,
+        )
+    except Exception as exc:  # the campaign goes on; the row says what happened
+        row.update(
+            status="error",
+            success=None,
+            end_reason=None,
+            metrics=None,
+            error=f"{type(exc).__name__}: {exc}",
+        )
+    row["wall_s"] = time.perf_counter() - t0
+    row["finished_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
+    return row
+
+
+def _pool(runs: list[Run], args: tuple[Any, ...], jobs: int) -> Iterator[dict[str, Any]]:
+    if jobs <= 1:
+        for r in runs:
+            yield execute(r, *args)
+        return
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    pool = ProcessPoolExecutor(max_workers=jobs)
+    try:
+        futures = [pool.submit(execute, r, *args) for r in runs]
+        for f in as_completed(futures):
+            yield f.result()
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _dask_client(scheduler: str | None, jobs: int) -> Any:
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError(f"a Dask executor needs the optional extra: {CLUSTER_EXTRA}") from None
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)  # its INFO lines are not ours
+    if scheduler is None:
+        cluster = LocalCluster(
+            n_workers=max(1, jobs),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+        return Client(cluster)
+    try:
+        return Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(
+            f"the Dask scheduler {scheduler} does not answer within {SCHEDULER_TIMEOUT_S:g} s ({exc})"
+        ) from None
+
+
+def check_scheduler(address: str) -> None:
+    """Connect to the scheduler once (a clear error within :data:`SCHEDULER_TIMEOUT_S` when it
+    does not answer), before anything is written."""
+    _dask_client(address, 1).close()
+
+
+def _dask(
+    runs: list[Run], args: tuple[Any, ...], jobs: int, scheduler: str | None
+) -> Iterator[dict[str, Any]]:
+    client = _dask_client(scheduler, jobs)
+    try:
+        from dask.distributed import as_completed
+
+        futures = [client.submit(execute, r, *args, pure=False) for r in runs]
+        for f in as_completed(futures):
+            yield f.result()
+    finally:
+        cluster = getattr(client, "cluster", None)
+        client.close()
+        if cluster is not None and scheduler is None:
+            cluster.close()
+
+
+def run_campaign(
+    spec: Spec,
+    store: Store,
+    *,
+    version: str,
+    command: str,
+    jobs: int = 1,
+    executor: str = "pool",
+    scheduler: str | None = None,
+    only: str | None = None,
+    keep: str = "failures",
+    mcap_dir: str | Path | None = None,
+    report: Callable[[dict[str, Any], int, int], None] | None = None,
+) -> tuple[list[Run], list[dict[str, Any]]]:
+    """Fly the campaign's missing runs (or the one ``only`` names, again), writing each row as it
+    finishes; returns (the campaign's runs, the rows flown now).  ``report(row, done, total)``
+    after each."""
+    if executor not in EXECUTORS:
+        raise InputError(f"unknown executor {executor!r}; valid: {', '.join(EXECUTORS)}")
+    if keep not in KEEP:
+        raise InputError(f"--keep-mcap {keep!r}: expected one of {', '.join(KEEP)}")
+    runs = spec.all_runs()
+    if only is not None:
+        todo = [spec.find(only)]
+    else:
+        have = store.done(r.run_hash for r in runs)
+        todo = [r for r in runs if r.run_hash not in have]
+    folder = None
+    if keep != "none":
+        folder = (
+            Path(mcap_dir)
+            if mcap_dir is not None
+            else store.path.parent / f"{store.path.stem}-mcap"
+        )
+        folder.mkdir(parents=True, exist_ok=True)
+    args = (
+        spec.name,
+        spec.spec_hash,
+        version,
+        command,
+        keep,
+        None if folder is None else str(folder),
+    )
+    stream: Iterable[dict[str, Any]]
+    if not todo:
+        stream = ()
+    elif executor == "pool":
+        stream = _pool(todo, args, jobs)
+    else:
+        stream = _dask(todo, args, jobs, scheduler if executor == "scheduler" else None)
+    flown: list[dict[str, Any]] = []
+    for row in stream:
+        store.put(row)
+        flown.append(row)
+        if report is not None:
+            report(row, len(flown), len(todo))
+    return runs, flown
+
+
+def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """Wilson score interval (95 %) of a success rate."""
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    den = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    lo = 0.0 if successes == 0 else max(0.0, centre - half)
+    hi = 1.0 if successes == n else min(1.0, centre + half)  # exact ends, not 1 - 1e-16
+    return lo, hi
+
+
+__all__ = [
+    "EXECUTORS",
+    "KEEP",
+    "check_scheduler",
+    "execute",
+    "mcap_name",
+    "run_campaign",
+    "scenario",
+    "wilson",
+]

@@ -1,0 +1,220 @@
+"""`terrapath campaign`: a Monte Carlo study of replays, on this machine or a Dask cluster,
+resumable, every run in an SQLite store."""
+
+from __future__ import annotations
+
+import os
+import shlex
+import sys
+import time
+from typing import Any
+
+import click
+
+from terrapath.progress import progress_bar
+from terrapath.runtext import duration
+
+EXIT_FAILED = 3  # --only: the re-flown run is not a success (as `replay`)
+EXIT_ERRORS = 1  # some runs raised (stored as errors)
+
+
+@click.command("campaign")
+@click.argument("spec", type=click.Path(dir_okay=False))
+@click.option(
+    "--store",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="SQLite file of the results (created if missing; runs already in it are not flown again).",
+)
+@click.option(
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Processes (or Dask workers with --dask-local); default: the machine's cores.",
+)
+@click.option("--dask-local", is_flag=True, help="Run on a local Dask distributed cluster.")
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="tcp://HOST:PORT",
+    help="Run on a running Dask scheduler (its workers need this terrapath installed).",
+)
+@click.option(
+    "--only",
+    default=None,
+    metavar="KEY",
+    help="Fly this one run again (its key: mission/row/avoider/run, as the store lists it).",
+)
+@click.option(
+    "--keep-mcap",
+    type=click.Choice(("none", "failures", "all")),
+    default="failures",
+    show_default=True,
+    help="Which runs keep their MCAP recording.",
+)
+@click.option(
+    "--mcap-dir",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Where kept MCAPs go (default: STORE's name + '-mcap' beside it).",
+)
+def campaign_cmd(
+    spec: str,
+    store: str,
+    jobs: int | None,
+    dask_local: bool,
+    scheduler: str | None,
+    only: str | None,
+    keep_mcap: str,
+    mcap_dir: str | None,
+) -> int:
+    """Fly every run of the campaign SPEC (missions x threat rows x avoiders x runs, each with a
+    seed derived from the spec's seed and the run's key) and write one row per run to --store
+    as it finishes. Re-running the same command flies only the missing runs; --only KEY flies
+    one again and gives the same result. Ends with a summary per row of the study: success
+    rate with its Wilson 95 % interval, path-length ratio, flight time, time per decision."""
+    from replay.campaign.runner import run_campaign
+    from replay.campaign.spec import load_spec
+    from replay.campaign.store import Store
+    from terrapath import __version__
+
+    if dask_local and scheduler:
+        raise click.UsageError("give --dask-local or --scheduler, not both")
+    executor = "dask-local" if dask_local else "scheduler" if scheduler else "pool"
+    n_jobs = jobs or os.cpu_count() or 1
+    s = load_spec(spec)
+    if scheduler:
+        from replay.campaign.runner import check_scheduler
+
+        check_scheduler(scheduler)
+    command = "terrapath campaign " + " ".join(shlex.quote(a) for a in (spec, "--store", store))
+    with Store(store, __version__) as db:
+        runs = s.all_runs()
+        if only is not None:
+            s.find(only)  # a clear error before anything is flown
+        have = len(db.done(r.run_hash for r in runs))
+        todo = 1 if only is not None else len(runs) - have
+        click.echo(
+            f"campaign {s.name!r}: {len(runs)} runs ({len(s.missions)} mission(s) x {len(s.rows)} "
+            f"row(s) x {len(s.avoiders)} avoider(s) x {s.runs}); {have} already in {store}; "
+            f"flying {todo} on {executor}"
+            + (f" ({n_jobs} jobs)" if executor != "scheduler" else f" ({scheduler})"),
+            err=True,
+        )
+        t0 = time.perf_counter()
+        failed = errors = 0
+        with progress_bar(max(todo, 1), "runs") as bar:
+
+            def report(row: dict[str, Any], done: int, total: int) -> None:
+                nonlocal failed, errors
+                errors += row["status"] == "error"
+                failed += row["status"] == "ok" and not row["success"]
+                el = time.perf_counter() - t0
+                eta = el / done * (total - done)
+                text = f"{done}/{total} runs, {failed} failed, {errors} errors, ETA {duration(eta)}"
+                if bar is not None:
+                    bar(done, text)
+                else:
+                    what = _outcome(row)
+                    click.echo(f"[{text}] {row['key']}: {what}", err=True)
+
+            _, flown = run_campaign(
+                s,
+                db,
+                version=__version__,
+                command=command,
+                jobs=n_jobs,
+                executor=executor,
+                scheduler=scheduler,
+                only=only,
+                keep=keep_mcap,
+                mcap_dir=mcap_dir,
+                report=report,
+            )
+        rows = db.rows(hashes=[r.run_hash for r in runs])
+    for line in summary_lines(rows):
+        click.echo(line)
+    if only is not None:
+        (row,) = flown
+        if row["mcap"]:
+            click.echo(f"recorded {row['mcap']}")
+        if row["status"] == "error":
+            click.echo(f"terrapath: run {only} raised: {row['error']}", err=True)
+            return EXIT_ERRORS
+        return 0 if row["success"] else EXIT_FAILED
+    errs = [r for r in rows if r["status"] == "error"]
+    if errs:
+        click.echo(
+            f"terrapath: {len(errs)} run(s) raised (stored as errors), e.g. {errs[0]['key']}: "
+            f"{errs[0]['error']}",
+            err=True,
+        )
+        return EXIT_ERRORS
+    return 0
+
+
+def summary_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """A table per row of the study: runs, successes with their Wilson 95 % interval, and the
+    mean PLR, flight time and time per decision of its finished runs."""
+    from replay.campaign.runner import wilson
+
+    groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((r["mission"], r["row"], r["avoider"]), []).append(r)
+    head = (
+        "mission",
+        "row",
+        "avoider",
+        "runs",
+        "success (95 % CI)",
+        "PLR",
+        "flight",
+        "decision",
+        "errors",
+    )
+    table = [head]
+    for (mission, row, avoider), rs in sorted(groups.items(), key=lambda kv: _order(kv[0])):
+        ok = [r for r in rs if r["status"] == "ok"]
+        wins = sum(bool(r["success"]) for r in ok)
+        lo, hi = wilson(wins, len(ok))
+        plr = _mean(r["metrics"].get("plr") for r in ok)
+        flight = _mean(r["metrics"].get("flight_time_s") for r in ok)
+        dec = _mean(
+            r["metrics"].get("decision_time_mean_s") for r in ok if r["metrics"].get("decisions")
+        )
+        table.append(
+            (
+                mission,
+                row,
+                avoider,
+                str(len(rs)),
+                f"{wins}/{len(ok)} ({100 * lo:.0f}-{100 * hi:.0f} %)" if ok else "-",
+                f"{plr:.3f}" if plr is not None else "-",
+                duration(flight) if flight is not None else "-",
+                f"{1000 * dec:.2f} ms" if dec is not None else "-",
+                str(len(rs) - len(ok)),
+            )
+        )
+    widths = [max(len(t[i]) for t in table) for i in range(len(head))]
+    return ["  ".join(c.ljust(w) for c, w in zip(t, widths, strict=True)).rstrip() for t in table]
+
+
+def _outcome(row: dict[str, Any]) -> str:
+    """A run's outcome in a few words (a failure says which volumes it entered)."""
+    if row["status"] == "error":
+        return f"error: {row['error']}"
+    if row["success"]:
+        return "success"
+    entered = sorted({v["threat"] for v in row["metrics"].get("violations", [])})
+    why = f"entered {', '.join(entered)}" if entered else row["end_reason"]
+    return f"FAILED ({why})"
+
+
+def _order(key: tuple[str, str, str]) -> tuple[str, int, str, str]:
+    mission, row, avoider = key
+    return (mission, int(row) if row.isdigit() else sys.maxsize, row, avoider)
+
+
+def _mean(values: Any) -> float | None:
+    vals = [float(v) for v in values if v is not None]
+    return sum(vals) / len(vals) if vals else None

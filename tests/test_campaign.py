@@ -1,0 +1,355 @@
+"""Campaigns (issue 17): the spec at the edge, the seeds, the generators' protocols, the store
+(resumable, kill-safe, shared), and the same rows from the process pool and a Dask cluster.
+
+The campaigns here fly seed 001's 4.5 km mission (flat ground, 90 s at 50 m/s) with CTGA and the
+cooperative sensor, so a run takes a fraction of a second."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.mission import load_mission
+from replay.campaign.generators import GENERATORS, HILL_SPACING_M, Params, intruder_records
+from replay.campaign.runner import run_campaign, wilson
+from replay.campaign.spec import derive_seed, load_spec
+from replay.campaign.store import Store
+from terrapath.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+MISSION = ROOT / "data" / "scenarios" / "seed001-mission.yaml"
+SEED000 = ROOT / "data" / "missions" / "seed000-table4.yaml"
+# measured, so never the same twice: everything else in a row is
+TIMINGS = ("wall_s", "finished_utc", "mcap")
+TIMED_METRICS = ("decision_time_mean_s", "decision_time_max_s")
+
+SPEC = f"""terrapath: 1
+name: test-campaign
+mission: {MISSION}
+threats: {{generator: uniform, counts: [0, 3], radius: 150, keep_clear: 500, sigma: 400}}
+avoiders: [{{name: ctga}}, {{name: none}}]
+sensor: cooperative
+runs: 3
+seed: 7
+"""
+
+
+def _spec(tmp_path: Path, text: str = SPEC, name: str = "spec.yaml") -> Path:
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def _comparable(rows: list[dict]) -> list[dict]:
+    out = []
+    for r in rows:
+        r = {k: v for k, v in r.items() if k not in TIMINGS}
+        if r["metrics"] is not None:
+            r["metrics"] = {k: v for k, v in r["metrics"].items() if k not in TIMED_METRICS}
+        out.append(r)
+    return sorted(out, key=lambda r: r["key"])
+
+
+def _rows(store: Path) -> list[dict]:
+    with Store(store, "test") as s:
+        return s.rows()
+
+
+# -- seeds and keys ---------------------------------------------------------------------------
+
+
+def test_seeds_are_stable_and_the_scenario_is_shared_by_the_avoiders(tmp_path: Path) -> None:
+    # SHA-256 of "7|seed001-mission/3/ctga/0": the same on every machine and Python
+    assert derive_seed(7, "seed001-mission/3/ctga/0") == 767464361373244518
+    assert derive_seed(1, "a") == 6151358694578356606
+    spec = load_spec(_spec(tmp_path))
+    runs = spec.all_runs()
+    assert len(runs) == 2 * 2 * 3 and len({r.key for r in runs}) == len(runs)
+    by = {r.key: r for r in runs}
+    a, b = by["seed001-mission/3/ctga/1"], by["seed001-mission/3/none/1"]
+    assert a.scenario_seed == b.scenario_seed and a.seed != b.seed
+    assert by["seed001-mission/3/ctga/0"].scenario_seed != a.scenario_seed
+    # more runs or another count keep the identity of the runs already there
+    more = load_spec(
+        _spec(tmp_path, SPEC.replace("runs: 3", "runs: 5").replace("[0, 3]", "[0, 3, 5]"), "b.yaml")
+    )
+    assert {r.run_hash for r in runs} < {r.run_hash for r in more.all_runs()}
+    assert more.spec_hash != spec.spec_hash
+
+
+# -- generators ---------------------------------------------------------------------------------
+
+
+def test_seed000_generators_follow_the_papers_protocol() -> None:
+    mission = load_mission(SEED000)
+    wps = np.asarray(mission.waypoints)
+    p = Params()
+    recs = GENERATORS["seed000-normal"](mission, 200, np.random.default_rng(3), p)
+    xy = np.array([r["position"][:2] for r in recs])
+    assert len(recs) == 200 and all(r["radius"] == 1000.0 for r in recs)
+    assert all(r["position"][2] == mission.cruise_altitude for r in recs)
+    ends = np.linalg.norm(xy[:, None, :] - wps[[0, -1], None, :2].transpose(1, 0, 2), axis=-1)
+    assert ends.min() >= 1500.0  # the clear zone round the start and the goal
+    nearest = np.linalg.norm(xy[:, None, :] - wps[None, :, :2], axis=-1).min(axis=1)
+    assert np.median(nearest) < 3000.0 * 1.5  # drawn round the waypoints (sigma 3 km)
+    again = GENERATORS["seed000-normal"](mission, 200, np.random.default_rng(3), p)
+    assert again == recs
+    hill = GENERATORS["seed000-hill"](mission, 5, np.random.default_rng(4), p)[-1]
+    pts = np.asarray(hill["points"])
+    assert hill["kind"] == "hill" and len(pts) == 6
+    np.testing.assert_allclose(np.linalg.norm(np.diff(pts[:, :2], axis=0), axis=1), HILL_SPACING_M)
+    intruders = [
+        r
+        for r in GENERATORS["seed000-intruders"](mission, 5, np.random.default_rng(5), p)
+        if r["kind"] == "intruder"
+    ]
+    assert len(intruders) == 2
+
+
+def test_intruders_meet_the_undisturbed_aircraft() -> None:
+    mission = load_mission(SEED000)
+    for rec in intruder_records(mission.waypoints, 15.0, np.random.default_rng(11)):
+        t = rec["meet_t"] - rec["appears_at"]
+        at = np.asarray(rec["position"]) + t * np.asarray(rec["velocity"])
+        np.testing.assert_allclose(at[:2], rec["meet_xy"], atol=1e-6)
+
+
+def test_uniform_stays_in_its_box() -> None:
+    mission = load_mission(MISSION)
+    box = (-500.0, 500.0, 2500.0, 3500.0)
+    recs = GENERATORS["uniform"](
+        mission, 50, np.random.default_rng(0), Params(box=box, keep_clear=300.0)
+    )
+    xy = np.array([r["position"][:2] for r in recs])
+    assert (xy >= box[:2]).all() and (xy <= box[2:]).all()
+
+
+# -- a campaign end to end ---------------------------------------------------------------------
+
+
+def test_campaign_flies_every_run_resumes_and_reflies_one(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = _spec(tmp_path)
+    store = tmp_path / "r.sqlite"
+    assert main(["campaign", str(spec), "--store", str(store), "--jobs", "2"]) == 0
+    out = capsys.readouterr()
+    rows = _rows(store)
+    assert len(rows) == 12 and all(r["status"] == "ok" for r in rows)
+    from terrapath import __version__
+
+    assert all(r["spec_name"] == "test-campaign" and r["version"] == __version__ for r in rows)
+    by = {r["key"]: r for r in rows}
+    # no threats: everyone succeeds; three 150 m spheres round the path: flying straight on
+    # enters one in most scenarios, CTGA keeps clear in most (run 2 grazes obs2 by 25 m)
+    for av in ("ctga", "none"):
+        assert all(by[f"seed001-mission/0/{av}/{i}"]["success"] for i in range(3))
+    ctga = sum(by[f"seed001-mission/3/ctga/{i}"]["success"] for i in range(3))
+    none = sum(by[f"seed001-mission/3/none/{i}"]["success"] for i in range(3))
+    assert ctga >= 2 and none <= 1
+    assert "success (95 % CI)" in out.out and "seed001-mission  3    ctga" in out.out
+    # a failed run kept its MCAP (default: failures), the successes did not
+    failed = [r for r in rows if not r["success"]]
+    assert failed and all(r["mcap"] and Path(r["mcap"]).exists() for r in failed)
+    assert all(r["mcap"] is None for r in rows if r["success"])
+    # again: nothing to fly
+    assert main(["campaign", str(spec), "--store", str(store)]) == 0
+    assert "12 already in" in capsys.readouterr().err
+    # one run again, alone: the same row
+    key = failed[0]["key"]
+    assert main(["campaign", str(spec), "--store", str(store), "--only", key]) == 3  # a failure
+    assert _comparable([r for r in _rows(store) if r["key"] == key]) == _comparable([failed[0]])
+
+
+def test_pool_and_dask_give_the_same_rows(tmp_path: Path) -> None:
+    spec = load_spec(_spec(tmp_path))
+    rows = {}
+    for executor in ("pool", "dask-local"):
+        with Store(tmp_path / f"{executor}.sqlite", "test") as store:
+            run_campaign(
+                spec, store, version="test", command="x", jobs=2, executor=executor, keep="none"
+            )
+            rows[executor] = _comparable(store.rows())
+    assert len(rows["pool"]) == 12 and rows["pool"] == rows["dask-local"]
+
+
+def test_a_run_that_raises_is_stored_and_the_campaign_goes_on(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import replay.campaign.runner as runner
+
+    real = runner.scenario
+
+    def flaky(run):  # type: ignore[no-untyped-def]
+        if run.key.endswith("/3/ctga/1"):
+            raise RuntimeError("boom")
+        return real(run)
+
+    monkeypatch.setattr(runner, "scenario", flaky)
+    spec = load_spec(_spec(tmp_path))
+    with Store(tmp_path / "e.sqlite", "test") as store:
+        _, flown = run_campaign(spec, store, version="test", command="x", jobs=1, keep="none")
+        rows = store.rows()
+    assert len(flown) == len(rows) == 12
+    (bad,) = [r for r in rows if r["status"] == "error"]
+    assert bad["key"] == "seed001-mission/3/ctga/1" and bad["error"] == "RuntimeError: boom"
+    assert bad["seed"] == derive_seed(7, bad["key"])
+
+
+def _campaign_process(spec: Path, store: Path) -> subprocess.Popen[bytes]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cmd = [sys.executable, "-m", "terrapath.cli", "campaign", str(spec), "--store", str(store)]
+    return subprocess.Popen(
+        [*cmd, "--jobs", "1", "--keep-mcap", "none"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+
+
+def test_killed_half_way_and_resumed_equals_straight_through(tmp_path: Path) -> None:
+    spec = _spec(tmp_path, SPEC.replace("runs: 3", "runs: 6"))
+    straight, killed = tmp_path / "straight.sqlite", tmp_path / "killed.sqlite"
+    assert (
+        main(
+            ["campaign", str(spec), "--store", str(straight), "--jobs", "2", "--keep-mcap", "none"]
+        )
+        == 0
+    )
+    proc = _campaign_process(spec, killed)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        time.sleep(0.05)
+        if killed.exists():
+            try:
+                n = (
+                    sqlite3.connect(killed, timeout=5)
+                    .execute("SELECT count(*) FROM runs")
+                    .fetchone()[0]
+                )
+            except sqlite3.OperationalError:
+                continue
+            if n >= 5:
+                break
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    partial = len(_rows(killed))
+    assert 5 <= partial < 24  # killed half-way
+    assert (
+        main(["campaign", str(spec), "--store", str(killed), "--jobs", "2", "--keep-mcap", "none"])
+        == 0
+    )
+    assert _comparable(_rows(killed)) == _comparable(_rows(straight))
+    db = sqlite3.connect(killed)
+    assert db.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+
+
+def test_two_campaigns_share_one_store(tmp_path: Path) -> None:
+    a = _spec(tmp_path, SPEC, "a.yaml")
+    b = _spec(
+        tmp_path,
+        SPEC.replace("name: test-campaign", "name: other").replace("seed: 7", "seed: 8"),
+        "b.yaml",
+    )
+    store = tmp_path / "shared.sqlite"
+    procs = [_campaign_process(a, store), _campaign_process(b, store)]
+    assert [p.wait(timeout=300) for p in procs] == [0, 0]
+    rows = _rows(store)
+    assert len(rows) == 24 and {r["spec_name"] for r in rows} == {"test-campaign", "other"}
+    assert sqlite3.connect(store).execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+
+
+def test_wilson_interval() -> None:
+    lo, hi = wilson(10, 10)
+    assert lo == pytest.approx(0.7225, abs=1e-4) and hi == 1.0
+    lo, hi = wilson(0, 10)
+    assert lo == 0.0 and hi == pytest.approx(0.2775, abs=1e-4)
+    lo, hi = wilson(5, 10)
+    assert lo == pytest.approx(0.2366, abs=1e-4) and hi == pytest.approx(0.7634, abs=1e-4)
+
+
+# -- bad input -----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("change", "expect"),
+    [
+        (
+            ("generator: uniform", "generator: gaussian"),
+            "unknown generator 'gaussian'; valid: seed000-normal, seed000-hill, seed000-intruders, uniform",
+        ),
+        (("generator: uniform", "generator: seed004-table2"), "arrives with the FGA avoider"),
+        (("runs: 3", "runs: 0"), "field 'runs': expected a whole number >= 1, found 0"),
+        (
+            ("[0, 3]", "[0, -3]"),
+            "field 'threats.counts[1]': expected a whole number >= 0, found -3",
+        ),
+        (("{name: none}", "{name: dodge}"), "unknown avoider 'dodge'; valid: none, pso-ca, ctga"),
+        (
+            ("{name: ctga}", "{name: ctga, options: {r_safe: 10, warp: 9}}"),
+            "avoider 'ctga' has no option 'warp'",
+        ),
+        (
+            ("sensor: cooperative", "sensor: sonar"),
+            "field 'sensor': expected one of radar, cooperative",
+        ),
+        (("seed: 7", "seed: 7\ncolour: red"), "unknown key(s) 'colour'"),
+        (("terrapath: 1", "terrapath: 2"), "field 'terrapath': expected 1"),
+    ],
+)
+def test_bad_specs_get_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: tuple[str, str], expect: str
+) -> None:
+    assert SPEC.count(change[0]) == 1
+    spec = _spec(tmp_path, SPEC.replace(*change))
+    store = tmp_path / "r.sqlite"
+    assert main(["campaign", str(spec), "--store", str(store)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and expect in err and "spec.yaml" in err
+    assert not store.exists()
+
+
+def test_bad_stores_keys_and_schedulers(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = _spec(tmp_path)
+    text = tmp_path / "notes.sqlite"
+    text.write_text("not a database\n")
+    assert main(["campaign", str(spec), "--store", str(text)]) == 1
+    assert "not a terrapath campaign store" in capsys.readouterr().err
+    assert text.read_text() == "not a database\n"
+    old = tmp_path / "old.sqlite"
+    db = sqlite3.connect(old)
+    db.executescript(
+        "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT); INSERT INTO meta VALUES ('format', '0'), ('created_by', '0.0.1');"
+    )
+    db.commit()
+    db.close()
+    assert main(["campaign", str(spec), "--store", str(old)]) == 1
+    err = capsys.readouterr().err
+    assert "written by terrapath 0.0.1" in err and "format '0'" in err and "reads format '1'" in err
+    other = tmp_path / "other.sqlite"
+    sqlite3.connect(other).execute("CREATE TABLE t (x)").connection.commit()
+    assert main(["campaign", str(spec), "--store", str(other)]) == 1
+    assert "not a terrapath campaign store" in capsys.readouterr().err
+    assert (
+        main(["campaign", str(spec), "--store", str(tmp_path / "s.sqlite"), "--only", "nope/0/x/1"])
+        == 1
+    )
+    assert "no run 'nope/0/x/1' in this campaign" in capsys.readouterr().err
+    t0 = time.monotonic()
+    store = tmp_path / "never.sqlite"
+    assert (
+        main(["campaign", str(spec), "--store", str(store), "--scheduler", "tcp://127.0.0.1:9"])
+        == 1
+    )
+    assert time.monotonic() - t0 < 10.0
+    err = capsys.readouterr().err
+    assert "tcp://127.0.0.1:9 does not answer" in err and err.count("\n") == 1
+    assert not store.exists()
