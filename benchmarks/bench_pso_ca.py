@@ -80,6 +80,17 @@ from replay.avoidance.pso_ca_geometry import (  # noqa: E402
     WaypointProblem,
     brute_force_waypoint,
 )
+from replay.campaign.generators import (  # noqa: E402  (the scenario protocol, in the package)
+    HILL_POINTS,
+    HILL_SPACING_M,
+    KEEP_CLEAR_M,
+    RS_M,
+    SIGMA_M,
+    file_records,
+    hill_ridge,
+    intruder_records,
+    random_obstacles,
+)
 from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
 from replay.threat_file import load_threats, threats_from_records  # noqa: E402
@@ -92,19 +103,7 @@ THREATS = ROOT / "data" / "threats" / "seed000-table4.yaml"
 OPTIMIZERS = ("pso", "ga", "sa", "mafoa", "gcpso", "mpso")
 
 # -- the scenario protocol (module docstring) ---------------------------------------------------
-SIGMA_M = 3000.0  # §5.6: normal distribution round the waypoints, standard deviation 3000
 OBSTACLE_Z_M = 200.0  # the mission altitude
-RS_M = 1000.0  # §5.1: radius of the safety sphere
-KEEP_CLEAR_M = 1500.0  # obstacles closer than this to the start / final waypoint are redrawn
-HILL_POINTS = 6
-HILL_SPACING_M = 600.0  # < 1 km: one continuous obstacle (§5.3)
-HILL_TILT_DEG = 30.0  # the ridge lies across the leg, perpendicular +- this
-HILL_LEG_SPAN = (0.3, 0.7)  # where along the leg the ridge is centred
-INTRUDER_SPEED = 15.0  # §5.1: 6-DOF UAVs at 15 m/s
-INTRUDER_LEAD_S = 1200.0  # appears this long before the meeting (18 km away), gone as long after
-HEAD_ON_LEGS = (3, 4)  # 100 km and 150 km legs
-CROSSING_LEGS = (1,)  # early in the flight: the obstacles' detours delay the aircraft little
-MEET_SPAN = (0.4, 0.6)
 HILL_CODE = 1001
 INTRUDER_CODE = 1002
 DEFAULT_COUNTS = (1, 10, 20, 30, 40, 50, 60, 70, 80, 90, 100)
@@ -195,90 +194,6 @@ def rows_for(counts: Iterable[int], special: bool = True) -> list[Row]:
     return rows
 
 
-def random_obstacles(
-    waypoints: npt.ArrayLike,
-    n: int,
-    rng: np.random.Generator,
-    sigma: float = SIGMA_M,
-    keep_clear: float = KEEP_CLEAR_M,
-) -> FloatArray:
-    """``n`` obstacle centres (n, 2): per obstacle a waypoint chosen uniformly, then x and y from
-    N(waypoint, sigma); a draw within ``keep_clear`` of the first or last waypoint (horizontal
-    distance) is redrawn round the same waypoint."""
-    w = np.asarray(waypoints, dtype=np.float64)[:, :2]
-    ends = w[[0, -1]]
-    out = np.empty((n, 2))
-    for k in range(n):
-        i = int(rng.integers(len(w)))
-        while True:
-            p = w[i] + rng.normal(0.0, sigma, 2)
-            if np.hypot(*(ends - p).T).min() >= keep_clear:
-                break
-        out[k] = p
-    return out
-
-
-def hill_ridge(waypoints: npt.ArrayLike, rng: np.random.Generator) -> FloatArray:
-    """A ridge of ``HILL_POINTS`` points (K, 2), ``HILL_SPACING_M`` apart, centred on a random leg
-    at 30-70 % of its length and laid across it (perpendicular +- ``HILL_TILT_DEG``)."""
-    w = np.asarray(waypoints, dtype=np.float64)[:, :2]
-    leg = int(rng.integers(len(w) - 1))
-    a, b = w[leg], w[leg + 1]
-    centre = a + rng.uniform(*HILL_LEG_SPAN) * (b - a)
-    heading = math.atan2(b[1] - a[1], b[0] - a[0])
-    ang = heading + math.pi / 2 + math.radians(rng.uniform(-HILL_TILT_DEG, HILL_TILT_DEG))
-    offsets = (np.arange(HILL_POINTS) - (HILL_POINTS - 1) / 2) * HILL_SPACING_M
-    return np.asarray(centre + offsets[:, None] * np.array([math.cos(ang), math.sin(ang)]))
-
-
-def mission_timeline(waypoints: npt.ArrayLike, speed: float) -> FloatArray:
-    """Time (s) at which the undisturbed aircraft passes each waypoint (W,), flying the polyline
-    at ``speed`` from the first one at t = 0."""
-    w = np.asarray(waypoints, dtype=np.float64)
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(w, axis=0), axis=1))]) / speed
-
-
-def intruder_records(
-    waypoints: npt.ArrayLike, speed: float, rng: np.random.Generator, n: int = 2
-) -> list[dict[str, Any]]:
-    """Threat records of ``n`` intruders (alternately head-on on leg 3/4 and crossing leg 1),
-    timed to meet the undisturbed aircraft; each record also carries ``meet_t`` / ``meet_xy``
-    (removed before the threat set is built) for checks."""
-    w = np.asarray(waypoints, dtype=np.float64)
-    times = mission_timeline(w, speed)
-    out = []
-    for k in range(n):
-        head_on = k % 2 == 0
-        leg = int(rng.choice(HEAD_ON_LEGS if head_on else CROSSING_LEGS))
-        frac = rng.uniform(*MEET_SPAN)
-        a, b = w[leg], w[leg + 1]
-        meet = a + frac * (b - a)
-        t_meet = times[leg] + frac * (times[leg + 1] - times[leg])
-        u = (b - a)[:2] / np.hypot(*(b - a)[:2])
-        if head_on:
-            direction = -u
-        else:
-            direction = np.array([-u[1], u[0]]) * (1.0 if rng.random() < 0.5 else -1.0)
-        vel = np.array([direction[0], direction[1], 0.0]) * INTRUDER_SPEED
-        appear = max(0.0, t_meet - INTRUDER_LEAD_S)
-        start = np.array([meet[0], meet[1], OBSTACLE_Z_M]) - vel * (t_meet - appear)
-        out.append(
-            {
-                "id": f"intruder{k + 1}",
-                "kind": "intruder",
-                "position": [float(v) for v in start],
-                "velocity": [float(v) for v in vel],
-                "radius": RS_M,
-                "appears_at": float(appear),
-                "disappears_at": float(t_meet + INTRUDER_LEAD_S),
-                "meet_t": float(t_meet),
-                "meet_xy": [float(meet[0]), float(meet[1])],
-                "meet_kind": "head-on" if head_on else "crossing",
-            }
-        )
-    return out
-
-
 def scenario_records(row: Row, run: int, mission: Mission) -> tuple[list[dict[str, Any]], int]:
     """The threat records of ``row``'s scenario ``run`` and its replay seed (module docstring)."""
     wps = np.asarray(mission.waypoints, dtype=np.float64)
@@ -309,15 +224,8 @@ def scenario_records(row: Row, run: int, mission: Mission) -> tuple[list[dict[st
     return recs, seed
 
 
-THREAT_KEYS = (
-    *("id", "kind", "position", "velocity", "radius", "points"),
-    *("appears_at", "disappears_at"),
-)
-
-
 def threat_set(records: Sequence[dict[str, Any]], name: str) -> ThreatSet:
-    clean = [{k: v for k, v in r.items() if k in THREAT_KEYS} for r in records]
-    return threats_from_records(clean, name=name)
+    return threats_from_records(file_records(list(records)), name=name)
 
 
 # ============================================================================ one replay
@@ -941,7 +849,7 @@ def _dump(rows: Sequence[Row], runs: int, folder: Path) -> None:
     for row in rows:
         for run in range(runs):
             recs, seed = scenario_records(row, run, m)
-            clean = [{k: v for k, v in r.items() if k in THREAT_KEYS} for r in recs]
+            clean = file_records(recs)
             name = f"{row.label.replace(' + ', '+').replace(' ', '-')}_run{run}"
             doc = {"terrapath": 1, "name": f"{name} (seed {seed})", "threats": clean}
             (folder / f"{name}.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))

@@ -1,4 +1,4 @@
-"""The scenario generators and helpers of benchmarks/bench_pso_ca.py (no replays here)."""
+"""The scenario generators (replay.campaign.generators) as benchmarks/bench_pso_ca.py composes them, and its helpers (no replays here)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import pytest
 from benchmarks import bench_pso_ca as b
 from planner.mission import load_mission
 from replay.avoidance.pso_ca_geometry import PsoCaParams, WaypointProblem
+from replay.campaign import generators as g
 from replay.clustering import cluster_hill_points
 
 
@@ -31,17 +32,17 @@ def test_scenario_seed_is_readable_and_distinct():
 
 def test_random_obstacles_deterministic_and_clear_of_the_ends(mission):
     w = np.asarray(mission.waypoints)
-    a = b.random_obstacles(w, 500, np.random.default_rng(7))
-    again = b.random_obstacles(w, 500, np.random.default_rng(7))
+    a = g.random_obstacles(w, 500, np.random.default_rng(7))
+    again = g.random_obstacles(w, 500, np.random.default_rng(7))
     np.testing.assert_array_equal(a, again)
     assert a.shape == (500, 2)
     for end in (w[0, :2], w[-1, :2]):
-        assert np.hypot(*(a - end).T).min() >= b.KEEP_CLEAR_M
+        assert np.hypot(*(a - end).T).min() >= g.KEEP_CLEAR_M
     # every obstacle lies round some waypoint: within 5 sigma of the nearest one
     d = np.sqrt(((a[:, None, :] - w[None, :, :2]) ** 2).sum(-1)).min(axis=1)
-    assert d.max() < 5 * b.SIGMA_M
+    assert d.max() < 5 * g.SIGMA_M
     # the spread round the waypoints is about sigma (per axis): mean squared distance ~ 2 sigma^2
-    assert 0.5 * b.SIGMA_M < math.sqrt(np.mean(d**2) / 2) < 1.2 * b.SIGMA_M
+    assert 0.5 * g.SIGMA_M < math.sqrt(np.mean(d**2) / 2) < 1.2 * g.SIGMA_M
 
 
 def test_every_optimizer_sees_the_same_scenario(mission):
@@ -69,8 +70,8 @@ def test_special_rows_extend_the_40_obstacle_draw(mission):
 def test_hill_is_one_continuous_obstacle_across_a_leg(mission):
     w = np.asarray(mission.waypoints)[:, :2]
     for seed in range(20):
-        pts = b.hill_ridge(w, np.random.default_rng(seed))
-        assert pts.shape == (b.HILL_POINTS, 2)
+        pts = g.hill_ridge(w, np.random.default_rng(seed))
+        assert pts.shape == (g.HILL_POINTS, 2)
         assert len(cluster_hill_points(np.column_stack([pts, np.zeros(len(pts))]))) == 1
         # the middle of the ridge lies on a leg, so the leg meets the hill's safety spheres
         mid = pts.mean(axis=0)
@@ -87,14 +88,14 @@ def _point_segment(p, a, b_):
 def test_intruders_meet_the_undisturbed_aircraft(mission):
     w = np.asarray(mission.waypoints)
     speed = float(mission.cruise_speed)
-    recs = b.intruder_records(w, speed, np.random.default_rng(3))
+    recs = g.intruder_records(w, speed, np.random.default_rng(3))
     ts = b.threat_set(recs, "x")
-    times = b.mission_timeline(w, speed)
+    times = g.mission_timeline(w, speed)
     assert [r["meet_kind"] for r in recs] == ["head-on", "crossing"]
     for r in recs:
         th = ts.get(r["id"])
         np.testing.assert_allclose(th.position(r["meet_t"])[:2], r["meet_xy"], atol=1e-6)
-        assert np.linalg.norm(th.velocity(r["meet_t"])) == pytest.approx(b.INTRUDER_SPEED)
+        assert np.linalg.norm(th.velocity(r["meet_t"])) == pytest.approx(g.INTRUDER_SPEED)
         assert th.active(r["meet_t"]) and r["appears_at"] >= 0
         # where the undisturbed aircraft is at meet_t: the meeting point
         i = int(np.searchsorted(times, r["meet_t"])) - 1
