@@ -353,3 +353,38 @@ def test_bad_stores_keys_and_schedulers(tmp_path: Path, capsys: pytest.CaptureFi
     err = capsys.readouterr().err
     assert "tcp://127.0.0.1:9 does not answer" in err and err.count("\n") == 1
     assert not store.exists()
+
+
+@pytest.mark.parametrize(
+    ("generator", "ctga_at_least", "straight_at_most"),
+    [
+        ("seed000-normal", 10, 7),
+        ("seed000-hill", 9, 2),
+        ("seed000-intruders", 10, 0),
+        ("uniform", 10, 5),
+    ],
+)
+def test_a_small_campaign_per_generator(
+    tmp_path: Path, generator: str, ctga_at_least: int, straight_at_most: int
+) -> None:
+    """Ten scenarios of each generator, scaled to seed 001's 4.5 km mission (five 300 m
+    spheres drawn 700 m about the waypoints; the hill's six overlap; two intruders): CTGA keeps
+    clear in at least ``ctga_at_least`` of 10, while flying straight on gets through at most
+    ``straight_at_most`` (the scenarios are in the way)."""
+    text = (
+        SPEC.replace(
+            "{generator: uniform, counts: [0, 3], radius: 150, keep_clear: 500, sigma: 400}",
+            f"{{generator: {generator}, counts: [5], radius: 300, keep_clear: 700, sigma: 700}}",
+        )
+        .replace("runs: 3", "runs: 10")
+        .replace("seed: 7", "seed: 3")
+    )
+    spec = load_spec(_spec(tmp_path, text))
+    with Store(tmp_path / "g.sqlite", "test") as store:
+        run_campaign(spec, store, version="test", command="x", jobs=2, keep="none")
+        rows = store.rows()
+    assert len(rows) == 20 and all(r["status"] == "ok" for r in rows)
+    wins = {
+        av: sum(bool(r["success"]) for r in rows if r["avoider"] == av) for av in ("ctga", "none")
+    }
+    assert wins["ctga"] >= ctga_at_least and wins["none"] <= straight_at_most
