@@ -21,6 +21,7 @@ from terrapath.commands.inspect import inspect_cmd
 from terrapath.commands.layout import layout_cmd
 from terrapath.commands.plan import plan_cmd
 from terrapath.commands.replay import replay_cmd
+from terrapath.commands.report import report_cmd
 from terrapath.commands.view import view_cmd
 
 EXIT_ERROR = 1
@@ -48,6 +49,7 @@ cli.add_command(inspect_cmd)
 cli.add_command(layout_cmd)
 cli.add_command(view_cmd)
 cli.add_command(campaign_cmd)
+cli.add_command(report_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -388,3 +388,33 @@ def test_a_small_campaign_per_generator(
         av: sum(bool(r["success"]) for r in rows if r["avoider"] == av) for av in ("ctga", "none")
     }
     assert wins["ctga"] >= ctga_at_least and wins["none"] <= straight_at_most
+
+
+def test_report_tables_and_plots(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from matplotlib.image import imread
+
+    spec = load_spec(_spec(tmp_path))
+    store = tmp_path / "r.sqlite"
+    with Store(store, "test") as s:
+        run_campaign(spec, s, version="test", command="x", jobs=2, keep="none")
+        rows = s.rows()
+    out = tmp_path / "report"
+    assert main(["report", str(store), "-o", str(out)]) in (0, None)
+    assert "wrote" in capsys.readouterr().out
+    index = (out / "index.md").read_text(encoding="utf-8")
+    for avoider in ("ctga", "none"):
+        runs = [r for r in rows if r["row"] == "3" and r["avoider"] == avoider]
+        k = sum(bool(r["success"]) for r in runs)
+        lo, hi = wilson(k, len(runs))
+        line = f"| 3 | {avoider} | 3 | {k}/3 | {100 * lo:.0f}–{100 * hi:.0f} % |"
+        assert line in index
+    plr = [r["metrics"]["plr"] for r in rows if r["row"] == "0" and r["avoider"] == "ctga"]
+    assert f"| {np.mean(plr):.3f} ± {np.std(plr, ddof=1):.3f} |" in index
+    (png,) = out.glob("*.png")
+    assert f"]({png.name})" in index
+    img = imread(png)[..., :3]
+    assert img.shape[0] > 600 and float(img.std()) > 0.05
+    assert main(["report", str(tmp_path / "none.sqlite"), "-o", str(out)]) == 1
+    assert "no such store" in capsys.readouterr().err
+    assert main(["report", str(store), "-o", str(out), "--name", "other"]) == 1
+    assert "no runs of campaign 'other'" in capsys.readouterr().err
