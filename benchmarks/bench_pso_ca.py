@@ -91,6 +91,14 @@ from replay.campaign.generators import (  # noqa: E402  (the scenario protocol, 
     intruder_records,
     random_obstacles,
 )
+from replay.campaign.papers import (  # noqa: E402
+    NOMINAL_LENGTH_M,
+    PAPER_TABLE3,
+    PAPER_TABLE4,
+    PAPER_TABLE4_S,
+    PAPER_TABLE6,
+    paper_sr_pso,
+)
 from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
 from replay.threat_file import load_threats, threats_from_records  # noqa: E402
@@ -110,51 +118,6 @@ DEFAULT_COUNTS = (1, 10, 20, 30, 40, 50, 60, 70, 80, 90, 100)
 QUICK_COUNTS = (1, 20, 40)
 SPECIAL_BASE = 40  # "40 + 1 hill", "40 + 2 intruders"
 TARGET_MS = 5.0  # issue 5: time per PSO-CA decision
-
-# -- the paper's figures ------------------------------------------------------------------------
-NOMINAL_LENGTH_M = 431_630.0  # Table 4 text: the path without any obstacle
-PAPER_TABLE4 = {"pso": 431_730.0, "mafoa": 431_720.0, "ga": 431_780.0, "sa": 432_150.0}
-PAPER_TABLE4_S = {"pso": 28.0938, "mafoa": 29.0156, "ga": 32.0345, "sa": 26.7969}
-# Table 3 (PSO-CA): flight time (min), algorithm time (s per run), optimised path length (m)
-PAPER_TABLE3: dict[str, tuple[float, float, float]] = {
-    "1": (481.085145, 28.5469, 431_650),
-    "10": (482.588177, 29.7656, 432_154),
-    "20": (493.687412, 35.4219, 442_063),
-    "30": (492.450745, 43.2813, 442_948),
-    "40": (493.763296, 62.0313, 443_846),
-    "50": (494.283566, 63.5313, 444_640),
-    "60": (495.325971, 69.4876, 445_548),
-    "70": (498.768901, 93.6453, 448_653),
-    "80": (501.555750, 95.9354, 450_900),
-    "90": (504.345905, 98.5632, 453_734),
-    "100": (509.675489, 117.3524, 458_532),
-    "40 + 1 hill": (500.786454, 65.3874, 447_231),
-    "40 + 2 intruders": (496.232877, 66.7465, 444_922),
-}
-# Table 6: PLR, TC (s), CS, SR (of 10) per planner at 40/60/80/100 obstacles
-PAPER_TABLE6: dict[tuple[str, str], tuple[float, float, float, int]] = {
-    ("40", "pso"): (1.28, 62.03, 5.24, 10),
-    ("40", "mafoa"): (1.28, 65.21, 5.24, 10),
-    ("40", "ga"): (1.44, 74.62, 5.84, 10),
-    ("40", "sa"): (1.46, 56.22, 9.43, 9),
-    ("60", "pso"): (1.37, 69.48, 7.53, 10),
-    ("60", "mafoa"): (1.39, 72.21, 7.57, 10),
-    ("60", "ga"): (1.52, 79.02, 7.62, 9),
-    ("60", "sa"): (1.82, 64.32, 10.20, 8),
-    ("80", "pso"): (1.40, 95.94, 10.56, 9),
-    ("80", "mafoa"): (1.42, 98.42, 10.51, 9),
-    ("80", "ga"): (1.62, 107.21, 11.27, 8),
-    ("80", "sa"): (1.91, 88.16, 12.24, 8),
-    ("100", "pso"): (1.49, 117.35, 22.16, 9),
-    ("100", "mafoa"): (1.49, 124.76, 22.17, 9),
-    ("100", "ga"): (2.02, 132.11, 25.23, 7),
-    ("100", "sa"): (2.23, 99.18, 32.14, 6),
-}
-
-
-def paper_sr_pso(count: int) -> str:
-    """§5.6 / Table 6: 10 of 10 runs up to 70 obstacles, 9 of 10 at 80-100."""
-    return "10/10" if count <= 70 else "9/10"
 
 
 # ============================================================================ scenario generation

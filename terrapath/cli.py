@@ -14,6 +14,7 @@ import click
 
 from terrain.errors import TerrapathError
 from terrapath import __version__
+from terrapath.commands.bench import bench_cmd
 from terrapath.commands.campaign import campaign_cmd
 from terrapath.commands.hillshade import hillshade
 from terrapath.commands.info import info
@@ -50,6 +51,7 @@ cli.add_command(layout_cmd)
 cli.add_command(view_cmd)
 cli.add_command(campaign_cmd)
 cli.add_command(report_cmd)
+cli.add_command(bench_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -7,6 +7,7 @@ cooperative sensor, so a run takes a fraction of a second."""
 from __future__ import annotations
 
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -418,3 +419,54 @@ def test_report_tables_and_plots(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert "no such store" in capsys.readouterr().err
     assert main(["report", str(store), "-o", str(out), "--name", "other"]) == 1
     assert "no runs of campaign 'other'" in capsys.readouterr().err
+
+
+def test_bench_seed001_scenarios_beside_the_paper(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    summary = tmp_path / "SUMMARY.md"
+    args = [
+        "bench",
+        "seed001-scenarios",
+        "--store",
+        str(tmp_path / "b.sqlite"),
+        "--summary",
+        str(summary),
+    ]
+    assert main([*args, "--keep-mcap", "none"]) == 0
+    out = capsys.readouterr().out
+    # CTGA passes every obstacle of the three scenarios (the paper: at about R_safe = 100 m)
+    for scenario in ("simple", "complex", "moving"):
+        assert re.search(rf"^{scenario} +ctga +success +1/1", out, re.M)
+        sep = float(
+            re.search(
+                rf"^{scenario} +ctga +smallest separation \(m\) +([-\d.]+) +100 ", out, re.M
+            ).group(1)
+        )
+        assert sep > 50.0
+    text = summary.read_text(encoding="utf-8")
+    assert text.count("## seed001-scenarios:") == 1 and "| simple | ctga | success | 1/1 |" in text
+    assert main(args) == 0  # again: resumed (nothing flown), the section replaced, not repeated
+    assert "6 already in" in capsys.readouterr().err
+    assert summary.read_text(encoding="utf-8").count("## seed001-scenarios:") == 1
+    assert main(["bench", "seed004-table3"]) == 1
+    assert "not built yet: arrives with the FGA avoider" in capsys.readouterr().err
+    assert main(["bench", "nope"]) == 1
+    assert (
+        "no bench 'nope'; valid: seed000-table4, seed000-table6, seed001-scenarios"
+        in capsys.readouterr().err
+    )
+    assert (
+        main(
+            [
+                "bench",
+                "seed000-table4",
+                "--optimizers",
+                "adam",
+                "--store",
+                str(tmp_path / "c.sqlite"),
+            ]
+        )
+        == 1
+    )
+    assert "--optimizers 'adam': none of ga, mafoa, pso, sa" in capsys.readouterr().err

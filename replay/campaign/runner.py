@@ -70,6 +70,8 @@ def execute(
     mcap_dir: str | None,
 ) -> dict[str, Any]:
     """Fly one run and return its store row (never raises: an error becomes the row)."""
+    import numpy as np
+
     from replay.run import ReplayRequest, run_replay
 
     t0 = time.perf_counter()
@@ -107,11 +109,17 @@ def execute(
             out = str(Path(mcap_dir) / mcap_name(run))
             result = run_replay(request, out)
         m = result.metrics
+        metrics = m.as_dict()
+        # the length of the final waypoint list: the "optimised path length" of seed 000's tables
+        wps = np.asarray(result.waypoints, dtype=np.float64)
+        metrics["waypoint_list_length_m"] = float(
+            np.linalg.norm(np.diff(wps, axis=0), axis=1).sum()
+        )
         row.update(
             status="ok",
             success=bool(m.success),
             end_reason=m.end_reason,
-            metrics=m.as_dict(),
+            metrics=metrics,
             mcap=out,
             error=None,
         )

@@ -44,7 +44,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -119,6 +119,36 @@ class Spec:
     duration: float | None = None
     spec_hash: str = ""
     digests: dict[str, str] = field(default_factory=dict)  # file -> SHA-256 of its bytes
+
+    def content_hash(self) -> str:
+        """SHA-256 of what the spec asks for (files by their bytes' digests)."""
+        canonical = {
+            "name": self.name,
+            "missions": [self.digests[str(m)] for m in self.missions],
+            "threats": [
+                self.generator,
+                _plain(self.params),
+                [[r.label, r.count, self.digests.get(str(r.file))] for r in self.rows],
+            ],
+            "avoiders": [[a.name, [list(o) for o in a.options]] for a in self.avoiders],
+            "sensor": self.sensor,
+            "runs": self.runs,
+            "seed": self.seed,
+            "margin": self.margin,
+            "duration": self.duration,
+        }
+        return hashlib.sha256(json.dumps(canonical, sort_keys=True).encode()).hexdigest()
+
+    def narrowed(
+        self, runs: int | None = None, avoiders: tuple[Avoider, ...] | None = None
+    ) -> Spec:
+        """The spec with fewer runs or avoiders (a quick version: its runs keep their identity)."""
+        spec = replace(
+            self,
+            runs=self.runs if runs is None else runs,
+            avoiders=self.avoiders if avoiders is None else avoiders,
+        )
+        return replace(spec, spec_hash=spec.content_hash())
 
     def all_runs(self) -> list[Run]:
         """Every run, in a fixed order: mission, row, avoider, run index."""
@@ -281,23 +311,7 @@ def load_spec(path: str | Path) -> Spec:
     digests = {}
     for f in [*missions, *(r.file for r in rows if r.file is not None)]:
         digests[str(f)] = hashlib.sha256(f.read_bytes()).hexdigest()
-    canonical = {
-        "name": name,
-        "missions": [digests[str(m)] for m in missions],
-        "threats": [
-            generator,
-            _plain(params),
-            [[r.label, r.count, digests.get(str(r.file))] for r in rows],
-        ],
-        "avoiders": [[a.name, [list(o) for o in a.options]] for a in avoiders],
-        "sensor": sensor,
-        "runs": runs,
-        "seed": seed,
-        "margin": margin,
-        "duration": duration,
-    }
-    spec_hash = hashlib.sha256(json.dumps(canonical, sort_keys=True).encode()).hexdigest()
-    return Spec(
+    spec = Spec(
         src,
         name.strip(),
         missions,
@@ -310,9 +324,10 @@ def load_spec(path: str | Path) -> Spec:
         seed,
         margin,
         duration,
-        spec_hash,
+        "",
         digests,
     )
+    return replace(spec, spec_hash=spec.content_hash())
 
 
 def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:

@@ -7,7 +7,8 @@ import os
 import shlex
 import sys
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import click
 
@@ -16,6 +17,42 @@ from terrapath.runtext import duration
 
 EXIT_FAILED = 3  # --only: the re-flown run is not a success (as `replay`)
 EXIT_ERRORS = 1  # some runs raised (stored as errors)
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def executor_options(f: F) -> F:
+    """--jobs, --dask-local, --scheduler, --keep-mcap, --mcap-dir (campaign and bench)."""
+    decorators = [
+        click.option(
+            "--jobs",
+            type=click.IntRange(min=1),
+            default=None,
+            help="Processes (or Dask workers with --dask-local); default: the machine's cores.",
+        ),
+        click.option("--dask-local", is_flag=True, help="Run on a local Dask distributed cluster."),
+        click.option(
+            "--scheduler",
+            default=None,
+            metavar="tcp://HOST:PORT",
+            help="Run on a running Dask scheduler (its workers need this terrapath installed).",
+        ),
+        click.option(
+            "--keep-mcap",
+            type=click.Choice(("none", "failures", "all")),
+            default="failures",
+            show_default=True,
+            help="Which runs keep their MCAP recording.",
+        ),
+        click.option(
+            "--mcap-dir",
+            type=click.Path(file_okay=False),
+            default=None,
+            help="Where kept MCAPs go (default: the store's name + '-mcap' beside it).",
+        ),
+    ]
+    for d in reversed(decorators):
+        f = d(f)
+    return f
 
 
 @click.command("campaign")
@@ -27,44 +64,19 @@ EXIT_ERRORS = 1  # some runs raised (stored as errors)
     help="SQLite file of the results (created if missing; runs already in it are not flown again).",
 )
 @click.option(
-    "--jobs",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Processes (or Dask workers with --dask-local); default: the machine's cores.",
-)
-@click.option("--dask-local", is_flag=True, help="Run on a local Dask distributed cluster.")
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="tcp://HOST:PORT",
-    help="Run on a running Dask scheduler (its workers need this terrapath installed).",
-)
-@click.option(
     "--only",
     default=None,
     metavar="KEY",
     help="Fly this one run again (its key: mission/row/avoider/run, as the store lists it).",
 )
-@click.option(
-    "--keep-mcap",
-    type=click.Choice(("none", "failures", "all")),
-    default="failures",
-    show_default=True,
-    help="Which runs keep their MCAP recording.",
-)
-@click.option(
-    "--mcap-dir",
-    type=click.Path(file_okay=False),
-    default=None,
-    help="Where kept MCAPs go (default: STORE's name + '-mcap' beside it).",
-)
+@executor_options
 def campaign_cmd(
     spec: str,
     store: str,
+    only: str | None,
     jobs: int | None,
     dask_local: bool,
     scheduler: str | None,
-    only: str | None,
     keep_mcap: str,
     mcap_dir: str | None,
 ) -> int:
@@ -73,8 +85,53 @@ def campaign_cmd(
     as it finishes. Re-running the same command flies only the missing runs; --only KEY flies
     one again and gives the same result. Ends with a summary per row of the study: success
     rate with its Wilson 95 % interval, path-length ratio, flight time, time per decision."""
-    from replay.campaign.runner import run_campaign
     from replay.campaign.spec import load_spec
+
+    s = load_spec(spec)
+    if only is not None:
+        s.find(only)  # a clear error before anything is flown
+    command = "terrapath campaign " + " ".join(shlex.quote(a) for a in (spec, "--store", store))
+    rows, flown = fly(s, store, command, jobs, dask_local, scheduler, keep_mcap, mcap_dir, only)
+    for line in summary_lines(rows):
+        click.echo(line)
+    if only is not None:
+        (row,) = flown
+        if row["mcap"]:
+            click.echo(f"recorded {row['mcap']}")
+        if row["status"] == "error":
+            click.echo(f"terrapath: run {only} raised: {row['error']}", err=True)
+            return EXIT_ERRORS
+        return 0 if row["success"] else EXIT_FAILED
+    return errors_status(rows)
+
+
+def errors_status(rows: list[dict[str, Any]]) -> int:
+    """0, or EXIT_ERRORS with a line naming the first run that raised."""
+    errs = [r for r in rows if r["status"] == "error"]
+    if not errs:
+        return 0
+    click.echo(
+        f"terrapath: {len(errs)} run(s) raised (stored as errors), e.g. {errs[0]['key']}: "
+        f"{errs[0]['error']}",
+        err=True,
+    )
+    return EXIT_ERRORS
+
+
+def fly(
+    spec: Any,
+    store: str,
+    command: str,
+    jobs: int | None,
+    dask_local: bool,
+    scheduler: str | None,
+    keep_mcap: str,
+    mcap_dir: str | None,
+    only: str | None = None,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Fly the spec's missing runs (or ``only``) with a progress bar (a line per run when stderr
+    is not a terminal); returns (every row of the spec's runs, the rows flown now)."""
+    from replay.campaign.runner import check_scheduler, run_campaign
     from replay.campaign.store import Store
     from terrapath import __version__
 
@@ -82,23 +139,17 @@ def campaign_cmd(
         raise click.UsageError("give --dask-local or --scheduler, not both")
     executor = "dask-local" if dask_local else "scheduler" if scheduler else "pool"
     n_jobs = jobs or os.cpu_count() or 1
-    s = load_spec(spec)
     if scheduler:
-        from replay.campaign.runner import check_scheduler
-
-        check_scheduler(scheduler)
-    command = "terrapath campaign " + " ".join(shlex.quote(a) for a in (spec, "--store", store))
+        check_scheduler(scheduler)  # before the store is created
     with Store(store, __version__) as db:
-        runs = s.all_runs()
-        if only is not None:
-            s.find(only)  # a clear error before anything is flown
+        runs = spec.all_runs()
         have = len(db.done(r.run_hash for r in runs))
         todo = 1 if only is not None else len(runs) - have
+        where = f"({n_jobs} jobs)" if executor != "scheduler" else f"({scheduler})"
         click.echo(
-            f"campaign {s.name!r}: {len(runs)} runs ({len(s.missions)} mission(s) x {len(s.rows)} "
-            f"row(s) x {len(s.avoiders)} avoider(s) x {s.runs}); {have} already in {store}; "
-            f"flying {todo} on {executor}"
-            + (f" ({n_jobs} jobs)" if executor != "scheduler" else f" ({scheduler})"),
+            f"campaign {spec.name!r}: {len(runs)} runs ({len(spec.missions)} mission(s) x "
+            f"{len(spec.rows)} row(s) x {len(spec.avoiders)} avoider(s) x {spec.runs}); {have} "
+            f"already in {store}; flying {todo} on {executor} {where}",
             err=True,
         )
         t0 = time.perf_counter()
@@ -115,11 +166,10 @@ def campaign_cmd(
                 if bar is not None:
                     bar(done, text)
                 else:
-                    what = _outcome(row)
-                    click.echo(f"[{text}] {row['key']}: {what}", err=True)
+                    click.echo(f"[{text}] {row['key']}: {_outcome(row)}", err=True)
 
             _, flown = run_campaign(
-                s,
+                spec,
                 db,
                 version=__version__,
                 command=command,
@@ -132,25 +182,7 @@ def campaign_cmd(
                 report=report,
             )
         rows = db.rows(hashes=[r.run_hash for r in runs])
-    for line in summary_lines(rows):
-        click.echo(line)
-    if only is not None:
-        (row,) = flown
-        if row["mcap"]:
-            click.echo(f"recorded {row['mcap']}")
-        if row["status"] == "error":
-            click.echo(f"terrapath: run {only} raised: {row['error']}", err=True)
-            return EXIT_ERRORS
-        return 0 if row["success"] else EXIT_FAILED
-    errs = [r for r in rows if r["status"] == "error"]
-    if errs:
-        click.echo(
-            f"terrapath: {len(errs)} run(s) raised (stored as errors), e.g. {errs[0]['key']}: "
-            f"{errs[0]['error']}",
-            err=True,
-        )
-        return EXIT_ERRORS
-    return 0
+    return rows, flown
 
 
 def summary_lines(rows: list[dict[str, Any]]) -> list[str]:
@@ -162,15 +194,8 @@ def summary_lines(rows: list[dict[str, Any]]) -> list[str]:
     for r in rows:
         groups.setdefault((r["mission"], r["row"], r["avoider"]), []).append(r)
     head = (
-        "mission",
-        "row",
-        "avoider",
-        "runs",
-        "success (95 % CI)",
-        "PLR",
-        "flight",
-        "decision",
-        "errors",
+        *("mission", "row", "avoider", "runs", "success (95 % CI)"),
+        *("PLR", "flight", "decision", "errors"),
     )
     table = [head]
     for (mission, row, avoider), rs in sorted(groups.items(), key=lambda kv: _order(kv[0])):

@@ -1,0 +1,124 @@
+"""`terrapath bench`: a paper table reproduced as a campaign, our figures beside the paper's."""
+
+from __future__ import annotations
+
+import platform
+import shlex
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+
+import click
+
+from terrapath.commands.campaign import errors_status, executor_options, fly
+
+
+def _root() -> Path:
+    import replay
+
+    return Path(replay.__file__).resolve().parents[1]
+
+
+@click.command("bench")
+@click.argument("name", required=False)
+@click.option("--list", "listing", is_flag=True, help="The benches and what each reproduces.")
+@click.option(
+    "--runs", type=click.IntRange(min=1), default=None, help="Runs per line (a quick version)."
+)
+@click.option(
+    "--optimizers",
+    default=None,
+    metavar="A,B,...",
+    help="PSO-CA's optimisers to fly (seed000-table6's default: pso; 'all': every one in the spec).",
+)
+@click.option(
+    "--store",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="SQLite store of the runs (default build/bench/NAME.sqlite: a second call resumes).",
+)
+@click.option(
+    "--summary",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="The Markdown file the table goes into (default benchmarks/SUMMARY.md of the checkout).",
+)
+@executor_options
+def bench_cmd(
+    name: str | None,
+    listing: bool,
+    runs: int | None,
+    optimizers: str | None,
+    store: str | None,
+    summary: str | None,
+    jobs: int | None,
+    dask_local: bool,
+    scheduler: str | None,
+    keep_mcap: str,
+    mcap_dir: str | None,
+) -> int:
+    """Reproduce the paper table NAME: fly its campaign (resuming what an earlier call flew),
+    print our figures beside the paper's with the ratio, and write the table into
+    benchmarks/SUMMARY.md (replacing its previous version) and the dated log RESULTS.md."""
+    from replay.campaign.benches import BENCHES, COMING, markdown, optimizer_of, update_summary
+    from replay.campaign.spec import load_spec
+    from terrain.errors import InputError
+    from terrapath import __version__
+
+    if listing or name is None:
+        for b in BENCHES.values():
+            click.echo(f"{b.name:<20} {b.title}")
+        for n, why in COMING.items():
+            click.echo(f"{n:<20} (not yet: {why})")
+        return 0 if listing else 2
+    if name not in BENCHES:
+        if name in COMING:
+            raise InputError(f"bench {name!r} is not built yet: {COMING[name]}")
+        raise InputError(f"no bench {name!r}; valid: {', '.join(BENCHES)}")
+    bench = BENCHES[name]
+    chosen = None
+    if optimizers != "all":
+        chosen = tuple(optimizers.split(",")) if optimizers else bench.optimizers
+    root = _root()
+    store_path = Path(store) if store else Path("build") / "bench" / f"{name}.sqlite"
+    store_path.parent.mkdir(parents=True, exist_ok=True)
+    command = "terrapath bench " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+    rows = []
+    for path in bench.spec_paths():
+        spec = load_spec(path)
+        avoiders = spec.avoiders
+        if chosen is not None:
+            avoiders = tuple(a for a in avoiders if optimizer_of(a.label) in chosen)
+            if not avoiders:
+                known = sorted({optimizer_of(a.label) for a in spec.avoiders})
+                raise InputError(f"--optimizers {optimizers!r}: none of {', '.join(known)}")
+        spec = spec.narrowed(runs=runs, avoiders=avoiders)
+        got, _ = fly(
+            spec, str(store_path), command, jobs, dask_local, scheduler, keep_mcap, mcap_dir
+        )
+        rows += got
+    lines = bench.lines(rows)
+    head = ("row", "avoider", "figure", "ours", "paper", "ours/paper")
+    widths = [max(len(x[i]) for x in [head, *lines]) for i in range(6)]
+    for line in [head, *lines]:
+        click.echo("  ".join(c.ljust(w) for c, w in zip(line, widths, strict=True)).rstrip())
+    now = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    per = f"{runs} runs a line (quick)" if runs else "the paper's runs"
+    header = (
+        f"{now}; terrapath {__version__}; {platform.processor() or platform.machine()}, "
+        f"Python {platform.python_version()}; {per}; `{command}`; store {store_path}"
+    )
+    section = markdown(bench, lines, header)
+    bench_dir = root / "benchmarks"
+    target = (
+        Path(summary)
+        if summary
+        else (bench_dir if bench_dir.is_dir() else Path(".")) / "SUMMARY.md"
+    )
+    update_summary(target, bench, section)
+    click.echo(f"wrote the table into {target}")
+    log = bench_dir / "RESULTS.md"
+    if summary is None and log.exists():
+        with log.open("a", encoding="utf-8") as f:
+            f.write("\n" + section.replace(f"## {bench.name}:", f"## bench {bench.name}:", 1))
+    return errors_status(rows)
