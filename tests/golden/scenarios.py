@@ -1,7 +1,7 @@
 """Reference planning scenarios on real maps, shared by the golden test and its regeneration.
 
-One fixed start/goal/zones scenario per map (jacksboro and rmnp from data/maps, Big Tujunga from
-../shared/maps) and every algorithm at seed 0 with the `terrapath plan` defaults (the aerosonde at
+One fixed start/goal/zones scenario per map (jacksboro and rmnp from data/maps, Big Tujunga and
+Christmas Island from ../shared/maps) and every algorithm at seed 0 with the `terrapath plan` defaults (the aerosonde at
 its cruise speed, population 60, 200 iterations, 6 free waypoints, 50 m clearance, start and goal
 150 m above the highest terrain around them, zones as hard constraints, up to 3 attempts from
 derived seeds), built by the planning pipeline that `terrapath plan` runs.
@@ -91,6 +91,13 @@ MAPS = (
         (-105.85, 40.20),
         (-105.55, 40.50),
         ((-105.655, 40.405, 6000.0), (-105.745, 40.300, 5000.0)),
+    ),
+    MapScenario(
+        "christmas",
+        SHARED / "spso_christmas_island" / "ChrismasTerrain.tif",
+        (105.615, -10.504),
+        (105.652, -10.474),
+        ((105.633, -10.489, 800.0),),
     ),
     MapScenario(
         "jacksboro",
