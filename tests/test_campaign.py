@@ -440,7 +440,7 @@ def test_bench_seed001_scenarios_beside_the_paper(
         assert re.search(rf"^{scenario} +ctga +success +1/1", out, re.M)
         sep = float(
             re.search(
-                rf"^{scenario} +ctga +smallest separation \(m\) +([-\d.]+) +100 ", out, re.M
+                rf"^{scenario} +ctga +smallest separation \(m\) +([-\d.]+) +100\.0 ", out, re.M
             ).group(1)
         )
         assert sep > 50.0

@@ -106,33 +106,20 @@ def _figures(runs: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+def _vs(row: str, av: str, figure: str, ours: float | None, paper: float | None, fmt: str) -> Line:
+    """One figure of ours beside the paper's, with the ratio."""
+    return (row, av, figure, _num(ours, fmt), _num(paper, fmt), _ratio(ours, paper))
+
+
 def _table4(rows: list[dict[str, Any]]) -> list[Line]:
     out: list[Line] = []
     for (row, av), runs in sorted(_groups(rows).items()):
         f = _figures(runs)
         opt = optimizer_of(av)
-        pl, pt = P.PAPER_TABLE4.get(opt), P.PAPER_TABLE4_S.get(opt)
         out.append((row, opt, "success", f["sr"], "-", "-"))
-        out.append(
-            (
-                row,
-                opt,
-                "path length (m)",
-                _num(f["length"], ",.0f"),
-                _num(pl, ",.0f"),
-                _ratio(f["length"], pl),
-            )
-        )
-        out.append(
-            (
-                row,
-                opt,
-                "algorithm time (s/run)",
-                _num(f["algo_s"], ".2f"),
-                _num(pt, ".2f"),
-                _ratio(f["algo_s"], pt),
-            )
-        )
+        out.append(_vs(row, opt, "path length (m)", f["length"], P.PAPER_TABLE4.get(opt), ",.0f"))
+        t = P.PAPER_TABLE4_S.get(opt)
+        out.append(_vs(row, opt, "algorithm time (s/run)", f["algo_s"], t, ".2f"))
     return out
 
 
@@ -143,92 +130,28 @@ def _row_key(label: str) -> tuple[int, str]:
 
 def _table6(rows: list[dict[str, Any]]) -> list[Line]:
     out: list[Line] = []
-    groups = _groups(rows)
-    for (row, av), runs in sorted(
-        groups.items(),
-        key=lambda kv: (
-            optimizer_of(kv[0][1]) != "pso",
-            optimizer_of(kv[0][1]),
-            _row_key(kv[0][0]),
-        ),
-    ):
+
+    def order(item: tuple[tuple[str, str], Any]) -> tuple[bool, str, tuple[int, str]]:
+        (row, av), _ = item
+        return (optimizer_of(av) != "pso", optimizer_of(av), _row_key(row))
+
+    for (row, av), runs in sorted(_groups(rows).items(), key=order):
         f = _figures(runs)
         opt = optimizer_of(av)
-        out.append(
-            (
-                row,
-                opt,
-                "success",
-                f["sr"],
-                P.paper_sr_pso(int(row.split()[0])) if opt == "pso" else "-",
-                "-",
-            )
-        )
+        paper_sr = P.paper_sr_pso(int(row.split()[0])) if opt == "pso" else "-"
+        out.append((row, opt, "success", f["sr"], paper_sr, "-"))
         if opt == "pso" and row in P.PAPER_TABLE3:
             fl, alg, length = P.PAPER_TABLE3[row]
-            out.append(
-                (
-                    row,
-                    opt,
-                    "flight time (min)",
-                    _num(f["flight_min"], ".1f"),
-                    f"{fl:.1f}",
-                    _ratio(f["flight_min"], fl),
-                )
-            )
-            out.append(
-                (
-                    row,
-                    opt,
-                    "algorithm time (s/run)",
-                    _num(f["algo_s"], ".2f"),
-                    f"{alg:.2f}",
-                    _ratio(f["algo_s"], alg),
-                )
-            )
-            out.append(
-                (
-                    row,
-                    opt,
-                    "path length (m)",
-                    _num(f["length"], ",.0f"),
-                    f"{length:,.0f}",
-                    _ratio(f["length"], length),
-                )
-            )
+            out.append(_vs(row, opt, "flight time (min)", f["flight_min"], fl, ".1f"))
+            out.append(_vs(row, opt, "algorithm time (s/run)", f["algo_s"], alg, ".2f"))
+            out.append(_vs(row, opt, "path length (m)", f["length"], length, ",.0f"))
         t6 = P.PAPER_TABLE6.get((row, opt))
         if t6 is not None:
             plr, tc, _cs, sr = t6
-            out.append(
-                (
-                    row,
-                    opt,
-                    "PLR (ours: the flight's)",
-                    _num(f["plr"], ".3f"),
-                    f"{plr:.2f}",
-                    _ratio(f["plr"], plr),
-                )
-            )
-            out.append(
-                (
-                    row,
-                    opt,
-                    "TC (s/run)",
-                    _num(f["algo_s"], ".2f"),
-                    f"{tc:.2f}",
-                    _ratio(f["algo_s"], tc),
-                )
-            )
-            out.append(
-                (
-                    row,
-                    opt,
-                    "SR (Table 6)",
-                    f["sr"],
-                    f"{sr}/10",
-                    _ratio(f["wins"] / f["n"] if f["n"] else None, sr / 10),
-                )
-            )
+            rate = f["wins"] / f["n"] if f["n"] else None
+            out.append(_vs(row, opt, "PLR (ours: the flight's)", f["plr"], plr, ".3f"))
+            out.append(_vs(row, opt, "TC (s/run)", f["algo_s"], tc, ".2f"))
+            out.append(_vs(row, opt, "SR (Table 6, rate)", rate, sr / 10, ".2f"))
     return out
 
 
@@ -239,16 +162,7 @@ def _seed001(rows: list[dict[str, Any]]) -> list[Line]:
         paper = P.PAPER_SEED001_SEPARATION_M if av == "ctga" else None
         name = row.removeprefix("seed001-").removesuffix("-threats")
         out.append((name, av, "success", f["sr"], "-", "-"))
-        out.append(
-            (
-                name,
-                av,
-                "smallest separation (m)",
-                _num(f["min_sep"], ".1f"),
-                _num(paper, ".0f"),
-                _ratio(f["min_sep"], paper),
-            )
-        )
+        out.append(_vs(name, av, "smallest separation (m)", f["min_sep"], paper, ".1f"))
     return out
 
 
