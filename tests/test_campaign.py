@@ -470,3 +470,14 @@ def test_bench_seed001_scenarios_beside_the_paper(
         == 1
     )
     assert "--optimizers 'adam': none of ga, mafoa, pso, sa" in capsys.readouterr().err
+
+
+def test_dask_missing_names_the_extra(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import fails as if not installed
+    spec = _spec(tmp_path)
+    assert main(["campaign", str(spec), "--store", str(tmp_path / "s.sqlite"), "--dask-local"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pip install 'terrapath[cluster]'" in err
+    assert not (tmp_path / "s.sqlite").exists()

@@ -152,12 +152,19 @@ def _pool(runs: list[Run], args: tuple[Any, ...], jobs: int) -> Iterator[dict[st
         pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _dask_client(scheduler: str | None, jobs: int) -> Any:
+def require_dask() -> None:
+    """A one-line error naming the extra when Dask is not installed."""
     try:
-        from dask.distributed import Client, LocalCluster
+        import dask.distributed  # noqa: F401
     except ImportError:
         raise InputError(f"a Dask executor needs the optional extra: {CLUSTER_EXTRA}") from None
+
+
+def _dask_client(scheduler: str | None, jobs: int) -> Any:
+    require_dask()
     import logging
+
+    from dask.distributed import Client, LocalCluster
 
     logging.getLogger("distributed").setLevel(logging.ERROR)  # its INFO lines are not ours
     if scheduler is None:

@@ -131,7 +131,7 @@ def fly(
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Fly the spec's missing runs (or ``only``) with a progress bar (a line per run when stderr
     is not a terminal); returns (every row of the spec's runs, the rows flown now)."""
-    from replay.campaign.runner import check_scheduler, run_campaign
+    from replay.campaign.runner import check_scheduler, require_dask, run_campaign
     from replay.campaign.store import Store
     from terrapath import __version__
 
@@ -139,8 +139,10 @@ def fly(
         raise click.UsageError("give --dask-local or --scheduler, not both")
     executor = "dask-local" if dask_local else "scheduler" if scheduler else "pool"
     n_jobs = jobs or os.cpu_count() or 1
+    if executor != "pool":
+        require_dask()  # before the store is created
     if scheduler:
-        check_scheduler(scheduler)  # before the store is created
+        check_scheduler(scheduler)
     with Store(store, __version__) as db:
         runs = spec.all_runs()
         have = len(db.done(r.run_hash for r in runs))
