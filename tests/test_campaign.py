@@ -481,3 +481,20 @@ def test_dask_missing_names_the_extra(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "pip install 'terrapath[cluster]'" in err
     assert not (tmp_path / "s.sqlite").exists()
+
+
+def test_bench_seed002_table2_ranks_the_planners(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    summary = tmp_path / "S.md"
+    args = ["bench", "seed002-table2", "--runs", "1", "--summary", str(summary)]
+    assert main([*args, "--store", str(tmp_path / "s.sqlite")]) == 0
+    out = capsys.readouterr().out
+    for name in ("rmnp", "jacksboro"):  # the maps of data/maps: always there
+        ranks = re.findall(
+            rf"^{name} +(\w+) +rank of the mean \(1 best\) +(\d) +(\d/\d/\d)", out, re.M
+        )
+        assert sorted(int(r[1]) for r in ranks) == [1, 2, 3, 4]
+        # the paper's ranks: AMPSO first on Dakrong and LangCo, second on Daklak
+        assert dict((a, p) for a, _, p in ranks)["ampso"] == "2/1/1"
+    assert "| rmnp | ampso | cost mean ± sd |" in summary.read_text(encoding="utf-8")

@@ -12,6 +12,9 @@ ratio.
   Our PLR is the flight's (flown length over the straight distance); the paper's is larger
   (1.28 at 40 obstacles) and not defined in the text -- the ratio is shown, not judged.
   ``--optimizers`` chooses the optimisers (default PSO: Table 3).
+- ``seed002-table2``: the planners (AMPSO, APSO, PSO, GA) 10 times each on our reference maps:
+  cost mean +- sd and the rank of each algorithm's mean, beside its ranks on the paper's three
+  terrains (which we do not have: the costs themselves are not comparable, the order is).
 - ``seed001-scenarios``: CTGA beside PSO-CA in seed 001's three scenarios (cooperative sensor):
   success and the smallest separation from an obstacle's surface (paper: about R_safe, 100 m).
 """
@@ -32,11 +35,15 @@ Line = tuple[str, str, str, str, str, str]  # row, avoider, figure, ours, paper,
 
 @dataclass(frozen=True)
 class Bench:
+    """A paper table: campaign specs and the lines of their rows (``lines``), or -- a planning
+    table -- ``plans(runs)`` computing its lines directly (no replays, no store)."""
+
     name: str
     title: str
     specs: tuple[str, ...]  # files in benches/
     lines: Callable[[list[dict[str, Any]]], list[Line]]
     optimizers: tuple[str, ...] | None = None  # default choice (None: every avoider)
+    plans: Callable[[int], list[Line]] | None = None
 
     def spec_paths(self) -> list[Path]:
         return [HERE / s for s in self.specs]
@@ -166,6 +173,63 @@ def _seed001(rows: list[dict[str, Any]]) -> list[Line]:
     return out
 
 
+PLAN_ALGORITHMS = ("ampso", "apso", "pso", "ga")
+
+
+def _seed002(runs: int) -> list[Line]:
+    """Seed 002 Table 2's protocol on our reference maps (``planner.reference``): each algorithm
+    ``runs`` times (seeds 0..runs-1) with the ``terrapath plan`` defaults; the cost's mean and
+    standard deviation, and its rank on the map, beside the paper's ranks on its three maps."""
+    from planner.pipeline import PlanRequest, build_problem
+    from planner.plan import plan
+    from planner.reference import REFERENCE_MAPS
+    from replay.vehicle.presets import load_vehicle
+
+    paper_rank = {
+        terrain: sorted(PLAN_ALGORITHMS, key=lambda a: costs[a][0]).index
+        for terrain, costs in P.PAPER_SEED002_TABLE2.items()
+    }
+    out: list[Line] = []
+    for m in REFERENCE_MAPS:
+        if not m.available():
+            out.append((m.name, "-", "map not found", str(m.dem), "-", "-"))
+            continue
+        request = PlanRequest(
+            dem=(str(m.dem),),
+            start=m.start,
+            goal=m.goal,
+            performance=load_vehicle("aerosonde").performance(),
+            vehicle="aerosonde",
+            zones=[{"lon": a, "lat": b, "diameter": d} for a, b, d in m.zones],
+            avoid_zones=True,
+        )
+        problem = build_problem(request).problem
+        stats = {}
+        for alg in PLAN_ALGORITHMS:
+            costs = [
+                plan(
+                    problem,
+                    alg,
+                    seed=k,
+                    population=request.population,
+                    iterations=request.iterations,
+                ).terms["total"]
+                for k in range(runs)
+            ]
+            mean = sum(costs) / len(costs)
+            sd = math.sqrt(sum((c - mean) ** 2 for c in costs) / max(1, len(costs) - 1))
+            stats[alg] = (mean, sd)
+        ranked = sorted(PLAN_ALGORITHMS, key=lambda a: stats[a][0])
+        for alg in PLAN_ALGORITHMS:
+            mean, sd = stats[alg]
+            ranks = "/".join(str(paper_rank[t](alg) + 1) for t in P.PAPER_SEED002_TABLE2)
+            out.append((m.name, alg, "cost mean ± sd", f"{mean:.4f} ± {sd:.4f}", "-", "-"))
+            out.append(
+                (m.name, alg, "rank of the mean (1 best)", str(ranked.index(alg) + 1), ranks, "-")
+            )
+    return out
+
+
 BENCHES: dict[str, Bench] = {
     b.name: b
     for b in (
@@ -183,6 +247,13 @@ BENCHES: dict[str, Bench] = {
             optimizers=("pso",),
         ),
         Bench(
+            "seed002-table2",
+            "seed 002 Table 2 (planners' cost over 10 runs; the paper's ranks on Daklak/Dakrong/LangCo)",
+            (),
+            lambda rows: [],
+            plans=_seed002,
+        ),
+        Bench(
             "seed001-scenarios",
             "seed 001's three scenarios (CTGA beside PSO-CA)",
             ("seed001-scenarios.yaml",),
@@ -192,7 +263,6 @@ BENCHES: dict[str, Bench] = {
 }
 # named by the issues, not built yet
 COMING = {
-    "seed002-table2": "planning, not replays: python benchmarks/bench_plan.py meanwhile",
     "seed004-table3": "arrives with the FGA avoider (seed 004)",
     "seed004-table4": "arrives with the FGA avoider (seed 004)",
     "seed003-uncharted": "arrives with the priority loop (seed 003)",

@@ -55,3 +55,27 @@ def paper_sr_pso(count: int) -> str:
 # Seed 001 (CTGA) §4: in each of its three scenarios the aircraft passes the obstacles at about
 # the safety distance R_safe = 100 m (its figures; no table)
 PAPER_SEED001_SEPARATION_M = 100.0
+
+# Seed 002 Table 2: cost mean and standard deviation over 10 runs per algorithm on the paper's
+# three terrains (Vietnamese DEMs we do not have): GA, PSO, "PSO in [8]" (adaptive parameters:
+# our apso) and the improved PSO with adaptive mutation (our ampso)
+PAPER_SEED002_TABLE2: dict[str, dict[str, tuple[float, float]]] = {
+    "Daklak": {
+        "ga": (0.3381, 0.0007),
+        "pso": (0.3562, 0.0012),
+        "apso": (0.3363, 0.0001),
+        "ampso": (0.3366, 0.0001),
+    },
+    "Dakrong": {
+        "ga": (1.5707, 3.4002),
+        "pso": (1.3245, 2.2532),
+        "apso": (0.7547, 1.1049),
+        "ampso": (0.4527, 1.0193),
+    },
+    "LangCo": {
+        "ga": (0.3856, 0.0015),
+        "pso": (0.3964, 0.0021),
+        "apso": (0.3548, 0.0002),
+        "ampso": (0.3546, 0.0002),
+    },
+}

@@ -83,7 +83,9 @@ def bench_cmd(
     store_path = Path(store) if store else Path("build") / "bench" / f"{name}.sqlite"
     store_path.parent.mkdir(parents=True, exist_ok=True)
     command = "terrapath bench " + " ".join(shlex.quote(a) for a in sys.argv[2:])
-    rows = []
+    rows: list[dict[str, object]] = []
+    if bench.plans is not None:
+        lines = bench.plans(runs or 10)
     for path in bench.spec_paths():
         spec = load_spec(path)
         avoiders = spec.avoiders
@@ -97,7 +99,8 @@ def bench_cmd(
             spec, str(store_path), command, jobs, dask_local, scheduler, keep_mcap, mcap_dir
         )
         rows += got
-    lines = bench.lines(rows)
+    if bench.plans is None:
+        lines = bench.lines(rows)
     head = ("row", "avoider", "figure", "ours", "paper", "ours/paper")
     widths = [max(len(x[i]) for x in [head, *lines]) for i in range(6)]
     for line in [head, *lines]:

