@@ -57,7 +57,7 @@ def _mean(values: Sequence[float]) -> float | None:
 def _ratio(ours: float | None, paper: float | None) -> str:
     if ours is None or paper is None or paper == 0:
         return "-"
-    return f"{ours / paper:.3f}"
+    return f"{ours / paper:.3g}"
 
 
 def _num(v: float | None, fmt: str) -> str:
@@ -126,7 +126,7 @@ def _table4(rows: list[dict[str, Any]]) -> list[Line]:
         out.append((row, opt, "success", f["sr"], "-", "-"))
         out.append(_vs(row, opt, "path length (m)", f["length"], P.PAPER_TABLE4.get(opt), ",.0f"))
         t = P.PAPER_TABLE4_S.get(opt)
-        out.append(_vs(row, opt, "algorithm time (s/run)", f["algo_s"], t, ".2f"))
+        out.append(_vs(row, opt, "algorithm time (s/run)", f["algo_s"], t, ".3g"))
     return out
 
 
@@ -150,14 +150,14 @@ def _table6(rows: list[dict[str, Any]]) -> list[Line]:
         if opt == "pso" and row in P.PAPER_TABLE3:
             fl, alg, length = P.PAPER_TABLE3[row]
             out.append(_vs(row, opt, "flight time (min)", f["flight_min"], fl, ".1f"))
-            out.append(_vs(row, opt, "algorithm time (s/run)", f["algo_s"], alg, ".2f"))
+            out.append(_vs(row, opt, "algorithm time (s/run)", f["algo_s"], alg, ".3g"))
             out.append(_vs(row, opt, "path length (m)", f["length"], length, ",.0f"))
         t6 = P.PAPER_TABLE6.get((row, opt))
         if t6 is not None:
             plr, tc, _cs, sr = t6
             rate = f["wins"] / f["n"] if f["n"] else None
             out.append(_vs(row, opt, "PLR (ours: the flight's)", f["plr"], plr, ".3f"))
-            out.append(_vs(row, opt, "TC (s/run)", f["algo_s"], tc, ".2f"))
+            out.append(_vs(row, opt, "TC (s/run)", f["algo_s"], tc, ".3g"))
             out.append(_vs(row, opt, "SR (Table 6, rate)", rate, sr / 10, ".2f"))
     return out
 

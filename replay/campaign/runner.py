@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -136,6 +137,13 @@ def execute(
     return row
 
 
+def warm_up(run: Run) -> None:
+    """Fly the first 10 s of ``run`` in this worker process and forget it: the imports and the
+    compiled kernels (from numba's cache) are then paid once per worker, not by its first run
+    (whose decision times would carry them)."""
+    execute(replace(run, duration=10.0), "warm-up", "", "", "", "none", None)
+
+
 def _pool(runs: list[Run], args: tuple[Any, ...], jobs: int) -> Iterator[dict[str, Any]]:
     if jobs <= 1:
         for r in runs:
@@ -143,7 +151,7 @@ def _pool(runs: list[Run], args: tuple[Any, ...], jobs: int) -> Iterator[dict[st
         return
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    pool = ProcessPoolExecutor(max_workers=jobs)
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=warm_up, initargs=(runs[0],))
     try:
         futures = [pool.submit(execute, r, *args) for r in runs]
         for f in as_completed(futures):
@@ -196,6 +204,8 @@ def _dask(
     client = _dask_client(scheduler, jobs)
     try:
         from dask.distributed import as_completed
+
+        client.run(warm_up, runs[0])  # every worker there now (later ones warm on their first run)
 
         futures = [client.submit(execute, r, *args, pure=False) for r in runs]
         for f in as_completed(futures):

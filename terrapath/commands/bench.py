@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import platform
 import shlex
-import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -82,7 +81,12 @@ def bench_cmd(
     root = _root()
     store_path = Path(store) if store else Path("build") / "bench" / f"{name}.sqlite"
     store_path.parent.mkdir(parents=True, exist_ok=True)
-    command = "terrapath bench " + " ".join(shlex.quote(a) for a in sys.argv[2:])
+    given = [
+        name,
+        *(["--runs", str(runs)] if runs else []),
+        *(["--optimizers", optimizers] if optimizers else []),
+    ]
+    command = "terrapath bench " + " ".join(shlex.quote(a) for a in given)
     rows: list[dict[str, object]] = []
     if bench.plans is not None:
         lines = bench.plans(runs or 10)
