@@ -69,6 +69,11 @@ def _draw_times(page: Path, shots: Path) -> tuple[float, dict[str, float], list[
             tabs[tab] = time.perf_counter() - t
             page_.wait_for_timeout(500)
             page_.screenshot(path=str(shots / f"{tab}.png"))
+        again = browser.new_page(viewport={"width": 1400, "height": 1000})
+        t = time.perf_counter()
+        again.goto(page.resolve().as_uri())
+        again.wait_for_function(drawn, arg="scene", timeout=120_000)
+        tabs["again"] = time.perf_counter() - t
         plan = browser.new_page(viewport={"width": 1400, "height": 1000})
         t = time.perf_counter()
         plan.goto(page.resolve().as_uri() + "#map")
@@ -118,7 +123,12 @@ def main(argv: Sequence[str] | None = None) -> None:
                 ("replay with PSO-CA (s)", f"{fly:.1f}", ""),
                 ("terrapath view, write (s)", f"{t_write:.1f}", ""),
                 ("HTML size (MB)", f"{size:.1f}", "<= 25"),
-                ("headless Chromium: open to 3D scene drawn (s)", f"{first:.1f}", "< 5"),
+                (
+                    "headless Chromium just started: open to 3D scene drawn (s)",
+                    f"{first:.1f}",
+                    "< 5",
+                ),
+                ("the browser running: open to 3D scene drawn (s)", f"{tabs['again']:.1f}", "< 5"),
                 ("then the 2-D map tab drawn (s)", f"{tabs['map']:.1f}", ""),
                 ("then the time plots tab drawn (s)", f"{tabs['plots']:.1f}", ""),
                 ("open view.html#map to the map drawn (s)", f"{tabs['open on #map']:.1f}", "< 5"),

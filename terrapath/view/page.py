@@ -32,7 +32,10 @@ nav button.on { background: #1f77b4; color: white; border-color: #1f77b4; }
 """
 
 _SCRIPT = """
-const terrapathConfig = {displaylogo: false, responsive: true};
+// the 3D canvas at the screen's own resolution (plotly draws it at 2x by default: four times
+// the pixels on an ordinary screen, for nothing)
+const terrapathConfig = {displaylogo: false, responsive: true,
+  plotGlPixelRatio: Math.max(1, Math.min(2, window.devicePixelRatio || 1))};
 function terrapathDraw(name) {
   const div = document.getElementById('plot-' + name);
   if (div.dataset.drawn) { Plotly.Plots.resize(div); return; }
