@@ -453,7 +453,7 @@ def test_bench_seed001_scenarios_beside_the_paper(
     assert "not built yet: arrives with the FGA avoider" in capsys.readouterr().err
     assert main(["bench", "nope"]) == 1
     assert (
-        "no bench 'nope'; valid: seed000-table4, seed000-table6, seed001-scenarios"
+        "no bench 'nope'; valid: seed000-table4, seed000-table6, seed002-table2, seed001-scenarios"
         in capsys.readouterr().err
     )
     assert (
