@@ -84,7 +84,11 @@ def campaign_cmd(
     seed derived from the spec's seed and the run's key) and write one row per run to --store
     as it finishes. Re-running the same command flies only the missing runs; --only KEY flies
     one again and gives the same result. Ends with a summary per row of the study: success
-    rate with its Wilson 95 % interval, path-length ratio, flight time, time per decision."""
+    rate with its Wilson 95 % interval, path-length ratio, flight time, time per decision.
+
+    Exit status: 0 when every run was flown (failed flights are the study's results, counted
+    and listed as FAILED), 1 when runs raised (stored as errors); with --only, 3 when that
+    flight fails."""
     from replay.campaign.spec import load_spec
 
     s = load_spec(spec)
