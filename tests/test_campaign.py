@@ -498,3 +498,33 @@ def test_bench_seed002_table2_ranks_the_planners(
         # the paper's ranks: AMPSO first on Dakrong and LangCo, second on Daklak
         assert dict((a, p) for a, _, p in ranks)["ampso"] == "2/1/1"
     assert "| rmnp | ampso | cost mean ± sd |" in summary.read_text(encoding="utf-8")
+
+
+def test_report_plots_keep_one_colour_per_avoider(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An avoider without decisions ('none') is absent from the decision-time panel: the next
+    one keeps its own colour there."""
+    import terrain.plot
+    from replay.campaign import report
+
+    figs: list = []
+    monkeypatch.setattr(terrain.plot, "save_figure", lambda fig, out: figs.append(fig) or Path(out))
+
+    def run(avoider: str, decisions: int) -> dict:
+        m = {
+            "plr": 1.0,
+            "flight_time_s": 60.0,
+            "decisions": decisions,
+            "decision_time_mean_s": 0.001,
+        }
+        return {"status": "ok", "success": True, "metrics": m, "avoider": avoider, "row": "3"}
+
+    by_line = {("3", "a-none"): [run("a-none", 0)], ("3", "b-ctga"): [run("b-ctga", 4)]}
+    report._plot(by_line, tmp_path / "x.png", "t")
+    (fig,) = figs
+    success, _, decision, _ = fig.axes
+    colour = {c.get_label(): c.lines[0].get_color() for c in success.containers}
+    (only,) = decision.containers
+    assert only.get_label() == "b-ctga" and only.lines[0].get_color() == colour["b-ctga"]
+    assert colour["a-none"] != colour["b-ctga"]

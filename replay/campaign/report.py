@@ -119,6 +119,7 @@ def _plot(by_line: dict[tuple[str, str], list[dict[str, Any]]], out: Path, title
     axes = fig.subplots(2, 2).ravel()
     for ax, (key, label) in zip(axes, PLOTS, strict=True):
         for k, av in enumerate(avoiders):
+            colour = f"C{k % 10}"  # one colour per avoider in every panel
             pts = [(xs[r], line_of(by_line[(r, av)])) for r in rows if (r, av) in by_line]
             if not pts:
                 continue
@@ -127,7 +128,7 @@ def _plot(by_line: dict[tuple[str, str], list[dict[str, Any]]], out: Path, title
                 y = [100 * p[1]["rate"] for p in pts]
                 lo = [100 * (p[1]["rate"] - p[1]["ci"][0]) for p in pts]
                 hi = [100 * (p[1]["ci"][1] - p[1]["rate"]) for p in pts]
-                ax.errorbar(x, y, yerr=[lo, hi], marker="o", capsize=3, label=av)
+                ax.errorbar(x, y, yerr=[lo, hi], marker="o", capsize=3, label=av, color=colour)
                 ax.set_ylim(-5, 105)
             else:
                 vals = [p[1][key] for p in pts]
@@ -140,11 +141,14 @@ def _plot(by_line: dict[tuple[str, str], list[dict[str, Any]]], out: Path, title
                         marker="o",
                         capsize=3,
                         label=av,
+                        color=colour,
                     )
         ax.set_title(label, fontsize=10)
         ax.set_xlabel("obstacles" if numeric else "scenario")
         if not numeric:
             ax.set_xticks(range(len(rows)), rows, rotation=20, fontsize=8)
+        elif len(rows) <= 12:
+            ax.set_xticks([xs[r] for r in rows])
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.suptitle(title)
