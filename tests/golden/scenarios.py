@@ -20,7 +20,7 @@ from typing import Any
 from planner.pipeline import PlanRequest, Prepared, build_problem
 from planner.plan import plan
 from planner.problem import PlanningProblem
-from planner.reference import REFERENCE_MAPS
+from planner.reference import REFERENCE_MAPS, ReferenceMap
 from replay.vehicle.presets import load_vehicle
 
 GOLDEN = Path(__file__).resolve().parent / "plans.json"
@@ -30,15 +30,8 @@ VEHICLE = "aerosonde"
 
 
 @dataclass(frozen=True)
-class MapScenario:
-    name: str
-    dem: Path
-    start: tuple[float, float]  # lon, lat
-    goal: tuple[float, float]
-    zones: tuple[tuple[float, float, float], ...]  # lon, lat, diameter
-
-    def available(self) -> bool:
-        return self.dem.is_file()
+class MapScenario(ReferenceMap):
+    """A reference map (``planner.reference``) planned as ``terrapath plan`` does."""
 
     def request(self, algorithm: str = "ampso") -> PlanRequest:
         return PlanRequest(
