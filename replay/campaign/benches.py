@@ -57,7 +57,8 @@ def _mean(values: Sequence[float]) -> float | None:
 def _ratio(ours: float | None, paper: float | None) -> str:
     if ours is None or paper is None or paper == 0:
         return "-"
-    return f"{ours / paper:.3g}"
+    r = ours / paper
+    return f"{r:.3f}" if 0.01 <= abs(r) < 100 else f"{r:.3g}"  # 0.999, not 1; 0.000179, not 0.000
 
 
 def _num(v: float | None, fmt: str) -> str:

@@ -88,8 +88,10 @@ def bench_cmd(
     ]
     command = "terrapath bench " + " ".join(shlex.quote(a) for a in given)
     rows: list[dict[str, object]] = []
+    flown = 0  # runs flown by this call: only then is there a new measurement for RESULTS.md
     if bench.plans is not None:
         lines = bench.plans(runs or 10)
+        flown = 1
     for path in bench.spec_paths():
         spec = load_spec(path)
         avoiders = spec.avoiders
@@ -99,10 +101,11 @@ def bench_cmd(
                 known = sorted({optimizer_of(a.label) for a in spec.avoiders})
                 raise InputError(f"--optimizers {optimizers!r}: none of {', '.join(known)}")
         spec = spec.narrowed(runs=runs, avoiders=avoiders)
-        got, _ = fly(
+        got, now = fly(
             spec, str(store_path), command, jobs, dask_local, scheduler, keep_mcap, mcap_dir
         )
         rows += got
+        flown += len(now)
     if bench.plans is None:
         lines = bench.lines(rows)
     head = ("row", "avoider", "figure", "ours", "paper", "ours/paper")
@@ -125,7 +128,7 @@ def bench_cmd(
     update_summary(target, bench, section)
     click.echo(f"wrote the table into {target}")
     log = bench_dir / "RESULTS.md"
-    if summary is None and log.exists():
+    if summary is None and log.exists() and flown:
         with log.open("a", encoding="utf-8") as f:
             f.write("\n" + section.replace(f"## {bench.name}:", f"## bench {bench.name}:", 1))
     return errors_status(rows)
