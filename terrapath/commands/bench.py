@@ -101,11 +101,11 @@ def bench_cmd(
                 known = sorted({optimizer_of(a.label) for a in spec.avoiders})
                 raise InputError(f"--optimizers {optimizers!r}: none of {', '.join(known)}")
         spec = spec.narrowed(runs=runs, avoiders=avoiders)
-        got, now = fly(
+        got, fresh = fly(
             spec, str(store_path), command, jobs, dask_local, scheduler, keep_mcap, mcap_dir
         )
         rows += got
-        flown += len(now)
+        flown += len(fresh)
     if bench.plans is None:
         lines = bench.lines(rows)
     head = ("row", "avoider", "figure", "ours", "paper", "ours/paper")
