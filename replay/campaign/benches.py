@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from replay.campaign import papers as P
+from replay.campaign.report import mean_sd, row_order
 
 HERE = Path(__file__).resolve().parent / "benches"
 Line = tuple[str, str, str, str, str, str]  # row, avoider, figure, ours, paper, ratio
@@ -49,9 +50,9 @@ class Bench:
         return [HERE / s for s in self.specs]
 
 
-def _mean(values: Sequence[float]) -> float | None:
-    vals = [v for v in values if v is not None and math.isfinite(v)]
-    return sum(vals) / len(vals) if vals else None
+def _mean(values: Sequence[float | None]) -> float | None:
+    ms = mean_sd(values)
+    return None if ms is None else ms[0]
 
 
 def _ratio(ours: float | None, paper: float | None) -> str:
@@ -131,17 +132,12 @@ def _table4(rows: list[dict[str, Any]]) -> list[Line]:
     return out
 
 
-def _row_key(label: str) -> tuple[int, str]:
-    head = label.split(" ", 1)[0]
-    return (int(head) if head.isdigit() else 10**9, label)
-
-
 def _table6(rows: list[dict[str, Any]]) -> list[Line]:
     out: list[Line] = []
 
     def order(item: tuple[tuple[str, str], Any]) -> tuple[bool, str, tuple[int, str]]:
         (row, av), _ = item
-        return (optimizer_of(av) != "pso", optimizer_of(av), _row_key(row))
+        return (optimizer_of(av) != "pso", optimizer_of(av), row_order(row))
 
     for (row, av), runs in sorted(_groups(rows).items(), key=order):
         f = _figures(runs)

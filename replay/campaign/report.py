@@ -30,7 +30,8 @@ PLOTS = (
 )
 
 
-def _mean_sd(values: Sequence[float]) -> tuple[float, float] | None:
+def mean_sd(values: Sequence[float | None]) -> tuple[float, float] | None:
+    """Mean and sample standard deviation of the finite values (None when there are none)."""
     vals = [v for v in values if v is not None and math.isfinite(v)]
     if not vals:
         return None
@@ -52,19 +53,19 @@ def line_of(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "finished": len(ok),
         "rate": len(wins) / len(ok) if ok else math.nan,
         "ci": (lo, hi),
-        "plr": _mean_sd([r["metrics"]["plr"] for r in wins]),
-        "flight_min": _mean_sd(
+        "plr": mean_sd([r["metrics"]["plr"] for r in wins]),
+        "flight_min": mean_sd(
             [m["flight_time_s"] / 60.0 for m in met if m.get("flight_time_s") is not None]
         ),
-        "decision_ms": _mean_sd(
+        "decision_ms": mean_sd(
             [
                 1000.0 * m["decision_time_mean_s"]
                 for m in met
                 if m.get("decisions") and m.get("decision_time_mean_s") is not None
             ]
         ),
-        "decisions": _mean_sd([float(m.get("decisions") or 0) for m in met]),
-        "added": _mean_sd([float(m.get("waypoints_added") or 0) for m in met]),
+        "decisions": mean_sd([float(m.get("decisions") or 0) for m in met]),
+        "added": mean_sd([float(m.get("waypoints_added") or 0) for m in met]),
     }
 
 
@@ -74,8 +75,11 @@ def _fmt(v: tuple[float, float] | None, digits: int = 2) -> str:
     return f"{v[0]:.{digits}f} ± {v[1]:.{digits}f}"
 
 
-def _row_order(label: str) -> tuple[int, str]:
-    return (int(label), "") if label.isdigit() else (10**9, label)
+def row_order(label: str) -> tuple[int, str]:
+    """Rows of a study in order: by their leading count ("40", "40 + 1 hill"), then the rest
+    (threat files) by name."""
+    head = label.split(" ", 1)[0]
+    return (int(head) if head.isdigit() else 10**9, label)
 
 
 def groups(
@@ -94,7 +98,7 @@ def table_lines(by_line: dict[tuple[str, str], list[dict[str, Any]]]) -> list[st
     head = "| row | avoider | runs | success | 95 % CI | PLR | flight (min) | decision (ms) | decisions | waypoints added | errors |"
     out = [head, "|---|---|---:|---:|---|---|---|---|---|---|---:|"]
     for (row, avoider), runs in sorted(
-        by_line.items(), key=lambda kv: (_row_order(kv[0][0]), kv[0][1])
+        by_line.items(), key=lambda kv: (row_order(kv[0][0]), kv[0][1])
     ):
         f = line_of(runs)
         lo, hi = f["ci"]
@@ -111,7 +115,7 @@ def _plot(by_line: dict[tuple[str, str], list[dict[str, Any]]], out: Path, title
     """Four panels against the row, one line per avoider."""
     from terrain.plot import new_figure, save_figure
 
-    rows = sorted({row for row, _ in by_line}, key=_row_order)
+    rows = sorted({row for row, _ in by_line}, key=row_order)
     avoiders = sorted({av for _, av in by_line})
     numeric = all(r.isdigit() for r in rows)
     xs = {r: (int(r) if numeric else i) for i, r in enumerate(rows)}
@@ -206,4 +210,4 @@ def write_report(rows: list[dict[str, Any]], folder: str | Path, store_name: str
     return path
 
 
-__all__ = ["line_of", "table_lines", "write_report"]
+__all__ = ["line_of", "mean_sd", "row_order", "table_lines", "write_report"]

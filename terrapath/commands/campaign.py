@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 import shlex
-import sys
 import time
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -192,9 +191,10 @@ def fly(
 
 
 def summary_lines(rows: list[dict[str, Any]]) -> list[str]:
-    """A table per row of the study: runs, successes with their Wilson 95 % interval, and the
-    mean PLR, flight time and time per decision of its finished runs."""
-    from replay.campaign.runner import wilson
+    """A table per row of the study (``report.line_of``, as ``terrapath report`` tabulates it):
+    runs, successes with their Wilson 95 % interval, the mean PLR of the successful runs, the
+    mean flight time and time per decision of its finished runs."""
+    from replay.campaign.report import line_of, row_order
 
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for r in rows:
@@ -204,26 +204,28 @@ def summary_lines(rows: list[dict[str, Any]]) -> list[str]:
         *("PLR", "flight", "decision", "errors"),
     )
     table = [head]
-    for (mission, row, avoider), rs in sorted(groups.items(), key=lambda kv: _order(kv[0])):
-        ok = [r for r in rs if r["status"] == "ok"]
-        wins = sum(bool(r["success"]) for r in ok)
-        lo, hi = wilson(wins, len(ok))
-        plr = _mean(r["metrics"].get("plr") for r in ok)
-        flight = _mean(r["metrics"].get("flight_time_s") for r in ok)
-        dec = _mean(
-            r["metrics"].get("decision_time_mean_s") for r in ok if r["metrics"].get("decisions")
-        )
+
+    def order(kv: tuple[tuple[str, str, str], Any]) -> tuple[str, tuple[int, str], str]:
+        mission, row, avoider = kv[0]
+        return (mission, row_order(row), avoider)
+
+    for (mission, row, avoider), rs in sorted(groups.items(), key=order):
+        f = line_of(rs)
+        lo, hi = f["ci"]
+        plr, flight, dec = f["plr"], f["flight_min"], f["decision_ms"]
         table.append(
             (
                 mission,
                 row,
                 avoider,
-                str(len(rs)),
-                f"{wins}/{len(ok)} ({100 * lo:.0f}-{100 * hi:.0f} %)" if ok else "-",
-                f"{plr:.3f}" if plr is not None else "-",
-                duration(flight) if flight is not None else "-",
-                f"{1000 * dec:.2f} ms" if dec is not None else "-",
-                str(len(rs) - len(ok)),
+                str(f["runs"]),
+                f"{f['successes']}/{f['finished']} ({100 * lo:.0f}-{100 * hi:.0f} %)"
+                if f["finished"]
+                else "-",
+                f"{plr[0]:.3f}" if plr is not None else "-",
+                duration(60.0 * flight[0]) if flight is not None else "-",
+                f"{dec[0]:.2f} ms" if dec is not None else "-",
+                str(f["errors"]),
             )
         )
     widths = [max(len(t[i]) for t in table) for i in range(len(head))]
@@ -239,13 +241,3 @@ def _outcome(row: dict[str, Any]) -> str:
     entered = sorted({v["threat"] for v in row["metrics"].get("violations", [])})
     why = f"entered {', '.join(entered)}" if entered else row["end_reason"]
     return f"FAILED ({why})"
-
-
-def _order(key: tuple[str, str, str]) -> tuple[str, int, str, str]:
-    mission, row, avoider = key
-    return (mission, int(row) if row.isdigit() else sys.maxsize, row, avoider)
-
-
-def _mean(values: Any) -> float | None:
-    vals = [float(v) for v in values if v is not None]
-    return sum(vals) / len(vals) if vals else None
