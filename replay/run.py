@@ -38,7 +38,7 @@ class ReplayRequest:
     an earlier run's ``.mcap``; ``threats`` a threat file or threats built in memory (recorded in
     the MCAP as a threat file); ``avoid_options`` are the avoider's keyword options."""
 
-    source: str
+    source: str | Mission  # a mission file, a run (.mcap), or a mission built in memory
     threats: str | ThreatSet | None = None
     avoid: str = "none"
     avoid_options: dict[str, Any] = field(default_factory=dict)
@@ -81,10 +81,14 @@ class PreparedReplay:
 def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     """Read and check everything a replay needs (nothing is written)."""
     r = request
-    mission, old_run = load_source(r.source)
+    if isinstance(r.source, Mission):
+        mission, old_run, source = r.source, None, f"mission {r.source.name!r}"
+    else:
+        mission, old_run = load_source(r.source)
+        source = r.source
     mission = _terrain(mission, r.dem)
     grid = mission.terrain.load() if mission.terrain is not None else None
-    params, vehicle_file = _vehicle(r.vehicle, mission, r.source, old_run)
+    params, vehicle_file = _vehicle(r.vehicle, mission, source, old_run)
     avoider = make_avoider(r.avoid, **r.avoid_options)
     threat_text: str | None = None
     old_threats = old_run.attachments.get("threats.yaml") if old_run is not None else None
@@ -97,7 +101,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         threat_text = Path(r.threats).read_text(encoding="utf-8")
     elif old_threats is not None:
         threat_text = old_threats.decode("utf-8")
-        threats = recorded_threats(threat_text, r.source, grid)
+        threats = recorded_threats(threat_text, source, grid)
     else:
         threats = ThreatSet(())
     following = r.terrain_following
@@ -119,7 +123,11 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         margin=r.margin,
         temperature_offset=r.temperature_offset,
     )
-    planned = estimated_flight_time(mission.waypoints, config.airspeed or mission.cruise_speed)
+    speed = config.airspeed or mission.cruise_speed
+    check = getattr(avoider, "check_vehicle", None)
+    if check is not None:  # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes
+        check(params, float(speed))
+    planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config)
     warnings = tuple(threats.warn_after(planned))
     return PreparedReplay(

@@ -38,6 +38,11 @@ AVOIDERS: dict[str, AvoiderEntry] = {
         "CtgaAvoider",
         "seed 001: circular arcs round convex obstacles, flown in the aircraft's orbit mode",
     ),
+    "fga": AvoiderEntry(
+        "replay.avoidance.fga",
+        "FgaAvoider",
+        "seed 004: collision cones and a critical start time, heading or pitch manoeuvre",
+    ),
 }
 
 

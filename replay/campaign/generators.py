@@ -158,7 +158,7 @@ def intruder_records(
 
 THREAT_KEYS = (
     *("id", "kind", "position", "velocity", "radius", "points"),
-    *("appears_at", "disappears_at"),
+    *("appears_at", "disappears_at", "center", "top", "bottom"),
 )
 
 

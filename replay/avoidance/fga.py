@@ -1,0 +1,1094 @@
+"""FGA: the flexible geometric avoider with a critical start time (seed 004, Lin, Castano & Xu),
+``--avoid fga``.
+
+Map frame throughout: x east, y north, z up (m); courses clockwise from north (rad).  The
+aircraft flies FGA's manoeuvres with its own closed-loop course and altitude holds
+(:class:`~replay.guidance.HoldCourse`), so every turn is the 6-DOF aircraft's, at its bank limit
+at most, and every climb within its climb-rate limits.
+
+**Obstacles and the protected volume (§II-B, Table I).**  Each obstacle is read from
+:mod:`replay.perception` once per scan and dead-reckoned at every decision: a centre, a
+velocity, a horizontal size ``a`` and a vertical extent ``[bottom, top]``.  With the cooperative
+sensor (the paper's "perfect sensor", §II-C (3)) the size is the reported one: a cylinder
+(reported at its top-face centre, ``top`` = its z) stands on the ground (``bottom = -inf``); a
+sphere, an intruder or a convex body (``top`` above its centre) reaches as far below its centre
+as above.  With the radar: a stationary body is the circle of its returns plus ``point_radius``
+for point returns, its top unknown (never flown over); a track has ``moving_radius``.  The paper
+protects a sphere of radius ``d_m`` and manoeuvres in two planes with separate horizontal and
+vertical separations ``d_m,h`` and ``d_m,v`` (§III-B1): the protected volume here is their
+product, the vertical cylinder of radius ``a + d_m`` from ``bottom - d_m`` to ``top + d_m`` -- for
+a cylinder the exact ``d_m``-neighbourhood (without its rounded edges), for a sphere a volume
+that contains its protected sphere, so keeping out of it keeps every separation >= ``d_m``.
+
+**Collision cones (eq 1).**  The horizontal cone of an obstacle at range ``r`` has the exact
+tangent half-angle ``asin(a_k / r)`` (``a_k`` the keep radius below; eq 1's ``atan`` and step 8's
+``d_m / r`` are its small-angle forms).  The relative velocity is the aircraft's with respect to
+the obstacle, ``V_r = V_u - V_a`` (the paper prints ``V_a - V_u``, with which every closing
+threat gets ``t_c < 0``), against the line of sight aircraft -> obstacle ``r``: ``r cos theta``
+is the along-track distance to the closest point of approach, ``r |sin theta|`` the miss
+distance.  A *conflict* is a future time (within ``horizon_s``) at which the aircraft is inside
+the horizontal cylinder *and* inside the vertical interval (the vertical cone's edges are the
+interval's ends): both 2-D cones contain the relative motion over a common window.  Obstacles
+are looked at within the surveillance radius ``R`` (``surveillance_m``, 300 m, Table II); one
+already inside its protected volume when first seen is recorded "already violated" and escaped
+from (the free heading that opens the separation fastest), never raised.
+
+**Hysteresis.**  A conflict is called against the keep radius ``a + d_m + buffer_m`` (and
+``buffer_m`` above and below); the manoeuvres steer to ``a + d_m + 2 buffer_m``: once on that
+edge the aircraft is outside the calling threshold, so holding the new heading does not call the
+same conflict again (chattering).  ``buffer_m`` (3 m) absorbs the controller's tracking error.
+
+**Classification (§III-A).**  Single or multiple by the number of obstacles in conflict, static
+or dynamic by their speed (> 0.5 m/s: dynamic); recorded with each decision.  The geometry is
+the same for both: a static obstacle's tangent course is the closed form ``LOS +- asin(a_k/r)``,
+a moving one's the root of a quadratic (:func:`tangent_course`).
+
+**Heading or pitch (§III-B1).**  The paper names a cost but gives no formula.  Here the cost of
+a manoeuvre is the time it needs to bring the relative motion out of the protected volume at
+the aircraft's limits:
+
+- heading: ``t_res + |Delta psi| / psi_dot_max``, ``Delta psi`` the smallest course change to a
+  course outside the union of the horizontal cones of every obstacle within ``R``
+  (candidates: each cone's two tangent courses, and a 5 deg fan when none is free), ``psi_dot_max
+  = g tan(bank_max) / V``;
+- pitch: ``t_res + Delta h / |c - w|``, ``Delta h`` the height to gain (or lose) to be
+  ``buffer_m`` clear of the vertical interval of every conflicting obstacle over its horizontal
+  window, ``c`` the autopilot's climb (descent) limit, ``w`` the obstacle's vertical speed --
+  feasible only when it is done before the first horizontal entry, the course unchanged stays
+  outside the other obstacles' volumes, and (descending) the aircraft stays ``floor_m`` above the
+  ground.
+
+The cheaper feasible one is flown (ties: heading).  Pitch wins where the vertical offset is
+already most of the way there (Table VIII cases 5 and 6): an obstacle above is passed *below*
+(pitch down), one below *above* -- the paper's "pitch up" for obstacles above (case 6) would
+climb through their altitude.
+
+**Critical start time (eqs 7-9).**  For the heading manoeuvre ``t_ci = (r cos theta - rho -
+(a_k - r |sin theta|)) / |V_r|`` in the horizontal plane (eq 7 with ``a_k`` for ``d_m``: an
+obstacle with extent is kept ``d_m`` from its surface), ``rho`` the aircraft's minimum turn
+radius ``V^2 / (g tan bank_max)``; for the pitch manoeuvre the latest start from which a climb
+(descent) at the limit clears the interval by the first horizontal entry.  ``t_k = t_c - t_res``
+(eq 8); with several obstacles ``t_c = min t_ci`` (eq 9).  ``t_res`` is not given by the paper:
+measured on the 6-DOF ``seed004-uas`` (:func:`measure_turn`, ``tests/test_fga.py``) a course
+step of 30 to 170 deg takes 0.34-0.51 s longer than an ideal vehicle turning at
+``psi_dot_max`` from the start (roll-in); the default is 0.5 s.  While ``t_k`` is more than one
+decision period away FGA waits on the mission (recording the plan once); at ``t_k`` it starts.
+
+**Urgent and not urgent (step 5).**  When it starts, the obstacles with ``t_ki <= period`` (one
+decision period, 0.1 s) are ``M1``, the rest ``M2``.  The manoeuvre is chosen for ``M1`` and
+must not enter the volume of any obstacle within ``R`` (``M2`` included): a course outside the
+union of all cones; only when none exists is ``M1`` resolved alone (``M2`` is met again on the
+next decisions: steps 1-5 repeat at every decision).
+
+**Steering and holding (steps 6-9).**  Heading: the course on the chosen side's cone edge is
+re-computed every decision (the edge moves while the aircraft turns) until the aircraft flies it
+(``|theta_t - theta_dm| < 0.01`` rad, step 8, checked as the course error); it is then *held*:
+on a straight relative path the miss distance does not change.  Pitch: the course is kept and
+the altitude commanded ``buffer_m`` beyond the interval.  The manoeuvre ends when every obstacle
+it was for has passed its closest point of approach (range rate > 0) and the way back is clear:
+the direct leg to the return waypoint is outside every volume within ``R`` for ``horizon_s``,
+and so is every course the turn onto it sweeps.  Then the aircraft flies direct to the nearest
+reachable waypoint ahead on the original path (step 9): the first from the one it was flying to
+that lies beyond twice the turn radius and whose direct leg is clear.  Until then it holds (it
+never turns back as soon as the predicted miss exceeds ``d_m``).
+
+**Period.**  FGA decides at 10 Hz (``period`` 0.1 s), the flight stack's avoider period, not at
+the sensor's 1 Hz: at 40 m/s of closing speed a second is more than ``d_m``; between scans each
+obstacle is dead-reckoned.
+
+**Bad input.**  ``d_m <= 0``, ``R <= d_m``, a vehicle whose minimum turn radius exceeds ``d_m``
+by more than ``turn_slack`` (10 %) -- the error names both numbers (:meth:`FgaAvoider.
+check_vehicle`, called before the flight).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from planner.optim.base import require_real
+from replay.avoidance.base import AvoidanceContext
+from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
+from replay.perception import Perception, PerceptionConfig, PerceptionState
+from replay.vehicle.params import G
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+
+DYNAMIC_MPS = 0.5  # an obstacle faster than this is dynamic (§III-A)
+CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
+FAN_DEG = 5.0  # the course fan searched when no cone edge is free
+CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
+RETURN_SWEEP = 8  # courses checked along the turn back onto the mission
+
+
+def wrap(a: float) -> float:
+    """``a`` wrapped to [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@dataclass(frozen=True)
+class FgaObstacle:
+    """One obstacle as FGA sees it: ``center`` (x, y, z: a sphere's centre, a cylinder's top
+    face), ``velocity`` (3), horizontal size ``radius`` and vertical extent ``bottom``..``top``."""
+
+    key: str
+    center: tuple[float, float, float]
+    velocity: tuple[float, float, float]
+    radius: float
+    bottom: float
+    top: float
+
+    @property
+    def moving(self) -> bool:
+        return math.hypot(*self.velocity) > DYNAMIC_MPS
+
+    def at(self, dt: float) -> FgaObstacle:
+        """The obstacle ``dt`` seconds later (constant velocity)."""
+        if dt == 0.0 or not self.moving:
+            return self
+        vx, vy, vz = self.velocity
+        x, y, z = self.center
+        return FgaObstacle(
+            self.key,
+            (x + vx * dt, y + vy * dt, z + vz * dt),
+            self.velocity,
+            self.radius,
+            self.bottom + vz * dt,
+            self.top + vz * dt,
+        )
+
+
+def cone_half_angle(distance: float, keep: float) -> float:
+    """Eq 1 with the exact tangent: ``asin(keep / distance)`` (pi/2 inside)."""
+    if distance <= keep:
+        return 0.5 * math.pi
+    return math.asin(keep / distance)
+
+
+@dataclass(frozen=True)
+class Encounter:
+    """One obstacle against one own velocity (module docstring): the relative geometry in the
+    horizontal plane, the conflict window, and eq 7's critical time."""
+
+    obstacle: FgaObstacle
+    distance: float  # horizontal range r
+    along: float  # r cos theta: along-track distance to the CPA (> 0: ahead)
+    miss: float  # r |sin theta|
+    closing: float  # |V_r| horizontal
+    range_rate: float  # d|r|/dt (3-D), < 0 closing
+    window: tuple[float, float] | None  # times (from now) inside the protected volume
+    inside: bool  # inside the protected volume now
+    t_c: float  # eq 7 (inf: no conflict)
+
+
+def _interval_1d(x0: float, rate: float, lo: float, hi: float) -> tuple[float, float] | None:
+    """Times at which ``x0 + rate t`` lies in (lo, hi)."""
+    if abs(rate) < 1e-9:
+        return (-math.inf, math.inf) if lo < x0 < hi else None
+    a, b = (lo - x0) / rate, (hi - x0) / rate
+    return (min(a, b), max(a, b))
+
+
+def _interval_disk(px: float, py: float, wx: float, wy: float, keep: float):  # type: ignore[no-untyped-def]
+    """Times at which the aircraft, at ``-p`` from the obstacle moving at ``w`` relative to it,
+    is within ``keep`` horizontally."""
+    a = wx * wx + wy * wy
+    c = px * px + py * py - keep * keep
+    if a < 1e-12:
+        return (-math.inf, math.inf) if c < 0.0 else None
+    b = -2.0 * (px * wx + py * wy)
+    disc = b * b - 4.0 * a * c
+    if disc <= 0.0:
+        return None
+    s = math.sqrt(disc)
+    return ((-b - s) / (2.0 * a), (-b + s) / (2.0 * a))
+
+
+def encounter(
+    position: npt.ArrayLike,
+    velocity: npt.ArrayLike,
+    obs: FgaObstacle,
+    *,
+    keep_h: float,
+    keep_v: float,
+    rho: float,
+    horizon: float,
+    speed: float | None = None,
+) -> Encounter:
+    """The encounter of an aircraft at ``position`` flying ``velocity`` with ``obs`` (both at
+    constant velocity); ``keep_h`` is added to the obstacle's radius, ``keep_v`` above its top
+    and below its bottom.  ``t_c`` is eq 7 with ``rho`` taken in the relative frame: eq 7's
+    ``rho`` is the distance flown while turning one radian at the limit, which relative to the
+    obstacle is ``rho |V_r| / V_u`` (``speed`` = ``V_u``; the same ``rho`` for a static
+    obstacle).  Plain floats: this runs for every obstacle and candidate."""
+    p = np.asarray(position, dtype=np.float64)
+    v = np.asarray(velocity, dtype=np.float64)
+    ox, oy, _oz = obs.center
+    ux, uy, uz = obs.velocity
+    px, py = ox - float(p[0]), oy - float(p[1])  # line of sight aircraft -> obstacle
+    wx, wy, wz = float(v[0]) - ux, float(v[1]) - uy, float(v[2]) - uz  # V_r = V_u - V_a
+    r = math.hypot(px, py)
+    keep = obs.radius + keep_h
+    closing = math.hypot(wx, wy)
+    if closing > 1e-9:
+        along = (px * wx + py * wy) / closing
+        miss = abs(px * wy - py * wx) / closing
+    else:
+        along, miss = 0.0, r
+    pz = obs.center[2] - float(p[2])
+    r3 = math.sqrt(r * r + pz * pz)
+    range_rate = -(px * wx + py * wy + pz * wz) / r3 if r3 > 1e-9 else 0.0
+    z = float(p[2])
+    lo, hi = obs.bottom - keep_v, obs.top + keep_v
+    inside = r < keep and lo < z < hi
+    window = None
+    h = _interval_disk(px, py, wx, wy, keep)
+    if h is not None:
+        vert = _interval_1d(z, wz, lo, hi)
+        if vert is not None:
+            start = max(h[0], vert[0], 0.0)
+            end = min(h[1], vert[1], horizon)
+            if start < end:
+                window = (start, end)
+    t_c = math.inf
+    if window is not None and closing > 1e-9:
+        v_u = closing if speed is None else speed
+        t_c = (along - rho * closing / max(v_u, 1e-9) - (keep - miss)) / closing  # eq 7
+    return Encounter(obs, r, along, miss, closing, range_rate, window, inside, t_c)
+
+
+def tangent_course(
+    position: npt.ArrayLike,
+    obs: FgaObstacle,
+    keep: float,
+    speed: float,
+    side: int,
+) -> float | None:
+    """The own course at horizontal ``speed`` that puts the relative velocity on the ``side``
+    edge of the obstacle's horizontal cone (``+1``: the obstacle passes on the aircraft's left,
+    i.e. the edge clockwise of the line of sight; ``-1``: on its right), ``keep`` the cone's
+    radius about the obstacle's centre (its radius included).  Static: ``LOS + side asin(keep /
+    r)``.  Moving at ``u``: the relative velocity is ``lambda e`` along the edge's unit vector
+    ``e``, so ``|u + lambda e| = speed``: ``lambda = -u.e + sqrt((u.e)^2 - |u|^2 + speed^2)``
+    (the larger root; None when it is not positive: the obstacle outruns the aircraft on that
+    edge)."""
+    p = np.asarray(position, dtype=np.float64)
+    px, py = obs.center[0] - float(p[0]), obs.center[1] - float(p[1])
+    r = math.hypot(px, py)
+    if r <= keep:
+        return None
+    los = math.atan2(px, py)
+    edge = los + side * math.asin(keep / r)
+    ex, ey = math.sin(edge), math.cos(edge)
+    ux, uy = obs.velocity[0], obs.velocity[1]
+    if ux == 0.0 and uy == 0.0:
+        return wrap(edge)
+    ue = ux * ex + uy * ey
+    disc = ue * ue - (ux * ux + uy * uy) + speed * speed
+    if disc < 0.0:
+        return None
+    lam = -ue + math.sqrt(disc)
+    if lam <= 1e-9:
+        return None
+    return math.atan2(ux + lam * ex, uy + lam * ey)
+
+
+@dataclass
+class _Manoeuvre:
+    plane: str  # "heading" or "pitch"
+    side: int  # heading: +1 right turn side (obstacle on the left), -1; pitch: +1 up, -1 down
+    keys: tuple[str, ...]  # the obstacles it is for
+    governing: str  # the obstacle whose cone edge is steered to
+    course: float  # commanded course
+    altitude: float | None  # pitch: the altitude commanded
+    started: float
+    held: bool = False  # heading: converged on the edge, now held
+    reason: str = ""
+
+
+@dataclass
+class _Plan:
+    plane: str
+    side: int
+    course: float
+    altitude: float | None
+    cost: float
+    t_c: float
+    governing: str
+    why: str
+    free: bool  # clear of every obstacle within R
+    costs: dict[str, float] = field(default_factory=dict)
+
+
+class FgaAvoider:
+    """Seed 004's FGA (see the module docstring)."""
+
+    name = "fga"
+    period = 0.1
+    OPTION_HELP: ClassVar[dict[str, str]] = {
+        "d_m": "minimum safe separation d_m from an obstacle's surface, m (seed 004 Table II: 30)",
+        "surveillance_m": "surveillance radius R: obstacles nearer are looked at, m (Table II: 300)",
+        "t_res": "the aircraft's response time t_res of eq 8, s (measured on seed004-uas: 0.5)",
+        "buffer_m": "calling margin; the manoeuvres steer to twice it beyond d_m, m",
+        "horizon_s": "how far ahead conflicts are predicted, s",
+        "floor_m": "lowest height above the ground a pitch-down manoeuvre may reach, m",
+        "turn_slack": "how far the minimum turn radius may exceed d_m (fraction, eq 5)",
+        "moving_radius": "radar: size of a moving obstacle that reports none, m",
+        "point_radius": "radar: size added to an obstacle seen as points without extent, m",
+        "memory_s": "obstacles not seen for this long are forgotten, s",
+    }
+
+    def __init__(
+        self,
+        *,
+        d_m: float = 30.0,
+        surveillance_m: float = 300.0,
+        t_res: float = 0.5,
+        buffer_m: float = 3.0,
+        horizon_s: float = 60.0,
+        floor_m: float = 30.0,
+        turn_slack: float = 0.1,
+        moving_radius: float = 5.0,
+        point_radius: float = 5.0,
+        memory_s: float = 10.0,
+    ) -> None:
+        d_m = require_real("FGA option d_m", d_m, 0.0, open_low=True)
+        surveillance_m = require_real("FGA option surveillance_m", surveillance_m, 0.0)
+        if surveillance_m <= d_m:
+            raise InputError(
+                f"FGA option surveillance_m (R = {surveillance_m:g} m) must exceed d_m "
+                f"({d_m:g} m): Table I needs R > r_c > d_m"
+            )
+        self.d_m = float(d_m)
+        self.surveillance_m = float(surveillance_m)
+        self.t_res = require_real("FGA option t_res", t_res, 0.0, 10.0)
+        self.buffer_m = require_real("FGA option buffer_m", buffer_m, 0.0, self.d_m)
+        self.horizon_s = require_real("FGA option horizon_s", horizon_s, 0.0, open_low=True)
+        self.floor_m = require_real("FGA option floor_m", floor_m, 0.0)
+        self.turn_slack = require_real("FGA option turn_slack", turn_slack, 0.0)
+        self.moving_radius = require_real("FGA option moving_radius", moving_radius, 0.0)
+        self.point_radius = require_real("FGA option point_radius", point_radius, 0.0)
+        memory_s = require_real("FGA option memory_s", memory_s, 0.0, open_low=True)
+        self._perception = Perception(PerceptionConfig(memory_s=float(memory_s)))
+        self._state: PerceptionState | None = None
+        self._obstacles: list[FgaObstacle] = []
+        self._obstacles_t = 0.0
+        self._man: _Manoeuvre | None = None
+        self._waiting: tuple[str, ...] = ()
+        self._violated: set[str] = set()
+
+    # -- set-up ----------------------------------------------------------------------------------
+    def check_vehicle(self, params: Any, speed: float) -> None:
+        """Eq 5: the minimum turn radius must not exceed ``d_m`` by more than ``turn_slack``."""
+        rho = float(params.min_turn_radius(speed))
+        if rho > self.d_m * (1.0 + self.turn_slack):
+            raise InputError(
+                f"FGA: {params.name}'s minimum turn radius at {speed:g} m/s is {rho:.1f} m, more "
+                f"than d_m = {self.d_m:g} m allows (eq 5: rho_min = d_m; turn_slack "
+                f"{self.turn_slack:g} allows {self.d_m * (1.0 + self.turn_slack):.1f} m): use a "
+                "vehicle that banks further (e.g. seed004-uas), fly slower or raise d_m"
+            )
+
+    def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
+        self._perception.reset()
+        self._state = None
+        self._obstacles = []
+        self._man = None
+        self._waiting = ()
+        self._violated = set()
+
+    # -- perception ------------------------------------------------------------------------------
+    def _observe(self, ctx: AvoidanceContext) -> list[FgaObstacle]:
+        """The obstacles now (read once per scan, dead-reckoned to ``ctx.t``)."""
+        pic = ctx.picture
+        if pic is not None and (self._state is None or pic.t > self._state.t):
+            keep = np.zeros(len(pic), dtype=bool)
+            keep[: pic.n_threat] = True  # the terrain is the autopilot's
+            self._state = self._perception.update(pic, keep=keep)
+            self._obstacles = self._read(self._state)
+            self._obstacles_t = self._state.t
+        dt = ctx.t - self._obstacles_t
+        return [o.at(dt) for o in self._obstacles]
+
+    def _read(self, st: PerceptionState) -> list[FgaObstacle]:
+        out: list[FgaObstacle] = []
+        tracks = {tr.id: tr for tr in st.tracks}
+        cooperative = st.sensor == "cooperative"
+        if cooperative:
+            for i, ident in enumerate(st.ids):
+                if st.terrain[i]:
+                    continue
+                c = st.positions[i] + 0.0
+                vel = st.velocities[i]
+                if not np.isfinite(vel).all():
+                    vel = np.zeros(3)
+                c = c + vel * (st.t - st.measured_at[i])
+                radius = float(st.radii[i]) if math.isfinite(st.radii[i]) else 0.0
+                top = float(st.tops[i]) if math.isfinite(st.tops[i]) else float(c[2])
+                # a cylinder reports its top-face centre (top == z): it stands on the ground
+                shift = top - float(st.positions[i][2])
+                bottom = float(c[2]) - shift if shift > 1e-6 else -math.inf
+                top = float(c[2]) + max(shift, 0.0)
+                out.append(
+                    FgaObstacle(
+                        ident,
+                        (float(c[0]), float(c[1]), float(c[2])),
+                        (float(vel[0]), float(vel[1]), float(vel[2])),
+                        radius,
+                        bottom,
+                        top,
+                    )
+                )
+            return out
+        for body in st.bodies:  # the radar: a circle per body, its top unknown
+            idx = body.index
+            points = not bool(st.extended[idx].all())
+            c = body.center
+            zc = float(np.mean(st.positions[idx, 2]))
+            out.append(
+                FgaObstacle(
+                    st.sources[int(idx[0])],
+                    (float(c[0]), float(c[1]), zc),
+                    (0.0, 0.0, 0.0),
+                    float(body.radius) + (self.point_radius if points else 0.0),
+                    -math.inf,
+                    math.inf,
+                )
+            )
+        for ident, tr in tracks.items():
+            pos = tr.predict(st.t)
+            r = self.moving_radius
+            out.append(
+                FgaObstacle(
+                    ident,
+                    (float(pos[0]), float(pos[1]), float(pos[2])),
+                    (float(tr.velocity[0]), float(tr.velocity[1]), float(tr.velocity[2])),
+                    r,
+                    float(pos[2]) - r,
+                    float(pos[2]) + r,
+                )
+            )
+        return out
+
+    # -- geometry helpers ----------------------------------------------------------------------
+    def _limits(self, ctx: AvoidanceContext) -> tuple[float, float, float, float]:
+        """(speed, rho, psi_dot_max, bank) of the aircraft now."""
+        speed = max(float(ctx.airspeed), 1e-3)
+        bank = math.radians(float(getattr(ctx.vehicle, "bank_max_deg", 30.0)))
+        rho = speed * speed / (G * math.tan(bank))
+        return speed, rho, G * math.tan(bank) / speed, bank
+
+    def _enc(
+        self, pos: FloatArray, vel: FloatArray, o: FgaObstacle, rho: float, extra: float = 0.0
+    ) -> Encounter:
+        keep = self.d_m + self.buffer_m + extra
+        return encounter(pos, vel, o, keep_h=keep, keep_v=keep, rho=rho, horizon=self.horizon_s)
+
+    def _critical(
+        self, pos: FloatArray, vel: FloatArray, course: float, o: FgaObstacle, rho: float
+    ) -> Encounter:
+        """The encounter with eq 7's ``t_c`` for the turn this obstacle needs: ``rho`` is the
+        distance flown while turning one radian; a turn of more than a radian onto the nearest
+        edge of the cone (a fast obstacle nearly head-on) takes proportionally longer."""
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        keep = o.radius + self.d_m + 2.0 * self.buffer_m
+        turns = [
+            abs(wrap(c - course))
+            for c in (tangent_course(pos, o, keep, horizontal, s) for s in (1, -1))
+            if c is not None
+        ]
+        need = max(1.0, min(turns, default=math.pi))
+        k = self.d_m + self.buffer_m
+        return encounter(
+            pos,
+            vel,
+            o,
+            keep_h=k,
+            keep_v=k,
+            rho=rho * need,
+            horizon=self.horizon_s,
+            speed=max(horizontal, 1e-3),
+        )
+
+    def _clear(
+        self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], rho: float
+    ) -> bool:
+        return all(self._enc(pos, vel, o, rho).window is None for o in near)
+
+    @staticmethod
+    def _velocity(course: float, horizontal: float, climb: float) -> FloatArray:
+        return np.array([horizontal * math.sin(course), horizontal * math.cos(course), climb])
+
+    def _ground(self, ctx: AvoidanceContext, pos: FloatArray) -> float:
+        terrain = ctx.terrain
+        if terrain is None:
+            return 0.0
+        try:
+            h = float(np.asarray(terrain.height_at(pos[0:1], pos[1:2])).reshape(-1)[0])
+        except Exception:  # a terrain without heights here: the floor is not lowered
+            return float(pos[2])
+        return h if math.isfinite(h) else float(pos[2])
+
+    # -- planning ------------------------------------------------------------------------------
+    def _heading_plan(
+        self,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        targets: list[Encounter],
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+        prefer: int = 0,
+    ) -> _Plan | None:
+        """The smallest course change outside the union of the cones of ``near`` (module
+        docstring); None when no course is free."""
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        keep = self.d_m + 2.0 * self.buffer_m
+        candidates: list[tuple[float, int, str]] = []
+        for e in targets + [self._enc(pos, vel, o, rho) for o in near]:
+            o = e.obstacle
+            for side in (1, -1):
+                c = tangent_course(pos, o, o.radius + keep, horizontal, side)
+                if c is not None:
+                    candidates.append((c, side, o.key))
+        free = []
+        for c, side, key in candidates:
+            v = self._velocity(c, horizontal, float(vel[2]))
+            if self._clear(pos, v, near, rho):
+                turn = wrap(c - course)
+                free.append((abs(turn) + (0.0 if prefer == 0 or side == prefer else 1e3), c, side, key))
+        if not free:
+            return None
+        _, c, side, key = min(free)
+        turn = wrap(c - course)
+        cost = self.t_res + abs(turn) / turn_rate
+        t_c = min(e.t_c for e in targets)
+        return _Plan(
+            "heading",
+            side,
+            c,
+            None,
+            cost,
+            t_c,
+            key,
+            f"steer {'right' if turn > 0 else 'left'} {abs(math.degrees(turn)):.0f} deg",
+            True,
+            {"heading_s": cost},
+        )
+
+    def _pitch_plan(
+        self,
+        ctx: AvoidanceContext,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        targets: list[Encounter],
+        near: list[FgaObstacle],
+        rho: float,
+    ) -> _Plan | None:
+        """Climb (or descend) clear of every target's vertical interval before its horizontal
+        entry, course unchanged (module docstring); None when not feasible."""
+        params = ctx.vehicle
+        up = CLIMB_MARGIN * 0.95 * float(getattr(params, "climb_rate_max", 3.0))
+        down = CLIMB_MARGIN * 0.95 * float(getattr(params, "descent_rate_max", 2.0))
+        z = float(pos[2])
+        keep = self.d_m + 2.0 * self.buffer_m
+        best: _Plan | None = None
+        for side in (1, -1):
+            rate = up if side > 0 else -down
+            need = z
+            latest = math.inf
+            ok = True
+            for e in targets:
+                o = e.obstacle
+                assert e.window is not None
+                wz = o.velocity[2]
+                enter, leave = e.window
+                h = _interval_disk(
+                    o.center[0] - float(pos[0]),
+                    o.center[1] - float(pos[1]),
+                    float(vel[0]) - o.velocity[0],
+                    float(vel[1]) - o.velocity[1],
+                    o.radius + keep,
+                )
+                if h is None:
+                    continue
+                enter, leave = max(h[0], 0.0), h[1]
+                for t in (enter, leave):
+                    goal = (o.top + keep + wz * t) if side > 0 else (o.bottom - keep + wz * t)
+                    if not math.isfinite(goal):
+                        ok = False
+                        break
+                    reach = z + rate * max(t - self.t_res, 0.0)
+                    if (side > 0 and reach < goal) or (side < 0 and reach > goal):
+                        ok = False
+                        break
+                    need = max(need, goal) if side > 0 else min(need, goal)
+                    # the latest start from which the climb at the limit still gets there
+                    vz = float(vel[2])
+                    denom = rate - vz
+                    if abs(denom) > 1e-9:
+                        latest = min(latest, (z + rate * (t - self.t_res) - goal) / denom)
+                if not ok:
+                    break
+            if not ok:
+                continue
+            if side < 0 and need - self._ground(ctx, pos) < self.floor_m:
+                continue
+            target = need + side * self.buffer_m
+            v = np.array([vel[0], vel[1], rate])
+            if not self._clear(pos, v, [o for o in near if o.key not in {e.obstacle.key for e in targets}], rho):
+                continue
+            cost = self.t_res + abs(need - z) / abs(rate)
+            plan = _Plan(
+                "pitch",
+                side,
+                course,
+                target,
+                cost,
+                latest,
+                targets[0].obstacle.key,
+                f"pitch {'up' if side > 0 else 'down'} to {target:.0f} m",
+                True,
+                {"pitch_s": cost},
+            )
+            if best is None or plan.cost < best.cost:
+                best = plan
+        return best
+
+    def _late_by(
+        self,
+        ctx: AvoidanceContext,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+    ) -> tuple[float, str] | None:
+        """Whether a heading manoeuvre started one decision period from now would come too
+        late: the turn flown kinematically -- straight for ``period + t_res``, then at the
+        aircraft's turn rate onto the course the heading plan chooses from there, then straight
+        -- passes an obstacle within ``R`` closer than ``d_m + buffer_m / 2`` (its protected
+        volume with half the margin).  Returns (the least separation, the obstacle) when it
+        does, else None."""
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        delay = self.period + self.t_res
+        start = pos + delay * np.array([vel[0], vel[1], vel[2]])
+        moved = [o.at(delay) for o in near]
+        targets = [
+            e for e in (self._enc(start, vel, o, rho) for o in moved) if e.window is not None
+        ]
+        if not targets:
+            return None
+        plan = self._heading_plan(start, vel, course, targets, moved, rho, turn_rate)
+        if plan is None:
+            return (-math.inf, targets[0].obstacle.key)
+        turn = wrap(plan.course - course)
+        t_turn = abs(turn) / turn_rate
+        ts = np.linspace(0.0, t_turn, 12)
+        psi = course + np.sign(turn) * turn_rate * ts
+        w = 1.0 / turn_rate  # heading integrated: x = V (cos psi0 - cos psi) / w ...
+        if abs(turn) > 1e-9:
+            sgn = float(np.sign(turn))
+            ax = start[0] + sgn * horizontal * w * (math.cos(course) - np.cos(psi))
+            ay = start[1] + sgn * horizontal * w * (np.sin(psi) - math.sin(course))
+        else:
+            ax = np.full(len(ts), start[0])
+            ay = np.full(len(ts), start[1])
+        tail = np.linspace(0.0, self.horizon_s, 121)[1:]
+        bx = ax[-1] + horizontal * math.sin(plan.course) * tail
+        by = ay[-1] + horizontal * math.cos(plan.course) * tail
+        t_all = delay + np.concatenate([ts, t_turn + tail])
+        px = np.concatenate([ax, bx])
+        py = np.concatenate([ay, by])
+        pz = float(pos[2]) + float(vel[2]) * t_all
+        worst: tuple[float, str] | None = None
+        limit = self.d_m + 0.5 * self.buffer_m
+        for o in near:
+            ox = o.center[0] + o.velocity[0] * t_all
+            oy = o.center[1] + o.velocity[1] * t_all
+            dh = np.hypot(px - ox, py - oy) - o.radius
+            top = o.top + o.velocity[2] * t_all
+            bottom = o.bottom + o.velocity[2] * t_all
+            dv = np.maximum(pz - top, bottom - pz)
+            sep = float(np.maximum(dh, dv).min())
+            if sep < limit and (worst is None or sep < worst[0]):
+                worst = (sep, o.key)
+        return worst
+
+    def _escape(
+        self,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        rho: float,
+    ) -> _Plan:
+        """No free course: the course of a 5 deg fan whose worst predicted separation is the
+        largest (an obstacle that outruns the aircraft, or one already inside)."""
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        best: tuple[float, float] | None = None
+        times = np.linspace(0.0, min(self.horizon_s, 30.0), 61)
+        for k in range(int(360 / FAN_DEG)):
+            c = wrap(course + math.radians(FAN_DEG * k))
+            v = self._velocity(c, horizontal, 0.0)
+            worst = math.inf
+            for o in near:
+                own = pos[None, :] + times[:, None] * v[None, :]
+                oc = np.asarray(o.center) + times[:, None] * np.asarray(o.velocity)[None, :]
+                dh = np.hypot(own[:, 0] - oc[:, 0], own[:, 1] - oc[:, 1]) - o.radius
+                top = o.top + times * o.velocity[2]
+                bottom = o.bottom + times * o.velocity[2]
+                dv = np.maximum(own[:, 2] - top, bottom - own[:, 2])
+                worst = min(worst, float(np.max(np.column_stack([dh, dv]), axis=1).min()))
+            score = worst - 1e-3 * abs(wrap(c - course))
+            if best is None or score > best[0]:
+                best = (score, c)
+        assert best is not None
+        return _Plan(
+            "heading", 0, best[1], None, math.inf, -math.inf, "", "escape: no free course", False
+        )
+
+    # -- decisions -----------------------------------------------------------------------------
+    def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        obstacles = self._observe(ctx)
+        pos = np.asarray(ctx.position, dtype=np.float64)
+        vel = np.asarray(ctx.velocity, dtype=np.float64)
+        speed, rho, turn_rate, _bank = self._limits(ctx)
+        course = float(ctx.course)
+        near = [
+            o
+            for o in obstacles
+            if math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) - o.radius
+            <= self.surveillance_m
+        ]
+        encounters = [self._critical(pos, vel, course, o, rho) for o in near]
+        violated = [
+            e
+            for e in encounters
+            if e.obstacle.key not in self._violated
+            and self._enc(pos, vel, e.obstacle, rho, -self.buffer_m).inside
+        ]
+        for e in violated:
+            self._violated.add(e.obstacle.key)
+        if self._man is not None:
+            return self._continue(ctx, self._man, pos, vel, course, near, rho, turn_rate, violated)
+        conflicts = [e for e in encounters if e.window is not None]
+        if not conflicts:
+            self._waiting = ()
+            return None
+        return self._start(ctx, pos, vel, course, near, conflicts, rho, turn_rate, violated)
+
+    def _choose(
+        self,
+        ctx: AvoidanceContext,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        targets: list[Encounter],
+        rho: float,
+        turn_rate: float,
+        prefer: int = 0,
+    ) -> _Plan:
+        heading = self._heading_plan(pos, vel, course, targets, near, rho, turn_rate, prefer)
+        pitch = self._pitch_plan(ctx, pos, vel, course, targets, near, rho)
+        plans = [p for p in (heading, pitch) if p is not None]
+        if not plans:
+            return self._escape(pos, vel, course, near, rho)
+        plan = min(plans, key=lambda p: (p.cost, p.plane != "heading"))
+        plan.costs = {**(heading.costs if heading else {}), **(pitch.costs if pitch else {})}
+        return plan
+
+    def _start(
+        self,
+        ctx: AvoidanceContext,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        conflicts: list[Encounter],
+        rho: float,
+        turn_rate: float,
+        violated: list[Encounter],
+    ) -> AvoidanceDecision | None:
+        plan = self._choose(ctx, pos, vel, course, near, conflicts, rho, turn_rate)
+        t_k = (plan.t_c if plan.plane == "pitch" else min(e.t_c for e in conflicts)) - (
+            0.0 if plan.plane == "pitch" else self.t_res
+        )
+        keys = tuple(sorted(e.obstacle.key for e in conflicts))
+        late = None
+        if t_k > self.period and not violated and plan.plane == "heading":
+            late = self._late_by(ctx, pos, vel, course, near, rho, turn_rate)
+            if late is not None:  # eq 7 assumes a sharper turn than the aircraft's: start now
+                t_k = 0.0
+        if t_k > self.period and not violated:
+            if keys == self._waiting:
+                return None
+            self._waiting = keys
+            return AvoidanceDecision(
+                None,
+                reason=f"{self._kind(conflicts)}: {plan.why} at t_c = {ctx.t + t_k:.1f} s "
+                f"(in {t_k:.1f} s)",
+                info=self._info(ctx, pos, conflicts, plan, t_k, [], near, rho, waiting=True),
+            )
+        urgent = [
+            e
+            for e in conflicts
+            if (e.t_c - self.t_res <= self.period) or e.inside or e in violated
+        ] or [min(conflicts, key=lambda e: e.t_c)]
+        later = [e for e in conflicts if e not in urgent]
+        if later and not plan.free:
+            plan = self._choose(ctx, pos, vel, course, near, urgent, rho, turn_rate)
+        self._waiting = ()
+        self._man = _Manoeuvre(
+            plan.plane,
+            plan.side,
+            tuple(e.obstacle.key for e in conflicts),
+            plan.governing,
+            plan.course,
+            plan.altitude,
+            ctx.t,
+            reason=plan.why,
+        )
+        info = self._info(ctx, pos, conflicts, plan, t_k, urgent, near, rho)
+        prefix = "already violated: " if violated else ""
+        return AvoidanceDecision(
+            self._command(self._man, ctx),
+            reason=f"{prefix}{self._kind(conflicts)}: {plan.why} (t_k {t_k:+.1f} s)",
+            info=info,
+        )
+
+    @staticmethod
+    def _kind(conflicts: list[Encounter]) -> str:
+        many = "multiple" if len(conflicts) > 1 else "single"
+        moving = "dynamic" if any(e.obstacle.moving for e in conflicts) else "static"
+        return f"{many} {moving}"
+
+    def _command(self, man: _Manoeuvre, ctx: AvoidanceContext) -> HoldCourse:
+        if man.plane == "pitch":
+            return HoldCourse(man.course, altitude=man.altitude)
+        return HoldCourse(man.course)  # the altitude mode is kept
+
+    def _continue(
+        self,
+        ctx: AvoidanceContext,
+        man: _Manoeuvre,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+        violated: list[Encounter],
+    ) -> AvoidanceDecision | None:
+        by_key = {o.key: o for o in near}
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        # the velocity the manoeuvre is flying to (the command, not the transient)
+        planned = self._velocity(man.course, horizontal, float(vel[2]))
+        others = [
+            e
+            for e in (self._enc(pos, planned, o, rho) for o in near)
+            if e.window is not None and e.obstacle.key not in man.keys
+        ]
+        if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
+            conflicts = [self._enc(pos, planned, o, rho) for o in near]
+            conflicts = [e for e in conflicts if e.window is not None or e in violated] or others
+            plan = self._choose(
+                ctx, pos, vel, course, near, conflicts, rho, turn_rate, man.side if man.plane == "heading" else 0
+            )
+            self._man = _Manoeuvre(
+                plan.plane,
+                plan.side,
+                tuple(sorted(set(man.keys) | {e.obstacle.key for e in conflicts})),
+                plan.governing,
+                plan.course,
+                plan.altitude,
+                ctx.t,
+                reason=plan.why,
+            )
+            return AvoidanceDecision(
+                self._command(self._man, ctx),
+                reason=f"{self._kind(conflicts)}: {plan.why} (new conflict)",
+                info=self._info(ctx, pos, conflicts, plan, 0.0, conflicts, near, rho),
+            )
+        if man.plane == "heading" and not man.held:
+            gov = by_key.get(man.governing)
+            err = abs(wrap(course - man.course))
+            if gov is None or err < CONVERGED_RAD:
+                man.held = True
+                return None
+            keep = gov.radius + self.d_m + 2.0 * self.buffer_m
+            c = tangent_course(pos, gov, keep, horizontal, man.side)
+            if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
+                v = self._velocity(c, horizontal, float(vel[2]))
+                if self._clear(pos, v, near, rho) or not self._clear(pos, planned, near, rho):
+                    man.course = c
+                    return AvoidanceDecision(
+                        self._command(man, ctx),
+                        reason=f"steer on the cone edge of {gov.key}",
+                        info={"obstacle": gov.key, "course_deg": math.degrees(c), "fga": "steer"},
+                    )
+            return None
+        # steps 9: the closest approach passed and the way back clear -> the mission
+        for key in man.keys:
+            o = by_key.get(key)
+            if o is not None and self._enc(pos, vel, o, rho).range_rate <= 0.0:
+                return None
+        back = self._return(ctx, pos, vel, course, near, rho)
+        if back is None:
+            return None
+        index, info = back
+        self._man = None
+        return AvoidanceDecision(
+            FollowWaypoints(ctx.waypoints, index, direct=True),
+            reason=f"avoided {', '.join(man.keys)}: direct to waypoint {index}",
+            info={"fga": "return", "waypoint": index, "duration_s": ctx.t - man.started, **info},
+        )
+
+    def _return(
+        self,
+        ctx: AvoidanceContext,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        rho: float,
+    ) -> tuple[int, dict[str, Any]] | None:
+        """The nearest reachable waypoint ahead whose direct leg (and the turn onto it) is clear
+        (module docstring), or None."""
+        w = np.asarray(ctx.waypoints, dtype=np.float64)
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        params = ctx.vehicle
+        up = 0.95 * float(getattr(params, "climb_rate_max", 3.0))
+        down = 0.95 * float(getattr(params, "descent_rate_max", 2.0))
+        for j in range(min(ctx.next_index, len(w) - 1), len(w)):
+            d = float(np.hypot(*(w[j, :2] - pos[:2])))
+            if d < 2.0 * rho and j < len(w) - 1:
+                continue
+            c = math.atan2(float(w[j, 0] - pos[0]), float(w[j, 1] - pos[1]))
+            climb = min(max(0.25 * float(w[j, 2] - pos[2]), -down), up)
+            turn = wrap(c - course)
+            ok = True
+            for k in range(RETURN_SWEEP + 1):
+                ck = course + turn * k / RETURN_SWEEP
+                if not self._clear(pos, self._velocity(ck, horizontal, climb), near, rho):
+                    ok = False
+                    break
+            if ok:
+                return j, {"course_deg": math.degrees(c)}
+            return None
+        return None
+
+    def _info(
+        self,
+        ctx: AvoidanceContext,
+        pos: FloatArray,
+        conflicts: list[Encounter],
+        plan: _Plan,
+        t_k: float,
+        urgent: list[Encounter],
+        near: list[FgaObstacle],
+        rho: float,
+        *,
+        waiting: bool = False,
+    ) -> dict[str, Any]:
+        keep = self.d_m + self.buffer_m
+        cones = []
+        for e in conflicts:
+            o = e.obstacle
+            half = cone_half_angle(e.distance, o.radius + keep)
+            los = math.atan2(o.center[0] - pos[0], o.center[1] - pos[1])
+            cones.append(
+                {
+                    "obstacle": o.key,
+                    "apex": [float(v) for v in pos],
+                    "los_deg": math.degrees(los),
+                    "half_angle_deg": math.degrees(half),
+                    "range_m": e.distance,
+                    "keep_m": o.radius + keep,
+                    "miss_m": e.miss,
+                    "t_c": e.t_c,
+                    "moving": o.moving,
+                    "window": list(e.window) if e.window else None,
+                }
+            )
+        return {
+            "fga": "wait" if waiting else "start",
+            "classification": self._kind(conflicts),
+            "manoeuvre": plan.plane,
+            "side": plan.side,
+            "why": plan.why,
+            "costs": plan.costs,
+            "t_c": ctx.t + min((e.t_c for e in conflicts), default=math.inf),
+            "t_k": ctx.t + t_k,
+            "t_res": self.t_res,
+            "rho": rho,
+            "urgent": [e.obstacle.key for e in urgent],
+            "cones": cones,
+            "course_deg": math.degrees(plan.course),
+            "altitude": plan.altitude,
+            "d_m": self.d_m,
+            "surveillance_m": self.surveillance_m,
+            "near": len(near),
+        }
+
+
+def measure_turn(
+    vehicle: str = "seed004-uas", airspeed: float = 15.0, steps_deg: tuple[float, ...] = (30, 60, 90, 135, 170)
+) -> dict[str, Any]:
+    """Fly the 6-DOF aircraft through a 180 deg course step and measure its response: the time
+    each course change in ``steps_deg`` takes beyond an ideal vehicle turning at ``psi_dot_max``
+    from the start (``t_res`` of eq 8), and the steady turn's ground radius (eq 7's ``rho``)."""
+    from replay.flightstack import FixedWingStack
+    from replay.frames import rotation_body_to_ned
+    from replay.vehicle import preset
+
+    params = preset(vehicle)
+    stack = FixedWingStack(
+        params, np.array([[0.0, 0.0, 100.0], [0.0, 10_000.0, 100.0]]), airspeed=airspeed
+    )
+    log = stack.fly(stack.initial_state(), 0.0, 10.0, record_every=1)
+    stack.apply(HoldCourse(math.pi, altitude=100.0))
+    t0 = log.t
+    log = stack.fly(log.x, log.t, 30.0, record_every=1)
+    v = np.array([rotation_body_to_ned(*s[6:9]) @ s[3:6] for s in log.states])
+    course = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
+    turned = np.abs(course - course[0])
+    rate = np.abs(np.gradient(course, log.times))
+    ideal_rate = G * math.tan(math.radians(params.bank_max_deg)) / airspeed
+    t_res = {}
+    for deg in steps_deg:
+        i = int(np.argmax(turned >= math.radians(deg)))
+        t_res[float(deg)] = float(log.times[i] - t0 - math.radians(deg) / ideal_rate)
+    steady = rate > 0.97 * rate.max()
+    ground = np.hypot(v[:, 0], v[:, 1])
+    radius = float(np.mean(ground[steady] / rate[steady]))
+    return {
+        "vehicle": vehicle,
+        "airspeed": airspeed,
+        "t_res": t_res,
+        "radius_m": radius,
+        "radius_eq3_m": params.min_turn_radius(airspeed),
+        "max_rate_deg_s": math.degrees(float(rate.max())),
+        "ideal_rate_deg_s": math.degrees(ideal_rate),
+    }
+
+
+__all__ = [
+    "Encounter",
+    "FgaAvoider",
+    "FgaObstacle",
+    "cone_half_angle",
+    "encounter",
+    "measure_turn",
+    "tangent_course",
+    "wrap",
+]
