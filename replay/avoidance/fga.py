@@ -262,6 +262,40 @@ def encounter(
     return Encounter(obs, r, along, miss, closing, range_rate, window, inside, t_c)
 
 
+def _pass_side(position: FloatArray, velocity: FloatArray, obs: FgaObstacle) -> int:
+    """+1 when the relative velocity points clockwise of the line of sight to ``obs`` (it
+    passes on the aircraft's left), -1 otherwise."""
+    px, py = obs.center[0] - float(position[0]), obs.center[1] - float(position[1])
+    wx, wy = float(velocity[0]) - obs.velocity[0], float(velocity[1]) - obs.velocity[1]
+    return 1 if wrap(math.atan2(wx, wy) - math.atan2(px, py)) >= 0.0 else -1
+
+
+def tangent_courses(
+    position: npt.ArrayLike, obs: FgaObstacle, keep: float, speed: float, side: int
+) -> list[float]:
+    """Every own course at horizontal ``speed`` that puts the relative velocity on the
+    ``side`` edge (:func:`tangent_course`): for an obstacle faster than the aircraft both
+    positive roots of the quadratic are courses (the smaller root lets it pass ahead)."""
+    p = np.asarray(position, dtype=np.float64)
+    px, py = obs.center[0] - float(p[0]), obs.center[1] - float(p[1])
+    r = math.hypot(px, py)
+    if r <= keep:
+        return []
+    edge = math.atan2(px, py) + side * math.asin(keep / r)
+    ex, ey = math.sin(edge), math.cos(edge)
+    ux, uy = obs.velocity[0], obs.velocity[1]
+    if ux == 0.0 and uy == 0.0:
+        return [wrap(edge)]
+    ue = ux * ex + uy * ey
+    disc = ue * ue - (ux * ux + uy * uy) + speed * speed
+    if disc < 0.0:
+        return []
+    root = math.sqrt(disc)
+    return [
+        math.atan2(ux + lam * ex, uy + lam * ey) for lam in (-ue + root, -ue - root) if lam > 1e-9
+    ]
+
+
 def tangent_course(
     position: npt.ArrayLike,
     obs: FgaObstacle,
@@ -544,25 +578,31 @@ class FgaAvoider:
         near: list[FgaObstacle],
         rho: float,
         turn_rate: float,
-        prefer: int = 0,
+        keep_side: tuple[FgaObstacle, int] | None = None,
     ) -> _Plan | None:
         """The smallest course change outside the union of the cones of ``near`` (module
-        docstring); None when no course is free."""
+        docstring); None when no course is free.  ``keep_side`` (an obstacle and a side): a
+        manoeuvre under way keeps passing that obstacle on the same side when it can (a course
+        that flips to the other side crosses its cone)."""
         horizontal = float(math.hypot(vel[0], vel[1]))
         keep = self.d_m + 2.0 * self.buffer_m
         candidates: list[tuple[float, int, str]] = []
-        for e in targets + [self._enc(pos, vel, o, rho) for o in near]:
-            o = e.obstacle
+        seen = {e.obstacle.key: e.obstacle for e in targets}
+        for o in near:
+            seen.setdefault(o.key, o)
+        for o in seen.values():
             for side in (1, -1):
-                c = tangent_course(pos, o, o.radius + keep, horizontal, side)
-                if c is not None:
+                for c in tangent_courses(pos, o, o.radius + keep, horizontal, side):
                     candidates.append((c, side, o.key))
         free = []
         for c, side, key in candidates:
             v = self._velocity(c, horizontal, float(vel[2]))
             if self._clear(pos, v, near, rho):
                 turn = wrap(c - course)
-                free.append((abs(turn) + (0.0 if prefer == 0 or side == prefer else 1e3), c, side, key))
+                penalty = 0.0
+                if keep_side is not None and _pass_side(pos, v, keep_side[0]) != keep_side[1]:
+                    penalty = 10.0
+                free.append((abs(turn) + penalty, c, side, key))
         if not free:
             return None
         _, c, side, key = min(free)
@@ -796,14 +836,16 @@ class FgaAvoider:
         targets: list[Encounter],
         rho: float,
         turn_rate: float,
-        prefer: int = 0,
+        keep_side: tuple[FgaObstacle, int] | None = None,
+        plane: str | None = None,
     ) -> _Plan:
-        heading = self._heading_plan(pos, vel, course, targets, near, rho, turn_rate, prefer)
+        heading = self._heading_plan(pos, vel, course, targets, near, rho, turn_rate, keep_side)
         pitch = self._pitch_plan(ctx, pos, vel, course, targets, near, rho)
         plans = [p for p in (heading, pitch) if p is not None]
         if not plans:
             return self._escape(pos, vel, course, near, rho)
-        plan = min(plans, key=lambda p: (p.cost, p.plane != "heading"))
+        # a manoeuvre under way stays in its plane while that plane has a free course
+        plan = min(plans, key=lambda p: (p.plane != plane, p.cost, p.plane != "heading"))
         plan.costs = {**(heading.costs if heading else {}), **(pitch.costs if pitch else {})}
         return plan
 
@@ -901,8 +943,13 @@ class FgaAvoider:
         if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
             conflicts = [self._enc(pos, planned, o, rho) for o in near]
             conflicts = [e for e in conflicts if e.window is not None or e in violated] or others
+            gov = by_key.get(man.governing)
+            keep_side = None
+            if man.plane == "heading" and gov is not None:
+                keep_side = (gov, _pass_side(pos, planned, gov))
+            # from the manoeuvre's own course (not the turn's transient), in its own plane first
             plan = self._choose(
-                ctx, pos, vel, course, near, conflicts, rho, turn_rate, man.side if man.plane == "heading" else 0
+                ctx, pos, planned, man.course, near, conflicts, rho, turn_rate, keep_side, man.plane
             )
             self._man = _Manoeuvre(
                 plan.plane,
@@ -926,7 +973,9 @@ class FgaAvoider:
                 man.held = True
                 return None
             keep = gov.radius + self.d_m + 2.0 * self.buffer_m
-            c = tangent_course(pos, gov, keep, horizontal, man.side)
+            # the root of the edge's quadratic nearest to the course being flown to
+            roots = tangent_courses(pos, gov, keep, horizontal, man.side)
+            c = min(roots, key=lambda r: abs(wrap(r - man.course))) if roots else None
             if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
                 v = self._velocity(c, horizontal, float(vel[2]))
                 if self._clear(pos, v, near, rho) or not self._clear(pos, planned, near, rho):
@@ -1090,5 +1139,6 @@ __all__ = [
     "encounter",
     "measure_turn",
     "tangent_course",
+    "tangent_courses",
     "wrap",
 ]

@@ -20,6 +20,11 @@ count and a random generator, each returning threat records (the entries of a th
   ymax], map metres; default the waypoints' bounding box grown by ``sigma``) at the cruise
   altitude, kept ``keep_clear`` from the start and the goal.
 
+- ``seed004-table2`` (seed 004 §II-C, Table II): a *case* generator -- each case is the
+  aircraft's leg and its 10-20 obstacles, static cylinders or moving aircraft, with the number of
+  true hazards drawn from Tables III / IV (:mod:`replay.campaign.seed004`).  A spec that uses it
+  names no mission; its rows are ``dynamic: [false, true]``, the static and the dynamic set.
+
 The obstacles of the hill and intruder rows are the ``count`` obstacles drawn first from the same
 generator state, so "40 + 1 hill" holds the 40-obstacle scenario of the same seed when the
 campaign derives both from one scenario seed.
@@ -34,6 +39,8 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+from replay.campaign.seed004 import GENERATOR_VERSION as SEED004_VERSION
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -245,15 +252,26 @@ def uniform(mission: Any, count: int, rng: np.random.Generator, p: Params) -> li
     return out
 
 
+def seed004_table2(
+    mission: Any, count: int, rng: np.random.Generator, p: Params
+) -> list[dict[str, Any]]:
+    """Seed 004's cases are whole (:mod:`replay.campaign.seed004`): never called per mission."""
+    raise TypeError("seed004-table2 makes whole cases: use replay.campaign.seed004.seed004_case")
+
+
 Generator = Callable[[Any, int, np.random.Generator, Params], list[dict[str, Any]]]
 GENERATORS: Mapping[str, Generator] = {
     "seed000-normal": seed000_normal,
     "seed000-hill": seed000_hill,
     "seed000-intruders": seed000_intruders,
     "uniform": uniform,
+    "seed004-table2": seed004_table2,
 }
+# generators that make the whole case (the aircraft's leg too), with their version
+CASE_GENERATORS: Mapping[str, int] = {"seed004-table2": SEED004_VERSION}
 
 __all__ = [
+    "CASE_GENERATORS",
     "GENERATORS",
     "THREAT_KEYS",
     "Params",

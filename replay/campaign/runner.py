@@ -46,6 +46,8 @@ def scenario(run: Run) -> Any:
     from replay.campaign.generators import GENERATORS, file_records
     from replay.threat_file import threats_from_records
 
+    if run.makes_cases:
+        raise TypeError(f"{run.generator} makes whole cases: see case()")
     if run.row.file is not None:
         return str(run.row.file)  # read by the replay, with the mission's map
     mission = _MISSIONS.get(str(run.mission))
@@ -55,6 +57,24 @@ def scenario(run: Run) -> Any:
     rng = np.random.default_rng(run.scenario_seed)
     records = GENERATORS[run.generator](mission, run.row.count, rng, run.params)
     return threats_from_records(file_records(records), name=f"{run.key} ({run.generator})")
+
+
+def case(run: Run) -> tuple[Any, Any, dict[str, Any]]:
+    """A case generator's run: (its mission, its threats, its notes), drawn from the scenario
+    seed."""
+    import numpy as np
+
+    from planner.mission import mission_from_dict
+    from replay.campaign.generators import file_records
+    from replay.campaign.seed004 import seed004_case
+    from replay.threat_file import threats_from_records
+
+    assert run.row.dynamic is not None
+    rng = np.random.default_rng(run.scenario_seed)
+    doc, records, notes = seed004_case(rng, run.row.dynamic)
+    mission = mission_from_dict(doc, f"{run.key} ({run.generator})")
+    threats = threats_from_records(file_records(records), name=f"{run.key} ({run.generator})")
+    return mission, threats, notes
 
 
 def mcap_name(run: Run) -> str:
@@ -92,9 +112,15 @@ def execute(
         "mcap": None,
     }
     try:
+        notes: dict[str, Any] | None = None
+        if run.makes_cases:
+            source, threats, notes = case(run)
+        else:
+            source, threats = str(run.mission), scenario(run)
+        extra = {} if run.sensor_range is None else {"radar_range": run.sensor_range}
         request = ReplayRequest(
-            str(run.mission),
-            threats=scenario(run),
+            source,
+            threats=threats,
             avoid=run.avoider.name,
             avoid_options=dict(run.avoider.options),
             seed=run.seed,
@@ -103,6 +129,7 @@ def execute(
             duration=run.duration,
             command=f"{command} --only '{run.key}'",
             software_version=version,
+            **extra,
         )
         out = None if keep != "all" or mcap_dir is None else str(Path(mcap_dir) / mcap_name(run))
         result = run_replay(request, out)
@@ -116,6 +143,8 @@ def execute(
         metrics["waypoint_list_length_m"] = float(
             np.linalg.norm(np.diff(wps, axis=0), axis=1).sum()
         )
+        if notes is not None:
+            metrics["case"] = notes
         row.update(
             status="ok",
             success=bool(m.success),

@@ -50,17 +50,20 @@ from typing import Any
 
 import yaml
 
-from replay.campaign.generators import GENERATORS, Params
+from replay.campaign.generators import CASE_GENERATORS, GENERATORS, Params
 from terrain.errors import DataFileError, InputError
 
 SPEC_KEYS = (
     *("terrapath", "name", "mission", "missions", "threats", "avoiders"),
-    *("sensor", "runs", "seed", "margin", "duration"),
+    *("sensor", "sensor_range", "runs", "seed", "margin", "duration"),
 )
-THREAT_KEYS = ("generator", "counts", "files", "sigma", "keep_clear", "radius", "altitude", "box")
+THREAT_KEYS = (
+    *("generator", "counts", "dynamic", "files"),
+    *("sigma", "keep_clear", "radius", "altitude", "box"),
+)
 SENSORS = ("radar", "cooperative")
 # generators named by the issues but not built yet: said so when asked for
-COMING = {"seed004-table2": "it arrives with the FGA avoider (seed 004)"}
+COMING: dict[str, str] = {}
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,7 @@ class Row:
     label: str
     count: int | None = None
     file: Path | None = None
+    dynamic: bool | None = None  # a case generator's row: its static or its dynamic set
 
 
 @dataclass(frozen=True)
@@ -101,6 +105,12 @@ class Run:
     sensor: str
     margin: float
     duration: float | None
+    sensor_range: float | None = None  # None: the replay's default
+
+    @property
+    def makes_cases(self) -> bool:
+        """The generator makes the whole case (its mission too): ``mission`` names it."""
+        return self.generator in CASE_GENERATORS
 
 
 @dataclass(frozen=True)
@@ -118,6 +128,7 @@ class Spec:
     margin: float = 0.0
     duration: float | None = None
     spec_hash: str = ""
+    sensor_range: float | None = None
     digests: dict[str, str] = field(default_factory=dict)  # file -> SHA-256 of its bytes
 
     def content_hash(self) -> str:
@@ -136,6 +147,8 @@ class Spec:
             "seed": self.seed,
             "margin": self.margin,
             "duration": self.duration,
+            **({"sensor_range": self.sensor_range} if self.sensor_range is not None else {}),
+            **({"dynamic": [r.dynamic for r in self.rows]} if self.generator in CASE_GENERATORS else {}),
         }
         return hashlib.sha256(json.dumps(canonical, sort_keys=True).encode()).hexdigest()
 
@@ -175,6 +188,10 @@ class Spec:
             "duration": self.duration,
             "seeds": [scenario, seed],
         }
+        if row.dynamic is not None:
+            identity["dynamic"] = row.dynamic
+        if self.sensor_range is not None:
+            identity["sensor_range"] = self.sensor_range
         run_hash = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
         return Run(
             key,
@@ -190,6 +207,7 @@ class Spec:
             self.sensor,
             self.margin,
             self.duration,
+            self.sensor_range,
         )
 
     def find(self, key: str) -> Run:
@@ -283,10 +301,21 @@ def load_spec(path: str | Path) -> Spec:
     name = doc.get("name")
     if not isinstance(name, str) or not name.strip():
         raise _fail(src, "name", f"expected the campaign's name, found {name!r}")
-    if ("mission" in doc) == ("missions" in doc):
-        raise InputError(f"{src}: give either 'mission' (one file) or 'missions' (a list)")
+    threats_doc = doc.get("threats")
+    gen_name = threats_doc.get("generator") if isinstance(threats_doc, dict) else None
+    cases = gen_name in CASE_GENERATORS
     missions: tuple[Path, ...]
-    if "mission" in doc:
+    if cases:
+        if "mission" in doc or "missions" in doc:
+            raise _fail(
+                src,
+                "mission",
+                f"the generator {gen_name!r} makes each case's mission: name no mission",
+            )
+        missions = (Path(str(gen_name)),)
+    elif ("mission" in doc) == ("missions" in doc):
+        raise InputError(f"{src}: give either 'mission' (one file) or 'missions' (a list)")
+    elif "mission" in doc:
         missions = (_file(src, "mission", doc["mission"]),)
     else:
         items = doc["missions"]
@@ -308,8 +337,17 @@ def load_spec(path: str | Path) -> Spec:
     duration = doc.get("duration")
     if duration is not None:
         duration = _number(src, "duration", duration, minimum=1.0)
+    sensor_range = doc.get("sensor_range")
+    if sensor_range is not None:
+        sensor_range = _number(src, "sensor_range", sensor_range, minimum=1.0)
     digests = {}
-    for f in [*missions, *(r.file for r in rows if r.file is not None)]:
+    if cases:  # the cases are the generator's: its name and version stand for the mission file
+        made = f"{gen_name} v{CASE_GENERATORS[str(gen_name)]}"
+        digests[str(missions[0])] = hashlib.sha256(made.encode()).hexdigest()
+    for f in [
+        *(m for m in missions if not cases),
+        *(r.file for r in rows if r.file is not None),
+    ]:
         digests[str(f)] = hashlib.sha256(f.read_bytes()).hexdigest()
     spec = Spec(
         src,
@@ -326,6 +364,7 @@ def load_spec(path: str | Path) -> Spec:
         duration,
         "",
         digests,
+        sensor_range,
     )
     return replace(spec, spec_hash=spec.content_hash())
 
@@ -361,6 +400,24 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
             "threats.generator",
             f"unknown generator {gen!r}{later}; valid: {', '.join(GENERATORS)}",
         )
+    if gen in CASE_GENERATORS:
+        if "counts" in doc:
+            raise _fail(
+                src, "threats.counts", f"{gen!r} draws its own obstacles: give 'dynamic' instead"
+            )
+        flags = doc.get("dynamic", [False, True])
+        if not isinstance(flags, list) or not flags or not all(isinstance(f, bool) for f in flags):
+            raise _fail(
+                src,
+                "threats.dynamic",
+                f"expected a list like [false, true] (the static and the dynamic set), found "
+                f"{flags!r}",
+            )
+        if len(set(flags)) != len(flags):
+            raise _fail(src, "threats.dynamic", f"a set is repeated: {flags}")
+        return gen, Params(), tuple(Row("dynamic" if f else "static", dynamic=f) for f in flags)
+    if "dynamic" in doc:
+        raise _fail(src, "threats.dynamic", f"only a case generator takes it, not {gen!r}")
     counts = doc.get("counts")
     if not isinstance(counts, list) or not counts:
         raise _fail(src, "threats.counts", f"expected a list of threat counts, found {counts!r}")
