@@ -32,6 +32,13 @@ class Violation:
     min_separation: float
 
 
+# the metrics measured in wall-clock time (never the same twice; everything else is)
+WALL_CLOCK_METRICS = (
+    *("decision_time_mean_s", "decision_time_max_s"),
+    *("avoider_time_s", "avoider_time_max_s"),
+)
+
+
 @dataclass(frozen=True)
 class RunMetrics:
     success: bool
@@ -53,6 +60,10 @@ class RunMetrics:
     off_map_s: float = 0.0
     unknown_terrain_s: float = 0.0
     margin_m: float = 0.0  # separations below this count as violations (0: the surface)
+    # every call of the avoider, including those that decide nothing (FGA waiting at 10 Hz)
+    avoider_calls: int = 0
+    avoider_time_s: float = 0.0
+    avoider_time_max_s: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
@@ -90,6 +101,9 @@ class MetricsTracker:
         self.violations: list[Violation] = []
         self.min_clear = (math.inf, math.nan)
         self.decision_times: list[float] = []
+        self.calls = 0
+        self.call_time = 0.0
+        self.call_max = 0.0
         self.added = 0
         self.off_map_s = 0.0
         self.unknown_s = 0.0
@@ -168,6 +182,12 @@ class MetricsTracker:
         else:
             self.inside.pop(tid, None)
 
+    def call(self, compute_s: float) -> None:
+        """One call of the avoider, whether it decided anything or not."""
+        self.calls += 1
+        self.call_time += float(compute_s)
+        self.call_max = max(self.call_max, float(compute_s))
+
     def decision(self, compute_s: float, waypoints_added: int = 0) -> None:
         self.decision_times.append(float(compute_s))
         self.added += int(waypoints_added)
@@ -203,4 +223,7 @@ class MetricsTracker:
             off_map_s=self.off_map_s,
             margin_m=self.margin,
             unknown_terrain_s=self.unknown_s,
+            avoider_calls=self.calls,
+            avoider_time_s=self.call_time,
+            avoider_time_max_s=self.call_max,
         )

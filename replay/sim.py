@@ -318,6 +318,7 @@ def simulate(
         t0 = time.perf_counter()
         decision = avoider.decide(ctx)
         compute = time.perf_counter() - t0
+        tracker.call(compute)
         if decision is not None:
             decisions.append(_apply(decision, stack, t, compute, avoider, tracker, recorder))
             if decision.end is not None:

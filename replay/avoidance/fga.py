@@ -87,7 +87,9 @@ on a straight relative path the miss distance does not change.  Pitch: the cours
 the altitude commanded ``buffer_m`` beyond the interval.  The manoeuvre ends when every obstacle
 it was for has passed its closest point of approach (range rate > 0) and the way back is clear:
 the direct leg to the return waypoint is outside every volume within ``R`` for ``horizon_s``,
-and so is every course the turn onto it sweeps.  Then the aircraft flies direct to the nearest
+and so is every course the turn onto it sweeps.  (An obstacle flying alongside, as fast on a
+parallel course, may never open the range while the manoeuvre's course is held: it counts as
+passed when the way back opens it.)  Then the aircraft flies direct to the nearest
 reachable waypoint ahead on the original path (step 9): the first from the one it was flying to
 that lies beyond twice the turn radius and whose direct leg is clear.  Until then it holds (it
 never turns back as soon as the predicted miss exceeds ``d_m``).
@@ -124,6 +126,7 @@ CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
 RETURN_SWEEP = 8  # courses checked along the turn back onto the mission
+RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
 
 
 def wrap(a: float) -> float:
@@ -986,20 +989,73 @@ class FgaAvoider:
                         info={"obstacle": gov.key, "course_deg": math.degrees(c), "fga": "steer"},
                     )
             return None
-        # steps 9: the closest approach passed and the way back clear -> the mission
-        for key in man.keys:
-            o = by_key.get(key)
-            if o is not None and self._enc(pos, vel, o, rho).range_rate <= 0.0:
-                return None
+        # step 9: the closest approach passed and the way back clear -> the mission
         back = self._return(ctx, pos, vel, course, near, rho)
         if back is None:
-            return None
+            return self._toward_return(ctx, man, pos, vel, near, rho, turn_rate)
         index, info = back
+        ahead = float(info["climb"])
+        going = self._velocity(math.radians(info["course_deg"]), horizontal, ahead)
+        for key in man.keys:
+            o = by_key.get(key)
+            # passed: the range grows -- or, flying alongside it (an obstacle as fast on a
+            # parallel course), the way back itself opens the range
+            if (
+                o is not None
+                and self._enc(pos, vel, o, rho).range_rate <= 0.0
+                and self._enc(pos, going, o, rho).range_rate <= 0.0
+            ):
+                return None
         self._man = None
         return AvoidanceDecision(
             FollowWaypoints(ctx.waypoints, index, direct=True),
             reason=f"avoided {', '.join(man.keys)}: direct to waypoint {index}",
             info={"fga": "return", "waypoint": index, "duration_s": ctx.t - man.started, **info},
+        )
+
+    def _toward_return(
+        self,
+        ctx: AvoidanceContext,
+        man: _Manoeuvre,
+        pos: FloatArray,
+        vel: FloatArray,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+    ) -> AvoidanceDecision | None:
+        """The way back is blocked (an obstacle flying alongside, across the way back): hold
+        instead the free course nearest to the way back, when it is at least ``RETURN_STEP_DEG``
+        nearer than the course held and the turn onto it is clear -- the aircraft works its way
+        back round the obstacle's cone instead of following it for ever."""
+        if man.plane != "heading" or not man.held:
+            return None
+        w = np.asarray(ctx.waypoints, dtype=np.float64)
+        j = min(ctx.next_index, len(w) - 1)
+        home = math.atan2(float(w[j, 0] - pos[0]), float(w[j, 1] - pos[1]))
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        back = self._velocity(home, horizontal, float(vel[2]))
+        blocking = [
+            e for e in (self._enc(pos, back, o, rho) for o in near) if e.window is not None
+        ]
+        if not blocking:
+            return None
+        plan = self._heading_plan(pos, back, home, blocking, near, rho, turn_rate)
+        if plan is None:
+            return None
+        gain = abs(wrap(man.course - home)) - abs(wrap(plan.course - home))
+        if gain < math.radians(RETURN_STEP_DEG):
+            return None
+        turn = wrap(plan.course - man.course)
+        for k in range(1, RETURN_SWEEP + 1):
+            ck = man.course + turn * k / RETURN_SWEEP
+            if not self._clear(pos, self._velocity(ck, horizontal, float(vel[2])), near, rho):
+                return None
+        man.course = plan.course
+        return AvoidanceDecision(
+            self._command(man, ctx),
+            reason=f"way back blocked by {', '.join(e.obstacle.key for e in blocking)}: "
+            f"{math.degrees(gain):.0f} deg nearer to it",
+            info={"fga": "toward return", "course_deg": math.degrees(plan.course)},
         )
 
     def _return(
@@ -1032,7 +1088,7 @@ class FgaAvoider:
                     ok = False
                     break
             if ok:
-                return j, {"course_deg": math.degrees(c)}
+                return j, {"course_deg": math.degrees(c), "climb": climb}
             return None
         return None
 
