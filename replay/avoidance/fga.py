@@ -51,9 +51,10 @@ the aircraft's limits:
   course outside the union of the horizontal cones of every obstacle within ``R``
   (candidates: each cone's two tangent courses, and a 5 deg fan when none is free), ``psi_dot_max
   = g tan(bank_max) / V``;
-- pitch: ``t_res + Delta h / |c - w|``, ``Delta h`` the height to gain (or lose) to be
-  ``buffer_m`` clear of the vertical interval of every conflicting obstacle over its horizontal
-  window, ``c`` the autopilot's climb (descent) limit, ``w`` the obstacle's vertical speed --
+- pitch: the time to gain (or lose) ``Delta h`` at the autopilot's climb (descent) limit ``c``,
+  its climb-rate command slewed at 1 m/s^2 (``Delta h / c + c / 2``, or ``sqrt(2 Delta h)`` for
+  a small ``Delta h``), ``Delta h`` the height that puts the aircraft ``2 buffer_m`` beyond the
+  vertical interval of every conflicting obstacle over its horizontal window --
   feasible only when it is done before the first horizontal entry, the course unchanged stays
   outside the other obstacles' volumes, and (descending) the aircraft stays ``floor_m`` above the
   ground.
@@ -113,6 +114,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.optim.base import require_real
+from replay.autopilot import LoopDesign
 from replay.avoidance.base import AvoidanceContext
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
 from replay.perception import Perception, PerceptionConfig, PerceptionState
@@ -125,8 +127,30 @@ DYNAMIC_MPS = 0.5  # an obstacle faster than this is dynamic (§III-A)
 CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
+CLIMB_SLEW = LoopDesign.climb_slew  # m/s^2: the autopilot's climb-rate command slew
 RETURN_SWEEP = 8  # courses checked along the turn back onto the mission
 RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
+
+
+def _climbed(rate: float, t: float) -> float:
+    """Height gained in ``t`` seconds by a climb-rate command ``rate`` from level flight, slewed
+    at the autopilot's ``CLIMB_SLEW`` (m/s^2)."""
+    if t <= 0.0:
+        return 0.0
+    ramp = abs(rate) / CLIMB_SLEW
+    if t <= ramp:
+        return math.copysign(0.5 * CLIMB_SLEW * t * t, rate)
+    return rate * (t - 0.5 * ramp)
+
+
+def _climb_time(rate: float, height: float) -> float:
+    """The time :func:`_climbed` takes to gain ``height`` (> 0) at ``|rate|``."""
+    r = abs(rate)
+    if r <= 0.0:
+        return math.inf
+    if height <= 0.5 * r * r / CLIMB_SLEW:
+        return math.sqrt(2.0 * height / CLIMB_SLEW)
+    return height / r + 0.5 * r / CLIMB_SLEW
 
 
 def wrap(a: float) -> float:
@@ -668,16 +692,20 @@ class FgaAvoider:
                     if not math.isfinite(goal):
                         ok = False
                         break
-                    reach = z + rate * max(t - self.t_res, 0.0)
+                    reach = z + _climbed(rate, t)
                     if (side > 0 and reach < goal) or (side < 0 and reach > goal):
                         ok = False
                         break
                     need = max(need, goal) if side > 0 else min(need, goal)
                     # the latest start from which the climb at the limit still gets there
-                    vz = float(vel[2])
-                    denom = rate - vz
-                    if abs(denom) > 1e-9:
-                        latest = min(latest, (z + rate * (t - self.t_res) - goal) / denom)
+                    lo_t, hi_t = 0.0, t
+                    for _ in range(30):  # bisection: climbed(t - s) + vz s >= goal - z
+                        mid = 0.5 * (lo_t + hi_t)
+                        if z + float(vel[2]) * mid + _climbed(rate, t - mid) >= goal:
+                            lo_t = mid
+                        else:
+                            hi_t = mid
+                    latest = min(latest, lo_t)
                 if not ok:
                     break
             if not ok:
@@ -688,7 +716,7 @@ class FgaAvoider:
             v = np.array([vel[0], vel[1], rate])
             if not self._clear(pos, v, [o for o in near if o.key not in {e.obstacle.key for e in targets}], rho):
                 continue
-            cost = self.t_res + abs(need - z) / abs(rate)
+            cost = _climb_time(rate, abs(need - z))
             plan = _Plan(
                 "pitch",
                 side,
@@ -919,7 +947,16 @@ class FgaAvoider:
 
     def _command(self, man: _Manoeuvre, ctx: AvoidanceContext) -> HoldCourse:
         if man.plane == "pitch":
-            return HoldCourse(man.course, altitude=man.altitude)
+            assert man.altitude is not None
+            if man.held:  # there: hold the altitude
+                return HoldCourse(man.course, altitude=man.altitude)
+            # on the way: at the limit the plan counted on (an altitude command slows down
+            # near its target), then held there (_continue)
+            params = ctx.vehicle
+            up = 0.95 * float(getattr(params, "climb_rate_max", 3.0))
+            down = 0.95 * float(getattr(params, "descent_rate_max", 2.0))
+            rate = up if man.side > 0 else -down
+            return HoldCourse(man.course, climb_rate=rate)
         return HoldCourse(man.course)  # the altitude mode is kept
 
     def _continue(
@@ -969,6 +1006,16 @@ class FgaAvoider:
                 reason=f"{self._kind(conflicts)}: {plan.why} (new conflict)",
                 info=self._info(ctx, pos, conflicts, plan, 0.0, conflicts, near, rho),
             )
+        if man.plane == "pitch" and not man.held:
+            assert man.altitude is not None
+            if (float(pos[2]) - man.altitude) * man.side >= 0.0:
+                man.held = True
+                return AvoidanceDecision(
+                    self._command(man, ctx),
+                    reason=f"at {man.altitude:.0f} m: holding it",
+                    info={"fga": "hold altitude", "altitude": man.altitude},
+                )
+            return None
         if man.plane == "heading" and not man.held:
             gov = by_key.get(man.governing)
             err = abs(wrap(course - man.course))

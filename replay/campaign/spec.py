@@ -128,8 +128,8 @@ class Spec:
     margin: float = 0.0
     duration: float | None = None
     spec_hash: str = ""
-    sensor_range: float | None = None
     digests: dict[str, str] = field(default_factory=dict)  # file -> SHA-256 of its bytes
+    sensor_range: float | None = None
 
     def content_hash(self) -> str:
         """SHA-256 of what the spec asks for (files by their bytes' digests)."""
