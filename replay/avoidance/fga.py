@@ -221,7 +221,9 @@ def _interval_1d(x0: float, rate: float, lo: float, hi: float) -> tuple[float, f
     return (min(a, b), max(a, b))
 
 
-def _interval_disk(px: float, py: float, wx: float, wy: float, keep: float):  # type: ignore[no-untyped-def]
+def _interval_disk(
+    px: float, py: float, wx: float, wy: float, keep: float
+) -> tuple[float, float] | None:
     """Times at which the aircraft, at ``-p`` from the obstacle moving at ``w`` relative to it,
     is within ``keep`` horizontally."""
     a = wx * wx + wy * wy
@@ -576,9 +578,7 @@ class FgaAvoider:
             speed=max(horizontal, 1e-3),
         )
 
-    def _clear(
-        self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], rho: float
-    ) -> bool:
+    def _clear(self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], rho: float) -> bool:
         return all(self._enc(pos, vel, o, rho).window is None for o in near)
 
     @staticmethod
@@ -714,7 +714,9 @@ class FgaAvoider:
                 continue
             target = need + side * self.buffer_m
             v = np.array([vel[0], vel[1], rate])
-            if not self._clear(pos, v, [o for o in near if o.key not in {e.obstacle.key for e in targets}], rho):
+            if not self._clear(
+                pos, v, [o for o in near if o.key not in {e.obstacle.key for e in targets}], rho
+            ):
                 continue
             cost = _climb_time(rate, abs(need - z))
             plan = _Plan(
@@ -832,7 +834,7 @@ class FgaAvoider:
         obstacles = self._observe(ctx)
         pos = np.asarray(ctx.position, dtype=np.float64)
         vel = np.asarray(ctx.velocity, dtype=np.float64)
-        speed, rho, turn_rate, _bank = self._limits(ctx)
+        _speed, rho, turn_rate, _bank = self._limits(ctx)
         course = float(ctx.course)
         near = [
             o
@@ -913,9 +915,7 @@ class FgaAvoider:
                 info=self._info(ctx, pos, conflicts, plan, t_k, [], near, rho, waiting=True),
             )
         urgent = [
-            e
-            for e in conflicts
-            if (e.t_c - self.t_res <= self.period) or e.inside or e in violated
+            e for e in conflicts if (e.t_c - self.t_res <= self.period) or e.inside or e in violated
         ] or [min(conflicts, key=lambda e: e.t_c)]
         later = [e for e in conflicts if e not in urgent]
         if later and not plan.free:
@@ -1081,9 +1081,7 @@ class FgaAvoider:
         home = math.atan2(float(w[j, 0] - pos[0]), float(w[j, 1] - pos[1]))
         horizontal = float(math.hypot(vel[0], vel[1]))
         back = self._velocity(home, horizontal, float(vel[2]))
-        blocking = [
-            e for e in (self._enc(pos, back, o, rho) for o in near) if e.window is not None
-        ]
+        blocking = [e for e in (self._enc(pos, back, o, rho) for o in near) if e.window is not None]
         if not blocking:
             return None
         plan = self._heading_plan(pos, back, home, blocking, near, rho, turn_rate)
@@ -1194,7 +1192,9 @@ class FgaAvoider:
 
 
 def measure_turn(
-    vehicle: str = "seed004-uas", airspeed: float = 15.0, steps_deg: tuple[float, ...] = (30, 60, 90, 135, 170)
+    vehicle: str = "seed004-uas",
+    airspeed: float = 15.0,
+    steps_deg: tuple[float, ...] = (30, 60, 90, 135, 170),
 ) -> dict[str, Any]:
     """Fly the 6-DOF aircraft through a 180 deg course step and measure its response: the time
     each course change in ``steps_deg`` takes beyond an ideal vehicle turning at ``psi_dot_max``

@@ -192,7 +192,14 @@ def _seed004(paper: dict[str, tuple[int, int]]) -> Callable[[list[dict[str, Any]
         won = sum(w for _, w in paper.values())
         out.append(("all", "fga", "cases", str(n), str(total), "-"))
         out.append(
-            _vs("all", "fga", "success (%)", 100.0 * k / n if n else None, 100.0 * won / total, ".2f")
+            _vs(
+                "all",
+                "fga",
+                "success (%)",
+                100.0 * k / n if n else None,
+                100.0 * won / total,
+                ".2f",
+            )
         )
         m = [r["metrics"] for r in ok]
         per_case = _mean([x.get("avoider_time_s", 0.0) for x in m])
@@ -204,7 +211,14 @@ def _seed004(paper: dict[str, tuple[int, int]]) -> Callable[[list[dict[str, Any]
         out.append(("all", "fga", "time per decision (ms, mean)", _num(mean_ms, ".3f"), "-", "-"))
         worst = max((x.get("avoider_time_max_s", 0.0) for x in m), default=None)
         out.append(
-            ("all", "fga", "time per decision (ms, max)", _num(None if worst is None else 1000 * worst, ".2f"), "-", "-")
+            (
+                "all",
+                "fga",
+                "time per decision (ms, max)",
+                _num(None if worst is None else 1000 * worst, ".2f"),
+                "-",
+                "-",
+            )
         )
         return out
 

@@ -98,4 +98,3 @@ PAPER_SEED004_DYNAMIC: dict[str, tuple[int, int]] = {
     "> 3": (253, 198),
 }
 PAPER_SEED004_S_PER_CASE = 0.0056  # Tables III, IV, VI: average time cost per case
-

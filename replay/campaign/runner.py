@@ -117,7 +117,6 @@ def execute(
             source, threats, notes = case(run)
         else:
             source, threats = str(run.mission), scenario(run)
-        extra = {} if run.sensor_range is None else {"radar_range": run.sensor_range}
         request = ReplayRequest(
             source,
             threats=threats,
@@ -129,7 +128,7 @@ def execute(
             duration=run.duration,
             command=f"{command} --only '{run.key}'",
             software_version=version,
-            **extra,
+            radar_range=ReplayRequest.radar_range if run.sensor_range is None else run.sensor_range,
         )
         out = None if keep != "all" or mcap_dir is None else str(Path(mcap_dir) / mcap_name(run))
         result = run_replay(request, out)

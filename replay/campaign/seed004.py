@@ -104,7 +104,7 @@ def hazard_count(rng: np.random.Generator, dynamic: bool) -> int:
 
 def _static(rng: np.random.Generator, n: int, hazards: int) -> list[dict[str, Any]]:
     placed: list[tuple[float, float, float]] = []
-    out = []
+    out: list[dict[str, Any]] = []
 
     def fits(x: float, y: float, r: float) -> bool:
         if math.hypot(x, y) - r < START_CLEAR_M:
@@ -145,7 +145,7 @@ def _static(rng: np.random.Generator, n: int, hazards: int) -> list[dict[str, An
 
 
 def _dynamic(rng: np.random.Generator, n: int, hazards: int) -> list[dict[str, Any]]:
-    out = []
+    out: list[dict[str, Any]] = []
     radius = 1.0
     k = 0
     while len(out) < n:

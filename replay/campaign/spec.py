@@ -148,7 +148,11 @@ class Spec:
             "margin": self.margin,
             "duration": self.duration,
             **({"sensor_range": self.sensor_range} if self.sensor_range is not None else {}),
-            **({"dynamic": [r.dynamic for r in self.rows]} if self.generator in CASE_GENERATORS else {}),
+            **(
+                {"dynamic": [r.dynamic for r in self.rows]}
+                if self.generator in CASE_GENERATORS
+                else {}
+            ),
         }
         return hashlib.sha256(json.dumps(canonical, sort_keys=True).encode()).hexdigest()
 
