@@ -19,7 +19,8 @@ Topics (names in :mod:`replay.topics`; Foxglove schemas are the protobuf ones of
     /radar/detections        foxglove.SceneUpdate      a marker per detection of the last scan
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
     /avoidance/decision      terrapath.Decision        algorithm, inputs, choice, costs, compute_s
-    /avoidance/guidance      foxglove.SceneUpdate      an orbit commanded (CTGA's arc), as a circle
+    /avoidance/guidance      foxglove.SceneUpdate      an orbit commanded (CTGA's arc), as a circle;
+                                                       FGA's collision cones, as a line list
     /log                     foxglove.Log              human-readable events
     /metrics                 terrapath.Metrics         run metrics (also metadata record "metrics")
 
@@ -150,6 +151,7 @@ LonLat = Callable[[float, float], tuple[float, float]]
 
 NS_PER_S = 1_000_000_000
 ORBIT_ENTITY = "guidance/orbit"  # the avoider's orbit on /avoidance/guidance
+CONES_ENTITY = "guidance/cones"  # FGA's collision cones on /avoidance/guidance
 ORBIT_SEGMENTS = 72
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
 LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
@@ -458,8 +460,10 @@ class RunRecorder:
         ident: str,
         pts: FloatArray,
         rgba: tuple[float, float, float, float],
+        *,
+        segments: bool = False,
     ) -> None:
-        line = line_head(rgba) + doubles_messages(LINE_POINTS, pts)
+        line = line_head(rgba, segments=segments) + doubles_messages(LINE_POINTS, pts)
         entity = self._entity(ns, ident).SerializeToString() + ld(ENTITY_LINES, line)
         self._emit(topic, ns, ld(UPDATE_ENTITIES, entity))
 
@@ -817,6 +821,37 @@ class RunRecorder:
         command = doc.get("command")
         if isinstance(command, dict):
             self._guidance(ns, command, doc)
+        cones = doc.get("cones")
+        if isinstance(cones, list) and cones:
+            self._cones(ns, cones)
+        elif doc.get("fga") == "return":
+            gone = SceneEntityDeletion(type=SceneEntityDeletion.MATCHING_ID, id=CONES_ENTITY)
+            gone.timestamp.seconds, gone.timestamp.nanos = divmod(ns, NS_PER_S)
+            self._emit(T.GUIDANCE, ns, SceneUpdate(deletions=[gone]).SerializeToString())
+
+    def _cones(self, ns: int, cones: list[Any]) -> None:
+        """FGA's collision cones (a decision's ``cones``: apex, line of sight, half-angle,
+        range, keep radius) as a line list on /avoidance/guidance: each cone's two edges from
+        the aircraft to the tangent points, and the protected circle round the obstacle."""
+        segs: list[list[float]] = []
+        a = np.linspace(0.0, 2.0 * math.pi, 37)
+        for c in cones:
+            apex = np.asarray(c["apex"], dtype=np.float64)
+            los = math.radians(float(c["los_deg"]))
+            half = math.radians(float(c["half_angle_deg"]))
+            rng = float(c["range_m"])
+            keep = float(c["keep_m"])
+            length = math.sqrt(max(rng * rng - keep * keep, 0.0))
+            for edge in (los - half, los + half):
+                end = apex + length * np.array([math.sin(edge), math.cos(edge), 0.0])
+                segs += [apex.tolist(), end.tolist()]
+            centre = apex + rng * np.array([math.sin(los), math.cos(los), 0.0])
+            ring = centre + np.column_stack([keep * np.sin(a), keep * np.cos(a), np.zeros(len(a))])
+            pairs = np.empty((2 * (len(ring) - 1), 3))
+            pairs[0::2], pairs[1::2] = ring[:-1], ring[1:]
+            segs += pairs.tolist()
+        pts = np.asarray(segs, dtype=np.float64) - np.asarray(self.map_origin)
+        self._line_update(T.GUIDANCE, ns, CONES_ENTITY, pts, (1.0, 0.55, 0.1, 1.0), segments=True)
 
     def _guidance(self, ns: int, command: dict[str, Any], doc: dict[str, Any]) -> None:
         """An orbit command drawn as its circle (at the commanded altitude, else the arc's or

@@ -43,11 +43,12 @@ def quaternion_map(phi: float, theta: float, psi: float) -> tuple[float, float, 
 
 
 @functools.cache
-def line_head(rgba: tuple[float, float, float, float]) -> bytes:
-    """A track line strip without its points (they are appended as wire bytes)."""
+def line_head(rgba: tuple[float, float, float, float], *, segments: bool = False) -> bytes:
+    """A track line strip (or, with ``segments``, a line list: point pairs) without its points
+    (they are appended as wire bytes)."""
     return bytes(
         LinePrimitive(
-            type=LinePrimitive.LINE_STRIP,
+            type=LinePrimitive.LINE_LIST if segments else LinePrimitive.LINE_STRIP,
             pose=pose(),
             thickness=3.0,
             scale_invariant=True,

@@ -21,7 +21,8 @@ Topics and their schemas (Foxglove schemas are protobuf, from ``foxglove-schemas
     /radar/detections        foxglove.SceneUpdate      one marker per detection of the last scan
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
     /avoidance/decision      terrapath.Decision        one avoidance decision and its compute time
-    /avoidance/guidance      foxglove.SceneUpdate      the avoider's orbit (CTGA's arc) as a circle
+    /avoidance/guidance      foxglove.SceneUpdate      the avoider's orbit (CTGA's arc) as a circle,
+                                                       FGA's collision cones as a line list
     /log                     foxglove.Log              human-readable events
     /metrics                 terrapath.Metrics         run metrics, once at the end
 

@@ -287,3 +287,62 @@ def test_generator_hazard_counts_follow_the_tables_bins() -> None:
         # "> 3" as 4 reproduces the tables' means (1.44 static, 1.51 dynamic)
         mean = float(np.dot(seed004.HAZARD_BINS, freq)) / sum(freq)
         assert mean == pytest.approx(1.51 if dynamic else 1.44, abs=0.005)
+
+
+# -- MCAP and view ----------------------------------------------------------------------------------
+def test_cones_t_c_and_the_manoeuvre_are_recorded_drawn_in_foxglove_and_the_view(
+    tmp_path: Path,
+) -> None:
+    import json
+
+    from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+    from mcap.reader import make_reader
+
+    from replay.picture import recorded_view
+    from replay.reader import load_run
+    from terrapath.view.decisions import decision_marks
+
+    out = tmp_path / "case9.mcap"
+    _fly_out = run_replay(
+        ReplayRequest(
+            str(MISSION),
+            threats=str(SCEN / "seed004-case9.yaml"),
+            avoid="fga",
+            sensor="cooperative",
+            margin=D_M,
+        ),
+        out,
+    )
+    assert _fly_out.metrics.success
+    run = load_run(out)
+    starts = [d.decision for d in run.decisions if d.decision.get("fga") == "start"]
+    assert starts
+    first = starts[0]
+    for key in ("t_c", "t_k", "manoeuvre", "why", "costs", "classification", "cones"):
+        assert key in first
+    assert first["t_k"] == pytest.approx(first["t"], abs=0.11)  # started at t_k
+    origin = np.array(json.loads(run.metadata["map_origin"]), dtype=float)
+    cones, gone = [], 0
+    with out.open("rb") as f:
+        for _, _, msg in make_reader(f).iter_messages(topics=["/avoidance/guidance"]):
+            update = SceneUpdate.FromString(msg.data)
+            gone += sum(d.id == "guidance/cones" for d in update.deletions)
+            cones += [e for e in update.entities if e.id == "guidance/cones"]
+    assert cones and gone >= 1
+    line = cones[0].lines[0]
+    assert line.type == LinePrimitive.LINE_LIST
+    pts = np.array([[p.x, p.y, p.z] for p in line.points]) + origin
+    assert len(pts) % 2 == 0
+    # the first cone: two edges from the apex, each tangent to the protected circle
+    c = next(d.decision for d in run.decisions if d.decision.get("cones"))["cones"][0]
+    apex = np.array(c["apex"])
+    np.testing.assert_allclose(pts[0], apex, atol=1e-6)
+    tangent = math.sqrt(c["range_m"] ** 2 - c["keep_m"] ** 2)
+    assert np.linalg.norm(pts[1] - apex) == pytest.approx(tangent, rel=1e-6)
+    centre = apex + c["range_m"] * np.array(
+        [math.sin(math.radians(c["los_deg"])), math.cos(math.radians(c["los_deg"])), 0.0]
+    )
+    assert np.linalg.norm(pts[1] - centre) == pytest.approx(c["keep_m"], rel=1e-6)
+    names = {m.name for m in decision_marks(recorded_view(out))}
+    assert {"FGA's collision cones", "FGA's course"} <= names

@@ -128,6 +128,7 @@ CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
 CLIMB_SLEW = LoopDesign.climb_slew  # m/s^2: the autopilot's climb-rate command slew
+LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
 RETURN_SWEEP = 8  # courses checked along the turn back onto the mission
 RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
 
@@ -289,6 +290,29 @@ def encounter(
         v_u = closing if speed is None else speed
         t_c = (along - rho * closing / max(v_u, 1e-9) - (keep - miss)) / closing  # eq 7
     return Encounter(obs, r, along, miss, closing, range_rate, window, inside, t_c)
+
+
+def in_conflict(
+    x: float,
+    y: float,
+    z: float,
+    vx: float,
+    vy: float,
+    vz: float,
+    obs: FgaObstacle,
+    keep: float,
+    horizon: float,
+) -> bool:
+    """Whether :func:`encounter` would find a conflict window (``keep_h = keep_v = keep``):
+    the same test in plain floats, for the many course candidates of a decision."""
+    ux, uy, uz = obs.velocity
+    h = _interval_disk(obs.center[0] - x, obs.center[1] - y, vx - ux, vy - uy, obs.radius + keep)
+    if h is None:
+        return False
+    v = _interval_1d(z, vz - uz, obs.bottom - keep, obs.top + keep)
+    if v is None:
+        return False
+    return max(h[0], v[0], 0.0) < min(h[1], v[1], horizon)
 
 
 def _pass_side(position: FloatArray, velocity: FloatArray, obs: FgaObstacle) -> int:
@@ -579,7 +603,18 @@ class FgaAvoider:
         )
 
     def _clear(self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], rho: float) -> bool:
-        return all(self._enc(pos, vel, o, rho).window is None for o in near)
+        x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
+        vx, vy, vz = float(vel[0]), float(vel[1]), float(vel[2])
+        keep, horizon = self.d_m + self.buffer_m, self.horizon_s
+        return not any(in_conflict(x, y, z, vx, vy, vz, o, keep, horizon) for o in near)
+
+    def _conflicts(
+        self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle]
+    ) -> list[FgaObstacle]:
+        x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
+        vx, vy, vz = float(vel[0]), float(vel[1]), float(vel[2])
+        keep, horizon = self.d_m + self.buffer_m, self.horizon_s
+        return [o for o in near if in_conflict(x, y, z, vx, vy, vz, o, keep, horizon)]
 
     @staticmethod
     def _velocity(course: float, horizontal: float, climb: float) -> FloatArray:
@@ -755,9 +790,7 @@ class FgaAvoider:
         delay = self.period + self.t_res
         start = pos + delay * np.array([vel[0], vel[1], vel[2]])
         moved = [o.at(delay) for o in near]
-        targets = [
-            e for e in (self._enc(start, vel, o, rho) for o in moved) if e.window is not None
-        ]
+        targets = [self._enc(start, vel, o, rho) for o in self._conflicts(start, vel, moved)]
         if not targets:
             return None
         plan = self._heading_plan(start, vel, course, targets, moved, rho, turn_rate)
@@ -842,18 +875,21 @@ class FgaAvoider:
             if math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) - o.radius
             <= self.surveillance_m
         ]
-        encounters = [self._critical(pos, vel, course, o, rho) for o in near]
+        z = float(pos[2])
         violated = [
-            e
-            for e in encounters
-            if e.obstacle.key not in self._violated
-            and self._enc(pos, vel, e.obstacle, rho, -self.buffer_m).inside
+            self._enc(pos, vel, o, rho, -self.buffer_m)
+            for o in near
+            if o.key not in self._violated
+            and math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) < o.radius + self.d_m
+            and o.bottom - self.d_m < z < o.top + self.d_m
         ]
         for e in violated:
             self._violated.add(e.obstacle.key)
         if self._man is not None:
             return self._continue(ctx, self._man, pos, vel, course, near, rho, turn_rate, violated)
-        conflicts = [e for e in encounters if e.window is not None]
+        conflicts = [
+            self._critical(pos, vel, course, o, rho) for o in self._conflicts(pos, vel, near)
+        ]
         if not conflicts:
             self._waiting = ()
             return None
@@ -900,7 +936,7 @@ class FgaAvoider:
         )
         keys = tuple(sorted(e.obstacle.key for e in conflicts))
         late = None
-        if t_k > self.period and not violated and plan.plane == "heading":
+        if self.period < t_k < LATE_WINDOW_S and not violated and plan.plane == "heading":
             late = self._late_by(ctx, pos, vel, course, near, rho, turn_rate)
             if late is not None:  # eq 7 assumes a sharper turn than the aircraft's: start now
                 t_k = 0.0
@@ -915,7 +951,11 @@ class FgaAvoider:
                 info=self._info(ctx, pos, conflicts, plan, t_k, [], near, rho, waiting=True),
             )
         urgent = [
-            e for e in conflicts if (e.t_c - self.t_res <= self.period) or e.inside or e in violated
+            e
+            for e in conflicts
+            if (e.t_c - self.t_res <= self.period)
+            or e.inside
+            or e.obstacle.key in {v.obstacle.key for v in violated}
         ] or [min(conflicts, key=lambda e: e.t_c)]
         later = [e for e in conflicts if e not in urgent]
         if later and not plan.free:
@@ -977,12 +1017,13 @@ class FgaAvoider:
         planned = self._velocity(man.course, horizontal, float(vel[2]))
         others = [
             e
-            for e in (self._enc(pos, planned, o, rho) for o in near)
+            for e in (self._enc(pos, planned, o, rho) for o in self._conflicts(pos, planned, near))
             if e.window is not None and e.obstacle.key not in man.keys
         ]
         if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
-            conflicts = [self._enc(pos, planned, o, rho) for o in near]
-            conflicts = [e for e in conflicts if e.window is not None or e in violated] or others
+            hit = {o.key for o in self._conflicts(pos, planned, near)}
+            hit |= {v.obstacle.key for v in violated}
+            conflicts = [self._enc(pos, planned, o, rho) for o in near if o.key in hit] or others
             gov = by_key.get(man.governing)
             keep_side = None
             if man.plane == "heading" and gov is not None:
@@ -1081,7 +1122,7 @@ class FgaAvoider:
         home = math.atan2(float(w[j, 0] - pos[0]), float(w[j, 1] - pos[1]))
         horizontal = float(math.hypot(vel[0], vel[1]))
         back = self._velocity(home, horizontal, float(vel[2]))
-        blocking = [e for e in (self._enc(pos, back, o, rho) for o in near) if e.window is not None]
+        blocking = [self._enc(pos, back, o, rho) for o in self._conflicts(pos, back, near)]
         if not blocking:
             return None
         plan = self._heading_plan(pos, back, home, blocking, near, rho, turn_rate)

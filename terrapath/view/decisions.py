@@ -8,7 +8,8 @@ the same name in one run are joined into one trace (NaN rows split them), and ma
 keys (an orbit re-commanded with nearly the same centre and radius) are drawn once.
 
 Drawn today: CTGA's orbits (``Orbit``: the circle it flies round), PSO-CA's new waypoints
-(``FollowWaypoints``: the points of the commanded list that were not in the planned one).
+(``FollowWaypoints``: the points of the commanded list that were not in the planned one), FGA's
+collision cones and commanded course (``HoldCourse`` decisions that carry ``cones``).
 """
 
 from __future__ import annotations
@@ -111,6 +112,42 @@ def new_waypoints(decision: dict[str, Any], run: Any) -> list[Mark]:
                 )
             ]
     return []
+
+
+@drawing("HoldCourse")
+def cones(decision: dict[str, Any], run: Any) -> list[Mark]:
+    """FGA's start of a manoeuvre: each collision cone (its two edges from the aircraft to the
+    tangent points, and the protected circle round the obstacle) and the course commanded (a
+    150 m line from the aircraft), at the aircraft's altitude."""
+    info = decision.get("cones")
+    if not info:
+        return []
+    t = float(decision["t"])
+    here = np.array([float(np.interp(t, run.times, run.positions[:, k])) for k in range(3)])
+    hover = _hover(decision)
+    gap = np.full((1, 3), np.nan)
+    parts: list[FloatArray] = []
+    a = np.linspace(0.0, 2.0 * math.pi, 49)
+    for c in info:
+        los, half = math.radians(float(c["los_deg"])), math.radians(float(c["half_angle_deg"]))
+        rng, keep = float(c["range_m"]), float(c["keep_m"])
+        length = math.sqrt(max(rng * rng - keep * keep, 0.0))
+        edges = [
+            here + length * np.array([math.sin(e), math.cos(e), 0.0])
+            for e in (los - half, los + half)
+        ]
+        parts += [np.vstack([edges[0], here, edges[1]]), gap]
+        centre = here + rng * np.array([math.sin(los), math.cos(los), 0.0])
+        ring = centre + np.column_stack([keep * np.sin(a), keep * np.cos(a), np.zeros(len(a))])
+        parts += [ring, gap]
+    xyz = np.vstack(parts[:-1])
+    course = float(decision["command"]["course"])
+    heading = np.vstack([here, here + 150.0 * np.array([math.sin(course), math.cos(course), 0.0])])
+    key = (round(t, 1),)
+    return [
+        Mark("FGA's collision cones", xyz, "lines", "#ff7f0e", (hover,) * len(xyz), key=key),
+        Mark("FGA's course", heading, "lines", "#d62728", (hover,) * 2, "dash", key=key),
+    ]
 
 
 def decision_marks(run: Any) -> list[Mark]:
