@@ -298,7 +298,7 @@ def simulate(
         if progress is not None:
             progress(t, duration)
         if stack.done:
-            end_reason = "goal"
+            end_reason = _arrival(stack, ned_to_map(x[:3]))
             break
         if radar.due(t):
             own = ned_to_map(x[:3])
@@ -345,6 +345,20 @@ def simulate(
         seed=cfg.seed,
         wall_s=time.perf_counter() - wall0,
     )
+
+
+GOAL_MISS_FACTOR = 2.0  # passing the goal's plane farther than this x the arrival distance
+
+
+def _arrival(stack: FlightStack, position: FloatArray) -> str:
+    """The end of the waypoints: "goal" within ``GOAL_MISS_FACTOR`` arrival distances of the
+    final waypoint; an aircraft that passed the final waypoint's perpendicular plane farther
+    away (the leg ends there too, so that a missed waypoint is not chased) missed the goal."""
+    goal = np.asarray(stack.waypoints, dtype=np.float64)[-1]
+    miss = float(np.hypot(position[0] - goal[0], position[1] - goal[1]))
+    if miss <= GOAL_MISS_FACTOR * stack.arrival_distance:
+        return "goal"
+    return f"missed the goal (passed it {miss:.0f} m away)"
 
 
 SENSORS = ("radar", "cooperative")

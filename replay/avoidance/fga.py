@@ -65,11 +65,16 @@ already most of the way there (Table VIII cases 5 and 6): an obstacle above is p
 climb through their altitude.
 
 **Critical start time (eqs 7-9).**  For the heading manoeuvre ``t_ci = (r cos theta - rho -
-(a_k - r |sin theta|)) / |V_r|`` in the horizontal plane (eq 7 with ``a_k`` for ``d_m``: an
-obstacle with extent is kept ``d_m`` from its surface), ``rho`` the aircraft's minimum turn
-radius ``V^2 / (g tan bank_max)``; for the pitch manoeuvre the latest start from which a climb
-(descent) at the limit clears the interval by the first horizontal entry.  ``t_k = t_c - t_res``
-(eq 8); with several obstacles ``t_c = min t_ci`` (eq 9).  ``t_res`` is not given by the paper:
+(a_k - r |sin theta|)) / |V_r|`` in the horizontal plane, ``rho`` the aircraft's minimum turn
+radius ``V^2 / (g tan bank_max)`` -- eq 7 with ``a_k`` for ``d_m`` (an obstacle with extent is
+kept ``d_m`` from its surface) and ``rho`` taken in the relative frame (:func:`encounter`); and
+never later than the entry into the protected volume less the turn's time, which eq 7 --
+written for obstacles small against the turn -- passes for a large one.  For the pitch
+manoeuvre: the latest start from which a climb (descent) at the limit clears the interval by
+the first horizontal entry.  ``t_k = t_c - t_res`` (eq 8); with several obstacles ``t_c = min
+t_ci`` (eq 9).  When ``t_k`` is within ``LATE_WINDOW_S`` (10 s) the heading manoeuvre is also
+flown kinematically from one decision later (:meth:`FgaAvoider._late_by`); if that would pass an
+obstacle closer than ``d_m + buffer_m / 2`` it starts now.  ``t_res`` is not given by the paper:
 measured on the 6-DOF ``seed004-uas`` (:func:`measure_turn`, ``tests/test_fga.py``) a course
 step of 30 to 170 deg takes 0.34-0.51 s longer than an ideal vehicle turning at
 ``psi_dot_max`` from the start (roll-in); the default is 0.5 s.  While ``t_k`` is more than one
@@ -107,7 +112,7 @@ check_vehicle`, called before the flight).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -128,6 +133,7 @@ CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
 CLIMB_SLEW = LoopDesign.climb_slew  # m/s^2: the autopilot's climb-rate command slew
+STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
 LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
 RETURN_SWEEP = 8  # courses checked along the turn back onto the mission
 RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
@@ -425,8 +431,8 @@ class FgaAvoider:
         "horizon_s": "how far ahead conflicts are predicted, s",
         "floor_m": "lowest height above the ground a pitch-down manoeuvre may reach, m",
         "turn_slack": "how far the minimum turn radius may exceed d_m (fraction, eq 5)",
-        "moving_radius": "radar: size of a moving obstacle that reports none, m",
-        "point_radius": "radar: size added to an obstacle seen as points without extent, m",
+        "moving_radius": "radar: size of a moving obstacle that reports none, m (seed 000: 1 km)",
+        "point_radius": "radar: size added to an obstacle seen as points, m (seed 000: 1 km)",
         "memory_s": "obstacles not seen for this long are forgotten, s",
     }
 
@@ -440,8 +446,8 @@ class FgaAvoider:
         horizon_s: float = 60.0,
         floor_m: float = 30.0,
         turn_slack: float = 0.1,
-        moving_radius: float = 5.0,
-        point_radius: float = 5.0,
+        moving_radius: float = 1000.0,
+        point_radius: float = 1000.0,
         memory_s: float = 10.0,
     ) -> None:
         d_m = require_real("FGA option d_m", d_m, 0.0, open_low=True)
@@ -591,7 +597,7 @@ class FgaAvoider:
         ]
         need = max(1.0, min(turns, default=math.pi))
         k = self.d_m + self.buffer_m
-        return encounter(
+        e = encounter(
             pos,
             vel,
             o,
@@ -601,6 +607,13 @@ class FgaAvoider:
             horizon=self.horizon_s,
             speed=max(horizontal, 1e-3),
         )
+        if e.window is None:
+            return e
+        # eq 7 takes the obstacle small against the turn; a large one's protected volume is
+        # entered before eq 7's point: start no later than the entry less the turn's time
+        turn_rate = horizontal / max(rho, 1e-9)
+        entry = e.window[0] - need / turn_rate - self.t_res
+        return replace(e, t_c=min(e.t_c, entry)) if entry < e.t_c else e
 
     def _clear(self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], rho: float) -> bool:
         x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
@@ -670,7 +683,7 @@ class FgaAvoider:
         _, c, side, key = min(free)
         turn = wrap(c - course)
         cost = self.t_res + abs(turn) / turn_rate
-        t_c = min(e.t_c for e in targets)
+        t_c = min((e.t_c for e in targets), default=math.inf)
         return _Plan(
             "heading",
             side,
@@ -1015,10 +1028,21 @@ class FgaAvoider:
         horizontal = float(math.hypot(vel[0], vel[1]))
         # the velocity the manoeuvre is flying to (the command, not the transient)
         planned = self._velocity(man.course, horizontal, float(vel[2]))
+        # a conflict of the course being flown to -- with a new obstacle, or with one of the
+        # manoeuvre's own once the geometry has moved (an obstacle converging at the aircraft's
+        # own speed) -- except the one being steered round, or climbed over, on the way there
+        if man.reason.startswith("escape"):  # no free course: only a new obstacle re-plans
+            settling: set[str] = set(man.keys)
+        elif man.held:
+            settling = set()
+        elif man.plane == "heading":
+            settling = {man.governing}
+        else:
+            settling = set(man.keys)
         others = [
-            e
-            for e in (self._enc(pos, planned, o, rho) for o in self._conflicts(pos, planned, near))
-            if e.window is not None and e.obstacle.key not in man.keys
+            self._enc(pos, planned, o, rho)
+            for o in self._conflicts(pos, planned, near)
+            if o.key not in settling
         ]
         if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
             hit = {o.key for o in self._conflicts(pos, planned, near)}
@@ -1067,9 +1091,21 @@ class FgaAvoider:
             # the root of the edge's quadratic nearest to the course being flown to
             roots = tangent_courses(pos, gov, keep, horizontal, man.side)
             c = min(roots, key=lambda r: abs(wrap(r - man.course))) if roots else None
-            if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
+            if c is None or abs(wrap(c - man.course)) > math.radians(STEER_STEP_DEG):
+                # the edge steered to is gone (no course puts the relative velocity on it any
+                # more, e.g. an obstacle as fast on a converging course): hold the course; the
+                # conflict test of the course flown to re-plans if it must
+                man.held = True
+                return None
+            if abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
                 v = self._velocity(c, horizontal, float(vel[2]))
-                if self._clear(pos, v, near, rho) or not self._clear(pos, planned, near, rho):
+                if not self._clear(pos, v, near, rho):
+                    # the edge runs into another cone: the free course nearest to the aircraft's,
+                    # passing the governing obstacle on the same side (the union of the cones)
+                    keep_side = (gov, _pass_side(pos, planned, gov))
+                    plan = self._heading_plan(pos, vel, course, [], near, rho, turn_rate, keep_side)
+                    c = plan.course if plan is not None else None
+                if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
                     man.course = c
                     return AvoidanceDecision(
                         self._command(man, ctx),
