@@ -92,8 +92,9 @@ re-computed every decision (the edge moves while the aircraft turns) until the a
 on a straight relative path the miss distance does not change.  Pitch: the course is kept and
 the altitude commanded ``buffer_m`` beyond the interval.  The manoeuvre ends when every obstacle
 it was for has passed its closest point of approach (range rate > 0) and the way back is clear:
-the direct leg to the return waypoint is outside every volume within ``R`` for ``horizon_s``,
-and so is every course the turn onto it sweeps.  (An obstacle flying alongside, as fast on a
+the turn onto the direct leg to the return waypoint, flown kinematically (after ``t_res``, at the
+turn rate, then straight for ``horizon_s``), keeps ``d_m + buffer_m`` from every obstacle within
+``R``.  (An obstacle flying alongside, as fast on a
 parallel course, may never open the range while the manoeuvre's course is held: it counts as
 passed when the way back opens it.)  Then the aircraft flies direct to the nearest
 reachable waypoint ahead on the original path (step 9): the first from the one it was flying to
@@ -133,9 +134,9 @@ CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
 CLIMB_SLEW = LoopDesign.climb_slew  # m/s^2: the autopilot's climb-rate command slew
+FORMATION_MPS = 3.0  # a course this slow relative to a moving obstacle flies alongside it
 STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
 LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
-RETURN_SWEEP = 8  # courses checked along the turn back onto the mission
 RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
 
 
@@ -677,6 +678,14 @@ class FgaAvoider:
                 penalty = 0.0
                 if keep_side is not None and _pass_side(pos, v, keep_side[0]) != keep_side[1]:
                     penalty = 10.0
+                # flying alongside an obstacle (hardly any relative speed) never resolves: the
+                # encounter is only put off -- taken only when nothing else is free
+                if any(
+                    math.hypot(v[0] - o.velocity[0], v[1] - o.velocity[1]) < FORMATION_MPS
+                    for o in seen.values()
+                    if o.moving
+                ):
+                    penalty += 5.0
                 free.append((abs(turn) + penalty, c, side, key))
         if not free:
             return None
@@ -799,7 +808,6 @@ class FgaAvoider:
         -- passes an obstacle within ``R`` closer than ``d_m + buffer_m / 2`` (its protected
         volume with half the margin).  Returns (the least separation, the obstacle) when it
         does, else None."""
-        horizontal = float(math.hypot(vel[0], vel[1]))
         delay = self.period + self.t_res
         start = pos + delay * np.array([vel[0], vel[1], vel[2]])
         moved = [o.at(delay) for o in near]
@@ -809,27 +817,55 @@ class FgaAvoider:
         plan = self._heading_plan(start, vel, course, targets, moved, rho, turn_rate)
         if plan is None:
             return (-math.inf, targets[0].obstacle.key)
-        turn = wrap(plan.course - course)
+        worst = self._turn_separation(pos, vel, course, plan.course, delay, near, turn_rate)
+        return worst if worst[0] < self.d_m + 0.5 * self.buffer_m else None
+
+    def _turn_separation(
+        self,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        target: float,
+        delay: float,
+        near: list[FgaObstacle],
+        turn_rate: float,
+        climb: float | None = None,
+    ) -> tuple[float, str]:
+        """The least separation from ``near`` (the protected volume's metric: the larger of the
+        horizontal and the vertical distance outside the obstacle) of the aircraft flying
+        straight for ``delay``, then turning the short way at ``turn_rate`` from ``course`` onto
+        ``target``, then straight for ``horizon_s`` -- its turn flown kinematically (the
+        obstacles at constant velocity), and the obstacle it is least from."""
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        start = pos + delay * np.array([vel[0], vel[1], vel[2]])
+        turn = wrap(target - course)
         t_turn = abs(turn) / turn_rate
         ts = np.linspace(0.0, t_turn, 12)
-        psi = course + np.sign(turn) * turn_rate * ts
-        w = 1.0 / turn_rate  # heading integrated: x = V (cos psi0 - cos psi) / w ...
         if abs(turn) > 1e-9:
             sgn = float(np.sign(turn))
-            ax = start[0] + sgn * horizontal * w * (math.cos(course) - np.cos(psi))
-            ay = start[1] + sgn * horizontal * w * (np.sin(psi) - math.sin(course))
+            psi = course + sgn * turn_rate * ts
+            arm = horizontal / turn_rate  # the turn's radius
+            ax = start[0] + sgn * arm * (math.cos(course) - np.cos(psi))
+            ay = start[1] + sgn * arm * (np.sin(psi) - math.sin(course))
         else:
             ax = np.full(len(ts), start[0])
             ay = np.full(len(ts), start[1])
         tail = np.linspace(0.0, self.horizon_s, 121)[1:]
-        bx = ax[-1] + horizontal * math.sin(plan.course) * tail
-        by = ay[-1] + horizontal * math.cos(plan.course) * tail
-        t_all = delay + np.concatenate([ts, t_turn + tail])
-        px = np.concatenate([ax, bx])
-        py = np.concatenate([ay, by])
-        pz = float(pos[2]) + float(vel[2]) * t_all
-        worst: tuple[float, str] | None = None
-        limit = self.d_m + 0.5 * self.buffer_m
+        bx = ax[-1] + horizontal * math.sin(target) * tail
+        by = ay[-1] + horizontal * math.cos(target) * tail
+        t_all = np.concatenate([[0.0], delay + np.concatenate([ts, t_turn + tail])])
+        px = np.concatenate([[pos[0]], ax, bx])
+        py = np.concatenate([[pos[1]], ay, by])
+        vz = float(vel[2])
+        if climb is None:
+            pz = float(pos[2]) + vz * t_all
+        else:  # the climb (descent) the way back asks for, from the end of the delay
+            pz = (
+                float(pos[2])
+                + vz * np.minimum(t_all, delay)
+                + climb * np.maximum(t_all - delay, 0.0)
+            )
+        worst = (math.inf, "")
         for o in near:
             ox = o.center[0] + o.velocity[0] * t_all
             oy = o.center[1] + o.velocity[1] * t_all
@@ -838,7 +874,7 @@ class FgaAvoider:
             bottom = o.bottom + o.velocity[2] * t_all
             dv = np.maximum(pz - top, bottom - pz)
             sep = float(np.maximum(dh, dv).min())
-            if sep < limit and (worst is None or sep < worst[0]):
+            if sep < worst[0]:
                 worst = (sep, o.key)
         return worst
 
@@ -1167,11 +1203,11 @@ class FgaAvoider:
         gain = abs(wrap(man.course - home)) - abs(wrap(plan.course - home))
         if gain < math.radians(RETURN_STEP_DEG):
             return None
-        turn = wrap(plan.course - man.course)
-        for k in range(1, RETURN_SWEEP + 1):
-            ck = man.course + turn * k / RETURN_SWEEP
-            if not self._clear(pos, self._velocity(ck, horizontal, float(vel[2])), near, rho):
-                return None
+        sep, _key = self._turn_separation(
+            pos, vel, man.course, plan.course, self.t_res, near, turn_rate
+        )
+        if sep < self.d_m + self.buffer_m:
+            return None
         man.course = plan.course
         return AvoidanceDecision(
             self._command(man, ctx),
@@ -1202,14 +1238,11 @@ class FgaAvoider:
                 continue
             c = math.atan2(float(w[j, 0] - pos[0]), float(w[j, 1] - pos[1]))
             climb = min(max(0.25 * float(w[j, 2] - pos[2]), -down), up)
-            turn = wrap(c - course)
-            ok = True
-            for k in range(RETURN_SWEEP + 1):
-                ck = course + turn * k / RETURN_SWEEP
-                if not self._clear(pos, self._velocity(ck, horizontal, climb), near, rho):
-                    ok = False
-                    break
-            if ok:
+            turn_rate = horizontal / max(rho, 1e-9)
+            sep, _key = self._turn_separation(
+                pos, vel, course, c, self.t_res, near, turn_rate, climb
+            )
+            if sep >= self.d_m + self.buffer_m:
                 return j, {"course_deg": math.degrees(c), "climb": climb}
             return None
         return None
