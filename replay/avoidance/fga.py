@@ -49,7 +49,7 @@ the aircraft's limits:
 
 - heading: ``t_res + |Delta psi| / psi_dot_max``, ``Delta psi`` the smallest course change to a
   course outside the union of the horizontal cones of every obstacle within ``R``
-  (candidates: each cone's two tangent courses, and a 5 deg fan when none is free), ``psi_dot_max
+  (candidates: each cone's two tangent courses and a 5 deg fan round the course), ``psi_dot_max
   = g tan(bank_max) / V``;
 - pitch: the time to gain (or lose) ``Delta h`` at the autopilot's climb (descent) limit ``c``,
   its climb-rate command slewed at 1 m/s^2 (``Delta h / c + c / 2``, or ``sqrt(2 Delta h)`` for
@@ -93,8 +93,8 @@ on a straight relative path the miss distance does not change.  Pitch: the cours
 the altitude commanded ``buffer_m`` beyond the interval.  The manoeuvre ends when every obstacle
 it was for has passed its closest point of approach (range rate > 0) and the way back is clear:
 the turn onto the direct leg to the return waypoint, flown kinematically (after ``t_res``, at the
-turn rate, then straight for ``horizon_s``), keeps ``d_m + buffer_m`` from every obstacle within
-``R``.  (An obstacle flying alongside, as fast on a
+turn rate, then straight for ``horizon_s``), keeps ``d_m + 2 buffer_m`` (the steering margin:
+the conflict test's own is ``d_m + buffer_m``) from every obstacle within ``R``.  (An obstacle flying alongside, as fast on a
 parallel course, may never open the range while the manoeuvre's course is held: it counts as
 passed when the way back opens it.)  Then the aircraft flies direct to the nearest
 reachable waypoint ahead on the original path (step 9): the first from the one it was flying to
@@ -670,6 +670,15 @@ class FgaAvoider:
             for side in (1, -1):
                 for c in tangent_courses(pos, o, o.radius + keep, horizontal, side):
                     candidates.append((c, side, o.key))
+        # a fan besides the edges: the nearest free course need not lie on an edge (an obstacle
+        # overtaking from behind leaves every course ahead free, and its edges point back)
+        first = next(iter(seen.values()), None)
+        if first is not None:
+            for k in range(1, int(180 / FAN_DEG) + 1):
+                for sgn in (1, -1):
+                    c = wrap(course + sgn * math.radians(FAN_DEG * k))
+                    v = self._velocity(c, horizontal, float(vel[2]))
+                    candidates.append((c, _pass_side(pos, v, first), first.key))
         free = []
         for c, side, key in candidates:
             v = self._velocity(c, horizontal, float(vel[2]))
@@ -1206,7 +1215,7 @@ class FgaAvoider:
         sep, _key = self._turn_separation(
             pos, vel, man.course, plan.course, self.t_res, near, turn_rate
         )
-        if sep < self.d_m + self.buffer_m:
+        if sep < self.d_m + 2.0 * self.buffer_m:
             return None
         man.course = plan.course
         return AvoidanceDecision(
@@ -1242,7 +1251,7 @@ class FgaAvoider:
             sep, _key = self._turn_separation(
                 pos, vel, course, c, self.t_res, near, turn_rate, climb
             )
-            if sep >= self.d_m + self.buffer_m:
+            if sep >= self.d_m + 2.0 * self.buffer_m:  # the steering margin: hysteresis
                 return j, {"course_deg": math.degrees(c), "climb": climb}
             return None
         return None
