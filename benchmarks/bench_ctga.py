@@ -14,12 +14,14 @@ remembered obstacles and tracks, about 0.17 ms a scan).
 ``scenarios``: seed 001's three scenarios with the cooperative sensor and the radar: each
 obstacle's smallest separation, when the arcs began and ended, the paper's timings beside them.
 
-``compare``: PSO-CA and CTGA fly the same missions: the avoider contract's six scenarios (the
-solar UAV at 15 m/s, radar, 1 km safety radii: tests/test_avoidance_contract.py), seed 000's
-Table 4 mission (8 h, its threat file) and seed 001's three scenarios (the Cessna at 50 m/s,
-cooperative sensor). One seed each (the avoiders are deterministic given it). Per flight:
-success, the smallest separation from any threat's surface, PLR, flight time, decisions and the
-mean time per decision.
+``compare``: PSO-CA, CTGA and FGA fly the same missions: the avoider contract's six scenarios
+(the solar UAV at 15 m/s, radar, 1 km safety radii: tests/test_avoidance_contract.py), seed
+000's Table 4 mission (8 h, its threat file) and seed 001's three scenarios (the Cessna at 50
+m/s, cooperative sensor). One seed each (the avoiders are deterministic given it). FGA keeps
+d_m from the surfaces with d_m no smaller than the aircraft's turn radius allows (eq 5: 37 m for
+the solar UAV, 401 m for the Cessna at 50 m/s; 30 m in the contract, as its defaults). Per
+flight: success, the smallest separation from any threat's surface, PLR, flight time, decisions
+and the mean time per decision.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from replay.avoidance.ctga import (  # noqa: E402
 from replay.perception import Perception  # noqa: E402
 from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
+from replay.vehicle.presets import load_vehicle  # noqa: E402
 from tests.test_avoidance_contract import SCENARIOS as CONTRACT  # noqa: E402
 from tests.test_avoidance_contract import _run as contract_run  # noqa: E402
 
@@ -60,7 +63,16 @@ PAPER_TIMES = {
 }
 
 
+def fga_options(vehicle: str, speed: float) -> dict[str, Any]:
+    """FGA's d_m for an aircraft other than seed 004's: eq 5 wants d_m = rho_min; the smallest
+    whole metre the aircraft's turn radius allows (FGA refuses rho > 1.1 d_m)."""
+    rho = load_vehicle(vehicle).min_turn_radius(speed)
+    return {"d_m": float(max(30, math.ceil(rho / 1.1)))}
+
+
 def seed001(name: str, avoider: str, sensor: str = "cooperative", **options: Any) -> ReplayResult:
+    if avoider == "fga" and not options:
+        options = fga_options("cessna172", 50.0)
     request = ReplayRequest(
         str(SCENARIO_DIR / "seed001-mission.yaml"),
         threats=str(SCENARIO_DIR / f"seed001-{name}-threats.yaml"),
@@ -82,6 +94,7 @@ def table4(avoider: str) -> ReplayResult:
         str(ROOT / "data" / "missions" / "seed000-table4.yaml"),
         threats=str(ROOT / "data" / "threats" / "seed000-table4.yaml"),
         avoid=avoider,
+        avoid_options=fga_options("solar-uav", 15.0) if avoider == "fga" else {},
         seed=0,
         command="bench_ctga",
     )
@@ -182,7 +195,7 @@ def compare(no_record: bool) -> None:
         *((f"seed 001 {n}", lambda a, n=n: seed001(n, a)) for n in SEED001),
     ]
     for label, fly in flights:
-        for avoider in ("pso-ca", "ctga"):
+        for avoider in ("pso-ca", "ctga", "fga"):
             f = figures(fly(avoider))
             rows.append(
                 (
@@ -194,7 +207,7 @@ def compare(no_record: bool) -> None:
                 )
             )
             print(rows[-1][0], rows[-1][1], file=sys.stderr, flush=True)
-    title = "PSO-CA vs CTGA on the same flights"
+    title = "PSO-CA vs CTGA vs FGA on the same flights"
     _out(title, rows, "one seed per flight; separations from the threats' surfaces", no_record)
 
 

@@ -286,15 +286,23 @@ def test_wilson_interval() -> None:
     [
         (
             ("generator: uniform", "generator: gaussian"),
-            "unknown generator 'gaussian'; valid: seed000-normal, seed000-hill, seed000-intruders, uniform",
+            "unknown generator 'gaussian'; valid: seed000-normal, seed000-hill, seed000-intruders, "
+            "uniform, seed004-table2",
         ),
-        (("generator: uniform", "generator: seed004-table2"), "arrives with the FGA avoider"),
+        (
+            ("generator: uniform", "generator: seed004-table2"),
+            "field 'mission': the generator 'seed004-table2' makes each case's mission",
+        ),
+        (
+            ("radius: 150", "radius: 150, dynamic: [true]"),
+            "field 'threats.dynamic': only a case generator takes it, not 'uniform'",
+        ),
         (("runs: 3", "runs: 0"), "field 'runs': expected a whole number >= 1, found 0"),
         (
             ("[0, 3]", "[0, -3]"),
             "field 'threats.counts[1]': expected a whole number >= 0, found -3",
         ),
-        (("{name: none}", "{name: dodge}"), "unknown avoider 'dodge'; valid: none, pso-ca, ctga"),
+        (("{name: none}", "{name: dodge}"), "unknown avoider 'dodge'; valid: none, pso-ca, ctga, fga"),
         (
             ("{name: ctga}", "{name: ctga, options: {r_safe: 10, warp: 9}}"),
             "avoider 'ctga' has no option 'warp'",
@@ -529,3 +537,61 @@ def test_report_plots_keep_one_colour_per_avoider(
     (only,) = decision.containers
     assert only.get_label() == "b-ctga" and only.lines[0].get_color() == colour["b-ctga"]
     assert colour["a-none"] != colour["b-ctga"]
+
+
+# -- seed 004's cases ----------------------------------------------------------------------------
+CASES = """terrapath: 1
+name: fga-cases
+threats: {generator: seed004-table2, dynamic: [false, true]}
+avoiders: [{name: fga}]
+sensor: cooperative
+sensor_range: 1500
+margin: 30
+runs: 2
+seed: 4
+"""
+
+
+def test_a_case_generator_makes_the_mission_too(tmp_path: Path) -> None:
+    """``seed004-table2`` names no mission: each run is a whole case (the leg and its obstacles)
+    drawn from its scenario seed; the rows are the static and the dynamic set; the number of
+    true hazards is stored with the run; a second call flies nothing."""
+    from replay.campaign.benches import BENCHES
+
+    spec_path = _spec(tmp_path, CASES)
+    spec = load_spec(spec_path)
+    assert [r.label for r in spec.rows] == ["static", "dynamic"]
+    keys = [r.key for r in spec.all_runs()]
+    assert keys[0] == "seed004-table2/static/fga/0" and len(keys) == 4
+    store = tmp_path / "cases.sqlite"
+    assert main(["campaign", str(spec_path), "--store", str(store), "--jobs", "1"]) == 0
+    rows = _rows(store)
+    assert len(rows) == 4 and all(r["status"] == "ok" and r["success"] for r in rows)
+    for r in rows:
+        case = r["metrics"]["case"]
+        assert 0 <= case["hazards"] <= 4 and case["dynamic"] == (r["row"] == "dynamic")
+        assert r["metrics"]["margin_m"] == 30.0
+        assert r["metrics"]["avoider_calls"] > 0
+    lines = BENCHES["seed004-table3"].lines([r for r in rows if r["row"] == "static"])
+    assert ("all", "fga", "cases", "2", "5000", "-") in lines
+    assert main(["campaign", str(spec_path), "--store", str(store), "--jobs", "1"]) == 0
+    assert len(_rows(store)) == 4
+
+
+@pytest.mark.parametrize(
+    ("change", "expect"),
+    [
+        (("dynamic: [false, true]", "counts: [3]"), "draws its own obstacles: give 'dynamic'"),
+        (("dynamic: [false, true]", "dynamic: [yes, 2]"), "expected a list like [false, true]"),
+        (("dynamic: [false, true]", "dynamic: [true, true]"), "a set is repeated"),
+        (("name: fga-cases", f"name: fga-cases\nmission: {MISSION}"), "makes each case's mission"),
+        (("sensor_range: 1500", "sensor_range: -1"), "field 'sensor_range'"),
+    ],
+)
+def test_bad_case_specs_get_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: tuple[str, str], expect: str
+) -> None:
+    spec = _spec(tmp_path, CASES.replace(*change))
+    assert main(["campaign", str(spec), "--store", str(tmp_path / "r.sqlite")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and expect in err

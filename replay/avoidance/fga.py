@@ -29,7 +29,8 @@ is the along-track distance to the closest point of approach, ``r |sin theta|`` 
 distance.  A *conflict* is a future time (within ``horizon_s``) at which the aircraft is inside
 the horizontal cylinder *and* inside the vertical interval (the vertical cone's edges are the
 interval's ends): both 2-D cones contain the relative motion over a common window.  Obstacles
-are looked at within the surveillance radius ``R`` (``surveillance_m``, 300 m, Table II); one
+are looked at within the surveillance radius ``R`` (``surveillance_m``, by default ``10 d_m`` as
+§II-C (4) sets it: 300 m for Table II's 30 m), measured from their surface; one
 already inside its protected volume when first seen is recorded "already violated" and escaped
 from (the free heading that opens the separation fastest), never raised.
 
@@ -90,8 +91,11 @@ next decisions: steps 1-5 repeat at every decision).
 re-computed every decision (the edge moves while the aircraft turns) until the aircraft flies it
 (``|theta_t - theta_dm| < 0.01`` rad, step 8, checked as the course error); it is then *held*:
 on a straight relative path the miss distance does not change.  Pitch: the course is kept and
-the altitude commanded ``buffer_m`` beyond the interval.  The manoeuvre ends when every obstacle
-it was for has passed its closest point of approach (range rate > 0) and the way back is clear:
+the altitude commanded ``buffer_m`` beyond the interval.  The manoeuvre ends when the obstacle
+it steers round (a climb: every obstacle it climbs over) has passed its closest point of approach
+(range rate > 0 on the held course or on the way back; or, a slow encounter, that approach is
+more than ``SLOW_CPA_S`` (20 s) off on the held course: holding would only put it off) and the
+way back is clear:
 the turn onto the direct leg to the return waypoint, flown kinematically (after ``t_res``, at the
 turn rate, then straight for ``horizon_s``), keeps ``d_m + 2 buffer_m`` (the steering margin:
 the conflict test's own is ``d_m + buffer_m``) from every obstacle within ``R``.  (An obstacle flying alongside, as fast on a
@@ -129,12 +133,14 @@ from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 
+SURVEILLANCE_PER_D_M = 10.0  # §II-C (4): R = 10 d_m (Table II: 300 m for d_m = 30 m)
 DYNAMIC_MPS = 0.5  # an obstacle faster than this is dynamic (§III-A)
 CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
 CLIMB_SLEW = LoopDesign.climb_slew  # m/s^2: the autopilot's climb-rate command slew
 FORMATION_MPS = 3.0  # a course this slow relative to a moving obstacle flies alongside it
+SLOW_CPA_S = 20.0  # an encounter whose closest approach is further off than this is slow
 STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
 LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
 RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
@@ -426,7 +432,7 @@ class FgaAvoider:
     period = 0.1
     OPTION_HELP: ClassVar[dict[str, str]] = {
         "d_m": "minimum safe separation d_m from an obstacle's surface, m (seed 004 Table II: 30)",
-        "surveillance_m": "surveillance radius R: obstacles nearer are looked at, m (Table II: 300)",
+        "surveillance_m": "surveillance radius R, m (default 10 d_m: §II-C (4), Table II's 300 m)",
         "t_res": "the aircraft's response time t_res of eq 8, s (measured on seed004-uas: 0.5)",
         "buffer_m": "calling margin; the manoeuvres steer to twice it beyond d_m, m",
         "horizon_s": "how far ahead conflicts are predicted, s",
@@ -441,7 +447,7 @@ class FgaAvoider:
         self,
         *,
         d_m: float = 30.0,
-        surveillance_m: float = 300.0,
+        surveillance_m: float | None = None,
         t_res: float = 0.5,
         buffer_m: float = 3.0,
         horizon_s: float = 60.0,
@@ -452,6 +458,8 @@ class FgaAvoider:
         memory_s: float = 10.0,
     ) -> None:
         d_m = require_real("FGA option d_m", d_m, 0.0, open_low=True)
+        if surveillance_m is None:  # §II-C (4): "R is set to be 10 times d_m"
+            surveillance_m = SURVEILLANCE_PER_D_M * d_m
         surveillance_m = require_real("FGA option surveillance_m", surveillance_m, 0.0)
         if surveillance_m <= d_m:
             raise InputError(
@@ -1165,16 +1173,22 @@ class FgaAvoider:
         index, info = back
         ahead = float(info["climb"])
         going = self._velocity(math.radians(info["course_deg"]), horizontal, ahead)
-        for key in man.keys:
+        # the obstacle steered round (a climb: every one climbed over) must have passed its
+        # closest approach; the others met on the way need only the clear way back
+        for key in man.keys if man.plane == "pitch" else (man.governing,):
             o = by_key.get(key)
             # passed: the range grows -- or, flying alongside it (an obstacle as fast on a
             # parallel course), the way back itself opens the range
-            if (
-                o is not None
-                and self._enc(pos, vel, o, rho).range_rate <= 0.0
-                and self._enc(pos, going, o, rho).range_rate <= 0.0
-            ):
-                return None
+            if o is None:
+                continue
+            held = self._enc(pos, vel, o, rho)
+            if held.range_rate > 0.0 or self._enc(pos, going, o, rho).range_rate > 0.0:
+                continue
+            # a slow encounter (its closest approach on the held course far off): holding
+            # only puts it off -- the clear way back (checked above) is taken
+            if held.closing > 1e-9 and held.along / held.closing > SLOW_CPA_S:
+                continue
+            return None
         self._man = None
         return AvoidanceDecision(
             FollowWaypoints(ctx.waypoints, index, direct=True),

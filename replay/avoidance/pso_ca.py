@@ -99,6 +99,13 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    group's membership changes as more of it comes into view) is retried after ``retry_s`` (5 s)
    -- never an exception.
 
+**Start** (``start``, beyond seed 000: seed 004 §III-B4, Fig. 7).  ``detection`` (the paper):
+a threat is avoided at the scan that finds it.  ``critical``: the re-plan waits until seed 004's
+critical start ``t_k = t_c - t_res`` of the closest threat (eqs 7-8 as FGA reads them, each of its
+points a circle of RS; never later than the entry into the circle less a quarter turn), so the
+new waypoints are planned nearer the threat -- fewer of them, and a shorter detour, where the
+threat's geometry allows it.
+
 **Leg margin.**  The constraints on the two new legs (g3, g5) keep RS + ``leg_margin`` (100 m)
 instead of RS, while the collision test of the next scans uses RS.  Why: a leg built to graze
 the circle at exactly RS is re-tested one second later from where the aircraft really is
@@ -227,6 +234,10 @@ def leg_check(
     return violation
 
 
+START_MODES = ("detection", "critical")
+CRITICAL_PERIOD_S = 1.0  # PSO-CA decides at the radar's scans: start when t_k is within one
+
+
 class PsoCaAvoider:
     """Radar-driven waypoint re-planning of seed 000 (see the module docstring)."""
 
@@ -251,6 +262,9 @@ class PsoCaAvoider:
         "rescue": "when the search fails, scan the zone on a grid and re-seed (true/false)",
         "max_skip": "waypoints that may be left out when no leg reaches them clear",
         "corners": "test the corners the autopilot cuts before each waypoint (true/false)",
+        "start": "re-plan when the threat is found (detection, the paper) or at seed 004's "
+        "critical time t_c - t_res (critical)",
+        "t_res": "with start=critical: the aircraft's response time t_res of seed 004 eq 8, s",
     }
 
     def __init__(
@@ -274,7 +288,15 @@ class PsoCaAvoider:
         rescue: bool = True,
         max_skip: int = 1,
         corners: bool = True,
+        start: str = "detection",
+        t_res: float = 0.5,
     ) -> None:
+        if start not in START_MODES:
+            raise InputError(
+                f"PSO-CA option start must be one of {', '.join(START_MODES)}; got {start!r}"
+            )
+        self.start = start
+        self.t_res = require_real("PSO-CA t_res", t_res, 0.0, 10.0)
         if optimizer not in CA_OPTIMIZERS:
             raise InputError(
                 f"unknown PSO-CA optimiser {optimizer!r}; choose one of {', '.join(CA_OPTIMIZERS)}"
@@ -498,7 +520,44 @@ class PsoCaAvoider:
         if not hits:
             return None
         hit = min(hits, key=lambda h: h.distance)  # §5.3: the closest first
+        if self.start == "critical":
+            t_k = self._critical_start(ctx, st, hit)
+            if t_k > CRITICAL_PERIOD_S:
+                return None  # seed 004 §III-B4: not yet; the radar's next scan looks again
         return self._avoid(ctx, st, hit, keys, pts)
+
+    def _critical_start(self, ctx: AvoidanceContext, st: PerceptionState, hit: _Hit) -> float:
+        """Seconds until seed 004's critical start ``t_k = t_c - t_res`` (eqs 7-8, as FGA
+        reads them: :func:`replay.avoidance.fga.encounter`) for ``hit``: each of its points
+        a vertical cylinder of radius RS (a moving one with its track's velocity); the
+        earliest over its points, on the aircraft's present velocity.  0 when the point is
+        already inside."""
+        from replay.avoidance.fga import FgaObstacle, encounter
+
+        pos = np.asarray(ctx.position, dtype=np.float64)
+        vel = np.asarray(ctx.velocity, dtype=np.float64)
+        speed = max(float(np.hypot(vel[0], vel[1])), 1e-3)
+        params = ctx.vehicle
+        rho = params.min_turn_radius(speed) if params is not None else 0.0
+        velocity = (0.0, 0.0, 0.0)
+        if hit.moving:
+            tr = st.track(hit.ids[0])
+            velocity = (float(tr.velocity[0]), float(tr.velocity[1]), 0.0)
+        t_c = math.inf
+        for x, y in hit.points:
+            o = FgaObstacle(
+                hit.key, (float(x), float(y), float(pos[2])), velocity, hit.rs, -math.inf, math.inf
+            )
+            e = encounter(
+                pos, vel, o, keep_h=0.0, keep_v=0.0, rho=rho, horizon=math.inf, speed=speed
+            )
+            if e.inside:
+                return 0.0
+            if e.window is not None:
+                # eq 7, and never later than the entry into the circle less a 90 deg turn
+                entry = e.window[0] - 0.5 * math.pi * rho / speed
+                t_c = min(t_c, e.t_c, entry)
+        return 0.0 if not math.isfinite(t_c) else max(t_c - self.t_res, 0.0)
 
     def _avoid(
         self,
