@@ -54,6 +54,8 @@ away). Horizontal because an altitude lag (climb-rate limit) must not hold a leg
 radius is capped at half the leg's length, so a short inserted leg (an avoider's waypoint) is
 flown, not skipped on arrival. The final waypoint uses ``arrival_distance`` (default 100 m); after
 it the autopilot holds the last leg's course and the last altitude (:attr:`Autopilot.done`).
+While an avoider steers (a course, bank or orbit override) the final leg ends only within the
+arrival distance: an aircraft passing the goal's plane mid-manoeuvre has not arrived.
 
 Guidance (vertical)
 -------------------
@@ -597,6 +599,7 @@ class Autopilot:
         self._x_last: FloatArray | None = None
         self._wp = np.zeros((0, 3))
         self._next = 0
+        self._plane_saved: float | None = None
         self._done = False
         self._pending_direct = False
         # (index, map position): the direct-to leg to waypoint index started at that position
@@ -686,7 +689,25 @@ class Autopilot:
             self._start_leg(direct)
         self._apply_modes()
 
+    def _guard_final_plane(self) -> None:
+        """While an avoider steers (a course, bank or orbit override) the final leg ends only
+        within the arrival distance: passing the goal's perpendicular plane mid-manoeuvre is
+        not arriving (the plane rule is for a waypoint missed while following the leg)."""
+        leg = self._leg
+        final = (
+            self._next == len(self._wp) - 1 and leg[kern.L_ACTIVE] > 0.5 and leg[kern.L_ARC] < 0.5
+        )
+        if self._override_lat is not None and final:
+            if self._plane_saved is None:
+                self._plane_saved = float(leg[kern.L_PLANE])
+                leg[kern.L_PLANE] = math.inf
+        elif self._plane_saved is not None:
+            if final:
+                leg[kern.L_PLANE] = self._plane_saved
+            self._plane_saved = None
+
     def _start_leg(self, direct: bool) -> None:
+        self._plane_saved = None
         i = self._next
         end = map_to_ned(self._wp[i])
         if direct:
@@ -858,6 +879,7 @@ class Autopilot:
         self._apply_modes()
 
     def _apply_modes(self) -> None:
+        self._guard_final_plane()
         cmd = self._cmd
         following = self._leg[kern.L_ACTIVE] > 0.5 and not self._done
         if self._override_lat == "bank":

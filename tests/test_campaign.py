@@ -302,7 +302,10 @@ def test_wilson_interval() -> None:
             ("[0, 3]", "[0, -3]"),
             "field 'threats.counts[1]': expected a whole number >= 0, found -3",
         ),
-        (("{name: none}", "{name: dodge}"), "unknown avoider 'dodge'; valid: none, pso-ca, ctga, fga"),
+        (
+            ("{name: none}", "{name: dodge}"),
+            "unknown avoider 'dodge'; valid: none, pso-ca, ctga, fga",
+        ),
         (
             ("{name: ctga}", "{name: ctga, options: {r_safe: 10, warp: 9}}"),
             "avoider 'ctga' has no option 'warp'",
@@ -369,7 +372,10 @@ def test_bad_stores_keys_and_schedulers(tmp_path: Path, capsys: pytest.CaptureFi
     ("generator", "ctga_at_least", "straight_at_most"),
     [
         ("seed000-normal", 10, 7),
-        ("seed000-hill", 9, 2),
+        # 4, not the 9 of issue 17: those runs ended "at the goal" when the aircraft crossed the
+        # goal's plane mid-arc, up to 4.5 km from it; since issue 18 an arrival is an arrival,
+        # and CTGA's arcs round a ridge near the goal fail (an open problem, see the notes)
+        ("seed000-hill", 4, 2),
         ("seed000-intruders", 10, 0),
         ("uniform", 10, 5),
     ],
@@ -458,12 +464,12 @@ def test_bench_seed001_scenarios_beside_the_paper(
     assert main(args) == 0  # again: resumed (nothing flown), the section replaced, not repeated
     assert "6 already in" in capsys.readouterr().err
     assert summary.read_text(encoding="utf-8").count("## seed001-scenarios:") == 1
-    assert main(["bench", "seed004-table3"]) == 1
-    assert "not built yet: arrives with the FGA avoider" in capsys.readouterr().err
+    assert main(["bench", "seed003-uncharted"]) == 1
+    assert "not built yet: arrives with the priority loop" in capsys.readouterr().err
     assert main(["bench", "nope"]) == 1
     assert (
-        "no bench 'nope'; valid: seed000-table4, seed000-table6, seed002-table2, seed001-scenarios"
-        in capsys.readouterr().err
+        "no bench 'nope'; valid: seed000-table4, seed000-table6, seed002-table2, seed001-scenarios, "
+        "seed004-table3, seed004-table4" in capsys.readouterr().err
     )
     assert (
         main(

@@ -210,8 +210,10 @@ def test_registry_lists_avoiders_and_checks_their_options() -> None:
         InputError, match=r"avoider 'pso-ca' has no option 'radius'; its options: .*rs"
     ):
         make_avoider("pso-ca", radius=5)
-    with pytest.raises(InputError, match="unknown avoider 'fga'; available: ctga, none, pso-ca"):
-        make_avoider("fga")
+    with pytest.raises(
+        InputError, match="unknown avoider 'priority'; available: ctga, fga, none, pso-ca"
+    ):
+        make_avoider("priority")
     with pytest.raises(InputError, match="avoider 'none' has no option 'x'; its options: none"):
         make_avoider("none", x=1)
 
@@ -287,8 +289,10 @@ def test_avoider_options_on_the_command_line(
     assert re.fullmatch(r"  --avoid-opt rs=\.\.\. +default None: safety radius RS .*", lines[3])
     for name in AVOIDERS:  # every option of every avoider says what it means
         assert set(avoider_options(name)) <= set(getattr(avoider_class(name), "OPTION_HELP", {}))
-    assert main(["replay", "--help-avoider", "fga"]) == 2
-    assert "unknown avoider 'fga'; available: ctga, none, pso-ca" in capsys.readouterr().err
+    assert main(["replay", "--help-avoider", "priority"]) == 2
+    assert (
+        "unknown avoider 'priority'; available: ctga, fga, none, pso-ca" in capsys.readouterr().err
+    )
 
 
 # -- the sensor ---------------------------------------------------------------------------------------

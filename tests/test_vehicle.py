@@ -50,7 +50,7 @@ def _near_trim(p: VehicleParams, rng: np.random.Generator) -> tuple[np.ndarray, 
 
 # ---- presets and files ------------------------------------------------------------------------
 def test_presets_are_the_documented_aircraft() -> None:
-    assert set(PRESETS) == {"aerosonde", "solar-uav", "cessna172", "small-uas"}
+    assert set(PRESETS) == {"aerosonde", "solar-uav", "cessna172", "small-uas", "seed004-uas"}
     aero = load_vehicle("aerosonde")
     # Beard & McLain (2012) Appendix E values
     assert (aero.mass, aero.Jx, aero.Jxz, aero.S, aero.b) == (13.5, 0.8244, 0.1204, 0.55, 2.8956)
@@ -62,7 +62,17 @@ def test_presets_are_the_documented_aircraft() -> None:
     # elevator and rudder signs of Beard's later parameter files (a tail behind the cg)
     assert (aero.CLde, aero.Cmde, aero.CYdr, aero.Cndr) == (0.13, -0.99, 0.19, -0.069)
     cruise = {n: load_vehicle(n).cruise_speed for n in NAMES}
-    assert cruise == {"aerosonde": 25.0, "solar-uav": 15.0, "cessna172": 50.0, "small-uas": 15.0}
+    assert cruise == {
+        "aerosonde": 25.0,
+        "solar-uav": 15.0,
+        "cessna172": 50.0,
+        "small-uas": 15.0,
+        "seed004-uas": 15.0,
+    }
+    # seed 004 eq 5: the seed-004 aircraft is small-uas banking to 38 deg, turning within 30 m
+    s4, small = load_vehicle("seed004-uas"), load_vehicle("small-uas")
+    assert s4.bank_max_deg == 38.0 and s4.mass == small.mass and s4.S == small.S
+    assert s4.min_turn_radius(15.0) == pytest.approx(29.36, abs=0.01)
     c172 = load_vehicle("cessna172")
     assert c172.mass == pytest.approx(1043.3, abs=0.1)  # 2300 lb
     assert c172.S == pytest.approx(16.165, abs=1e-3)  # 174 ft^2
@@ -71,7 +81,8 @@ def test_presets_are_the_documented_aircraft() -> None:
     assert (c172.CDp, c172.CDde, c172.Clda, c172.Cm0) == (0.0278, 0.06, 0.23, 0.10)
     assert (c172.CLalpha, c172.M, c172.alpha0) == (5.75, 10.8, 0.39)
     for p in PRESETS.values():
-        assert p.bank_max_deg == 30.0
+        # seeds 000 and 001 bank to 30 deg; seed 004's aircraft to 38 (its eq 5)
+        assert p.bank_max_deg == (38.0 if p.name == "seed004-uas" else 30.0)
         assert (p.pitch_min_deg, p.pitch_max_deg) == (-20.0, 20.0)
         assert p.source
 

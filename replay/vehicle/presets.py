@@ -61,6 +61,10 @@ Presets (``load_vehicle(name)``):
     0.48 m^2 (AR 10), Aerosonde non-dimensional derivatives; electric drive sized here (0.35 m
     propeller, 14.8 V, KV = KQ = 0.0195, 0.12 ohm): top level speed 21 m/s, best climb 3.9 m/s
     at sea level; envelope 13-19 m/s as in the paper; climb limit 3 m/s, descent limit 2 m/s.
+``seed004-uas``
+    ``small-uas`` with a 38 deg bank limit: seed 004 eq 5 assumes a minimum turn radius of d_m =
+    30 m at 15 m/s, which needs 37.4 deg (30 deg gives 39.7 m); 29.4 m at 38 deg, 30.4 m measured
+    on the 6-DOF aircraft (``benchmarks/bench_fga.py turn``).
 
 Vehicle files (``load_vehicle(path)``): YAML read with ``yaml.safe_load``::
 
