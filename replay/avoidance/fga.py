@@ -1156,8 +1156,8 @@ class FgaAvoider:
                     # the edge runs into another cone: the free course nearest to the aircraft's,
                     # passing the governing obstacle on the same side (the union of the cones)
                     keep_side = (gov, _pass_side(pos, planned, gov))
-                    plan = self._heading_plan(pos, vel, course, [], near, rho, turn_rate, keep_side)
-                    c = plan.course if plan is not None else None
+                    edge = self._heading_plan(pos, vel, course, [], near, rho, turn_rate, keep_side)
+                    c = edge.course if edge is not None else None
                 if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
                     man.course = c
                     return AvoidanceDecision(
