@@ -51,3 +51,13 @@ def record(title: str, rows: list[tuple[str, str, str]], notes: str = "") -> Non
         RESULTS.write_text("# Benchmark results\n\nAppended by the scripts in this folder.\n")
     with RESULTS.open("a") as f:
         f.write(text)
+
+
+def emit(title: str, rows: list[tuple[str, str, str]], notes: str, no_record: bool) -> None:
+    """:func:`record` the figures, or with ``no_record`` only print them as Markdown."""
+    if no_record:
+        print(f"\n## {title}\n- notes: {notes}\n\n| figure | value | target |\n|---|---|---|")
+        for a, b, c in rows:
+            print(f"| {a} | {b} | {c} |")
+    else:
+        record(title, rows, notes)

@@ -37,7 +37,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._record import record  # noqa: E402
+from benchmarks._record import emit as _out  # noqa: E402
 from planner.mission import load_mission  # noqa: E402
 from replay.avoidance.ctga import (  # noqa: E402
     CtgaAvoider,
@@ -239,15 +239,6 @@ def scenarios(no_record: bool) -> None:
         "nearer the aircraft than the true centres (the face seen), so its arcs pass wider"
     )
     _out("ctga: seed 001's three scenarios", rows, notes, no_record)
-
-
-def _out(title: str, rows: list[tuple[str, str, str]], notes: str, no_record: bool) -> None:
-    if no_record:
-        print(f"\n## {title}\n- notes: {notes}\n\n| figure | value | target |\n|---|---|---|")
-        for a, b, c in rows:
-            print(f"| {a} | {b} | {c} |")
-    else:
-        record(title, rows, notes)
 
 
 def main(argv: list[str] | None = None) -> int:

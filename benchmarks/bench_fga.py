@@ -36,7 +36,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._record import record  # noqa: E402
+from benchmarks._record import emit as _out  # noqa: E402
 from planner.mission import mission_from_dict  # noqa: E402
 from replay.avoidance.fga import FgaAvoider, measure_turn  # noqa: E402
 from replay.campaign import seed004  # noqa: E402
@@ -211,15 +211,6 @@ def table7(no_record: bool) -> None:
         "'flown' the whole flight (1.2 km leg, ends 100 m before the goal)"
     )
     _out("fga: seed 004 Table VII, FGA against PSO-CA", rows, notes, no_record)
-
-
-def _out(title: str, rows: list[tuple[str, str, str]], notes: str, no_record: bool) -> None:
-    if no_record:
-        print(f"\n## {title}\n- notes: {notes}\n\n| figure | value | target |\n|---|---|---|")
-        for a, b, c in rows:
-            print(f"| {a} | {b} | {c} |")
-    else:
-        record(title, rows, notes)
 
 
 def main(argv: list[str] | None = None) -> int:
