@@ -624,10 +624,17 @@ class FgaAvoider:
         entry = e.window[0] - need / turn_rate - self.t_res
         return replace(e, t_c=min(e.t_c, entry)) if entry < e.t_c else e
 
-    def _clear(self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], rho: float) -> bool:
+    def _clear(
+        self,
+        pos: FloatArray,
+        vel: FloatArray,
+        near: list[FgaObstacle],
+        rho: float,
+        extra: float = 0.0,
+    ) -> bool:
         x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
         vx, vy, vz = float(vel[0]), float(vel[1]), float(vel[2])
-        keep, horizon = self.d_m + self.buffer_m, self.horizon_s
+        keep, horizon = self.d_m + self.buffer_m + extra, self.horizon_s
         return not any(in_conflict(x, y, z, vx, vy, vz, o, keep, horizon) for o in near)
 
     def _conflicts(
@@ -690,7 +697,9 @@ class FgaAvoider:
         free = []
         for c, side, key in candidates:
             v = self._velocity(c, horizontal, float(vel[2]))
-            if self._clear(pos, v, near, rho):
+            # clear by half a buffer more than the conflict test calls: a course chosen right at
+            # another obstacle's threshold would be called in conflict again at the next decision
+            if self._clear(pos, v, near, rho, 0.5 * self.buffer_m):
                 turn = wrap(c - course)
                 penalty = 0.0
                 if keep_side is not None and _pass_side(pos, v, keep_side[0]) != keep_side[1]:
