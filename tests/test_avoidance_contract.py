@@ -68,6 +68,11 @@ SCENARIOS: dict[str, list[dict[str, Any]]] = {
 
 
 def _run(scenario: str, avoider: str, seed: int = 0) -> ReplayResult:
+    return _run_with(scenario, make_avoider(avoider), seed)
+
+
+def _run_with(scenario: str, avoider: Any, seed: int = 0) -> ReplayResult:
+    """A contract scenario flown with an avoider already built (options of its own)."""
     mission = mission_from_dict(
         {
             "terrapath": 1,
@@ -82,7 +87,7 @@ def _run(scenario: str, avoider: str, seed: int = 0) -> ReplayResult:
     return simulate(
         mission,
         threats,
-        make_avoider(avoider),
+        avoider,
         load_vehicle("solar-uav"),
         config=ReplayConfig(seed=seed),
     )

@@ -346,3 +346,24 @@ def test_cones_t_c_and_the_manoeuvre_are_recorded_drawn_in_foxglove_and_the_view
     assert np.linalg.norm(pts[1] - centre) == pytest.approx(c["keep_m"], rel=1e-6)
     names = {m.name for m in decision_marks(recorded_view(out))}
     assert {"FGA's collision cones", "FGA's course"} <= names
+
+
+def test_surveillance_radius_defaults_to_ten_d_m() -> None:
+    # §II-C (4): "R is set to be 10 times d_m" (Table II: 300 m for 30 m)
+    assert FgaAvoider().surveillance_m == 300.0
+    assert FgaAvoider(d_m=50.0).surveillance_m == 500.0
+    assert FgaAvoider(d_m=50.0, surveillance_m=800.0).surveillance_m == 800.0
+
+
+def test_pso_ca_can_wait_for_the_critical_start_time() -> None:
+    """PSO-CA with ``start=critical`` (seed 004 §III-B4) re-plans at t_c - t_res instead of at
+    detection: later, still clear of the obstacle; a bad mode is refused."""
+    from tests.test_avoidance_contract import _run_with
+
+    early = _run_with("single", make_avoider("pso-ca"))
+    late = _run_with("single", make_avoider("pso-ca", start="critical"))
+    assert early.metrics.success and late.metrics.success
+    first = [min(d["t"] for d in r.decisions) for r in (early, late)]
+    assert first[1] > first[0] + 300.0  # found at ~10 km, re-planned near the obstacle
+    with pytest.raises(InputError, match="start must be one of detection, critical"):
+        make_avoider("pso-ca", start="soon")
