@@ -140,6 +140,7 @@ FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
 CLIMB_SLEW = LoopDesign.climb_slew  # m/s^2: the autopilot's climb-rate command slew
 FORMATION_MPS = 3.0  # a course this slow relative to a moving obstacle flies alongside it
+TURN_CHECKS = 12  # the cheapest free courses whose turns are flown kinematically
 SLOW_CPA_S = 20.0  # an encounter whose closest approach is further off than this is slow
 STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
 LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
@@ -670,11 +671,15 @@ class FgaAvoider:
         rho: float,
         turn_rate: float,
         keep_side: tuple[FgaObstacle, int] | None = None,
+        flown_from: float | None = None,
     ) -> _Plan | None:
         """The smallest course change outside the union of the cones of ``near`` (module
         docstring); None when no course is free.  ``keep_side`` (an obstacle and a side): a
         manoeuvre under way keeps passing that obstacle on the same side when it can (a course
-        that flips to the other side crosses its cone)."""
+        that flips to the other side crosses its cone).  ``flown_from`` (the aircraft's course
+        now): the turn onto the course is flown kinematically (:meth:`_turn_separation`) and
+        the cheapest course whose turn keeps ``d_m + buffer_m / 2`` is taken -- else the one
+        whose turn keeps the most."""
         horizontal = float(math.hypot(vel[0], vel[1]))
         keep = self.d_m + 2.0 * self.buffer_m
         candidates: list[tuple[float, int, str]] = []
@@ -687,7 +692,12 @@ class FgaAvoider:
                     candidates.append((c, side, o.key))
         # a fan besides the edges: the nearest free course need not lie on an edge (an obstacle
         # overtaking from behind leaves every course ahead free, and its edges point back)
-        first = next(iter(seen.values()), None)
+        # the fan's courses resolve the nearest obstacle in conflict (the one steered round)
+        first = min(
+            [e.obstacle for e in targets] or list(seen.values()),
+            key=lambda o: math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) - o.radius,
+            default=None,
+        )
         if first is not None:
             for k in range(1, int(180 / FAN_DEG) + 1):
                 for sgn in (1, -1):
@@ -715,7 +725,26 @@ class FgaAvoider:
                 free.append((abs(turn) + penalty, c, side, key))
         if not free:
             return None
-        _, c, side, key = min(free)
+        free.sort()
+        if flown_from is None:
+            _, c, side, key = free[0]
+        else:
+            best: tuple[float, tuple[float, float, int, str]] | None = None
+            for item in free[:TURN_CHECKS]:
+                sep, _k = self._turn_separation(
+                    pos, vel, flown_from, item[1], self.t_res, near, turn_rate
+                )
+                if sep >= self.d_m + 0.5 * self.buffer_m:
+                    best = (math.inf, item)
+                    break
+                if best is None or sep > best[0]:
+                    best = (sep, item)
+            assert best is not None
+            _, c, side, key = best[1]
+        if first is not None and key != first.key:
+            # the course is another obstacle's edge or the fan's: the manoeuvre still steers
+            # round the nearest obstacle in conflict, on the side this course passes it
+            key, side = first.key, _pass_side(pos, self._velocity(c, horizontal, 0.0), first)
         turn = wrap(c - course)
         cost = self.t_res + abs(turn) / turn_rate
         t_c = min((e.t_c for e in targets), default=math.inf)
@@ -983,7 +1012,9 @@ class FgaAvoider:
         keep_side: tuple[FgaObstacle, int] | None = None,
         plane: str | None = None,
     ) -> _Plan:
-        heading = self._heading_plan(pos, vel, course, targets, near, rho, turn_rate, keep_side)
+        heading = self._heading_plan(
+            pos, vel, course, targets, near, rho, turn_rate, keep_side, float(ctx.course)
+        )
         pitch = self._pitch_plan(ctx, pos, vel, course, targets, near, rho)
         plans = [p for p in (heading, pitch) if p is not None]
         if not plans:
@@ -1101,10 +1132,18 @@ class FgaAvoider:
             settling = {man.governing}
         else:
             settling = set(man.keys)
+        # -- re-planned only when urgent (step 5: t_k within a decision period, or within the
+        # late-start check's reach); a later one is met when its time comes
         others = [
-            self._enc(pos, planned, o, rho)
-            for o in self._conflicts(pos, planned, near)
-            if o.key not in settling
+            e
+            for e in (
+                self._critical(pos, planned, man.course, o, rho)
+                for o in self._conflicts(pos, planned, near)
+                if o.key not in settling
+            )
+            if e.t_c - self.t_res <= self.period
+            or self._late_by(ctx, pos, planned, man.course, [e.obstacle], rho, turn_rate)
+            is not None
         ]
         if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
             hit = {o.key for o in self._conflicts(pos, planned, near)}
