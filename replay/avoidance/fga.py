@@ -117,6 +117,7 @@ check_vehicle`, called before the flight).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
@@ -126,6 +127,7 @@ import numpy.typing as npt
 from planner.optim.base import require_real
 from replay.autopilot import LoopDesign
 from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.ctga import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
 from replay.perception import Perception, PerceptionConfig, PerceptionState
 from replay.vehicle.params import G
@@ -166,11 +168,6 @@ def _climb_time(rate: float, height: float) -> float:
     if height <= 0.5 * r * r / CLIMB_SLEW:
         return math.sqrt(2.0 * height / CLIMB_SLEW)
     return height / r + 0.5 * r / CLIMB_SLEW
-
-
-def wrap(a: float) -> float:
-    """``a`` wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @dataclass(frozen=True)
@@ -329,6 +326,24 @@ def in_conflict(
     return max(h[0], v[0], 0.0) < min(h[1], v[1], horizon)
 
 
+def path_separation(
+    t: FloatArray, x: FloatArray, y: FloatArray, z: FloatArray, obstacles: list[FgaObstacle]
+) -> tuple[float, str]:
+    """The least separation of the path (x, y, z) at times ``t`` from ``obstacles`` (each at
+    constant velocity from now) in the protected volume's metric -- the larger of the horizontal
+    distance outside its radius and the vertical distance outside [bottom, top] -- and the
+    obstacle it is least from ((inf, "") without obstacles)."""
+    worst = (math.inf, "")
+    for o in obstacles:
+        dh = np.hypot(x - (o.center[0] + o.velocity[0] * t), y - (o.center[1] + o.velocity[1] * t))
+        climb = o.velocity[2] * t
+        dv = np.maximum(z - (o.top + climb), (o.bottom + climb) - z)
+        sep = float(np.maximum(dh - o.radius, dv).min())
+        if sep < worst[0]:
+            worst = (sep, o.key)
+    return worst
+
+
 def _pass_side(position: FloatArray, velocity: FloatArray, obs: FgaObstacle) -> int:
     """+1 when the relative velocity points clockwise of the line of sight to ``obs`` (it
     passes on the aircraft's left), -1 otherwise."""
@@ -377,26 +392,9 @@ def tangent_course(
     r)``.  Moving at ``u``: the relative velocity is ``lambda e`` along the edge's unit vector
     ``e``, so ``|u + lambda e| = speed``: ``lambda = -u.e + sqrt((u.e)^2 - |u|^2 + speed^2)``
     (the larger root; None when it is not positive: the obstacle outruns the aircraft on that
-    edge)."""
-    p = np.asarray(position, dtype=np.float64)
-    px, py = obs.center[0] - float(p[0]), obs.center[1] - float(p[1])
-    r = math.hypot(px, py)
-    if r <= keep:
-        return None
-    los = math.atan2(px, py)
-    edge = los + side * math.asin(keep / r)
-    ex, ey = math.sin(edge), math.cos(edge)
-    ux, uy = obs.velocity[0], obs.velocity[1]
-    if ux == 0.0 and uy == 0.0:
-        return wrap(edge)
-    ue = ux * ex + uy * ey
-    disc = ue * ue - (ux * ux + uy * uy) + speed * speed
-    if disc < 0.0:
-        return None
-    lam = -ue + math.sqrt(disc)
-    if lam <= 1e-9:
-        return None
-    return math.atan2(ux + lam * ex, uy + lam * ey)
+    edge): the first of :func:`tangent_courses`."""
+    roots = tangent_courses(position, obs, keep, speed, side)
+    return roots[0] if roots else None
 
 
 @dataclass
@@ -410,6 +408,7 @@ class _Manoeuvre:
     started: float
     held: bool = False  # heading: converged on the edge, now held
     reason: str = ""
+    free: bool = True  # False: an escape, no course was free
 
 
 @dataclass
@@ -480,7 +479,6 @@ class FgaAvoider:
         self._perception = Perception(PerceptionConfig(memory_s=float(memory_s)))
         self._state: PerceptionState | None = None
         self._obstacles: list[FgaObstacle] = []
-        self._obstacles_t = 0.0
         self._man: _Manoeuvre | None = None
         self._waiting: tuple[str, ...] = ()
         self._violated: set[str] = set()
@@ -514,15 +512,14 @@ class FgaAvoider:
             keep[: pic.n_threat] = True  # the terrain is the autopilot's
             self._state = self._perception.update(pic, keep=keep)
             self._obstacles = self._read(self._state)
-            self._obstacles_t = self._state.t
-        dt = ctx.t - self._obstacles_t
+        if self._state is None:
+            return []
+        dt = ctx.t - self._state.t
         return [o.at(dt) for o in self._obstacles]
 
     def _read(self, st: PerceptionState) -> list[FgaObstacle]:
         out: list[FgaObstacle] = []
-        tracks = {tr.id: tr for tr in st.tracks}
-        cooperative = st.sensor == "cooperative"
-        if cooperative:
+        if st.sensor == "cooperative":
             for i, ident in enumerate(st.ids):
                 if st.terrain[i]:
                     continue
@@ -563,12 +560,12 @@ class FgaAvoider:
                     math.inf,
                 )
             )
-        for ident, tr in tracks.items():
+        for tr in st.tracks:
             pos = tr.predict(st.t)
             r = self.moving_radius
             out.append(
                 FgaObstacle(
-                    ident,
+                    tr.id,
                     (float(pos[0]), float(pos[1]), float(pos[2])),
                     (float(tr.velocity[0]), float(tr.velocity[1]), float(tr.velocity[2])),
                     r,
@@ -579,12 +576,22 @@ class FgaAvoider:
         return out
 
     # -- geometry helpers ----------------------------------------------------------------------
-    def _limits(self, ctx: AvoidanceContext) -> tuple[float, float, float, float]:
-        """(speed, rho, psi_dot_max, bank) of the aircraft now."""
+    @staticmethod
+    def _limits(ctx: AvoidanceContext) -> tuple[float, float]:
+        """(rho, psi_dot_max) of the aircraft now: its minimum turn radius and turn rate."""
         speed = max(float(ctx.airspeed), 1e-3)
-        bank = math.radians(float(getattr(ctx.vehicle, "bank_max_deg", 30.0)))
-        rho = speed * speed / (G * math.tan(bank))
-        return speed, rho, G * math.tan(bank) / speed, bank
+        tan_bank = math.tan(math.radians(float(getattr(ctx.vehicle, "bank_max_deg", 30.0))))
+        return speed * speed / (G * tan_bank), G * tan_bank / speed
+
+    @staticmethod
+    def _climb_limits(params: Any) -> tuple[float, float]:
+        """(climb, descent) rates the autopilot commands at most: the vehicle's limits less
+        its climb margin."""
+        inside = 1.0 - LoopDesign.climb_margin
+        return (
+            inside * float(getattr(params, "climb_rate_max", 3.0)),
+            inside * float(getattr(params, "descent_rate_max", 2.0)),
+        )
 
     def _enc(
         self, pos: FloatArray, vel: FloatArray, o: FgaObstacle, rho: float, extra: float = 0.0
@@ -625,6 +632,15 @@ class FgaAvoider:
         entry = e.window[0] - need / turn_rate - self.t_res
         return replace(e, t_c=min(e.t_c, entry)) if entry < e.t_c else e
 
+    def _conflicting(
+        self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], extra: float = 0.0
+    ) -> Iterator[FgaObstacle]:
+        """The obstacles of ``near`` the aircraft flying ``vel`` is in conflict with (lazily)."""
+        x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
+        vx, vy, vz = float(vel[0]), float(vel[1]), float(vel[2])
+        keep, horizon = self.d_m + self.buffer_m + extra, self.horizon_s
+        return (o for o in near if in_conflict(x, y, z, vx, vy, vz, o, keep, horizon))
+
     def _clear(
         self,
         pos: FloatArray,
@@ -633,18 +649,12 @@ class FgaAvoider:
         rho: float,
         extra: float = 0.0,
     ) -> bool:
-        x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
-        vx, vy, vz = float(vel[0]), float(vel[1]), float(vel[2])
-        keep, horizon = self.d_m + self.buffer_m + extra, self.horizon_s
-        return not any(in_conflict(x, y, z, vx, vy, vz, o, keep, horizon) for o in near)
+        return next(self._conflicting(pos, vel, near, extra), None) is None
 
     def _conflicts(
         self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle]
     ) -> list[FgaObstacle]:
-        x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
-        vx, vy, vz = float(vel[0]), float(vel[1]), float(vel[2])
-        keep, horizon = self.d_m + self.buffer_m, self.horizon_s
-        return [o for o in near if in_conflict(x, y, z, vx, vy, vz, o, keep, horizon)]
+        return list(self._conflicting(pos, vel, near))
 
     @staticmethod
     def _velocity(course: float, horizontal: float, climb: float) -> FloatArray:
@@ -773,9 +783,7 @@ class FgaAvoider:
     ) -> _Plan | None:
         """Climb (or descend) clear of every target's vertical interval before its horizontal
         entry, course unchanged (module docstring); None when not feasible."""
-        params = ctx.vehicle
-        up = CLIMB_MARGIN * 0.95 * float(getattr(params, "climb_rate_max", 3.0))
-        down = CLIMB_MARGIN * 0.95 * float(getattr(params, "descent_rate_max", 2.0))
+        up, down = (CLIMB_MARGIN * r for r in self._climb_limits(ctx.vehicle))
         z = float(pos[2])
         keep = self.d_m + 2.0 * self.buffer_m
         best: _Plan | None = None
@@ -788,7 +796,6 @@ class FgaAvoider:
                 o = e.obstacle
                 assert e.window is not None
                 wz = o.velocity[2]
-                enter, leave = e.window
                 h = _interval_disk(
                     o.center[0] - float(pos[0]),
                     o.center[1] - float(pos[1]),
@@ -920,18 +927,7 @@ class FgaAvoider:
                 + vz * np.minimum(t_all, delay)
                 + climb * np.maximum(t_all - delay, 0.0)
             )
-        worst = (math.inf, "")
-        for o in near:
-            ox = o.center[0] + o.velocity[0] * t_all
-            oy = o.center[1] + o.velocity[1] * t_all
-            dh = np.hypot(px - ox, py - oy) - o.radius
-            top = o.top + o.velocity[2] * t_all
-            bottom = o.bottom + o.velocity[2] * t_all
-            dv = np.maximum(pz - top, bottom - pz)
-            sep = float(np.maximum(dh, dv).min())
-            if sep < worst[0]:
-                worst = (sep, o.key)
-        return worst
+        return path_separation(t_all, px, py, pz, near)
 
     def _escape(
         self,
@@ -948,16 +944,8 @@ class FgaAvoider:
         times = np.linspace(0.0, min(self.horizon_s, 30.0), 61)
         for k in range(int(360 / FAN_DEG)):
             c = wrap(course + math.radians(FAN_DEG * k))
-            v = self._velocity(c, horizontal, 0.0)
-            worst = math.inf
-            for o in near:
-                own = pos[None, :] + times[:, None] * v[None, :]
-                oc = np.asarray(o.center) + times[:, None] * np.asarray(o.velocity)[None, :]
-                dh = np.hypot(own[:, 0] - oc[:, 0], own[:, 1] - oc[:, 1]) - o.radius
-                top = o.top + times * o.velocity[2]
-                bottom = o.bottom + times * o.velocity[2]
-                dv = np.maximum(own[:, 2] - top, bottom - own[:, 2])
-                worst = min(worst, float(np.max(np.column_stack([dh, dv]), axis=1).min()))
+            own = pos[None, :] + times[:, None] * self._velocity(c, horizontal, 0.0)[None, :]
+            worst, _key = path_separation(times, own[:, 0], own[:, 1], own[:, 2], near)
             score = worst - 1e-3 * abs(wrap(c - course))
             if best is None or score > best[0]:
                 best = (score, c)
@@ -971,7 +959,7 @@ class FgaAvoider:
         obstacles = self._observe(ctx)
         pos = np.asarray(ctx.position, dtype=np.float64)
         vel = np.asarray(ctx.velocity, dtype=np.float64)
-        _speed, rho, turn_rate, _bank = self._limits(ctx)
+        rho, turn_rate = self._limits(ctx)
         course = float(ctx.course)
         near = [
             o
@@ -1041,11 +1029,13 @@ class FgaAvoider:
             0.0 if plan.plane == "pitch" else self.t_res
         )
         keys = tuple(sorted(e.obstacle.key for e in conflicts))
-        late = None
-        if self.period < t_k < LATE_WINDOW_S and not violated and plan.plane == "heading":
-            late = self._late_by(ctx, pos, vel, course, near, rho, turn_rate)
-            if late is not None:  # eq 7 assumes a sharper turn than the aircraft's: start now
-                t_k = 0.0
+        if (
+            self.period < t_k < LATE_WINDOW_S
+            and not violated
+            and plan.plane == "heading"
+            and self._late_by(ctx, pos, vel, course, near, rho, turn_rate) is not None
+        ):
+            t_k = 0.0  # eq 7 assumes a sharper turn than the aircraft's: start now
         if t_k > self.period and not violated:
             if keys == self._waiting:
                 return None
@@ -1076,6 +1066,7 @@ class FgaAvoider:
             plan.altitude,
             ctx.t,
             reason=plan.why,
+            free=plan.free,
         )
         info = self._info(ctx, pos, conflicts, plan, t_k, urgent, near, rho)
         prefix = "already violated: " if violated else ""
@@ -1098,9 +1089,7 @@ class FgaAvoider:
                 return HoldCourse(man.course, altitude=man.altitude)
             # on the way: at the limit the plan counted on (an altitude command slows down
             # near its target), then held there (_continue)
-            params = ctx.vehicle
-            up = 0.95 * float(getattr(params, "climb_rate_max", 3.0))
-            down = 0.95 * float(getattr(params, "descent_rate_max", 2.0))
+            up, down = self._climb_limits(ctx.vehicle)
             rate = up if man.side > 0 else -down
             return HoldCourse(man.course, climb_rate=rate)
         return HoldCourse(man.course)  # the altitude mode is kept
@@ -1124,7 +1113,7 @@ class FgaAvoider:
         # a conflict of the course being flown to -- with a new obstacle, or with one of the
         # manoeuvre's own once the geometry has moved (an obstacle converging at the aircraft's
         # own speed) -- except the one being steered round, or climbed over, on the way there
-        if man.reason.startswith("escape"):  # no free course: only a new obstacle re-plans
+        if not man.free:  # an escape (no course was free): only a new obstacle re-plans
             settling: set[str] = set(man.keys)
         elif man.held:
             settling = set()
@@ -1134,11 +1123,12 @@ class FgaAvoider:
             settling = set(man.keys)
         # -- re-planned only when urgent (step 5: t_k within a decision period, or within the
         # late-start check's reach); a later one is met when its time comes
+        in_way = self._conflicts(pos, planned, near)
         others = [
             e
             for e in (
                 self._critical(pos, planned, man.course, o, rho)
-                for o in self._conflicts(pos, planned, near)
+                for o in in_way
                 if o.key not in settling
             )
             if e.t_c - self.t_res <= self.period
@@ -1146,7 +1136,7 @@ class FgaAvoider:
             is not None
         ]
         if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
-            hit = {o.key for o in self._conflicts(pos, planned, near)}
+            hit = {o.key for o in in_way}
             hit |= {v.obstacle.key for v in violated}
             conflicts = [self._enc(pos, planned, o, rho) for o in near if o.key in hit] or others
             gov = by_key.get(man.governing)
@@ -1166,6 +1156,7 @@ class FgaAvoider:
                 plan.altitude,
                 ctx.t,
                 reason=plan.why,
+                free=plan.free,
             )
             return AvoidanceDecision(
                 self._command(self._man, ctx),
@@ -1262,7 +1253,7 @@ class FgaAvoider:
             return None
         w = np.asarray(ctx.waypoints, dtype=np.float64)
         j = min(ctx.next_index, len(w) - 1)
-        home = math.atan2(float(w[j, 0] - pos[0]), float(w[j, 1] - pos[1]))
+        home = bearing(pos, w[j])
         horizontal = float(math.hypot(vel[0], vel[1]))
         back = self._velocity(home, horizontal, float(vel[2]))
         blocking = [self._enc(pos, back, o, rho) for o in self._conflicts(pos, back, near)]
@@ -1300,16 +1291,15 @@ class FgaAvoider:
         (module docstring), or None."""
         w = np.asarray(ctx.waypoints, dtype=np.float64)
         horizontal = float(math.hypot(vel[0], vel[1]))
-        params = ctx.vehicle
-        up = 0.95 * float(getattr(params, "climb_rate_max", 3.0))
-        down = 0.95 * float(getattr(params, "descent_rate_max", 2.0))
+        up, down = self._climb_limits(ctx.vehicle)
+        turn_rate = horizontal / max(rho, 1e-9)
         for j in range(min(ctx.next_index, len(w) - 1), len(w)):
             d = float(np.hypot(*(w[j, :2] - pos[:2])))
             if d < 2.0 * rho and j < len(w) - 1:
                 continue
-            c = math.atan2(float(w[j, 0] - pos[0]), float(w[j, 1] - pos[1]))
-            climb = min(max(0.25 * float(w[j, 2] - pos[2]), -down), up)
-            turn_rate = horizontal / max(rho, 1e-9)
+            c = bearing(pos, w[j])
+            # the climb the autopilot's altitude loop will command towards the waypoint
+            climb = min(max(LoopDesign.altitude_gain * float(w[j, 2] - pos[2]), -down), up)
             sep, _key = self._turn_separation(
                 pos, vel, course, c, self.t_res, near, turn_rate, climb
             )
@@ -1422,6 +1412,7 @@ __all__ = [
     "cone_half_angle",
     "encounter",
     "measure_turn",
+    "path_separation",
     "tangent_course",
     "tangent_courses",
     "wrap",
