@@ -41,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.campaign.seed004 import GENERATOR_VERSION as SEED004_VERSION
+from replay.campaign.seed004 import seed004_case
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -252,28 +253,34 @@ def uniform(mission: Any, count: int, rng: np.random.Generator, p: Params) -> li
     return out
 
 
-def seed004_table2(
-    mission: Any, count: int, rng: np.random.Generator, p: Params
-) -> list[dict[str, Any]]:
-    """Seed 004's cases are whole (:mod:`replay.campaign.seed004`): never called per mission."""
-    raise TypeError("seed004-table2 makes whole cases: use replay.campaign.seed004.seed004_case")
-
-
 Generator = Callable[[Any, int, np.random.Generator, Params], list[dict[str, Any]]]
 GENERATORS: Mapping[str, Generator] = {
     "seed000-normal": seed000_normal,
     "seed000-hill": seed000_hill,
     "seed000-intruders": seed000_intruders,
     "uniform": uniform,
-    "seed004-table2": seed004_table2,
 }
-# generators that make the whole case (the aircraft's leg too), with their version
-CASE_GENERATORS: Mapping[str, int] = {"seed004-table2": SEED004_VERSION}
+
+
+@dataclass(frozen=True)
+class CaseGenerator:
+    """A generator that makes the whole case -- the aircraft's leg too: ``make(rng, dynamic)``
+    returns (mission document, threat records, notes); ``version`` is part of every run's
+    identity (bumped when the cases change)."""
+
+    make: Callable[[np.random.Generator, bool], tuple[dict[str, Any], list[dict[str, Any]], Any]]
+    version: int
+
+
+CASE_GENERATORS: Mapping[str, CaseGenerator] = {
+    "seed004-table2": CaseGenerator(seed004_case, SEED004_VERSION),
+}
 
 __all__ = [
     "CASE_GENERATORS",
     "GENERATORS",
     "THREAT_KEYS",
+    "CaseGenerator",
     "Params",
     "file_records",
     "hill_ridge",

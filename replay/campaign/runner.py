@@ -46,8 +46,6 @@ def scenario(run: Run) -> Any:
     from replay.campaign.generators import GENERATORS, file_records
     from replay.threat_file import threats_from_records
 
-    if run.makes_cases:
-        raise TypeError(f"{run.generator} makes whole cases: see case()")
     if run.row.file is not None:
         return str(run.row.file)  # read by the replay, with the mission's map
     mission = _MISSIONS.get(str(run.mission))
@@ -65,13 +63,12 @@ def case(run: Run) -> tuple[Any, Any, dict[str, Any]]:
     import numpy as np
 
     from planner.mission import mission_from_dict
-    from replay.campaign.generators import file_records
-    from replay.campaign.seed004 import seed004_case
+    from replay.campaign.generators import CASE_GENERATORS, file_records
     from replay.threat_file import threats_from_records
 
-    assert run.row.dynamic is not None
+    assert run.generator is not None and run.row.dynamic is not None
     rng = np.random.default_rng(run.scenario_seed)
-    doc, records, notes = seed004_case(rng, run.row.dynamic)
+    doc, records, notes = CASE_GENERATORS[run.generator].make(rng, run.row.dynamic)
     mission = mission_from_dict(doc, f"{run.key} ({run.generator})")
     threats = threats_from_records(file_records(records), name=f"{run.key} ({run.generator})")
     return mission, threats, notes

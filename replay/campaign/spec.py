@@ -346,7 +346,7 @@ def load_spec(path: str | Path) -> Spec:
         sensor_range = _number(src, "sensor_range", sensor_range, minimum=1.0)
     digests = {}
     if cases:  # the cases are the generator's: its name and version stand for the mission file
-        made = f"{gen_name} v{CASE_GENERATORS[str(gen_name)]}"
+        made = f"{gen_name} v{CASE_GENERATORS[str(gen_name)].version}"
         digests[str(missions[0])] = hashlib.sha256(made.encode()).hexdigest()
     for f in [
         *(m for m in missions if not cases),
@@ -397,12 +397,12 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
             )
         return None, Params(), tuple(Row(p.stem, None, p) for p in paths)
     gen = doc["generator"]
-    if gen not in GENERATORS:
+    if gen not in GENERATORS and gen not in CASE_GENERATORS:
         later = f" ({gen}: {COMING[gen]})" if gen in COMING else ""
         raise _fail(
             src,
             "threats.generator",
-            f"unknown generator {gen!r}{later}; valid: {', '.join(GENERATORS)}",
+            f"unknown generator {gen!r}{later}; valid: {', '.join([*GENERATORS, *CASE_GENERATORS])}",
         )
     if gen in CASE_GENERATORS:
         if "counts" in doc:
