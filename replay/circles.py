@@ -31,12 +31,17 @@ circle" search vectorised over the remaining points.  Coordinates are shifted to
 before the arithmetic, so map coordinates of ~1e6 m lose no precision.  "Outside" means farther
 than the radius plus 1e-10 of the points' extent (rounding slack), so a point may lie outside the
 returned circle by at most that much (1e-7 m for a 1 km obstacle).
+
+:func:`cone_outline` draws a recorded collision cone (FGA's) and its protected circle, for the
+recorder and ``terrapath view`` alike.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -68,6 +73,27 @@ class Circle:
     def contains(self, points: npt.ArrayLike, tol: float = 1e-6) -> BoolArray:
         """Bool (N,): the point lies inside or on the circle, within ``tol`` metres."""
         return np.asarray(self.distance(points) <= self.radius + tol)
+
+
+def cone_outline(
+    cone: Mapping[str, Any], apex: npt.ArrayLike, segments: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The outline of a recorded collision cone (FGA's decision ``cones``: ``los_deg``,
+    ``half_angle_deg``, ``range_m``, ``keep_m``) from ``apex`` (3,), in its horizontal plane:
+    the ends of its two edges (each tangent to the protected circle) and that circle, closed,
+    ``segments + 1`` points about the obstacle's centre at ``range_m`` along the line of sight."""
+    here = np.asarray(apex, dtype=np.float64)
+    los = math.radians(float(cone["los_deg"]))
+    half = math.radians(float(cone["half_angle_deg"]))
+    rng, keep = float(cone["range_m"]), float(cone["keep_m"])
+    length = math.sqrt(max(rng * rng - keep * keep, 0.0))
+    a_end, b_end = (
+        here + length * np.array([math.sin(e), math.cos(e), 0.0]) for e in (los - half, los + half)
+    )
+    a = np.linspace(0.0, 2.0 * math.pi, segments + 1)
+    centre = here + rng * np.array([math.sin(los), math.cos(los), 0.0])
+    ring = centre + np.column_stack([keep * np.sin(a), keep * np.cos(a), np.zeros(len(a))])
+    return a_end, b_end, ring
 
 
 def _xy(points: npt.ArrayLike, name: str) -> FloatArray:

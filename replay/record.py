@@ -108,6 +108,7 @@ from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrim
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
 from replay import topics as T
+from replay.circles import cone_outline
 from replay.encoding import (
     ENTITY_LINES,
     ENTITY_TRIANGLES,
@@ -834,19 +835,10 @@ class RunRecorder:
         range, keep radius) as a line list on /avoidance/guidance: each cone's two edges from
         the aircraft to the tangent points, and the protected circle round the obstacle."""
         segs: list[list[float]] = []
-        a = np.linspace(0.0, 2.0 * math.pi, 37)
         for c in cones:
             apex = np.asarray(c["apex"], dtype=np.float64)
-            los = math.radians(float(c["los_deg"]))
-            half = math.radians(float(c["half_angle_deg"]))
-            rng = float(c["range_m"])
-            keep = float(c["keep_m"])
-            length = math.sqrt(max(rng * rng - keep * keep, 0.0))
-            for edge in (los - half, los + half):
-                end = apex + length * np.array([math.sin(edge), math.cos(edge), 0.0])
-                segs += [apex.tolist(), end.tolist()]
-            centre = apex + rng * np.array([math.sin(los), math.cos(los), 0.0])
-            ring = centre + np.column_stack([keep * np.sin(a), keep * np.cos(a), np.zeros(len(a))])
+            a_end, b_end, ring = cone_outline(c, apex, 36)
+            segs += [apex.tolist(), a_end.tolist(), apex.tolist(), b_end.tolist()]
             pairs = np.empty((2 * (len(ring) - 1), 3))
             pairs[0::2], pairs[1::2] = ring[:-1], ring[1:]
             segs += pairs.tolist()

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from replay.circles import cone_outline
+
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -127,19 +129,9 @@ def cones(decision: dict[str, Any], run: Any) -> list[Mark]:
     hover = _hover(decision)
     gap = np.full((1, 3), np.nan)
     parts: list[FloatArray] = []
-    a = np.linspace(0.0, 2.0 * math.pi, 49)
     for c in info:
-        los, half = math.radians(float(c["los_deg"])), math.radians(float(c["half_angle_deg"]))
-        rng, keep = float(c["range_m"]), float(c["keep_m"])
-        length = math.sqrt(max(rng * rng - keep * keep, 0.0))
-        edges = [
-            here + length * np.array([math.sin(e), math.cos(e), 0.0])
-            for e in (los - half, los + half)
-        ]
-        parts += [np.vstack([edges[0], here, edges[1]]), gap]
-        centre = here + rng * np.array([math.sin(los), math.cos(los), 0.0])
-        ring = centre + np.column_stack([keep * np.sin(a), keep * np.cos(a), np.zeros(len(a))])
-        parts += [ring, gap]
+        a_end, b_end, ring = cone_outline(c, here, 48)
+        parts += [np.vstack([a_end, here, b_end]), gap, ring, gap]
     xyz = np.vstack(parts[:-1])
     course = float(decision["command"]["course"])
     heading = np.vstack([here, here + 150.0 * np.array([math.sin(course), math.cos(course), 0.0])])
