@@ -367,3 +367,33 @@ def test_pso_ca_can_wait_for_the_critical_start_time() -> None:
     assert first[1] > first[0] + 300.0  # found at ~10 km, re-planned near the obstacle
     with pytest.raises(InputError, match="start must be one of detection, critical"):
         make_avoider("pso-ca", start="soon")
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_pitch_latest_start_leaves_time_to_climb_or_descend(side: int) -> None:
+    """The pitch manoeuvre's critical start is the latest from which the climb (descent) at the
+    limit clears the obstacle's interval by its horizontal entry -- for a descent too."""
+    from types import SimpleNamespace
+
+    from replay.avoidance.fga import _climbed
+
+    fga = FgaAvoider()
+    pos = np.array([0.0, 0.0, 120.0])
+    vel = np.array([0.0, 15.0, 0.0])
+    # a sphere 1 m across whose near side is 32 m away: inside the call margin (33 m)
+    zc = 120.0 - side * 33.0
+    o = FgaObstacle("o", (0.0, 300.0, zc), (0.0, 0.0, 0.0), 1.0, zc - 1.0, zc + 1.0)
+    e = fga._enc(pos, vel, o, 30.0)
+    assert e.window is not None
+    ctx = SimpleNamespace(vehicle=preset("seed004-uas"), terrain=None)
+    plan = fga._pitch_plan(ctx, pos, vel, 0.0, [e], [o], 30.0)  # type: ignore[arg-type]
+    assert plan is not None and plan.side == side
+    entry = fga._enc(pos, vel, o, 30.0, fga.buffer_m).window
+    assert entry is not None
+    # from the latest start the climb (descent) gets exactly 2 buffers beyond the interval
+    up, down = fga._climb_limits(ctx.vehicle)
+    rate = 0.9 * (up if side > 0 else -down)
+    reach = 120.0 + _climbed(rate, entry[0] - plan.t_c)
+    goal = (o.top if side > 0 else o.bottom) + side * (D_M + 2 * fga.buffer_m)
+    assert 0.0 <= plan.t_c < entry[0]
+    assert reach == pytest.approx(goal, abs=0.05)

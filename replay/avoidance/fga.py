@@ -818,9 +818,11 @@ class FgaAvoider:
                     need = max(need, goal) if side > 0 else min(need, goal)
                     # the latest start from which the climb at the limit still gets there
                     lo_t, hi_t = 0.0, t
-                    for _ in range(30):  # bisection: climbed(t - s) + vz s >= goal - z
+                    for _ in range(30):  # bisection: beyond the goal (above it climbing,
+                        # below it descending) when the climb starts at mid
                         mid = 0.5 * (lo_t + hi_t)
-                        if z + float(vel[2]) * mid + _climbed(rate, t - mid) >= goal:
+                        there = z + float(vel[2]) * mid + _climbed(rate, t - mid)
+                        if (there - goal) * side >= 0.0:
                             lo_t = mid
                         else:
                             hi_t = mid
