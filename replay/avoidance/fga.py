@@ -326,6 +326,50 @@ def in_conflict(
     return max(h[0], v[0], 0.0) < min(h[1], v[1], horizon)
 
 
+def conflict_matrix(
+    position: npt.ArrayLike,
+    velocities: FloatArray,
+    obstacles: list[FgaObstacle],
+    keep: float,
+    horizon: float,
+) -> npt.NDArray[np.bool_]:
+    """:func:`in_conflict` for many own velocities (N x 3) against many obstacles at once: an
+    (N, M) array, element for element the same arithmetic (a decision tests some 80 course
+    candidates against every obstacle within ``R``)."""
+    x, y, z = (float(c) for c in np.asarray(position, dtype=np.float64)[:3])
+    v = np.asarray(velocities, dtype=np.float64).reshape(-1, 3)
+    if not obstacles:
+        return np.zeros((len(v), 0), dtype=bool)
+    o = np.array(
+        [(*ob.center[:2], *ob.velocity, ob.radius, ob.bottom, ob.top) for ob in obstacles],
+        dtype=np.float64,
+    )
+    px, py = o[:, 0] - x, o[:, 1] - y
+    wx = v[:, 0:1] - o[None, :, 2]
+    wy = v[:, 1:2] - o[None, :, 3]
+    k = o[:, 5] + keep
+    a = wx * wx + wy * wy
+    c = px * px + py * py - k * k
+    b = -2.0 * (px * wx + py * wy)
+    disc = b * b - 4.0 * a * c
+    still = a < 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = np.sqrt(np.maximum(disc, 0.0))
+        h0 = np.where(still, -np.inf, (-b - root) / (2.0 * a))
+        h1 = np.where(still, np.inf, (-b + root) / (2.0 * a))
+        h_ok = np.where(still, c < 0.0, disc > 0.0)
+        rate = v[:, 2:3] - o[None, :, 4]
+        lo, hi = o[:, 6] - keep, o[:, 7] + keep
+        level = np.abs(rate) < 1e-9
+        ta, tb = (lo - z) / rate, (hi - z) / rate
+        v0 = np.where(level, -np.inf, np.minimum(ta, tb))
+        v1 = np.where(level, np.inf, np.maximum(ta, tb))
+    v_ok = np.where(level, (lo < z) & (z < hi), True)
+    start = np.maximum(np.maximum(h0, v0), 0.0)
+    end = np.minimum(np.minimum(h1, v1), horizon)
+    return np.asarray(h_ok & v_ok & (start < end), dtype=bool)
+
+
 def path_separation(
     t: FloatArray, x: FloatArray, y: FloatArray, z: FloatArray, obstacles: list[FgaObstacle]
 ) -> tuple[float, str]:
@@ -350,6 +394,16 @@ def _pass_side(position: FloatArray, velocity: FloatArray, obs: FgaObstacle) -> 
     px, py = obs.center[0] - float(position[0]), obs.center[1] - float(position[1])
     wx, wy = float(velocity[0]) - obs.velocity[0], float(velocity[1]) - obs.velocity[1]
     return 1 if wrap(math.atan2(wx, wy) - math.atan2(px, py)) >= 0.0 else -1
+
+
+def _flips(position: FloatArray, velocity: FloatArray, obs: FgaObstacle, side: int) -> bool:
+    """Whether ``velocity`` passes ``obs`` on the other side than ``side`` while still closing
+    on it.  A course whose relative velocity opens the range has left the obstacle behind: its
+    "side" flips without crossing the cone (an obstacle passed on the left is, once behind,
+    "passed on the right" by any turn to the right), so only a closing course can flip."""
+    px, py = obs.center[0] - float(position[0]), obs.center[1] - float(position[1])
+    wx, wy = float(velocity[0]) - obs.velocity[0], float(velocity[1]) - obs.velocity[1]
+    return px * wx + py * wy > 0.0 and _pass_side(position, velocity, obs) != side
 
 
 def tangent_courses(
@@ -671,6 +725,22 @@ class FgaAvoider:
         return h if math.isfinite(h) else float(pos[2])
 
     # -- planning ------------------------------------------------------------------------------
+    @staticmethod
+    def _first(
+        pos: FloatArray, targets: list[Encounter], near: list[FgaObstacle]
+    ) -> FgaObstacle | None:
+        """The obstacle a manoeuvre steers round: of the conflicts, the one whose protected
+        volume is entered first (a fast intruder crossing ahead comes before a nearer one
+        overtaking slowly from behind); without conflicts, the nearest obstacle."""
+        timed = [e for e in targets if e.window is not None]
+        if timed:
+            return min(timed, key=lambda e: e.window[0] if e.window else math.inf).obstacle
+        return min(
+            [e.obstacle for e in targets] or near,
+            key=lambda o: math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) - o.radius,
+            default=None,
+        )
+
     def _heading_plan(
         self,
         pos: FloatArray,
@@ -702,37 +772,45 @@ class FgaAvoider:
                     candidates.append((c, side, o.key))
         # a fan besides the edges: the nearest free course need not lie on an edge (an obstacle
         # overtaking from behind leaves every course ahead free, and its edges point back)
-        # the fan's courses resolve the nearest obstacle in conflict (the one steered round)
-        first = min(
-            [e.obstacle for e in targets] or list(seen.values()),
-            key=lambda o: math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) - o.radius,
-            default=None,
-        )
+        # the fan's courses resolve the nearest obstacle in conflict (the one steered round; its
+        # side is worked out below for the course chosen, as for another obstacle's edge)
+        first = self._first(pos, targets, list(seen.values()))
         if first is not None:
             for k in range(1, int(180 / FAN_DEG) + 1):
                 for sgn in (1, -1):
-                    c = wrap(course + sgn * math.radians(FAN_DEG * k))
-                    v = self._velocity(c, horizontal, float(vel[2]))
-                    candidates.append((c, _pass_side(pos, v, first), first.key))
+                    candidates.append((wrap(course + sgn * math.radians(FAN_DEG * k)), 0, ""))
         free = []
-        for c, side, key in candidates:
-            v = self._velocity(c, horizontal, float(vel[2]))
-            # clear by half a buffer more than the conflict test calls: a course chosen right at
-            # another obstacle's threshold would be called in conflict again at the next decision
-            if self._clear(pos, v, near, rho, 0.5 * self.buffer_m):
-                turn = wrap(c - course)
-                penalty = 0.0
-                if keep_side is not None and _pass_side(pos, v, keep_side[0]) != keep_side[1]:
-                    penalty = 10.0
-                # flying alongside an obstacle (hardly any relative speed) never resolves: the
-                # encounter is only put off -- taken only when nothing else is free
-                if any(
-                    math.hypot(v[0] - o.velocity[0], v[1] - o.velocity[1]) < FORMATION_MPS
-                    for o in seen.values()
-                    if o.moving
-                ):
-                    penalty += 5.0
-                free.append((abs(turn) + penalty, c, side, key))
+        # clear by half a buffer more than the conflict test calls: a course chosen right at
+        # another obstacle's threshold would be called in conflict again at the next decision
+        courses = np.array([c for c, _side, _key in candidates], dtype=np.float64)
+        velocities = np.column_stack(
+            [
+                horizontal * np.sin(courses),
+                horizontal * np.cos(courses),
+                np.full(len(courses), float(vel[2])),
+            ]
+        )
+        keep_clear = self.d_m + 1.5 * self.buffer_m
+        blocked = conflict_matrix(pos, velocities, near, keep_clear, self.horizon_s).any(axis=1)
+        # flying alongside an obstacle (hardly any relative speed) never resolves: the encounter
+        # is only put off -- taken only when nothing else is free
+        moving = np.array([o.velocity[:2] for o in seen.values() if o.moving], dtype=np.float64)
+        alongside = (
+            np.hypot(
+                velocities[:, 0:1] - moving[None, :, 0], velocities[:, 1:2] - moving[None, :, 1]
+            ).min(axis=1)
+            < FORMATION_MPS
+            if len(moving)
+            else np.zeros(len(candidates), dtype=bool)
+        )
+        for (c, side, key), v, hit, slow in zip(
+            candidates, velocities, blocked, alongside, strict=True
+        ):
+            if not hit:
+                penalty = 5.0 if slow else 0.0
+                if keep_side is not None and _flips(pos, v, *keep_side):
+                    penalty += 10.0
+                free.append((abs(wrap(c - course)) + penalty, c, side, key))
         if not free:
             return None
         free.sort()
@@ -1126,6 +1204,10 @@ class FgaAvoider:
         # -- re-planned only when urgent (step 5: t_k within a decision period, or within the
         # late-start check's reach); a later one is met when its time comes
         in_way = self._conflicts(pos, planned, near)
+        # the late-start check plans round every obstacle but the one being settled: the turn a
+        # new conflict needs may be set by a neighbour (two obstacles closer than 2 d_m apart
+        # close the gap between them, and the way round both is a much larger turn)
+        unsettled = [o for o in near if o.key not in settling]
         others = [
             e
             for e in (
@@ -1134,8 +1216,7 @@ class FgaAvoider:
                 if o.key not in settling
             )
             if e.t_c - self.t_res <= self.period
-            or self._late_by(ctx, pos, planned, man.course, [e.obstacle], rho, turn_rate)
-            is not None
+            or self._late_by(ctx, pos, planned, man.course, unsettled, rho, turn_rate) is not None
         ]
         if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
             hit = {o.key for o in in_way}
@@ -1199,6 +1280,11 @@ class FgaAvoider:
                     keep_side = (gov, _pass_side(pos, planned, gov))
                     edge = self._heading_plan(pos, vel, course, [], near, rho, turn_rate, keep_side)
                     c = edge.course if edge is not None else None
+                    if c is not None and abs(wrap(c - man.course)) > math.radians(STEER_STEP_DEG):
+                        # not a step along the edge but another manoeuvre (a reversal across the
+                        # obstacle's track): hold; the conflict test re-plans if it must
+                        man.held = True
+                        return None
                 if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
                     man.course = c
                     return AvoidanceDecision(
