@@ -791,7 +791,9 @@ class FgaAvoider:
             ]
         )
         keep_clear = self.d_m + 1.5 * self.buffer_m
-        blocked = conflict_matrix(pos, velocities, near, keep_clear, self.horizon_s).any(axis=1)
+        blocked = np.any(
+            conflict_matrix(pos, velocities, near, keep_clear, self.horizon_s), axis=1
+        ).tolist()
         # flying alongside an obstacle (hardly any relative speed) never resolves: the encounter
         # is only put off -- taken only when nothing else is free
         moving = np.array([o.velocity[:2] for o in seen.values() if o.moving], dtype=np.float64)
