@@ -20,20 +20,25 @@ static      the centre                        the safety radius             cent
 hill        each point ``"<id>/<k>"``         that point's safety radius    point z + its radius
 intruder    its position                      the safety radius             z + radius
 cylinder    centre of the top face            the radius                    the top
+prism       footprint centroid at the top     ``enclosing_radius``          the top
 body        the centre (x0, y0, z0)           ``body_radius_at(own z)``     z0 + c
 =========== ================================= ============================= ======================
 
 (seed 001 eq 3: a body's size is the radius of its horizontal section at the aircraft's altitude,
 :meth:`~replay.body_threat.BodyThreat.body_radius_at`; 0 when the aircraft flies above or below it --
-``top`` then says where it ends.)  The velocity is :meth:`~replay.threats.Threat.velocity` (zero for
-everything but intruders).  Sizes and tops are reported exactly (no noise).
+``top`` then says where it ends.  A prism, a building, is reported as the smallest cylinder about
+its footprint's centroid that holds it, :attr:`~replay.threats.PrismThreat.enclosing_radius`: a
+report carries a position and a size, not a polygon, so an avoider that keeps clear of the circle
+keeps clear of the building, at the price of a wider berth round a long or L-shaped one.)  The
+velocity is :meth:`~replay.threats.Threat.velocity` (zero for everything but intruders).  Sizes and
+tops are reported exactly (no noise).
 
 **Range and activity.**  A threat reports the state it had at ``t_m = t - latency_s`` (below): it
 reports when it was active then (``appears_at <= t_m < disappears_at``: a threat that appears is
 heard ``latency_s`` later, and one that disappears is still heard for ``latency_s``) and the point
 the radar would test is within ``range_m`` (3D) of the aircraft's position now -- for point kinds
-the point itself, for solids (cylinder, body) the point of the body nearest to the aircraft, so a
-large body is heard when its surface, not its centre, comes within range.  There is no line of
+the point itself, for solids (cylinder, prism, body) the point of the body nearest to the
+aircraft, so a large body is heard when its surface, not its centre, comes within range.  There is no line of
 sight test (a radio report needs none at these ranges; ``terrain_model`` is accepted and ignored,
 so the loop can call either sensor alike) and no terrain returns.
 
@@ -78,7 +83,7 @@ import numpy.typing as npt
 from replay.body_threat import BodyThreat
 from replay.frames import course_of
 from replay.radar import sensor_number, sensor_rng
-from replay.threats import HillThreat, StaticThreat, Threat
+from replay.threats import HillThreat, PrismThreat, StaticThreat, Threat
 from terrain.errors import InputError
 
 if TYPE_CHECKING:
@@ -100,7 +105,8 @@ class Report:
     source: str  # the threat's id
     position: FloatArray  # (3,)
     velocity: FloatArray  # (3,) east, north, up
-    radius: float  # the threat's size (safety radius, cylinder radius, body section radius)
+    radius: float  # the threat's size (safety radius, cylinder radius, prism's enclosing
+    # radius, body section radius)
     top: float  # the highest altitude of its volume
     measured_at: float  # the time the position and velocity describe
     range: float  # from the aircraft now to the reported position
@@ -321,7 +327,7 @@ class CooperativeSensor:
         vel = [np.zeros((len(keep), 3))]
         rad = [table.radii[keep]]
         top = [table.centres[keep, 2] + table.radii[keep]]
-        # the others (intruders, cylinders, bodies): one by one
+        # the others (intruders, cylinders, prisms, bodies): one by one
         for k, th in enumerate(seq):
             if isinstance(th, StaticThreat | HillThreat) or not th.active(tm):
                 continue
@@ -332,6 +338,8 @@ class CooperativeSensor:
             p = np.asarray(th.position(tm), dtype=np.float64).reshape(3)
             if isinstance(th, BodyThreat):
                 r = float(th.body_radius_at(own[2]))
+            elif isinstance(th, PrismThreat):
+                r = th.enclosing_radius
             else:
                 r = float(shape["radius"])
             order_key.append(np.array([k]))

@@ -26,8 +26,8 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from replay import topics as T
 from terrain.errors import InputError
 
-THREAT_KINDS = ("sphere", "cylinder", "ellipsoid")
-THREAT_KEYS = ("id", "kind", "center", "radius", "axes", "exponents", "top", "bottom")
+THREAT_KINDS = ("sphere", "cylinder", "ellipsoid", "prism")
+THREAT_KEYS = ("id", "kind", "center", "radius", "axes", "exponents", "footprint", "top", "bottom")
 DETECTION_KEYS = ("id", "position", "range", "kind", "moving")
 
 # ---------------------------------------------------------------------------------------------
@@ -210,12 +210,22 @@ def normalize_threat(item: Any, index: int = 0) -> dict[str, Any]:
         else:
             out["center"] = check_vector(item["center"], 3, f"{what} center")
             out["radius"] = check_positive(item.get("radius"), f"{what} radius")
-    elif kind == "cylinder":
+    elif kind in ("cylinder", "prism"):
         out["center"] = check_vector(item["center"], (2, 3), f"{what} center")
-        out["radius"] = check_positive(item.get("radius"), f"{what} radius")
+        if kind == "cylinder":
+            out["radius"] = check_positive(item.get("radius"), f"{what} radius")
+        else:
+            ring = item.get("footprint")
+            if not isinstance(ring, Sequence) or isinstance(ring, str) or len(ring) < 3:
+                raise InputError(
+                    f"{what} footprint: expected at least 3 [x, y], found {ring!r:.60}"
+                )
+            out["footprint"] = [check_vector(v, 2, f"{what} footprint") for v in ring]
         for key in ("bottom", "top"):
             value = item.get(key)
             out[key] = None if value is None else check_finite(value, f"{what} {key}")
+        if kind == "prism" and out["top"] is None:
+            raise InputError(f"{what}: missing 'top'")
         if out["bottom"] is not None and out["top"] is not None and out["top"] <= out["bottom"]:
             raise InputError(f"{what}: top {out['top']} must be above bottom {out['bottom']}")
     else:
@@ -234,7 +244,7 @@ def normalize_threat(item: Any, index: int = 0) -> dict[str, Any]:
             ]
         )
     for key in ("top", "bottom"):
-        if kind != "cylinder" and item.get(key) is not None:
+        if kind not in ("cylinder", "prism") and item.get(key) is not None:
             out[key] = check_finite(item[key], f"{what} {key}")
     return out
 

@@ -292,9 +292,9 @@ def active_at(th: Any, t: FloatArray) -> npt.NDArray[np.bool_]:
 
 
 def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArray) -> None:
-    """A threat's footprint: circles of its shapes (a body's widest section), an intruder's track
-    and its circle where it came closest."""
-    from matplotlib.patches import Circle
+    """A threat's footprint: circles of its shapes (a body's widest section), a prism's polygon,
+    an intruder's track and its circle where it came closest."""
+    from matplotlib.patches import Circle, Polygon
 
     colour = "#9467bd"
     if th.kind == "intruder":
@@ -309,6 +309,10 @@ def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArr
         return
     shapes = th.shapes(float(t[0]))
     for sh in shapes:
+        if sh.get("kind") == "prism":
+            ring = np.asarray(sh["footprint"], dtype=np.float64)
+            ax.add_patch(Polygon(ring, closed=True, fill=False, ec=colour, lw=1.2))
+            continue
         c = np.asarray(sh["center"], dtype=np.float64).reshape(-1, 3)
         r = np.atleast_1d(np.asarray(sh.get("radius", 0.0), dtype=np.float64))
         if sh.get("kind") == "body" or "axes" in sh:

@@ -15,14 +15,15 @@ convention of :func:`replay.frames.course_of`); *elevation* is above the horizon
 points the radar can see (:meth:`replay.threats.Threat.radar_points`): the centre of a static
 threat, each point of a hill (ids ``"<hill id>/<k>"``, so an avoider can cluster them as seed 000
 §5.3 does: points closer than 1 km are one obstacle), the current position of an intruder, and for
-the solid shapes (cylinder, body) the point of the body nearest to the aircraft, clipped to the
-body (the aircraft's own position when it is inside), and the left and right edges of its outline
--- the tangent points of its horizontal section at that point's altitude, ids ``"<id>#left"`` and
-``"<id>#right"``, none from inside it -- as a scanning radar sees a solid's extent (seed 001 fits
-its obstacle circles to such returns).  An edge slides round the body faster than the aircraft
-moves when the aircraft is close: it is never judged on its own but takes its nearest point's
-classification (unknown without it).  A point is detected when its range is
-<= ``range_m`` and, with a terrain model, the segment aircraft -> point is clear of terrain:
+the solid shapes (cylinder, prism, body) the point of the body nearest to the aircraft, clipped to
+the body (the aircraft's own position when it is inside), and the left and right edges of its
+outline -- the tangent points of its horizontal section at that point's altitude (a prism's extreme
+vertices as seen from the aircraft), ids ``"<id>#left"`` and ``"<id>#right"``, none from inside
+it -- as a scanning radar sees a solid's extent (seed 001 fits its obstacle circles to such
+returns).  An edge slides round the body faster than the aircraft moves when the aircraft is
+close: it is never judged on its own but takes its nearest point's classification (unknown
+without it).  A point is detected when its range is <= ``range_m`` and, with a terrain model,
+the segment aircraft -> point is clear of terrain:
 :meth:`terrain.model.TerrainModel.line_of_sight`, one batched call for all candidate points per
 scan, with ``los_tolerance_m`` (1 m) so a point resting on the ground is still seen.  The threats
 are asked all at once, as arrays by kind (:class:`replay.threat_table.ThreatTable`, kept while
@@ -129,7 +130,7 @@ class RadarPicture:
     bearings: FloatArray
     elevations: FloatArray
     moving_code: npt.NDArray[np.int8]  # -1 unknown, 0 stationary, 1 moving
-    extended: BoolArray  # returns of solid bodies (cylinder, body)
+    extended: BoolArray  # returns of solid bodies (cylinder, prism, body)
 
     def __len__(self) -> int:
         return len(self.ranges)

@@ -54,12 +54,16 @@ Conventions:
                                           "bottom": z | None, "top": z | None}
       {"id": "twr",  "kind": "ellipsoid", "center": [x, y, z], "axes": [a, b, c],
                                           "exponents": [p, q, r]}        (optional, default 1)
+      {"id": "b12",  "kind": "prism",    "center": [x, y] | [x, y, z], "footprint": [[x, y], ...],
+                                          "bottom": z | None, "top": z}
 
   (``top``/``bottom`` are optional for spheres and ellipsoids and ignored there.)  An ellipsoid is
   seed 001's body ``|dx/a|^(2p) + |dy/b|^(2q) + |dz/c|^(2r) <= 1``: drawn as a scaled sphere when
   all exponents are 1, else as a triangle mesh of its surface.  An unbounded cylinder bottom is
   drawn from the lowest terrain height (0 m without terrain), an unbounded top 10 km above the
-  bottom.  Unknown keys are refused.
+  bottom.  A prism (a building; ``center`` places its label) is drawn as a closed triangle mesh
+  (walls and caps, :func:`replay.scene.prism_mesh`), an unbounded bottom as a cylinder's.  Unknown
+  keys are refused.
 - **Detections** (:meth:`RunRecorder.write_detections`): one radar scan, a list of
   ``{"id", "position": [x, y, z], "range", "kind": "threat" | "terrain", "moving": bool}`` (``id``
   and ``position`` required, ``kind`` defaults to ``"threat"``, ``moving`` to false); or
@@ -143,6 +147,7 @@ from replay.scene import (
     height_colors,
     line_head,
     pose,
+    prism_mesh,
     quaternion_map,
     superellipsoid_mesh,
 )
@@ -655,6 +660,21 @@ class RunRecorder:
                     bottom_scale=1.0,
                     top_scale=1.0,
                     color=fill,
+                )
+            )
+            label = self._rel((cx, cy, top))
+        elif kind == "prism":
+            top = th["top"]
+            bottom = th["bottom"] if th["bottom"] is not None else min(self._floor_z, top - 1.0)
+            cx, cy = th["center"][:2]
+            # vertices relative to the centroid at the bottom: small numbers in float32
+            pts, faces = prism_mesh(np.asarray(th["footprint"]) - (cx, cy), 0.0, top - bottom)
+            e.triangles.append(
+                TriangleListPrimitive(
+                    pose=pose(*self._rel((cx, cy, bottom))),
+                    color=fill,
+                    points=[Point3(x=px, y=py, z=pz) for px, py, pz in pts.tolist()],
+                    indices=faces.reshape(-1).tolist(),
                 )
             )
             label = self._rel((cx, cy, top))

@@ -25,7 +25,7 @@ import yaml
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
 from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate, time_limit
-from replay.threat_file import load_threats, threats_to_records
+from replay.threat_file import load_threats, recorded_text, threats_to_records
 from replay.threats import ThreatSet
 from replay.vehicle.params import VehicleParams
 from terrain.errors import DataFileError, InputError
@@ -98,7 +98,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         threat_text = yaml.safe_dump(doc, sort_keys=False)
     elif r.threats:
         threats = load_threats(r.threats, grid)
-        threat_text = Path(r.threats).read_text(encoding="utf-8")
+        threat_text = recorded_text(r.threats, threats)
     elif old_threats is not None:
         threat_text = old_threats.decode("utf-8")
         threats = recorded_threats(threat_text, source, grid)

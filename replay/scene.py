@@ -2,8 +2,8 @@
 
 The vehicle attitude as a map-frame quaternion (:func:`quaternion_map`), poses, colours, the head
 of a track line strip (:func:`line_head`), terrain colours by height (:func:`height_colors`),
-terrain mesh decimation (:func:`decimate_mesh`) and the triangle mesh of a superellipsoid threat
-(:func:`superellipsoid_mesh`).
+terrain mesh decimation (:func:`decimate_mesh`) and the triangle meshes of a superellipsoid threat
+(:func:`superellipsoid_mesh`) and of a prism threat, a building (:func:`prism_mesh`).
 """
 
 from __future__ import annotations
@@ -148,3 +148,35 @@ def superellipsoid_mesh(
         top = (rows - 1) * cols
         faces.append((north, top + j, top + (j + 1) % cols))
     return points, np.asarray(faces, dtype=np.int64)
+
+
+def prism_mesh(
+    footprint: npt.ArrayLike, bottom: float, top: float
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """A vertical prism over a simple polygon (``footprint``: open ring (V, 2), either
+    orientation) from ``bottom`` to ``top`` as a closed triangle mesh, faces counter-clockwise
+    seen from outside: two triangles per wall, the caps from shapely's constrained Delaunay
+    triangulation (a concave footprint's caps stay inside it)."""
+    import shapely
+
+    ring = np.asarray(footprint, dtype=np.float64).reshape(-1, 2)
+    r = ring - ring[0]
+    if np.sum(r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1]) < 0:
+        ring = ring[::-1]  # counter-clockwise: the walls face out
+    n = len(ring)
+    points = np.vstack(
+        [np.column_stack([ring, np.full(n, bottom)]), np.column_stack([ring, np.full(n, top)])]
+    )
+    k = np.arange(n)
+    k1 = (k + 1) % n
+    faces = [np.column_stack([k, k1, n + k1]), np.column_stack([k, n + k1, n + k])]
+    tris = shapely.constrained_delaunay_triangles(shapely.Polygon(ring))
+    corners = np.array([np.asarray(t.exterior.coords)[:3] for t in tris.geoms]).reshape(-1, 2)
+    # each triangle corner is a footprint vertex: its index (the nearest, against rounding)
+    d = np.hypot(*(corners[:, None, :] - ring[None, :, :]).transpose(2, 0, 1))
+    cap = np.argmin(d, axis=1).astype(np.int64).reshape(-1, 3)
+    a, b, c = ring[cap[:, 0]], ring[cap[:, 1]], ring[cap[:, 2]]
+    cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]) < 0
+    cap[cw] = cap[cw, ::-1]  # counter-clockwise seen from above
+    faces += [cap[:, ::-1], cap + n]  # the bottom faces down, the top up
+    return points, np.concatenate(faces).astype(np.int64)

@@ -1,4 +1,4 @@
-"""The threat file (DESIGN §5): YAML read and validated at the edge into a :class:`~replay.threats.ThreatSet`.
+"""The threat file (DESIGN §5): YAML or GeoJSON, validated at the edge into a :class:`~replay.threats.ThreatSet`.
 
 A threat file is YAML (``yaml.safe_load`` only) with ``terrapath: 1``, an optional ``name`` and a
 ``threats:`` list (``DOCUMENT_KEYS``).  Every entry has a unique ``id`` (text, or an integer kept as
@@ -13,21 +13,41 @@ Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`):
 ``body`` -- ``center: [x0, y0, z0]``, ``axes: [a, b, c]``, ``exponents: [p, q, r]`` (seed 001 eq 3,
     each in ``EXPONENT_RANGE``).
 ``cylinder`` -- ``center: [x, y]``, ``radius``, ``top`` and optional ``bottom`` (default -inf).
+``prism`` -- a building: ``footprint: [[x, y], ...]`` (map metres) or ``footprint_lonlat: [[lon,
+    lat], ...]`` (degrees, converted vertex by vertex: edges are straight in map metres), ``top``
+    and optional ``bottom``.  The footprint is one closed ring: its last vertex repeats its first
+    (an unclosed ring is refused, as GeoJSON refuses one, so that a ring cut short by an editing
+    slip is not silently closed), with at least 3 distinct vertices, no self-intersection
+    (shapely's reason is given) and no holes (a list of rings is refused).  ``bottom`` defaults to
+    the ground: with a map grid, the lowest terrain under the footprint
+    (:meth:`~terrain.grid.HeightGrid.lowest_under`; ``top`` must then be above it), without one
+    -inf, as for a cylinder.
 ``intruder`` -- a safety ``radius`` and either ``position: [x, y, z]`` and ``velocity: [east, north,
     up]`` (m/s), optional ``stops_at``; or ``waypoints: [[x, y, z], ...]`` (>= 2) flown at ``speed``
     (m/s, > 0), optional ``loop: true``.
 
 ``static``, ``body`` and ``intruder`` may give ``lon``, ``lat`` (WGS84 degrees) and ``alt`` (metres
-AMSL) instead of ``position`` / ``center``, and ``cylinder`` ``lon``, ``lat`` instead of ``center``;
-they are converted with the map grid (``HeightGrid.from_lonlat``), so lon/lat needs a georeferenced
-grid.  Hill points and intruder waypoints are map metres only.
+AMSL) instead of ``position`` / ``center``, ``cylinder`` ``lon``, ``lat`` instead of ``center``, and
+``prism`` ``footprint_lonlat`` instead of ``footprint``; they are converted with the map grid
+(``HeightGrid.from_lonlat``), so lon/lat needs a georeferenced grid.  Hill points and intruder
+waypoints are map metres only.
+
+**GeoJSON** (a ``.json``/``.geojson`` file, or any file whose content is a mapping with ``type``
+and no ``terrapath`` key, as for danger zones, :mod:`terrain.zones`): a FeatureCollection of
+Polygon features (RFC 7946: lon/lat WGS84, closed rings, a third coordinate ignored), each a
+``prism`` threat whose footprint is the polygon's exterior ring; properties ``id`` (else
+``name``, else the feature's own ``id``; required), ``top`` (required), ``bottom``,
+``appears_at`` and ``disappears_at`` with the meanings above, other properties ignored (GIS
+tools add their own).  A polygon with holes, a MultiPolygon or any other geometry is refused
+naming the feature.  Errors name the feature's fields (``features[3].properties.top``,
+``features[3].geometry.coordinates[0]``).
 
 Validation (:func:`load_threats`): unknown keys are refused listing the keys allowed for the kind;
 missing fields, wrong types, NaN or infinite numbers, radii/axes/speeds <= 0, duplicate ids, an
-intruder with neither or both of ``velocity`` and ``waypoints``, and (with a grid) positions outside
-the map each raise a one-line error naming the file and the field (``threats[2].radius``).  A
-missing, unreadable or structurally wrong file raises :class:`DataFileError`, a bad field
-:class:`InputError`.
+intruder with neither or both of ``velocity`` and ``waypoints``, a bad footprint (above), and (with
+a grid) positions or footprint vertices outside the map each raise a one-line error naming the
+file and the field (``threats[2].radius``).  A missing, unreadable or structurally wrong file
+raises :class:`DataFileError`, a bad field :class:`InputError`.
 
 :func:`threats_from_records` validates the ``threats:`` list alone (a mission or a recorded run
 carries one); :func:`threats_to_records` writes threats back as such a list.
@@ -46,29 +66,35 @@ from replay.threats import (
     CylinderThreat,
     HillThreat,
     IntruderThreat,
+    PrismThreat,
     StaticThreat,
     Threat,
     ThreatSet,
     Vec3,
+    footprint_ring,
 )
 from terrain.docfile import check_header, read_document
 from terrain.docfile import found as _found
-from terrain.errors import InputError, where
+from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid
 
 DOCUMENT_KEYS = ("terrapath", "name", "threats")
-KINDS = ("static", "hill", "body", "cylinder", "intruder")
+KINDS = ("static", "hill", "body", "cylinder", "prism", "intruder")
 COMMON_KEYS = ("id", "kind", "appears_at", "disappears_at")
 KIND_KEYS: dict[str, tuple[str, ...]] = {
     "static": ("position", "lon", "lat", "alt", "radius"),
     "hill": ("points", "radius"),
     "body": ("center", "lon", "lat", "alt", "axes", "exponents"),
     "cylinder": ("center", "lon", "lat", "radius", "top", "bottom"),
+    "prism": ("footprint", "footprint_lonlat", "top", "bottom"),
     "intruder": (
         *("position", "lon", "lat", "alt", "velocity", "stops_at"),
         *("waypoints", "speed", "loop", "radius"),
     ),
 }
+
+GEOJSON_SUFFIXES = (".json", ".geojson")
+GEOJSON_PROPERTIES = ("id", "name", "top", "bottom", "appears_at", "disappears_at")
 
 Source = str | PathLike[str] | None
 
@@ -159,12 +185,22 @@ class _Parser:
                 raise self.fail(
                     field, f"missing '{k}'; lon/lat positions need {', '.join(ll_keys)}"
                 )
-        lon = self.number(entry["lon"], f"{field}.lon", "a longitude in degrees")
-        lat = self.number(entry["lat"], f"{field}.lat", "a latitude in degrees")
+        x, y = self.lonlat(entry["lon"], entry["lat"], field, f"{field}.lon", f"{field}.lat")
+        if dims == 3:
+            return (x, y, self.number(entry["alt"], f"{field}.alt", "an altitude in metres AMSL"))
+        return (x, y)
+
+    def lonlat(
+        self, lon_value: Any, lat_value: Any, field: str, lon_field: str, lat_field: str
+    ) -> tuple[float, float]:
+        """A WGS84 (lon, lat) in degrees as map (x, y), converted with the grid (which must be
+        georeferenced) and inside the map."""
+        lon = self.number(lon_value, lon_field, "a longitude in degrees")
+        lat = self.number(lat_value, lat_field, "a latitude in degrees")
         if not -180.0 <= lon <= 180.0:
-            raise self.fail(f"{field}.lon", f"expected degrees in [-180, 180], found {lon}")
+            raise self.fail(lon_field, f"expected degrees in [-180, 180], found {lon}")
         if not -90.0 <= lat <= 90.0:
-            raise self.fail(f"{field}.lat", f"expected degrees in [-90, 90], found {lat}")
+            raise self.fail(lat_field, f"expected degrees in [-90, 90], found {lat}")
         if self.grid is None or self.grid.crs is None:
             found = "no map grid" if self.grid is None else "a local grid without CRS"
             raise self.fail(
@@ -173,8 +209,6 @@ class _Parser:
         mx, my = self.grid.from_lonlat(lon, lat)
         x, y = float(mx), float(my)
         self.inside(x, y, field, f"lon/lat ({lon}, {lat}) = map ")
-        if dims == 3:
-            return (x, y, self.number(entry["alt"], f"{field}.alt", "an altitude in metres AMSL"))
         return (x, y)
 
     def entry(self, entry: Any, field: str) -> Threat:
@@ -199,30 +233,87 @@ class _Parser:
             )
         if "id" not in entry:
             raise self.fail(field, "missing 'id' (text, unique in the file)")
-        ident = entry["id"]
-        if isinstance(ident, bool) or not isinstance(ident, str | int) or ident == "":
-            raise self.fail(f"{field}.id", f"expected text or an integer, found {_found(ident)}")
-        common: dict[str, Any] = {"id": str(ident)}
-        if entry.get("appears_at") is not None:
-            t0 = self.number(entry["appears_at"], f"{field}.appears_at", "seconds >= 0")
-            if t0 < 0:
-                raise self.fail(f"{field}.appears_at", f"expected seconds >= 0, found {t0}")
-            common["appears_at"] = t0
-        if entry.get("disappears_at") is not None:
-            t1 = self.number(entry["disappears_at"], f"{field}.disappears_at", "seconds")
-            if t1 <= common.get("appears_at", 0.0):
-                raise self.fail(
-                    f"{field}.disappears_at",
-                    f"expected a time after appears_at ({common.get('appears_at', 0.0):g} s), "
-                    f"found {t1}",
-                )
-            common["disappears_at"] = t1
+        common = self.common(entry["id"], f"{field}.id", entry, field)
         try:
             return getattr(self, f"_{kind}")(entry, field, common)
         except _FieldError:
             raise
         except InputError as exc:  # a constructor's own check: label it with the entry
             raise self.fail(field, str(exc)) from exc
+
+    def common(self, ident: Any, id_field: str, times: dict[str, Any], at: str) -> dict[str, Any]:
+        """The keys every threat has: the id and the activity window (``times``, its fields
+        under ``at``)."""
+        if isinstance(ident, bool) or not isinstance(ident, str | int) or ident == "":
+            raise self.fail(id_field, f"expected text or an integer, found {_found(ident)}")
+        common: dict[str, Any] = {"id": str(ident)}
+        if times.get("appears_at") is not None:
+            t0 = self.number(times["appears_at"], f"{at}.appears_at", "seconds >= 0")
+            if t0 < 0:
+                raise self.fail(f"{at}.appears_at", f"expected seconds >= 0, found {t0}")
+            common["appears_at"] = t0
+        if times.get("disappears_at") is not None:
+            t1 = self.number(times["disappears_at"], f"{at}.disappears_at", "seconds")
+            if t1 <= common.get("appears_at", 0.0):
+                raise self.fail(
+                    f"{at}.disappears_at",
+                    f"expected a time after appears_at ({common.get('appears_at', 0.0):g} s), "
+                    f"found {t1}",
+                )
+            common["disappears_at"] = t1
+        return common
+
+    def feature(self, feature: Any, field: str) -> Threat:
+        """A GeoJSON Polygon feature as a prism (module docstring)."""
+        if not isinstance(feature, dict) or feature.get("type") != "Feature":
+            raise self.fail(field, f"expected a GeoJSON Feature, found {_found(feature)}")
+        geometry = feature.get("geometry")
+        gtype = geometry.get("type") if isinstance(geometry, dict) else None
+        if gtype != "Polygon" or not isinstance(geometry, dict):
+            hint = " (split a MultiPolygon into one feature per polygon)" * (
+                gtype == "MultiPolygon"
+            )
+            raise self.fail(
+                f"{field}.geometry",
+                f"expected a Polygon geometry (a prism){hint}, "
+                f"found {_found(gtype if gtype is not None else geometry)}",
+            )
+        props = feature.get("properties")
+        if props is None:
+            props = {}
+        if not isinstance(props, dict):
+            raise self.fail(f"{field}.properties", f"expected a mapping, found {_found(props)}")
+        pfield = f"{field}.properties"
+        for value, at in (
+            (props.get("id"), f"{pfield}.id"),
+            (props.get("name"), f"{pfield}.name"),
+            (feature.get("id"), f"{field}.id"),
+        ):
+            if value is not None:
+                common = self.common(value, at, props, pfield)
+                break
+        else:
+            raise self.fail(pfield, "missing 'id' (or 'name', or the feature's own 'id')")
+        cfield = f"{field}.geometry.coordinates"
+        coords = geometry.get("coordinates")
+        if not isinstance(coords, list) or not coords:
+            raise self.fail(cfield, f"expected a list of rings, found {_found(coords)}")
+        if len(coords) > 1:
+            raise self.fail(
+                cfield,
+                f"feature {common['id']!r}: a prism's footprint has no holes; found "
+                f"{len(coords) - 1} interior ring(s)",
+            )
+        ring = self.ring(coords[0], f"{cfield}[0]", True, (2, 3))
+        return self.prism(
+            common,
+            ring,
+            f"{cfield}[0]",
+            props.get("top"),
+            props.get("bottom"),
+            field,
+            "properties.top",
+        )
 
     def _require(self, entry: dict[str, Any], field: str, key: str, expected: str) -> Any:
         if key not in entry:
@@ -296,6 +387,111 @@ class _Parser:
                 raise self.fail(f"{field}.bottom", f"expected below top ({top}), found {bottom}")
         return CylinderThreat(**common, center=(c[0], c[1]), radius=radius, top=top, bottom=bottom)
 
+    def _prism(self, entry: dict[str, Any], field: str, common: dict[str, Any]) -> Threat:
+        given = [k for k in ("footprint", "footprint_lonlat") if k in entry]
+        if len(given) != 1:
+            raise self.fail(
+                field,
+                "give 'footprint' (a closed ring [[x, y], ...] in map metres) or "
+                "'footprint_lonlat' ([[lon, lat], ...] in degrees), "
+                + ("not both" if given else "found neither"),
+            )
+        key = given[0]
+        ring = self.ring(entry[key], f"{field}.{key}", key == "footprint_lonlat")
+        return self.prism(
+            common, ring, f"{field}.{key}", entry.get("top"), entry.get("bottom"), field, "top"
+        )
+
+    def ring(self, value: Any, field: str, lonlat: bool, dims: tuple[int, ...] = (2,)) -> Any:
+        """A prism footprint: a closed ring of [x, y] (``lonlat``: [lon, lat]; ``dims``: the
+        sizes a position may have, a third coordinate being ignored) as map (x, y) tuples."""
+        pair = "[lon, lat]" if lonlat else "[x, y]"
+        if (
+            isinstance(value, list | tuple)
+            and value
+            and isinstance(value[0], list | tuple)
+            and value[0]
+            and isinstance(value[0][0], list | tuple)
+        ):
+            raise self.fail(
+                field,
+                f"expected one ring [{pair}, ...], found {len(value)} rings; a footprint has no "
+                "holes (give the outer ring only, or one prism per part)",
+            )
+        if not isinstance(value, list | tuple) or len(value) < 2:
+            raise self.fail(
+                field, f"expected a closed ring [{pair}, ...] (last = first), found {_found(value)}"
+            )
+        points: list[tuple[float, float]] = []
+        for i, v in enumerate(value):
+            at = f"{field}[{i}]"
+            if not isinstance(v, list | tuple) or len(v) not in dims:
+                raise self.fail(at, f"expected {pair}, found {_found(v)}")
+            if lonlat:
+                self.number(v[0], f"{at}[0]", "a longitude in degrees")
+                self.number(v[1], f"{at}[1]", "a latitude in degrees")
+            else:
+                self.number(v[0], f"{at}[0]")
+                self.number(v[1], f"{at}[1]")
+        if list(value[0][:2]) != list(value[-1][:2]):
+            raise self.fail(
+                field,
+                f"expected a closed ring (the last vertex repeats the first), found first "
+                f"{list(value[0][:2])} and last {list(value[-1][:2])}",
+            )
+        for i, v in enumerate(value[:-1]):
+            at = f"{field}[{i}]"
+            if lonlat:
+                points.append(self.lonlat(v[0], v[1], at, f"{at}[0]", f"{at}[1]"))
+            else:
+                x, y = float(v[0]), float(v[1])
+                self.inside(x, y, at)
+                points.append((x, y))
+        try:
+            ring = footprint_ring(points, "the footprint")
+        except InputError as exc:
+            raise self.fail(field, str(exc).removeprefix("the footprint: ")) from None
+        return ring
+
+    def prism(
+        self,
+        common: dict[str, Any],
+        ring: Any,
+        ring_field: str,
+        top_value: Any,
+        bottom_value: Any,
+        field: str,
+        top_key: str,
+    ) -> Threat:
+        """A prism from a checked ring; ``top_key`` is the field that holds top and bottom
+        (``top``, or ``properties.top`` in GeoJSON)."""
+        at = top_key.removesuffix("top")
+        if top_value is None:
+            raise self.fail(field, f"missing '{top_key}' (top altitude in metres AMSL)")
+        top = self.number(top_value, f"{field}.{top_key}", "a top altitude in metres AMSL")
+        if bottom_value is not None:
+            bottom = self.number(
+                bottom_value, f"{field}.{at}bottom", "a bottom altitude in metres AMSL"
+            )
+            if bottom >= top:
+                raise self.fail(
+                    f"{field}.{at}bottom", f"expected below top ({top}), found {bottom}"
+                )
+        elif self.grid is not None:  # default: the ground under the footprint
+            bottom = self.grid.lowest_under(ring)
+            if bottom >= top:
+                raise self.fail(
+                    f"{field}.{top_key}",
+                    f"expected above the ground under the footprint ({bottom:g} m, the default "
+                    f"bottom), found {top}",
+                )
+        else:
+            bottom = -math.inf
+        try:
+            return PrismThreat(**common, footprint=ring, top=top, bottom=bottom)
+        except InputError as exc:
+            raise self.fail(ring_field, str(exc)) from None
+
     def _intruder(self, entry: dict[str, Any], field: str, common: dict[str, Any]) -> Threat:
         has_v, has_w = "velocity" in entry, "waypoints" in entry
         if has_v == has_w:
@@ -360,23 +556,68 @@ def threats_from_records(
             f"found {_found(records)}"
         )
     parser = _Parser(source, grid)
+    return _collect(parser, [(f"{field}[{i}]", rec) for i, rec in enumerate(records)], name, False)
+
+
+def _collect(
+    parser: _Parser, items: list[tuple[str, Any]], name: str | None, geojson: bool
+) -> ThreatSet:
+    """Parse (field, entry) pairs (GeoJSON features with ``geojson``); ids must be unique."""
     threats: list[Threat] = []
     seen: dict[str, str] = {}
-    for i, rec in enumerate(records):
-        at = f"{field}[{i}]"
-        th = parser.entry(rec, at)
+    for at, item in items:
+        th = parser.feature(item, at) if geojson else parser.entry(item, at)
         if th.id in seen:
             raise parser.fail(f"{at}.id", f"duplicate id {th.id!r} (also {seen[th.id]})")
         seen[th.id] = at
         threats.append(th)
+    source = parser.source
     return ThreatSet(tuple(threats), None if source is None else str(source), name)
 
 
 def load_threats(path: str | PathLike[str], grid: HeightGrid | None = None) -> ThreatSet:
-    """Read and validate a threat file (see the module docstring)."""
+    """Read and validate a threat file, YAML or GeoJSON (see the module docstring)."""
     p = Path(path)
-    data = check_header(read_document(p, "a threat file"), p, "threats", DOCUMENT_KEYS, "threats")
+    data = read_document(p, "a threat file", GEOJSON_SUFFIXES)
+    is_doc = isinstance(data, dict) and "terrapath" in data
+    if not is_doc and (
+        p.suffix.lower() in GEOJSON_SUFFIXES or (isinstance(data, dict) and "type" in data)
+    ):
+        return _load_geojson(data, p, grid)
+    data = check_header(data, p, "threats", DOCUMENT_KEYS, "threats")
     name = data.get("name")
     if name is not None and not isinstance(name, str):
         raise InputError(f"{where(p, 'name')}expected text, found {_found(name)}")
     return threats_from_records(data["threats"], grid, source=p, name=name)
+
+
+def recorded_text(path: str | PathLike[str], threats: ThreatSet) -> str:
+    """The text a run records for the threat file ``path`` that gave ``threats``: the file itself
+    when it is a terrapath YAML document (comments kept), else -- GeoJSON -- the YAML document of
+    the threats (map metres, bottoms explicit), which reads back to equal threats."""
+    import yaml
+
+    text = Path(path).read_text(encoding="utf-8")
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError:
+        data = None
+    if isinstance(data, dict) and "terrapath" in data:
+        return text
+    doc = {"terrapath": 1, "name": threats.name, "threats": threats_to_records(threats)}
+    return str(yaml.safe_dump(doc, sort_keys=False))
+
+
+def _load_geojson(data: Any, path: Path, grid: HeightGrid | None) -> ThreatSet:
+    if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
+        found = _found(data.get("type")) if isinstance(data, dict) else _found(data)
+        raise DataFileError(
+            f"{where(path, 'type')}expected a GeoJSON FeatureCollection, found {found}"
+        )
+    features = data.get("features")
+    if not isinstance(features, list):
+        raise DataFileError(f"{where(path, 'features')}expected a list, found {_found(features)}")
+    name = data.get("name")
+    parser = _Parser(path, grid)
+    items = [(f"features[{i}]", f) for i, f in enumerate(features)]
+    return _collect(parser, items, name if isinstance(name, str) else None, True)

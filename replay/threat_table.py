@@ -14,8 +14,10 @@ closed form, one array (``benchmarks/bench_replay.py obstacles`` measures the di
 - ``cylinder``: centres, radii, tops and bottoms;
 - ``intruder`` with a constant velocity: start, velocity, start and stop times.
 
-Bodies (an iterative nearest-point solver), intruders on waypoint routes and any other
-:class:`~replay.threats.Threat` are asked one by one through their own methods (they are rare).
+Bodies (an iterative nearest-point solver), prisms (a polygon each), intruders on waypoint
+routes and any other :class:`~replay.threats.Threat` are asked one by one through their own
+methods (they are rare; a city block of buildings is a few hundred prisms, each a few dozen
+edges, which numpy over the points and edges of one prism handles well enough).
 Only the exact classes are put in arrays; a subclass of a kind is asked through its methods.
 
 Every array operation is the threat's own formula applied elementwise (same operations in the

@@ -22,6 +22,13 @@ Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`).
     to the solid: with ``dr = rho - R`` (rho the horizontal distance to the axis) and
     ``dz = max(bottom - z, z - top)``, ``hypot(dr, dz)`` when both are > 0, else ``max(dr, dz)``
     (negative inside: minus the depth).
+``prism`` (:class:`PrismThreat`) -- a building: a polygon ``footprint`` (x, y), ``top`` and
+    optional ``bottom`` (default -inf; the threat file defaults it to the ground under the
+    footprint when it has a map grid): a solid vertical prism.  The footprint is one simple
+    polygon (at least 3 distinct vertices, no self-intersection, no holes), stored as an open
+    counter-clockwise ring.  Separation is the exact signed distance to the solid, combined as
+    for the cylinder with ``dr`` the signed horizontal distance to the polygon's boundary
+    (negative inside: minus the distance to the nearest edge), vectorised over points and edges.
 ``intruder`` (:class:`IntruderThreat`) -- a moving object with a safety ``radius``, either
 
     - a start position and ``velocity`` (east, north, up, m/s), optional ``stops_at`` (s,
@@ -35,14 +42,17 @@ Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`).
     simulation; here its path is kinematic.)
 
 Every threat has ``active(t)``, ``position(t)`` (centre or reference point: a static centre, the
-hill's first point, the body centre, the centre of the cylinder's top face, the intruder), ``velocity(t)``,
+hill's first point, the body centre, the centre of the cylinder's top face, the footprint's
+centroid at a prism's top, the intruder), ``velocity(t)``,
 ``separation(p, t)`` (map metres, negative inside; vectorised over points (..., 3) and, for
 intruders, over times broadcast with them), ``violates(p, t)`` (separation < 0), ``radar_points``
 (what the radar sees, see :mod:`replay.radar`), ``shape(t)``, a plain dict for the recorder:
-``{"id", "kind": "sphere"|"cylinder"|"ellipsoid", "center", "radius"|"axes", "top", "bottom"}``
-(a hill's ``center`` and ``radius`` are lists, one per point, and ``shapes(t)`` splits it into
-spheres ``"<id>/<k>"``; a cylinder's ``center`` is its mid-height point, or the top-face centre when
-it has no bottom, which is then ``None``; an ellipsoid also carries its ``exponents``), and
+``{"id", "kind": "sphere"|"cylinder"|"ellipsoid"|"prism", "center", "radius"|"axes"|"footprint",
+"top", "bottom"}`` (a hill's ``center`` and ``radius`` are lists, one per point, and ``shapes(t)``
+splits it into spheres ``"<id>/<k>"``; a cylinder's ``center`` is its mid-height point, or the
+top-face centre when it has no bottom, which is then ``None``, and a prism's likewise over its
+centroid, its ``footprint`` the open ring ``[[x, y], ...]``; an ellipsoid also carries its
+``exponents``), and
 ``to_record()``, its entry of a threat file.
 
 :class:`ThreatSet` holds the threats of one file in file order; :meth:`ThreatSet.warn_after` lists
@@ -98,7 +108,7 @@ def finite_vec3(value: Any, what: str) -> Vec3:
 # -- threats ------------------------------------------------------------------------------------
 @dataclass(frozen=True, kw_only=True)
 class Threat:
-    """Base of the five threat kinds: id and activity window (seconds after the start)."""
+    """Base of the six threat kinds: id and activity window (seconds after the start)."""
 
     id: str
     appears_at: float = 0.0
@@ -394,6 +404,175 @@ class CylinderThreat(Threat):
     def to_record(self) -> dict[str, Any]:
         rec = {**super().to_record(), "center": list(self.center), "radius": self.radius}
         rec["top"] = self.top
+        if self.bottom != -math.inf:
+            rec["bottom"] = self.bottom
+        return rec
+
+
+def footprint_ring(value: Any, what: str) -> FloatArray:
+    """A prism's footprint (``value``: (x, y) vertices, the ring given open or closed) as an
+    open ring (V, 2), V >= 3: repeated consecutive vertices and a repeated closing vertex
+    dropped, counter-clockwise, starting at its first vertex as given.  Raises InputError
+    (``what: ...``) for fewer than 3 distinct vertices or an invalid polygon (shapely's
+    reason, e.g. ``Self-intersection[1 2]``, in the ring's coordinates)."""
+    from terrain.zones import polygon_problem
+
+    try:
+        ring = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        ring = np.zeros((0,))
+    if ring.ndim != 2 or ring.shape[1] != 2 or not np.isfinite(ring).all():
+        raise InputError(f"{what}: expected a list of finite [x, y] vertices, found {value!r:.60}")
+    keep = np.ones(len(ring), dtype=bool)
+    keep[1:] = np.any(ring[1:] != ring[:-1], axis=1)
+    ring = ring[keep]
+    while len(ring) > 1 and np.array_equal(ring[0], ring[-1]):
+        ring = ring[:-1]
+    if len(ring) < 3:
+        raise InputError(f"{what}: expected at least 3 distinct vertices, found {len(ring)}")
+    problem = polygon_problem([[ring]])
+    if problem is not None:
+        raise InputError(f"{what}: expected a simple polygon, found {problem}")
+    r = ring - ring[0]
+    area2 = float(np.sum(r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1]))
+    if area2 < 0:  # clockwise: reverse, keeping the first vertex
+        ring = np.concatenate([ring[:1], ring[:0:-1]])
+    return np.asarray(ring)
+
+
+_PRISM_BLOCK = 16384  # numbers per (points x edges) temporary of PrismThreat
+
+
+@dataclass(frozen=True, kw_only=True)
+class PrismThreat(Threat):
+    """A solid vertical prism (a building): a polygon ``footprint`` (x, y) in map metres, ``top``
+    and ``bottom`` (default -inf) AMSL.  The footprint is kept as an open ring (V, 2),
+    counter-clockwise (:func:`footprint_ring`; it may be given closed or open here, the threat
+    file asks for a closed ring)."""
+
+    footprint: tuple[tuple[float, float], ...]
+    top: float
+    bottom: float = -math.inf
+
+    kind: ClassVar[str] = "prism"
+    extended: ClassVar[bool] = True
+
+    _ring: FloatArray = dataclasses.field(init=False, repr=False, compare=False)
+    _rel: FloatArray = dataclasses.field(init=False, repr=False, compare=False)
+    _centroid: tuple[float, float] = dataclasses.field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        what = f"threat {self.id!r}"
+        ring = footprint_ring(self.footprint, f"{what} footprint")
+        top = _finite(self.top, f"{what} top")
+        bottom = -math.inf if self.bottom == -math.inf else _finite(self.bottom, f"{what} bottom")
+        if bottom >= top:
+            raise InputError(f"{what} bottom ({bottom}) must be below top ({top})")
+        object.__setattr__(self, "footprint", tuple((float(x), float(y)) for x, y in ring))
+        object.__setattr__(self, "top", top)
+        object.__setattr__(self, "bottom", bottom)
+        object.__setattr__(self, "_ring", ring)
+        object.__setattr__(self, "_rel", ring - ring[0])  # small numbers for the arithmetic
+        import shapely
+
+        c = shapely.Polygon(self._rel).centroid
+        object.__setattr__(self, "_centroid", (float(c.x + ring[0, 0]), float(c.y + ring[0, 1])))
+
+    @property
+    def ring(self) -> FloatArray:
+        """The footprint as an open ring (V, 2), counter-clockwise."""
+        return self._ring.copy()
+
+    @property
+    def centroid(self) -> tuple[float, float]:
+        """The footprint's centroid (x, y) (of its area; it may lie outside a concave one)."""
+        return self._centroid
+
+    @property
+    def enclosing_radius(self) -> float:
+        """Radius of the circle about :attr:`centroid` that holds the footprint (its farthest
+        vertex): a cylinder with it contains the prism."""
+        c = np.array(self._centroid) - self._ring[0]
+        return float(np.max(np.hypot(*(self._rel - c).T)))
+
+    def position(self, t: npt.ArrayLike = 0.0) -> FloatArray:
+        return np.broadcast_to(np.array([*self._centroid, self.top]), (*np.shape(t), 3)).copy()
+
+    def _horizontal(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Signed horizontal distance (...) from points q (..., >= 2) to the footprint's
+        boundary (negative inside) and the nearest boundary point (..., 2), both exact."""
+        from terrain.prisms import points_in_edges, ring_edges
+
+        origin = self._ring[0]
+        flat = q[..., :2].reshape(-1, 2) - origin
+        a = self._rel
+        ab = np.roll(a, -1, axis=0) - a
+        ab2 = np.einsum("ij,ij->i", ab, ab)
+        dist = np.empty(len(flat))
+        near = np.empty((len(flat), 2))
+        step = max(1, _PRISM_BLOCK // len(a))
+        for lo in range(0, len(flat), step):
+            p = flat[lo : lo + step, None, :]  # (n, 1, 2) against the edges (V, 2)
+            u = np.clip(np.einsum("nvj,vj->nv", p - a, ab) / ab2, 0.0, 1.0)
+            foot = a + u[..., None] * ab
+            d = np.hypot(p[..., 0] - foot[..., 0], p[..., 1] - foot[..., 1])
+            k = np.argmin(d, axis=1)
+            rows = np.arange(len(k))
+            dist[lo : lo + step] = d[rows, k]
+            near[lo : lo + step] = foot[rows, k]
+        inside = points_in_edges(flat[:, 0], flat[:, 1], ring_edges(a))
+        signed = np.where(inside, -dist, dist).reshape(q.shape[:-1])
+        return signed, (near + origin).reshape((*q.shape[:-1], 2))
+
+    def separation(self, p: npt.ArrayLike, t: npt.ArrayLike = 0.0) -> FloatArray:
+        q = as_points(p)
+        dr, _ = self._horizontal(q)
+        dz = np.maximum(self.bottom - q[..., 2], q[..., 2] - self.top)
+        both = (dr > 0) & (dz > 0)
+        return np.asarray(
+            np.where(both, np.hypot(np.maximum(dr, 0), np.maximum(dz, 0)), np.maximum(dr, dz))
+        )
+
+    def nearest_point(self, p: npt.ArrayLike) -> FloatArray:
+        """The point of the solid prism closest to p (p itself inside)."""
+        q = as_points(p).astype(np.float64, copy=True)
+        dr, near = self._horizontal(q)
+        outside = dr > 0
+        q[..., 0] = np.where(outside, near[..., 0], q[..., 0])
+        q[..., 1] = np.where(outside, near[..., 1], q[..., 1])
+        q[..., 2] = np.clip(q[..., 2], self.bottom, self.top)
+        return q
+
+    def radar_points(
+        self, t: float, observer: npt.ArrayLike, max_range: float = math.inf
+    ) -> tuple[list[str], FloatArray]:
+        """The nearest point, then the outline's left and right edges (the extreme vertices
+        seen from the observer, :func:`outline_edges`) at the observer's altitude clipped to
+        the prism; only the nearest point when the observer is over the footprint (or in a
+        notch of it that spans half the horizon)."""
+        o = as_points(observer).reshape(1, 3)
+        near = self.nearest_point(o)
+        edges = outline_edges(o[0], self._ring, float(near[0, 2]))
+        if edges is None:
+            return [self.id], near
+        return [self.id, *(self.id + s for s in EDGE_SUFFIXES)], np.vstack([near, edges])
+
+    def shape(self, t: float = 0.0) -> dict[str, Any]:
+        bottom = None if self.bottom == -math.inf else self.bottom
+        zc = self.top if bottom is None else (self.top + self.bottom) / 2
+        return {
+            "id": self.id,
+            "kind": "prism",
+            "center": [*self._centroid, zc],
+            "footprint": [list(v) for v in self.footprint],
+            "top": self.top,
+            "bottom": bottom,
+        }
+
+    def to_record(self) -> dict[str, Any]:
+        ring = [list(v) for v in self.footprint]
+        rec = {**super().to_record(), "footprint": [*ring, ring[0]], "top": self.top}
         if self.bottom != -math.inf:
             rec["bottom"] = self.bottom
         return rec

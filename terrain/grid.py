@@ -254,6 +254,38 @@ class HeightGrid:
         bottom = h10 + (h11 - h10) * fc
         return np.asarray(top + (bottom - top) * fr, dtype=np.float64)
 
+    def lowest_under(self, ring: ArrayLike) -> float:
+        """The lowest ground under a polygon (``ring``: (V, 2) map metres, open or closed): the
+        lowest of the cell-centre heights of every interpolation cell (the 2 x 2 cell centres
+        :meth:`height_at` blends) that the polygon overlaps.  Never above :meth:`height_at`
+        anywhere in the polygon, since bilinear interpolation stays within its four heights;
+        equal to the true minimum when that lies on a cell centre inside the polygon, lower by
+        at most the relief of one cell otherwise.  Parts outside the grid are clamped to it, as
+        :meth:`height_at` does."""
+        import shapely
+
+        xy = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
+        row, col = self.xy_to_index(xy[:, 0], xy[:, 1])
+        row = np.clip(row, 0.0, self.rows - 1.0)
+        col = np.clip(col, 0.0, self.cols - 1.0)
+        r_hi, c_hi = self.rows - 2, self.cols - 2
+        r0 = np.arange(int(math.floor(row.min())), int(math.floor(row.max())) + 1)
+        c0 = np.arange(int(math.floor(col.min())), int(math.floor(col.max())) + 1)
+        grid_r, grid_c = np.meshgrid(np.clip(r0, 0, r_hi), np.clip(c0, 0, c_hi), indexing="ij")
+        rr, cc = grid_r.reshape(-1), grid_c.reshape(-1)
+        boxes = shapely.box(cc, rr, cc + 1.0, rr + 1.0)
+        hit = shapely.intersects(shapely.Polygon(np.column_stack([col, row])), boxes)
+        # the cells of the vertices too (a polygon squeezed into the outer half cell has no area)
+        vr = np.minimum(np.floor(row).astype(np.int64), r_hi)
+        vc = np.minimum(np.floor(col).astype(np.int64), c_hi)
+        r = np.concatenate([rr[hit], vr])
+        c = np.concatenate([cc[hit], vc])
+        h = self.heights
+        four = np.minimum(
+            np.minimum(h[r, c], h[r, c + 1]), np.minimum(h[r + 1, c], h[r + 1, c + 1])
+        )
+        return float(four.min())
+
     def to_lonlat(self, x: ArrayLike, y: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """WGS84 (lon, lat) of map points; refused for a local grid."""
         from rasterio.warp import transform

@@ -10,8 +10,8 @@ from typing import Any
 
 SEPARATION_NOTE = (
     "separation: distance from the threat's surface (the sphere of its radius around a point, "
-    "its cylinder or body; a zone:<id> is a danger zone of the mission); negative = inside its "
-    "safety volume"
+    "its cylinder, building (prism) or body; a zone:<id> is a danger zone of the mission); "
+    "negative = inside its safety volume"
 )
 PLR_MEANING = "flown length / straight-line distance from the first to the last waypoint"
 

@@ -73,7 +73,8 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "threats_path",
     type=click.Path(dir_okay=False),
     default=None,
-    help="Pop-up threats (YAML). For an .mcap source, default: the threats of that run.",
+    help="Pop-up threats (YAML, or GeoJSON buildings). For an .mcap source, default: the threats "
+    "of that run.",
 )
 @click.option(
     "--avoid",
