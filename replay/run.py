@@ -27,6 +27,7 @@ from replay.avoidance import Avoider, make_avoider
 from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate, time_limit
 from replay.threat_file import load_threats, recorded_text, threats_to_records
 from replay.threats import ThreatSet
+from replay.vehicle.multirotor import MULTIROTOR_PRESETS, MultirotorParams
 from replay.vehicle.params import VehicleParams
 from terrain.errors import DataFileError, InputError
 from terrain.grid import HeightGrid
@@ -68,7 +69,7 @@ class PreparedReplay:
     request: ReplayRequest
     mission: Mission
     grid: HeightGrid | None
-    params: VehicleParams
+    params: VehicleParams | MultirotorParams
     vehicle_file: bytes | None
     avoider: Avoider
     threats: ThreatSet
@@ -124,6 +125,8 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         temperature_offset=r.temperature_offset,
     )
     speed = config.airspeed or mission.cruise_speed
+    if isinstance(params, MultirotorParams):
+        params.check_speed(speed, "cruise speed")
     check = getattr(avoider, "check_vehicle", None)
     if check is not None:  # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes
         check(params, float(speed))
@@ -283,10 +286,13 @@ def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[
 
     ``--vehicle`` paths are relative to the working directory.  Re-flying a run flies the
     vehicle that run flew (its ``vehicle.yaml`` attachment, or its preset).  A mission's
-    ``vehicle:`` file is looked for beside the mission, then as given."""
+    ``vehicle:`` file is looked for beside the mission, then as given.  A multirotor preset
+    (``quadrotor``) is taken by name."""
     from replay.vehicle.presets import PRESETS, load_vehicle, vehicle_from_dict
     from terrain.docfile import find_reference, reference_places
 
+    if vehicle in MULTIROTOR_PRESETS:
+        return MULTIROTOR_PRESETS[vehicle], None
     if vehicle:
         params = load_vehicle(vehicle, base_dir=Path.cwd())
         path = Path(vehicle)
@@ -304,9 +310,13 @@ def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[
         flown = run.metadata.get("vehicle", "")
         if flown in PRESETS:
             return PRESETS[flown], None
+        if flown in MULTIROTOR_PRESETS:
+            return MULTIROTOR_PRESETS[flown], None
     name = mission.vehicle
     if name in PRESETS:
         return PRESETS[name], None
+    if name in MULTIROTOR_PRESETS:
+        return MULTIROTOR_PRESETS[name], None
     places = reference_places(name, source)
     if (
         Path(name).suffix.lower() in (".yaml", ".yml")

@@ -37,9 +37,11 @@ from replay.flightstack import FixedWingStack, FlightStack
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GuidanceRefused, command_record
 from replay.metrics import MetricsTracker, RunMetrics
+from replay.multirotor_stack import MultirotorStack
 from replay.radar import Radar
 from replay.threat_table import ThreatTable
 from replay.threats import ThreatSet
+from replay.vehicle.multirotor import MultirotorParams
 from replay.vehicle.params import VehicleParams
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
@@ -147,6 +149,19 @@ def fixed_wing_stack(
     )
 
 
+def multirotor_stack(
+    mission: Mission, params: MultirotorParams, cfg: ReplayConfig
+) -> MultirotorStack:
+    """The multirotor stack a mission is flown with: its waypoints at its cruise speed (or the
+    configured one), in the day's air (no terrain following: it flies the waypoints' altitudes)."""
+    return MultirotorStack(
+        params,
+        np.array(mission.waypoints, dtype=np.float64),
+        speed=float(cfg.airspeed or mission.cruise_speed),
+        temperature_offset=cfg.temperature_offset,
+    )
+
+
 def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
     """Waypoints must lie inside the map and above the terrain (flat ground at 0 m without one)."""
     w = mission.waypoints
@@ -178,7 +193,7 @@ def simulate(
     mission: Mission,
     threats: ThreatSet,
     avoider: Avoider,
-    vehicle: VehicleParams | FlightStack,
+    vehicle: VehicleParams | MultirotorParams | FlightStack,
     *,
     grid: HeightGrid | None = None,
     terrain_model: Any = None,
@@ -187,8 +202,8 @@ def simulate(
     progress: Callable[[float, float], None] | None = None,
 ) -> ReplayResult:
     """Fly ``mission`` with ``vehicle`` (a flight stack, or fixed-wing parameters: then
-    :func:`fixed_wing_stack`) among ``threats``, letting ``avoider`` react to the radar at its
-    own period."""
+    :func:`fixed_wing_stack`, or multirotor parameters: :func:`multirotor_stack`) among
+    ``threats``, letting ``avoider`` react to the radar at its own period."""
     cfg = config or ReplayConfig()
     wall0 = time.perf_counter()
     check_mission(mission, grid)
@@ -203,11 +218,13 @@ def simulate(
         def ground(x: FloatArray, y: FloatArray) -> FloatArray:
             return np.zeros_like(np.asarray(x, dtype=np.float64))
 
-    stack: FlightStack = (
-        fixed_wing_stack(mission, vehicle, grid, cfg)
-        if isinstance(vehicle, VehicleParams)
-        else vehicle
-    )
+    stack: FlightStack
+    if isinstance(vehicle, VehicleParams):
+        stack = fixed_wing_stack(mission, vehicle, grid, cfg)
+    elif isinstance(vehicle, MultirotorParams):
+        stack = multirotor_stack(mission, vehicle, cfg)
+    else:
+        stack = vehicle
     x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
     radar: Any
     if cfg.sensor == "cooperative":

@@ -61,7 +61,8 @@ K_YAW_RATE = 13  # rad/s
 K_RATE_MAX = 14  # rad/s: roll and pitch rate command limit
 K_ACC_Z = 15  # m/s^2: vertical acceleration command limit
 K_I_MAX = 16  # m/s^2: integral term limit
-N_GAINS = 17
+K_I_BAND = 17  # m/s: an integrator runs only while its velocity error is below this
+N_GAINS = 18
 
 # ---- command --------------------------------------------------------------------------------------
 C_LAT = 0  # 0: hold the point C_T*, 1: fly the leg C_S* -> C_T*, 2: fly the course C_COURSE
@@ -410,15 +411,17 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
         k = fh_max / fh
         f_n *= k
         f_e *= k
-    # integrators (anti-windup: the horizontal ones stop while the tilt is at its limit and
-    # the error would push further; all are bounded)
+    # integrators (anti-windup: they run only near the commanded velocity, the horizontal
+    # ones not while the tilt is at its limit and the error would push further; bounded)
     dti = dt * gk[K_VEL_I]
     imax = gk[K_I_MAX]
-    if not saturated or e_n * cs[S_IN] < 0.0:
+    band = gk[K_I_BAND]
+    if (not saturated or e_n * cs[S_IN] < 0.0) and abs(e_n) < band:
         cs[S_IN] = min(max(cs[S_IN] + dti * e_n, -imax), imax)
-    if not saturated or e_e * cs[S_IE] < 0.0:
+    if (not saturated or e_e * cs[S_IE] < 0.0) and abs(e_e) < band:
         cs[S_IE] = min(max(cs[S_IE] + dti * e_e, -imax), imax)
-    cs[S_ID] = min(max(cs[S_ID] + dti * e_d, -imax), imax)
+    if abs(e_d) < band:
+        cs[S_ID] = min(max(cs[S_ID] + dti * e_d, -imax), imax)
     # ---- attitude wanted: body z along -F, heading psi_c
     fm = math.sqrt(f_n * f_n + f_e * f_e + f_d * f_d)
     zn = -f_n / fm
