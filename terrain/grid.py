@@ -262,6 +262,15 @@ class HeightGrid:
         equal to the true minimum when that lies on a cell centre inside the polygon, lower by
         at most the relief of one cell otherwise.  Parts outside the grid are clamped to it, as
         :meth:`height_at` does."""
+        return float(self._heights_under(ring).min())
+
+    def highest_under(self, ring: ArrayLike) -> float:
+        """The highest ground under a polygon, as :meth:`lowest_under` (the highest of the same
+        cell-centre heights): never below :meth:`height_at` anywhere in the polygon."""
+        return float(self._heights_under(ring).max())
+
+    def _heights_under(self, ring: ArrayLike) -> npt.NDArray[np.float32]:
+        """The cell-centre heights of the interpolation cells a polygon overlaps."""
         import shapely
 
         xy = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
@@ -281,10 +290,7 @@ class HeightGrid:
         r = np.concatenate([rr[hit], vr])
         c = np.concatenate([cc[hit], vc])
         h = self.heights
-        four = np.minimum(
-            np.minimum(h[r, c], h[r, c + 1]), np.minimum(h[r + 1, c], h[r + 1, c + 1])
-        )
-        return float(four.min())
+        return np.concatenate([h[r, c], h[r, c + 1], h[r + 1, c], h[r + 1, c + 1]])
 
     def to_lonlat(self, x: ArrayLike, y: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """WGS84 (lon, lat) of map points; refused for a local grid."""

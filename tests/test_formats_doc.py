@@ -73,7 +73,7 @@ def test_threat_example_has_every_kind_and_loads(tmp_path: Path) -> None:
     ts = load_threats(_write(tmp_path, "threats.yaml"), load_dem(RMNP))
     kinds = {t.kind for t in ts.threats}
     assert kinds == set(KIND_KEYS)
-    assert len(ts.threats) == 7
+    assert len(ts.threats) == 9
     # every key a threat may have is used by the example
     text = _examples()["threats.yaml"]
     for key in {*COMMON_KEYS, *(k for keys in KIND_KEYS.values() for k in keys)}:

@@ -212,6 +212,7 @@ def test_the_default_bottom_is_the_ground_under_the_footprint(tmp_path: Path) ->
     inside = b.separation(np.c_[xs.ravel(), ys.ravel(), np.full(xs.size, 190.0)]) <= 0
     ground = grid.height_at(xs.ravel()[inside], ys.ravel()[inside])
     assert b.bottom <= ground.min() <= b.bottom + 1.5
+    assert ground.max() <= grid.highest_under(ring) <= ground.max() + 1.5
     # the record carries the bottom: it reads back equal without the grid
     assert threats_from_records([b.to_record()]).threats == (b,)
 
@@ -222,7 +223,7 @@ def test_lowest_under_is_the_exact_minimum_at_a_cell_centre() -> None:
     grid = make_grid(heights, cell=10.0, x0=0.0, y0=100.0)
     x, y = grid.index_to_xy(4, 5)
     ring = [(x - 3, y - 3), (x + 3, y - 3), (x + 3, y + 3), (x - 3, y + 3)]
-    assert grid.lowest_under(ring) == 80.0
+    assert grid.lowest_under(ring) == 80.0 and grid.highest_under(ring) == 100.0
     far = [(5.0, 5.0), (12.0, 5.0), (12.0, 12.0)]  # the south-west corner, far from it
     assert grid.lowest_under(far) == 100.0
 
