@@ -16,8 +16,8 @@ closed form, one array (``benchmarks/bench_replay.py obstacles`` measures the di
 
 Bodies (an iterative nearest-point solver), prisms (a polygon each), intruders on waypoint
 routes and any other :class:`~replay.threats.Threat` are asked one by one through their own
-methods (they are rare; a city block of buildings is a few hundred prisms, each a few dozen
-edges, which numpy over the points and edges of one prism handles well enough).
+methods (they are rare; the 143 buildings of ``data/scenarios/bubenec-buildings.yaml`` cost
+about 0.3 s per 1000 samples of separations and 20 ms per radar scan, one prism at a time).
 Only the exact classes are put in arrays; a subclass of a kind is asked through its methods.
 
 Every array operation is the threat's own formula applied elementwise (same operations in the
