@@ -5,7 +5,10 @@
   ``small-uas`` and :func:`load_vehicle` for names and YAML vehicle files;
 - :mod:`replay.vehicle.dynamics` — the 12-state equations of motion in numpy (the reference) and
   :class:`Aircraft`, the system object stepping the compiled RK4 (:mod:`replay.vehicle._kernels`);
-- :mod:`replay.vehicle.trim` — steady-flight trim (Beard & McLain ch. 5).
+- :mod:`replay.vehicle.trim` — steady-flight trim (Beard & McLain ch. 5);
+- :mod:`replay.vehicle.multirotor` — a multirotor: :class:`MultirotorParams`, the ``quadrotor``
+  preset (:func:`multirotor_preset`), its 16-state model in numpy (the compiled twin:
+  :mod:`replay.vehicle._mr_kernels`); its stack is :mod:`replay.multirotor_stack`.
 
 The autopilot that flies it lives in :mod:`replay.autopilot`.
 """

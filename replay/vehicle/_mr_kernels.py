@@ -100,15 +100,23 @@ def derivs(x, wc, p, out):  # pragma: no cover - jit
     mm = 0.0
     mn = 0.0
     wsum = 0.0
+    wx = 0.0  # sum of w_i x_i, w_i y_i, w_i (x_i^2 + y_i^2): the H-forces' lever arms
+    wy = 0.0
+    wl2 = 0.0
     for i in range(4):
         w = x[12 + i]
         w2 = w * w
         f = kf * w2
+        rx = p[I_RX + i]
+        ry = p[I_RY + i]
         thrust += f
-        ml -= p[I_RY + i] * f
-        mm += p[I_RX + i] * f
+        ml -= ry * f
+        mm += rx * f
         mn += p[I_SPIN + i] * km * w2
         wsum += w
+        wx += w * rx
+        wy += w * ry
+        wl2 += w * (rx * rx + ry * ry)
         c = min(max(wc[i], wmin), wmax)
         tau = p[I_TAU_UP] if c > w else p[I_TAU_DN]
         out[12 + i] = (c - w) / tau
@@ -143,12 +151,14 @@ def derivs(x, wc, p, out):  # pragma: no cover - jit
     va = vv - (r01 * wn + r11 * we + r21 * wd)
     wa = ww - (r02 * wn + r12 * we + r22 * wd)
     speed = math.sqrt(ua * ua + va * va + wa * wa)
-    kd = sigma * p[I_KD] * wsum
+    kd = sigma * p[I_KD]
     m = p[I_MASS]
     mg = m * p[I_GRAV]
-    fx = -sigma * speed * p[I_CDX] * ua - kd * ua - mg * st
-    fy = -sigma * speed * p[I_CDY] * va - kd * va + mg * r21
+    # H-force of rotor i: -kd w_i (in-plane airspeed at its hub, v_a + omega x r_i)
+    fx = -sigma * speed * p[I_CDX] * ua - kd * (wsum * ua - rr * wy) - mg * st
+    fy = -sigma * speed * p[I_CDY] * va - kd * (wsum * va + rr * wx) + mg * r21
     fz = -sigma * speed * p[I_CDZ] * wa - thrust + mg * r22
+    mn -= kd * (wx * va - wy * ua + rr * wl2)
     out[0] = r00 * uu + r01 * vv + r02 * ww
     out[1] = r10 * uu + r11 * vv + r12 * ww
     out[2] = r20 * uu + r21 * vv + r22 * ww

@@ -22,8 +22,9 @@ scale with the air's density)::
     Q_i = sigma k_m w_i^2                            drag torque of rotor i
     w_i' = (clip(wc_i, w_min, w_max) - w_i) / tau    tau = tau_up when speeding up, else tau_down
     F = [0, 0, -sum T_i] + D + m g [-sin(theta), cos(theta) sin(phi), cos(theta) cos(phi)]
-    D = -sigma |v_a| [c_x u_a, c_y v_a, c_z w_a] - sigma k_d (sum w_i) [u_a, v_a, 0]
-    L = -sum y_i T_i,   M = sum x_i T_i,   N = sum s_i Q_i
+    D = -sigma |v_a| [c_x u_a, c_y v_a, c_z w_a] + sum H_i
+    H_i = -sigma k_d w_i [u_a - r y_i, v_a + r x_i, 0]     (in-plane airspeed at hub i)
+    L = -sum y_i T_i,   M = sum x_i T_i,   N = sum s_i Q_i + sum (x_i H_iy - y_i H_ix)
     [pn, pe, pd]' = R_b^n [u, v, w]
     u' = r v - q w + Fx / m,   v' = p w - r u + Fy / m,   w' = q u - p v + Fz / m
     phi'   = p + (q sin(phi) + r cos(phi)) tan(theta)
@@ -33,12 +34,14 @@ scale with the air's density)::
 
 ``v_a = [u_a, v_a, w_a]`` is the air-relative body velocity (a constant wind in NED, default none).
 ``D`` is the airframe's parasitic drag (quadratic, per body axis) plus the rotors' H-force (blade
-flapping and induced drag: linear in the in-plane airspeed and in the rotor speed, the form of
-RotorS and rotorpy). Modelled: rigid body with a diagonal inertia, rotor lag and speed limits,
-thrust and torque with the density at altitude, both drags, constant wind. Not modelled: rotor
-gyroscopic moments and the reaction torque of a rotor's acceleration, the H-force's moments and
-its part from the body's rotation, ground effect, translational lift, vortex ring state, battery
-sag, sensor noise (the controller reads the true state). Euler angles are singular at 90 deg of
+flapping and induced drag: linear in the in-plane airspeed at each hub and in the rotor speed,
+the form of RotorS and rotorpy; acting at the hubs, in the rotor plane through the centre of
+mass, it yaws the body and damps its yaw rate). Modelled: rigid body with a diagonal inertia,
+rotor lag and speed limits, thrust and torque with the density at altitude, both drags, constant
+wind. Not modelled: rotor gyroscopic moments and the reaction torque of a rotor's acceleration,
+the vertical (induced-inflow) part of the rotor drag, blade flapping moments, ground effect,
+translational lift, vortex ring state, battery sag, sensor noise (the controller reads the true
+state). Euler angles are singular at 90 deg of
 pitch: the controller's tilt limit keeps far from it.
 
 Mixer (:func:`mix`): the collective thrust T and body moments (L, M, N) become rotor thrusts
@@ -371,9 +374,7 @@ def forces_moments(
     va = s[3:6] - rot.T @ np.asarray(wind, dtype=np.float64)
     speed = math.sqrt(float(va @ va))
     cd = np.array([params.drag_x, params.drag_y, params.drag_z])
-    f = -sigma * speed * cd * va - sigma * params.rotor_drag * float(w.sum()) * np.array(
-        [va[0], va[1], 0.0]
-    )
+    f = -sigma * speed * cd * va
     f[2] -= thrusts.sum()
     phi, theta = s[6], s[7]
     f += (
@@ -386,6 +387,11 @@ def forces_moments(
     mom = np.array(
         [-(r[:, 1] * thrusts).sum(), (r[:, 0] * thrusts).sum(), (np.asarray(SPIN) * torques).sum()]
     )
+    # H-forces at the hubs: -k_d w_i times the in-plane airspeed there (v_a + omega x r_i)
+    hub = np.column_stack([va[0] - s[11] * r[:, 1], va[1] + s[11] * r[:, 0]])
+    h = -sigma * params.rotor_drag * w[:, None] * hub
+    f[0:2] += h.sum(axis=0)
+    mom[2] += float((r[:, 0] * h[:, 1] - r[:, 1] * h[:, 0]).sum())
     return f, mom
 
 
