@@ -133,6 +133,11 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config)
     warnings = tuple(threats.warn_after(planned))
+    if isinstance(params, MultirotorParams) and following:
+        warnings += (
+            f"{params.name} is a multirotor: it flies the waypoints' altitudes and does not "
+            f"follow the terrain ({following:g} m of clearance asked)",
+        )
     return PreparedReplay(
         r,
         mission,

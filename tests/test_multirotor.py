@@ -322,6 +322,14 @@ def test_a_quadrotor_mission_flown_by_run_replay(tmp_path: Path) -> None:
         s = np.clip((p - a) @ d / (d @ d), 0.0, 1.0)
         off = np.minimum(off, np.linalg.norm(p - (a + s[:, None] * d), axis=1))
     assert off.max() < 0.5
+    warned = prepare_replay(ReplayRequest(source=str(mission), terrain_following=50.0))
+    assert any("does not follow the terrain (50 m" in w for w in warned.warnings)
+    # recorded, and re-flown from the recording: the same quadrotor, the same flight
+    run = tmp_path / "quad.mcap"
+    run_replay(prep, run)
+    again = prepare_replay(ReplayRequest(source=str(run)))
+    assert again.params is Q
+    assert np.allclose(run_replay(again).positions, res.positions)
     fast = tmp_path / "fast.yaml"
     fast.write_text(mission.read_text().replace("speed: 5.0", "speed: 15.0"))
     with pytest.raises(InputError, match=r"cruise speed 15\.0 m/s is beyond quadrotor's"):
