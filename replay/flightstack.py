@@ -11,7 +11,7 @@ waypoint legs (turn fillets of the mission's radius, or seed 000's switch 1 km b
 waypoint), hold course, orbit (refused when tighter than V^2 / (g tan(bank_max))), climb rate,
 flight-path angle and hold altitude. It cannot hover: go-to, hold-position and yaw-to commands are
 refused. The multirotor's stack is :class:`replay.multirotor_stack.MultirotorStack` (go-to,
-hold position, yaw-to, waypoints, hold course; orbits refused).
+hold position, yaw-to, waypoints, hold course, orbits at the speed their radius allows).
 """
 
 from __future__ import annotations

@@ -54,9 +54,16 @@ that point, or without one the point where the vehicle comes to rest (braking at
 ``YawTo(yaw)``: turn in place (holding the point it holds, or where it comes to rest).
 ``HoldCourse(course, altitude | climb_rate)``: fly horizontally at that course at the cruise
 speed, facing it, holding the altitude given (or the present one) or climbing at the rate given.
-``HoldAltitude`` / ``ClimbRate``: the vertical axis only. ``Orbit`` and ``FlightPathAngle`` are
-refused (:class:`GuidanceRefused`), as is a climb or descent rate beyond the limits. Not
-supported: terrain following (a multirotor mission flies its waypoints' altitudes).
+``Orbit(center, radius, clockwise, altitude, center_velocity)``: circle the (moving) centre at
+the cruise speed, or slower where the radius needs it (centripetal acceleration at most 70 % of
+g tan(tilt_max), turn rate at most 0.5 rad/s: 1 m/s on a 2 m circle, 5 m/s from 10 m), facing
+along the circle, at the altitude given (or
+the present one); the velocity command is tangential plus ``k_p (radius - distance)`` radially
+plus the centre's velocity, with the centripetal acceleration fed forward.
+``HoldAltitude`` / ``ClimbRate``: the vertical axis only. ``FlightPathAngle`` (a fixed wing's
+flight-path angle) is refused (:class:`GuidanceRefused`), as is a climb or descent rate beyond
+the limits and an orbit about a centre faster than the speed limit. Not supported: terrain
+following (a multirotor mission flies its waypoints' altitudes).
 
 Logged (:class:`replay.autopilot.FlightLog`): ``states`` the 12 rigid-body states (the rotor
 speeds are the stack's own state between calls: :attr:`MultirotorStack.rotor_speeds`);
@@ -94,10 +101,13 @@ from replay.guidance import (
 )
 from replay.vehicle import _mr_kernels as kern
 from replay.vehicle.multirotor import DT, N_MR_STATES, MultirotorParams, hover_state
+from replay.vehicle.params import G
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 ARRIVAL_M = 2.0
+ORBIT_TILT_SHARE = 0.7  # an orbit's centripetal acceleration: at most this of g tan(tilt_max)
+ORBIT_RATE = 0.5  # rad/s: an orbit's turn rate at most (the velocity loop's K_v / 6)
 
 
 @dataclass(frozen=True)
@@ -225,8 +235,8 @@ class MultirotorStack:
 
     @property
     def mode(self) -> str:
-        """``"hold"``, ``"leg"`` or ``"course"``."""
-        return ("hold", "leg", "course")[int(self._cmd[kern.C_LAT])]
+        """``"hold"``, ``"leg"``, ``"course"`` or ``"orbit"``."""
+        return ("hold", "leg", "course", "orbit")[int(self._cmd[kern.C_LAT])]
 
     def initial_state(self) -> FloatArray:
         """Hover over the first waypoint facing the second (rotors at hover speed)."""
@@ -238,10 +248,10 @@ class MultirotorStack:
         """Fly ``command`` from now on, or raise :class:`GuidanceRefused` saying why not."""
         cmd = check_command(command)
         c = self._cmd
-        if isinstance(cmd, Orbit | FlightPathAngle):
+        if isinstance(cmd, FlightPathAngle):
             raise GuidanceRefused(
-                f"{type(cmd).__name__} is a fixed-wing command; {self.name} is a multirotor "
-                "(it flies FollowWaypoints, GoTo, HoldPosition, YawTo, HoldCourse, HoldAltitude, "
+                f"FlightPathAngle is a fixed-wing command; {self.name} is a multirotor (it flies "
+                "FollowWaypoints, GoTo, HoldPosition, YawTo, HoldCourse, Orbit, HoldAltitude, "
                 "ClimbRate)"
             )
         if isinstance(cmd, ClimbRate):
@@ -265,6 +275,8 @@ class MultirotorStack:
                 self._hold(self.stopping_point())
             c[kern.C_VERT] = 0.0
             c[kern.C_YAW] = cmd.yaw
+        elif isinstance(cmd, Orbit):
+            self._orbit(cmd)
         elif isinstance(cmd, HoldCourse):
             if cmd.climb_rate is not None:
                 self._check_climb(cmd.climb_rate)
@@ -276,6 +288,31 @@ class MultirotorStack:
             else:
                 c[kern.C_VERT] = 1.0
                 c[kern.C_ALT] = self.position[2] if cmd.altitude is None else cmd.altitude
+
+    def orbit_speed(self, radius: float) -> float:
+        """The speed flown on an orbit of ``radius`` m: the cruise speed, or less where its
+        centripetal acceleration would need more than ``ORBIT_TILT_SHARE`` of the tilt limit's
+        g tan(tilt_max) or its turn rate more than ``ORBIT_RATE`` (what the velocity loop
+        follows)."""
+        a = ORBIT_TILT_SHARE * G * math.tan(math.radians(self.params.tilt_max_deg))
+        return min(self.speed, math.sqrt(a * radius), ORBIT_RATE * radius)
+
+    def _orbit(self, cmd: Orbit) -> None:
+        cv = math.hypot(*cmd.center_velocity)
+        speed = min(self.orbit_speed(cmd.radius), self.params.speed_max - cv)
+        if speed <= 0.0:
+            raise GuidanceRefused(
+                f"an orbit about a centre moving at {cv:.1f} m/s is beyond {self.name}'s "
+                f"{self.params.speed_max:g} m/s"
+            )
+        c = self._cmd
+        c[kern.C_LAT], c[kern.C_SPEED], c[kern.C_EVENT_R] = 3.0, speed, 0.0
+        c[kern.C_ORB_N], c[kern.C_ORB_E] = cmd.center[1], cmd.center[0]
+        c[kern.C_ORB_VN], c[kern.C_ORB_VE] = cmd.center_velocity[1], cmd.center_velocity[0]
+        c[kern.C_ORB_R] = cmd.radius
+        c[kern.C_ORB_LAM] = 1.0 if cmd.clockwise else -1.0
+        c[kern.C_VERT] = 1.0
+        c[kern.C_ALT] = self.position[2] if cmd.altitude is None else cmd.altitude
 
     def _check_climb(self, rate: float) -> None:
         p = self.params

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from replay.frames import rotation_body_to_ned
 from replay.guidance import (
     ClimbRate,
     FlightPathAngle,
@@ -253,10 +254,10 @@ def test_rotor_speeds_stay_within_their_limits_in_an_aggressive_command() -> Non
 # ---- commands ---------------------------------------------------------------------------------------
 def test_commands_beyond_the_multirotor_are_refused() -> None:
     st, _ = _stack()
-    with pytest.raises(GuidanceRefused, match="Orbit is a fixed-wing command; quadrotor is a "):
-        st.apply(Orbit((0.0, 0.0), 50.0))
-    with pytest.raises(GuidanceRefused, match="FlightPathAngle is a fixed-wing command"):
+    with pytest.raises(GuidanceRefused, match="FlightPathAngle is a fixed-wing command; quadrotor"):
         st.apply(FlightPathAngle(0.1))
+    with pytest.raises(GuidanceRefused, match=r"centre moving at 13\.0 m/s is beyond"):
+        st.apply(Orbit((0.0, 0.0), 50.0, center_velocity=(5.0, 12.0)))
     with pytest.raises(GuidanceRefused, match=r"climb rate 5 m/s is beyond .* climb 3 m/s"):
         st.apply(ClimbRate(5.0))
     with pytest.raises(GuidanceRefused, match=r"climb rate -2 m/s is beyond .*descent 1 m/s"):
@@ -280,6 +281,37 @@ def test_hold_course_altitude_and_climb_rate() -> None:
     st.apply(HoldAltitude(130.0))
     log = st.fly(log.x, log.t, 20.0, record_every=10)
     assert -log.x[2] == pytest.approx(130.0, abs=0.05)
+
+
+@pytest.mark.parametrize(
+    ("radius", "clockwise", "center_velocity", "speed"),
+    [(20.0, True, (0.0, 0.0), 5.0), (2.0, False, (0.0, 0.0), 1.0), (30.0, True, (2.0, 1.0), 5.0)],
+)
+def test_orbit(
+    radius: float, clockwise: bool, center_velocity: tuple[float, float], speed: float
+) -> None:
+    """Orbits from 10 m off the centre: after 30 s within 2 mm of the circle (measured), at the
+    cruise speed or the 0.5 rad/s a 2 m circle allows, turning the way asked, facing along it,
+    the altitude held within 0.1 m (the capture)."""
+    st, x = _stack()
+    assert st.orbit_speed(radius) == pytest.approx(speed)
+    st.apply(Orbit((0.0, 10.0), radius, clockwise=clockwise, center_velocity=center_velocity))
+    assert st.mode == "orbit"
+    log = st.fly(x, 0.0, 60.0, record_every=10)
+    p = _map(log.states)
+    c = np.array([0.0, 10.0]) + np.outer(log.times, center_velocity)
+    rel = p[:, :2] - c
+    vel = np.diff(p[:, :2], axis=0) / 0.1 - np.asarray(center_velocity)
+    late = log.times[:-1] > 30.0
+    assert np.abs(np.linalg.norm(rel, axis=1)[:-1][late] - radius).max() < 0.01
+    assert np.linalg.norm(vel[late], axis=1) == pytest.approx(speed, abs=0.02)
+    turn = rel[:-1, 0] * vel[:, 1] - rel[:-1, 1] * vel[:, 0]  # > 0: counter-clockwise
+    assert (turn[late] < 0).all() if clockwise else (turn[late] > 0).all()
+    ground = np.array([rotation_body_to_ned(*s[6:9]) @ s[3:6] for s in log.states[:-1][late]])
+    course = np.arctan2(ground[:, 1] - center_velocity[0], ground[:, 0] - center_velocity[1])
+    yaw = log.states[:-1, 8][late]
+    assert np.abs((yaw - course + np.pi) % (2 * np.pi) - np.pi).max() < 0.01
+    assert np.abs(p[:, 2] - 100.0).max() < 0.1
 
 
 def test_hold_position_stops_where_it_can_and_follow_waypoints_resumes() -> None:

@@ -65,7 +65,7 @@ K_I_BAND = 17  # m/s: an integrator runs only while its velocity error is below 
 N_GAINS = 18
 
 # ---- command --------------------------------------------------------------------------------------
-C_LAT = 0  # 0: hold the point C_T*, 1: fly the leg C_S* -> C_T*, 2: fly the course C_COURSE
+C_LAT = 0  # 0: hold the point C_T*, 1: fly the leg C_S* -> C_T*, 2: the course C_COURSE, 3: orbit
 C_TN, C_TE, C_TD = 1, 2, 3  # target (NED, m)
 C_SN, C_SE, C_SD = 4, 5, 6  # leg start (NED, m)
 C_SPEED = 7  # m/s: speed along the leg / the course
@@ -75,7 +75,9 @@ C_ALT, C_CLIMB = 10, 11  # m up, m/s up
 C_YAW = 12  # rad, clockwise from north
 C_COURSE = 13  # rad
 C_EVENT_R = 14  # m: a leg reports its end within this distance (0: never, e.g. a go-to)
-N_CMD = 15
+C_ORB_N, C_ORB_E, C_ORB_R, C_ORB_LAM = 15, 16, 17, 18  # orbit centre (NED), radius, +1 clockwise
+C_ORB_VN, C_ORB_VE = 19, 20  # m/s: velocity of a moving orbit centre (integrated each step)
+N_CMD = 21
 
 # ---- loop state and log ---------------------------------------------------------------------------
 S_IN, S_IE, S_ID = 0, 1, 2  # velocity-error integrals (as accelerations, m/s^2)
@@ -279,7 +281,9 @@ def leg_event(x, cmd):  # pragma: no cover - jit
 
 @nb.njit(cache=True, nogil=True)
 def velocity_command(x, gk, cmd, cs, out):  # pragma: no cover - jit
-    """The guidance: NED velocity command into ``out`` (position -> velocity loop)."""
+    """The guidance: NED velocity command into ``out[0:3]``, an acceleration feed-forward into
+    ``out[3:5]`` (horizontal: an orbit's centripetal acceleration), a yaw command into
+    ``out[5]`` (the command's, or along an orbit) and its rate into ``out[6]``."""
     kp = gk[K_POS]
     pn = x[0]
     pe = x[1]
@@ -290,6 +294,10 @@ def velocity_command(x, gk, cmd, cs, out):  # pragma: no cover - jit
     dist = math.sqrt(en * en + ee * ee + ed * ed)
     xtrack = 0.0
     along = 0.0
+    out[3] = 0.0
+    out[4] = 0.0
+    out[5] = cmd[C_YAW]
+    out[6] = 0.0
     lat = cmd[C_LAT]
     vn = kp * en
     ve = kp * ee
@@ -328,6 +336,33 @@ def velocity_command(x, gk, cmd, cs, out):  # pragma: no cover - jit
         ve = cmd[C_SPEED] * math.sin(c)
         vd = 0.0
         joint = False
+    elif lat == 3.0:
+        # orbit: along the circle at C_SPEED (already within what its radius allows), back
+        # onto it radially, with the centre's motion and the centripetal acceleration
+        rho = cmd[C_ORB_R]
+        lam = cmd[C_ORB_LAM]
+        rn = pn - cmd[C_ORB_N]
+        re = pe - cmd[C_ORB_E]
+        d = math.sqrt(rn * rn + re * re)
+        if d > 1e-6:
+            en_r = rn / d
+            ee_r = re / d
+        else:
+            en_r = 1.0
+            ee_r = 0.0
+        s = cmd[C_SPEED]
+        tn = -lam * ee_r
+        te = lam * en_r
+        vn = s * tn + kp * (rho - d) * en_r + cmd[C_ORB_VN]
+        ve = s * te + kp * (rho - d) * ee_r + cmd[C_ORB_VE]
+        vd = 0.0
+        out[3] = -s * s / rho * en_r
+        out[4] = -s * s / rho * ee_r
+        out[5] = math.atan2(te, tn)
+        out[6] = lam * s / rho
+        xtrack = lam * (d - rho)  # + right of the direction of travel (outside, clockwise)
+        dist = d
+        joint = False
     vert = cmd[C_VERT]
     if vert == 1.0:
         vd = kp * (-cmd[C_ALT] - pd)
@@ -335,7 +370,7 @@ def velocity_command(x, gk, cmd, cs, out):  # pragma: no cover - jit
     elif vert == 2.0:
         vd = -cmd[C_CLIMB]
         joint = False
-    elif lat == 2.0:
+    elif lat >= 2.0:
         vd = kp * (-cmd[C_ALT] - pd)
     vh = math.sqrt(vn * vn + ve * ve)
     kh = gk[K_SPEED] / vh if vh > gk[K_SPEED] else 1.0
@@ -351,7 +386,7 @@ def velocity_command(x, gk, cmd, cs, out):  # pragma: no cover - jit
     out[0] = vn * kh
     out[1] = ve * kh
     out[2] = vd * kz
-    cs[S_ALT_C] = -cmd[C_TD] if vert == 0.0 and lat != 2.0 else cmd[C_ALT]
+    cs[S_ALT_C] = -cmd[C_TD] if vert == 0.0 and lat < 2.0 else cmd[C_ALT]
     cs[S_CLIMB_C] = -out[2]
     cs[S_SPEED_C] = math.sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2])
     cs[S_XTRACK] = xtrack
@@ -363,8 +398,11 @@ def velocity_command(x, gk, cmd, cs, out):  # pragma: no cover - jit
 def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     """One step of the cascade (``replay/multirotor_stack.py``): rotor speed commands into
     ``wc``; the loop state and the logged signals in ``cs``."""
-    vc = np.empty(3)
+    vc = np.empty(7)
     velocity_command(x, gk, cmd, cs, vc)
+    if cmd[C_LAT] == 3.0:
+        cmd[C_ORB_N] += cmd[C_ORB_VN] * dt
+        cmd[C_ORB_E] += cmd[C_ORB_VE] * dt
     sigma = density_at(-x[2], p[I_DTEMP]) / RHO0
     m = p[I_MASS]
     g = p[I_GRAV]
@@ -396,8 +434,8 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     e_n = vc[0] - vel_n
     e_e = vc[1] - vel_e
     e_d = vc[2] - vel_d
-    a_n = gk[K_VEL_H] * e_n + cs[S_IN]
-    a_e = gk[K_VEL_H] * e_e + cs[S_IE]
+    a_n = gk[K_VEL_H] * e_n + cs[S_IN] + vc[3]
+    a_e = gk[K_VEL_H] * e_e + cs[S_IE] + vc[4]
     a_d = gk[K_VEL_Z] * e_d + cs[S_ID]
     a_d = min(max(a_d, -gk[K_ACC_Z]), gk[K_ACC_Z])
     speed = math.sqrt(uu * uu + vv * vv + ww * ww)
@@ -437,7 +475,7 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     zn = -f_n / fm
     ze = -f_e / fm
     zd = -f_d / fm
-    psi_c = cmd[C_YAW]
+    psi_c = vc[5]
     # tilt wanted in the present heading's frame (yaw is turned separately, at its own rate)
     a = cp * zn + sp * ze
     b = -sp * zn + cp * ze
@@ -448,7 +486,7 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     # ---- attitude loop: Euler-angle rates, then body rates
     phi_dot = gk[K_ATT] * (phi_c - phi)
     theta_dot = gk[K_ATT] * (theta_c - theta)
-    psi_dot = gk[K_YAW] * _wrap(psi_c - psi)
+    psi_dot = gk[K_YAW] * _wrap(psi_c - psi) + vc[6]
     psi_dot = min(max(psi_dot, -gk[K_YAW_RATE]), gk[K_YAW_RATE])
     rate_max = gk[K_RATE_MAX]
     p_c = min(max(phi_dot - st * psi_dot, -rate_max), rate_max)
