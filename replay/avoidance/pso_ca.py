@@ -102,7 +102,8 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
 **Start** (``start``, beyond seed 000: seed 004 §III-B4, Fig. 7).  ``detection`` (the paper):
 a threat is avoided at the scan that finds it.  ``critical``: the re-plan waits until seed 004's
 critical start ``t_k = t_c - t_res`` of the closest threat (eqs 7-8 as FGA reads them, each of its
-points a circle of RS; never later than the entry into the circle less a quarter turn), so the
+points a circle of RS + ``leg_margin``, the clearance its new legs keep; never later than the
+entry into that circle less a quarter turn), so the
 new waypoints are planned nearer the threat -- fewer of them, and a shorter detour, where the
 threat's geometry allows it.
 
@@ -543,13 +544,17 @@ class PsoCaAvoider:
         if hit.moving:
             tr = st.track(hit.ids[0])
             velocity = (float(tr.velocity[0]), float(tr.velocity[1]), 0.0)
+        # the detour's legs keep RS + leg_margin: the start leaves room to reach that circle's
+        # tangent, not RS's (40 m of turn radius against a 1 km circle leaves the re-planned
+        # path's first turn, flown by the waypoint guidance, no room at RS)
+        margin = self.params.leg_margin
         t_c = math.inf
         for x, y in hit.points:
             o = FgaObstacle(
                 hit.key, (float(x), float(y), float(pos[2])), velocity, hit.rs, -math.inf, math.inf
             )
             e = encounter(
-                pos, vel, o, keep_h=0.0, keep_v=0.0, rho=rho, horizon=math.inf, speed=speed
+                pos, vel, o, keep_h=margin, keep_v=0.0, rho=rho, horizon=math.inf, speed=speed
             )
             if e.inside:
                 return 0.0
