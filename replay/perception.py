@@ -179,7 +179,7 @@ class Scan:
             return cls._of_sensor(
                 t=picture.t,
                 own_position=picture.own_position,
-                sensor="radar",
+                sensor=getattr(picture, "sensor", "radar"),  # a RangefinderPicture's own
                 ids=picture.ids,
                 sources=picture.sources,
                 positions=picture.positions,

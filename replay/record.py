@@ -18,6 +18,7 @@ Topics (names in :mod:`replay.topics`; Foxglove schemas are the protobuf ones of
     /threats/list            terrapath.ThreatList      current threats, appeared/changed/removed ids
     /radar/detections        foxglove.SceneUpdate      a marker per detection of the last scan
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
+    /rangefinder/beams       foxglove.SceneUpdate      the rangefinders' beams of the last scan
     /avoidance/decision      terrapath.Decision        algorithm, inputs, choice, costs, compute_s
     /avoidance/guidance      foxglove.SceneUpdate      an orbit commanded (CTGA's arc), as a circle;
                                                        FGA's collision cones, as a line list
@@ -158,6 +159,7 @@ LonLat = Callable[[float, float], tuple[float, float]]
 NS_PER_S = 1_000_000_000
 ORBIT_ENTITY = "guidance/orbit"  # the avoider's orbit on /avoidance/guidance
 CONES_ENTITY = "guidance/cones"  # FGA's collision cones on /avoidance/guidance
+BEAMS_ENTITY = "rangefinder/beams"  # the rangefinders' beams on /rangefinder/beams
 ORBIT_SEGMENTS = 72
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
 LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
@@ -752,6 +754,31 @@ class RunRecorder:
         xyz, flags = pos.tolist(), list(zip(ground.tolist(), mov.tolist(), strict=True))
         self._write_markers(ns, xyz, [self._sphere_tail(g, m) for g, m in flags])
         self._emit(T.DETECTION_LIST, ns, self._scan.json(ids, xyz, flags, rng.tolist()))
+
+    def write_beams(
+        self, t: float, origin: npt.ArrayLike, ends: npt.ArrayLike, hit: npt.ArrayLike
+    ) -> None:
+        """One rangefinder scan (:mod:`replay.rangefinder`) as a line list replacing the last:
+        a segment from ``origin`` (the aircraft, map metres (3,)) to each beam's end ``ends``
+        (B, 3): red where the beam hit (``hit`` (B,)), green where it reached its full range."""
+        ns = self._ns(t)
+        o = np.asarray(check_vector(origin, 3, f"{self._where}beam origin"), dtype=np.float64)
+        e = np.asarray(ends, dtype=np.float64)
+        h = np.asarray(hit, dtype=bool)
+        if e.ndim != 2 or e.shape[1] != 3 or h.shape != (len(e),) or not np.isfinite(e).all():
+            raise InputError(
+                f"{self._where}beams: expected finite ends (B, 3) and hit flags (B,); found "
+                f"shapes {e.shape} and {h.shape}"
+            )
+        rel = np.asarray(self.map_origin)
+        body = self._entity(ns, BEAMS_ENTITY).SerializeToString()
+        for mask, rgba in ((h, (1.0, 0.15, 0.1, 1.0)), (~h, (0.2, 0.85, 0.3, 0.8))):
+            if mask.any():
+                pairs = np.empty((2 * int(mask.sum()), 3))
+                pairs[0::2], pairs[1::2] = o - rel, e[mask] - rel
+                line = line_head(rgba, segments=True) + doubles_messages(LINE_POINTS, pairs)
+                body += ld(ENTITY_LINES, line)
+        self._emit(T.RANGEFINDER_BEAMS, ns, ld(UPDATE_ENTITIES, body))
 
     def _sphere_tail(self, terrain: bool, moving: bool) -> bytes:
         """Size and colour fields of a detection marker (brown terrain, orange moving, red)."""

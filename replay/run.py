@@ -50,10 +50,15 @@ class ReplayRequest:
     log_rate: float = 10.0
     radar_range: float = 10_000.0
     radar_noise: float = 0.0
-    sensor: str = "radar"  # or "cooperative": every threat in range reports itself (ADS-B-like)
+    sensor: str = "radar"  # "cooperative": every threat in range reports itself (ADS-B-like);
+    # "rangefinder": beams of range R by ray casting (replay.rangefinder)
     coop_noise_position: float = 0.0
     coop_noise_velocity: float = 0.0
     coop_latency: float = 0.0
+    rangefinder_range: float = 20.0
+    rangefinder_beams: int = 4
+    rangefinder_mount: str = "gimballed"  # or "body"
+    rangefinder_noise: float = 0.0
     margin: float = 0.0  # success needs every separation >= this (m)
     temperature_offset: float = 0.0  # K off the ISA standard day
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
@@ -121,6 +126,10 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         coop_noise_position=r.coop_noise_position,
         coop_noise_velocity=r.coop_noise_velocity,
         coop_latency=r.coop_latency,
+        rangefinder_range=r.rangefinder_range,
+        rangefinder_beams=r.rangefinder_beams,
+        rangefinder_mount=r.rangefinder_mount,
+        rangefinder_noise=r.rangefinder_noise,
         margin=r.margin,
         temperature_offset=r.temperature_offset,
     )
@@ -190,6 +199,17 @@ def run_replay(
         "sensor": r.sensor,
         "atmosphere": f"ISA{r.temperature_offset:+g} K",
     }
+    if r.sensor == "rangefinder":
+        c = prep.config
+        extra["rangefinder"] = json.dumps(
+            {
+                "range_m": c.rangefinder_range,
+                "period_s": c.rangefinder_period,
+                "beams": c.rangefinder_beams,
+                "mount": c.rangefinder_mount,
+                "noise_m": c.rangefinder_noise,
+            }
+        )
     if mission.terrain is not None:
         extra["dem"] = json.dumps(list(mission.terrain.dem))
     options = "".join(f" {k}={v}" for k, v in r.avoid_options.items())

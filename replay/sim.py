@@ -9,7 +9,8 @@ Per tick (the shorter of the sensor's period, 1 s by default, and the avoider's)
    separation to each active threat's safety volume and to each of the mission's danger zones,
    the clearance above the terrain, and whether the aircraft is over the map;
 3. records the samples (the recorder keeps its own log rate), leg changes and threat changes;
-4. scans with the sensor when it is due (``radar``, or the ADS-B-like ``cooperative``), and asks
+4. scans with the sensor when it is due (``radar``, the ADS-B-like ``cooperative``, or the
+   ``rangefinder`` beams of :mod:`replay.rangefinder`, given the vehicle's state), and asks
    the avoider when it is due; its command goes to the flight stack at once (a command the stack
    refuses is recorded with the reason), and every decision is recorded with its compute time.
 
@@ -68,12 +69,17 @@ class ReplayConfig:
     terrain_following: float | None = None  # autopilot: keep at least this clearance (None: off)
     switch_distance: float = 1000.0  # fixed wing without turn fillets (seed 000 §3.6)
     airspeed: float | None = None  # None: the mission's cruise speed
-    avoid_period: float | None = None  # s between avoider calls (None: the avoider's, else radar's)
-    sensor: str = "radar"  # "radar" (seed 000) or "cooperative" (ADS-B-like: replay.cooperative)
+    avoid_period: float | None = None  # s between avoider calls (None: avoider's, else sensor's)
+    sensor: str = "radar"  # "radar" (seed 000), "cooperative" (ADS-B-like) or "rangefinder"
     margin: float = 0.0  # success needs every separation >= this (m; 0: outside the surfaces)
     coop_noise_position: float = 0.0  # cooperative sensor: 1-sigma position noise (m)
     coop_noise_velocity: float = 0.0  # cooperative sensor: 1-sigma velocity noise (m/s)
     coop_latency: float = 0.0  # cooperative sensor: age of the reports (s)
+    rangefinder_range: float = 20.0  # rangefinders (replay.rangefinder): range R (m)
+    rangefinder_period: float = 0.1  # s between scans (10 Hz)
+    rangefinder_beams: int = 4  # evenly spaced from the front
+    rangefinder_mount: str = "gimballed"  # or "body" (fixed in the body, tilting with it)
+    rangefinder_noise: float = 0.0  # 1-sigma range noise (m)
     temperature_offset: float = 0.0  # K off the ISA standard day (hot day > 0), within +-50
 
     def __post_init__(self) -> None:
@@ -88,11 +94,34 @@ class ReplayConfig:
         check_offset(self.temperature_offset, "replay setting 'temperature_offset'")
         if self.sensor not in SENSORS:
             raise InputError(f"unknown sensor {self.sensor!r}; choose one of {', '.join(SENSORS)}")
-        for name in ("coop_noise_position", "coop_noise_velocity", "coop_latency", "margin"):
+        beams = self.rangefinder_beams
+        if isinstance(beams, bool) or not isinstance(beams, int) or beams < 1:
+            raise InputError(
+                f"replay setting 'rangefinder_beams' must be an integer >= 1; got {beams!r}"
+            )
+        if self.rangefinder_mount not in ("gimballed", "body"):
+            mount = self.rangefinder_mount
+            raise InputError(
+                f"replay setting 'rangefinder_mount' must be gimballed or body; got {mount!r}"
+            )
+        for name in (
+            "coop_noise_position",
+            "coop_noise_velocity",
+            "coop_latency",
+            "margin",
+            "rangefinder_noise",
+        ):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise InputError(f"replay setting {name!r} must be a number >= 0; got {v!r}")
-        for name in ("sample_hz", "radar_range", "radar_period", "switch_distance"):
+        for name in (
+            "sample_hz",
+            "radar_range",
+            "radar_period",
+            "switch_distance",
+            "rangefinder_range",
+            "rangefinder_period",
+        ):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise InputError(f"replay setting {name!r} must be a positive number; got {v!r}")
@@ -238,6 +267,19 @@ def simulate(
             latency_s=cfg.coop_latency,
             seed=rng,
         )
+    elif cfg.sensor == "rangefinder":
+        from replay.rangefinder import Rangefinders
+
+        # seed 003's world of fixed obstacles: the avoiders act on stationary returns only
+        radar = Rangefinders(
+            range_m=cfg.rangefinder_range,
+            period_s=cfg.rangefinder_period,
+            beams=cfg.rangefinder_beams,
+            mount=cfg.rangefinder_mount,
+            noise_m=cfg.rangefinder_noise,
+            seed=rng,
+            assume_static=True,
+        )
     else:
         radar = Radar(
             range_m=cfg.radar_range,
@@ -248,8 +290,10 @@ def simulate(
         )
     avoider.reset(wp0, rng)
     passive = isinstance(avoider, NoAvoidance)
-    avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or cfg.radar_period)
-    tick = min(cfg.radar_period, avoid_period)
+    scan_period = float(radar.period_s)
+    avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or scan_period)
+    tick = min(scan_period, avoid_period)
+    attitude = cfg.sensor == "rangefinder"  # the sensors that take the vehicle's state
     next_decision = 0.0
     zones = tuple(f"zone:{z.id or k}" for k, z in enumerate(mission.danger_zones))
     tracker = MetricsTracker([*threats.ids, *zones], wp0[0], wp0[-1], cfg.margin)
@@ -325,8 +369,9 @@ def simulate(
                 threats.threats,
                 terrain_model=terrain_model if cfg.terrain_returns else None,
                 min_clearance=cfg.terrain_clearance,
+                **({"state": x} if attitude else {}),
             )
-            if recorder is not None and len(picture):
+            if recorder is not None and (len(picture) or attitude):
                 _record_picture(recorder, t, picture)
         if passive or picture is None or t < next_decision - 1e-9:
             continue  # "none" never changes the mission: skip building its context
@@ -378,7 +423,7 @@ def _arrival(stack: FlightStack, position: FloatArray) -> str:
     return f"missed the goal (passed it {miss:.0f} m away)"
 
 
-SENSORS = ("radar", "cooperative")
+SENSORS = ("radar", "cooperative", "rangefinder")
 _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much flight at once
 
 
@@ -426,7 +471,12 @@ RECORDED_TERRAIN_RETURNS = 48  # the nearest terrain returns of a scan that go i
 
 def _record_picture(recorder: Any, t: float, picture: Any) -> None:
     """Every threat return of a scan, and its nearest terrain returns (a mountain scan can hold
-    hundreds; recording them all would dominate the run's time and file size)."""
+    hundreds; recording them all would dominate the run's time and file size); and the
+    rangefinders' beams."""
+    if getattr(picture, "beam_ranges", None) is not None:
+        recorder.write_beams(t, picture.own_position, picture.beam_ends, picture.beam_hits)
+        if not len(picture):
+            return
     n = picture.n_threat
     if len(picture) == n:  # threat returns only: all of them, as they are
         terrain = np.zeros(n, dtype=bool)

@@ -20,6 +20,8 @@ Topics and their schemas (Foxglove schemas are protobuf, from ``foxglove-schemas
     /threats/list            terrapath.ThreatList      current threats, appeared/moved/removed ids
     /radar/detections        foxglove.SceneUpdate      one marker per detection of the last scan
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
+    /rangefinder/beams       foxglove.SceneUpdate      rangefinder beams of the last scan, a line
+                                                       list: aircraft to hit (red) or full range
     /avoidance/decision      terrapath.Decision        one avoidance decision and its compute time
     /avoidance/guidance      foxglove.SceneUpdate      the avoider's orbit (CTGA's arc) as a circle,
                                                        FGA's collision cones as a line list
@@ -52,6 +54,7 @@ THREATS = "/threats"
 THREAT_LIST = "/threats/list"
 DETECTIONS = "/radar/detections"
 DETECTION_LIST = "/radar/detection_list"
+RANGEFINDER_BEAMS = "/rangefinder/beams"
 DECISION = "/avoidance/decision"
 GUIDANCE = "/avoidance/guidance"
 LOG = "/log"
@@ -95,6 +98,7 @@ SCHEMAS: dict[str, str] = {
     THREAT_LIST: THREAT_LIST_SCHEMA,
     DETECTIONS: SCENE_UPDATE,
     DETECTION_LIST: DETECTION_LIST_SCHEMA,
+    RANGEFINDER_BEAMS: SCENE_UPDATE,
     DECISION: DECISION_SCHEMA,
     GUIDANCE: SCENE_UPDATE,
     LOG: LOG_SCHEMA,

@@ -180,12 +180,42 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 )
 @click.option(
     "--sensor",
-    type=click.Choice(["radar", "cooperative"]),
+    type=click.Choice(["radar", "cooperative", "rangefinder"]),
     default="radar",
     show_default=True,
     help="What the avoider sees: radar (seed 000: returns in range and line of sight, terrain "
-    "too) or cooperative (ADS-B-like: every threat in range reports its true position, "
-    "velocity and size, with --coop-noise and --coop-latency).",
+    "too), cooperative (ADS-B-like: every threat in range reports its true position, "
+    "velocity and size, with --coop-noise and --coop-latency) or rangefinder (seed 003: beams "
+    "by ray casting at 10 Hz, with the --rangefinder-* options).",
+)
+@click.option(
+    "--rangefinder-range",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=20.0,
+    show_default=True,
+    help="Rangefinder range R (m).",
+)
+@click.option(
+    "--rangefinder-beams",
+    type=click.IntRange(min=1),
+    default=4,
+    show_default=True,
+    help="Rangefinder beams, evenly spaced from the front (4: front, right, back, left).",
+)
+@click.option(
+    "--rangefinder-mount",
+    type=click.Choice(["gimballed", "body"]),
+    default="gimballed",
+    show_default=True,
+    help="Rangefinder beams held level at the heading (gimballed) or fixed in the body, "
+    "tilting with roll and pitch (body).",
+)
+@click.option(
+    "--rangefinder-noise",
+    type=click.FloatRange(min=0.0),
+    default=0.0,
+    show_default=True,
+    help="Rangefinder range noise, 1 sigma (m).",
 )
 @click.option(
     "--coop-noise",
@@ -254,6 +284,10 @@ def replay_cmd(
     sensor: str,
     coop_noise: tuple[float, float],
     coop_latency: float,
+    rangefinder_range: float,
+    rangefinder_beams: int,
+    rangefinder_mount: str,
+    rangefinder_noise: float,
     margin: float,
     temperature_offset: float,
     terrain_following: float | None,
@@ -306,6 +340,10 @@ def replay_cmd(
         coop_noise_position=coop_noise[0],
         coop_noise_velocity=coop_noise[1],
         coop_latency=coop_latency,
+        rangefinder_range=rangefinder_range,
+        rangefinder_beams=rangefinder_beams,
+        rangefinder_mount=rangefinder_mount,
+        rangefinder_noise=rangefinder_noise,
         margin=margin,
         temperature_offset=temperature_offset,
         terrain_following=terrain_following,
