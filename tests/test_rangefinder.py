@@ -376,6 +376,16 @@ def test_perception_reads_the_hits_as_returns() -> None:
     assert len(st) == 2 and not len(st.stationary) and (st.moving_code == -1).all()
 
 
+def _first_hit(shape: PrismThreat | CylinderThreat, own: np.ndarray, d: np.ndarray) -> float:
+    """The first hit of one ray from ``own`` along ``d`` (shapes with bottom and top)."""
+    z0, z1 = np.array([shape.bottom - own[2]]), np.array([shape.top - own[2]])
+    if isinstance(shape, PrismThreat):
+        edges = ring_edges(shape.ring) - np.tile(own[:2], 2)
+        return float(ray_prisms(d[None], edges, np.array([0, len(edges)]), z0, z1)[0, 0])
+    c = np.array([shape.center]) - own[:2]
+    return float(ray_cylinders(d[None], c, np.array([shape.radius]), z0, z1)[0, 0])
+
+
 @given(
     st.floats(-15.0, 15.0),
     st.floats(-15.0, 15.0),
@@ -399,23 +409,7 @@ def test_a_hit_lies_on_the_surface_and_the_beam_before_it_outside(
         [math.cos(dip) * math.sin(course), math.cos(dip) * math.cos(course), math.sin(dip)]
     )
     for shape in shapes:
-        s = (
-            ray_prisms(
-                d[None],
-                ring_edges(shape.ring) - np.tile(own[:2], 2),
-                np.array([0, 6]),
-                np.array([-2.0 - z]),
-                np.array([2.0 - z]),
-            )[0, 0]
-            if isinstance(shape, PrismThreat)
-            else ray_cylinders(
-                d[None],
-                np.array([[6.0 - x, -12.0 - y]]),
-                np.array([3.0]),
-                np.array([-1.0 - z]),
-                np.array([1.0 - z]),
-            )[0, 0]
-        )
+        s = _first_hit(shape, own, d)
         before = own + np.linspace(0.0, min(s, 60.0), 400)[:-1, None] * d
         assert (shape.separation(before) > -1e-9).all()
         if math.isfinite(s):
