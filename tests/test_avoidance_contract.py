@@ -19,13 +19,19 @@ import pytest
 
 from planner.mission import mission_from_dict
 from replay.avoidance import AVOIDERS, make_avoider
+from replay.avoidance.registry import avoider_class
 from replay.metrics import WALL_CLOCK_METRICS
 from replay.sim import ReplayConfig, ReplayResult, simulate
 from replay.threat_file import threats_from_records
 from replay.vehicle.presets import load_vehicle
+from terrain.errors import InputError
 
 R = 1000.0  # every threat's safety radius (seed 000: RS = 1 km)
-AVOIDERS_UNDER_TEST = sorted(name for name in AVOIDERS if name != "none")
+# an avoider that flies hover commands only (GoTo, HoldPosition, YawTo: the priority loop) cannot
+# fly these fixed-wing scenarios; it must refuse the fixed wing before the flight instead
+# (test_hover_only_avoiders_refuse_the_fixed_wing) and has scenarios of its own
+HOVER_ONLY = sorted(name for name in AVOIDERS if getattr(avoider_class(name), "hover_only", False))
+AVOIDERS_UNDER_TEST = sorted(name for name in AVOIDERS if name != "none" and name not in HOVER_ONLY)
 
 STRAIGHT = [[0, 0, 200], [20000, 0, 200], [40000, 0, 200]]
 SCENARIOS: dict[str, list[dict[str, Any]]] = {
@@ -125,7 +131,16 @@ class TestAvoiderContract:
 
 
 def test_every_registered_avoider_but_none_is_under_contract() -> None:
-    assert AVOIDERS_UNDER_TEST == sorted(set(AVOIDERS) - {"none"}) and AVOIDERS_UNDER_TEST
+    assert AVOIDERS_UNDER_TEST and sorted(AVOIDERS_UNDER_TEST + HOVER_ONLY) == sorted(
+        set(AVOIDERS) - {"none"}
+    )
+
+
+@pytest.mark.parametrize("avoider", HOVER_ONLY)
+def test_hover_only_avoiders_refuse_the_fixed_wing(avoider: str) -> None:
+    """A hover-only avoider says before the flight that the contract's aircraft cannot hover."""
+    with pytest.raises(InputError, match="cannot hover"):
+        make_avoider(avoider).check_vehicle(load_vehicle("solar-uav"), 15.0)
 
 
 # -- PSO-CA's own way of getting there (seed 000 specifics, not part of the contract) ---------------

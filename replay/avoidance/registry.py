@@ -43,6 +43,12 @@ AVOIDERS: dict[str, AvoiderEntry] = {
         "FgaAvoider",
         "seed 004: collision cones and a critical start time, heading or pitch manoeuvre",
     ),
+    "priority": AvoiderEntry(
+        "replay.avoidance.priority",
+        "PriorityAvoider",
+        "seed 003: stop, scan 32 directions with rangefinders, choose a set-point by steps "
+        "4a-4d (hover-capable vehicles, --sensor rangefinder)",
+    ),
 }
 
 

@@ -1,0 +1,818 @@
+"""The priority loop: uncharted 2-D navigation with four rangefinders (seed 003, Goje, Singh &
+Nikhal 2021), ``--avoid priority``.  Hover-capable vehicles only, with ``sensor="rangefinder"``.
+
+Map frame: x east, y north, z up (m); yaws and bearings clockwise from north (rad), the paper's
+IMU yaw (§III-A 3).  The mission's first waypoint is the start ``S_0``, its last the target
+``S_T``; the waypoints between are not flown (the environment is uncharted).
+
+**Altitude (§V).**  The paper climbs to 10 m above the higher of the start's and the target's
+ground elevation; that is the default (``above_m`` 10 m over the terrain under both points, flat
+ground 0 m), or ``altitude_m`` as given.  The aircraft flies level there: obstacles are what the
+level rangefinders hit at that altitude (threats, terrain).
+
+**Steps 1-2.**  Climb (or descend) over ``S_0`` to the altitude facing the target (``atan2`` of
+the east and north offsets), then fly straight to it (:class:`~replay.guidance.FollowWaypoints`
+from here to the target: the flight stack ends the run with ``goal`` on arrival).  The front beam
+watches: a hit closer than ``R - tau`` and closer than the target (``theta_D``) stops the
+aircraft (:class:`~replay.guidance.HoldPosition`); where it comes to rest is appended to ``S``.
+
+**Step 3: the scan.**  The heading at the stop faces the target (step 3 puts the front reading in
+``Ir_0`` and step 5 treats ``I_0`` as the target's direction), so the 32 directions are taken
+relative to ``h``, the bearing from the stop to the target: ``I_i`` at ``h + 22.5 i deg``,
+``D_i`` at ``h + 11.25 + 22.5 i deg`` (§III-C 9-10), on the circle of radius ``R - tau``.  The
+aircraft turns clockwise in place by 11.25 deg steps (:class:`~replay.guidance.YawTo`) and takes
+every beam's range at each: the reading of a beam at bearing ``b`` (relative to the nose) at yaw
+step ``k`` looks along ``h + 11.25 k deg + b``, the ``n``-th of the 32 directions with ``n =
+round((11.25 k + b) / 11.25) mod 32``; an even ``n`` is ``I_{n/2}``, an odd one ``D_{(n-1)/2}``
+(:func:`slot_of`).  With the paper's four beams (front 0, right 90, back 180, left 270 deg) the
+steps 0, 11.25 ... 78.75 deg fill them all, interleaved exactly as §III-C lists them: step 0 gives
+``Ir_0, Ir_4, Ir_8, Ir_12`` (front, right, back, left), step 11.25 ``Dr_0, Dr_4, Dr_8, Dr_12``,
+step 22.5 ``Ir_1, Ir_5, Ir_9, Ir_13`` ... step 78.75 ``Dr_3, Dr_7, Dr_11, Dr_15``.  Other beam
+layouts scan the steps that fill the 32 directions (:func:`scan_steps`; one beam: 32 steps, the
+paper's "easily modified" single sensor).  A reading is taken from the first scan after the yaw
+is within ``YAW_TOL_DEG`` of the step's and the aircraft at rest; the picture's ``beam_courses``
+are recorded with it.
+
+**Possible points (§III-C 15-16).**  ``IP_i = Ir_i >= R``: the beam towards ``I_i`` is clear over
+its whole range, so the set-point (at ``R - tau``) keeps at least ``tau`` from whatever lies
+beyond it on that line.  The paper's ``Ir_i >= R - tau`` admits an obstacle *at* the set-point
+(an aircraft sent there would stop touching it).  ``DP_i = Dr_i >= R - tau`` as printed: the
+flanking line is clear as far as the circle, and an obstacle just beyond ``D_i`` is ``2 (R -
+tau) sin 5.625 deg`` (3.5 m for the defaults) from the set-point, more than ``tau`` whenever
+``R - tau >= 5.1 tau`` (refused otherwise: :func:`check_range`).
+
+**Step 4: the priority loop.**  ``theta_i = |I_i - S_T|`` sorted ascending; the first ``I_i``
+passing a level is chosen, the levels tried in turn (:func:`choose`):
+
+- 4a ``IP_i``, both flanks possible, not visited;
+- 4b ``IP_i``, not visited;
+- 4c ``IP_i``, both flanks possible;
+- 4d ``IP_i``; none -> ``target unreachable``.
+
+The flanks of ``I_i`` are ``D_{i-1}`` and ``D_i`` (at -11.25 and +11.25 deg; indices modulo 16):
+§IV-D prints ``D_i`` and ``D_{i+1}``, i.e. +11.25 and +33.75 deg, one flank on one side and
+none on the other (:func:`flanks`).
+
+*Ties.*  Facing the target, ``I_k`` and ``I_{16-k}`` are equally far from it.  Distances within
+``tie_m`` (1 cm: rounding is 1e-12 m, and the closest distinct ``theta`` differ by ``(R - tau)(1
+- cos 22.5 deg)``, 1.4 m for the defaults) are ties, ordered by side: the side of the previous
+choice first (right ``I_1..I_7``, clockwise, the way the scan turns, or left ``I_9..I_15``; ``I_0``
+and ``I_8`` have no side and keep the side as it was), clockwise before any choice
+(:func:`priority_order`).  Keeping the side keeps the aircraft going round an obstacle the way it
+started instead of swinging back and forth.
+
+*Visited.*  The paper compares points exactly; here ``I_i`` is visited when it lies within
+``visited_m`` (horizontally) of a point of ``S``.  The default is ``(R - tau) sin 11.25 deg``
+(3.5 m for R = 20, tau = 2), half the distance between neighbouring ``I`` points: a set-point
+marks itself, never its neighbours on the next circle (:func:`visited`).
+
+**Step 5.**  The chosen point is appended to ``S``.  ``I_0``: turn back to face the target (the
+scan ended at 78.75 deg) and resume step 2.  Another: fly to it (:class:`~replay.guidance.GoTo`,
+facing along the way), stop, face the target, scan again (step 3; the point is in ``S``
+already).  Not in the paper: while flying to a set-point the front beam watches as in step 2 (a
+threat that popped up since the scan): a hit closer than ``R - tau`` and short of the set-point's
+``tau`` beyond it stops the aircraft and starts a scan there.
+
+**Termination.**  The paper has no loop guarantee: a closed box round the target with room round
+the aircraft never ends in 4d.  Two loop rules, both typed outcomes (:data:`OUTCOMES`):
+
+- *the same set-points revisited* (``target unreachable: loop``, :class:`LoopDetector`): a
+  *place* is a point of ``S`` farther than ``visited_m`` from every earlier one; each scan is
+  made at a place with the number of places known so far; a scan at a place scanned before with
+  no new place since finds the same visited set and the same readings (the world is static
+  between them), so it makes the same choice: the loop is certain;
+- *round the target* (``target unreachable: circled``, :class:`Winding`, Bug1's test): ``S`` has
+  gone ``max_turns`` (1) full turns round the target without coming ``visited_m`` nearer to it.
+  The first rule alone ends the box only when the visited places have filled everything within
+  reach (some 400 scans for a 40 m box: :func:`visited` marks 3.5 m round each point); going
+  round the target once without nearing it ends it after one lap.  A target inside an obstacle
+  ends the same way, when the aircraft has gone round the obstacle.
+
+Bounds too: ``max_setpoints`` points in ``S``, ``max_scans`` scans, ``max_flight_s`` seconds; a
+run never loops forever.  These end the run through :attr:`~replay.guidance.AvoidanceDecision.
+end`: the run's end reason, never a success, and ``terrapath replay`` exits 3.
+
+**Records.**  Every decision carries ``priority`` (the step), ``setpoints`` (``S`` so far) and
+the point it appended, if any; a completed scan carries ``scan`` (``Ir``, ``Dr``, ``IP``, ``DP``,
+``theta``, the order, the visited flags, the beam courses) and ``levels`` (4a-4d: the point each
+chose, or none).  The recorder draws ``setpoints`` on ``/avoidance/guidance``.
+
+**Bad input** (one-line errors naming the option): ``tau < 0``; ``R <= tau`` or ``R - tau <
+5.1 tau`` (:func:`check_range`); a vehicle that cannot hover (:meth:`PriorityAvoider.
+check_vehicle`); a sensor other than the rangefinders; a cruise speed that cannot stop within
+``R - 2 tau`` of a detection (:func:`stopping_distance`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from planner.optim.base import require_real
+from replay.avoidance.base import AvoidanceContext
+from replay.guidance import AvoidanceDecision, FollowWaypoints, GoTo, HoldPosition, YawTo
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+N_POINTS = 16  # I_0..I_15 (and D_0..D_15)
+N_DIRECTIONS = 2 * N_POINTS  # the 32 scanned directions
+SLOT_DEG = 360.0 / N_DIRECTIONS  # 11.25
+SLOT = math.radians(SLOT_DEG)
+SLOT_SNAP_DEG = 0.5  # a beam bearing this close to a multiple of 11.25 deg counts as one
+YAW_TOL_DEG = 1.0  # a scan step's reading is taken within this of its yaw
+ARRIVE_M = 0.5  # a set-point (or the altitude) is reached within this (3-D)
+REST_MPS = 0.25  # at rest below this ground speed
+BRAKE_MPS2 = 3.0  # the multirotor's braking deceleration (MultirotorStack's design brake)
+REACTION_S = 0.3  # a scan period, a decision period and the controller's lag, rounded up
+FLANK_CLEARANCE = 2.0 * math.sin(math.radians(SLOT_DEG / 2.0))  # x (R - tau): I_i to past D_i
+TIE_M = 0.01
+
+UNREACHABLE = "target unreachable"  # step 4d: no I point is possible
+LOOP = "target unreachable: loop"  # a scan where one was made, nothing new visited since
+CIRCLED = "target unreachable: circled"  # a full turn round the target, none nearer
+SETPOINT_LIMIT = "set-point limit"
+SCAN_LIMIT = "scan limit"
+FLIGHT_TIME_LIMIT = "flight-time limit"
+OUTCOMES = (UNREACHABLE, LOOP, CIRCLED, SETPOINT_LIMIT, SCAN_LIMIT, FLIGHT_TIME_LIMIT)
+LEVELS = ("4a", "4b", "4c", "4d")
+
+
+def wrap(a: float) -> float:
+    """``a`` wrapped to [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def bearing(frm: npt.ArrayLike, to: npt.ArrayLike) -> float:
+    """Bearing from ``frm`` to ``to`` (x east, y north), clockwise from north: step 1."""
+    f = np.asarray(frm, dtype=np.float64)
+    t = np.asarray(to, dtype=np.float64)
+    return math.atan2(float(t[0] - f[0]), float(t[1] - f[1]))
+
+
+# -- the scan table --------------------------------------------------------------------------------
+def slot_of(step: int, beam_bearing: float) -> int:
+    """The direction (0..31, 11.25 deg each, clockwise from the stop heading) a beam at
+    ``beam_bearing`` (rad from the nose, clockwise) reads at yaw step ``step`` (the aircraft
+    turned ``11.25 step`` deg clockwise).  Even ``n``: ``I_{n/2}``; odd: ``D_{(n-1)/2}``."""
+    rel = step * SLOT_DEG + math.degrees(beam_bearing)
+    n = round(rel / SLOT_DEG)
+    if abs(rel - n * SLOT_DEG) > SLOT_SNAP_DEG:
+        raise InputError(
+            f"priority: a beam at {math.degrees(beam_bearing):g} deg from the nose is not at a "
+            f"multiple of {SLOT_DEG} deg; the scan needs beams on the 32 directions of §III-C"
+        )
+    return n % N_DIRECTIONS
+
+
+def scan_steps(beam_bearings: Sequence[float]) -> tuple[int, ...]:
+    """The yaw steps (multiples of 11.25 deg clockwise, in order) whose readings fill all 32
+    directions: each step that fills one not yet read (four beams at 90 deg: 0..7)."""
+    filled: set[int] = set()
+    steps: list[int] = []
+    for k in range(N_DIRECTIONS):
+        slots = {slot_of(k, b) for b in beam_bearings}
+        if slots - filled:
+            steps.append(k)
+            filled |= slots
+        if len(filled) == N_DIRECTIONS:
+            return tuple(steps)
+    raise InputError("priority: the rangefinders have no beam to scan with")
+
+
+def check_range(range_m: float, tau: float) -> None:
+    """``R`` and ``tau`` as the scan needs them (module docstring): ``R > tau`` and the flank
+    clearance ``2 (R - tau) sin 5.625 deg >= tau``."""
+    if not range_m > tau:
+        raise InputError(
+            f"priority option tau ({tau:g} m) must be below the rangefinders' range R "
+            f"({range_m:g} m): the set-points lie on a circle of radius R - tau"
+        )
+    if FLANK_CLEARANCE * (range_m - tau) < tau:
+        raise InputError(
+            f"priority option tau ({tau:g} m) is too large for the rangefinders' range R "
+            f"({range_m:g} m): a set-point must keep tau from an obstacle past its flanks, "
+            f"which needs R >= {1.0 + 1.0 / FLANK_CLEARANCE:.2f} tau"
+        )
+
+
+def stopping_distance(speed: float) -> float:
+    """Metres flown from a detection to rest at ``speed``: the reaction time, then braking."""
+    return speed * REACTION_S + speed * speed / (2.0 * BRAKE_MPS2)
+
+
+def ring(center: npt.ArrayLike, heading: float, radius: float, offset: float = 0.0) -> FloatArray:
+    """The 16 points at ``heading + offset + 22.5 i deg`` on the circle of ``radius`` about
+    ``center`` (x, y): the ``I`` points (offset 0) or the ``D`` points (offset 11.25 deg)."""
+    c = np.asarray(center, dtype=np.float64)[:2]
+    a = heading + offset + 2.0 * SLOT * np.arange(N_POINTS)
+    return np.column_stack([c[0] + radius * np.sin(a), c[1] + radius * np.cos(a)])
+
+
+def possible(
+    ir: npt.ArrayLike, dr: npt.ArrayLike, range_m: float, tau: float
+) -> tuple[BoolArray, BoolArray]:
+    """``(IP, DP)``: ``IP_i = Ir_i >= R`` (a clear beam), ``DP_i = Dr_i >= R - tau`` (§III-C
+    16 as printed).  Ranges are ``R`` (or more) where the beam hit nothing."""
+    i = np.asarray(ir, dtype=np.float64)
+    d = np.asarray(dr, dtype=np.float64)
+    if i.shape != (N_POINTS,) or d.shape != (N_POINTS,):
+        raise InputError(f"priority: Ir and Dr need {N_POINTS} readings each")
+    return i >= range_m, d >= range_m - tau
+
+
+def flanks(i: int) -> tuple[int, int]:
+    """The ``D`` points either side of ``I_i``: ``D_{i-1}`` (-11.25 deg) and ``D_i`` (+11.25
+    deg), modulo 16 (§IV-D prints ``D_i``, ``D_{i+1}``)."""
+    return (i - 1) % N_POINTS, i % N_POINTS
+
+
+def side_of(i: int) -> int:
+    """+1 for ``I_1..I_7`` (right of the target's direction, clockwise), -1 for ``I_9..I_15``,
+    0 for ``I_0`` and ``I_8``."""
+    i %= N_POINTS
+    if i == 0 or i == N_POINTS // 2:
+        return 0
+    return 1 if i < N_POINTS // 2 else -1
+
+
+def priority_order(theta: npt.ArrayLike, side: int = 1, tie_m: float = TIE_M) -> list[int]:
+    """The 16 indices by distance to the target, ascending; distances within ``tie_m`` of the
+    first of their group are a tie, ordered ``side`` first (+1 right, -1 left), then the points
+    without a side, then the other side."""
+    th = np.asarray(theta, dtype=np.float64)
+    order = sorted(range(len(th)), key=lambda k: (float(th[k]), k))
+    out: list[int] = []
+    pos = 0
+    while pos < len(order):
+        end = pos + 1
+        while end < len(order) and th[order[end]] - th[order[pos]] <= tie_m:
+            end += 1
+        group = order[pos:end]
+        rank = {side: 0, 0: 1, -side: 2} if side else {1: 0, 0: 1, -1: 2}
+        out += sorted(group, key=lambda k: (rank[side_of(k)], float(th[k]), k))
+        pos = end
+    return out
+
+
+def visited(points: npt.ArrayLike, setpoints: npt.ArrayLike, visited_m: float) -> BoolArray:
+    """For each point (x, y, ...), whether it lies within ``visited_m`` horizontally of a point
+    of ``setpoints`` (the list ``S``)."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, np.shape(points)[-1])[:, :2]
+    s = np.asarray(setpoints, dtype=np.float64)
+    if s.size == 0:
+        return np.zeros(len(p), dtype=bool)
+    s = s.reshape(-1, s.shape[-1])[:, :2]
+    d = np.hypot(p[:, None, 0] - s[None, :, 0], p[:, None, 1] - s[None, :, 1])
+    return np.asarray((d <= visited_m).any(axis=1))
+
+
+@dataclass(frozen=True)
+class Choice:
+    """Step 4's answer: the index chosen (None: nothing possible, the target is unreachable),
+    the level that chose it, the order tried and what each level found."""
+
+    index: int | None
+    level: str | None
+    order: tuple[int, ...]
+    levels: dict[str, int | None] = field(default_factory=dict)
+
+    @property
+    def unreachable(self) -> bool:
+        return self.index is None
+
+
+def choose(
+    ip: npt.ArrayLike,
+    dp: npt.ArrayLike,
+    theta: npt.ArrayLike,
+    seen: npt.ArrayLike,
+    side: int = 1,
+    tie_m: float = TIE_M,
+) -> Choice:
+    """Steps 4a-4d on a scan: ``ip``, ``dp`` (16 booleans each), ``theta`` (16 distances to the
+    target), ``seen`` (16 booleans: visited), ``side`` the tie rule's preferred side."""
+    ipa = np.asarray(ip, dtype=bool)
+    dpa = np.asarray(dp, dtype=bool)
+    seen_a = np.asarray(seen, dtype=bool)
+    order = priority_order(theta, side, tie_m)
+    levels: dict[str, int | None] = {}
+
+    def clear_flanks(i: int) -> bool:
+        a, b = flanks(i)
+        return bool(dpa[a] and dpa[b])
+
+    tests = {
+        "4a": lambda i: clear_flanks(i) and not seen_a[i],
+        "4b": lambda i: not seen_a[i],
+        "4c": clear_flanks,
+        "4d": lambda i: True,
+    }
+    for level in LEVELS:
+        found = next((i for i in order if ipa[i] and tests[level](i)), None)
+        levels[level] = found
+        if found is not None:
+            return Choice(found, level, tuple(order), levels)
+    return Choice(None, None, tuple(order), levels)
+
+
+class LoopDetector:
+    """Places and the scans made at them (module docstring, *Termination*)."""
+
+    def __init__(self, visited_m: float) -> None:
+        self.visited_m = float(visited_m)
+        self.points: list[tuple[float, float]] = []  # S, horizontally
+        self.places = 0  # points of S farther than visited_m from every earlier one
+        self.scans: list[tuple[float, float, int]] = []  # (x, y, places known then)
+
+    def append(self, point: npt.ArrayLike) -> bool:
+        """Add a point of ``S``; True when it is a new place."""
+        p = np.asarray(point, dtype=np.float64)
+        new = not bool(visited(p[:2], self.points, self.visited_m)[0]) if self.points else True
+        self.points.append((float(p[0]), float(p[1])))
+        self.places += int(new)
+        return new
+
+    def scan(self, place: npt.ArrayLike) -> bool:
+        """Record a scan at ``place``; True when a scan was made there before with as many
+        places known: nothing new since, the same choice again, a loop."""
+        p = np.asarray(place, dtype=np.float64)
+        loop = any(
+            n == self.places and math.hypot(x - p[0], y - p[1]) <= self.visited_m
+            for x, y, n in self.scans
+        )
+        self.scans.append((float(p[0]), float(p[1]), self.places))
+        return loop
+
+
+class Winding:
+    """How far the set-points have gone round ``target`` since they last came nearer to it
+    by ``improve_m`` (module docstring, *Termination*)."""
+
+    def __init__(self, target: npt.ArrayLike, improve_m: float) -> None:
+        self.target = np.asarray(target, dtype=np.float64)[:2].copy()
+        self.improve_m = float(improve_m)
+        self.nearest = math.inf  # distance to the target when the count last restarted
+        self.turned = 0.0  # rad, clockwise +
+        self._last: float | None = None
+
+    def add(self, point: npt.ArrayLike) -> float:
+        """Add the next point; the full turns (unsigned) since the last approach."""
+        p = np.asarray(point, dtype=np.float64)
+        d = float(math.hypot(p[0] - self.target[0], p[1] - self.target[1]))
+        b = bearing(self.target, p)
+        if d < self.nearest - self.improve_m or not math.isfinite(self.nearest):
+            self.nearest = d
+            self.turned = 0.0
+        elif self._last is not None:
+            self.turned += wrap(b - self._last)
+        self._last = b
+        return self.turns
+
+    @property
+    def turns(self) -> float:
+        return abs(self.turned) / (2.0 * math.pi)
+
+
+# -- the avoider -------------------------------------------------------------------------------------
+@dataclass
+class _Scan:
+    """A scan under way (step 3) at ``center``, directions relative to ``heading``."""
+
+    center: FloatArray
+    heading: float
+    steps: tuple[int, ...]
+    k: int = 0  # index in ``steps`` of the step being read
+    ir: FloatArray = field(default_factory=lambda: np.full(N_POINTS, np.nan))
+    dr: FloatArray = field(default_factory=lambda: np.full(N_POINTS, np.nan))
+    courses: FloatArray = field(default_factory=lambda: np.full(N_DIRECTIONS, np.nan))
+    commanded_t: float = -math.inf
+
+    def yaw(self) -> float:
+        return wrap(self.heading + self.steps[self.k] * SLOT)
+
+
+class PriorityAvoider:
+    """Seed 003's priority loop (see the module docstring)."""
+
+    name = "priority"
+    period = 0.1
+    hover_only = True  # flies GoTo / HoldPosition / YawTo: not under the fixed-wing contract
+    OPTION_HELP: ClassVar[dict[str, str]] = {
+        "tau": "tolerance tau: the least distance kept from an obstacle, m (set-points at R - tau)",
+        "visited_m": "a point within this of a set-point is visited, m (default (R - tau) sin 11.25 deg)",
+        "tie_m": "target distances within this are a tie (the previous choice's side wins), m",
+        "altitude_m": "flight altitude AMSL, m (default: above_m over the higher of start and target)",
+        "above_m": "§V: metres above the higher of the start's and target's ground elevation",
+        "max_setpoints": "end the run after this many set-points in S",
+        "max_scans": "end the run after this many scans",
+        "max_flight_s": "end the run after this many seconds",
+        "max_turns": "end the run when S has gone round the target this often without nearing it",
+    }
+
+    def __init__(
+        self,
+        *,
+        tau: float = 2.0,
+        visited_m: float | None = None,
+        tie_m: float = TIE_M,
+        altitude_m: float | None = None,
+        above_m: float = 10.0,
+        max_setpoints: int = 200,
+        max_scans: int = 200,
+        max_flight_s: float = 3600.0,
+        max_turns: float = 1.0,
+    ) -> None:
+        self.tau = require_real("priority option tau", tau, 0.0)
+        self.visited_opt = (
+            None
+            if visited_m is None
+            else require_real("priority option visited_m", visited_m, 0.0, open_low=True)
+        )
+        self.tie_m = require_real("priority option tie_m", tie_m, 0.0)
+        self.altitude_opt = (
+            None if altitude_m is None else require_real("priority option altitude_m", altitude_m)
+        )
+        self.above_m = require_real("priority option above_m", above_m, 0.0, open_low=True)
+        self.max_setpoints = int(
+            require_real("priority option max_setpoints", max_setpoints, 1.0, 1e6)
+        )
+        self.max_scans = int(require_real("priority option max_scans", max_scans, 1.0, 1e6))
+        self.max_flight_s = require_real(
+            "priority option max_flight_s", max_flight_s, 0.0, open_low=True
+        )
+        self.max_turns = require_real("priority option max_turns", max_turns, 0.0, open_low=True)
+        self.reset(np.zeros((2, 3)), np.random.default_rng(0))
+
+    # -- set-up -----------------------------------------------------------------------------------
+    def check_vehicle(self, params: Any, speed: float) -> None:
+        """The aircraft must hover (the scan turns in place) and stop in time."""
+        from replay.vehicle.multirotor import MultirotorParams
+
+        if not isinstance(params, MultirotorParams):
+            raise InputError(
+                f"priority: {params.name} cannot hover; the priority loop stops and turns in "
+                "place to scan (use a multirotor, e.g. --vehicle quadrotor)"
+            )
+
+    def check_sensor(self, range_m: float, speed: float) -> None:
+        """The rangefinders' range ``R`` against ``tau`` (:func:`check_range`), and the stop:
+        from a detection at ``R - tau`` the aircraft at ``speed`` must come to rest ``tau``
+        short of it."""
+        check_range(range_m, self.tau)
+        stop = stopping_distance(speed)
+        if stop > range_m - 2.0 * self.tau:
+            raise InputError(
+                f"priority: at {speed:g} m/s the aircraft needs {stop:.1f} m to stop, more than "
+                f"the {range_m - 2.0 * self.tau:g} m that R - 2 tau leaves (R = {range_m:g} m, "
+                f"option tau = {self.tau:g} m): fly slower or use longer rangefinders"
+            )
+
+    def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
+        w = np.asarray(waypoints, dtype=np.float64)
+        self.start = w[0].copy()
+        self.target = w[-1].copy()
+        self.phase = "start"
+        self.range_m = math.nan
+        self.visited_m = math.nan
+        self.altitude = math.nan
+        self.setpoints: list[FloatArray] = []
+        self.side = 1
+        self.scans = 0
+        self.loops: LoopDetector | None = None
+        self.winding: Winding | None = None
+        self._scan: _Scan | None = None
+        self._goal: FloatArray | None = None  # where a GoTo flies
+        self._yaw = 0.0  # the yaw commanded last
+
+    # -- helpers -------------------------------------------------------------------------------------
+    def _ground(self, ctx: AvoidanceContext, p: FloatArray) -> float:
+        terrain = ctx.terrain
+        if terrain is not None and hasattr(terrain, "surface_height"):
+            return float(np.asarray(terrain.surface_height(p[0:1], p[1:2])).reshape(-1)[0])
+        grid = getattr(ctx.validity, "grid", None)
+        if grid is not None:
+            return float(np.asarray(grid.height_at(p[0:1], p[1:2])).reshape(-1)[0])
+        return 0.0
+
+    def _first(self, ctx: AvoidanceContext) -> None:
+        """On the first picture: ``R``, the thresholds, the altitude (§V), ``S_0``."""
+        pic = ctx.picture
+        if not hasattr(pic, "beam_ranges"):
+            raise InputError(
+                "priority: the priority loop scans with rangefinders; fly it with "
+                "sensor='rangefinder' (--sensor rangefinder)"
+            )
+        self.range_m = float(pic.range_m)
+        speed = float(getattr(ctx.vehicle, "cruise_speed", 0.0) or 0.0)
+        self.check_sensor(self.range_m, speed)
+        self.steps = scan_steps([float(b) for b in pic.beam_bearings])
+        bearings = np.asarray(pic.beam_bearings, dtype=np.float64)
+        self.front = int(np.argmin(np.abs(np.vectorize(wrap)(bearings))))
+        if abs(wrap(float(bearings[self.front]))) > math.radians(SLOT_SNAP_DEG):
+            raise InputError("priority: the rangefinders have no beam facing forward (step 2)")
+        r = self.range_m - self.tau
+        self.visited_m = self.visited_opt if self.visited_opt is not None else r * math.sin(SLOT)
+        self.loops = LoopDetector(self.visited_m)
+        self.winding = Winding(self.target, self.visited_m)
+        if self.altitude_opt is not None:
+            self.altitude = self.altitude_opt
+        else:
+            ground = max(self._ground(ctx, self.start), self._ground(ctx, self.target))
+            self.altitude = ground + self.above_m
+        self.target = np.array([self.target[0], self.target[1], self.altitude])
+        s0 = np.array([self.start[0], self.start[1], self.altitude])
+        self._append(s0)
+
+    def _append(self, point: FloatArray) -> None:
+        self.setpoints.append(np.asarray(point, dtype=np.float64).copy())
+        assert self.loops is not None and self.winding is not None
+        self.loops.append(point)
+        self.winding.add(point)
+
+    def _decision(
+        self,
+        command: Any,
+        reason: str,
+        *,
+        end: str | None = None,
+        appended: FloatArray | None = None,
+        **info: Any,
+    ) -> AvoidanceDecision:
+        doc: dict[str, Any] = {
+            "priority": self.phase,
+            "setpoints": [[round(float(v), 3) for v in p] for p in self.setpoints],
+        }
+        if appended is not None:
+            doc["appended"] = [round(float(v), 3) for v in appended]
+        doc.update(info)
+        if isinstance(command, YawTo | GoTo) and getattr(command, "yaw", None) is not None:
+            self._yaw = float(command.yaw)  # type: ignore[arg-type]
+        return AvoidanceDecision(command, reason, end, doc)
+
+    @staticmethod
+    def _speed(ctx: AvoidanceContext) -> float:
+        return float(math.hypot(ctx.velocity[0], ctx.velocity[1]))
+
+    @staticmethod
+    def _yaw_of(ctx: AvoidanceContext) -> float:
+        return float(ctx.state[8])
+
+    def _end(self, outcome: str, why: str, **info: Any) -> AvoidanceDecision:
+        self.phase = "end"
+        return self._decision(HoldPosition(), why, end=outcome, outcome=outcome, **info)
+
+    # -- steps ------------------------------------------------------------------------------------
+    def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        if self.phase == "end":
+            return None
+        if self.phase == "start":
+            self._first(ctx)
+            return self._climb(ctx)
+        if ctx.t >= self.max_flight_s:
+            return self._end(FLIGHT_TIME_LIMIT, f"{ctx.t:.0f} s of flight (max_flight_s)")
+        handlers = {
+            "climb": self._on_climb,
+            "fly": self._on_fly,
+            "stopping": self._on_stopping,
+            "scan": self._on_scan,
+            "face": self._on_face,
+            "move": self._on_move,
+        }
+        return handlers[self.phase](ctx)
+
+    def _here(self, ctx: AvoidanceContext) -> FloatArray:
+        return np.array([ctx.position[0], ctx.position[1], self.altitude])
+
+    def _arrived(self, ctx: AvoidanceContext) -> bool:
+        assert self._goal is not None
+        return (
+            float(np.linalg.norm(ctx.position - self._goal)) <= ARRIVE_M
+            and self._speed(ctx) <= REST_MPS
+        )
+
+    def _yawed(self, ctx: AvoidanceContext) -> bool:
+        return abs(wrap(self._yaw_of(ctx) - self._yaw)) <= math.radians(YAW_TOL_DEG)
+
+    def _climb(self, ctx: AvoidanceContext) -> AvoidanceDecision:
+        """Step 1: to the altitude over S_0 (§V), facing the target."""
+        s0 = self.setpoints[0]
+        self._goal = s0
+        self.phase = "climb"
+        return self._decision(
+            GoTo((float(s0[0]), float(s0[1]), float(s0[2])), bearing(s0, self.target)),
+            f"step 1: to {self.altitude:.1f} m over the start, facing the target",
+            appended=s0,
+            altitude=self.altitude,
+            range_m=self.range_m,
+            tau=self.tau,
+            visited_m=self.visited_m,
+        )
+
+    def _on_climb(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        if not (self._arrived(ctx) and self._yawed(ctx)):
+            return None
+        return self._go(ctx)
+
+    def _go(self, ctx: AvoidanceContext) -> AvoidanceDecision:
+        """Step 2: straight to the target (the flight stack ends the run there)."""
+        self.phase = "fly"
+        return self._decision(
+            FollowWaypoints(np.vstack([self._here(ctx), self.target]), 1, direct=True),
+            "step 2: fly to the target",
+        )
+
+    def _front(self, ctx: AvoidanceContext) -> float:
+        return float(ctx.picture.beam_ranges[self.front])
+
+    def _on_fly(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        """Step 2's watch: a hit closer than R - tau and than the target stops the aircraft."""
+        front = self._front(ctx)
+        theta_d = float(math.hypot(*(self.target[:2] - ctx.position[:2])))
+        if front < self.range_m - self.tau and front < theta_d:
+            return self._stop(front, f"step 2: obstacle {front:.1f} m ahead, stop")
+        return None
+
+    def _stop(self, front: float, why: str) -> AvoidanceDecision:
+        self.phase = "stopping"
+        return self._decision(HoldPosition(), why, front_m=round(front, 3))
+
+    def _on_stopping(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        """Step 3 starts at rest; the stop is appended to S."""
+        if self._speed(ctx) > REST_MPS:
+            return None
+        here = self._here(ctx)
+        self._append(here)
+        if len(self.setpoints) >= self.max_setpoints:
+            return self._end(SETPOINT_LIMIT, f"{len(self.setpoints)} set-points (max_setpoints)")
+        return self._begin_scan(ctx, here, appended=here)
+
+    def _begin_scan(
+        self, ctx: AvoidanceContext, center: FloatArray, appended: FloatArray | None = None
+    ) -> AvoidanceDecision:
+        """Step 3: face the target, the scan's first yaw step."""
+        assert self.loops is not None and self.winding is not None
+        if self.scans >= self.max_scans:
+            return self._end(SCAN_LIMIT, f"{self.scans} scans (max_scans)")
+        if self.winding.turns >= self.max_turns:
+            return self._end(
+                CIRCLED,
+                f"S went {self.winding.turns:.2f} times round the target, none nearer than "
+                f"{self.winding.nearest:.1f} m",
+                places=self.loops.places,
+            )
+        if self.loops.scan(center):
+            return self._end(
+                LOOP,
+                "a scan where one was made before, no new place visited since",
+                places=self.loops.places,
+            )
+        self.scans += 1
+        self._scan = _Scan(center.copy(), bearing(center, self.target), self.steps)
+        self._scan.commanded_t = ctx.t
+        self.phase = "scan"
+        return self._decision(
+            YawTo(self._scan.yaw()),
+            f"step 3: scan {self.scans}, face the target",
+            appended=appended,
+        )
+
+    def _on_scan(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        """A reading when the yaw step is reached and the aircraft at rest; then the next step,
+        or step 4."""
+        sc = self._scan
+        assert sc is not None
+        pic = ctx.picture
+        want = sc.yaw()
+        if (
+            pic.t <= sc.commanded_t
+            or self._speed(ctx) > REST_MPS
+            or abs(wrap(float(pic.yaw) - want)) > math.radians(YAW_TOL_DEG)
+        ):
+            return None
+        step = sc.steps[sc.k]
+        for b, bearing_b in enumerate(pic.beam_bearings):
+            n = slot_of(step, float(bearing_b))
+            value = float(pic.beam_ranges[b])
+            if n % 2 == 0:
+                sc.ir[n // 2] = value
+            else:
+                sc.dr[n // 2] = value
+            sc.courses[n] = float(pic.beam_courses[b])
+        sc.k += 1
+        if sc.k < len(sc.steps):
+            sc.commanded_t = ctx.t
+            return self._decision(
+                YawTo(sc.yaw()),
+                f"step 3: scan {self.scans}, yaw +{sc.steps[sc.k] * SLOT_DEG:g} deg",
+            )
+        return self._choose(ctx, sc)
+
+    def _choose(self, ctx: AvoidanceContext, sc: _Scan) -> AvoidanceDecision:
+        """Step 4 on the completed scan, then step 5."""
+        r = self.range_m - self.tau
+        points = ring(sc.center, sc.heading, r)
+        theta = np.hypot(points[:, 0] - self.target[0], points[:, 1] - self.target[1])
+        ip, dp = possible(sc.ir, sc.dr, self.range_m, self.tau)
+        seen = visited(points, self.setpoints, self.visited_m)
+        choice = choose(ip, dp, theta, seen, self.side, self.tie_m)
+        table = {
+            "center": [round(float(v), 3) for v in sc.center],
+            "heading_deg": round(math.degrees(sc.heading), 4),
+            "Ir": [round(float(v), 3) for v in sc.ir],
+            "Dr": [round(float(v), 3) for v in sc.dr],
+            "IP": [int(v) for v in ip],
+            "DP": [int(v) for v in dp],
+            "theta": [round(float(v), 3) for v in theta],
+            "visited": [int(v) for v in seen],
+            "order": list(choice.order),
+            "courses_deg": [round(math.degrees(float(v)), 3) for v in sc.courses],
+        }
+        levels = {k: v for k, v in choice.levels.items()}
+        if choice.index is None:
+            return self._end(
+                UNREACHABLE, "step 4d: no I point is possible", scan=table, levels=levels
+            )
+        i = choice.index
+        if side_of(i):
+            self.side = side_of(i)
+        point = np.array([points[i, 0], points[i, 1], self.altitude])
+        self._append(point)
+        info: dict[str, Any] = {
+            "scan": table,
+            "levels": levels,
+            "chosen": i,
+            "level": choice.level,
+        }
+        if len(self.setpoints) >= self.max_setpoints:
+            return self._end(
+                SETPOINT_LIMIT, f"{len(self.setpoints)} set-points (max_setpoints)", **info
+            )
+        if i == 0:  # step 5: I_0 -> step 2, facing the target again first
+            self.phase = "face"
+            return self._decision(
+                YawTo(sc.heading),
+                f"step {choice.level}: I_0, face the target and fly on",
+                appended=point,
+                **info,
+            )
+        self.phase = "move"
+        self._goal = point
+        return self._decision(
+            GoTo((float(point[0]), float(point[1]), float(point[2])), bearing(sc.center, point)),
+            f"step {choice.level}: I_{i}, fly to it",
+            appended=point,
+            **info,
+        )
+
+    def _on_face(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        if not self._yawed(ctx):
+            return None
+        return self._go(ctx)
+
+    def _on_move(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        """Step 5: to the set-point, then stop, face the target, scan; the front beam watches
+        for what the scan did not see (module docstring)."""
+        assert self._goal is not None
+        if self._arrived(ctx):
+            return self._begin_scan(ctx, self._here(ctx))
+        remaining = float(math.hypot(*(self._goal[:2] - ctx.position[:2])))
+        course = bearing(ctx.position, self._goal)
+        if remaining > ARRIVE_M and abs(wrap(self._yaw_of(ctx) - course)) <= math.radians(2.0):
+            front = self._front(ctx)
+            if front < self.range_m - self.tau and front < remaining + self.tau - 0.1:
+                return self._stop(front, f"step 5: obstacle {front:.1f} m ahead, stop")
+        return None
+
+
+__all__ = [
+    "CIRCLED",
+    "FLIGHT_TIME_LIMIT",
+    "LOOP",
+    "OUTCOMES",
+    "SCAN_LIMIT",
+    "SETPOINT_LIMIT",
+    "UNREACHABLE",
+    "Choice",
+    "LoopDetector",
+    "PriorityAvoider",
+    "Winding",
+    "bearing",
+    "check_range",
+    "choose",
+    "flanks",
+    "possible",
+    "priority_order",
+    "ring",
+    "scan_steps",
+    "side_of",
+    "slot_of",
+    "stopping_distance",
+    "visited",
+]

@@ -1,0 +1,448 @@
+"""The priority loop (seed 003, ``replay/avoidance/priority.py``): the scan table, steps 4a-4d
+with the corrected flanks and the tie rule, the visited threshold and loop detection on
+hand-made tables; the avoider's steps against hand-made rangefinder pictures of a kinematic
+aircraft among walls (no 6-DOF: seconds)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from replay.avoidance import make_avoider
+from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.priority import (
+    CIRCLED,
+    LOOP,
+    N_POINTS,
+    SCAN_LIMIT,
+    SETPOINT_LIMIT,
+    UNREACHABLE,
+    LoopDetector,
+    PriorityAvoider,
+    Winding,
+    check_range,
+    choose,
+    flanks,
+    possible,
+    priority_order,
+    ring,
+    scan_steps,
+    side_of,
+    slot_of,
+    stopping_distance,
+    visited,
+)
+from replay.guidance import FollowWaypoints, GoTo, HoldPosition, YawTo
+from replay.vehicle.multirotor import MULTIROTOR_PRESETS
+from replay.vehicle.presets import load_vehicle
+from terrain.errors import InputError
+
+FOUR = [0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi]  # front, right, back, left
+R, TAU = 20.0, 2.0
+
+
+def _label(n: int) -> str:
+    return f"I{n // 2}" if n % 2 == 0 else f"D{n // 2}"
+
+
+# -- the scan: which reading is which ------------------------------------------------------------
+def test_four_beams_fill_the_32_directions_as_section_iii_c_lists_them() -> None:
+    assert scan_steps(FOUR) == tuple(range(8))  # 0, 11.25 ... 78.75 deg
+    # §III-C: (front, back, left, right) at each yaw step
+    paper = {
+        0: ("I0", "I8", "I12", "I4"),
+        1: ("D0", "D8", "D12", "D4"),
+        2: ("I1", "I9", "I13", "I5"),
+        3: ("D1", "D9", "D13", "D5"),
+        4: ("I2", "I10", "I14", "I6"),
+        5: ("D2", "D10", "D14", "D6"),
+        6: ("I3", "I11", "I15", "I7"),
+        7: ("D3", "D11", "D15", "D7"),
+    }
+    front, right, back, left = FOUR
+    for k, names in paper.items():
+        got = tuple(_label(slot_of(k, b)) for b in (front, back, left, right))
+        assert got == names, k
+    every = {slot_of(k, b) for k in range(8) for b in FOUR}
+    assert every == set(range(32))
+
+
+def test_one_beam_scans_32_steps_and_odd_beams_are_refused() -> None:
+    assert scan_steps([0.0]) == tuple(range(32))
+    assert scan_steps([0.0, math.pi]) == tuple(range(16))
+    with pytest.raises(InputError, match=r"multiple of 11\.25"):
+        scan_steps([0.0, math.radians(100.0)])
+
+
+def test_the_i_and_d_points_lie_on_the_circle_from_the_target_s_direction() -> None:
+    pts = ring([10.0, 20.0], 0.5 * math.pi, R - TAU)  # heading east
+    np.testing.assert_allclose(pts[0], [28.0, 20.0], atol=1e-12)  # I_0 towards the target
+    np.testing.assert_allclose(pts[4], [10.0, 2.0], atol=1e-12)  # I_4: 90 deg clockwise: south
+    d = ring([0.0, 0.0], 0.0, 1.0, math.radians(11.25))
+    assert math.degrees(math.atan2(d[0, 0], d[0, 1])) == pytest.approx(11.25)
+
+
+# -- IP and DP ---------------------------------------------------------------------------------------
+def test_ip_needs_a_clear_beam_dp_the_printed_threshold() -> None:
+    ir = np.full(N_POINTS, R)
+    dr = np.full(N_POINTS, R)
+    ir[1] = R - TAU  # the paper's IP_1 = 1: an obstacle *at* the set-point
+    ir[2] = R - 1e-9
+    dr[3] = R - TAU  # DP_3 = 1: clear as far as the circle
+    dr[4] = R - TAU - 1e-9
+    ip, dp = possible(ir, dr, R, TAU)
+    assert not ip[1] and not ip[2] and ip[0] and ip[3]
+    assert dp[3] and not dp[4] and dp[0]
+
+
+def test_range_and_tau_are_checked_naming_the_option() -> None:
+    check_range(20.0, 2.0)
+    for rng, tau in ((2.0, 2.0), (1.0, 2.0), (10.0, 2.0)):
+        with pytest.raises(InputError, match="priority option tau") as err:
+            check_range(rng, tau)
+        assert "\n" not in str(err.value)
+    with pytest.raises(InputError, match="priority option tau"):
+        PriorityAvoider(tau=-1.0)
+    with pytest.raises(InputError, match="priority option visited_m"):
+        PriorityAvoider(visited_m=0.0)
+
+
+# -- step 4 ------------------------------------------------------------------------------------------
+def _theta(heading: float = 0.0, target: tuple[float, float] = (0.0, 100.0)) -> np.ndarray:
+    pts = ring([0.0, 0.0], heading, R - TAU)
+    return np.hypot(pts[:, 0] - target[0], pts[:, 1] - target[1])
+
+
+def test_flanks_are_the_d_points_either_side() -> None:
+    assert flanks(0) == (15, 0) and flanks(1) == (0, 1) and flanks(15) == (14, 15)
+    # D_{i-1} and D_i lie 11.25 deg either side of I_i
+    i = 5
+    a, b = flanks(i)
+    assert (2 * a + 1) * 11.25 == i * 22.5 - 11.25 and (2 * b + 1) * 11.25 == i * 22.5 + 11.25
+
+
+def test_the_corrected_flanks_choose_where_the_printed_ones_would_not() -> None:
+    theta = _theta()
+    ip = np.ones(N_POINTS, dtype=bool)
+    ip[0] = False  # the obstacle ahead
+    dp = np.ones(N_POINTS, dtype=bool)
+    dp[2] = False  # something 33.75 deg right: no flank of I_1, but the printed D_{i+1}
+    seen = np.zeros(N_POINTS, dtype=bool)
+    c = choose(ip, dp, theta, seen, side=1)
+    assert (c.index, c.level) == (1, "4a")  # D_0 and D_1 clear
+    # the printed rule (D_i, D_{i+1}) rejects I_1 (D_2 blocked) and takes I_15 (D_15, D_0)
+    printed = next(i for i in c.order if ip[i] and dp[i] and dp[(i + 1) % N_POINTS])
+    assert printed == 15
+    # the other way round: D_0 blocked rejects I_1 (its left flank), the printed rule would not
+    dp = np.ones(N_POINTS, dtype=bool)
+    dp[0] = False
+    c = choose(ip, dp, theta, seen, side=1)
+    assert c.index == 15 and c.level == "4a"  # I_15's flanks D_14, D_15 are clear
+    assert next(i for i in c.order if ip[i] and dp[i] and dp[(i + 1) % N_POINTS]) == 1
+
+
+def test_ties_go_to_the_side_of_the_previous_choice() -> None:
+    theta = _theta()
+    assert theta[1] == pytest.approx(theta[15], abs=1e-9)  # facing the target: a tie
+    right = priority_order(theta, side=1)
+    left = priority_order(theta, side=-1)
+    assert right[:5] == [0, 1, 15, 2, 14] and left[:5] == [0, 15, 1, 14, 2]
+    ip = np.ones(N_POINTS, dtype=bool)
+    ip[0] = False
+    dp = np.ones(N_POINTS, dtype=bool)
+    seen = np.zeros(N_POINTS, dtype=bool)
+    assert choose(ip, dp, theta, seen, side=1).index == 1
+    assert choose(ip, dp, theta, seen, side=-1).index == 15
+    # beyond the tolerance the nearer point wins whatever the side
+    skew = theta.copy()
+    skew[1] += 0.02
+    assert priority_order(skew, side=1, tie_m=0.01)[:3] == [0, 15, 1]
+    assert priority_order(skew, side=1, tie_m=0.05)[:3] == [0, 1, 15]
+    assert [side_of(i) for i in (0, 1, 7, 8, 9, 15)] == [0, 1, 1, 0, -1, -1]
+
+
+def test_visited_within_the_threshold_and_the_default_marks_no_neighbour() -> None:
+    s = np.array([[0.0, 0.0, 10.0]])
+    assert visited([[3.0, 0.0]], s, 3.0).tolist() == [True]
+    assert visited([[3.0 + 1e-6, 0.0]], s, 3.0).tolist() == [False]
+    assert visited([[3.0, 0.0]], np.zeros((0, 3)), 3.0).tolist() == [False]
+    r = R - TAU
+    default = r * math.sin(math.radians(11.25))
+    pts = ring([0.0, 0.0], 0.3, r)
+    # a set-point at I_3 (within a metre) marks I_3 only
+    here = pts[3] + np.array([0.8, -0.5])
+    assert visited(pts, here[None, :], default).tolist() == [i == 3 for i in range(N_POINTS)]
+    # neighbours are 2 r sin(11.25 deg) apart: twice the default
+    assert np.hypot(*(pts[4] - pts[3])) == pytest.approx(2.0 * default)
+
+
+def test_levels_fall_through_4a_4b_4c_4d_then_unreachable() -> None:
+    theta = _theta()
+    order = priority_order(theta, 1)
+    ip = np.ones(N_POINTS, dtype=bool)
+    dp = np.ones(N_POINTS, dtype=bool)
+    seen = np.zeros(N_POINTS, dtype=bool)
+    c = choose(ip, dp, theta, seen)
+    assert (c.index, c.level) == (order[0], "4a") and c.levels == {"4a": order[0]}
+    # 4b: no point has both flanks clear; the best one is visited
+    dp[:] = False
+    seen[order[0]] = True
+    c = choose(ip, dp, theta, seen)
+    assert (c.index, c.level) == (order[1], "4b") and c.levels == {"4a": None, "4b": order[1]}
+    # 4c: every point visited; flanks clear round the third only
+    seen[:] = True
+    a, b = flanks(order[2])
+    dp[[a, b]] = True
+    c = choose(ip, dp, theta, seen)
+    assert (c.index, c.level) == (order[2], "4c")
+    # 4d: no flank clear, everything visited: the best possible point
+    dp[:] = False
+    ip[order[0]] = False
+    c = choose(ip, dp, theta, seen)
+    assert (c.index, c.level) == (order[1], "4d")
+    assert c.levels == {"4a": None, "4b": None, "4c": None, "4d": order[1]}
+    # nothing possible: the target is unreachable
+    ip[:] = False
+    c = choose(ip, dp, theta, seen)
+    assert c.unreachable and c.level is None and set(c.levels.values()) == {None}
+
+
+def test_a_scan_where_one_was_made_with_nothing_new_since_is_a_loop() -> None:
+    loops = LoopDetector(3.0)
+    a, b, c = np.array([0.0, 0.0]), np.array([18.0, 0.0]), np.array([18.0, 18.0])
+    assert loops.append(a) and not loops.scan(a)
+    assert loops.append(b) and not loops.scan(b)
+    assert loops.append(c) and not loops.scan(c)
+    # back to A (an old place): the places known have grown since A's scan, go on
+    assert not loops.append(a + np.array([1.0, 1.0])) and not loops.scan(a + np.array([1.0, 1.0]))
+    # B again: C was new since B's scan, go on
+    assert not loops.append(b + np.array([0.5, 0.0])) and not loops.scan(b + np.array([0.5, 0.0]))
+    # C again: nothing new since C's scan -> the same visited set, the same choice: a loop
+    assert not loops.append(c - np.array([0.5, 0.5]))
+    assert loops.scan(c - np.array([0.5, 0.5]))
+    # elsewhere it is not
+    fresh = LoopDetector(3.0)
+    fresh.append(a)
+    fresh.scan(a)
+    fresh.append(a + np.array([2.0, 0.0]))
+    assert fresh.scan(a + np.array([2.0, 0.0])) and fresh.places == 1
+
+
+def test_stopping_distance_and_the_vehicle_checks() -> None:
+    av = PriorityAvoider()
+    quad = MULTIROTOR_PRESETS["quadrotor"]
+    av.check_vehicle(quad, 5.0)
+    with pytest.raises(InputError, match="cannot hover"):
+        av.check_vehicle(load_vehicle("solar-uav"), 15.0)
+    assert stopping_distance(5.0) == pytest.approx(5.0 * 0.3 + 25.0 / 6.0)
+    av.check_sensor(20.0, 5.0)
+    with pytest.raises(InputError, match="to stop") as err:
+        av.check_sensor(20.0, 12.0)
+    assert "\n" not in str(err.value)
+    assert isinstance(make_avoider("priority", tau=1.5), PriorityAvoider)
+
+
+# -- the avoider against hand-made pictures ----------------------------------------------------------
+@dataclass
+class Walls:
+    """Segments ((x0, y0), (x1, y1)) the beams stop at (a 2-D world of thin walls)."""
+
+    segments: list[tuple[tuple[float, float], tuple[float, float]]]
+
+    def cast(self, p: np.ndarray, course: float, reach: float) -> tuple[float, str]:
+        d = np.array([math.sin(course), math.cos(course)])
+        best = reach
+        for (x0, y0), (x1, y1) in self.segments:
+            e = np.array([x1 - x0, y1 - y0])
+            m = np.array([[d[0], -e[0]], [d[1], -e[1]]])
+            det = float(np.linalg.det(m))
+            if abs(det) < 1e-12:
+                continue
+            s, u = np.linalg.solve(m, np.array([x0, y0]) - p[:2])
+            if s >= 0.0 and -1e-12 <= u <= 1.0 + 1e-12:
+                best = min(best, float(s))
+        return best, "wall" if best < reach else ""
+
+
+def _box(x0: float, y0: float, x1: float, y1: float) -> list[Any]:
+    return [
+        ((x0, y0), (x1, y0)),
+        ((x1, y0), (x1, y1)),
+        ((x1, y1), (x0, y1)),
+        ((x0, y1), (x0, y0)),
+    ]
+
+
+def _fly(
+    world: Walls, start: tuple[float, float], target: tuple[float, float], **opts: Any
+) -> tuple[PriorityAvoider, list[Any], str, np.ndarray]:
+    """The avoider with an ideal hover vehicle: it turns at once, moves 0.5 m per 0.1 s tick
+    (5 m/s), stops at once; pictures of four level beams of R = 20 m."""
+    av = PriorityAvoider(**opts)
+    wp = np.array([[*start, 30.0], [*target, 30.0]])
+    av.reset(wp, np.random.default_rng(0))
+    quad = MULTIROTOR_PRESETS["quadrotor"]
+    pos = wp[0].copy()
+    yaw = 0.0
+    mode: tuple[Any, ...] = ("hold",)
+    decisions: list[Any] = []
+    track = [pos.copy()]
+    for tick in range(40_000):
+        t = 0.1 * (tick + 1)
+        courses = [yaw + b for b in FOUR]
+        hits = [world.cast(pos, c, R) for c in courses]
+        pic = SimpleNamespace(
+            t=t,
+            yaw=yaw,
+            range_m=R,
+            beam_bearings=np.array(FOUR),
+            beam_courses=np.array(courses),
+            beam_ranges=np.array([h[0] for h in hits]),
+            beam_sources=tuple(h[1] for h in hits),
+        )
+        moving = mode[0] in ("goto", "fly")
+        vel = np.zeros(3)
+        if moving:
+            goal = mode[1]
+            step = goal - pos
+            dist = float(np.linalg.norm(step))
+            vel = step / max(dist, 1e-9) * min(5.0, dist / 0.1)
+        state = np.zeros(12)
+        state[8] = yaw
+        ctx = AvoidanceContext(
+            t=t,
+            state=state,
+            position=pos.copy(),
+            velocity=vel,
+            airspeed=float(np.linalg.norm(vel)),
+            course=yaw,
+            picture=pic,
+            waypoints=wp,
+            next_index=1,
+            vehicle=quad,
+        )
+        d = av.decide(ctx)
+        if d is not None:
+            decisions.append(d)
+            cmd = d.command
+            if d.end is not None:
+                return av, decisions, d.end, np.array(track)
+            if isinstance(cmd, GoTo):
+                mode = ("goto", np.array(cmd.point))
+                yaw = cmd.yaw if cmd.yaw is not None else yaw
+            elif isinstance(cmd, FollowWaypoints):
+                mode = ("fly", np.array(cmd.waypoints[-1]))
+                w = cmd.waypoints
+                yaw = math.atan2(w[-1, 0] - pos[0], w[-1, 1] - pos[1])
+            elif isinstance(cmd, HoldPosition):
+                mode = ("hold",)
+            elif isinstance(cmd, YawTo):
+                mode = ("hold",)
+                yaw = cmd.yaw
+        if mode[0] in ("goto", "fly"):
+            goal = mode[1]
+            step = goal - pos
+            dist = float(np.linalg.norm(step))
+            pos = goal.copy() if dist <= 0.5 else pos + step / dist * 0.5
+            track.append(pos.copy())
+            if mode[0] == "fly" and dist <= 0.5:
+                return av, decisions, "goal", np.array(track)
+    raise AssertionError("the run did not end")
+
+
+def _clearance(world: Walls, track: np.ndarray) -> float:
+    """The least distance of the track from the walls."""
+    best = math.inf
+    for (x0, y0), (x1, y1) in world.segments:
+        a, b = np.array([x0, y0]), np.array([x1, y1])
+        e = b - a
+        u = np.clip(((track[:, :2] - a) @ e) / (e @ e), 0.0, 1.0)
+        best = min(best, float(np.hypot(*(track[:, :2] - (a + u[:, None] * e)).T).min()))
+    return best
+
+
+def test_a_flight_past_a_wall_reaches_the_target_keeping_tau() -> None:
+    world = Walls([((-15.0, 60.0), (25.0, 60.0))])
+    _, decisions, end, track = _fly(world, (0.0, 0.0), (0.0, 120.0))
+    assert end == "goal"
+    assert _clearance(world, track) >= TAU
+    scans = [d for d in decisions if "scan" in d.info]
+    assert scans and all(len(d.info["scan"]["Ir"]) == 16 for d in scans)
+    first = scans[0].info
+    # stopped facing the wall: I_0 blocked, the choice by 4a, to the right (clockwise) on a tie
+    assert first["scan"]["IP"][0] == 0 and first["level"] == "4a"
+    assert side_of(first["chosen"]) == 1
+    # the set-points: S_0 at the altitude (10 m over flat ground), the stop, the chosen points
+    s = decisions[-1].info["setpoints"]
+    assert s[0] == [0.0, 0.0, 10.0] and all(p[2] == 10.0 for p in s)
+    assert decisions[0].info["altitude"] == 10.0
+
+
+def test_a_u_trap_facing_the_start_is_left_and_the_target_reached() -> None:
+    # a U open towards the start (south), 40 m wide and 40 m deep, the target beyond it
+    world = Walls(
+        [
+            ((-20.0, 40.0), (-20.0, 80.0)),
+            ((-20.0, 80.0), (20.0, 80.0)),
+            ((20.0, 80.0), (20.0, 40.0)),
+        ]
+    )
+    av, decisions, end, track = _fly(world, (0.0, 0.0), (0.0, 140.0))
+    assert end == "goal", decisions[-1].reason
+    # the rays miss a wall's end between them: the path passed one 0.31 m off (documented)
+    assert _clearance(world, track) > 0.0
+    assert len(av.setpoints) < 60
+
+
+def test_a_closed_box_round_the_target_ends_unreachable_in_bounded_time() -> None:
+    world = Walls(_box(-20.0, 60.0, 20.0, 100.0))
+    av, decisions, end, track = _fly(world, (0.0, 0.0), (0.0, 80.0))
+    assert end == CIRCLED
+    assert decisions[-1].info["outcome"] == CIRCLED and decisions[-1].end == CIRCLED
+    assert _clearance(world, track) >= TAU
+    assert av.winding is not None and av.winding.turns >= 1.0
+    assert av.scans <= 20 and len(av.setpoints) <= 20  # one lap
+    # without the winding rule the revisit rule ends it, once the places fill the ground
+    av, decisions, end, track = _fly(
+        world, (0.0, 0.0), (0.0, 80.0), max_turns=1e6, max_scans=1000, max_setpoints=1000
+    )
+    assert end == LOOP and decisions[-1].info["outcome"] == LOOP
+    assert av.scans < 1000
+
+
+def test_winding_counts_turns_round_the_target_since_it_was_last_neared() -> None:
+    w = Winding([0.0, 0.0], 1.0)
+    angles = np.radians(np.arange(0.0, 361.0, 30.0))
+    for a in angles[:-1]:
+        w.add([20.0 * math.sin(a), 20.0 * math.cos(a)])
+    assert w.turns == pytest.approx(11.0 / 12.0)
+    w.add([0.0, 20.0])
+    assert w.turns == pytest.approx(1.0) and w.nearest == pytest.approx(20.0)
+    w.add([0.0, 18.5])  # 1.5 m nearer: the count restarts
+    assert w.turns == 0.0 and w.nearest == pytest.approx(18.5)
+    w.add([0.0, 18.0])  # 0.5 m: not enough, still counting (no turn)
+    assert w.nearest == pytest.approx(18.5)
+    w.add([-18.0, 0.0])  # a quarter turn anticlockwise
+    assert w.turns == pytest.approx(0.25)
+
+
+def test_confined_on_every_side_is_unreachable_by_step_4d() -> None:
+    world = Walls(_box(-10.0, -10.0, 10.0, 10.0))
+    _, decisions, end, _ = _fly(world, (0.0, 0.0), (0.0, 80.0))
+    assert end == UNREACHABLE
+    last = decisions[-1].info
+    assert last["levels"] == {"4a": None, "4b": None, "4c": None, "4d": None}
+    assert sum(last["scan"]["IP"]) == 0
+
+
+def test_the_bounds_end_the_run() -> None:
+    world = Walls(_box(-20.0, 60.0, 20.0, 100.0))
+    _, _, end, _ = _fly(world, (0.0, 0.0), (0.0, 80.0), max_scans=2)
+    assert end == SCAN_LIMIT
+    _, _, end, _ = _fly(world, (0.0, 0.0), (0.0, 80.0), max_setpoints=3)
+    assert end == SETPOINT_LIMIT
