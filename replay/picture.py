@@ -12,7 +12,8 @@ title says so.
   avoider changed it, every threat's footprint (a circle of its safety radius about each point --
   a static threat, a hill's points, an intruder at its closest approach, whose track is drawn too
   -- a cylinder's circle, a convex body's widest section), the orbits an avoider commanded (CTGA's
-  arcs, dotted) and the points of the track inside a threat's volume or a zone, in red.
+  arcs, dotted), the priority loop's set-points (crosses) and the points of the track inside a
+  threat's volume or a zone, in red.
 - **Separation** (middle): the distance from each threat's surface against time (NaN while it is
   not active), the success margin and zero, violations in red.
 - **Above the ground** (bottom): the altitude above the terrain under the aircraft against time
@@ -218,6 +219,10 @@ def draw_run(view: RunView, out: str | Path) -> Path:
             ax.plot(
                 cx + r * np.sin(a), cy + r * np.cos(a), ":", color="#e377c2", lw=1.0, label=label
             )
+    setpoints = next((d["setpoints"] for d in reversed(view.decisions) if d.get("setpoints")), None)
+    if setpoints:  # the priority loop's path S, as its last decision had it
+        s = np.asarray(setpoints, dtype=np.float64)
+        ax.plot(s[:, 0], s[:, 1], "x", color="#ff7f0e", ms=5, mew=1.5, ls="", label="set-points S")
     if grid is None:
         _frame(ax, xyz, start)
     legend_below(ax)

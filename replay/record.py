@@ -21,7 +21,8 @@ Topics (names in :mod:`replay.topics`; Foxglove schemas are the protobuf ones of
     /rangefinder/beams       foxglove.SceneUpdate      the rangefinders' beams of the last scan
     /avoidance/decision      terrapath.Decision        algorithm, inputs, choice, costs, compute_s
     /avoidance/guidance      foxglove.SceneUpdate      an orbit commanded (CTGA's arc), as a circle;
-                                                       FGA's collision cones, as a line list
+                                                       FGA's collision cones, as a line list;
+                                                       the priority loop's set-points, a line strip
     /log                     foxglove.Log              human-readable events
     /metrics                 terrapath.Metrics         run metrics (also metadata record "metrics")
 
@@ -159,6 +160,7 @@ LonLat = Callable[[float, float], tuple[float, float]]
 NS_PER_S = 1_000_000_000
 ORBIT_ENTITY = "guidance/orbit"  # the avoider's orbit on /avoidance/guidance
 CONES_ENTITY = "guidance/cones"  # FGA's collision cones on /avoidance/guidance
+SETPOINTS_ENTITY = "guidance/setpoints"  # the priority loop's set-points S on /avoidance/guidance
 BEAMS_ENTITY = "rangefinder/beams"  # the rangefinders' beams on /rangefinder/beams
 ORBIT_SEGMENTS = 72
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
@@ -267,6 +269,7 @@ class RunRecorder:
         self._next_threat_move = 0
         self._track = np.empty((1024, 3))
         self._track_n = 0
+        self._setpoints_drawn = 0  # the length of the set-point list last drawn
         self._recent_from = 0  # index in the track where the recent line starts
         self._threats: dict[str, dict[str, Any]] = {}
         self._state_text = StateText(STATE_KEYS, loc)
@@ -876,6 +879,13 @@ class RunRecorder:
             gone = SceneEntityDeletion(type=SceneEntityDeletion.MATCHING_ID, id=CONES_ENTITY)
             gone.timestamp.seconds, gone.timestamp.nanos = divmod(ns, NS_PER_S)
             self._emit(T.GUIDANCE, ns, SceneUpdate(deletions=[gone]).SerializeToString())
+        setpoints = doc.get("setpoints")
+        if isinstance(setpoints, list) and len(setpoints) != self._setpoints_drawn:
+            # the priority loop's path S (each decision carries it; drawn when it grows)
+            self._setpoints_drawn = len(setpoints)
+            if len(setpoints) >= 2:
+                pts = np.asarray(setpoints, dtype=np.float64) - np.asarray(self.map_origin)
+                self._line_update(T.GUIDANCE, ns, SETPOINTS_ENTITY, pts, (1.0, 0.6, 0.0, 1.0))
 
     def _cones(self, ns: int, cones: list[Any]) -> None:
         """FGA's collision cones (a decision's ``cones``: apex, line of sight, half-angle,

@@ -139,6 +139,9 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     check = getattr(avoider, "check_vehicle", None)
     if check is not None:  # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes
         check(params, float(speed))
+    setup = getattr(avoider, "check_setup", None)
+    if setup is not None:  # e.g. the priority loop: its sensor, a start outside the obstacles
+        setup(config, mission, threats, grid, float(speed))
     planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config)
     warnings = tuple(threats.warn_after(planned))

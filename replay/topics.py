@@ -24,7 +24,8 @@ Topics and their schemas (Foxglove schemas are protobuf, from ``foxglove-schemas
                                                        list: aircraft to hit (red) or full range
     /avoidance/decision      terrapath.Decision        one avoidance decision and its compute time
     /avoidance/guidance      foxglove.SceneUpdate      the avoider's orbit (CTGA's arc) as a circle,
-                                                       FGA's collision cones as a line list
+                                                       FGA's collision cones as a line list,
+                                                       the priority loop's set-points as a line
     /log                     foxglove.Log              human-readable events
     /metrics                 terrapath.Metrics         run metrics, once at the end
 

@@ -24,7 +24,7 @@ from replay.avoidance.priority import (
     UNREACHABLE,
     LoopDetector,
     PriorityAvoider,
-    Winding,
+    Surround,
     check_range,
     choose,
     flanks,
@@ -405,30 +405,38 @@ def test_a_closed_box_round_the_target_ends_unreachable_in_bounded_time() -> Non
     assert end == CIRCLED
     assert decisions[-1].info["outcome"] == CIRCLED and decisions[-1].end == CIRCLED
     assert _clearance(world, track) >= TAU
-    assert av.winding is not None and av.winding.turns >= 1.0
+    assert av.surround is not None and av.surround.round
     assert av.scans <= 20 and len(av.setpoints) <= 20  # one lap
-    # without the winding rule the revisit rule ends it, once the places fill the ground
+    # without the circling rule the revisit rule ends it, once the places fill the ground
     av, decisions, end, track = _fly(
-        world, (0.0, 0.0), (0.0, 80.0), max_turns=1e6, max_scans=1000, max_setpoints=1000
+        world, (0.0, 0.0), (0.0, 80.0), circled=False, max_scans=1000, max_setpoints=1000
     )
     assert end == LOOP and decisions[-1].info["outcome"] == LOOP
     assert av.scans < 1000
 
 
-def test_winding_counts_turns_round_the_target_since_it_was_last_neared() -> None:
-    w = Winding([0.0, 0.0], 1.0)
-    angles = np.radians(np.arange(0.0, 361.0, 30.0))
-    for a in angles[:-1]:
-        w.add([20.0 * math.sin(a), 20.0 * math.cos(a)])
-    assert w.turns == pytest.approx(11.0 / 12.0)
-    w.add([0.0, 20.0])
-    assert w.turns == pytest.approx(1.0) and w.nearest == pytest.approx(20.0)
-    w.add([0.0, 18.5])  # 1.5 m nearer: the count restarts
-    assert w.turns == 0.0 and w.nearest == pytest.approx(18.5)
-    w.add([0.0, 18.0])  # 0.5 m: not enough, still counting (no turn)
-    assert w.nearest == pytest.approx(18.5)
-    w.add([-18.0, 0.0])  # a quarter turn anticlockwise
-    assert w.turns == pytest.approx(0.25)
+def test_surround_is_the_share_of_the_circle_swept_since_the_target_was_last_neared() -> None:
+    def at(deg: float, d: float = 20.0) -> list[float]:
+        a = math.radians(deg)
+        return [d * math.sin(a), d * math.cos(a)]
+
+    s = Surround([0.0, 0.0], 5.0)
+    for deg in range(0, 331, 30):
+        s.add(at(deg))
+    assert s.share == pytest.approx(331.0 / 360.0) and not s.round
+    # back and forth sweeps nothing new
+    s.add(at(300.0))
+    s.add(at(330.0))
+    assert s.share == pytest.approx(331.0 / 360.0)
+    s.add(at(0.0))
+    assert s.round and s.nearest == pytest.approx(20.0)
+    # 4 m nearer: not enough (5 m); 6 m nearer: the sweep restarts
+    s.add(at(10.0, 16.0))
+    assert s.round
+    s.add(at(10.0, 14.0))
+    assert s.share == pytest.approx(1.0 / 360.0) and s.nearest == pytest.approx(14.0)
+    s.add(at(180.0, 20.0))  # a jump sweeps the short way
+    assert s.share == pytest.approx(171.0 / 360.0)
 
 
 def test_confined_on_every_side_is_unreachable_by_step_4d() -> None:
@@ -446,3 +454,155 @@ def test_the_bounds_end_the_run() -> None:
     assert end == SCAN_LIMIT
     _, _, end, _ = _fly(world, (0.0, 0.0), (0.0, 80.0), max_setpoints=3)
     assert end == SETPOINT_LIMIT
+
+
+# -- flights: the 6-DOF quadrotor, the rangefinders, data/scenarios/priority-*.yaml --------------
+MISSION = "data/scenarios/priority-mission.yaml"
+
+
+def _replay(threats: Any, **kw: Any) -> Any:
+    from replay.run import ReplayRequest, run_replay
+
+    kw.setdefault("duration", 3000.0)
+    return run_replay(
+        ReplayRequest(source=MISSION, threats=threats, avoid="priority", sensor="rangefinder", **kw)
+    )
+
+
+def _setpoints(result: Any) -> np.ndarray:
+    return np.asarray(result.decisions[-1]["setpoints"], dtype=np.float64)
+
+
+@pytest.mark.parametrize(
+    ("name", "most"),
+    [("convex", 6), ("corridor", 60), ("u-trap", 90)],
+)
+def test_flights_reach_the_target_keeping_tau(name: str, most: int) -> None:
+    r = _replay(f"data/scenarios/priority-{name}.yaml")
+    m = r.metrics
+    assert m.end_reason == "goal" and m.success and not m.violations, m.as_dict()
+    assert min(v["value"] for v in m.min_separation.values()) >= TAU
+    s = _setpoints(r)
+    assert 2 <= len(s) <= most
+    np.testing.assert_allclose(s[0], [0.0, 0.0, 10.0])  # S_0 at §V's altitude
+    # the flight stack's arrival: within 2 m (its arrival distance) or past the target's plane
+    assert math.hypot(r.positions[-1, 0], r.positions[-1, 1] - 150.0) <= 4.0
+    # level at the altitude after the climb (the scans turn in place)
+    after = r.times > 20.0
+    assert np.abs(r.positions[after, 2] - 10.0).max() < 0.5
+    scans = [d for d in r.decisions if "scan" in d]
+    assert scans and all(d["level"] in ("4a", "4b", "4c", "4d") for d in scans)
+
+
+def test_a_closed_box_round_the_target_ends_unreachable_not_success() -> None:
+    r = _replay("data/scenarios/priority-box.yaml")
+    m = r.metrics
+    assert m.end_reason == CIRCLED and not m.success and not m.reached_goal
+    assert m.flight_time_s < 900.0 and len(_setpoints(r)) < 60
+    assert min(v["value"] for v in m.min_separation.values()) >= TAU
+    last = r.decisions[-1]
+    assert last["end"] == CIRCLED and last["outcome"] == CIRCLED
+
+
+def test_a_target_inside_an_obstacle_is_reported_unreachable() -> None:
+    from replay.threat_file import threats_from_records
+
+    tower = [{"id": "tower", "kind": "cylinder", "center": [0.0, 150.0], "radius": 15.0, "top": 40}]
+    r = _replay(threats_from_records(tower))
+    assert r.metrics.end_reason == CIRCLED and not r.metrics.success
+    assert r.metrics.min_separation["tower"]["value"] >= TAU
+
+
+def test_confined_the_run_ends_unreachable_and_the_cli_exits_3(tmp_path: Any, capsys: Any) -> None:
+    from terrapath.cli import main
+
+    pen = tmp_path / "pen.yaml"
+    walls = [
+        ("w", [[-13, -12], [-12, -12], [-12, 12], [-13, 12], [-13, -12]]),
+        ("e", [[12, -12], [13, -12], [13, 12], [12, 12], [12, -12]]),
+        ("s", [[-13, -13], [13, -13], [13, -12], [-13, -12], [-13, -13]]),
+        ("n", [[-13, 12], [13, 12], [13, 13], [-13, 13], [-13, 12]]),
+    ]
+    pen.write_text(
+        "terrapath: 1\nthreats:\n"
+        + "".join(f"- {{id: {i}, kind: prism, top: 40, footprint: {f}}}\n" for i, f in walls)
+    )
+    out = tmp_path / "pen.mcap"
+    code = main(
+        [
+            "replay",
+            MISSION,
+            "--threats",
+            str(pen),
+            "--avoid",
+            "priority",
+            "--sensor",
+            "rangefinder",
+            "--no-picture",
+            "-o",
+            str(out),
+        ]
+    )
+    assert code == 3
+    assert "ended by target unreachable" in capsys.readouterr().err
+    from replay.reader import load_run
+
+    run = load_run(out, with_states=False)
+    assert run.metrics["end_reason"] == UNREACHABLE and run.metrics["success"] is False
+    last = run.decisions[-1].decision
+    assert last["levels"] == {"4a": None, "4b": None, "4c": None, "4d": None}
+    assert len(last["scan"]["Ir"]) == 16 and len(last["scan"]["Dr"]) == 16
+    assert run.topic_counts["/avoidance/guidance"] >= 1
+    # the set-points S: drawn by `terrapath view` (one marker each) and in RUN.png
+    from replay.picture import recorded_view
+    from terrapath.view.decisions import decision_marks
+
+    view = recorded_view(out)
+    (mark,) = [m for m in decision_marks(view) if m.name == "priority set-points"]
+    s = np.asarray(last["setpoints"], dtype=np.float64)
+    got = mark.xyz[np.isfinite(mark.xyz[:, 0])]
+    np.testing.assert_allclose(got, s, atol=1e-9)
+
+
+def test_bad_setups_are_refused_before_the_flight() -> None:
+    from replay.run import ReplayRequest, prepare_replay
+    from replay.threat_file import threats_from_records
+
+    def prep(**kw: Any) -> None:
+        kw.setdefault("sensor", "rangefinder")
+        prepare_replay(ReplayRequest(source=MISSION, avoid="priority", **kw))
+
+    prep()
+    with pytest.raises(InputError, match="priority option tau"):
+        prep(avoid_options={"tau": 20.0})
+    with pytest.raises(InputError, match="priority option tau"):
+        prep(avoid_options={"tau": -0.5})
+    with pytest.raises(InputError, match="--sensor rangefinder"):
+        prep(sensor="radar")
+    with pytest.raises(InputError, match="rangefinder-beams"):
+        prep(rangefinder_beams=3)
+    with pytest.raises(InputError, match=r"needs .* m to stop"):
+        prep(rangefinder_range=7.0, avoid_options={"tau": 1.0})
+    with pytest.raises(InputError, match="cannot hover"):
+        prep(vehicle="solar-uav")
+    block = [{"id": "shed", "kind": "cylinder", "center": [1.0, 0.0], "radius": 4.0, "top": 20}]
+    with pytest.raises(InputError, match="inside threat 'shed'") as err:
+        prep(threats=threats_from_records(block))
+    assert "\n" not in str(err.value)
+
+
+def test_a_start_inside_an_obstacle_ends_the_flight_when_not_refused_before() -> None:
+    from planner.mission import load_mission
+    from replay.sim import ReplayConfig, simulate
+    from replay.threat_file import threats_from_records
+
+    block = [{"id": "shed", "kind": "cylinder", "center": [1.0, 0.0], "radius": 4.0, "top": 50}]
+    r = simulate(
+        load_mission(MISSION),
+        threats_from_records(block),
+        PriorityAvoider(),
+        MULTIROTOR_PRESETS["quadrotor"],
+        config=ReplayConfig(sensor="rangefinder", duration=60.0),
+    )
+    assert r.metrics.end_reason == "start inside an obstacle" and not r.metrics.success
+    assert r.metrics.flight_time_s < 1.0

@@ -33,13 +33,17 @@ paper's "easily modified" single sensor).  A reading is taken from the first sca
 is within ``YAW_TOL_DEG`` of the step's and the aircraft at rest; the picture's ``beam_courses``
 are recorded with it.
 
-**Possible points (§III-C 15-16).**  ``IP_i = Ir_i >= R``: the beam towards ``I_i`` is clear over
-its whole range, so the set-point (at ``R - tau``) keeps at least ``tau`` from whatever lies
-beyond it on that line.  The paper's ``Ir_i >= R - tau`` admits an obstacle *at* the set-point
-(an aircraft sent there would stop touching it).  ``DP_i = Dr_i >= R - tau`` as printed: the
-flanking line is clear as far as the circle, and an obstacle just beyond ``D_i`` is ``2 (R -
-tau) sin 5.625 deg`` (3.5 m for the defaults) from the set-point, more than ``tau`` whenever
-``R - tau >= 5.1 tau`` (refused otherwise: :func:`check_range`).
+**Possible points (§III-C 15-16).**  ``IP_i``: the beam towards ``I_i`` is clear over its whole
+range, ``Ir_i >= R``, so the set-point (at ``R - tau``) keeps at least ``tau`` from whatever lies
+beyond it on that line -- the paper's ``Ir_i >= R - tau`` admits an obstacle *at* the set-point
+(an aircraft sent there would stop touching it) -- *and* the way there keeps ``tau`` (§III-C 2's
+definition of ``tau``) from every point the scan's 32 beams hit (:func:`keeps_clear`; not in
+the paper: without it a corner beside the way, between the beam and its flanks, was passed 0.3
+to 1.5 m off in the flights of ``tests/test_priority.py``).  ``DP_i = Dr_i >= R - tau`` as
+printed: the flanking line is clear as far as the circle, and an obstacle just beyond ``D_i`` is
+``2 (R - tau) sin 5.625 deg`` (3.5 m for the defaults) from the set-point, more than ``tau``
+whenever ``R >= 6.1 tau`` (refused otherwise: :func:`check_range`).  ``IP`` (both tests) and
+the beam test alone (``IP_beam``) are recorded.
 
 **Step 4: the priority loop.**  ``theta_i = |I_i - S_T|`` sorted ascending; the first ``I_i``
 passing a level is chosen, the levels tried in turn (:func:`choose`):
@@ -74,33 +78,48 @@ threat that popped up since the scan): a hit closer than ``R - tau`` and short o
 ``tau`` beyond it stops the aircraft and starts a scan there.
 
 **Termination.**  The paper has no loop guarantee: a closed box round the target with room round
-the aircraft never ends in 4d.  Two loop rules, both typed outcomes (:data:`OUTCOMES`):
+the aircraft never ends in 4d.  Two loop rules and four bounds end a run, each with a typed
+outcome (:data:`OUTCOMES`):
 
-- *the same set-points revisited* (``target unreachable: loop``, :class:`LoopDetector`): a
-  *place* is a point of ``S`` farther than ``visited_m`` from every earlier one; each scan is
-  made at a place with the number of places known so far; a scan at a place scanned before with
-  no new place since finds the same visited set and the same readings (the world is static
-  between them), so it makes the same choice: the loop is certain;
-- *round the target* (``target unreachable: circled``, :class:`Winding`, Bug1's test): ``S`` has
-  gone ``max_turns`` (1) full turns round the target without coming ``visited_m`` nearer to it.
-  The first rule alone ends the box only when the visited places have filled everything within
-  reach (some 400 scans for a 40 m box: :func:`visited` marks 3.5 m round each point); going
-  round the target once without nearing it ends it after one lap.  A target inside an obstacle
-  ends the same way, when the aircraft has gone round the obstacle.
+- ``target unreachable``: step 4d found no point;
+- ``target unreachable: circled`` (:class:`Surround`, Bug1's test): the moves of ``S`` have swept
+  every direction round the target (each move the bearings between its ends, seen from the
+  target, the short way) without coming ``R - tau`` (one move) nearer to it than when the sweep
+  began.  A closed box ends after one lap (the flight: 47 set-points, 653 s), and so does a
+  target inside an obstacle once the aircraft has gone round it;
+- ``loop: set-points revisited`` (:class:`LoopDetector`): a *place* is a point of ``S`` farther
+  than ``visited_m`` from every earlier one; each scan is made at a place with the number of
+  places known so far; a scan at a place scanned before with no new place since finds the same
+  visited set and the same readings (the world is static between them), so it makes the same
+  choice: the steps are cycling.  That says the algorithm is stuck, not that the target cannot
+  be reached (with ``visited_m`` 6 or 9 m the U trap's flight ends so);
+- ``set-point limit`` (``max_setpoints``), ``scan limit`` (``max_scans``), ``flight-time limit``
+  (``max_flight_s``); and ``start inside an obstacle`` when a beam reads 0 before the first scan
+  (a start refused before the flight by :meth:`PriorityAvoider.check_setup` cannot get there).
 
-Bounds too: ``max_setpoints`` points in ``S``, ``max_scans`` scans, ``max_flight_s`` seconds; a
-run never loops forever.  These end the run through :attr:`~replay.guidance.AvoidanceDecision.
+A run never loops forever.  These end the run through :attr:`~replay.guidance.AvoidanceDecision.
 end`: the run's end reason, never a success, and ``terrapath replay`` exits 3.
+
+**Limits.**  Beams are lines: a corner between two of the 32 directions that none of them hits
+can still come nearer than ``tau`` (:func:`keeps_clear` knows only the hits), and step 2's front
+beam sees nothing beside the way.  The greedy order (nearest the target first) fills a concave
+trap with visited places before it leaves it: the U trap of ``data/scenarios`` (50 x 35 m, R =
+20 m) takes 73 set-points and 943 s, beyond a replay's default time limit (1.5 x the straight
+flight + 10 min): give ``--duration``.
 
 **Records.**  Every decision carries ``priority`` (the step), ``setpoints`` (``S`` so far) and
 the point it appended, if any; a completed scan carries ``scan`` (``Ir``, ``Dr``, ``IP``, ``DP``,
-``theta``, the order, the visited flags, the beam courses) and ``levels`` (4a-4d: the point each
-chose, or none).  The recorder draws ``setpoints`` on ``/avoidance/guidance``.
+``theta``, ``IP_beam``, the order, the visited flags, the beam courses), ``levels`` (4a-4d: the
+point each chose, or none), ``chosen`` and ``level``; an end carries ``outcome``.  The recorder
+draws ``setpoints`` on ``/avoidance/guidance``; ``terrapath view`` and ``RUN.png`` mark them.
 
-**Bad input** (one-line errors naming the option): ``tau < 0``; ``R <= tau`` or ``R - tau <
-5.1 tau`` (:func:`check_range`); a vehicle that cannot hover (:meth:`PriorityAvoider.
-check_vehicle`); a sensor other than the rangefinders; a cruise speed that cannot stop within
-``R - 2 tau`` of a detection (:func:`stopping_distance`).
+**Bad input**, refused before the flight (``replay.run.prepare_replay`` calls
+:meth:`PriorityAvoider.check_vehicle` and :meth:`PriorityAvoider.check_setup`) with one line
+naming the option: ``tau < 0``; ``R <= tau`` or ``R < 6.1 tau`` (:func:`check_range`); a vehicle
+that cannot hover; a sensor other than the rangefinders, or beams off the 32 directions; a
+cruise speed that cannot stop within ``R - 2 tau`` of a detection (:func:`stopping_distance`); a
+start inside an obstacle (over ``S_0``, from the mission's altitude to the flight altitude).  A
+target inside an obstacle is not refused: the flight finds it out (``circled``).
 """
 
 from __future__ import annotations
@@ -135,12 +154,21 @@ FLANK_CLEARANCE = 2.0 * math.sin(math.radians(SLOT_DEG / 2.0))  # x (R - tau): I
 TIE_M = 0.01
 
 UNREACHABLE = "target unreachable"  # step 4d: no I point is possible
-LOOP = "target unreachable: loop"  # a scan where one was made, nothing new visited since
+LOOP = "loop: set-points revisited"  # a scan where one was made, nothing new visited since
 CIRCLED = "target unreachable: circled"  # a full turn round the target, none nearer
 SETPOINT_LIMIT = "set-point limit"
 SCAN_LIMIT = "scan limit"
 FLIGHT_TIME_LIMIT = "flight-time limit"
-OUTCOMES = (UNREACHABLE, LOOP, CIRCLED, SETPOINT_LIMIT, SCAN_LIMIT, FLIGHT_TIME_LIMIT)
+START_INSIDE = "start inside an obstacle"  # a beam reads 0 before the first scan
+OUTCOMES = (
+    UNREACHABLE,
+    LOOP,
+    CIRCLED,
+    SETPOINT_LIMIT,
+    SCAN_LIMIT,
+    FLIGHT_TIME_LIMIT,
+    START_INSIDE,
+)
 LEVELS = ("4a", "4b", "4c", "4d")
 
 
@@ -225,6 +253,42 @@ def possible(
     if i.shape != (N_POINTS,) or d.shape != (N_POINTS,):
         raise InputError(f"priority: Ir and Dr need {N_POINTS} readings each")
     return i >= range_m, d >= range_m - tau
+
+
+def hit_points(
+    center: npt.ArrayLike, ranges: npt.ArrayLike, courses: npt.ArrayLike, range_m: float
+) -> FloatArray:
+    """(H, 2) the points a scan's beams hit (x, y): ``center`` + range along each course, for
+    the readings short of ``range_m``."""
+    c = np.asarray(center, dtype=np.float64)[:2]
+    r = np.asarray(ranges, dtype=np.float64)
+    a = np.asarray(courses, dtype=np.float64)
+    hit = np.isfinite(r) & np.isfinite(a) & (r < range_m)
+    return np.column_stack([c[0] + r[hit] * np.sin(a[hit]), c[1] + r[hit] * np.cos(a[hit])])
+
+
+def keeps_clear(
+    center: npt.ArrayLike, points: npt.ArrayLike, hits: npt.ArrayLike, tau: float
+) -> BoolArray:
+    """For each of ``points`` (P, 2), whether the segment from ``center`` to it keeps at least
+    ``tau`` from every one of ``hits`` (H, 2): §III-C 2's tolerance, for the obstacles the scan
+    saw beside the way (a corner next to the path, between its beam and the flanking ones).  A
+    hit already nearer than ``tau`` blocks only the segments that come nearer to it still
+    (an aircraft that stopped close to a wall may move away from it)."""
+    c = np.asarray(center, dtype=np.float64)[:2]
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    h = np.asarray(hits, dtype=np.float64).reshape(-1, 2)
+    if len(h) == 0:
+        return np.ones(len(p), dtype=bool)
+    e = p - c  # (P, 2)
+    ee = np.maximum((e * e).sum(axis=1), 1e-12)
+    w = h[None, :, :] - c  # (1, H, 2)
+    u = np.clip((w * e[:, None, :]).sum(axis=2) / ee[:, None], 0.0, 1.0)  # (P, H)
+    near = c + u[:, :, None] * e[:, None, :]
+    d = np.hypot(*(h[None, :, :] - near).transpose(2, 0, 1))  # (P, H)
+    now = np.hypot(h[:, 0] - c[0], h[:, 1] - c[1])  # (H,)
+    blocked = (d < tau) & (d < now[None, :] - 1e-9)
+    return np.asarray(~blocked.any(axis=1))
 
 
 def flanks(i: int) -> tuple[int, int]:
@@ -351,33 +415,46 @@ class LoopDetector:
         return loop
 
 
-class Winding:
-    """How far the set-points have gone round ``target`` since they last came nearer to it
-    by ``improve_m`` (module docstring, *Termination*)."""
+class Surround:
+    """Which directions round ``target`` the set-points have swept since they last came
+    ``improve_m`` nearer to it (module docstring, *Termination*): each move from one point of
+    ``S`` to the next sweeps the bearings (seen from the target) between them, the short way."""
+
+    BINS = 360  # one degree each
 
     def __init__(self, target: npt.ArrayLike, improve_m: float) -> None:
         self.target = np.asarray(target, dtype=np.float64)[:2].copy()
         self.improve_m = float(improve_m)
-        self.nearest = math.inf  # distance to the target when the count last restarted
-        self.turned = 0.0  # rad, clockwise +
+        self.nearest = math.inf  # distance to the target when the sweep last restarted
+        self.swept = np.zeros(self.BINS, dtype=bool)
         self._last: float | None = None
 
     def add(self, point: npt.ArrayLike) -> float:
-        """Add the next point; the full turns (unsigned) since the last approach."""
+        """Add the next point of ``S``; the share of the circle swept since the last approach."""
         p = np.asarray(point, dtype=np.float64)
         d = float(math.hypot(p[0] - self.target[0], p[1] - self.target[1]))
         b = bearing(self.target, p)
-        if d < self.nearest - self.improve_m or not math.isfinite(self.nearest):
+        if not math.isfinite(self.nearest) or d < self.nearest - self.improve_m:
             self.nearest = d
-            self.turned = 0.0
-        elif self._last is not None:
-            self.turned += wrap(b - self._last)
+            self.swept[:] = False
+            self._last = None
+        if self._last is not None:
+            turn = wrap(b - self._last)
+            n = 2 * math.ceil(abs(math.degrees(turn))) + 1  # a sample inside every degree
+            a = self._last + np.linspace(0.0, turn, n)
+            self.swept[np.floor(np.degrees(a) % 360.0).astype(np.int64) % self.BINS] = True
+        else:
+            self.swept[int(math.floor(math.degrees(b) % 360.0)) % self.BINS] = True
         self._last = b
-        return self.turns
+        return self.share
 
     @property
-    def turns(self) -> float:
-        return abs(self.turned) / (2.0 * math.pi)
+    def share(self) -> float:
+        return float(self.swept.mean())
+
+    @property
+    def round(self) -> bool:
+        return bool(self.swept.all())
 
 
 # -- the avoider -------------------------------------------------------------------------------------
@@ -413,7 +490,7 @@ class PriorityAvoider:
         "max_setpoints": "end the run after this many set-points in S",
         "max_scans": "end the run after this many scans",
         "max_flight_s": "end the run after this many seconds",
-        "max_turns": "end the run when S has gone round the target this often without nearing it",
+        "circled": "end the run when S has gone all round the target without nearing it",
     }
 
     def __init__(
@@ -427,7 +504,7 @@ class PriorityAvoider:
         max_setpoints: int = 200,
         max_scans: int = 200,
         max_flight_s: float = 3600.0,
-        max_turns: float = 1.0,
+        circled: bool = True,
     ) -> None:
         self.tau = require_real("priority option tau", tau, 0.0)
         self.visited_opt = (
@@ -447,7 +524,9 @@ class PriorityAvoider:
         self.max_flight_s = require_real(
             "priority option max_flight_s", max_flight_s, 0.0, open_low=True
         )
-        self.max_turns = require_real("priority option max_turns", max_turns, 0.0, open_low=True)
+        if not isinstance(circled, bool):
+            raise InputError(f"priority option circled must be true or false; got {circled!r}")
+        self.circled = circled
         self.reset(np.zeros((2, 3)), np.random.default_rng(0))
 
     # -- set-up -----------------------------------------------------------------------------------
@@ -474,6 +553,53 @@ class PriorityAvoider:
                 f"option tau = {self.tau:g} m): fly slower or use longer rangefinders"
             )
 
+    def check_setup(self, config: Any, mission: Any, threats: Any, grid: Any, speed: float) -> None:
+        """Before the flight (``replay.run.prepare_replay``): the sensor (the rangefinders, a
+        beam layout on the 32 directions, ``R`` against ``tau`` and the stop at ``speed``: one
+        line naming the option), and a start outside every obstacle there at t = 0 (over
+        ``S_0`` from the mission's altitude to the flight altitude)."""
+        if getattr(config, "sensor", None) != "rangefinder":
+            raise InputError(
+                "priority: the priority loop scans with rangefinders; use --sensor rangefinder "
+                f"(sensor='rangefinder'), not {getattr(config, 'sensor', None)!r}"
+            )
+        beams = int(config.rangefinder_beams)
+        try:
+            scan_steps([2.0 * math.pi * j / beams for j in range(beams)])
+        except InputError:
+            raise InputError(
+                f"priority: {beams} rangefinder beams are not on the 32 directions of §III-C; "
+                "use 1, 2, 4, 8, 16 or 32 (--rangefinder-beams)"
+            ) from None
+        self.check_sensor(float(config.rangefinder_range), speed)
+        w = np.asarray(mission.waypoints, dtype=np.float64)
+        start = w[0]
+        if self.altitude_opt is not None:
+            altitude = self.altitude_opt
+        else:
+            ground = 0.0
+            if grid is not None:
+                ground = float(np.max(grid.height_at(w[[0, -1], 0], w[[0, -1], 1])))
+            altitude = ground + self.above_m
+        climb = np.column_stack(
+            [
+                np.full(21, start[0]),
+                np.full(21, start[1]),
+                np.linspace(float(start[2]), altitude, 21),
+            ]
+        )
+        for th in threats:
+            if float(getattr(th, "appears_at", 0.0) or 0.0) > 0.0:
+                continue
+            inside = np.asarray(th.separation(climb, 0.0)).reshape(-1) < 0.0
+            if inside.any():
+                z = float(climb[int(np.argmax(inside)), 2])
+                raise InputError(
+                    f"priority: the start ({start[0]:g}, {start[1]:g}) at {z:.1f} m lies inside "
+                    f"threat {th.id!r}; the aircraft must start (and climb to the flight "
+                    f"altitude {altitude:.1f} m) outside every obstacle"
+                )
+
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         w = np.asarray(waypoints, dtype=np.float64)
         self.start = w[0].copy()
@@ -486,7 +612,7 @@ class PriorityAvoider:
         self.side = 1
         self.scans = 0
         self.loops: LoopDetector | None = None
-        self.winding: Winding | None = None
+        self.surround: Surround | None = None
         self._scan: _Scan | None = None
         self._goal: FloatArray | None = None  # where a GoTo flies
         self._yaw = 0.0  # the yaw commanded last
@@ -510,8 +636,7 @@ class PriorityAvoider:
                 "sensor='rangefinder' (--sensor rangefinder)"
             )
         self.range_m = float(pic.range_m)
-        speed = float(getattr(ctx.vehicle, "cruise_speed", 0.0) or 0.0)
-        self.check_sensor(self.range_m, speed)
+        check_range(self.range_m, self.tau)  # the stop at the cruise speed: check_setup
         self.steps = scan_steps([float(b) for b in pic.beam_bearings])
         bearings = np.asarray(pic.beam_bearings, dtype=np.float64)
         self.front = int(np.argmin(np.abs(np.vectorize(wrap)(bearings))))
@@ -520,7 +645,7 @@ class PriorityAvoider:
         r = self.range_m - self.tau
         self.visited_m = self.visited_opt if self.visited_opt is not None else r * math.sin(SLOT)
         self.loops = LoopDetector(self.visited_m)
-        self.winding = Winding(self.target, self.visited_m)
+        self.surround = Surround(self.target, r)
         if self.altitude_opt is not None:
             self.altitude = self.altitude_opt
         else:
@@ -532,9 +657,9 @@ class PriorityAvoider:
 
     def _append(self, point: FloatArray) -> None:
         self.setpoints.append(np.asarray(point, dtype=np.float64).copy())
-        assert self.loops is not None and self.winding is not None
+        assert self.loops is not None and self.surround is not None
         self.loops.append(point)
-        self.winding.add(point)
+        self.surround.add(point)
 
     def _decision(
         self,
@@ -574,6 +699,8 @@ class PriorityAvoider:
             return None
         if self.phase == "start":
             self._first(ctx)
+            if self._inside(ctx):
+                return self._end(START_INSIDE, "a beam reads 0 m: the start is inside an obstacle")
             return self._climb(ctx)
         if ctx.t >= self.max_flight_s:
             return self._end(FLIGHT_TIME_LIMIT, f"{ctx.t:.0f} s of flight (max_flight_s)")
@@ -615,7 +742,14 @@ class PriorityAvoider:
             visited_m=self.visited_m,
         )
 
+    @staticmethod
+    def _inside(ctx: AvoidanceContext) -> bool:
+        """A beam starting inside an obstacle reads 0 (replay.rangefinder)."""
+        return bool((np.asarray(ctx.picture.beam_ranges) <= 0.0).any())
+
     def _on_climb(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        if self._inside(ctx):
+            return self._end(START_INSIDE, "a beam reads 0 m: the climb is inside an obstacle")
         if not (self._arrived(ctx) and self._yawed(ctx)):
             return None
         return self._go(ctx)
@@ -657,14 +791,14 @@ class PriorityAvoider:
         self, ctx: AvoidanceContext, center: FloatArray, appended: FloatArray | None = None
     ) -> AvoidanceDecision:
         """Step 3: face the target, the scan's first yaw step."""
-        assert self.loops is not None and self.winding is not None
+        assert self.loops is not None and self.surround is not None
         if self.scans >= self.max_scans:
             return self._end(SCAN_LIMIT, f"{self.scans} scans (max_scans)")
-        if self.winding.turns >= self.max_turns:
+        if self.circled and self.surround.round:
             return self._end(
                 CIRCLED,
-                f"S went {self.winding.turns:.2f} times round the target, none nearer than "
-                f"{self.winding.nearest:.1f} m",
+                f"S went all round the target without coming {self.surround.improve_m:g} m "
+                f"nearer than {self.surround.nearest:.1f} m",
                 places=self.loops.places,
             )
         if self.loops.scan(center):
@@ -719,7 +853,11 @@ class PriorityAvoider:
         r = self.range_m - self.tau
         points = ring(sc.center, sc.heading, r)
         theta = np.hypot(points[:, 0] - self.target[0], points[:, 1] - self.target[1])
-        ip, dp = possible(sc.ir, sc.dr, self.range_m, self.tau)
+        beam_ip, dp = possible(sc.ir, sc.dr, self.range_m, self.tau)
+        readings = np.empty(N_DIRECTIONS)
+        readings[0::2], readings[1::2] = sc.ir, sc.dr
+        hits = hit_points(sc.center, readings, sc.courses, self.range_m)
+        ip = beam_ip & keeps_clear(sc.center, points, hits, self.tau)
         seen = visited(points, self.setpoints, self.visited_m)
         choice = choose(ip, dp, theta, seen, self.side, self.tie_m)
         table = {
@@ -728,6 +866,7 @@ class PriorityAvoider:
             "Ir": [round(float(v), 3) for v in sc.ir],
             "Dr": [round(float(v), 3) for v in sc.dr],
             "IP": [int(v) for v in ip],
+            "IP_beam": [int(v) for v in beam_ip],
             "DP": [int(v) for v in dp],
             "theta": [round(float(v), 3) for v in theta],
             "visited": [int(v) for v in seen],
@@ -798,15 +937,18 @@ __all__ = [
     "OUTCOMES",
     "SCAN_LIMIT",
     "SETPOINT_LIMIT",
+    "START_INSIDE",
     "UNREACHABLE",
     "Choice",
     "LoopDetector",
     "PriorityAvoider",
-    "Winding",
+    "Surround",
     "bearing",
     "check_range",
     "choose",
     "flanks",
+    "hit_points",
+    "keeps_clear",
     "possible",
     "priority_order",
     "ring",

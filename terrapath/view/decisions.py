@@ -9,7 +9,9 @@ keys (an orbit re-commanded with nearly the same centre and radius) are drawn on
 
 Drawn today: CTGA's orbits (``Orbit``: the circle it flies round), PSO-CA's new waypoints
 (``FollowWaypoints``: the points of the commanded list that were not in the planned one), FGA's
-collision cones and commanded course (``HoldCourse`` decisions that carry ``cones``).
+collision cones and commanded course (``HoldCourse`` decisions that carry ``cones``), the
+priority loop's set-points (``GoTo`` and ``YawTo`` decisions that carry ``appended``: the point
+they added to its path S).
 """
 
 from __future__ import annotations
@@ -140,6 +142,23 @@ def cones(decision: dict[str, Any], run: Any) -> list[Mark]:
         Mark("FGA's collision cones", xyz, "lines", "#ff7f0e", (hover,) * len(xyz), key=key),
         Mark("FGA's course", heading, "lines", "#d62728", (hover,) * 2, "dash", key=key),
     ]
+
+
+def setpoint(decision: dict[str, Any], run: Any) -> list[Mark]:
+    """The point a priority-loop decision appended to its path S (the start, a stop, a chosen
+    I point), with the step that chose it."""
+    point = decision.get("appended")
+    if not point:
+        return []
+    xyz = np.asarray([point], dtype=np.float64)
+    n = len(decision.get("setpoints") or ()) - 1
+    hover = f"S_{n}: " + _hover(decision)
+    key = (round(float(decision["t"]), 2),)  # every one (they may lie a few metres apart)
+    return [Mark("priority set-points", xyz, "markers", "#ff7f0e", (hover,), key=key, symbol="x")]
+
+
+drawing("GoTo")(setpoint)
+drawing("YawTo")(setpoint)
 
 
 def decision_marks(run: Any) -> list[Mark]:
