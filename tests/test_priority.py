@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -606,3 +607,43 @@ def test_a_start_inside_an_obstacle_ends_the_flight_when_not_refused_before() ->
     )
     assert r.metrics.end_reason == "start inside an obstacle" and not r.metrics.success
     assert r.metrics.flight_time_s < 1.0
+
+
+def test_over_terrain_it_flies_10_m_above_the_higher_of_start_and_target(tmp_path: Any) -> None:
+    from replay.run import ReplayRequest, run_replay
+    from terrain.load import load_dem
+
+    dem = str(Path("data/maps/lidar_1m_dem/dem.tif").resolve())
+    grid = load_dem([dem])
+    xmin, _, _, ymax = grid.bounds
+    s = (xmin + 125.0, ymax - 285.0)  # a hollow at 379.8 m
+    t = (xmin + 245.0, ymax - 125.0)  # another at 380.3 m, a rise between
+    ground = grid.height_at(np.array([s[0], t[0]]), np.array([s[1], t[1]]))
+    mission = tmp_path / "m.yaml"
+    mission.write_text(
+        "terrapath: 1\nname: hollows\ncrs: EPSG:26915\n"
+        f"terrain: {{dem: [{dem}]}}\nvehicle: quadrotor\n"
+        "cruise: {speed: 5.0, altitude: 420.0}\n"
+        f"waypoints:\n- [{s[0]}, {s[1]}, 400.0]\n- [{t[0]}, {t[1]}, 400.0]\n"
+    )
+    r = run_replay(
+        ReplayRequest(
+            source=str(mission),
+            avoid="priority",
+            sensor="rangefinder",
+            avoid_options={"max_flight_s": 30.0},
+        )
+    )
+    want = float(ground.max()) + 10.0
+    assert r.decisions[0]["altitude"] == pytest.approx(want, abs=1e-9)
+    assert r.decisions[0]["setpoints"][0][2] == pytest.approx(want, abs=1e-3)  # mm in records
+    late = r.times > 20.0
+    assert np.abs(r.positions[late, 2] - want).max() < 0.5
+    assert r.metrics.end_reason == "flight-time limit" and not r.metrics.success
+
+
+def test_a_flight_is_identical_when_repeated() -> None:
+    a = _replay("data/scenarios/priority-convex.yaml", seed=3)
+    b = _replay("data/scenarios/priority-convex.yaml", seed=3)
+    np.testing.assert_array_equal(a.states, b.states)
+    assert [d["setpoints"] for d in a.decisions] == [d["setpoints"] for d in b.decisions]
