@@ -22,6 +22,7 @@ import numba as nb
 import numpy as np
 
 from replay.atmosphere import RHO0, density_at
+from replay.vehicle._rigid import attitude, body_to_ned, ned_to_body
 from replay.vehicle.params import (
     I_ALPHA0,
     I_B,
@@ -310,36 +311,19 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
     pr = x[9]
     qr = x[10]
     rr = x[11]
-    sf = math.sin(phi)
-    cf = math.cos(phi)
-    st = math.sin(theta)
-    ct = math.cos(theta)
-    sp = math.sin(psi)
-    cp = math.cos(psi)
-    # body -> NED rotation
-    r00 = ct * cp
-    r01 = sf * st * cp - cf * sp
-    r02 = cf * st * cp + sf * sp
-    r10 = ct * sp
-    r11 = sf * st * sp + cf * cp
-    r12 = cf * st * sp - sf * cp
-    r20 = -st
-    r21 = sf * ct
-    r22 = cf * ct
+    sf, cf, st, ct, _, _, r = attitude(phi, theta, psi)
     m = p[I_MASS]
     mg = m * p[I_GRAV]
     fx = -mg * st
-    fy = mg * r21
-    fz = mg * r22
+    fy = mg * r[7]
+    fz = mg * r[8]
     ml = 0.0
     mm = 0.0
     mn = 0.0
-    wn = p[I_WN]
-    we = p[I_WE]
-    wd = p[I_WD]
-    ur = uu - (r00 * wn + r10 * we + r20 * wd)
-    vr = vv - (r01 * wn + r11 * we + r21 * wd)
-    wr = ww - (r02 * wn + r12 * we + r22 * wd)
+    wbx, wby, wbz = ned_to_body(r, p[I_WN], p[I_WE], p[I_WD])  # the wind in body axes
+    ur = uu - wbx
+    vr = vv - wby
+    wr = ww - wbz
     h2 = ur * ur + wr * wr
     va2 = h2 + vr * vr
     va = math.sqrt(va2)
@@ -418,9 +402,7 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
         fx += sa * kad * adot
         fz -= ca * kad * adot
         mm += mad * adot
-    out[0] = r00 * uu + r01 * vv + r02 * ww
-    out[1] = r10 * uu + r11 * vv + r12 * ww
-    out[2] = r20 * uu + r21 * vv + r22 * ww
+    out[0], out[1], out[2] = body_to_ned(r, uu, vv, ww)
     inv_m = 1.0 / m
     out[3] = rr * vv - qr * ww + fx * inv_m
     out[4] = pr * ww - rr * uu + fy * inv_m
@@ -620,27 +602,11 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     pr = x[9]
     qr = x[10]
     rr = x[11]
-    sf = math.sin(phi)
-    cf = math.cos(phi)
-    st = math.sin(theta)
-    ct = math.cos(theta)
-    sp = math.sin(psi)
-    cp = math.cos(psi)
+    r = attitude(phi, theta, psi)[6]
     uu = x[3]
     vv = x[4]
     ww = x[5]
-    r00 = ct * cp
-    r01 = sf * st * cp - cf * sp
-    r02 = cf * st * cp + sf * sp
-    r10 = ct * sp
-    r11 = sf * st * sp + cf * cp
-    r12 = cf * st * sp - sf * cp
-    r20 = -st
-    r21 = sf * ct
-    r22 = cf * ct
-    vn = r00 * uu + r01 * vv + r02 * ww
-    ve = r10 * uu + r11 * vv + r12 * ww
-    vd = r20 * uu + r21 * vv + r22 * ww
+    vn, ve, vd = body_to_ned(r, uu, vv, ww)
     wn = p[I_WN]
     we = p[I_WE]
     wd = p[I_WD]
@@ -651,7 +617,7 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     va = max(va, 1.0)
     # sine of the sideslip: body-y air velocity over airspeed
     inv_va = 1.0 / va
-    sbeta = (vv - (r01 * wn + r11 * we + r21 * wd)) * inv_va
+    sbeta = (vv - ned_to_body(r, wn, we, wd)[1]) * inv_va
     vg2 = vn * vn + ve * ve
     chi = atan2f(ve, vn) if vg2 > 0.25 else psi
     h = -x[2]

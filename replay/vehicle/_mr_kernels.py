@@ -21,6 +21,7 @@ import numba as nb
 import numpy as np
 
 from replay.atmosphere import RHO0, density_at
+from replay.vehicle._rigid import attitude, body_to_ned, ned_to_body
 from replay.vehicle.multirotor import (
     I_CDX,
     I_CDY,
@@ -131,39 +132,21 @@ def derivs(x, wc, p, out):  # pragma: no cover - jit
     pr = x[9]
     qr = x[10]
     rr = x[11]
-    sf = math.sin(phi)
-    cf = math.cos(phi)
-    st = math.sin(theta)
-    ct = math.cos(theta)
-    sp = math.sin(psi)
-    cp = math.cos(psi)
-    r00 = ct * cp
-    r01 = sf * st * cp - cf * sp
-    r02 = cf * st * cp + sf * sp
-    r10 = ct * sp
-    r11 = sf * st * sp + cf * cp
-    r12 = cf * st * sp - sf * cp
-    r20 = -st
-    r21 = sf * ct
-    r22 = cf * ct
-    wn = p[I_WN]
-    we = p[I_WE]
-    wd = p[I_WD]
-    ua = uu - (r00 * wn + r10 * we + r20 * wd)
-    va = vv - (r01 * wn + r11 * we + r21 * wd)
-    wa = ww - (r02 * wn + r12 * we + r22 * wd)
+    sf, cf, st, ct, _, _, r = attitude(phi, theta, psi)
+    wbx, wby, wbz = ned_to_body(r, p[I_WN], p[I_WE], p[I_WD])  # the wind in body axes
+    ua = uu - wbx
+    va = vv - wby
+    wa = ww - wbz
     speed = math.sqrt(ua * ua + va * va + wa * wa)
     kd = sigma * p[I_KD]
     m = p[I_MASS]
     mg = m * p[I_GRAV]
     # H-force of rotor i: -kd w_i (in-plane airspeed at its hub, v_a + omega x r_i)
     fx = -sigma * speed * p[I_CDX] * ua - kd * (wsum * ua - rr * wy) - mg * st
-    fy = -sigma * speed * p[I_CDY] * va - kd * (wsum * va + rr * wx) + mg * r21
-    fz = -sigma * speed * p[I_CDZ] * wa - thrust + mg * r22
+    fy = -sigma * speed * p[I_CDY] * va - kd * (wsum * va + rr * wx) + mg * r[7]
+    fz = -sigma * speed * p[I_CDZ] * wa - thrust + mg * r[8]
     mn -= kd * (wx * va - wy * ua + rr * wl2)
-    out[0] = r00 * uu + r01 * vv + r02 * ww
-    out[1] = r10 * uu + r11 * vv + r12 * ww
-    out[2] = r20 * uu + r21 * vv + r22 * ww
+    out[0], out[1], out[2] = body_to_ned(r, uu, vv, ww)
     out[3] = rr * vv - qr * ww + fx / m
     out[4] = pr * ww - rr * uu + fy / m
     out[5] = qr * uu - pr * vv + fz / m
@@ -412,24 +395,8 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     phi = x[6]
     theta = x[7]
     psi = x[8]
-    sf = math.sin(phi)
-    cf = math.cos(phi)
-    st = math.sin(theta)
-    ct = math.cos(theta)
-    sp = math.sin(psi)
-    cp = math.cos(psi)
-    r00 = ct * cp
-    r01 = sf * st * cp - cf * sp
-    r02 = cf * st * cp + sf * sp
-    r10 = ct * sp
-    r11 = sf * st * sp + cf * cp
-    r12 = cf * st * sp - sf * cp
-    r20 = -st
-    r21 = sf * ct
-    r22 = cf * ct
-    vel_n = r00 * uu + r01 * vv + r02 * ww
-    vel_e = r10 * uu + r11 * vv + r12 * ww
-    vel_d = r20 * uu + r21 * vv + r22 * ww
+    sf, cf, st, ct, sp, cp, r = attitude(phi, theta, psi)
+    vel_n, vel_e, vel_d = body_to_ned(r, uu, vv, ww)
     # ---- velocity loop: PI, plus the model's drag at the present velocity (feed-forward)
     e_n = vc[0] - vel_n
     e_e = vc[1] - vel_e
@@ -444,9 +411,7 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     db_x = -sigma * speed * p[I_CDX] * uu - kd * uu
     db_y = -sigma * speed * p[I_CDY] * vv - kd * vv
     db_z = -sigma * speed * p[I_CDZ] * ww
-    d_n = r00 * db_x + r01 * db_y + r02 * db_z
-    d_e = r10 * db_x + r11 * db_y + r12 * db_z
-    d_d = r20 * db_x + r21 * db_y + r22 * db_z
+    d_n, d_e, d_d = body_to_ned(r, db_x, db_y, db_z)
     # thrust vector wanted (NED): m a = F + m g e_d + D
     f_n = m * a_n - d_n
     f_e = m * a_e - d_e
@@ -482,7 +447,7 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     phi_c = -math.asin(min(max(b, -1.0), 1.0))
     theta_c = math.atan2(a, zd)
     # collective: the wanted force along the present thrust axis
-    thrust = max(-(f_n * r02 + f_e * r12 + f_d * r22), 0.0)
+    thrust = max(-(f_n * r[2] + f_e * r[5] + f_d * r[8]), 0.0)
     # ---- attitude loop: Euler-angle rates, then body rates
     phi_dot = gk[K_ATT] * (phi_c - phi)
     theta_dot = gk[K_ATT] * (theta_c - theta)
