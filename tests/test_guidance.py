@@ -211,9 +211,9 @@ def test_registry_lists_avoiders_and_checks_their_options() -> None:
     ):
         make_avoider("pso-ca", radius=5)
     with pytest.raises(
-        InputError, match="unknown avoider 'priority'; available: ctga, fga, none, pso-ca"
+        InputError, match="unknown avoider 'teleport'; available: ctga, fga, none, priority, pso-ca"
     ):
-        make_avoider("priority")
+        make_avoider("teleport")
     with pytest.raises(InputError, match="avoider 'none' has no option 'x'; its options: none"):
         make_avoider("none", x=1)
 
@@ -289,9 +289,10 @@ def test_avoider_options_on_the_command_line(
     assert re.fullmatch(r"  --avoid-opt rs=\.\.\. +default None: safety radius RS .*", lines[3])
     for name in AVOIDERS:  # every option of every avoider says what it means
         assert set(avoider_options(name)) <= set(getattr(avoider_class(name), "OPTION_HELP", {}))
-    assert main(["replay", "--help-avoider", "priority"]) == 2
+    assert main(["replay", "--help-avoider", "teleport"]) == 2
     assert (
-        "unknown avoider 'priority'; available: ctga, fga, none, pso-ca" in capsys.readouterr().err
+        "unknown avoider 'teleport'; available: ctga, fga, none, priority, pso-ca"
+        in capsys.readouterr().err
     )
 
 

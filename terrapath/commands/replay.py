@@ -80,8 +80,10 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "--avoid",
     default="none",
     show_default=True,
-    help="Avoidance algorithm: none (keep the mission) or pso-ca (seed 000: radar-driven "
-    "waypoint re-planning); --help-avoider NAME lists an avoider's options.",
+    help="Avoidance algorithm: none (keep the mission), pso-ca (seed 000: waypoint re-planning), "
+    "ctga (seed 001: circular trajectories), fga (seed 004: collision cones, critical start) or "
+    "priority (seed 003: rangefinder priority loop, multirotor); --help-avoider NAME lists an "
+    "avoider's options.",
 )
 @click.option(
     "--avoid-opt",
