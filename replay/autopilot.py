@@ -521,6 +521,60 @@ class FlightLog:
     steps: int
 
 
+class FlightRecorder:
+    """The buffers a compiled ``fly`` loop records into, and the :class:`FlightLog` made of them
+    (shared by :meth:`Autopilot.fly` and the multirotor stack's ``fly``).
+
+    ``n_total`` steps of ``dt`` from grid step ``k = round(t / dt)`` (``t0_grid`` the remainder),
+    a sample every ``record_every`` steps (none for 0); the kernel writes into ``x[n:]``,
+    ``u[n:]``, ``g[n:]`` and :meth:`add` stamps the times and leg indices of what it wrote."""
+
+    def __init__(
+        self, n_total: int, record_every: int, t0_grid: float, dt: float, n_guidance: int
+    ) -> None:
+        self.every = int(record_every)
+        cap = n_total // self.every + 2 if self.every > 0 else 1
+        self.x = np.zeros((cap, N_STATES))
+        self.u = np.zeros((cap, N_CONTROLS))
+        self.g = np.zeros((cap, n_guidance))
+        self.t = np.zeros(cap)
+        self.i = np.zeros(cap, dtype=np.int64)
+        self.n = 0
+        self._t0_grid = t0_grid
+        self._dt = dt
+
+    def add(self, k: int, steps: int, nr: int, next_index: int) -> None:
+        """The kernel flew ``steps`` steps from grid step ``k`` and recorded ``nr`` samples."""
+        if nr:
+            ks = np.arange(k, k + steps + 1)
+            ks = ks[ks % self.every == 0][:nr]
+            self.t[self.n : self.n + nr] = self._t0_grid + ks * self._dt
+            self.i[self.n : self.n + nr] = next_index
+            self.n += nr
+
+    def log(
+        self,
+        x: FloatArray,
+        t: float,
+        u: FloatArray,
+        reached: tuple[WaypointReached, ...],
+        steps: int,
+    ) -> FlightLog:
+        n = self.n
+        return FlightLog(
+            x=x,
+            t=t,
+            u=u,
+            times=self.t[:n],
+            states=self.x[:n],
+            controls=self.u[:n],
+            guidance=self.g[:n],
+            next_index=self.i[:n],
+            reached=reached,
+            steps=steps,
+        )
+
+
 GUIDANCE_COLUMNS = (
     "course_cmd",
     "bank_cmd",
@@ -1024,14 +1078,7 @@ class Autopilot:
             raise InputError(f"duration must be >= 0 s, found {duration!r}")
         k_start = int(round(t / dt))
         t0_grid = t - k_start * dt
-        rec_every = int(record_every)
-        cap = n_total // rec_every + 2 if rec_every > 0 else 1
-        rec_x = np.zeros((cap, N_STATES))
-        rec_u = np.zeros((cap, N_CONTROLS))
-        rec_g = np.zeros((cap, kern.N_GUIDANCE_LOG))
-        rec_t = np.zeros(cap)
-        rec_i = np.zeros(cap, dtype=np.int64)
-        n_rec = 0
+        rec = FlightRecorder(n_total, record_every, t0_grid, dt, kern.N_GUIDANCE_LOG)
         first_reached = len(self.reached)
         terrain_steps = max(1, int(round(cfg.terrain_update / dt)))
         decim = cfg.control_every
@@ -1059,35 +1106,19 @@ class Autopilot:
                 self._leg,
                 self._ap,
                 self._u,
-                rec_every,
-                rec_x[n_rec:],
-                rec_u[n_rec:],
-                rec_g[n_rec:],
+                rec.every,
+                rec.x[rec.n :],
+                rec.u[rec.n :],
+                rec.g[rec.n :],
             )
-            if nr:
-                ks = np.arange(k, k + steps + 1)
-                ks = ks[ks % rec_every == 0][:nr]
-                rec_t[n_rec : n_rec + nr] = t0_grid + ks * dt
-                rec_i[n_rec : n_rec + nr] = self._next
-                n_rec += nr
+            rec.add(k, steps, nr, self._next)
             done += steps
             if ev != 0:
                 self._switch(ev, t0_grid + (k + steps) * dt, x)
         self._x_last = x.copy()
         t_end = t0_grid + (k_start + n_total) * dt
         self._t_last = t_end - dt
-        return FlightLog(
-            x=x,
-            t=t_end,
-            u=self._u.copy(),
-            times=rec_t[:n_rec],
-            states=rec_x[:n_rec],
-            controls=rec_u[:n_rec],
-            guidance=rec_g[:n_rec],
-            next_index=rec_i[:n_rec],
-            reached=tuple(self.reached[first_reached:]),
-            steps=n_total,
-        )
+        return rec.log(x, t_end, self._u.copy(), tuple(self.reached[first_reached:]), n_total)
 
     def reset_integrators(self) -> None:
         self._ap[:] = 0.0

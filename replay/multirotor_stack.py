@@ -83,7 +83,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from replay.autopilot import FlightLog, WaypointReached
+from replay.autopilot import FlightLog, FlightRecorder, WaypointReached
 from replay.frames import N_STATES, map_to_ned, ned_to_map, rotation_body_to_ned
 from replay.guidance import (
     ClimbRate,
@@ -399,14 +399,7 @@ class MultirotorStack:
             raise InputError(f"duration must be >= 0 s, found {duration!r}")
         k_start = int(round(t / DT))
         t0_grid = t - k_start * DT
-        rec_every = int(record_every)
-        cap = n_total // rec_every + 2 if rec_every > 0 else 1
-        rec_x = np.zeros((cap, N_STATES))
-        rec_u = np.zeros((cap, 4))
-        rec_g = np.zeros((cap, kern.N_GUIDANCE_LOG))
-        rec_t = np.zeros(cap)
-        rec_i = np.zeros(cap, dtype=np.int64)
-        n_rec = 0
+        rec = FlightRecorder(n_total, record_every, t0_grid, DT, kern.N_GUIDANCE_LOG)
         first = len(self.reached)
         done = 0
         while done < n_total:
@@ -421,32 +414,22 @@ class MultirotorStack:
                 self._cmd,
                 self._cs,
                 self._wc,
-                rec_every,
-                rec_x[n_rec:],
-                rec_u[n_rec:],
-                rec_g[n_rec:],
+                rec.every,
+                rec.x[rec.n :],
+                rec.u[rec.n :],
+                rec.g[rec.n :],
             )
-            if nr:
-                ks = np.arange(k, k + steps + 1)
-                ks = ks[ks % rec_every == 0][:nr]
-                rec_t[n_rec : n_rec + nr] = t0_grid + ks * DT
-                rec_i[n_rec : n_rec + nr] = self._next
-                n_rec += nr
+            rec.add(k, steps, nr, self._next)
             done += steps
             if ev != 0:
                 self._switch(int(ev), t0_grid + (k + steps) * DT, x)
         self._x = x.copy()
-        return FlightLog(
-            x=x[:N_STATES].copy(),
-            t=t0_grid + (k_start + n_total) * DT,
-            u=self._wc.copy(),
-            times=rec_t[:n_rec],
-            states=rec_x[:n_rec],
-            controls=rec_u[:n_rec],
-            guidance=rec_g[:n_rec],
-            next_index=rec_i[:n_rec],
-            reached=tuple(self.reached[first:]),
-            steps=n_total,
+        return rec.log(
+            x[:N_STATES].copy(),
+            t0_grid + (k_start + n_total) * DT,
+            self._wc.copy(),
+            tuple(self.reached[first:]),
+            n_total,
         )
 
     def control(self, state: npt.ArrayLike) -> FloatArray:
