@@ -329,6 +329,24 @@ def circle_edges(
     return out
 
 
+def _near_and_edges(
+    ident: str, near: FloatArray, edges: FloatArray | None
+) -> tuple[list[str], FloatArray]:
+    """``radar_points`` of an extended threat: the nearest point (``ident``), then the outline's
+    edges when there are any (``ident`` + each of ``EDGE_SUFFIXES``)."""
+    if edges is None:
+        return [ident], near
+    return [ident, *(ident + s for s in EDGE_SUFFIXES)], np.vstack([near, edges])
+
+
+def _bottom_and_middle(top: float, bottom: float) -> tuple[float | None, float]:
+    """For ``shape``: the bottom (None when unbounded below) and the height the shape's centre is
+    drawn at (the top then, else half-way)."""
+    if bottom == -math.inf:
+        return None, top
+    return bottom, (top + bottom) / 2
+
+
 @dataclass(frozen=True, kw_only=True)
 class CylinderThreat(Threat):
     """A solid vertical cylinder: centre (x, y), radius, top and bottom (default -inf) AMSL."""
@@ -385,13 +403,10 @@ class CylinderThreat(Threat):
         o = as_points(observer).reshape(1, 3)
         near = self.nearest_point(o)
         edges = circle_edges(o[0], self.center, self.radius, float(near[0, 2]))
-        if edges is None:
-            return [self.id], near
-        return [self.id, *(self.id + s for s in EDGE_SUFFIXES)], np.vstack([near, edges])
+        return _near_and_edges(self.id, near, edges)
 
     def shape(self, t: float = 0.0) -> dict[str, Any]:
-        bottom = None if self.bottom == -math.inf else self.bottom
-        zc = self.top if bottom is None else (self.top + self.bottom) / 2
+        bottom, zc = _bottom_and_middle(self.top, self.bottom)
         return {
             "id": self.id,
             "kind": "cylinder",
@@ -554,13 +569,10 @@ class PrismThreat(Threat):
         o = as_points(observer).reshape(1, 3)
         near = self.nearest_point(o)
         edges = outline_edges(o[0], self._ring, float(near[0, 2]))
-        if edges is None:
-            return [self.id], near
-        return [self.id, *(self.id + s for s in EDGE_SUFFIXES)], np.vstack([near, edges])
+        return _near_and_edges(self.id, near, edges)
 
     def shape(self, t: float = 0.0) -> dict[str, Any]:
-        bottom = None if self.bottom == -math.inf else self.bottom
-        zc = self.top if bottom is None else (self.top + self.bottom) / 2
+        bottom, zc = _bottom_and_middle(self.top, self.bottom)
         return {
             "id": self.id,
             "kind": "prism",
