@@ -82,7 +82,7 @@ import numpy.typing as npt
 
 from replay.body_threat import BodyThreat
 from replay.frames import course_of
-from replay.radar import sensor_number, sensor_rng
+from replay.radar import check_own_position, scan_due, sensor_number, sensor_rng
 from replay.threats import HillThreat, PrismThreat, StaticThreat, Threat
 from terrain.errors import InputError
 
@@ -94,7 +94,6 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 
 SENSOR_NAME = "cooperative"
-_DUE_SLACK_S = 1e-6  # as the radar: scans fall due this much early (sums of 0.01 s steps)
 
 
 @dataclass(frozen=True, eq=False)
@@ -286,7 +285,7 @@ class CooperativeSensor:
     # -- timing -----------------------------------------------------------------------------------
     def due(self, t: float) -> bool:
         """True when no scan happened yet or ``period_s`` has passed since the last one."""
-        return self.last_scan_t is None or t >= self.last_scan_t + self.period_s - _DUE_SLACK_S
+        return scan_due(self.last_scan_t, self.period_s, t)
 
     def reset(self) -> None:
         """Forget the scan time (the random generator runs on)."""
@@ -303,9 +302,7 @@ class CooperativeSensor:
     ) -> CooperativePicture:
         """The reports heard at time t (see the module docstring); ``terrain_model`` and
         ``min_clearance`` are ignored (the radar's signature, so the loop calls either)."""
-        own = np.asarray(own_position, dtype=np.float64)
-        if own.shape != (3,) or not np.all(np.isfinite(own)):
-            raise InputError(f"own position must be 3 finite map coordinates; got {own_position!r}")
+        own = check_own_position(own_position)
         t = _number("scan time", t, -math.inf, False)
         tm = t - self.latency_s
         seq = threats if isinstance(threats, tuple) else tuple(threats)

@@ -223,6 +223,20 @@ def sensor_rng(sensor: str, seed: Any) -> tuple[np.random.Generator, int | None]
     return np.random.default_rng(int(seed)), int(seed)
 
 
+def scan_due(last_scan_t: float | None, period_s: float, t: float) -> bool:
+    """A sensor's ``due``: True when no scan happened yet or ``period_s`` has passed since the
+    last one (less ``_DUE_SLACK_S``)."""
+    return last_scan_t is None or t >= last_scan_t + period_s - _DUE_SLACK_S
+
+
+def check_own_position(value: npt.ArrayLike) -> FloatArray:
+    """A sensor's own position: 3 finite map coordinates, else a one-line error."""
+    own = np.asarray(value, dtype=np.float64)
+    if own.shape != (3,) or not np.all(np.isfinite(own)):
+        raise InputError(f"own position must be 3 finite map coordinates; got {value!r}")
+    return own
+
+
 def _number(name: str, value: float, minimum: float, strict: bool) -> float:
     return sensor_number("radar", name, value, minimum, strict)
 
@@ -297,7 +311,7 @@ class Radar:
     # -- timing -----------------------------------------------------------------------------------
     def due(self, t: float) -> bool:
         """True when no scan happened yet or ``period_s`` has passed since the last one."""
-        return self.last_scan_t is None or t >= self.last_scan_t + self.period_s - _DUE_SLACK_S
+        return scan_due(self.last_scan_t, self.period_s, t)
 
     def reset(self) -> None:
         """Forget the previous picture and the scan time (the random generator runs on)."""
@@ -314,9 +328,7 @@ class Radar:
         min_clearance: float | None = None,
     ) -> RadarPicture:
         """Scan now (see the module docstring); the picture also becomes :attr:`previous`."""
-        own = np.asarray(own_position, dtype=np.float64)
-        if own.shape != (3,) or not np.all(np.isfinite(own)):
-            raise InputError(f"own position must be 3 finite map coordinates; got {own_position!r}")
+        own = check_own_position(own_position)
         t = _number("scan time", t, -math.inf, False)
         clearance = (
             self.terrain_clearance_m

@@ -81,7 +81,13 @@ import numpy.typing as npt
 
 from replay.body_threat import BodyThreat
 from replay.frames import PHI, PSI, THETA, course_of, rotation_body_to_ned
-from replay.radar import RadarPicture, sensor_number, sensor_rng
+from replay.radar import (
+    RadarPicture,
+    check_own_position,
+    scan_due,
+    sensor_number,
+    sensor_rng,
+)
 from replay.raycast import (
     ray_cylinders,
     ray_flat_ground,
@@ -110,7 +116,6 @@ IntArray = npt.NDArray[np.int64]
 SENSOR_NAME = "rangefinder"
 MOUNTS = ("gimballed", "body")
 TERRAIN_SOURCE = "terrain"
-_DUE_SLACK_S = 1e-6  # as the radar: scans fall due this much early (sums of 0.01 s steps)
 
 
 def wrap_bearing(a: npt.ArrayLike) -> FloatArray:
@@ -274,7 +279,7 @@ class Rangefinders:
     # -- timing -----------------------------------------------------------------------------------
     def due(self, t: float) -> bool:
         """True when no scan happened yet or ``period_s`` has passed since the last one."""
-        return self.last_scan_t is None or t >= self.last_scan_t + self.period_s - _DUE_SLACK_S
+        return scan_due(self.last_scan_t, self.period_s, t)
 
     def reset(self) -> None:
         """Forget the scan time (the random generator runs on)."""
@@ -313,9 +318,7 @@ class Rangefinders:
         state: npt.ArrayLike | None = None,
     ) -> RangefinderPicture:
         """Cast every beam now (module docstring)."""
-        own = np.asarray(own_position, dtype=np.float64)
-        if own.shape != (3,) or not np.all(np.isfinite(own)):
-            raise InputError(f"own position must be 3 finite map coordinates; got {own_position!r}")
+        own = check_own_position(own_position)
         t = sensor_number(SENSOR_NAME, "scan time", t, -math.inf, False)
         yaw, dirs = self.directions(state)
         dist, labels = self._cast(t, own, dirs, threats)
