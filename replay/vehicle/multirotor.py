@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -62,7 +62,7 @@ import numpy.typing as npt
 
 from replay.atmosphere import RHO0, check_offset, density_at
 from replay.frames import rotation_body_to_ned
-from replay.vehicle.params import G
+from replay.vehicle.params import G, check_numbers
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -233,18 +233,7 @@ def validate(p: MultirotorParams) -> None:
         raise _bad(
             "configuration", f"one of {', '.join(map(repr, CONFIGURATIONS))}", p.configuration
         )
-    for f in fields(p):
-        if f.name in ("name", "source", "configuration"):
-            continue
-        v = getattr(p, f.name)
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise _bad(f.name, "a finite number", v)
-    for k in _POSITIVE:
-        if getattr(p, k) <= 0:
-            raise _bad(k, "a number > 0", getattr(p, k))
-    for k in _NON_NEGATIVE:
-        if getattr(p, k) < 0:
-            raise _bad(k, "a number >= 0", getattr(p, k))
+    check_numbers(p, ("name", "source", "configuration"), _POSITIVE, _NON_NEGATIVE, _bad)
     moments = sorted((p.Jx, p.Jy, p.Jz))
     if moments[0] + moments[1] < moments[2] * (1 - 1e-9):
         raise _bad(

@@ -68,6 +68,7 @@ parameters into the float64 array the numba kernels take (layout: the ``I_*`` in
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
@@ -417,24 +418,37 @@ def _bad(field: str, expected: str, found: Any) -> InputError:
     return InputError(f"field {field!r}: expected {expected}, found {found!r}")
 
 
+def check_numbers(
+    p: Any,
+    skip: tuple[str, ...],
+    positive: tuple[str, ...],
+    non_negative: tuple[str, ...],
+    bad: Callable[[str, str, Any], InputError],
+) -> None:
+    """The number checks of a vehicle's ``validate`` (fixed-wing and multirotor): every field of
+    the dataclass ``p`` but those in ``skip`` a finite number, those in ``positive`` > 0 and in
+    ``non_negative`` >= 0; the first that is not raises ``bad(field, expected, found)``."""
+    for f in fields(p):
+        if f.name in skip:
+            continue
+        v = getattr(p, f.name)
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise bad(f.name, "a finite number", v)
+    for k in positive:
+        if getattr(p, k) <= 0:
+            raise bad(k, "a number > 0", getattr(p, k))
+    for k in non_negative:
+        if getattr(p, k) < 0:
+            raise bad(k, "a number >= 0", getattr(p, k))
+
+
 def validate(p: VehicleParams) -> None:
     """Refuse impossible values; the message names the field, what was expected and found."""
     if not isinstance(p.name, str) or not p.name:
         raise _bad("name", "a non-empty string", p.name)
     if p.engine not in ENGINES:
         raise _bad("engine", f"one of {', '.join(ENGINES)}", p.engine)
-    for f in fields(p):
-        if f.name in ("name", "source", "engine"):
-            continue
-        v = getattr(p, f.name)
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise _bad(f.name, "a finite number", v)
-    for k in _POSITIVE:
-        if getattr(p, k) <= 0:
-            raise _bad(k, "a number > 0", getattr(p, k))
-    for k in _NON_NEGATIVE:
-        if getattr(p, k) < 0:
-            raise _bad(k, "a number >= 0", getattr(p, k))
+    check_numbers(p, ("name", "source", "engine"), _POSITIVE, _NON_NEGATIVE, _bad)
     if p.e > 1.5:
         raise _bad("e", "an Oswald efficiency in (0, 1.5]", p.e)
     inertia = np.array([[p.Jx, 0.0, -p.Jxz], [0.0, p.Jy, 0.0], [-p.Jxz, 0.0, p.Jz]])
