@@ -59,6 +59,7 @@ from replay.vehicle.multirotor import (
     SPIN,
     MultirotorParams,
     hover_state,
+    level_speed,
     top_speed,
 )
 
@@ -158,7 +159,7 @@ def rotorpy_hover(p: MultirotorParams) -> float:
 
 def rotorpy_top_speed(p: MultirotorParams) -> float:
     """Level speed at the tilt limit with rotorpy's forces (the bisections of
-    :func:`replay.vehicle.multirotor.top_speed`)."""
+    :func:`replay.vehicle.multirotor.level_speed`)."""
     m = rotorpy_model(p)
     tilt = math.radians(p.tilt_max_deg)
 
@@ -173,18 +174,7 @@ def rotorpy_top_speed(p: MultirotorParams) -> float:
         f, _ = m.compute_body_wrench(np.zeros(3), np.full(4, w), body_air)
         return np.asarray(P @ (r_rp @ f) + np.array([0.0, 0.0, p.weight]))
 
-    def rotor_for(v: float) -> float:
-        lo, hi = 0.0, 4.0 * p.rotor_speed_max
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if force_ned(v, mid)[2] > 0.0 else (lo, mid)
-        return 0.5 * (lo + hi)
-
-    lo, hi = 0.0, 200.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if force_ned(mid, rotor_for(mid))[0] > 0.0 else (lo, mid)
-    return 0.5 * (lo + hi)
+    return level_speed(force_ned, p.rotor_speed_max)
 
 
 def open_loop(p: MultirotorParams) -> tuple[float, float]:

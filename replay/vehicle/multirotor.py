@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -474,17 +475,26 @@ def top_speed(
         f, _ = forces_moments(x, params, temperature_offset=dtemp)
         return rot @ f  # NED
 
+    return level_speed(forces, params.rotor_speed_max)
+
+
+def level_speed(force_ned: Callable[[float, float], FloatArray], rotor_speed_max: float) -> float:
+    """The bisections of :func:`top_speed` for any model of the forces: ``force_ned(v, w)`` is
+    the net force (NED) flying north at ``v`` m/s with every rotor at ``w`` rad/s; the speed in
+    [0, 200] m/s where the rotor speed that zeroes the vertical force (in [0, 4 x
+    ``rotor_speed_max``]) also zeroes the forward one."""
+
     def rotor_for(v: float) -> float:
-        lo, hi = 0.0, 4.0 * params.rotor_speed_max
+        lo, hi = 0.0, 4.0 * rotor_speed_max
         for _ in range(60):
             mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if forces(v, mid)[2] > 0.0 else (lo, mid)
+            lo, hi = (mid, hi) if force_ned(v, mid)[2] > 0.0 else (lo, mid)
         return 0.5 * (lo + hi)
 
     lo, hi = 0.0, 200.0
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if forces(mid, rotor_for(mid))[0] > 0.0 else (lo, mid)
+        lo, hi = (mid, hi) if force_ned(mid, rotor_for(mid))[0] > 0.0 else (lo, mid)
     return 0.5 * (lo + hi)
 
 
@@ -498,6 +508,7 @@ __all__ = [
     "derivatives",
     "forces_moments",
     "hover_state",
+    "level_speed",
     "mix",
     "multirotor_preset",
     "rk4_step",
