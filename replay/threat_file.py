@@ -73,9 +73,9 @@ from replay.threats import (
     Vec3,
     footprint_ring,
 )
-from terrain.docfile import check_header, read_document
+from terrain.docfile import check_header, geojson_features, read_document
 from terrain.docfile import found as _found
-from terrain.errors import DataFileError, InputError, where
+from terrain.errors import InputError, where
 from terrain.grid import HeightGrid
 
 DOCUMENT_KEYS = ("terrapath", "name", "threats")
@@ -609,14 +609,7 @@ def recorded_text(path: str | PathLike[str], threats: ThreatSet) -> str:
 
 
 def _load_geojson(data: Any, path: Path, grid: HeightGrid | None) -> ThreatSet:
-    if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
-        found = _found(data.get("type")) if isinstance(data, dict) else _found(data)
-        raise DataFileError(
-            f"{where(path, 'type')}expected a GeoJSON FeatureCollection, found {found}"
-        )
-    features = data.get("features")
-    if not isinstance(features, list):
-        raise DataFileError(f"{where(path, 'features')}expected a list, found {_found(features)}")
+    features = geojson_features(data, path)
     name = data.get("name")
     parser = _Parser(path, grid)
     items = [(f"features[{i}]", f) for i, f in enumerate(features)]

@@ -104,6 +104,19 @@ def check_header(
     return data
 
 
+def geojson_features(data: Any, path: Path) -> list[Any]:
+    """The ``features`` list of a GeoJSON FeatureCollection, else a one-line error naming the key."""
+    if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
+        what = found(data.get("type")) if isinstance(data, dict) else found(data)
+        raise DataFileError(
+            f"{where(path, 'type')}expected a GeoJSON FeatureCollection, found {what}"
+        )
+    features = data.get("features")
+    if not isinstance(features, list):
+        raise DataFileError(f"{where(path, 'features')}expected a list, found {found(features)}")
+    return features
+
+
 def absolute_as_written(p: str | PathLike[str]) -> Path:
     """``p`` made absolute against the working directory, keeping ``..`` and symlinks as written
     (so that a message shows exactly what was looked for)."""

@@ -60,11 +60,12 @@ import numpy.typing as npt
 
 from terrain.docfile import (
     check_header,
+    geojson_features,
     read_document,
 )
 from terrain.docfile import finite_number as _finite
 from terrain.docfile import found as _found
-from terrain.errors import DataFileError, InputError, where
+from terrain.errors import InputError, where
 from terrain.grid import HeightGrid
 
 ZONE_KEYS = ("x", "y", "lon", "lat", "diameter", "floor", "top", "id")
@@ -1008,14 +1009,7 @@ def _read(path: Path) -> Any:
 
 
 def _load_geojson(data: Any, path: Path, grid: HeightGrid | None) -> tuple[Zone, ...]:
-    if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
-        found = _found(data.get("type")) if isinstance(data, dict) else _found(data)
-        raise DataFileError(
-            f"{where(path, 'type')}expected a GeoJSON FeatureCollection, found {found}"
-        )
-    features = data.get("features")
-    if not isinstance(features, list):
-        raise DataFileError(f"{where(path, 'features')}expected a list, found {_found(features)}")
+    features = geojson_features(data, path)
     entries = [_geojson_entry(f, path, f"features[{i}]") for i, f in enumerate(features)]
     return _finish(entries, grid, path)
 
