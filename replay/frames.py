@@ -73,6 +73,20 @@ def rotation_body_to_ned(phi: float, theta: float, psi: float) -> FloatArray:
     )
 
 
+def translational_rates(x: FloatArray, force: npt.ArrayLike, mass: float) -> FloatArray:
+    """d/dt of the first six states (NED position, body velocity) of a rigid body in the state
+    ``x`` (12 or more floats) with the body-axes ``force`` (N) on its ``mass`` (kg): the rotated
+    velocity, and F/m less omega x v (Beard & McLain eqs 3.14-3.15)."""
+    uu, vv, ww, phi, theta, psi, pr, qr, rr = x[3:12]
+    f = np.asarray(force, dtype=np.float64)
+    out = np.empty(6)
+    out[0:3] = rotation_body_to_ned(phi, theta, psi) @ x[3:6]
+    out[3] = rr * vv - qr * ww + f[0] / mass
+    out[4] = pr * ww - rr * uu + f[1] / mass
+    out[5] = qr * uu - pr * vv + f[2] / mass
+    return out
+
+
 def quaternion_map_from_euler(
     phi: float, theta: float, psi: float
 ) -> tuple[float, float, float, float]:

@@ -62,7 +62,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.atmosphere import RHO0, check_offset, density_at
-from replay.frames import rotation_body_to_ned
+from replay.frames import rotation_body_to_ned, translational_rates
 from replay.vehicle.params import G, check_numbers
 from terrain.errors import InputError
 
@@ -397,13 +397,9 @@ def derivatives(
     if s.shape != (N_MR_STATES,):
         raise InputError(f"multirotor state must have {N_MR_STATES} elements, found {s.shape}")
     f, mom = forces_moments(s, params, wind, temperature_offset)
-    uu, vv, ww, phi, theta, psi, pr, qr, rr = s[3:12]
-    m = params.mass
+    phi, theta, pr, qr, rr = s[6], s[7], s[9], s[10], s[11]
     out = np.empty(N_MR_STATES)
-    out[0:3] = rotation_body_to_ned(phi, theta, psi) @ s[3:6]
-    out[3] = rr * vv - qr * ww + f[0] / m
-    out[4] = pr * ww - rr * uu + f[1] / m
-    out[5] = qr * uu - pr * vv + f[2] / m
+    out[0:6] = translational_rates(s, f, params.mass)
     sf, cf = math.sin(phi), math.cos(phi)
     ct = math.cos(theta)
     out[6] = pr + (qr * sf + rr * cf) * math.sin(theta) / ct
