@@ -73,7 +73,7 @@ from replay.threats import (
     Vec3,
     footprint_ring,
 )
-from terrain.docfile import check_header, geojson_features, read_document
+from terrain.docfile import check_header, feature_id, geojson_features, read_document
 from terrain.docfile import found as _found
 from terrain.errors import InputError, where
 from terrain.grid import HeightGrid
@@ -284,16 +284,10 @@ class _Parser:
         if not isinstance(props, dict):
             raise self.fail(f"{field}.properties", f"expected a mapping, found {_found(props)}")
         pfield = f"{field}.properties"
-        for value, at in (
-            (props.get("id"), f"{pfield}.id"),
-            (props.get("name"), f"{pfield}.name"),
-            (feature.get("id"), f"{field}.id"),
-        ):
-            if value is not None:
-                common = self.common(value, at, props, pfield)
-                break
-        else:
+        given = feature_id(feature, props, field)
+        if given is None:
             raise self.fail(pfield, "missing 'id' (or 'name', or the feature's own 'id')")
+        common = self.common(given[0], given[1], props, pfield)
         cfield = f"{field}.geometry.coordinates"
         coords = geometry.get("coordinates")
         if not isinstance(coords, list) or not coords:

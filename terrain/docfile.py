@@ -117,6 +117,22 @@ def geojson_features(data: Any, path: Path) -> list[Any]:
     return features
 
 
+def feature_id(
+    feature: dict[str, Any], props: dict[str, Any], field: str
+) -> tuple[Any, str] | None:
+    """The identifier a GeoJSON feature ``field`` gives, with the key it stands at: the first
+    set of ``properties.id``, ``properties.name`` and the feature's own ``id``; None if none is."""
+    pfield = f"{field}.properties"
+    for value, at in (
+        (props.get("id"), f"{pfield}.id"),
+        (props.get("name"), f"{pfield}.name"),
+        (feature.get("id"), f"{field}.id"),
+    ):
+        if value is not None:
+            return value, at
+    return None
+
+
 def absolute_as_written(p: str | PathLike[str]) -> Path:
     """``p`` made absolute against the working directory, keeping ``..`` and symlinks as written
     (so that a message shows exactly what was looked for)."""

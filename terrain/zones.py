@@ -60,6 +60,7 @@ import numpy.typing as npt
 
 from terrain.docfile import (
     check_header,
+    feature_id,
     geojson_features,
     read_document,
 )
@@ -704,15 +705,8 @@ def _yaml_entry(entry: Any, path: Source, field: str) -> _AnyEntry:
 def _feature_ident(
     feature: dict[str, Any], props: dict[str, Any], path: Source, field: str
 ) -> str | None:
-    pfield = f"{field}.properties"
-    for value, at in (
-        (props.get("id"), f"{pfield}.id"),
-        (props.get("name"), f"{pfield}.name"),
-        (feature.get("id"), f"{field}.id"),
-    ):
-        if value is not None:
-            return _ident(value, path, at)
-    return None
+    given = feature_id(feature, props, field)
+    return None if given is None else _ident(given[0], path, given[1])
 
 
 def _geojson_polygon(
