@@ -22,7 +22,7 @@ import numba as nb
 import numpy as np
 
 from replay.atmosphere import RHO0, density_at
-from replay.vehicle._rigid import attitude, body_to_ned, ned_to_body
+from replay.vehicle._rigid import attitude, body_to_ned, ned_to_body, record
 from replay.vehicle.params import (
     I_ALPHA0,
     I_B,
@@ -821,7 +821,6 @@ def fly(
     # countdowns to the next control and record step (no integer division in the loop)
     to_ctrl = (decim - k0 % decim) % decim
     to_rec = (rec_every - k0 % rec_every) % rec_every if rec_every > 0 else -1
-    cap = rec_x.shape[0]
     for i in range(n):
         if to_ctrl == 0:
             ev = leg_done(x, leg)
@@ -830,14 +829,7 @@ def fly(
             control_law(x, p, gk, cmd, leg, ap, dtc, u)
             to_ctrl = decim
         if to_rec == 0:
-            if nrec < cap:
-                for j in range(12):
-                    rec_x[nrec, j] = x[j]
-                for j in range(4):
-                    rec_u[nrec, j] = u[j]
-                for j in range(N_GUIDANCE_LOG):
-                    rec_g[nrec, j] = ap[A_CHI_C + j]
-                nrec += 1
+            nrec = record(x, u, ap, A_CHI_C, N_GUIDANCE_LOG, rec_x, rec_u, rec_g, nrec)
             to_rec = rec_every
         _rk4_into(x, u, dt, p, k1, k2, k3, k4, tmp)
         to_ctrl -= 1

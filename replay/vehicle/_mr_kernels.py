@@ -21,7 +21,7 @@ import numba as nb
 import numpy as np
 
 from replay.atmosphere import RHO0, density_at
-from replay.vehicle._rigid import attitude, body_to_ned, ned_to_body
+from replay.vehicle._rigid import attitude, body_to_ned, ned_to_body, record
 from replay.vehicle.multirotor import (
     I_CDX,
     I_CDY,
@@ -487,21 +487,13 @@ def fly(x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g):  # pr
     tmp = np.empty(N_X)
     nrec = 0
     to_rec = (rec_every - k0 % rec_every) % rec_every if rec_every > 0 else -1
-    cap = rec_x.shape[0]
     for i in range(n):
         ev = leg_event(x, cmd)
         if ev != 0:
             return i, ev, nrec
         control_law(x, p, gk, cmd, cs, dt, wc)
         if to_rec == 0:
-            if nrec < cap:
-                for j in range(12):
-                    rec_x[nrec, j] = x[j]
-                for j in range(4):
-                    rec_u[nrec, j] = wc[j]
-                for j in range(N_GUIDANCE_LOG):
-                    rec_g[nrec, j] = cs[S_YAW_C + j]
-                nrec += 1
+            nrec = record(x, wc, cs, S_YAW_C, N_GUIDANCE_LOG, rec_x, rec_u, rec_g, nrec)
             to_rec = rec_every
         _rk4_into(x, wc, dt, p, k1, k2, k3, k4, tmp)
         to_rec -= 1

@@ -1,9 +1,11 @@
-"""Compiled (numba) rigid-body pieces shared by the fixed-wing and multirotor kernels.
+"""Compiled (numba) pieces shared by the fixed-wing and multirotor kernels.
 
 - :func:`attitude`: the trigonometry of the Euler angles (3-2-1: yaw psi, pitch theta, roll phi)
   and the body -> NED rotation matrix, the same arithmetic as
   :func:`replay.frames.rotation_body_to_ned`;
-- :func:`body_to_ned` / :func:`ned_to_body`: a vector turned by that matrix or its transpose.
+- :func:`body_to_ned` / :func:`ned_to_body`: a vector turned by that matrix or its transpose;
+- :func:`record`: one row of the flight log the ``fly`` kernels fill (state, controls, the
+  controller's logged signals).
 
 The rotation comes as a flat 9-tuple, row-major: ``r[3 * i + j]`` is row i, column j. numba's
 disk cache does not see changes to these functions from the kernels that call them: after editing
@@ -59,3 +61,18 @@ def ned_to_body(r, n, e, d):  # pragma: no cover - jit
         r[1] * n + r[4] * e + r[7] * d,
         r[2] * n + r[5] * e + r[8] * d,
     )
+
+
+@nb.njit(cache=True, nogil=True)
+def record(x, u, log, first, n_log, rec_x, rec_u, rec_g, nrec):  # pragma: no cover - jit
+    """Row ``nrec`` of the flight log, if the buffers have room: the 12 states of ``x``, the 4
+    controls ``u`` and ``log[first : first + n_log]``; returns the new number of rows."""
+    if nrec >= rec_x.shape[0]:
+        return nrec
+    for j in range(12):
+        rec_x[nrec, j] = x[j]
+    for j in range(4):
+        rec_u[nrec, j] = u[j]
+    for j in range(n_log):
+        rec_g[nrec, j] = log[first + j]
+    return nrec + 1
