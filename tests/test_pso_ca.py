@@ -382,3 +382,13 @@ def test_with_the_cooperative_sensor_a_reported_size_wider_than_rs_is_kept() -> 
     assert r.metrics.min_separation["storm"]["value"] >= 0.0
     feasible = [d for d in r.decisions if d["feasible"]]
     assert feasible and all(d["inputs"]["params"]["rs"] == 2500.0 for d in feasible)
+
+
+def test_tolerance_and_search_limit_are_options_checked_as_table_1() -> None:
+    # a 20 m rangefinder's scale (benches/seed003-uncharted.yaml): Table 1's distances / 500
+    av = make_avoider("pso-ca", rs=2, tolerance=2, search_limit=8, mxrsk=6, moving_rs=4)
+    assert isinstance(av, PsoCaAvoider)
+    assert (av.params.rs, av.params.tolerance, av.params.search_limit) == (2.0, 2.0, 8.0)
+    assert make_avoider("pso-ca", tolerance=500).params.search_limit == 4000.0  # the other kept
+    with pytest.raises(InputError, match=r"search limit \(8 m\) must exceed .* \(2 \+ 6 m\)"):
+        make_avoider("pso-ca", rs=2, tolerance=6, search_limit=8, moving_rs=1)

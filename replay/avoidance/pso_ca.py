@@ -249,6 +249,9 @@ class PsoCaAvoider:
         "params": "a full PsoCaParams (Python only; None: seed 000's)",
         "rs": "safety radius RS kept from stationary obstacles, m (None: 1000, seed 000)",
         "mxrsk": "risk distance of the f2 term, m (None: 3000; the paper gives none)",
+        "tolerance": "extra distance of g1 beyond RS, m (None: 1000, seed 000 Table 1)",
+        "search_limit": "searchspaceLimit: how far from the obstacle waypoints are sought, m "
+        "(None: 4000, Table 1)",
         "leg_margin": "extra clearance of the two new legs beyond RS, m",
         "moving_rs": "radius kept from intruders, m (seed 000 §5.7)",
         "act_range": "intruders are acted on below this range, m (seed 000 §5.7)",
@@ -275,6 +278,8 @@ class PsoCaAvoider:
         *,
         rs: float | None = None,
         mxrsk: float | None = None,
+        tolerance: float | None = None,
+        search_limit: float | None = None,
         leg_margin: float = 100.0,
         moving_rs: float = 2000.0,
         act_range: float = 8000.0,
@@ -313,6 +318,12 @@ class PsoCaAvoider:
             base = replace(base, rs=rs)  # re-checked by PsoCaParams
         if mxrsk is not None:
             base = replace(base, mxrsk=mxrsk)
+        if tolerance is not None or search_limit is not None:
+            base = replace(
+                base,
+                tolerance=base.tolerance if tolerance is None else tolerance,
+                search_limit=base.search_limit if search_limit is None else search_limit,
+            )
         self.params = base
         self.moving_rs = require_real("PSO-CA moving safety radius", moving_rs, 0.0, open_low=True)
         if self.moving_rs + self.params.tolerance >= self.params.search_limit:

@@ -74,6 +74,18 @@ def case(run: Run) -> tuple[Any, Any, dict[str, Any]]:
     return mission, threats, notes
 
 
+def _sensor_range(run: Run, option: str) -> float:
+    """The replay's ``radar_range`` (also the cooperative sensor's) or ``rangefinder_range``: the
+    spec's ``sensor_range`` for the run's sensor, the replay's default otherwise."""
+    from replay.run import ReplayRequest
+
+    default = float(getattr(ReplayRequest, option))
+    if run.sensor_range is None:
+        return default
+    mine = "rangefinder_range" if run.sensor == "rangefinder" else "radar_range"
+    return run.sensor_range if option == mine else default
+
+
 def mcap_name(run: Run) -> str:
     return run.key.replace("/", "__").replace("[", "(").replace("]", ")") + ".mcap"
 
@@ -125,7 +137,8 @@ def execute(
             duration=run.duration,
             command=f"{command} --only '{run.key}'",
             software_version=version,
-            radar_range=ReplayRequest.radar_range if run.sensor_range is None else run.sensor_range,
+            radar_range=_sensor_range(run, "radar_range"),
+            rangefinder_range=_sensor_range(run, "rangefinder_range"),
         )
         out = None if keep != "all" or mcap_dir is None else str(Path(mcap_dir) / mcap_name(run))
         result = run_replay(request, out)

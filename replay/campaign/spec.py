@@ -14,12 +14,17 @@ threats:                                         # a generator, or files: [a.yam
 avoiders:
   - {name: pso-ca, options: {optimizer: pso}}
   - {name: none}
-sensor: radar                                    # or cooperative
+sensor: radar                                    # or cooperative, or rangefinder
+sensor_range: null                               # optional: the sensor's range (m)
 runs: 10                                         # per (mission, row, avoider)
 seed: 1
 margin: 0                                        # optional: success margin (m)
 duration: null                                   # optional: longest flight (s)
 ```
+
+``sensor_range`` is the radar's or the cooperative sensor's range (default 10 km), or with
+``sensor: rangefinder`` (seed 003's beams, :mod:`replay.rangefinder`, whose hits reach the
+avoiders as sensor returns) the beams' range R (default 20 m; four beams, gimballed, no noise).
 
 Paths are relative to the spec's folder.  The study's **rows** are the counts (a generator) or the
 files (each file one row, named by its stem).  A **run** is (mission, row, avoider, run index);
@@ -61,7 +66,7 @@ THREAT_KEYS = (
     *("generator", "counts", "dynamic", "files"),
     *("sigma", "keep_clear", "radius", "altitude", "box"),
 )
-SENSORS = ("radar", "cooperative")
+SENSORS = ("radar", "cooperative", "rangefinder")
 # generators named by the issues but not built yet: said so when asked for
 COMING: dict[str, str] = {}
 

@@ -28,7 +28,8 @@ def _root() -> Path:
     "--optimizers",
     default=None,
     metavar="A,B,...",
-    help="PSO-CA's optimisers to fly (seed000-table6's default: pso; 'all': every one in the spec).",
+    help="PSO-CA's optimisers to fly, or other avoiders by name (seed000-table6's default: pso; "
+    "'all': every one in the spec).",
 )
 @click.option(
     "--store",
@@ -108,12 +109,13 @@ def bench_cmd(
         flown += len(fresh)
     if bench.plans is None:
         lines = bench.lines(rows)
-    head = ("row", "avoider", "figure", "ours", "paper", "ours/paper")
+    head = ("row", "avoider", "figure", "ours", *bench.columns)
     widths = [max(len(x[i]) for x in [head, *lines]) for i in range(6)]
     for line in [head, *lines]:
         click.echo("  ".join(c.ljust(w) for c, w in zip(line, widths, strict=True)).rstrip())
     now = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-    per = f"{runs} runs a line (quick)" if runs else "the paper's runs"
+    runs_of = "the paper's runs" if bench.columns[0] == "paper" else "the spec's runs"
+    per = f"{runs} runs a line (quick)" if runs else runs_of
     header = (
         f"{now}; terrapath {__version__}; {platform.processor() or platform.machine()}, "
         f"Python {platform.python_version()}; {per}; `{command}`; store {store_path}"
