@@ -282,3 +282,51 @@ def test_the_view_renders_in_headless_chromium(
         assert _share(shots[tab], RUN_COLOURS[0]) > 1e-4, tab
         assert _share(shots[tab], RUN_COLOURS[1]) > 1e-4, tab
     assert _share(shots["map"], "#d62728") > 1e-5  # the unavoided run's entries, in red
+
+
+def test_rangefinder_beams_are_drawn_at_sampled_scans_red_where_they_hit(
+    runs: dict[str, Path], tmp_path: Path
+) -> None:
+    from terrapath.view.beams import BEAM_SCANS, beam_marks
+    from terrapath.view.decisions import Mark
+
+    # seed 003's convex scenario: the priority loop's quadrotor scans round a 12 m tower
+    out = tmp_path / "convex.mcap"
+    scenarios = ROOT / "data" / "scenarios"
+    args = ["replay", str(scenarios / "priority-mission.yaml"), "--no-picture", "-o", str(out)]
+    args += ["--threats", str(scenarios / "priority-convex.yaml"), "--avoid", "priority"]
+    assert main([*args, "--sensor", "rangefinder", "--duration", "1800"]) == 0
+    marks = {m.name: m for m in beam_marks(out)}
+    assert set(marks) == {"rangefinder beams: hit", "rangefinder beams: clear"}
+    hit, clear = marks["rangefinder beams: hit"], marks["rangefinder beams: clear"]
+    assert hit.color == "#d62728" and hit.mode == clear.mode == "lines"
+
+    def segments(mark: Mark) -> np.ndarray:
+        """(N, 2, 3): the segments (NaN rows between them, none after the last)."""
+        rows = np.vstack([mark.xyz, np.full((1, 3), np.nan)]).reshape(-1, 3, 3)
+        assert np.isnan(rows[:, 2]).all() and np.isfinite(rows[:, :2]).all()
+        return rows[:, :2]
+
+    h, c = segments(hit), segments(clear)
+    # four beams a scan, BEAM_SCANS scans of the thousand recorded
+    assert len(h) + len(c) == 4 * BEAM_SCANS
+    assert len(h) >= 5
+    # a beam that hit ends on the tower's wall; one that did not reaches its full 20 m, level
+    ends = np.hypot(h[:, 1, 0] - 2.0, h[:, 1, 1] - 75.0)
+    np.testing.assert_allclose(ends, 12.0, atol=1e-3)
+    assert (np.linalg.norm(h[:, 1] - h[:, 0], axis=1) < 20.0).all()
+    np.testing.assert_allclose(np.linalg.norm(c[:, 1] - c[:, 0], axis=1), 20.0, atol=1e-6)
+    np.testing.assert_allclose(c[:, 1, 2], c[:, 0, 2], atol=1e-9)
+    # from the aircraft: on its flown track
+    track = recorded_view(out, None).positions
+    starts = np.vstack([h[:, 0], c[:, 0]])
+    gaps = np.linalg.norm(starts[:, None, :] - track[None, :, :], axis=2).min(axis=1)
+    assert gaps.max() < 0.6  # 10 Hz states at up to 5 m/s
+    # in the page's 3D scene and map; a run without rangefinders draws none
+    page = tmp_path / "beams.html"
+    assert main(["view", str(out), "-o", str(page)]) in (0, None)
+    figs = _figures(page)
+    for fig in ("scene", "map"):
+        names = [d.get("name", "") for d in figs[fig]["data"]]
+        assert "rangefinder beams: hit" in names and "rangefinder beams: clear" in names
+    assert beam_marks(runs["ctga"]) == []

@@ -7,7 +7,8 @@ danger zones as translucent solids; each source's planned waypoints (a mission: 
 with the turn fillets too); each run's flown trajectory coloured by time, by height above the
 terrain or by run (at most :data:`MAX_LINE` points a run); every threat as its shape (sphere, hill
 cluster, convex body, cylinder, prism; an intruder's sphere moves along its dotted track); the
-avoiders' decisions (:mod:`terrapath.view.decisions`).  A slider and a play button step through
+avoiders' decisions (:mod:`terrapath.view.decisions`); a run's rangefinder beams at sampled
+scans, red where they hit (:mod:`terrapath.view.beams`).  A slider and a play button step through
 :data:`FRAMES` times: each run's aircraft moves along its flight and each threat is shown from its
 appearance time (to its disappearance).  Hovering the trajectory gives time, altitude, height
 above the terrain and the separation to the nearest active threat.
@@ -402,7 +403,7 @@ def _layers(
     """What the 3D scene and the 2-D map both draw, in drawing order: the planned waypoints
     (each distinct list once), a mission's path with its turn fillets, each run's flown track
     (hover: time, altitude, height above the terrain, the nearest threat), its samples inside a
-    threat or below the terrain, and its avoider's decisions.  With each, the 3D line's colouring
+    threat or below the terrain, its avoider's decisions and its rangefinder beams.  With each, the 3D line's colouring
     (``color_by`` time or clearance; empty: the mark's colour)."""
     grid = sources[0].grid
     runs = [s for s in sources if s.run is not None]
@@ -452,7 +453,7 @@ def _layers(
         if bad.any():
             name = f"inside a threat / below ground: {s.path.name}"
             out.append((Mark(name, tr.xyz[bad], "markers", RED, (), size=4.0, template=""), {}))
-        for mark in decision_marks(s.run):
+        for mark in [*decision_marks(s.run), *s.beams]:
             if len(runs) > 1:
                 mark = replace(mark, name=f"{mark.name}: {s.path.name}")
             out.append((mark, {}))

@@ -53,6 +53,7 @@ class Source:
     note: str
     run: Any = None
     track: Track | None = None
+    beams: tuple[Any, ...] = ()  # the rangefinder beams drawn (terrapath.view.beams.Mark s)
 
     @property
     def label(self) -> str:
@@ -74,8 +75,10 @@ def read_source(path: str | Path) -> Source:
     with p.open("rb") as f:
         head = f.read(len(MCAP_MAGIC))
     if head == MCAP_MAGIC:
+        from terrapath.view.beams import beam_marks
+
         run = recorded_view(p, MAX_TRACK)
-        return Source(p, run.mission, run.grid, run.note, run, track_of(run))
+        return Source(p, run.mission, run.grid, run.note, run, track_of(run), tuple(beam_marks(p)))
     try:
         mission = load_mission(p)
     except TerrapathError as exc:
