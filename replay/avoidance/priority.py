@@ -138,6 +138,7 @@ import numpy.typing as npt
 
 from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.ctga import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GoTo, HoldPosition, YawTo
 from terrain.errors import InputError
 
@@ -174,18 +175,6 @@ OUTCOMES = (
     START_INSIDE,
 )
 LEVELS = ("4a", "4b", "4c", "4d")
-
-
-def wrap(a: float) -> float:
-    """``a`` wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def bearing(frm: npt.ArrayLike, to: npt.ArrayLike) -> float:
-    """Bearing from ``frm`` to ``to`` (x east, y north), clockwise from north: step 1."""
-    f = np.asarray(frm, dtype=np.float64)
-    t = np.asarray(to, dtype=np.float64)
-    return math.atan2(float(t[0] - f[0]), float(t[1] - f[1]))
 
 
 # -- the scan table --------------------------------------------------------------------------------
