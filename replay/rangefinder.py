@@ -80,7 +80,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.body_threat import BodyThreat
-from replay.frames import PHI, PSI, THETA, course_of, rotation_body_to_ned
+from replay.frames import PHI, PSI, THETA, course_of, ned_to_map, rotation_body_to_ned
 from replay.radar import (
     RadarPicture,
     check_own_position,
@@ -306,7 +306,7 @@ class Rangefinders:
             return yaw, np.column_stack([np.sin(az), np.cos(az), np.zeros(len(b))])
         body = np.column_stack([np.cos(b), np.sin(b), np.zeros(len(b))])  # FRD: x fwd, y right
         ned = body @ rotation_body_to_ned(phi, theta, psi).T
-        return yaw, np.column_stack([ned[:, 1], ned[:, 0], -ned[:, 2]])
+        return yaw, ned_to_map(ned)
 
     def scan(
         self,

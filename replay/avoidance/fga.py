@@ -1209,17 +1209,26 @@ class FgaAvoider:
         # the late-start check plans round every obstacle but the one being settled: the turn a
         # new conflict needs may be set by a neighbour (two obstacles closer than 2 d_m apart
         # close the gap between them, and the way round both is a much larger turn)
-        unsettled = [o for o in near if o.key not in settling]
-        others = [
-            e
-            for e in (
-                self._critical(pos, planned, man.course, o, rho)
-                for o in in_way
-                if o.key not in settling
-            )
-            if e.t_c - self.t_res <= self.period
-            or self._late_by(ctx, pos, planned, man.course, unsettled, rho, turn_rate) is not None
+        # (one check for all of them: it does not depend on which new conflict asks)
+        fresh = [
+            self._critical(pos, planned, man.course, o, rho)
+            for o in in_way
+            if o.key not in settling
         ]
+        urgent = [e.t_c - self.t_res <= self.period for e in fresh]
+        late = not all(urgent) and (
+            self._late_by(
+                ctx,
+                pos,
+                planned,
+                man.course,
+                [o for o in near if o.key not in settling],
+                rho,
+                turn_rate,
+            )
+            is not None
+        )
+        others = [e for e, now in zip(fresh, urgent, strict=True) if now or late]
         if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
             hit = {o.key for o in in_way}
             hit |= {v.obstacle.key for v in violated}
