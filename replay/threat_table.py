@@ -45,6 +45,7 @@ from replay.threats import (
     StaticThreat,
     Threat,
     circle_edges,
+    solid_separation,
 )
 
 FloatArray = npt.NDArray[np.float64]
@@ -351,7 +352,4 @@ class ThreatTable:
         dr = np.hypot(q[:, 0, None] - cx, q[:, 1, None] - cy) - self._cy_r[on]
         z = q[:, 2, None]
         dz = np.maximum(self._cy_bottom[on] - z, z - self._cy_top[on])
-        both = (dr > 0) & (dz > 0)
-        return np.asarray(
-            np.where(both, np.hypot(np.maximum(dr, 0), np.maximum(dz, 0)), np.maximum(dr, dz))
-        )
+        return solid_separation(dr, dz)

@@ -290,6 +290,18 @@ class HillThreat(Threat):
 EDGE_SUFFIXES = ("#left", "#right")  # the outline returns of a solid (radar_points)
 
 
+def solid_separation(dr: npt.ArrayLike, dz: npt.ArrayLike) -> FloatArray:
+    """The signed distance to a vertical solid (a cylinder, a prism) from the horizontal signed
+    distance ``dr`` to its outline and the vertical one ``dz`` outside [bottom, top] (both
+    negative inside): ``hypot(dr, dz)`` beyond an edge (both > 0), else the larger of the two."""
+    r = np.asarray(dr, dtype=np.float64)
+    z = np.asarray(dz, dtype=np.float64)
+    both = (r > 0) & (z > 0)
+    return np.asarray(
+        np.where(both, np.hypot(np.maximum(r, 0), np.maximum(z, 0)), np.maximum(r, z))
+    )
+
+
 def outline_edges(observer: npt.ArrayLike, boundary: npt.ArrayLike, z: float) -> FloatArray | None:
     """The left and right edges (2, 3) of a solid's horizontal section as seen from
     ``observer``: of the section's ``boundary`` points (K, 2), the two at the extreme bearings
@@ -379,10 +391,7 @@ class CylinderThreat(Threat):
         q = as_points(p)
         dr = np.hypot(q[..., 0] - self.center[0], q[..., 1] - self.center[1]) - self.radius
         dz = np.maximum(self.bottom - q[..., 2], q[..., 2] - self.top)
-        both = (dr > 0) & (dz > 0)
-        return np.asarray(
-            np.where(both, np.hypot(np.maximum(dr, 0), np.maximum(dz, 0)), np.maximum(dr, dz))
-        )
+        return solid_separation(dr, dz)
 
     def nearest_point(self, p: npt.ArrayLike) -> FloatArray:
         """The point of the solid cylinder closest to p (p itself inside)."""
@@ -544,10 +553,7 @@ class PrismThreat(Threat):
         q = as_points(p)
         dr, _ = self._horizontal(q)
         dz = np.maximum(self.bottom - q[..., 2], q[..., 2] - self.top)
-        both = (dr > 0) & (dz > 0)
-        return np.asarray(
-            np.where(both, np.hypot(np.maximum(dr, 0), np.maximum(dz, 0)), np.maximum(dr, dz))
-        )
+        return solid_separation(dr, dz)
 
     def nearest_point(self, p: npt.ArrayLike) -> FloatArray:
         """The point of the solid prism closest to p (p itself inside)."""

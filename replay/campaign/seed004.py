@@ -41,6 +41,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from replay.threats import solid_separation
+
 FloatArray = npt.NDArray[np.float64]
 
 SPEED_MPS = 15.0
@@ -85,9 +87,7 @@ def cylinder_separation(center: tuple[float, float], radius: float, top: float) 
     p = _leg(_TIMES)
     dr = np.hypot(p[:, 0] - center[0], p[:, 1] - center[1]) - radius
     dz = p[:, 2] - top
-    both = (dr > 0) & (dz > 0)
-    sep = np.where(both, np.hypot(np.maximum(dr, 0), np.maximum(dz, 0)), np.maximum(dr, dz))
-    return float(sep.min())
+    return float(solid_separation(dr, dz).min())
 
 
 def intruder_separation(start: FloatArray, velocity: FloatArray, radius: float) -> float:
