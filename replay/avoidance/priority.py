@@ -140,6 +140,7 @@ from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.ctga import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GoTo, HoldPosition, YawTo
+from replay.multirotor_stack import ControllerDesign
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -153,7 +154,7 @@ SLOT_SNAP_DEG = 0.5  # a beam bearing this close to a multiple of 11.25 deg coun
 YAW_TOL_DEG = 1.0  # a scan step's reading is taken within this of its yaw
 ARRIVE_M = 0.5  # a set-point (or the altitude) is reached within this (3-D)
 REST_MPS = 0.25  # at rest below this ground speed
-BRAKE_MPS2 = 3.0  # the multirotor's braking deceleration (MultirotorStack's design brake)
+BRAKE_MPS2 = ControllerDesign().brake  # the multirotor stack's braking deceleration
 REACTION_S = 0.3  # a scan period, a decision period and the controller's lag, rounded up
 FLANK_CLEARANCE = 2.0 * math.sin(math.radians(SLOT_DEG / 2.0))  # x (R - tau): I_i to past D_i
 TIE_M = 0.01
