@@ -29,6 +29,15 @@ picture assumes; ``"body"`` keeps them fixed in the body frame, turned by roll, 
 (3-2-1, :func:`replay.frames.rotation_body_to_ned`), to study that effect.  The unit directions
 of the beams in the map frame are :attr:`RangefinderPicture.beam_directions`.
 
+**Cone** (``spread_deg``, 0 by default: a line).  A real rangefinder has a field of view; a
+beam of half-angle ``spread_deg`` is cast as five rays, its axis and four on its rim (turned down,
+up, right and left by the spread, in the beam's own frame: level and at the heading when
+gimballed, tilting with the body when body-mounted), and reads the ray whose hit is nearest
+*horizontally* (seed 003's picture is horizontal; the axis wins a tie within ``TIE_M``, 1 um).  ``beam_ranges`` and
+``beam_directions`` are that ray's, so ``beam_ends`` is the hit point; ``beam_reach`` is its
+horizontal distance (``range_m`` for a beam that hit nothing).  The priority loop asks for
+``atan(tau / (R - tau))`` (:mod:`replay.avoidance.priority`, "tau round the beams").
+
 **What a beam hits.**  The nearest of: every threat active at t -- static spheres, each point's
 sphere of a hill, intruders at their position at t, cylinders, prisms, convex bodies
 (:mod:`replay.raycast`: exact for all but the body, which is searched to 1e-12 of the range on
@@ -116,6 +125,7 @@ IntArray = npt.NDArray[np.int64]
 SENSOR_NAME = "rangefinder"
 MOUNTS = ("gimballed", "body")
 TERRAIN_SOURCE = "terrain"
+TIE_M = 1e-6  # a cone's rim ray reads only when nearer than its axis by more than this (m)
 
 
 def wrap_bearing(a: npt.ArrayLike) -> FloatArray:
@@ -146,6 +156,13 @@ class RangefinderPicture(RadarPicture):
     def beam_hits(self) -> BoolArray:
         """(B,) whether each beam hit something within range."""
         return np.array([s != "" for s in self.beam_sources], dtype=bool)
+
+    @cached_property
+    def beam_reach(self) -> FloatArray:
+        """(B,) horizontal distance to each beam's hit; ``range_m`` where it hit nothing (a ray
+        of the cone's rim reaches ``range_m cos(spread)`` horizontally, the axis ``range_m``)."""
+        flat = np.hypot(self.beam_directions[:, 0], self.beam_directions[:, 1])
+        return np.where(self.beam_hits, self.beam_ranges * flat, self.range_m)
 
     @cached_property
     def beam_ends(self) -> FloatArray:
@@ -254,12 +271,16 @@ class Rangefinders:
         noise_m: float = 0.0,
         seed: int | np.random.Generator | None = None,
         *,
+        spread_deg: float = 0.0,
         terrain_cell_m: float = 1.0,
         assume_static: bool = False,
     ) -> None:
         self.range_m = sensor_number(SENSOR_NAME, "range_m", range_m, 0.0, True)
         self.period_s = sensor_number(SENSOR_NAME, "period_s", period_s, 0.0, True)
         self.noise_m = sensor_number(SENSOR_NAME, "noise_m", noise_m, 0.0, False)
+        self.spread_deg = sensor_number(SENSOR_NAME, "spread_deg", spread_deg, 0.0, False)
+        if self.spread_deg >= 45.0:
+            raise InputError(f"rangefinder spread_deg must be below 45 deg; got {spread_deg!r}")
         self.terrain_cell_m = sensor_number(
             SENSOR_NAME, "terrain_cell_m", terrain_cell_m, 0.0, True
         )
@@ -300,13 +321,22 @@ class Rangefinders:
                 )
             phi, theta, psi = float(x[PHI]), float(x[THETA]), float(x[PSI])
         yaw = float(wrap_bearing(psi))
-        b = self.bearings
+        return yaw, self._rays(phi, theta, psi, yaw, 0.0, 0.0)
+
+    def _rays(
+        self, phi: float, theta: float, psi: float, yaw: float, down: float, right: float
+    ) -> FloatArray:
+        """(B, 3) unit directions in the map frame of the beams' rays turned ``right`` and
+        depressed by ``down`` (rad) from their axes."""
+        b = self.bearings + right
+        c, s = math.cos(down), math.sin(down)
         if self.mount == "gimballed":
             az = yaw + b
-            return yaw, np.column_stack([np.sin(az), np.cos(az), np.zeros(len(b))])
-        body = np.column_stack([np.cos(b), np.sin(b), np.zeros(len(b))])  # FRD: x fwd, y right
+            return np.column_stack([c * np.sin(az), c * np.cos(az), np.full(len(b), -s)])
+        # FRD: x forward, y right, z down
+        body = np.column_stack([c * np.cos(b), c * np.sin(b), np.full(len(b), s)])
         ned = body @ rotation_body_to_ned(phi, theta, psi).T
-        return yaw, ned_to_map(ned)
+        return ned_to_map(ned)
 
     def scan(
         self,
@@ -321,6 +351,13 @@ class Rangefinders:
         own = check_own_position(own_position)
         t = sensor_number(SENSOR_NAME, "scan time", t, -math.inf, False)
         yaw, dirs = self.directions(state)
+        n = len(dirs)
+        if self.spread_deg > 0.0:  # the cone's rim: down, up, right, left of each axis
+            x = np.zeros(12) if state is None else np.asarray(state, dtype=np.float64).reshape(-1)
+            angles = (float(x[PHI]), float(x[THETA]), float(x[PSI]), yaw)
+            a = math.radians(self.spread_deg)
+            rim = [self._rays(*angles, d, r) for d, r in ((a, 0.0), (-a, 0.0), (0.0, a), (0.0, -a))]
+            dirs = np.vstack([dirs, *rim])
         dist, labels = self._cast(t, own, dirs, threats)
         if terrain_model is not None:
             ground = terrain_model.raycast(np.broadcast_to(own, dirs.shape), dirs, self.range_m)
@@ -328,8 +365,16 @@ class Rangefinders:
             ground = ray_flat_ground(dirs, float(own[2]))
         dist = np.column_stack([dist, ground])  # the terrain last: a tie goes to the threat
         best = np.argmin(dist, axis=1)
-        rows = np.arange(len(dirs))
-        ranges = dist[rows, best]
+        ranges = dist[np.arange(len(dirs)), best]
+        if len(dirs) > n:  # per beam the ray whose hit is nearest horizontally (axis on a tie)
+            flat = np.hypot(dirs[:, 0], dirs[:, 1])
+            reach = np.where(ranges <= self.range_m, ranges * flat, math.inf).reshape(-1, n)
+            rim = 1 + np.argmin(reach[1:], axis=0)
+            cols = np.arange(n)
+            # the axis unless a rim ray is nearer by more than rounding (a wall: all alike)
+            closer = reach[rim, cols] < reach[0] - TIE_M
+            pick = cols + n * np.where(closer, rim, 0)
+            dirs, best, ranges = dirs[pick], best[pick], ranges[pick]
         hit = ranges <= self.range_m
         if self.noise_m > 0:
             noise = self.rng.normal(0.0, self.noise_m, len(dirs))

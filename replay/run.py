@@ -24,7 +24,14 @@ import yaml
 
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
-from replay.sim import ReplayConfig, ReplayResult, estimated_flight_time, simulate, time_limit
+from replay.sim import (
+    ReplayConfig,
+    ReplayResult,
+    estimated_flight_time,
+    rangefinder_spread,
+    simulate,
+    time_limit,
+)
 from replay.threat_file import load_threats, recorded_text, threats_to_records
 from replay.threats import ThreatSet
 from replay.vehicle.multirotor import MULTIROTOR_PRESETS, MultirotorParams
@@ -59,6 +66,7 @@ class ReplayRequest:
     rangefinder_beams: int = 4
     rangefinder_mount: str = "gimballed"  # or "body"
     rangefinder_noise: float = 0.0
+    rangefinder_spread: float | None = None  # deg; None: the avoider's choice (replay.sim)
     margin: float = 0.0  # success needs every separation >= this (m)
     temperature_offset: float = 0.0  # K off the ISA standard day
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
@@ -130,6 +138,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         rangefinder_beams=r.rangefinder_beams,
         rangefinder_mount=r.rangefinder_mount,
         rangefinder_noise=r.rangefinder_noise,
+        rangefinder_spread=r.rangefinder_spread,
         margin=r.margin,
         temperature_offset=r.temperature_offset,
     )
@@ -211,6 +220,7 @@ def run_replay(
                 "beams": c.rangefinder_beams,
                 "mount": c.rangefinder_mount,
                 "noise_m": c.rangefinder_noise,
+                "spread_deg": rangefinder_spread(c, prep.avoider),
             }
         )
     if mission.terrain is not None:

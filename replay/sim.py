@@ -80,6 +80,8 @@ class ReplayConfig:
     rangefinder_beams: int = 4  # evenly spaced from the front
     rangefinder_mount: str = "gimballed"  # or "body" (fixed in the body, tilting with it)
     rangefinder_noise: float = 0.0  # 1-sigma range noise (m)
+    # each beam a cone of this half-angle (deg; None: the avoider's choice, else a line)
+    rangefinder_spread: float | None = None
     temperature_offset: float = 0.0  # K off the ISA standard day (hot day > 0), within +-50
 
     def __post_init__(self) -> None:
@@ -103,6 +105,14 @@ class ReplayConfig:
             mount = self.rangefinder_mount
             raise InputError(
                 f"replay setting 'rangefinder_mount' must be gimballed or body; got {mount!r}"
+            )
+        spread = self.rangefinder_spread
+        if spread is not None and not (
+            isinstance(spread, int | float) and math.isfinite(spread) and 0 <= spread < 45
+        ):
+            raise InputError(
+                f"replay setting 'rangefinder_spread' must be a number of degrees in [0, 45); "
+                f"got {spread!r}"
             )
         for name in (
             "coop_noise_position",
@@ -218,6 +228,16 @@ def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
         )
 
 
+def rangefinder_spread(cfg: ReplayConfig, avoider: Any) -> float:
+    """The half-angle of the rangefinders' beams (deg): the setting, else the avoider's
+    (``rangefinder_spread_deg(R)``: the priority loop's sees tau round a beam's axis at R - tau),
+    else 0 (a line)."""
+    if cfg.rangefinder_spread is not None:
+        return float(cfg.rangefinder_spread)
+    hook = getattr(avoider, "rangefinder_spread_deg", None)
+    return float(hook(cfg.rangefinder_range)) if hook is not None else 0.0
+
+
 def simulate(
     mission: Mission,
     threats: ThreatSet,
@@ -279,6 +299,7 @@ def simulate(
             noise_m=cfg.rangefinder_noise,
             seed=rng,
             assume_static=True,
+            spread_deg=rangefinder_spread(cfg, avoider),
         )
     else:
         radar = Radar(

@@ -27,9 +27,14 @@ def test_the_spec_flies_four_scenarios_by_four_avoiders_with_the_rangefinders() 
         "priority-corridor",
         "priority-box",
     ]
-    assert [a.name for a in spec.avoiders] == ["priority", "pso-ca", "ctga", "fga"]
+    names = ["priority", "pso-ca", "pso-ca", "ctga", "ctga", "fga", "fga"]
+    assert [a.name for a in spec.avoiders] == names
+    # the others at a tight (tau-like) and a wide (R / 2) safety distance
+    safety = {"pso-ca": "rs", "ctga": "r_safe", "fga": "d_m"}
+    kept = [dict(a.options)[safety[a.name]] for a in spec.avoiders if a.name in safety]
+    assert kept == [2, 10, 2, 10, 3, 10]
     assert spec.sensor == "rangefinder" and spec.sensor_range == 20.0 and spec.runs == 1
-    assert len(spec.all_runs()) == 16
+    assert len(spec.all_runs()) == 28
     assert BENCH.spec_paths() == [SPEC]
 
 
@@ -65,7 +70,7 @@ def test_a_tiny_version_flies_and_reports_the_outcome_beside_the_right_one(
     )
     with Store(tmp_path / "s.sqlite", "test") as store:
         runs, rows = run_campaign(tiny, store, version="test", command="test", keep="none")
-    assert len(runs) == len(rows) == 2 and all(r["status"] == "ok" for r in rows)
+    assert len(runs) == len(rows) == 3 and all(r["status"] == "ok" for r in rows)
     lines = {(ln[1], ln[2]): ln for ln in BENCH.lines(rows)}
     assert {ln[0] for ln in lines.values()} == {"convex"}
     # the priority loop goes round the tower: the right outcome, longer than the straight line
@@ -74,7 +79,11 @@ def test_a_tiny_version_flies_and_reports_the_outcome_beside_the_right_one(
     assert 1.05 < float(lines["priority", "PLR (flown / straight)"][3]) < 2.0
     assert float(lines["priority", "smallest separation (m)"][3]) >= 2.0
     assert float(lines["priority", "flight time (s)"][3]) > 30.0  # 150 m at 5 m/s, and more
-    assert lines["fga", "outcome"][4] == "goal"
+    # FGA keeping 10 m from what the beams have seen clears the tower; keeping 3 m it goes round
+    # the point it has seen and meets the rest of the tower
+    assert lines["fga d_m=10", "outcome"][3:] == ("goal", "goal", "right")
+    assert float(lines["fga d_m=10", "smallest separation (m)"][3]) > 0.0
+    assert lines["fga d_m=3", "outcome"][3:] == ("goal, through an obstacle", "goal", "wrong")
 
 
 def test_the_box_reports_its_outcome_and_errors_their_reason() -> None:
@@ -107,7 +116,7 @@ def test_the_box_reports_its_outcome_and_errors_their_reason() -> None:
     assert not any(ln[2] == "success" for ln in lines)  # no success rate for the box
     assert lines[-1] == (
         "box",
-        "fga",
+        "fga d_m=3",
         "outcome",
         "error: InputError: FGA: the turn radius is too large",
         "target unreachable",

@@ -332,3 +332,24 @@ def test_a_large_obstacle_seen_piece_by_piece_is_several_circles() -> None:
     assert len({d["clockwise"] for d in arcs}) == 1
     met = r.metrics
     assert met.success and 70.0 <= met.min_separation["ridge"]["value"] <= 130.0
+
+
+def test_a_solid_met_by_one_beam_is_gone_round_at_r_safe() -> None:
+    """A rangefinder meets seed 003's 12 m tower at one point a scan: a circle of radius 0, kept
+    R_safe away (it used to be dropped as "nothing at this altitude" and the aircraft flew into
+    the tower undecided).  R_safe = 10 m covers the part of the tower the beam has not seen."""
+    from replay.vehicle.multirotor import MULTIROTOR_PRESETS
+
+    mission = load_mission(Path("data/scenarios/priority-mission.yaml"))
+    doc = yaml.safe_load(Path("data/scenarios/priority-convex.yaml").read_text(encoding="utf-8"))
+    threats = threats_from_records(doc["threats"])
+    opts = {"r_det": 14.0, "point_radius": 2.0, "moving_radius": 2.0, "piece_m": 2.0}
+    r = simulate(
+        mission,
+        threats,
+        CtgaAvoider(r_safe=10.0, **opts),
+        MULTIROTOR_PRESETS["quadrotor"],
+        config=ReplayConfig(sensor="rangefinder", duration=120.0),
+    )
+    assert r.decisions and all(d["obstacle"].startswith("tower") for d in r.decisions)
+    assert r.metrics.success and r.metrics.min_separation["tower"]["value"] > 2.0

@@ -304,6 +304,7 @@ def _fly(
             beam_bearings=np.array(FOUR),
             beam_courses=np.array(courses),
             beam_ranges=np.array([h[0] for h in hits]),
+            beam_reach=np.array([h[0] for h in hits]),
             beam_sources=tuple(h[1] for h in hits),
         )
         moving = mode[0] in ("goto", "fly")
@@ -647,3 +648,34 @@ def test_a_flight_is_identical_when_repeated() -> None:
     b = _replay("data/scenarios/priority-convex.yaml", seed=3)
     np.testing.assert_array_equal(a.states, b.states)
     assert [d["setpoints"] for d in a.decisions] == [d["setpoints"] for d in b.decisions]
+
+
+def test_a_roof_just_below_the_flight_level_is_gone_round_not_skimmed() -> None:
+    """A 12 m drum whose top is 1 m under the flight level (10 m): flown with lines for beams
+    the loop passes over it 1 m up (the level beams meet nothing); with its cones
+    (atan(tau / (R - tau)) = 6.3 deg, the default) the lower rim meets the drum's side, the
+    aircraft stops and goes round it, never within tau."""
+    from planner.mission import load_mission
+    from replay.sim import ReplayConfig, simulate
+    from replay.threat_file import threats_from_records
+
+    av = PriorityAvoider()
+    assert av.rangefinder_spread_deg(20.0) == pytest.approx(math.degrees(math.atan(2.0 / 18.0)))
+    drum = [{"id": "drum", "kind": "cylinder", "center": [2.0, 75.0], "radius": 12.0, "top": 9}]
+
+    def fly(spread: float | None) -> Any:
+        return simulate(
+            load_mission(MISSION),
+            threats_from_records(drum),
+            PriorityAvoider(),
+            MULTIROTOR_PRESETS["quadrotor"],
+            config=ReplayConfig(sensor="rangefinder", duration=300.0, rangefinder_spread=spread),
+        )
+
+    skim = fly(0.0)
+    assert skim.metrics.success and skim.metrics.min_separation["drum"]["value"] < 1.5
+    cone = fly(None)
+    m = cone.metrics
+    assert m.end_reason == "goal" and m.success
+    assert m.min_separation["drum"]["value"] >= 2.0  # tau, in 3-D: beside the drum, not over it
+    assert any(d.get("priority") == "scan" for d in cone.decisions)

@@ -103,6 +103,8 @@ def test_bad_settings_are_refused() -> None:
         ({"range_m": 0.0}, "range_m must be a finite number > 0"),
         ({"noise_m": -1.0}, "noise_m must be a finite number >= 0"),
         ({"seed": "x"}, "seed must be an integer or a numpy Generator"),
+        ({"spread_deg": -1.0}, "spread_deg must be a finite number >= 0"),
+        ({"spread_deg": 45.0}, "spread_deg must be below 45 deg"),
     ):
         with pytest.raises(InputError, match=match):
             Rangefinders(**kwargs)  # type: ignore[arg-type]
@@ -122,6 +124,40 @@ def test_due_every_period_and_reset() -> None:
     assert not rf.due(0.05) and rf.due(t)
     rf.reset()
     assert rf.due(0.0)
+
+
+def test_a_cone_sees_what_stands_just_below_or_beside_its_axis() -> None:
+    """Half-angle 6.34 deg = atan(2 / 18): a wall whose top is 1 m below the flight level, 10 m
+    ahead, is missed by a line and met by the cone's lower ray at its horizontal distance; a
+    post 1.5 m right of the front beam's line 16 m ahead (the rim is 1.78 m off there) by its
+    right ray; flat ground 2 m below
+    by the lower ray at 2 / tan(spread) = 18 m horizontally; the axis wins a tie."""
+    spread = math.degrees(math.atan(2.0 / 18.0))
+    low = PrismThreat(id="low", footprint=((AC[0] - 5, AC[1] + 10), (AC[0] + 5, AC[1] + 10),
+                      (AC[0] + 5, AC[1] + 11), (AC[0] - 5, AC[1] + 11), (AC[0] - 5, AC[1] + 10)),
+                      bottom=0.0, top=AC[2] - 1.0)  # fmt: skip
+    line = Rangefinders().scan(0.0, AC, (low,))
+    cone = Rangefinders(spread_deg=spread).scan(0.0, AC, (low,))
+    assert line.beam_sources[FRONT] == "" and line.beam_reach[FRONT] == 20.0
+    assert cone.beam_sources[FRONT] == "low"
+    assert cone.beam_reach[FRONT] == pytest.approx(10.0, abs=1e-9)
+    a = math.radians(spread)
+    assert cone.beam_ranges[FRONT] == pytest.approx(10.0 / math.cos(a), abs=1e-9)
+    assert cone.beam_directions[FRONT] == pytest.approx([0.0, math.cos(a), -math.sin(a)])
+    assert cone.beam_ends[FRONT] == pytest.approx(at(0.0, 10.0, -10.0 * math.tan(a)))
+    assert cone.positions[0] == pytest.approx(cone.beam_ends[FRONT])  # the return is the hit
+    post = CylinderThreat(id="post", center=(AC[0] + 1.5 + 0.2, AC[1] + 16.0), radius=0.2,
+                          bottom=0.0, top=100.0)  # fmt: skip
+    assert Rangefinders().scan(0.0, AC, (post,)).beam_sources[FRONT] == ""
+    seen = Rangefinders(spread_deg=spread).scan(0.0, AC, (post,))
+    assert seen.beam_sources[FRONT] == "post" and 15.8 < seen.beam_reach[FRONT] < 16.2
+    ground = Rangefinders(spread_deg=spread).scan(0.0, np.array([0.0, 0.0, 2.0]), ())
+    assert ground.beam_sources == ("terrain",) * 4
+    assert ground.beam_reach == pytest.approx([18.0] * 4, abs=1e-9)
+    wall = CylinderThreat(id="wall", center=(AC[0], AC[1] + 108.0), radius=100.0, top=100.0)
+    flat = Rangefinders(spread_deg=spread).scan(0.0, AC, (wall,))
+    assert flat.beam_ranges[FRONT] == pytest.approx(8.0, abs=1e-9)  # the axis, not a rim ray
+    assert flat.beam_directions[FRONT] == pytest.approx([0.0, 1.0, 0.0])
 
 
 # -- exact distances, shape by shape ------------------------------------------------------------
@@ -443,6 +479,7 @@ def test_a_quadrotor_mission_with_rangefinders_records_the_beams(tmp_path: Path)
         "beams": 4,
         "mount": "gimballed",
         "noise_m": 0.0,
+        "spread_deg": 0.0,  # no avoider: lines
     }
     seen = [d for scan in run.detections for d in scan.detections]
     assert seen and {d["id"] for d in seen} == {"tower#beam1"}  # the right beam only

@@ -19,7 +19,9 @@ circle equals it whenever the farthest pair spans them all).  Its radius ``R_obs
   ``Gamma <= 1`` (§2.2's "``Gamma > 1``" is a misprint);
 - with the radar, the circle of the returns seen so far (a solid's nearest points and outline
   edges), plus ``point_radius`` when the returns are points without extent (a sphere's centre, a
-  hill's points), as PSO-CA's RS.  An obstacle whose circle is wider than ``piece_m`` (1 km) is
+  hill's points), as PSO-CA's RS.  A solid met at one point so far (a rangefinder's single
+  beam on a wall) is a circle of radius 0: the arc still keeps ``R_safe`` from it, and grows as
+  more of the solid is seen.  An obstacle whose circle is wider than ``piece_m`` (1 km) is
   cut into pieces, one per ``piece_m`` square of the map grid its returns fall in, each with its
   own circle (named ``"<id>@<i>/<j>"``, stable from scan to scan): a large obstacle seen piece by
   piece becomes several circles (§2.1, Figs 2, 3, 5), gone round in turn as a complex one.
@@ -337,8 +339,7 @@ class CtgaAvoider:
         if st is None:
             return []
         z = float(ctx.position[2])
-        # above or below a body: nothing to go round at this altitude
-        out = [o for o, top in self._stationary(st) if o.radius > 0.0 and z - top <= self.r_safe]
+        out = [o for o, top in self._stationary(st) if z - top <= self.r_safe]
         for tr in st.tracks:
             i = st.index[tr.id]
             size = float(st.radii[i])
@@ -366,6 +367,8 @@ class CtgaAvoider:
             if np.isfinite(reported).any():
                 r = float(body.outer_radius)  # cooperative: the section at this altitude
                 top = body.top
+                if r <= 0.0:  # above or below the body: nothing to go round at this altitude
+                    continue
             else:
                 points = not bool(st.extended[idx].all())
                 pad = self.point_radius if points else 0.0

@@ -8,7 +8,23 @@ IMU yaw (§III-A 3).  The mission's first waypoint is the start ``S_0``, its las
 **Altitude (§V).**  The paper climbs to 10 m above the higher of the start's and the target's
 ground elevation; that is the default (``above_m`` 10 m over the terrain under both points, flat
 ground 0 m), or ``altitude_m`` as given.  The aircraft flies level there: obstacles are what the
-level rangefinders hit at that altitude (threats, terrain).
+rangefinders hit (threats, terrain).
+
+**tau round the beams.**  A beam that is a line sees only what crosses it: a roof or a ridge just
+below the flight level passes under the aircraft, a corner just beside the way of step 2 passes
+beside it (flown with lines, the Bubenec mission at 10 m crossed a roof 0.3 m below it and
+passed building corners 0.8 and 1.1 m off; the Jacksboro one a ridge 0.83 m below).  Each beam
+is therefore a cone of half-angle ``atan(tau / (R - tau))``
+(:meth:`PriorityAvoider.rangefinder_spread_deg`, 6.3 deg for the defaults; a real rangefinder
+has a field of view, ultrasonic ones wider than this; ``--rangefinder-spread`` overrides it),
+cast as its axis and four rays on its rim (down, up, right, left), and it reads the hit nearest
+horizontally (:attr:`~replay.rangefinder.RangefinderPicture.beam_reach`).  At the set-point
+circle the rim is ``tau`` from the axis: whatever stands within ``tau`` below the flight level or
+beside a beam's line there stops the aircraft or closes the direction like a wall.  Over flat
+ground 10 m below, the lower rim meets the ground at 90 m, beyond R; flown lower than ``R
+sin(spread)`` (2.2 m) above open ground, the ground fills every beam and the target is
+unreachable, as it should be for an aircraft that must keep ``tau`` from the ground.  What lies
+between the rays of a cone is not seen, as with any beam.
 
 **Steps 1-2.**  Climb (or descend) over ``S_0`` to the altitude facing the target (``atan2`` of
 the east and north offsets), then fly straight to it (:class:`~replay.guidance.FollowWaypoints`
@@ -85,7 +101,7 @@ outcome (:data:`OUTCOMES`):
 - ``target unreachable: circled`` (:class:`Surround`, Bug1's test): the moves of ``S`` have swept
   every direction round the target (each move the bearings between its ends, seen from the
   target, the short way) without coming ``R - tau`` (one move) nearer to it than when the sweep
-  began.  A closed box ends after one lap (the flight: 47 set-points, 653 s), and so does a
+  began.  A closed box ends after one lap (the flight: 246 s), and so does a
   target inside an obstacle once the aircraft has gone round it;
 - ``loop: set-points revisited`` (:class:`LoopDetector`): a *place* is a point of ``S`` farther
   than ``visited_m`` from every earlier one; each scan is made at a place with the number of
@@ -100,16 +116,15 @@ outcome (:data:`OUTCOMES`):
 A run never loops forever.  These end the run through :attr:`~replay.guidance.AvoidanceDecision.
 end`: the run's end reason, never a success, and ``terrapath replay`` exits 3.
 
-**Limits.**  Beams are lines: a corner between two of the 32 directions that none of them hits
-can still come nearer than ``tau`` (:func:`keeps_clear` knows only the hits), and step 2's front
-beam sees nothing beside the way.  The greedy order (nearest the target first) fills a concave
-trap with visited places before it leaves it: the U trap of ``data/scenarios`` (50 x 35 m, R =
-20 m) takes 73 set-points and 943 s, beyond a replay's default time limit (1.5 x the straight
-flight + 10 min): give ``--duration``.  The terrain is an obstacle only where it rises above the
-flight altitude (the level beams hit it): ground just below it passes under the aircraft at any
-height -- between two hollows of ``data/maps/lidar_1m_dem`` (379.8 and 380.3 m, a rise to
-393.6 m between) the flight at 390.3 m reached the target after 170 set-points and 2246 s, 0.3 m
-over the ground at its lowest.
+**Limits.**  A beam's cone is five rays: a corner between two of the 32 directions that none of
+them hits can still come nearer than ``tau`` (:func:`keeps_clear` knows only the hits).  The
+greedy order (nearest the target first) fills a concave trap with visited places before it leaves
+it: the U trap of ``data/scenarios`` (50 x 35 m, R = 20 m) takes 1001 s, beyond a replay's
+default time limit (1.5 x the straight flight + 10 min): give ``--duration``.  Between two
+hollows of ``data/maps/lidar_1m_dem`` (379.8 and 380.3 m, a rise to 393.6 m between) the flight
+at 390.3 m ends ``loop: set-points revisited`` after 73 set-points and 944 s, never nearer the
+ground than 2.9 m (with lines for beams it reached the target after 170 set-points and 2246 s,
+0.3 m over the ground at its lowest).
 
 **Records.**  Every decision carries ``priority`` (the step), ``setpoints`` (``S`` so far) and
 the point it appended, if any; a completed scan carries ``scan`` (``Ir``, ``Dr``, ``IP``, ``DP``,
@@ -547,6 +562,13 @@ class PriorityAvoider:
                 f"option tau = {self.tau:g} m): fly slower or use longer rangefinders"
             )
 
+    def rangefinder_spread_deg(self, range_m: float) -> float:
+        """The half-angle of the beams' cones (module docstring, "tau round the beams"):
+        ``atan(tau / (R - tau))`` in degrees (0 with ``tau`` 0 or ``R <= tau``: refused later)."""
+        if self.tau <= 0.0 or range_m <= self.tau:
+            return 0.0
+        return math.degrees(math.atan(self.tau / (range_m - self.tau)))
+
     def check_setup(self, config: Any, mission: Any, threats: Any, grid: Any, speed: float) -> None:
         """Before the flight (``replay.run.prepare_replay``): the sensor (the rangefinders, a
         beam layout on the 32 directions, ``R`` against ``tau`` and the stop at ``speed``: one
@@ -759,7 +781,7 @@ class PriorityAvoider:
         )
 
     def _front(self, ctx: AvoidanceContext) -> float:
-        return float(ctx.picture.beam_ranges[self.front])
+        return float(ctx.picture.beam_reach[self.front])
 
     def _on_fly(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
         """Step 2's watch: a hit closer than R - tau and than the target stops the aircraft."""
@@ -829,7 +851,7 @@ class PriorityAvoider:
         step = sc.steps[sc.k]
         for b, bearing_b in enumerate(pic.beam_bearings):
             n = slot_of(step, float(bearing_b))
-            value = float(pic.beam_ranges[b])
+            value = float(pic.beam_reach[b])
             if n % 2 == 0:
                 sc.ir[n // 2] = value
             else:

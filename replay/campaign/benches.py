@@ -236,6 +236,22 @@ def _seed004(paper: dict[str, tuple[int, int]]) -> Callable[[list[dict[str, Any]
 
 # seed 003's scenarios in the table's order; the right outcome of each is the target, but the
 # box round it is closed
+# the option that sets how far each avoider keeps from what it sees (seed003-uncharted flies two)
+SAFETY_OPTION = {"pso-ca": "rs", "ctga": "r_safe", "fga": "d_m"}
+
+
+def _safety_label(avoider_label: str) -> str:
+    """``ctga[piece_m=2,r_safe=10,...]`` -> ``ctga r_safe=10``; the priority loop by its name."""
+    name = optimizer_of(avoider_label)
+    key = SAFETY_OPTION.get(name)
+    if key is None or "[" not in avoider_label:
+        return name
+    options = dict(
+        kv.split("=", 1) for kv in avoider_label.split("[", 1)[1].rstrip("]").split(",") if kv
+    )
+    return f"{name} {key}={options[key]}" if key in options else name
+
+
 SEED003_SCENARIOS = ("priority-convex", "priority-u-trap", "priority-corridor", "priority-box")
 SEED003_UNREACHABLE = ("priority-box",)
 
@@ -246,14 +262,15 @@ def _seed003(rows: list[dict[str, Any]]) -> list[Line]:
     groups = _groups(rows)
     scenarios = [*SEED003_SCENARIOS, *sorted({row for row, _ in groups} - set(SEED003_SCENARIOS))]
 
-    def key(item: tuple[tuple[str, str], Any]) -> tuple[int, bool, str]:
+    def key(item: tuple[tuple[str, str], Any]) -> tuple[int, bool, str, float]:
         (row, av), _ = item
-        return (scenarios.index(row), optimizer_of(av) != "priority", av)
+        name, _, value = _safety_label(av).partition("=")
+        return (scenarios.index(row), optimizer_of(av) != "priority", name, float(value or 0))
 
     out: list[Line] = []
     for (row, av), runs in sorted(groups.items(), key=key):
         name = row.removeprefix("priority-")
-        short = optimizer_of(av)
+        short = _safety_label(av)
         closed = row in SEED003_UNREACHABLE
         right = "target unreachable" if closed else "goal"
         for r in runs:

@@ -220,6 +220,13 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     help="Rangefinder range noise, 1 sigma (m).",
 )
 @click.option(
+    "--rangefinder-spread",
+    type=click.FloatRange(min=0.0, max=45.0, max_open=True),
+    default=None,
+    help="Half-angle of each beam's cone (deg; rays on its axis and rim, the nearest hit "
+    "counts).  Default: the priority loop's atan(tau / (R - tau)), else 0 (a line).",
+)
+@click.option(
     "--coop-noise",
     type=(click.FloatRange(min=0.0), click.FloatRange(min=0.0)),
     default=(0.0, 0.0),
@@ -290,6 +297,7 @@ def replay_cmd(
     rangefinder_beams: int,
     rangefinder_mount: str,
     rangefinder_noise: float,
+    rangefinder_spread: float | None,
     margin: float,
     temperature_offset: float,
     terrain_following: float | None,
@@ -346,6 +354,7 @@ def replay_cmd(
         rangefinder_beams=rangefinder_beams,
         rangefinder_mount=rangefinder_mount,
         rangefinder_noise=rangefinder_noise,
+        rangefinder_spread=rangefinder_spread,
         margin=margin,
         temperature_offset=temperature_offset,
         terrain_following=terrain_following,
