@@ -301,8 +301,10 @@ QUADROTOR = MultirotorParams(
         "k_f = 8.54858e-6 N/(rad/s)^2, k_m = 0.016 m x k_f, 838 rad/s, rotor time constants "
         "12.5 ms up / 25 ms down, rotor drag 8.06428e-5; airframe drag 0.005/0.005/0.01 N/(m/s)^2 "
         "of rotorpy's Hummingbird set; envelope of PX4's multicopter position-controller defaults "
-        "(MPC_XY_VEL_MAX 12 m/s, MPC_Z_VEL_MAX_UP 3, MPC_Z_VEL_MAX_DN 1, MPC_TILTMAX_AIR 45 deg, "
-        "MPC_XY_CRUISE 5 m/s, MPC_YAWRAUTO_MAX 45 deg/s)"
+        "as its mc_pos_control_params.c defines them (MPC_XY_VEL_MAX 12 m/s, MPC_Z_VEL_MAX_UP 3, "
+        "MPC_Z_VEL_MAX_DN 1, MPC_TILTMAX_AIR 45 deg, MPC_XY_CRUISE 5 m/s, MPC_YAWRAUTO_MAX "
+        "45 deg/s; PX4's 2023 split of the file, multicopter_position_control_limits_params.c, "
+        "raises MPC_Z_VEL_MAX_DN to 1.5 m/s and keeps the others)"
     ),
 )
 
