@@ -14,8 +14,12 @@ title says so.
   -- a cylinder's circle, a convex body's widest section), the orbits an avoider commanded (CTGA's
   arcs, dotted), the priority loop's set-points (crosses) and the points of the track inside a
   threat's volume or a zone, in red.
+  When the flight covers a small part of a large map (under a third of it each way: a priority
+  loop's block of a city district) the view is zoomed onto the flight (:func:`zoom_box`).
 - **Separation** (middle): the distance from each threat's surface against time (NaN while it is
-  not active), the success margin and zero, violations in red.
+  not active), the success margin and zero, violations in red; the :data:`NEAREST_DRAWN` threats
+  that came closest (:func:`nearest_threats`: 143 buildings would be a legend, not a plot), the
+  scale up to four times the largest of their least separations.
 - **Above the ground** (bottom): the altitude above the terrain under the aircraft against time
   (with a DEM), or the altitude (flat ground).
 
@@ -41,6 +45,7 @@ from terrain.errors import InputError
 FloatArray = npt.NDArray[np.float64]
 MAX_POINTS = 20_000
 RED = "#d62728"
+NEAREST_DRAWN = 8  # threats drawn in the separation panel: those that came closest
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,10 +230,19 @@ def draw_run(view: RunView, out: str | Path) -> Path:
         ax.plot(s[:, 0], s[:, 1], "x", color="#ff7f0e", ms=5, mew=1.5, ls="", label="set-points S")
     if grid is None:
         _frame(ax, xyz, start)
+    else:
+        box = zoom_box(grid.bounds, np.vstack([xyz[:, :2], start[:, :2]]))
+        if box is not None:
+            ax.set_xlim(box[0], box[2])
+            ax.set_ylim(box[1], box[3])
     legend_below(ax)
 
     ax2 = fig.add_subplot(gs[1])
     margin = view.margin
+    shown = nearest_threats(sep, NEAREST_DRAWN)
+    if len(shown) < len(sep):
+        ax2.set_title(f"the {len(shown)} threats that came closest, of {len(sep)}", fontsize=8)
+    sep = {ident: sep[ident] for ident in shown}
     for ident, v in sep.items():
         ax2.plot(t / 60.0, v, lw=1.0, label=ident)
         bad = v < margin
@@ -242,8 +256,8 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     if sep:
         finite = np.concatenate([v[np.isfinite(v)] for v in sep.values()] + [np.zeros(1)])
         closest = max(float(np.nanmin(v)) if np.isfinite(v).any() else 0.0 for v in sep.values())
-        # the close passes matter: up to four times the largest of the threats' minimum
-        top = max(4.0 * closest, margin + 500.0, 1000.0)
+        # the close passes matter: up to four times the largest of the drawn threats' minimum
+        top = max(4.0 * closest, 2.0 * margin, 10.0)
         ax2.set_ylim(min(float(finite.min()), 0.0) - 0.05 * top, top)
         ax2.legend(fontsize=7, ncol=4, loc="upper right")
     else:
@@ -330,6 +344,37 @@ def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArr
     ax.annotate(th.id, (c0[0], c0[1]), color=colour, fontsize=7)
 
 
+def nearest_threats(sep: dict[str, FloatArray], k: int) -> list[str]:
+    """The ids of the ``k`` threats whose least separation is smallest, in their given order
+    (a threat never active -- all NaN -- counts as infinitely far)."""
+    least = {
+        ident: float(np.nanmin(v)) if np.isfinite(v).any() else math.inf for ident, v in sep.items()
+    }
+    keep = set(sorted(least, key=lambda i: least[i])[:k])
+    return [ident for ident in sep if ident in keep]
+
+
+def zoom_box(
+    bounds: tuple[float, float, float, float], pts: FloatArray
+) -> tuple[float, float, float, float] | None:
+    """Plot limits round ``pts`` (the flight and its waypoints) when they span under a third of
+    the map each way, padded by a quarter of their span (at least 50 m) and kept on the map;
+    None to show the whole map."""
+    xmin, ymin, xmax, ymax = bounds
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = hi - lo
+    if span[0] >= (xmax - xmin) / 3.0 or span[1] >= (ymax - ymin) / 3.0:
+        return None
+    half = 0.5 * float(max(span)) + max(0.25 * float(max(span)), 50.0)
+    cx, cy = 0.5 * (lo + hi)
+    return (
+        max(xmin, float(cx) - half),
+        max(ymin, float(cy) - half),
+        min(xmax, float(cx) + half),
+        min(ymax, float(cy) + half),
+    )
+
+
 def _frame(ax: Any, xyz: FloatArray, wps: FloatArray) -> None:
     """Limits round the track and the waypoints (flat ground: no map to set them)."""
     pts = np.vstack([xyz[:, :2], np.asarray(wps, dtype=np.float64)[:, :2]])
@@ -345,8 +390,10 @@ __all__ = [
     "active_at",
     "draw_run",
     "load_grid",
+    "nearest_threats",
     "recorded_view",
     "replay_view",
     "run_picture",
     "separation_of",
+    "zoom_box",
 ]

@@ -56,3 +56,29 @@ def test_no_picture_and_inspect_png(tmp_path: Path, capsys: pytest.CaptureFixtur
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "seed001-mission.yaml" in err
     assert not (tmp_path / "m.png").exists()
+
+
+def test_the_separation_panel_keeps_the_threats_that_came_closest() -> None:
+    from replay.picture import nearest_threats
+
+    nan = float("nan")
+    sep = {
+        "far": np.array([900.0, 800.0]),
+        "near": np.array([50.0, 3.0]),
+        "never": np.array([nan, nan]),  # never active: infinitely far
+        "inside": np.array([10.0, -2.0]),
+        "mid": np.array([nan, 40.0]),
+    }
+    assert nearest_threats(sep, 3) == ["near", "inside", "mid"]  # in their given order
+    assert nearest_threats(sep, 10) == list(sep)
+
+
+def test_a_small_flight_on_a_large_map_is_zoomed_onto() -> None:
+    from replay.picture import zoom_box
+
+    bounds = (0.0, 0.0, 1000.0, 1000.0)
+    small = np.array([[400.0, 500.0], [500.0, 560.0]])  # 100 x 60 m: under a third each way
+    assert zoom_box(bounds, small) == (350.0, 430.0, 550.0, 630.0)  # square, 50 m round it
+    corner = np.array([[0.0, 0.0], [20.0, 10.0]])  # kept on the map
+    assert zoom_box(bounds, corner) == (0.0, 0.0, 70.0, 65.0)
+    assert zoom_box(bounds, np.array([[0.0, 500.0], [400.0, 510.0]])) is None  # 40 % wide
