@@ -16,7 +16,8 @@ above the terrain and the separation to the nearest active threat.
 **2-D map** (:func:`map_figure`): the same seen from above, over the tinted hillshade.
 
 **Time plots** (:func:`time_figure`): altitude and the terrain below it, airspeed, bank, and the
-separation from each threat's surface against the run's margin (violations in red).
+separation from each threat's surface against the run's margin (violations in red): per run the
+``replay.picture.NEAREST_DRAWN`` threats that came closest, as in the run's picture.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from replay.picture import NEAREST_DRAWN, nearest_threats
 from terrapath.view.decisions import Mark, decision_marks
 from terrapath.view.shapes import (
     Mesh,
@@ -766,18 +768,25 @@ def time_figure(sources: list[Source]) -> Any:
         )
     grid = sources[0].grid
     threat_ids = [th.id for th in _threats(sources)]
-    # the close passes matter: up to four times the largest of the threats' minimum separations
+    # per run the threats that came closest (143 buildings would be a legend, not a plot)
+    shown = {
+        id(s): nearest_threats(s.track.separations, NEAREST_DRAWN) if s.track is not None else []
+        for s in runs
+    }
+    # the close passes matter: up to four times the largest of the drawn threats' minimum
     closest = max(
         (
             float(np.nanmin(v))
             for s in runs
-            for v in (s.track.separations.values() if s.track is not None else ())
-            if np.isfinite(v).any()
+            if s.track is not None
+            for ident, v in s.track.separations.items()
+            if ident in shown[id(s)] and np.isfinite(v).any()
         ),
         default=0.0,
     )
     margin = max((float(s.run.margin) for s in runs), default=0.0)
-    top = max(4.0 * closest, margin + 500.0, 1000.0)
+    top = max(4.0 * closest, 2.0 * margin, 10.0)
+    hidden = max((len(s.track.separations) - len(shown[id(s)]) for s in runs if s.track), default=0)
     for n, s in enumerate(runs):
         tr = s.track
         assert tr is not None
@@ -825,7 +834,8 @@ def time_figure(sources: list[Source]) -> Any:
                 col=1,
             )
         dashes = ("solid", "dot", "dash", "longdash", "dashdot")
-        for j, (ident, v) in enumerate(tr.separations.items()):
+        for ident in shown[id(s)]:
+            v = tr.separations[ident]
             ts, vs = _below(tr.t / 60.0, v, top)
             fig.add_trace(
                 go.Scatter(
@@ -838,7 +848,6 @@ def time_figure(sources: list[Source]) -> Any:
                         "color": THREAT_COLOURS[threat_ids.index(ident) % len(THREAT_COLOURS)],
                     },
                     legendgroup=name,
-                    showlegend=j < 12,
                     hovertemplate=f"{ident}: %{{y:.0f}} m at %{{x:.2f}} min<extra>{name}</extra>",
                 ),
                 row=4,
@@ -878,7 +887,8 @@ def time_figure(sources: list[Source]) -> Any:
     fig.update_yaxes(title_text="altitude (m AMSL)", row=1, col=1)
     fig.update_yaxes(title_text="airspeed (m/s)", row=2, col=1)
     fig.update_yaxes(title_text="bank (deg)", row=3, col=1)
-    fig.update_yaxes(title_text="separation (m)", range=[-0.05 * top, top], row=4, col=1)
+    what = f"separation (m), the {NEAREST_DRAWN} nearest" if hidden else "separation (m)"
+    fig.update_yaxes(title_text=what, range=[-0.05 * top, top], row=4, col=1)
     fig.update_xaxes(title_text="time (min)", row=4, col=1)
     fig.update_layout(
         height=900, margin={"l": 70, "r": 10, "t": 10, "b": 50}, hovermode="x unified"
