@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from planner.explore import ROUTES
 from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
 from planner.performance import Performance
 from planner.plan import DEFAULT_ALGORITHM, plan
@@ -71,6 +72,8 @@ class PlanRequest:
     iterations: int = 200
     attempts: int = 3
     seed: int = 0
+    init: str = "graph"  # the initial population (planner.plan.plan)
+    routes: int = ROUTES  # with init "graph": the routes of the map search
     clearance: float = 50.0
     zmin: float | None = None
     zmax: float | None = None
@@ -251,6 +254,8 @@ def plan_mission(
         population=r.population,
         iterations=r.iterations,
         attempts=r.attempts,
+        init=r.init,
+        routes=r.routes,
         callback=callback,
     )
     mission = to_mission(request, prepared, result, out)

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from planner.explore import ROUTES, check_routes, graph_population
 from planner.optim import make_optimizer
 from planner.optim.termination import MaxIterations, SwarmRadius
 from planner.problem import PlanningProblem
@@ -17,7 +18,7 @@ from planner.result import PlanResult, find_violations
 from terrain.errors import InputError
 
 ALGORITHMS = ("ampso", "pso", "apso", "ga")
-INITS = ("corridor", "uniform")
+INITS = ("graph", "corridor", "uniform")
 DEFAULT_ALGORITHM = "ampso"
 SWARM_RADIUS_EPS = 1e-4
 
@@ -58,14 +59,18 @@ def plan(
     params: dict[str, Any] | None = None,
     straight_seeds: bool = False,
     attempts: int = 1,
-    init: str = "corridor",
+    init: str = "graph",
+    routes: int = ROUTES,
     callback: Callable[[Any], None] | None = None,
 ) -> PlanResult:
     """Minimise the seed-002 cost of ``problem`` with ``algorithm``.
 
-    The initial population is ``init="corridor"`` (default: random paths that progress from start
-    to goal with every waypoint above the ground under it, :meth:`PlanningProblem.corridor_population`,
-    drawn from the run's seed) or ``"uniform"`` (uniform in the box, as in seed 002's protocol).
+    The initial population is ``init="graph"`` (default: the ``routes`` routes of a search of the
+    whole map and jittered copies of them in a quarter of it, the corridor population in the rest,
+    :func:`planner.explore.graph_population`), ``"corridor"`` (random paths that progress from
+    start to goal with every waypoint above the ground under it,
+    :meth:`PlanningProblem.corridor_population`, drawn from the run's seed) or ``"uniform"``
+    (uniform in the box, as in seed 002's protocol).
     Measured with AMPSO, 10 seeds, P=60, 200 iterations: feasible runs on rmnp 5/10 -> 10/10,
     jacksboro 3/10 -> 10/10 (every algorithm 10/10 there). ``straight_seeds`` puts the two
     straight start-goal paths of :meth:`PlanningProblem.straight_seeds` into it as well; measured
@@ -77,6 +82,7 @@ def plan(
     """
     if init not in INITS:
         raise InputError(f"init must be one of {', '.join(INITS)}; got {init!r}")
+    routes = check_routes(routes)
     if isinstance(attempts, bool) or int(attempts) != attempts or attempts < 1:
         raise InputError(f"attempts must be an integer >= 1; got {attempts!r}")
     best: PlanResult | None = None
@@ -92,6 +98,7 @@ def plan(
             params,
             straight_seeds,
             init,
+            routes,
             callback,
         )
         if best is None or (r.feasible, -r.terms["total"]) > (best.feasible, -best.terms["total"]):
@@ -100,6 +107,8 @@ def plan(
             break
     assert best is not None
     params_out = {**best.params, "attempts": int(attempts), "attempt_seeds": seeds, "init": init}
+    if init == "graph":
+        params_out["routes"] = routes
     return replace(best, seed=int(seed), params=params_out)
 
 
@@ -112,6 +121,7 @@ def _plan_once(
     params: dict[str, Any] | None,
     straight_seeds: bool,
     init: str,
+    routes: int,
     callback: Callable[[Any], None] | None,
 ) -> PlanResult:
     if algorithm not in ALGORITHMS:
@@ -132,12 +142,16 @@ def _plan_once(
         termination = termination | SwarmRadius(SWARM_RADIUS_EPS)
     lower, upper = problem.bounds()
     x0 = None
+    explored = None
+    t0 = time.perf_counter()
+    rng = np.random.default_rng([int(seed), 2])
     if init == "corridor":
-        x0 = problem.corridor_population(int(population), np.random.default_rng([int(seed), 2]))
+        x0 = problem.corridor_population(int(population), rng)
+    elif init == "graph":
+        x0, explored = graph_population(problem, int(population), rng, routes)
     if straight_seeds:
         seeds = problem.straight_seeds()
         x0 = seeds if x0 is None else np.vstack([seeds, x0[len(seeds) :]])
-    t0 = time.perf_counter()
     res = optimizer.run(
         problem, lower, upper, seed=int(seed), termination=termination, x0=x0, callback=callback
     )
@@ -161,6 +175,7 @@ def _plan_once(
             "population": int(population),
             "iterations": int(iterations),
             "straight_seeds": straight_seeds,
+            **({"exploration": explored.summary()} if explored is not None else {}),
         },
         seed=int(seed),
         iterations=int(res.iterations),

@@ -46,7 +46,10 @@ obstacle passes on the aircraft's right: the smaller heading change, as the text
 flying round it with it on the right is a clockwise circle seen from above (x east, y north).
 ``Delta < 0`` -> counter-clockwise.  Algorithm 1 prints "clockwise" in both branches (a typo).
 A complex obstacle (the next body found while still on an arc) keeps the direction chosen for
-its first body (§3.3, Fig. 9).
+its first body (§3.3, Fig. 9).  Not in the paper: the mission's danger zones and the map's edge
+(the context's ``validity``) -- when the half orbit on the side the rule gives, from the
+aircraft's bearing round to the far side of the obstacle, enters a zone or leaves the map and
+the other half does so less (in metres), the other side is taken (:meth:`CtgaAvoider._side`).
 
 **Arc (§3.1).**  Radius ``R = max(R_min, R_obs + R_safe)`` (eq 7), ``R_min = V^2 / (g tan
 phi_max)`` (eq 8) with the larger of ground speed and airspeed, times 1.05: §3.1 itself advises
@@ -184,6 +187,9 @@ def clockwise_for(delta: float) -> bool:
 
 
 HEAD_ON_DEG = 5.0  # a moving obstacle this close to dead ahead (relative frame): pass behind it
+
+
+SIDE_SAMPLES = 37  # points of a half orbit checked for zones and the map's edge (5 deg apart)
 
 
 def clockwise_for_threat(hit: Threat, course: float) -> bool:
@@ -423,12 +429,43 @@ class CtgaAvoider:
         if not hits:
             return None
         hit = min(hits, key=lambda t: t.distance - t.obstacle.radius)
-        clockwise = clockwise_for_threat(hit, course)
+        clockwise = self._side(ctx, hit, pos, speed, bank, clockwise_for_threat(hit, course))
         first: str | None = None
         if self._complex is not None and ctx.t <= self._complex[2]:
             clockwise, first = self._complex[0], self._complex[1]  # the same complex obstacle
         self._complex = None
         return self._start(ctx, hit, pos, course, speed, bank, clockwise, first)
+
+    def _side(
+        self,
+        ctx: AvoidanceContext,
+        hit: Threat,
+        pos: FloatArray,
+        speed: float,
+        bank: float,
+        clockwise: bool,
+    ) -> bool:
+        """The rule's side, unless its half orbit enters a danger zone or leaves the map and the
+        other half does so less (module docstring, "Direction")."""
+        chk = ctx.validity
+        if chk is None or (chk.grid is None and not chk.zones):
+            return clockwise
+        obs = hit.obstacle
+        radius = arc_radius(obs.radius, self.r_safe, speed, bank)
+        c = np.asarray(obs.center, dtype=np.float64)
+        start = math.atan2(pos[0] - c[0], pos[1] - c[1])  # bearing of the aircraft from c
+        altitude = self._altitude(ctx)
+
+        def bad(cw: bool) -> float:
+            a = start + np.linspace(0.0, math.pi, SIDE_SAMPLES) * (1.0 if cw else -1.0)
+            pts = np.column_stack(
+                [c[0] + radius * np.sin(a), c[1] + radius * np.cos(a), np.full(len(a), altitude)]
+            )
+            sv = chk.segments(pts[:-1], pts[1:], clearance=False)
+            return float(sv.zone_lengths.sum() + sv.off_map_lengths.sum())
+
+        mine, other = bad(clockwise), bad(not clockwise)
+        return (not clockwise) if mine > 0.0 and other < mine else clockwise
 
     def _start(
         self,

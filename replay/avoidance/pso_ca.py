@@ -54,7 +54,8 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    seed 000 §6's parameters) minimises f = Wt f1 + Wo f2 under g1-g5 (and g6 for intruders),
    and g7 (our addition): the two new legs stay on the map, over measured terrain and out of
    the mission's danger zones (the context's ``validity``, :mod:`terrain.validity`; off the map
-   the terrain is unknown) (:class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`), stopping at 30 iterations or
+   the terrain is unknown), and the new waypoint lies at least a turn radius (at the bank limit)
+   inside the map's edge (the turn there swings out by about that much) (:class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`), stopping at 30 iterations or
    when the best fitness changes by less than 200 for 5 iterations (§5.5).  The other obstacles
    in view enter f2 (risk).
 6. **Intruders** (§5.7): the obstacle is the intruder's current position with a ``moving_rs``
@@ -132,6 +133,7 @@ from planner.optim.pso import SEED000_PSO
 from planner.optim.termination import MaxIterations, Stall
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.pso_ca_geometry import (
+    G,
     PsoCaParams,
     WaypointProblem,
     corner_cut,
@@ -222,6 +224,8 @@ def leg_check(
     if chk is None or (chk.grid is None and not chk.zones):
         return None
     pos, tgt = np.asarray(position, dtype=np.float64), np.asarray(target, dtype=np.float64)
+    bank = math.radians(float(getattr(ctx.vehicle, "bank_max_deg", 30.0)))
+    edge = float(ctx.airspeed) ** 2 / (G * math.tan(bank)) if chk.grid is not None else 0.0
 
     def violation(X: FloatArray) -> FloatArray:
         n = len(X)
@@ -230,7 +234,14 @@ def leg_check(
         b = np.vstack([wp, np.broadcast_to(tgt, (n, 3))])
         sv = chk.segments(a, b, clearance=False)
         v = sv.zone_lengths.sum(axis=1) + sv.off_map_lengths + sv.unknown_lengths
-        return np.asarray(v[:n] + v[n:])
+        out = v[:n] + v[n:]
+        if edge > 0.0:  # the turn at the new waypoint must not swing off the map
+            xmin, ymin, xmax, ymax = chk.grid.bounds
+            inside = np.minimum.reduce(
+                [X[:, 0] - xmin, xmax - X[:, 0], X[:, 1] - ymin, ymax - X[:, 1]]
+            )
+            out = out + np.maximum(0.0, edge - inside)
+        return np.asarray(out)
 
     return violation
 

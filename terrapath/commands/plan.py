@@ -95,6 +95,22 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "--seed", type=int, default=0, show_default=True, help="Random seed (recorded in the mission)."
 )
 @click.option(
+    "--init",
+    type=click.Choice(["graph", "corridor", "uniform"]),
+    default="graph",
+    show_default=True,
+    help="Initial population: graph (routes from a search of the whole map seed a quarter of it, "
+    "the rest random corridor paths), corridor (random paths from start to goal) or uniform "
+    "(uniform in the box: seed 002's protocol).",
+)
+@click.option(
+    "--routes",
+    type=int,
+    default=5,
+    show_default=True,
+    help="With --init graph: how many distinct routes the map search seeds.",
+)
+@click.option(
     "--clearance",
     type=float,
     default=50.0,
@@ -192,6 +208,8 @@ def plan_cmd(
     iterations: int,
     attempts: int,
     seed: int,
+    init: str,
+    routes: int,
     clearance: float,
     zmin: float | None,
     zmax: float | None,
@@ -258,6 +276,8 @@ def plan_cmd(
         iterations=iterations,
         attempts=attempts,
         seed=seed,
+        init=init,
+        routes=routes,
         clearance=clearance,
         zmin=zmin,
         zmax=zmax,
@@ -298,6 +318,17 @@ def plan_cmd(
             f"{result.elapsed_s:.1f} s"
         )
         click.echo(f"  limits    {performance.describe()}")
+        ex = result.params.get("exploration")
+        if isinstance(ex, dict):
+            found = (
+                f"{ex['routes']} routes" if ex["routes"] else "no route (start and goal unlinked)"
+            )
+            best = (
+                f", the best seeds the swarm at cost {ex['route_F'][0]:.4f}" if ex["routes"] else ""
+            )
+            click.echo(
+                f"  explored  {found} on graphs of the whole map in {ex['seconds']:.2f} s{best}"
+            )
         for k, v in outcome.written.items():
             click.echo(f"  {k:9s} {v}")
         for p in outcome.removed:

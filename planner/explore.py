@@ -1,0 +1,548 @@
+"""Global exploration before the swarm (``terrapath plan --init graph``, the default): the route's
+topology comes from a search over the whole map, the swarm refines it.
+
+Seed 002's PSO refines well and explores poorly: which corridor a plan takes (a valley, a
+plateau, round a field of danger zones or through its gaps) was decided by the random initial
+population.  :func:`explore` searches a coarse graph of the map for ``k`` short, mutually distinct
+routes under a surrogate of the same cost and the same validity, and turns each into the
+solution vector of ``N`` free waypoints; :func:`graph_population` puts them (and jittered copies)
+into the first rows of the initial population, the rest of which stays the random corridor
+population, so the paper's optimiser is still what runs.
+
+**The graph (2.5-D).**  The DEM's cells are grouped into blocks of ``b x b`` (``b`` the smallest
+integer giving at most ``cells`` blocks along the map's longer side; 64 by default: 1-2 km blocks
+on the reference maps, every cell on a small DEM).  Each block is a node at its centre, flown at
+the *node altitude* ``h = max(terrain over the 3 x 3 blocks round it) + clearance`` (the
+planner's conservative terrain, :attr:`planner.problem.PlanningProblem.safety_grid` dilated as
+the cost checks it), never below the band's floor.  A straight segment between two neighbouring
+nodes (8-connected) stays inside the blocks both nodes' 3 x 3 maxima cover, so linear
+interpolation between ``h_u`` and ``h_v`` clears the terrain all along it: every edge is valid.
+A node is removed when ``h`` exceeds the band's top (a mountain the band does not allow over),
+when its 3 x 3 blocks hold terrain the DEM did not measure (unless allowed), and an edge is removed
+when, with danger zones as hard constraints, its segment enters a zone grown by the problem's
+margin plus half a block's diagonal (a waypoint chord may stray that far from the route).  Start
+and goal are the nodes of their blocks, kept whatever their surroundings.
+
+**The edge weight** is a surrogate of seed 002's cost that adds up along a route: for a route of
+3-D length ``L`` near the straight distance ``D``, ``F_length + F_altitude ~ (L - D) / D +
+sum l_i a_i / L`` with ``a_i`` the segment's altitude normalised to the band, so an edge of
+length ``l`` at normalised mid altitude ``a`` weighs ``l (1 + a)`` (up to the constant 1 and the
+factor 1 / D, the same order).  With the aircraft's performance, ``l`` is at least ``|dz| / g``
+(``g`` the smaller of its climb and descent gradients): a climb steeper than it can fly costs
+the distance it needs to make it.  Soft danger zones (not ``avoid_zones``) are left to the swarm.
+
+**k routes (via nodes).**  One Dijkstra from the start and one from the goal
+(:func:`scipy.sparse.csgraph.dijkstra`) give every node ``v`` the cost ``d_s(v) + d_g(v)`` of the
+best route through it.  Nodes are taken in that order (the first lies on the shortest route);
+a node's route is kept when it costs at most ``1 + stretch`` (1.6) times the shortest, does not
+turn back on itself (its halves share no node but ``v``: a spur), and less than ``overlap``
+(half) of its nodes lie within ``r`` of a route already kept (``r`` the larger of three blocks
+and 5 % of the start-goal distance, start and goal surroundings not counted).  The nodes within
+``r`` of a kept route are not tried as via nodes again.  The search stops at ``k`` routes (5).
+
+**Waypoints.**  A route's polyline (start, block centres, goal) is reduced to ``N`` interior
+points by greedy Ramer-Douglas-Peucker: the point farthest from the current chords is added
+until there are ``N`` (a straighter route than that gets its longest chords halved).  Each
+waypoint's altitude is the least that keeps both of its chords above the terrain plus clearance
+(sampled every half cell on the same conservative terrain), with the start's and goal's fixed
+altitudes honoured exactly on the first and last chords, clipped to the band.  The swarm moves
+them from there.
+
+Measured (``benchmarks/bench_plan.py``, ``benchmarks/RESULTS.md``): see the issue-20 entries.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from planner.problem import PlanningProblem
+from terrain.errors import InputError
+from terrain.zones import inflated
+from terrain.zoneset import ZoneSet
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+CELLS = 64  # blocks along the map's longer side
+ROUTES = 5  # k
+STRETCH = 0.6  # a kept route costs at most (1 + STRETCH) x the shortest
+OVERLAP = 0.5  # share of a route's nodes that may lie near a kept route
+SEED_SHARE = 0.25  # share of the population seeded from the routes (route + jittered copies)
+MAX_TRIES = 2000  # via nodes tried at most
+RESOLUTIONS = (48, 96, 160)  # graphs searched by explore_pool (blocks along the longer side)
+DISTINCT = 0.05  # explore_pool: routes closer than this share of the start-goal distance are one
+JITTER = 0.02  # graph_population: copies' horizontal jitter, share of the start-goal distance
+GRADIENT_USE = 0.9  # share of the climb / descent gradients the seeds' legs use
+
+
+@dataclass(frozen=True, eq=False)
+class Route:
+    """One route of the graph: its block centres (start and goal at the ends), its surrogate
+    cost, and the solution vector of ``N`` free waypoints made from it."""
+
+    xy: FloatArray  # (M, 2)
+    cost: float
+    x: FloatArray  # (3N,)
+    f: float = math.nan  # the problem's cost of x (explore_pool)
+
+
+@dataclass(frozen=True, eq=False)
+class Exploration:
+    """What :func:`explore` found: the routes (shortest first), the block size and grid shape,
+    and the seconds it took."""
+
+    routes: tuple[Route, ...]
+    block_m: float
+    shape: tuple[int, int]
+    nodes: int
+    edges: int
+    elapsed_s: float
+
+    def summary(self) -> dict[str, object]:
+        """Plain data for a result's parameters."""
+        return {
+            "routes": len(self.routes),
+            "route_costs": [round(r.cost, 6) for r in self.routes],
+            "route_F": [round(r.f, 6) for r in self.routes],
+            "block_m": round(self.block_m, 3),
+            "graph": [int(self.shape[0]), int(self.shape[1])],
+            "nodes": self.nodes,
+            "edges": self.edges,
+            "seconds": round(self.elapsed_s, 4),
+        }
+
+
+def check_routes(k: object) -> int:
+    """``k`` as an integer >= 1 (one line naming the option otherwise)."""
+    if isinstance(k, bool) or not isinstance(k, int | np.integer) or int(k) < 1:
+        raise InputError(
+            f"the number of graph routes (--routes) must be an integer >= 1; got {k!r}"
+        )
+    return int(k)
+
+
+def _block_max(a: npt.NDArray[np.floating], b: int, fill: float) -> FloatArray:
+    """The maximum of each ``b x b`` block of ``a`` (edges padded with ``fill``)."""
+    rows, cols = a.shape
+    nr, nc = -(-rows // b), -(-cols // b)
+    pad = np.full((nr * b, nc * b), fill, dtype=np.float64)
+    pad[:rows, :cols] = a
+    return np.asarray(pad.reshape(nr, b, nc, b).max(axis=(1, 3)), dtype=np.float64)
+
+
+def explore(
+    problem: PlanningProblem,
+    k: int = ROUTES,
+    *,
+    cells: int = CELLS,
+    stretch: float = STRETCH,
+    overlap: float = OVERLAP,
+) -> Exploration:
+    """Up to ``k`` short, distinct routes from start to goal over ``problem``'s map (module
+    docstring); none when the graph does not connect them."""
+    k = check_routes(k)
+    t0 = time.perf_counter()
+    grid = problem.grid
+    check = problem._check_grid  # the terrain the cost checks (conservative, dilated)
+    rows, cols = grid.shape
+    b = max(1, math.ceil(max(rows, cols) / int(cells)))
+    dx, dy = grid.cell_size
+    zlo, zhi = problem.band
+    top = _block_max(np.asarray(check.heights, dtype=np.float64), b, -np.inf)
+    h = np.maximum(top + problem.clearance, zlo)  # a block's floor
+    nr, nc = h.shape
+    bad = h > zhi
+    unknown = problem.unknown_grid
+    if unknown is not None:
+        bad |= _block_max(np.asarray(unknown.heights > 0, dtype=np.float64), b, 0.0) > 0
+    # block centres (the middle of the block's cells that lie on the map), kept inside the
+    # search box
+    lo, hi = problem.bounds()
+    r_mid = np.minimum(np.arange(nr) * b + (b - 1) / 2.0, (np.arange(nr) * b + rows - 1) / 2.0)
+    c_mid = np.minimum(np.arange(nc) * b + (b - 1) / 2.0, (np.arange(nc) * b + cols - 1) / 2.0)
+    cx, _ = grid.index_to_xy(np.zeros(nc), c_mid)
+    _, cy = grid.index_to_xy(r_mid, np.zeros(nr))
+    xs = np.clip(cx, lo[0], hi[0])
+    ys = np.clip(cy, lo[1], hi[1])
+    node_xy = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    sr, sc = grid.cell_of(problem.start[0], problem.start[1])
+    gr, gc = grid.cell_of(problem.goal[0], problem.goal[1])
+    s_node = int(sr) // b * nc + int(sc) // b
+    g_node = int(gr) // b * nc + int(gc) // b
+    bad.flat[[s_node, g_node]] = False
+    node_xy[s_node] = problem.start[:2]
+    node_xy[g_node] = problem.goal[:2]
+
+    # edges: the four forward neighbours of every node, flown at the highest floor of the
+    # blocks the segment crosses (both ends; a diagonal's two corner blocks too)
+    idx = np.arange(nr * nc).reshape(nr, nc)
+    us, vs = [], []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        us.append(idx[: nr - di, max(0, -dj) : nc - max(0, dj)].ravel())
+        vs.append(idx[di:, max(0, dj) : nc - max(0, -dj)].ravel())
+    u = np.concatenate(us)
+    v = np.concatenate(vs)
+    e, blocked = _edge_floor(h, bad, u, v)
+    u, v, e = u[~blocked], v[~blocked], e[~blocked]
+    p_u = np.column_stack([node_xy[u], e])
+    p_v = np.column_stack([node_xy[v], e])
+    if problem.avoid_zones and problem.zones:
+        pad = problem.zone_margin + 0.5 * b * math.hypot(dx, dy)
+        zs = ZoneSet.of(tuple(inflated(z, pad) for z in problem.zones))
+        free = ~(zs.segment_lengths(p_u, p_v) > 0.0).any(axis=1)
+        u, v, e, p_u = u[free], v[free], e[free], p_u[free]
+        p_v = p_v[free]
+    d = p_v - p_u
+    length = np.hypot(d[:, 0], d[:, 1])
+    hu, hv = h.flat[u], h.flat[v]
+    perf = problem.performance
+    if perf is not None:  # a climb steeper than the aircraft's costs the distance it needs
+        g = min(perf.climb_gradient, perf.descent_gradient)
+        length = np.maximum(length, np.abs(hv - hu) / g)
+    w = np.maximum(length * (1.0 + (e - zlo) / (zhi - zlo)), 1e-9)
+    n = nr * nc
+    graph = coo_matrix((w, (u, v)), shape=(n, n)).tocsr()
+    dist, pred = dijkstra(graph, directed=False, indices=[s_node, g_node], return_predecessors=True)
+    routes: list[Route] = []
+    best = float(dist[0, g_node])
+    if math.isfinite(best):
+        routes = _via_routes(
+            problem, dist, pred, node_xy, h, (nr, nc), (s_node, g_node), b, (dx, dy), k, best,
+            stretch, overlap,
+        )  # fmt: skip
+    return Exploration(
+        tuple(routes),
+        float(b * max(dx, dy)),
+        (nr, nc),
+        int((~bad).sum()),
+        len(w),
+        time.perf_counter() - t0,
+    )
+
+
+def _edge_floor(
+    h: FloatArray, bad: npt.NDArray[np.bool_], u: IntArray, v: IntArray
+) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+    """(altitude, blocked) of the edges between neighbouring blocks ``u`` and ``v`` (flat
+    indices): the highest floor ``h`` of the blocks the segment crosses -- both ends, and for a
+    diagonal the two blocks at its corner -- and whether any of them is ``bad``."""
+    nc = h.shape[1]
+    ru, cu, rv, cv = u // nc, u % nc, v // nc, v % nc
+    e = np.maximum(h[ru, cu], h[rv, cv])
+    blocked = bad[ru, cu] | bad[rv, cv]
+    diag = (ru != rv) & (cu != cv)
+    if diag.any():
+        e = np.where(diag, np.maximum(e, np.maximum(h[ru, cv], h[rv, cu])), e)
+        blocked = blocked | (diag & (bad[ru, cv] | bad[rv, cu]))
+    return np.asarray(e, dtype=np.float64), blocked
+
+
+def _chain(pred: IntArray, target: int) -> list[int]:
+    """The nodes from a Dijkstra tree's root to ``target``."""
+    out = [target]
+    while pred[out[-1]] >= 0:
+        out.append(int(pred[out[-1]]))
+    return out[::-1]
+
+
+def _via_routes(
+    problem: PlanningProblem,
+    dist: FloatArray,
+    pred: IntArray,
+    node_xy: FloatArray,
+    floors: FloatArray,
+    shape: tuple[int, int],
+    ends_at: tuple[int, int],
+    b: int,
+    cell: tuple[float, float],
+    k: int,
+    best: float,
+    stretch: float,
+    overlap: float,
+) -> list[Route]:
+    """The via-node routes (module docstring)."""
+    nr, nc = shape
+    total = dist[0] + dist[1]
+    limit = (1.0 + stretch) * best
+    order = np.argsort(total, kind="stable")
+    order = order[total[order] <= limit]
+    # a node both trees enter from the same neighbour is the tip of a spur (the route through
+    # it turns back on itself there): not a via node, and cheap to see for every node at once
+    order = order[(pred[0][order] != pred[1][order]) | (order == ends_at[0])][:MAX_TRIES]
+    span = float(np.hypot(*(problem.goal[:2] - problem.start[:2])))
+    radius_m = max(3.0 * b * max(cell), 0.05 * span)
+    ry, rx = radius_m / (b * cell[1]), radius_m / (b * cell[0])
+    yy, xx = np.mgrid[-math.ceil(ry) : math.ceil(ry) + 1, -math.ceil(rx) : math.ceil(rx) + 1]
+    disc = (yy / max(ry, 1e-9)) ** 2 + (xx / max(rx, 1e-9)) ** 2 <= 1.0
+    ends = np.zeros((nr, nc), dtype=bool)
+    ends.flat[list(ends_at)] = True
+    ends = ndimage.binary_dilation(ends, structure=disc)
+    near = np.zeros((nr, nc), dtype=bool)
+    terrain = corridor_terrain(problem)
+    routes: list[Route] = []
+    for via in order.tolist():
+        if near.flat[via]:
+            continue
+        first = _chain(pred[0], via)
+        second = _chain(pred[1], via)
+        if set(first) & set(second[:-1]):
+            continue  # a spur: the route would turn back on itself at the via node
+        nodes = first + second[::-1][1:]
+        counted = [m for m in nodes if not ends.flat[m]]
+        if routes and counted and np.mean(near.flat[counted]) >= overlap:
+            continue
+        ids = np.asarray(nodes, dtype=np.int64)
+        e, _ = _edge_floor(floors, np.zeros_like(floors, dtype=bool), ids[:-1], ids[1:])
+        z = np.concatenate([[problem.start[2]], np.maximum(e[:-1], e[1:]), [problem.goal[2]]])
+        xyz = np.column_stack([node_xy[nodes], z])
+        cost = float(total[via]) / span
+        routes.append(Route(xyz[:, :2], cost, route_waypoints(problem, xyz, terrain)))
+        mark = np.zeros((nr, nc), dtype=bool)
+        mark.flat[nodes] = True
+        near |= ndimage.binary_dilation(mark, structure=disc)
+        if len(routes) == k:
+            break
+    return routes
+
+
+def _simplify(xy: FloatArray, n: int) -> FloatArray:
+    """``n`` interior points of the polyline ``xy`` by greedy Ramer-Douglas-Peucker (then the
+    longest chords halved while there are fewer), start and end kept: (n + 2, 2)."""
+    keep = [0, len(xy) - 1]
+    while len(keep) < n + 2:
+        keep.sort()
+        best, at = 0.0, -1
+        for a, c in itertools.pairwise(keep):
+            if c - a < 2:
+                continue
+            seg = xy[c] - xy[a]
+            pts = xy[a + 1 : c] - xy[a]
+            norm = float(np.hypot(*seg))
+            if norm > 0:
+                dev = np.abs(seg[0] * pts[:, 1] - seg[1] * pts[:, 0]) / norm
+            else:
+                dev = np.hypot(pts[:, 0], pts[:, 1])
+            j = int(np.argmax(dev))
+            if dev[j] > best:
+                best, at = float(dev[j]), a + 1 + j
+        if at < 0 or best <= 1e-9:
+            break
+        keep.append(at)
+    pts = [xy[i] for i in sorted(keep)]
+    while len(pts) < n + 2:
+        lens = [float(np.hypot(*(q - p))) for p, q in itertools.pairwise(pts)]
+        j = int(np.argmax(lens))
+        pts.insert(j + 1, 0.5 * (pts[j] + pts[j + 1]))
+    return np.asarray(pts, dtype=np.float64)
+
+
+class _Chords:
+    """The terrain floor (corridor heights + clearance + 1 m) sampled every half cell along each
+    chord of a polyline: ``t`` (0..1 from its first end) and ``floor`` per chord."""
+
+    def __init__(self, problem: PlanningProblem, pts: FloatArray, heights: FloatArray) -> None:
+        grid = problem.grid
+        step = 0.25 * min(grid.cell_size)
+        self.t: list[FloatArray] = []
+        self.floor: list[FloatArray] = []
+        for p, q in itertools.pairwise(pts):
+            m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
+            t = np.linspace(0.0, 1.0, m)
+            line = p[None, :] + t[:, None] * (q - p)[None, :]
+            self.t.append(t)
+            self.floor.append(
+                heights[grid.cell_of(line[:, 0], line[:, 1])] + problem.clearance + 1.0
+            )
+
+    def clear(self, i: int, za: float, zb: float) -> bool:
+        t = self.t[i]
+        return bool(np.all(za + t * (zb - za) >= self.floor[i]))
+
+    def lowest_end(self, i: int, za: float) -> float:
+        """The lowest altitude of chord i's second end keeping it clear, its first end at za."""
+        t, f = self.t[i][1:], self.floor[i][1:]
+        return float(np.max(za + (f - za) / t))
+
+    def lowest_start(self, i: int, zb: float) -> float:
+        """The lowest altitude of chord i's first end keeping it clear, its second end at zb."""
+        t, f = self.t[i][:-1], self.floor[i][:-1]
+        return float(np.max(zb + (f - zb) / (1.0 - t)))
+
+
+def _pull(problem: PlanningProblem, xyz: FloatArray, heights: FloatArray) -> FloatArray:
+    """String pulling along a route in 3-D: from each kept vertex the farthest later route point
+    whose straight chord (altitudes linear between their own) clears the terrain floor."""
+    out = [0]
+    a = 0
+    m = len(xyz)
+    while a < m - 1:
+        j = a + 1
+        while j + 1 < m:
+            seg = np.array([xyz[a, :2], xyz[j + 1, :2]])
+            if not _Chords(problem, seg, heights).clear(0, xyz[a, 2], xyz[j + 1, 2]):
+                break
+            j += 1
+        out.append(j)
+        a = j
+    return np.asarray(xyz[out], dtype=np.float64)
+
+
+def route_waypoints(
+    problem: PlanningProblem, xyz: FloatArray, terrain: FloatArray | None = None
+) -> FloatArray:
+    """The solution vector (3N,) of a route ((M, 3): start, block centres at their node
+    altitudes, goal) (module docstring, "Waypoints").  ``terrain``: the conservative heights
+    widened by the corridor (:func:`corridor_terrain`; computed when not given)."""
+    n = problem.n_waypoints
+    heights = corridor_terrain(problem) if terrain is None else terrain
+    zlo, zhi = problem.band
+    pulled = _pull(problem, np.asarray(xyz, dtype=np.float64), heights)
+    if len(pulled) <= n + 2:  # clear chords: halve the longest until there are N waypoints
+        pts = list(pulled)
+        while len(pts) < n + 2:
+            lens = [float(np.hypot(*(q - p)[:2])) for p, q in itertools.pairwise(pts)]
+            j = int(np.argmax(lens))
+            pts.insert(j + 1, 0.5 * (pts[j] + pts[j + 1]))
+        arr = np.asarray(pts)
+        xy, z = arr[:, :2].copy(), arr[:, 2].copy()
+    else:  # more corners than waypoints: the farthest ones, lifted over their chords
+        xy = _simplify(pulled[:, :2], n)
+        z = np.full(n + 2, zlo)
+        z[0], z[-1] = problem.start[2], problem.goal[2]
+        ch = _Chords(problem, xy, heights)
+        for i in range(1, n + 1):
+            z[i] = max(float(ch.floor[i - 1].max()), float(ch.floor[i].max()))
+        z[1] = max(z[1], ch.lowest_end(0, z[0]))
+        z[n] = max(z[n], ch.lowest_start(n, z[n + 1]))
+    z = np.minimum(z, zhi)
+    ch = _Chords(problem, xy, heights)
+    for _ in range(3):  # lower each waypoint as far as both its chords allow
+        for i in range(1, n + 1):
+            low = max(ch.lowest_end(i - 1, z[i - 1]), ch.lowest_start(i, z[i + 1]), zlo)
+            z[i] = min(z[i], low) if low <= z[i] else z[i]
+    perf = problem.performance
+    if perf is not None:  # raise waypoints until the climbs and descents between them are flyable
+        gap = np.hypot(*np.diff(xy, axis=0).T)
+        climb, descent = GRADIENT_USE * perf.climb_gradient, GRADIENT_USE * perf.descent_gradient
+        for i in range(n, 0, -1):  # able to climb to the next one
+            z[i] = max(z[i], z[i + 1] - climb * gap[i])
+        for i in range(1, n + 1):  # able to descend from the previous one
+            z[i] = max(z[i], z[i - 1] - descent * gap[i - 1])
+    x = np.column_stack([xy[1:-1], np.clip(z[1:-1], zlo, zhi)]).ravel()
+    lo, hi = problem.bounds()
+    return np.asarray(np.clip(x, lo, hi), dtype=np.float64)
+
+
+def corridor_terrain(problem: PlanningProblem) -> FloatArray:
+    """The heights a seed's chords must clear: the conservative terrain the cost's Bresenham
+    walk checks (the safety heights dilated by a cell), sampled every quarter cell."""
+    return np.asarray(problem._check_grid.heights, dtype=np.float64)
+
+
+def _polyline_gap(a: FloatArray, b: FloatArray, samples: int = 64) -> float:
+    """Mean distance from points evenly spaced along polyline ``a`` to polyline ``b`` (2-D)."""
+
+    def along(p: FloatArray) -> FloatArray:
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        u = np.linspace(0.0, s[-1], samples)
+        return np.column_stack([np.interp(u, s, p[:, 0]), np.interp(u, s, p[:, 1])])
+
+    pa, pb = along(a), along(b)
+    d = np.hypot(pa[:, None, 0] - pb[None, :, 0], pa[:, None, 1] - pb[None, :, 1])
+    return float(d.min(axis=1).mean())
+
+
+def explore_pool(
+    problem: PlanningProblem, k: int = ROUTES, resolutions: tuple[int, ...] = RESOLUTIONS
+) -> Exploration:
+    """:func:`explore` at several graph resolutions (a coarse graph sees the broad corridors, a
+    fine one the narrow valleys and gaps, and which suits ``N`` waypoints differs from map to
+    map), every route scored by the problem's own cost, and the ``k`` best kept (feasible first)
+    that are distinct: a route whose waypoint polyline lies on average within ``DISTINCT`` (5 %)
+    of the start-goal distance of a kept one is dropped."""
+    k = check_routes(k)
+    t0 = time.perf_counter()
+    found = [explore(problem, k, cells=c) for c in resolutions]
+    cands = [r for e in found for r in e.routes]
+    if not cands:
+        return replace(found[-1], elapsed_s=time.perf_counter() - t0)
+    terms = problem.terms(np.array([r.x for r in cands]))
+    ok = problem.feasible(terms)
+    order = sorted(range(len(cands)), key=lambda i: (not ok[i], float(terms.total[i])))
+    span = float(np.hypot(*(problem.goal[:2] - problem.start[:2])))
+    kept: list[Route] = []
+    lines: list[FloatArray] = []
+    for i in order:
+        line = problem.paths(cands[i].x)[:, :2]
+        if any(_polyline_gap(line, other) < DISTINCT * span for other in lines):
+            continue
+        kept.append(replace(cands[i], f=float(terms.total[i])))
+        lines.append(line)
+        if len(kept) == k:
+            break
+    finest = found[-1]
+    return Exploration(
+        tuple(kept),
+        finest.block_m,
+        finest.shape,
+        sum(e.nodes for e in found),
+        sum(e.edges for e in found),
+        time.perf_counter() - t0,
+    )
+
+
+def graph_population(
+    problem: PlanningProblem,
+    n: int,
+    rng: np.random.Generator,
+    k: int = ROUTES,
+    *,
+    share: float = SEED_SHARE,
+) -> tuple[FloatArray, Exploration]:
+    """An initial population of ``n`` (module docstring): the ``k`` routes' waypoint vectors
+    and jittered copies of them in the first ``max(k, share n)`` rows (at most ``n - 1``), the
+    random corridor population (:meth:`PlanningProblem.corridor_population`) in the rest.
+    Copies move each waypoint by a normal step of one block horizontally and raise it by the
+    absolute value of a normal of 5 % of the band."""
+    found = explore_pool(problem, k)
+    x0 = problem.corridor_population(n, rng)
+    seeds = [r.x for r in found.routes]
+    if not seeds:
+        return x0, found
+    rows = min(n - 1, max(len(seeds), int(round(share * n))))
+    jitter = JITTER * float(np.hypot(*(problem.goal[:2] - problem.start[:2])))
+    lo, hi = problem.bounds()
+    zlo, zhi = problem.band
+    out = []
+    for j in range(rows):
+        base = seeds[j % len(seeds)].reshape(-1, 3).copy()
+        if j >= len(seeds):
+            base[:, :2] += rng.normal(0.0, jitter, (len(base), 2))
+            base[:, 2] += np.abs(rng.normal(0.0, 0.05 * (zhi - zlo), len(base)))
+        out.append(np.clip(base.ravel(), lo, hi))
+    x0[:rows] = np.asarray(out)
+    return x0, found
+
+
+__all__ = [
+    "CELLS",
+    "ROUTES",
+    "Exploration",
+    "Route",
+    "check_routes",
+    "corridor_terrain",
+    "explore",
+    "explore_pool",
+    "graph_population",
+    "route_waypoints",
+]

@@ -1,0 +1,149 @@
+"""The global exploration stage before the swarm (issue 20, ``planner/explore.py``): routes over
+the whole map, distinct and valid, turned into waypoint vectors that seed the population."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planner.explore import explore, explore_pool, graph_population
+from planner.performance import Performance
+from planner.plan import plan
+from planner.problem import PlanningProblem
+from terrain.errors import InputError
+from terrain.zones import DangerZone
+from tests.conftest import make_grid
+
+PERF = Performance("test", 25.0, 5.0, 3.0, 30.0)  # R = 143.2 m, climb 16 %, descent 9.6 %
+
+
+def _wall_grid() -> tuple[np.ndarray, float]:
+    """A 6 km x 6 km flat map (50 m cells) split west-east by a wall 1000 m high with two gaps:
+    a narrow one 1 km east of the straight start-goal line and a wide one 2 km west of it."""
+    h = np.zeros((120, 120))
+    h[58:62, :] = 1000.0  # the wall, rows 58-61 (y 2.9-3.1 km)
+    h[58:62, 76:80] = 0.0  # gap at x 3.8-4.0 km
+    h[58:62, 10:20] = 0.0  # gap at x 0.5-1.0 km
+    return h, 50.0
+
+
+def _problem(**kw: object) -> PlanningProblem:
+    h, cell = _wall_grid()
+    grid = make_grid(h, cell=cell, x0=0.0, y0=6000.0)
+    start, goal = np.array([2900.0, 500.0, 100.0]), np.array([2900.0, 5500.0, 100.0])
+    opts: dict[str, object] = {"clearance": 20.0, "zmax": 400.0, "performance": PERF}
+    opts.update(kw)
+    return PlanningProblem(grid, start, goal, 4, **opts)  # type: ignore[arg-type]
+
+
+def _gaps(routes: tuple[object, ...]) -> list[float]:
+    """Where each route crosses the wall (its x at y = 3 km)."""
+    out = []
+    for r in routes:
+        xy = r.xy  # type: ignore[attr-defined]
+        out.append(float(xy[np.argmin(np.abs(xy[:, 1] - 3000.0)), 0]))
+    return out
+
+
+def test_routes_thread_the_gaps_of_a_wall_the_band_cannot_cross() -> None:
+    """The band tops at 400 m, the wall at 1000 m: the only ways are the two gaps.  On a graph
+    of 50 m blocks the shortest route takes the near gap (200 m wide: 100 m once the terrain is
+    dilated by a cell), another the far one; every seed is a feasible path."""
+    pr = _problem()
+    e = explore(pr, 3, cells=120)
+    gaps = _gaps(e.routes)
+    assert 3800.0 <= gaps[0] <= 4000.0 and any(500.0 <= g <= 1000.0 for g in gaps[1:])
+    assert all(3800.0 <= g <= 4000.0 or 500.0 <= g <= 1000.0 for g in gaps)
+    assert [r.cost for r in e.routes] == sorted(r.cost for r in e.routes)
+    terms = pr.terms(np.array([r.x for r in e.routes]))
+    assert pr.feasible(terms).all(), terms.row(0)
+    # on 100 m blocks the near gap falls between two blocks, each half wall: closed there
+    assert all(500.0 <= g <= 1000.0 for g in _gaps(explore(pr, 3, cells=60).routes))
+
+
+def test_the_pool_scores_routes_by_the_problem_cost_and_keeps_them_distinct() -> None:
+    """Several resolutions, every route scored by the problem's cost: the best is the near gap
+    (seen only by the finest graph), the others distinct by at least 5 % of the 5 km span."""
+    pr = _problem()
+    e = explore_pool(pr, 5)
+    f = [r.f for r in e.routes]
+    assert f == sorted(f) and f[0] == pytest.approx(float(pr(e.routes[0].x[None])[0]))
+    gaps = _gaps(e.routes)
+    assert 3800.0 <= gaps[0] <= 4000.0 and any(500.0 <= g <= 1000.0 for g in gaps)
+    assert pr.feasible(pr.terms(e.routes[0].x[None]))[0]
+
+
+def test_a_hard_zone_on_the_line_is_gone_round() -> None:
+    """A 2 km danger zone on the straight line of an open map: the routes' seeds stay out of it
+    (its margin included)."""
+    grid = make_grid(np.zeros((120, 120)), cell=50.0, x0=0.0, y0=6000.0)
+    zone = DangerZone(3000.0, 3000.0, 2000.0)
+    pr = PlanningProblem(
+        grid,
+        np.array([3000.0, 500.0, 100.0]),
+        np.array([3000.0, 5500.0, 100.0]),
+        4,
+        zones=(zone,),
+        avoid_zones=True,
+        zone_margin=100.0,
+        clearance=20.0,
+        performance=PERF,
+    )
+    e = explore(pr, 2)
+    assert len(e.routes) == 2  # round the west side and round the east side
+    sides = {bool(np.mean(r.xy[:, 0]) < 3000.0) for r in e.routes}
+    assert sides == {True, False}
+    terms = pr.terms(np.array([r.x for r in e.routes]))
+    assert (terms.inside.sum(axis=1) == 0.0).all() and pr.feasible(terms).all()
+
+
+def test_no_route_when_the_wall_is_closed_and_the_plan_says_infeasible() -> None:
+    h, cell = _wall_grid()
+    h[58:62, :] = 1000.0  # no gap
+    grid = make_grid(h, cell=cell, x0=0.0, y0=6000.0)
+    pr = PlanningProblem(
+        grid,
+        np.array([2900.0, 500.0, 100.0]),
+        np.array([2900.0, 5500.0, 100.0]),
+        4,
+        clearance=20.0,
+        zmax=400.0,
+        performance=PERF,
+    )
+    assert explore(pr, 3).routes == ()
+    x0, found = graph_population(pr, 20, np.random.default_rng(0))
+    assert found.routes == () and x0.shape == (20, 12)  # the corridor population alone
+    r = plan(pr, "ampso", seed=0, population=20, iterations=20)
+    assert not r.feasible and r.params["exploration"]["routes"] == 0
+
+
+def test_the_population_holds_the_routes_then_jittered_copies_then_the_corridor() -> None:
+    pr = _problem()
+    x0, found = graph_population(pr, 40, np.random.default_rng(1), 3, share=0.25)
+    n = len(found.routes)
+    for i, r in enumerate(found.routes):
+        np.testing.assert_array_equal(x0[i], r.x)
+    assert not np.array_equal(x0[n], found.routes[0].x)  # a copy, moved
+    assert np.abs(x0[n] - found.routes[0].x).max() < 2000.0
+    again, _ = graph_population(pr, 40, np.random.default_rng(1), 3, share=0.25)
+    np.testing.assert_array_equal(x0, again)  # reproducible from the seed
+
+
+def test_a_plan_from_the_graph_takes_the_gap_and_records_the_exploration() -> None:
+    pr = _problem()
+    r = plan(pr, "ampso", seed=0, population=30, iterations=60)
+    assert r.feasible and r.params["init"] == "graph" and r.params["routes"] == 5
+    ex = r.params["exploration"]
+    assert ex["routes"] >= 1 and ex["seconds"] > 0.0
+    path = r.path  # the flown path crosses the wall (y 2.9-3.1 km) in the near gap
+    x_at_wall = np.interp(3000.0, path[:, 1], path[:, 0])
+    assert 3800.0 <= x_at_wall <= 4000.0, x_at_wall
+    assert r.terms["total"] <= ex["route_F"][0] + 1e-9  # refined from the best seed, never worse
+
+
+@pytest.mark.parametrize("k", [0, -1, 2.5, True])
+def test_routes_must_be_a_positive_integer(k: object) -> None:
+    with pytest.raises(InputError, match=r"number of graph routes \(--routes\) must be an integer"):
+        explore(_problem(), k)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="--routes"):
+        plan(_problem(), "ampso", population=10, iterations=2, routes=k)  # type: ignore[arg-type]
