@@ -77,7 +77,7 @@ ROUTES = 5  # k
 STRETCH = 0.6  # a kept route costs at most (1 + STRETCH) x the shortest
 OVERLAP = 0.5  # share of a route's nodes that may lie near a kept route
 SEED_SHARE = 0.25  # share of the population seeded from the routes (route + jittered copies)
-MAX_TRIES = 2000  # via nodes tried at most
+MAX_TRIES = 2000  # via routes built at most (the nodes near a kept route are not tried)
 RESOLUTIONS = (48, 96, 160)  # graphs searched by explore_pool (blocks along the longer side)
 DISTINCT = 0.05  # explore_pool: routes closer than this share of the start-goal distance are one
 JITTER = 0.02  # graph_population: copies' horizontal jitter, share of the start-goal distance
@@ -246,6 +246,18 @@ def _edge_floor(
     return np.asarray(e, dtype=np.float64), blocked
 
 
+def _along(pred: IntArray, top: IntArray, flag: npt.NDArray[np.bool_]) -> FloatArray:
+    """For every node, how many flagged nodes its tree path from the root holds (itself
+    included); ``top`` lists the nodes root first (by distance), so a parent is counted before
+    its children.  Unreached nodes count 0."""
+    out = np.zeros(len(pred))
+    f = flag.astype(np.float64)
+    for v in top.tolist():
+        p = pred[v]
+        out[v] = f[v] + (out[p] if p >= 0 else 0.0)
+    return out
+
+
 def _chain(pred: IntArray, target: int) -> list[int]:
     """The nodes from a Dijkstra tree's root to ``target``."""
     out = [target]
@@ -277,7 +289,7 @@ def _via_routes(
     order = order[total[order] <= limit]
     # a node both trees enter from the same neighbour is the tip of a spur (the route through
     # it turns back on itself there): not a via node, and cheap to see for every node at once
-    order = order[(pred[0][order] != pred[1][order]) | (order == ends_at[0])][:MAX_TRIES]
+    order = order[(pred[0][order] != pred[1][order]) | (order == ends_at[0])]
     span = float(np.hypot(*(problem.goal[:2] - problem.start[:2])))
     radius_m = max(3.0 * b * max(cell), 0.05 * span)
     ry, rx = radius_m / (b * cell[1]), radius_m / (b * cell[0])
@@ -289,16 +301,29 @@ def _via_routes(
     near = np.zeros((nr, nc), dtype=bool)
     terrain = corridor_terrain(problem)
     routes: list[Route] = []
+    tried = np.zeros(nr * nc, dtype=bool)  # on a route already built and refused
+    tops = [np.argsort(dist[i], kind="stable") for i in (0, 1)]  # each tree's nodes, root first
+    counted_flag = ~ends.ravel()
+    lengths = [_along(pred[i], tops[i], counted_flag) for i in (0, 1)]
+    share = np.zeros(nr * nc)  # of each via route's counted nodes, near a kept route
+    tries = 0
     for via in order.tolist():
-        if near.flat[via]:
+        if near.flat[via] or tried[via] or (routes and share[via] >= overlap):
             continue
+        tries += 1
+        if tries > MAX_TRIES:
+            break
         first = _chain(pred[0], via)
         second = _chain(pred[1], via)
-        if set(first) & set(second[:-1]):
-            continue  # a spur: the route would turn back on itself at the via node
+        shared = set(first) & set(second[:-1])
+        if shared:  # a spur: the route would turn back on itself; its stem gives the same
+            tried[list(shared)] = True
+            continue
         nodes = first + second[::-1][1:]
         counted = [m for m in nodes if not ends.flat[m]]
         if routes and counted and np.mean(near.flat[counted]) >= overlap:
+            # the other nodes of this route would give (nearly) the same route: not tried
+            tried[nodes] = True
             continue
         ids = np.asarray(nodes, dtype=np.int64)
         e, _ = _edge_floor(floors, np.zeros_like(floors, dtype=bool), ids[:-1], ids[1:])
@@ -311,6 +336,12 @@ def _via_routes(
         near |= ndimage.binary_dilation(mark, structure=disc)
         if len(routes) == k:
             break
+        # every node's via-route share near the kept routes, from both trees at once
+        flag = near.ravel() & counted_flag
+        hits = [_along(pred[i], tops[i], flag) for i in (0, 1)]
+        both = hits[0] + hits[1] - flag
+        size = lengths[0] + lengths[1] - counted_flag
+        share = np.where(size > 0, both / np.maximum(size, 1), 0.0)
     return routes
 
 
