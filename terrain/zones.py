@@ -12,7 +12,7 @@ Files (DESIGN §5):
 
 - YAML: ``terrapath: 1`` and a ``danger_zones:`` list (optional ``name:``); each entry is
   a cylinder ``{x, y, diameter, floor?, top?, id?}`` in map metres or ``{lon, lat, diameter,
-  floor?, top?, id?}`` in WGS84 degrees, or a polygon ``{vertices: [[x, y], ...], holes?: [[[x,
+  floor?, top?, id?}`` in WGS84 degrees (``radius`` instead of ``diameter`` if preferred), or a polygon ``{vertices: [[x, y], ...], holes?: [[[x,
   y], ...], ...], floor?, top?, id?}`` in map metres or ``{vertices_lonlat: [[lon, lat], ...],
   holes_lonlat?: [...], ...}`` in degrees, or a polygon of several parts ``{parts: [{vertices,
   holes?}, ...], floor?, top?, id?}`` (``vertices_lonlat`` / ``holes_lonlat`` in the parts for
@@ -23,7 +23,9 @@ Files (DESIGN §5):
   ignored) of Point features, each a cylinder with a ``diameter`` (or ``radius``) property in
   metres, and Polygon / MultiPolygon features (holes allowed), each a polygon zone; properties:
   optional ``floor`` and ``top`` and an optional ``id`` (else ``name``, else the feature's own
-  ``id``).  Other properties are ignored, since GIS tools add their own (``fid`` ...).  A GeoJSON
+  ``id``).  Every zone, YAML or GeoJSON, may carry a ``margin`` (metres >= 0): it is read as the
+  zone grown by that much all round (:func:`inflated`: wider, its top higher, its floor lower),
+  which is what is stored and written back.  Other properties are ignored, since GIS tools add their own (``fid`` ...).  A GeoJSON
   ring must be closed (its last position repeats its first): a ring that is not is refused,
   naming the feature.
 
@@ -69,13 +71,14 @@ from terrain.docfile import found as _found
 from terrain.errors import InputError, where
 from terrain.grid import HeightGrid
 
-ZONE_KEYS = ("x", "y", "lon", "lat", "diameter", "floor", "top", "id")
+ZONE_KEYS = ("x", "y", "lon", "lat", "diameter", "radius", "margin", "floor", "top", "id")
 POLYGON_KEYS = (
     "vertices",
     "vertices_lonlat",
     "holes",
     "holes_lonlat",
     "parts",
+    "margin",
     "floor",
     "top",
     "id",
@@ -438,6 +441,7 @@ class _Entry(NamedTuple):
     top: float | None
     id: str | None
     floor: float | None = None
+    margin: float = 0.0  # the zone is grown by this much all round (inflated)
 
 
 class _PolyEntry(NamedTuple):
@@ -447,6 +451,7 @@ class _PolyEntry(NamedTuple):
     floor: float | None
     top: float | None
     id: str | None
+    margin: float = 0.0
 
 
 _AnyEntry = _Entry | _PolyEntry
@@ -651,7 +656,8 @@ def _yaml_polygon(entry: dict[str, Any], path: Source, field: str) -> _PolyEntry
     _check_polygon(parts, path, check_field, f"zone {ident!r}: " if ident is not None else "")
     top = _top(entry.get("top"), path, f"{field}.top")
     floor = _floor(entry.get("floor"), top, path, f"{field}.floor")
-    return _PolyEntry(field, lonlat, parts, floor, top, ident)
+    margin = _margin(entry.get("margin"), path, f"{field}.margin")
+    return _PolyEntry(field, lonlat, parts, floor, top, ident, margin)
 
 
 def _yaml_entry(entry: Any, path: Source, field: str) -> _AnyEntry:
@@ -693,13 +699,33 @@ def _yaml_entry(entry: Any, path: Source, field: str) -> _AnyEntry:
     b = _number(entry[keys[1]], path, f"{field}.{keys[1]}")
     if has_ll:
         _check_lonlat(a, b, path, field)
-    if "diameter" not in entry:
-        raise InputError(f"{where(path, field)}missing 'diameter' (metres, > 0)")
-    diameter = _diameter(entry["diameter"], path, f"{field}.diameter", "a diameter in metres > 0")
+    diameter = _size(entry, path, field)
     top = _top(entry.get("top"), path, f"{field}.top")
     floor = _floor(entry.get("floor"), top, path, f"{field}.floor")
     ident = _ident(entry.get("id"), path, f"{field}.id")
-    return _Entry(field, bool(has_ll), a, b, diameter, top, ident, floor)
+    margin = _margin(entry.get("margin"), path, f"{field}.margin")
+    return _Entry(field, bool(has_ll), a, b, diameter, top, ident, floor, margin)
+
+
+def _size(entry: dict[str, Any], path: Source, field: str) -> float:
+    """A cylinder's diameter from its ``diameter`` or its ``radius`` (one of them)."""
+    if "diameter" in entry and "radius" in entry:
+        raise InputError(f"{where(path, field)}give 'diameter' or 'radius', not both")
+    if "diameter" in entry:
+        return _diameter(entry["diameter"], path, f"{field}.diameter", "a diameter in metres > 0")
+    if "radius" in entry:
+        return 2.0 * _diameter(entry["radius"], path, f"{field}.radius", "a radius in metres > 0")
+    raise InputError(f"{where(path, field)}missing 'diameter' (metres, > 0) or 'radius'")
+
+
+def _margin(value: Any, path: Source, field: str) -> float:
+    """An optional margin (metres >= 0; absent: 0)."""
+    if value is None:
+        return 0.0
+    out = _number(value, path, field, "a margin in metres >= 0")
+    if out < 0:
+        raise InputError(f"{where(path, field)}expected a margin in metres >= 0, found {value!r}")
+    return out
 
 
 def _feature_ident(
@@ -737,7 +763,8 @@ def _geojson_polygon(
     pfield = f"{field}.properties"
     top = _top(props.get("top"), path, f"{pfield}.top")
     floor = _floor(props.get("floor"), top, path, f"{pfield}.floor")
-    return _PolyEntry(field, True, parts, floor, top, ident)
+    margin = _margin(props.get("margin"), path, f"{pfield}.margin")
+    return _PolyEntry(field, True, parts, floor, top, ident, margin)
 
 
 def _geojson_entry(feature: Any, path: Source, field: str) -> _AnyEntry:
@@ -765,21 +792,12 @@ def _geojson_entry(feature: Any, path: Source, field: str) -> _AnyEntry:
     lon = _number(coords[0], path, f"{cfield}[0]", "a longitude in degrees")
     lat = _number(coords[1], path, f"{cfield}[1]", "a latitude in degrees")
     _check_lonlat(lon, lat, path, cfield)
-    if "diameter" in props and "radius" in props:
-        raise InputError(f"{where(path, pfield)}give 'diameter' or 'radius', not both")
-    if "diameter" in props:
-        diameter = _diameter(
-            props["diameter"], path, f"{pfield}.diameter", "a diameter in metres > 0"
-        )
-    elif "radius" in props:
-        radius = _diameter(props["radius"], path, f"{pfield}.radius", "a radius in metres > 0")
-        diameter = 2.0 * radius
-    else:
-        raise InputError(f"{where(path, pfield)}missing 'diameter' (metres, > 0) or 'radius'")
+    diameter = _size(props, path, pfield)
     top = _top(props.get("top"), path, f"{pfield}.top")
     floor = _floor(props.get("floor"), top, path, f"{pfield}.floor")
     ident = _feature_ident(feature, props, path, field)
-    return _Entry(field, True, lon, lat, diameter, top, ident, floor)
+    margin = _margin(props.get("margin"), path, f"{pfield}.margin")
+    return _Entry(field, True, lon, lat, diameter, top, ident, floor, margin)
 
 
 def _to_map(
@@ -866,13 +884,15 @@ def _finish(entries: list[_AnyEntry], grid: HeightGrid | None, path: Source) -> 
             seen[e.id] = e.field
     zones: list[Zone] = []
     for i, e in enumerate(entries):
+        zone: Zone
         if isinstance(e, _Entry):
-            zones.append(DangerZone(float(xs[i]), float(ys[i]), e.diameter, e.top, e.id, e.floor))
-            continue
-        try:
-            zones.append(PolygonZone(tuple(tuple(p) for p in rings[i]), e.floor, e.top, e.id))  # type: ignore[arg-type]
-        except InputError as exc:  # valid in lon/lat, not once converted (a sliver): say so
-            raise InputError(f"{where(path, e.field)}in map metres: {exc}") from exc
+            zone = DangerZone(float(xs[i]), float(ys[i]), e.diameter, e.top, e.id, e.floor)
+        else:
+            try:
+                zone = PolygonZone(tuple(tuple(p) for p in rings[i]), e.floor, e.top, e.id)  # type: ignore[arg-type]
+            except InputError as exc:  # valid in lon/lat, not once converted (a sliver): say so
+                raise InputError(f"{where(path, e.field)}in map metres: {exc}") from exc
+        zones.append(inflated(zone, e.margin))
     return tuple(zones)
 
 

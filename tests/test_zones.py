@@ -371,9 +371,11 @@ def test_unknown_top_level_key(tmp_path):
 @pytest.mark.parametrize(
     ("entry", "field", "expected"),
     [
-        ({"x": 1, "y": 2, "diameter": 3, "radius": 1, "colour": "red"}, "danger_zones[1]",
-         "unknown key(s) 'colour', 'radius'; allowed: x, y, lon, lat, diameter, floor, top, id "
-         "(a polygon zone has vertices instead of a centre)"),
+        ({"x": 1, "y": 2, "diameter": 3, "colour": "red"}, "danger_zones[1]",
+         "unknown key(s) 'colour'; allowed: x, y, lon, lat, diameter, radius, margin, floor, "
+         "top, id (a polygon zone has vertices instead of a centre)"),
+        ({"x": 1, "y": 2, "diameter": 3, "radius": 1}, "danger_zones[1]",
+         "give 'diameter' or 'radius', not both"),
         ({"x": 1, "diameter": 3}, "danger_zones[1]",
          "missing 'y'; a zone centre needs x and y (map metres) or lon and lat (degrees)"),
         ({"diameter": 3}, "danger_zones[1]",
@@ -386,7 +388,7 @@ def test_unknown_top_level_key(tmp_path):
         ({"x": 1, "y": float("nan"), "diameter": 3}, "danger_zones[1].y", "expected a number, found nan"),
         ({"x": float("inf"), "y": 2, "diameter": 3}, "danger_zones[1].x", "expected a number, found inf"),
         ({"x": 1, "y": True, "diameter": 3}, "danger_zones[1].y", "expected a number, found True (a boolean)"),
-        ({"x": 1, "y": 2}, "danger_zones[1]", "missing 'diameter' (metres, > 0)"),
+        ({"x": 1, "y": 2}, "danger_zones[1]", "missing 'diameter' (metres, > 0) or 'radius'"),
         ({"x": 1, "y": 2, "diameter": -3}, "danger_zones[1].diameter", "expected a diameter in metres > 0, found -3"),
         ({"x": 1, "y": 2, "diameter": 0}, "danger_zones[1].diameter", "expected a diameter in metres > 0, found 0"),
         ({"x": 1, "y": 2, "diameter": None}, "danger_zones[1].diameter",
@@ -443,3 +445,32 @@ def test_all_errors_share_the_root(tmp_path):
         load_zones(tmp_path / "missing.yaml")
     with pytest.raises(ValueError):
         load_zones(write_yaml(tmp_path, [{"x": 1, "y": 2, "diameter": -1}]))
+
+
+def test_a_radius_instead_of_a_diameter_and_a_margin_that_grows_the_zone(tmp_path, local_grid):
+    """Issue 20: YAML takes ``radius`` as GeoJSON does, and any zone a ``margin``: the zone is
+    read grown by it (a cylinder's radius, its top up and its floor down; a polygon buffered)."""
+    path = write_yaml(
+        tmp_path,
+        [
+            {"x": 1000, "y": 500, "radius": 250, "id": "r"},
+            {"x": 500, "y": 500, "radius": 100, "margin": 25, "top": 300, "floor": 100, "id": "m"},
+            {"vertices": [[0, 0], [100, 0], [100, 100]], "margin": 10, "id": "p"},
+        ],
+    )
+    r, m, p = load_zones(path, local_grid)
+    assert r == DangerZone(1000.0, 500.0, 500.0, None, "r")
+    assert m == DangerZone(500.0, 500.0, 250.0, 325.0, "m", 75.0)
+    assert p.geometry.area == pytest.approx(5000.0 + 10.0 * (100 + 100 + 100 * math.sqrt(2))
+                                            + math.pi * 100.0, rel=2e-3)  # fmt: skip
+    # written back as the grown zone, and read back equal
+    assert zones_from_records(zones_to_records((r, m, p)), local_grid) == (r, m, p)
+    for entry, message in (
+        ({"x": 0, "y": 0, "radius": 5, "diameter": 10}, "give 'diameter' or 'radius', not both"),
+        ({"x": 0, "y": 0, "radius": -5}, r"radius': expected a radius in metres > 0, found -5"),
+        ({"x": 0, "y": 0, "diameter": 5, "margin": -1}, r"margin': expected a margin in metres"),
+        ({"x": 0, "y": 0, "diameter": 5, "margin": "wide"}, r"margin': expected a margin in"),
+        ({"x": 0, "y": 0}, "missing 'diameter' \\(metres, > 0\\) or 'radius'"),
+    ):
+        with pytest.raises(InputError, match=message):
+            zones_from_records([entry], source="zones.yaml")
