@@ -29,7 +29,10 @@ sum l_i a_i / L`` with ``a_i`` the segment's altitude normalised to the band, so
 length ``l`` at normalised mid altitude ``a`` weighs ``l (1 + a)`` (up to the constant 1 and the
 factor 1 / D, the same order).  With the aircraft's performance, ``l`` is at least ``|dz| / g``
 (``g`` the smaller of its climb and descent gradients): a climb steeper than it can fly costs
-the distance it needs to make it.  Soft danger zones (not ``avoid_zones``) are left to the swarm.
+the distance it needs to make it.  Soft danger zones (not ``avoid_zones``) add their cost term
+the same way: an edge ``l_k`` metres inside zone ``k`` of size ``d_k`` (of ``n``) adds
+``D l_k / (n d_k)`` (``D`` the straight start-goal distance; the term's cap at 1 per zone is
+left out).
 
 **k routes (via nodes).**  One Dijkstra from the start and one from the goal
 (:func:`scipy.sparse.csgraph.dijkstra`) give every node ``v`` the cost ``d_s(v) + d_g(v)`` of the
@@ -208,7 +211,13 @@ def explore(
     if perf is not None:  # a climb steeper than the aircraft's costs the distance it needs
         g = min(perf.climb_gradient, perf.descent_gradient)
         length = np.maximum(length, np.abs(hv - hu) / g)
-    w = np.maximum(length * (1.0 + (e - zlo) / (zhi - zlo)), 1e-9)
+    w = length * (1.0 + (e - zlo) / (zhi - zlo))
+    if problem.zones and not problem.avoid_zones:  # soft zones: their cost term, in metres
+        soft = problem._zones  # the zones as the cost sees them (grown by the margin)
+        inside = soft.segment_lengths(p_u, p_v)
+        straight = float(np.linalg.norm(problem.goal - problem.start))
+        w = w + straight * (inside / soft.sizes[None, :]).sum(axis=1) / len(soft)
+    w = np.maximum(w, 1e-9)
     n = nr * nc
     graph = coo_matrix((w, (u, v)), shape=(n, n)).tocsr()
     dist, pred = dijkstra(graph, directed=False, indices=[s_node, g_node], return_predecessors=True)
@@ -411,7 +420,9 @@ class _Chords:
 
 def _pull(problem: PlanningProblem, xyz: FloatArray, heights: FloatArray) -> FloatArray:
     """String pulling along a route in 3-D: from each kept vertex the farthest later route point
-    whose straight chord (altitudes linear between their own) clears the terrain floor."""
+    whose straight chord (altitudes linear between their own) clears the terrain floor and enters
+    no danger zone (as the cost sees them, grown by the margin)."""
+    zones = problem._zones if problem.zones else None
     out = [0]
     a = 0
     m = len(xyz)
@@ -420,6 +431,8 @@ def _pull(problem: PlanningProblem, xyz: FloatArray, heights: FloatArray) -> Flo
         while j + 1 < m:
             seg = np.array([xyz[a, :2], xyz[j + 1, :2]])
             if not _Chords(problem, seg, heights).clear(0, xyz[a, 2], xyz[j + 1, 2]):
+                break
+            if zones is not None and zones.segment_lengths(xyz[a][None], xyz[j + 1][None]).any():
                 break
             j += 1
         out.append(j)
