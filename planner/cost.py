@@ -34,6 +34,26 @@ limits, so the paper's cost is unchanged there), each shaped like F_collision:
 The caller passes E_climb and E_turn (computed on the flown path, see :mod:`planner.flown`) and the
 unknown-cell mask as a grid; the polyline given is the one evaluated (the flown path).
 
+Three optional terms users ask for (issue 20; zero unless asked for, so seed 002's cost is
+unchanged by default), each reported like the others:
+
+    F_above  = 0 if L_above == 0 else P + L_above / L_traj    L_above: length more than agl_max
+                                                             above the ground (an above-ground
+                                                             band's top; its floor is the
+                                                             clearance the collision term keeps)
+    F_pref   = mean |h - h_pref| / (Zmax - Zmin)             h: the height above the ground along
+                                                             the path (SPSO's altitude term J3);
+                                                             it replaces F_altitude when given
+    F_smooth = w (1 / (N)) sum_i (theta_i + |gamma_i - gamma_{i-1}|) / pi
+                                                             theta_i: the turn at waypoint i,
+                                                             gamma: the legs' climb angles (SPSO's
+                                                             J4, without its 45 deg dead band)
+
+The height above the ground is sampled along the (flown) path at most every cell (at most 24
+samples a segment: the swarm's estimate; a result's band is checked every half cell), on the
+DEM's cells; the smoothness is taken on the waypoint
+polyline (the N interior vertices), not on the fillets that round it.
+
 A_traj is the mean altitude *along the path* (each segment weighted by its 3D length, its altitude
 the mean of its ends), so a short climb costs less than a long high cruise; a degenerate path of
 length 0 takes the mean of its points.
@@ -41,6 +61,7 @@ length 0 takes the mean of its points.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,6 +94,10 @@ class CostTerms:
     climb_excess: FloatArray
     turn_excess: FloatArray
     unknown_length: FloatArray
+    above: FloatArray  # F_above
+    above_length: FloatArray  # L_above, m
+    preferred: FloatArray  # F_pref (0 when no preferred height)
+    smoothness: FloatArray  # F_smooth (0 when its weight is 0)
 
     def row(self, i: int) -> dict[str, float]:
         """Plain-data terms of path i (what the mission file records)."""
@@ -92,6 +117,10 @@ class CostTerms:
             "climb_excess_m": float(self.climb_excess[i]),
             "turn_excess_m": float(self.turn_excess[i]),
             "unknown_terrain_m": float(self.unknown_length[i]),
+            "above_band": float(self.above[i]),
+            "above_band_m": float(self.above_length[i]),
+            "preferred_height": float(self.preferred[i]),
+            "smoothness": float(self.smoothness[i]),
         }
 
 
@@ -108,12 +137,18 @@ def path_costs(
     climb_excess: FloatArray | None = None,
     turn_excess: FloatArray | None = None,
     unknown: HeightGrid | None = None,
+    ground: HeightGrid | None = None,
+    agl_max: float | None = None,
+    agl_pref: float | None = None,
+    smoothness: FloatArray | None = None,
 ) -> CostTerms:
     """Cost terms of a (P, W, 3) stack of polylines (one call for a whole swarm).
 
     ``climb_excess`` and ``turn_excess`` (P,) are the metres beyond the aircraft's limits (None:
     no limits); ``unknown`` is a grid of the same lattice whose cells are > 0 where the terrain is
-    unknown and < 0 where it was measured (None: all measured)."""
+    unknown and < 0 where it was measured (None: all measured).  ``ground`` (the DEM) with
+    ``agl_max`` or ``agl_pref`` adds the above-ground terms; ``smoothness`` (P,) is F_smooth,
+    computed by the caller on the waypoint polylines (:func:`smoothness_of`)."""
     p = np.asarray(paths, dtype=np.float64)
     seg = np.diff(p, axis=1)
     seg_len = np.linalg.norm(seg, axis=2)
@@ -153,7 +188,20 @@ def path_costs(
     f_climb = np.where(ce > 0, penalty + ce / safe_len, 0.0)
     f_turn = np.where(te > 0, penalty + te / safe_len, 0.0)
     f_unknown = np.where(over > 0, penalty + over / safe_len, 0.0)
+    f_above = np.zeros(n)
+    above = np.zeros(n)
+    f_pref = np.zeros(n)
+    if ground is not None and (agl_max is not None or agl_pref is not None):
+        agl, w = _heights_above(ground, p, seg_len)
+        if agl_max is not None:
+            above = ((agl > agl_max) * w).sum(axis=1)
+            f_above = np.where(above > 0, penalty + above / safe_len, 0.0)
+        if agl_pref is not None:
+            f_pref = (np.abs(agl - agl_pref) * w).sum(axis=1) / safe_len / (zmax - zmin)
+            f_alt = np.zeros(n)  # the preferred height replaces the lowest-altitude term
+    f_smooth = np.zeros(n) if smoothness is None else np.asarray(smoothness, dtype=np.float64)
     total = f_length + f_alt + f_col + f_dz + f_climb + f_turn + f_unknown
+    total = total + f_above + f_pref + f_smooth
     return CostTerms(
         total,
         f_length,
@@ -170,4 +218,46 @@ def path_costs(
         ce,
         te,
         over,
+        f_above,
+        above,
+        f_pref,
+        f_smooth,
     )
+
+
+AGL_SAMPLES_MAX = 24  # height-above-ground samples per segment at most
+
+
+def _heights_above(
+    ground: HeightGrid, p: FloatArray, seg_len: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(P, S m) heights above the DEM's cells at ``m`` samples in each of the S
+    segments of every path (midpoints of m equal pieces, m from the longest segment and the
+    cell, at most AGL_SAMPLES_MAX), and each sample's share of its segment's length."""
+    cell = min(ground.cell_size)
+    m = int(min(AGL_SAMPLES_MAX, max(1, math.ceil(float(seg_len.max(initial=0.0)) / cell))))
+    t = (np.arange(m) + 0.5) / m
+    a, b = p[:, :-1, None, :], p[:, 1:, None, :]
+    pts = a + t[None, None, :, None] * (b - a)  # (P, S, m, 3)
+    rows, cols = ground.cell_of(pts[..., 0].ravel(), pts[..., 1].ravel())
+    h = ground.heights[rows, cols].astype(np.float64).reshape(pts.shape[:3])
+    agl = (pts[..., 2] - h).reshape(p.shape[0], -1)
+    w = np.repeat(seg_len / m, m, axis=1)
+    return agl, w
+
+
+def smoothness_of(paths: FloatArray, weight: float) -> FloatArray:
+    """F_smooth of (P, W, 3) waypoint polylines (module docstring): ``weight`` times the mean,
+    over the W - 2 interior vertices, of the horizontal turn plus the change of climb angle,
+    in units of pi.  A leg without horizontal extent keeps the previous direction."""
+    p = np.asarray(paths, dtype=np.float64)
+    if weight == 0.0 or p.shape[1] < 3:
+        return np.zeros(p.shape[0])
+    d = np.diff(p, axis=1)
+    flat = np.hypot(d[..., 0], d[..., 1])
+    heading = np.arctan2(d[..., 0], d[..., 1])
+    climb = np.arctan2(d[..., 2], flat)
+    turn = np.abs((heading[:, 1:] - heading[:, :-1] + np.pi) % (2 * np.pi) - np.pi)
+    turn = np.where((flat[:, 1:] > 0) & (flat[:, :-1] > 0), turn, 0.0)
+    change = np.abs(climb[:, 1:] - climb[:, :-1])
+    return np.asarray(weight * (turn + change).mean(axis=1) / np.pi, dtype=np.float64)

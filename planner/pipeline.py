@@ -82,6 +82,10 @@ class PlanRequest:
     cruise_agl: float = DEFAULT_CRUISE_AGL
     allow_unknown: bool = False
     zone_margin: float = 25.0
+    agl_min: float | None = None  # an above-ground band (planner.problem)
+    agl_max: float | None = None
+    agl_pref: float | None = None  # a preferred height above the ground
+    smoothness: float = 0.0  # weight of the smoothness term
     name: str | None = None
 
 
@@ -187,8 +191,14 @@ def build_problem(request: PlanRequest) -> Prepared:
     r = request
     grid = load_dem(list(r.dem), **r.dem_options)
     safety = grid.safety()
-    s = _place(grid, r.start, "start", r.map_coords, r.cruise_agl, safety)
-    g = _place(grid, r.goal, "goal", r.map_coords, r.cruise_agl, safety)
+    cruise = r.cruise_agl  # a start or goal without an altitude: inside an above-ground band
+    if r.agl_pref is not None:
+        cruise = r.agl_pref
+    elif r.agl_max is not None:
+        floor = max(r.clearance, r.agl_min or 0.0)
+        cruise = min(cruise, 0.5 * (floor + r.agl_max))
+    s = _place(grid, r.start, "start", r.map_coords, cruise, safety)
+    g = _place(grid, r.goal, "goal", r.map_coords, cruise, safety)
     if isinstance(r.zones, str):
         zlist = load_zones(r.zones, grid)
     else:
@@ -219,6 +229,10 @@ def build_problem(request: PlanRequest) -> Prepared:
         performance=r.performance,
         allow_unknown=r.allow_unknown,
         zone_margin=r.zone_margin if r.avoid_zones else 0.0,
+        agl_min=r.agl_min,
+        agl_max=r.agl_max,
+        agl_pref=r.agl_pref,
+        smoothness=r.smoothness,
     )
     if r.performance_at is not None:
         zmin, zmax = problem.band

@@ -14,7 +14,7 @@ from planner.optim import make_optimizer
 from planner.optim.termination import MaxIterations, SwarmRadius
 from planner.problem import PlanningProblem
 from planner.profile import sample_path
-from planner.result import PlanResult, find_violations
+from planner.result import PlanResult, above_ground, find_violations
 from terrain.errors import InputError
 
 ALGORITHMS = ("ampso", "pso", "apso", "ga")
@@ -165,6 +165,9 @@ def _plan_once(
     feasible = bool(problem.feasible(terms)[0]) and bool(check.valid.all())
     row = terms.row(0)
     row["min_clearance_m"], row["over_unknown_share"] = flown_figures(problem, flown)
+    if problem.agl_max is not None:  # the band's top, on the densely sampled flown path
+        row["max_above_ground_m"] = float(above_ground(problem, flown).clearance.max())
+        feasible = feasible and row["max_above_ground_m"] <= problem.agl_max
     return PlanResult(
         status="feasible" if feasible else "infeasible",
         waypoints=path,

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
-from planner.cost import COLLISION_PENALTY, CostTerms, path_costs
+from planner.cost import COLLISION_PENALTY, CostTerms, path_costs, smoothness_of
 from planner.flown import CHORDS, climb_excess, flown_paths
 from planner.performance import Performance
 from terrain.errors import InputError
@@ -113,6 +113,10 @@ class PlanningProblem:
     chords: int = CHORDS
     allow_unknown: bool = False
     zone_margin: float = 0.0
+    agl_min: float | None = None  # an above-ground band's floor: the clearance is at least this
+    agl_max: float | None = None  # its top: no length more than this above the ground
+    agl_pref: float | None = None  # a preferred height above the ground (SPSO's J3)
+    smoothness: float = 0.0  # weight of the turn / climb-change term (SPSO's J4)
     _zones: ZoneSet = field(init=False, repr=False)
     _check_grid: HeightGrid = field(init=False, repr=False)
     _unknown: HeightGrid | None = field(init=False, repr=False)
@@ -133,6 +137,7 @@ class PlanningProblem:
         set_(self, "n_waypoints", int(self.n_waypoints))
         if not (math.isfinite(self.clearance) and self.clearance >= 0):
             raise InputError(f"clearance must be a number of metres >= 0; got {self.clearance!r}")
+        self._check_above_ground()
         span = float(np.hypot(*(self.goal[:2] - self.start[:2])))
         if span < max(g.cell_size):
             raise InputError(
@@ -155,6 +160,11 @@ class PlanningProblem:
                     f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is inside the terrain "
                     f"(needs at least {need})"
                 )
+            if self.agl_max is not None and p[2] - ground > self.agl_max:
+                raise InputError(
+                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is {p[2] - ground:.0f} m "
+                    f"above the ground, above --agl-max {self.agl_max:g} m; lower it"
+                )
         relief = g.zmax - g.zmin
         zmin = g.zmin - 1.0 if self.zmin is None else float(self.zmin)
         margin = self.clearance + max(50.0, 0.05 * relief)
@@ -165,6 +175,11 @@ class PlanningProblem:
             zmin = min(zmin, float(self.start[2]), float(self.goal[2]))
         if not (math.isfinite(zmin) and math.isfinite(zmax)) or zmin >= zmax:
             raise InputError(f"altitude band must have Zmin < Zmax; got [{zmin}, {zmax}]")
+        if self.agl_min is not None and zmax <= g.zmin + self.clearance:
+            raise InputError(
+                f"the above-ground band lies above the altitude band: {self.clearance:g} m over "
+                f"the lowest terrain ({g.zmin:.1f} m) is above Zmax {zmax:.1f} m"
+            )
         if zmax <= g.zmin + self.clearance:
             raise InputError(
                 f"altitude band [{zmin:.1f}, {zmax:.1f}] m lies entirely below the terrain "
@@ -216,6 +231,35 @@ class PlanningProblem:
                     f"terrain around it ({top:.1f} m, the planner's conservative terrain: the "
                     f"highest of its cell and the eight cells around it), less than the clearance "
                     f"of {self.clearance:g} m; raise it to at least {top + self.clearance:.1f} m"
+                )
+
+    def _check_above_ground(self) -> None:
+        """The above-ground band and preferred height (one line naming the option when wrong);
+        the band's floor raises the clearance."""
+        set_ = object.__setattr__
+        for name in ("agl_min", "agl_max", "agl_pref"):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                flag = "--" + name.replace("_", "-")
+                raise InputError(
+                    f"{flag} must be a height above the ground in metres >= 0; got {v!r}"
+                )
+        if not (math.isfinite(self.smoothness) and self.smoothness >= 0):
+            raise InputError(f"--smoothness must be a weight >= 0; got {self.smoothness!r}")
+        if self.agl_min is not None:
+            set_(self, "clearance", max(float(self.clearance), float(self.agl_min)))
+        low = float(self.clearance)
+        if self.agl_max is not None and self.agl_max <= low:
+            raise InputError(
+                f"the above-ground band is empty: --agl-max {self.agl_max:g} m is not above its "
+                f"floor, {low:g} m (the larger of --agl-min and --clearance)"
+            )
+        if self.agl_pref is not None:
+            high = math.inf if self.agl_max is None else float(self.agl_max)
+            if not low <= self.agl_pref <= high:
+                band = f"[{low:g}, {high:g}] m" if high < math.inf else f"at least {low:g} m"
+                raise InputError(
+                    f"--agl-pref {self.agl_pref:g} m lies outside the above-ground band ({band})"
                 )
 
     # -- the search space ---------------------------------------------------------------------------
@@ -315,6 +359,7 @@ class PlanningProblem:
         """Every cost term of a (P, 3N) population (on the flown paths, see :meth:`flown`)."""
         z = self._zones
         paths = self.paths(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+        smooth = smoothness_of(paths, self.smoothness) if self.smoothness else None
         ce = te = None
         perf = self.performance
         if perf is not None:
@@ -333,6 +378,10 @@ class PlanningProblem:
             climb_excess=ce,
             turn_excess=te,
             unknown=self._unknown,
+            ground=self.grid,
+            agl_max=self.agl_max,
+            agl_pref=self.agl_pref,
+            smoothness=smooth,
         )
 
     def __call__(self, x: npt.ArrayLike) -> FloatArray:
@@ -357,4 +406,5 @@ class PlanningProblem:
             ok &= terms.inside.sum(axis=1) <= 0.0
         ok &= (terms.climb_excess <= 0.0) & (terms.turn_excess <= 0.0)
         ok &= terms.unknown_length <= 0.0
+        ok &= terms.above_length <= 0.0
         return np.asarray(ok)

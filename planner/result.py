@@ -22,7 +22,7 @@ Status = Literal["feasible", "infeasible"]
 class Violation:
     """One broken constraint: what, which segment, where (map metres), how much."""
 
-    kind: Literal["terrain", "danger_zone", "climb", "turn", "unknown_terrain"]
+    kind: Literal["terrain", "danger_zone", "climb", "turn", "unknown_terrain", "above_band"]
     segment: int
     x: float
     y: float
@@ -169,6 +169,7 @@ def find_violations(
     if perf is not None:
         out.extend(_climb_violations(perf, flown, labels, legs))
         out.extend(_turn_violations(perf, path))
+    out.extend(_band_violations(problem, flown, labels, legs))
     if check is None:
         check = problem.validity.path(flown)
     named = {v.segment for v in out}
@@ -188,6 +189,43 @@ def find_violations(
             )
         )
     return tuple(out)
+
+
+def above_ground(problem: PlanningProblem, flown: FloatArray) -> PathSamples:
+    """The flown path sampled every half cell, heights above the DEM's surface (bilinear)."""
+    return sample_path(problem.grid, flown)
+
+
+def _band_violations(
+    problem: PlanningProblem, flown: FloatArray, labels: list[str], legs: list[int]
+) -> list[Violation]:
+    """One violation per leg or turn that flies more than ``agl_max`` above the ground."""
+    top = problem.agl_max
+    if top is None:
+        return []
+    s = above_ground(problem, flown)
+    out: list[Violation] = []
+    seen: set[str] = set()
+    for i in range(len(flown) - 1):
+        on = s.segment == i
+        excess = s.clearance[on] - top
+        k = int(np.argmax(excess))
+        if excess[k] > 0 and labels[i] not in seen:
+            seen.add(labels[i])
+            pts = s.points[on]
+            seg_len = float(np.linalg.norm(flown[i + 1] - flown[i]))
+            over = float((excess > 0).mean() * seg_len)
+            out.append(
+                _at(
+                    "above_band",
+                    legs[i],
+                    pts[k],
+                    over,
+                    f"{labels[i]} flies about {over:.0f} m more than --agl-max {top:g} m above the "
+                    f"ground, {excess[k]:.0f} m over it at x={pts[k, 0]:.0f}, y={pts[k, 1]:.0f}",
+                )
+            )
+    return out
 
 
 def _unknown_violations(

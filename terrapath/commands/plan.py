@@ -27,6 +27,14 @@ def _parse_point(ctx: click.Context, param: click.Parameter, value: str) -> tupl
     return parts
 
 
+def _extra_terms(t: dict[str, float]) -> str:
+    """The optional terms of the cost that are in use (above-ground band, preferred height,
+    smoothness), as the summary line prints the others."""
+    names = (("above_band", "above band"), ("preferred_height", "preferred height"),
+             ("smoothness", "smoothness"))  # fmt: skip
+    return "".join(f", {label} {t[key]:.4f}" for key, label in names if t.get(key))
+
+
 def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: bool) -> Any:
     """Run the planning pipeline with a progress bar (iteration, best cost) on a terminal."""
     from planner.pipeline import plan_mission
@@ -130,6 +138,35 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     help="Highest waypoint altitude (m AMSL); default just above the highest terrain.",
 )
 @click.option(
+    "--agl-min",
+    type=float,
+    default=None,
+    help="Floor of an above-ground band (m): the path keeps at least this above the terrain "
+    "(raises --clearance).",
+)
+@click.option(
+    "--agl-max",
+    type=float,
+    default=None,
+    help="Top of an above-ground band (m): a path more than this above the ground anywhere is "
+    "infeasible.",
+)
+@click.option(
+    "--agl-pref",
+    type=float,
+    default=None,
+    help="Preferred height above the ground (m): the cost's altitude term becomes the mean "
+    "distance from it (SPSO's) instead of the altitude itself.",
+)
+@click.option(
+    "--smoothness",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Weight of a smoothness term: the mean turn and climb-angle change at the waypoints, "
+    "in units of pi (SPSO's J4; 0: off, as in seed 002).",
+)
+@click.option(
     "--avoid-zones", is_flag=True, help="A path inside any danger zone counts as infeasible."
 )
 @click.option(
@@ -213,6 +250,10 @@ def plan_cmd(
     clearance: float,
     zmin: float | None,
     zmax: float | None,
+    agl_min: float | None,
+    agl_max: float | None,
+    agl_pref: float | None,
+    smoothness: float,
     avoid_zones: bool,
     zone_margin: float,
     strict: bool,
@@ -281,6 +322,10 @@ def plan_cmd(
         clearance=clearance,
         zmin=zmin,
         zmax=zmax,
+        agl_min=agl_min,
+        agl_max=agl_max,
+        agl_pref=agl_pref,
+        smoothness=smoothness,
         avoid_zones=avoid_zones,
         zone_margin=zone_margin,
         strict=strict,
@@ -313,7 +358,8 @@ def plan_cmd(
             f"{result.status}: cost {t['total']:.4f} (length {t['length']:.4f}, altitude "
             f"{t['altitude']:.4f}, collision {t['collision']:.4f}, danger zones "
             f"{t['dangerzones']:.4f}, climb {t['climb']:.4f}, turn {t['turn']:.4f}, unknown "
-            f"terrain {t['unknown']:.4f}); flown path {t['path_length_m'] / 1000:.2f} km, min "
+            f"terrain {t['unknown']:.4f}{_extra_terms(t)}); flown path "
+            f"{t['path_length_m'] / 1000:.2f} km, min "
             f"clearance {t['min_clearance_m']:.0f} m, {result.iterations} iterations, "
             f"{result.elapsed_s:.1f} s"
         )
