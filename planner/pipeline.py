@@ -319,6 +319,18 @@ def to_mission(
         "altitude_band": list(problem.band),
         "avoid_zones": r.avoid_zones,
         "zone_margin": r.zone_margin if r.avoid_zones else 0.0,
+        "init": r.init,
+        **({"routes": r.routes} if r.init == "graph" else {}),
+        **{
+            k: v
+            for k, v in (
+                ("agl_min", r.agl_min),
+                ("agl_max", r.agl_max),
+                ("agl_pref", r.agl_pref),
+                ("smoothness", r.smoothness or None),
+            )
+            if v is not None
+        },
         "vehicle_limits": perf.as_dict(),
         "violations": [v.as_dict() for v in result.violations],
     }
