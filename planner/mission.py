@@ -78,6 +78,7 @@ class TerrainRef:
     candidates: tuple[tuple[str, ...], ...] = ()
     source: str | None = None
     attachment: str | None = None
+    local_cell_size: float | None = None  # metres a cell of a DEM without a CRS measures
 
     @classmethod
     def from_entries(
@@ -135,7 +136,9 @@ class TerrainRef:
     def load(self) -> HeightGrid:
         from terrain.load import load_dem
 
-        return load_dem(list(self.paths()), cell_size=self.cell_size)
+        return load_dem(
+            list(self.paths()), cell_size=self.cell_size, local_cell_size=self.local_cell_size
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -223,19 +226,23 @@ def mission_from_dict(
         pts.append(xyz if len(xyz) == 3 else [*xyz, alt])
     terrain = None
     if doc.get("terrain") is not None:
-        t = _mapping(doc["terrain"], path, "terrain", ("dem", "cell_size"))
+        t = _mapping(doc["terrain"], path, "terrain", ("dem", "cell_size", "local_cell_size"))
         dem = t.get("dem")
         if isinstance(dem, str):
             dem = [dem]
         if not isinstance(dem, list) or not dem or not all(isinstance(d, str) for d in dem):
             raise _fail(path, "terrain.dem", f"expected a list of DEM file paths, found {dem!r}")
         cell = t.get("cell_size")
+        local = t.get("local_cell_size")
         terrain = TerrainRef.from_entries(
             dem,
             None if cell is None else _num(cell, path, "terrain.cell_size", positive=True),
             source=path,
             attachment=attachment,
         )
+        if local is not None:
+            size = _num(local, path, "terrain.local_cell_size", positive=True)
+            terrain = replace(terrain, local_cell_size=size)
     name = doc.get("name", Path(path).stem if path else "mission")
     vehicle = doc.get("vehicle", DEFAULT_VEHICLE)
     if not isinstance(vehicle, str) or not vehicle:
@@ -302,6 +309,8 @@ def mission_to_dict(
         doc["terrain"] = {"dem": dem}
         if mission.terrain.cell_size is not None:
             doc["terrain"]["cell_size"] = mission.terrain.cell_size
+        if mission.terrain.local_cell_size is not None:
+            doc["terrain"]["local_cell_size"] = mission.terrain.local_cell_size
     doc["vehicle"] = mission.vehicle
     doc["cruise"] = {"speed": mission.cruise_speed, "altitude": mission.cruise_altitude}
     if mission.turn_radius is not None:

@@ -339,7 +339,9 @@ def to_mission(
         waypoints=result.waypoints,
         crs=grid_crs_label(prepared.grid),
         terrain=TerrainRef(
-            tuple(str(Path(d).resolve()) for d in r.dem), r.dem_options.get("cell_size")
+            tuple(str(Path(d).resolve()) for d in r.dem),
+            r.dem_options.get("cell_size"),
+            local_cell_size=r.dem_options.get("local_cell_size"),
         ),
         vehicle=r.vehicle,
         cruise_speed=perf.speed,

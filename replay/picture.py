@@ -286,16 +286,17 @@ def load_grid(mission: Any) -> tuple[Any, str]:
     if mission.terrain is None:
         return None, " (flat ground)"
     try:
-        return _load_tiles(mission.terrain.paths(), mission.terrain.cell_size), ""
+        t = mission.terrain
+        return _load_tiles(t.paths(), t.cell_size, t.local_cell_size), ""
     except InputError:
         return None, " (its DEM is not where it was recorded: drawn without the map)"
 
 
 @functools.lru_cache(maxsize=2)
-def _load_tiles(paths: tuple[str, ...], cell_size: Any) -> Any:
+def _load_tiles(paths: tuple[str, ...], cell_size: Any, local_cell_size: Any = None) -> Any:
     from terrain.load import load_dem
 
-    return load_dem(list(paths), cell_size=cell_size)
+    return load_dem(list(paths), cell_size=cell_size, local_cell_size=local_cell_size)
 
 
 def separation_of(th: Any, xyz: FloatArray, t: FloatArray) -> FloatArray:

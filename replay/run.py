@@ -312,11 +312,16 @@ def _terrain(mission: Any, dem_tiles: tuple[str, ...]) -> Any:
     ref = mission.terrain
     if dem_tiles:
         cell = ref.cell_size if ref is not None else None
-        ref = TerrainRef(tuple(str(Path(t).absolute()) for t in dem_tiles), cell)
+        local = ref.local_cell_size if ref is not None else None
+        ref = TerrainRef(
+            tuple(str(Path(t).absolute()) for t in dem_tiles), cell, local_cell_size=local
+        )
     if ref is None:
         return mission
     found = tuple(str(Path(t).resolve()) for t in ref.paths())
-    return replace(mission, terrain=TerrainRef(found, ref.cell_size))
+    return replace(
+        mission, terrain=TerrainRef(found, ref.cell_size, local_cell_size=ref.local_cell_size)
+    )
 
 
 def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[Any, bytes | None]:

@@ -212,11 +212,16 @@ def load_dem(
     crop: Sequence[float] | None = None,
     crop_lonlat: bool = False,
     band: int | None = None,
+    local_cell_size: float | None = None,
 ) -> HeightGrid:
     """Load one or more DEM tiles into a metric height grid (see the module docstring).
 
     ``crop`` is (xmin, ymin, xmax, ymax) in map metres of the *result*, or (west, south, east,
-    north) in degrees with ``crop_lonlat=True``.
+    north) in degrees with ``crop_lonlat=True``.  ``local_cell_size``: the size in metres of one
+    cell of a DEM *without a CRS* whose cells are not metres (a picture's pixels, a simulation's
+    units): the grid is scaled so that each cell measures that much (its origin too), so every
+    length is in metres; refused for a georeferenced DEM (its cells already have a size) and
+    with ``cell_size`` (resample a scaled grid in a second step).
     """
     plist = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
     if not plist:
@@ -225,6 +230,14 @@ def load_dem(
     if cell_size is not None and not (math.isfinite(cell_size) and cell_size > 0):
         raise InputError(f"cell size must be a positive number of metres; got {cell_size!r}")
     user_crs = _parse_crs(crs)
+    if local_cell_size is not None:
+        if not (isinstance(local_cell_size, int | float) and math.isfinite(local_cell_size)
+                and local_cell_size > 0):  # fmt: skip
+            raise InputError(
+                f"--local-cell-size must be a positive number of metres; got {local_cell_size!r}"
+            )
+        if cell_size is not None:
+            raise InputError("give --local-cell-size or --cell-size, not both")
 
     srcs = [_open(p) for p in plist]
     try:
@@ -235,6 +248,12 @@ def load_dem(
             raise InputError(
                 f"{bad!r}: has no CRS while other tiles are georeferenced; tiles must all be "
                 "georeferenced or all local"
+            )
+        if local_cell_size is not None and not all(local):
+            bad = names[local.index(False)]
+            raise InputError(
+                f"{bad!r}: is georeferenced ({srcs[local.index(False)].crs.to_string()}): its "
+                "cells already have a size; --local-cell-size is for a DEM without a CRS"
             )
         if all(local):
             if user_crs is not None:
@@ -249,6 +268,13 @@ def load_dem(
     finally:
         for s in srcs:
             s.close()
+    if local_cell_size is not None:
+        from dataclasses import replace
+
+        t = grid.transform
+        k = float(local_cell_size) / abs(float(t.a))
+        scaled = Affine(t.a * k, t.b, t.c * k, t.d, t.e * k, t.f * k)
+        grid = replace(grid, transform=scaled)
     return grid
 
 

@@ -52,6 +52,13 @@ def dem_options(f: F) -> F:
         click.option(
             "--band", type=int, default=None, help="Band holding elevation, for multi-band rasters."
         ),
+        click.option(
+            "--local-cell-size",
+            type=float,
+            default=None,
+            help="For a DEM without a CRS whose cells are not metres (pixels, simulation units): "
+            "the metres one cell measures (lengths are then reported in metres).",
+        ),
     ]
     for d in reversed(decorators):
         f = d(f)
@@ -65,12 +72,19 @@ def load_grid(
     crop: Any,
     crop_lonlat: bool,
     band: int | None,
+    local_cell_size: float | None = None,
 ) -> Any:
     """Load the grid the DEM options describe (errors surface as TerrapathError)."""
     from terrain.load import load_dem
 
     return load_dem(
-        list(dem), crs=crs, cell_size=cell_size, crop=crop, crop_lonlat=crop_lonlat, band=band
+        list(dem),
+        crs=crs,
+        cell_size=cell_size,
+        crop=crop,
+        crop_lonlat=crop_lonlat,
+        band=band,
+        local_cell_size=local_cell_size,
     )
 
 

@@ -134,3 +134,62 @@ def test_terrapath_plan_takes_and_reports_the_terms(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "above-ground band is empty" in err
     assert not (tmp_path / "x.yaml").exists()
+
+
+# -- local DEMs whose cells are not metres -------------------------------------------------------
+def _local_tif(path: Path, heights: np.ndarray) -> Path:
+    """A GeoTIFF without a CRS, one unit per cell (a picture's pixels), origin at the top left."""
+    import rasterio
+    from affine import Affine
+
+    with rasterio.open(path, "w", driver="GTiff", height=heights.shape[0], width=heights.shape[1],
+                       count=1, dtype="float32", transform=Affine(1, 0, 0, 0, -1, 0)) as dst:  # fmt: skip
+        dst.write(heights.astype(np.float32), 1)
+    return path
+
+
+def test_a_local_cell_size_scales_a_dem_without_a_crs_and_is_refused_otherwise(
+    tmp_path: Path,
+) -> None:
+    from terrain.load import load_dem
+
+    tif = _local_tif(tmp_path / "pixels.tif", np.arange(200.0).reshape(10, 20))
+    units = load_dem(str(tif))
+    metres = load_dem(str(tif), local_cell_size=5.0)
+    assert units.cell_size == (1.0, 1.0) and metres.cell_size == (5.0, 5.0)
+    assert metres.bounds == tuple(5.0 * b for b in units.bounds) == (0.0, -50.0, 100.0, 0.0)
+    np.testing.assert_array_equal(metres.heights, units.heights)  # heights stay metres
+    geo = str(DATA_MAPS / "mpl_jacksboro_fault" / "jacksboro_fault_dem.tif")
+    with pytest.raises(InputError, match=r"is georeferenced \(EPSG:4326\): its cells already"):
+        load_dem(geo, local_cell_size=5.0)
+    with pytest.raises(InputError, match="give --local-cell-size or --cell-size, not both"):
+        load_dem(str(tif), local_cell_size=5.0, cell_size=10.0)
+    with pytest.raises(InputError, match="--local-cell-size must be a positive number"):
+        load_dem(str(tif), local_cell_size=-1.0)
+
+
+def test_a_plan_on_a_local_dem_reports_metres_and_its_mission_reloads_the_same_grid(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from planner.mission import load_mission
+
+    tif = _local_tif(tmp_path / "pixels.tif", np.zeros((100, 100)))
+    out = tmp_path / "m.yaml"
+    args = ["plan", str(tif), "--map-coords", "--start=50,-500,100", "--goal=950,-500,100"]
+    args += [
+        "--local-cell-size",
+        "10",
+        "--vehicle",
+        "small-uas",
+        "--clearance",
+        "10",
+        "-o",
+        str(out),
+    ]
+    assert main(args) in (0, None), capsys.readouterr().err
+    m = load_mission(out)
+    assert m.terrain is not None and m.terrain.local_cell_size == 10.0
+    grid = m.terrain.load()
+    assert grid.cell_size == (10.0, 10.0) and grid.bounds == (0.0, -1000.0, 1000.0, 0.0)
+    length = float(np.linalg.norm(np.diff(m.waypoints[:, :2], axis=0), axis=1).sum())
+    assert 900.0 <= length < 1100.0  # 900 m straight: the plan is in metres, not cells
