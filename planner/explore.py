@@ -48,8 +48,9 @@ points by greedy Ramer-Douglas-Peucker: the point farthest from the current chor
 until there are ``N`` (a straighter route than that gets its longest chords halved).  Each
 waypoint's altitude is the least that keeps both of its chords above the terrain plus clearance
 (sampled every half cell on the same conservative terrain), with the start's and goal's fixed
-altitudes honoured exactly on the first and last chords, clipped to the band.  The swarm moves
-them from there.
+altitudes honoured exactly on the first and last chords, clipped to the band; then lowered as far
+as both chords allow, raised to a preferred height above the ground and kept under an
+above-ground band's top where the chords allow.  The swarm moves them from there.
 
 Measured (``benchmarks/bench_plan.py``, ``benchmarks/RESULTS.md``): see the issue-20 entries.
 """
@@ -211,7 +212,10 @@ def explore(
     if perf is not None:  # a climb steeper than the aircraft's costs the distance it needs
         g = min(perf.climb_gradient, perf.descent_gradient)
         length = np.maximum(length, np.abs(hv - hu) / g)
-    w = length * (1.0 + (e - zlo) / (zhi - zlo))
+    if problem.agl_pref is None:
+        w = length * (1.0 + (e - zlo) / (zhi - zlo))
+    else:  # the preferred height replaces the altitude term: flown at the floor, |floor - pref|
+        w = length * (1.0 + abs(problem.clearance - problem.agl_pref) / (zhi - zlo))
     if problem.zones and not problem.avoid_zones:  # soft zones: their cost term, in metres
         soft = problem._zones  # the zones as the cost sees them (grown by the margin)
         inside = soft.segment_lengths(p_u, p_v)
@@ -473,6 +477,13 @@ def route_waypoints(
         for i in range(1, n + 1):
             low = max(ch.lowest_end(i - 1, z[i - 1]), ch.lowest_start(i, z[i + 1]), zlo)
             z[i] = min(z[i], low) if low <= z[i] else z[i]
+    if problem.agl_pref is not None or problem.agl_max is not None:
+        low = z.copy()  # the lowest clear profile: anything above it is clear too
+        ground = problem.grid.height_at(xy[1:-1, 0], xy[1:-1, 1])
+        if problem.agl_pref is not None:  # up to the preferred height above the ground
+            z[1:-1] = np.maximum(z[1:-1], ground + problem.agl_pref)
+        if problem.agl_max is not None:  # into the above-ground band where the terrain allows
+            z[1:-1] = np.maximum(np.minimum(z[1:-1], ground + problem.agl_max), low[1:-1])
     perf = problem.performance
     if perf is not None:  # raise waypoints until the climbs and descents between them are flyable
         gap = np.hypot(*np.diff(xy, axis=0).T)
