@@ -49,9 +49,10 @@ unchanged by default), each reported like the others:
                                                              gamma: the legs' climb angles (SPSO's
                                                              J4, without its 45 deg dead band)
 
-The height above the ground is sampled along the (flown) path at most every cell (at most 24
-samples a segment: the swarm's estimate; a result's band is checked every half cell), on the
-DEM's cells; the smoothness is taken on the waypoint
+The height above the ground is sampled along the (flown) path every cell (at most 128 samples a
+segment; a sparser estimate let the swarm settle between samples, over valleys the result's check
+-- every half cell -- then refused: measured on jacksboro with a 400 m band), on the DEM's cells;
+the smoothness is taken on the waypoint
 polyline (the N interior vertices), not on the fillets that round it.
 
 A_traj is the mean altitude *along the path* (each segment weighted by its 3D length, its altitude
@@ -225,7 +226,7 @@ def path_costs(
     )
 
 
-AGL_SAMPLES_MAX = 24  # height-above-ground samples per segment at most
+AGL_SAMPLES_MAX = 128  # height-above-ground samples per segment at most
 
 
 def _heights_above(

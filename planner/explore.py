@@ -212,10 +212,7 @@ def explore(
     if perf is not None:  # a climb steeper than the aircraft's costs the distance it needs
         g = min(perf.climb_gradient, perf.descent_gradient)
         length = np.maximum(length, np.abs(hv - hu) / g)
-    if problem.agl_pref is None:
-        w = length * (1.0 + (e - zlo) / (zhi - zlo))
-    else:  # the preferred height replaces the altitude term: flown at the floor, |floor - pref|
-        w = length * (1.0 + abs(problem.clearance - problem.agl_pref) / (zhi - zlo))
+    w = length * (1.0 + (e - zlo) / (zhi - zlo))
     if problem.zones and not problem.avoid_zones:  # soft zones: their cost term, in metres
         soft = problem._zones  # the zones as the cost sees them (grown by the margin)
         inside = soft.segment_lengths(p_u, p_v)
@@ -478,12 +475,7 @@ def route_waypoints(
             low = max(ch.lowest_end(i - 1, z[i - 1]), ch.lowest_start(i, z[i + 1]), zlo)
             z[i] = min(z[i], low) if low <= z[i] else z[i]
     if problem.agl_pref is not None or problem.agl_max is not None:
-        low = z.copy()  # the lowest clear profile: anything above it is clear too
-        ground = problem.grid.height_at(xy[1:-1, 0], xy[1:-1, 1])
-        if problem.agl_pref is not None:  # up to the preferred height above the ground
-            z[1:-1] = np.maximum(z[1:-1], ground + problem.agl_pref)
-        if problem.agl_max is not None:  # into the above-ground band where the terrain allows
-            z[1:-1] = np.maximum(np.minimum(z[1:-1], ground + problem.agl_max), low[1:-1])
+        z = _into_band(problem, xy, z)
     perf = problem.performance
     if perf is not None:  # raise waypoints until the climbs and descents between them are flyable
         gap = np.hypot(*np.diff(xy, axis=0).T)
@@ -495,6 +487,45 @@ def route_waypoints(
     x = np.column_stack([xy[1:-1], np.clip(z[1:-1], zlo, zhi)]).ravel()
     lo, hi = problem.bounds()
     return np.asarray(np.clip(x, lo, hi), dtype=np.float64)
+
+
+def _into_band(problem: PlanningProblem, xy: FloatArray, low: FloatArray) -> FloatArray:
+    """Waypoint altitudes between the lowest clear profile ``low`` and a target -- the preferred
+    height above the ground at each waypoint, under the band's top there -- as far towards the
+    target as keeps every chord under the band's top (the largest such blend, by bisection:
+    the chords' heights above the ground grow with it).  Anything above ``low`` is clear."""
+    ground = problem.grid.height_at(xy[1:-1, 0], xy[1:-1, 1])
+    target = low.copy()
+    if problem.agl_pref is not None:
+        target[1:-1] = np.maximum(target[1:-1], ground + problem.agl_pref)
+    top = problem.agl_max
+    if top is None:
+        return target
+    target[1:-1] = np.maximum(np.minimum(target[1:-1], ground + top), low[1:-1])
+    step = 0.5 * min(problem.grid.cell_size)
+    ts, gs = [], []
+    for p, q in itertools.pairwise(xy):
+        m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
+        t = np.linspace(0.0, 1.0, m)
+        line = p[None, :] + t[:, None] * (q - p)[None, :]
+        ts.append(t)
+        gs.append(problem.grid.height_at(line[:, 0], line[:, 1]))
+
+    def under(z: FloatArray) -> bool:
+        return all(
+            float(np.max(z[i] + t * (z[i + 1] - z[i]) - g)) <= top
+            for i, (t, g) in enumerate(zip(ts, gs, strict=True))
+        )
+
+    if under(target):
+        return target
+    if not under(low):  # no profile over these waypoints keeps the band: leave it to the swarm
+        return low
+    lo, hi = 0.0, 1.0
+    for _ in range(20):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if under(low + mid * (target - low)) else (lo, mid)
+    return np.asarray(low + lo * (target - low), dtype=np.float64)
 
 
 def corridor_terrain(problem: PlanningProblem) -> FloatArray:
