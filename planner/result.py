@@ -122,26 +122,18 @@ def find_violations(
     samples = sample_path(problem.safety_grid, flown)
     out: list[Violation] = []
     what = "terrain + clearance" if problem.clearance else "terrain"
-    seen: set[str] = set()
-    for i in range(len(flown) - 1):
-        on = samples.segment == i
-        pts = samples.points[on]
-        depth = problem.clearance - samples.clearance[on]
-        k = int(np.argmax(depth))
-        if depth[k] > 0 and labels[i] not in seen:
-            seen.add(labels[i])
-            seg_len = float(np.linalg.norm(flown[i + 1] - flown[i]))
-            below = float((depth > 0).mean() * seg_len)
-            out.append(
-                _at(
-                    "terrain",
-                    legs[i],
-                    pts[k],
-                    below,
-                    f"{labels[i]} runs about {below:.0f} m below {what}, "
-                    f"{depth[k]:.0f} m deep at x={pts[k, 0]:.0f}, y={pts[k, 1]:.0f}",
-                )
+    depths = problem.clearance - samples.clearance
+    for i, at, below, deepest in _worst_per_piece(flown, samples, depths, labels):
+        out.append(
+            _at(
+                "terrain",
+                legs[i],
+                at,
+                below,
+                f"{labels[i]} runs about {below:.0f} m below {what}, "
+                f"{deepest:.0f} m deep at x={at[0]:.0f}, y={at[1]:.0f}",
             )
+        )
     if problem.avoid_zones and problem.zones:
         inside = problem.validity.segments(flown[:-1], flown[1:], clearance=False).zone_lengths
         per_label: dict[tuple[str, int], float] = {}
@@ -204,26 +196,36 @@ def _band_violations(
     if top is None:
         return []
     s = above_ground(problem, flown)
-    out: list[Violation] = []
+    return [
+        _at(
+            "above_band",
+            legs[i],
+            at,
+            over,
+            f"{labels[i]} flies about {over:.0f} m more than --agl-max {top:g} m above the "
+            f"ground, {most:.0f} m over it at x={at[0]:.0f}, y={at[1]:.0f}",
+        )
+        for i, at, over, most in _worst_per_piece(flown, s, s.clearance - top, labels)
+    ]
+
+
+def _worst_per_piece(
+    flown: FloatArray, samples: PathSamples, excess: FloatArray, labels: list[str]
+) -> list[tuple[int, FloatArray, float, float]]:
+    """For each leg or turn (by label, at its first segment with any) whose samples exceed a
+    limit by ``excess`` > 0: (segment, the worst sample's point, the metres of the segment over
+    the limit, the worst excess)."""
+    out = []
     seen: set[str] = set()
     for i in range(len(flown) - 1):
-        on = s.segment == i
-        excess = s.clearance[on] - top
-        k = int(np.argmax(excess))
-        if excess[k] > 0 and labels[i] not in seen:
+        on = samples.segment == i
+        over = excess[on]
+        k = int(np.argmax(over))
+        if over[k] > 0 and labels[i] not in seen:
             seen.add(labels[i])
-            pts = s.points[on]
             seg_len = float(np.linalg.norm(flown[i + 1] - flown[i]))
-            over = float((excess > 0).mean() * seg_len)
             out.append(
-                _at(
-                    "above_band",
-                    legs[i],
-                    pts[k],
-                    over,
-                    f"{labels[i]} flies about {over:.0f} m more than --agl-max {top:g} m above the "
-                    f"ground, {excess[k]:.0f} m over it at x={pts[k, 0]:.0f}, y={pts[k, 1]:.0f}",
-                )
+                (i, samples.points[on][k], float((over > 0).mean() * seg_len), float(over[k]))
             )
     return out
 
