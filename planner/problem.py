@@ -357,8 +357,22 @@ class PlanningProblem:
     # -- the objective -------------------------------------------------------------------------------
     def terms(self, x: npt.ArrayLike) -> CostTerms:
         """Every cost term of a (P, 3N) population (on the flown paths, see :meth:`flown`)."""
+        return self.polyline_terms(self.paths(np.atleast_2d(np.asarray(x, dtype=np.float64))))
+
+    def polyline_terms(self, path: npt.ArrayLike) -> CostTerms:
+        """Every cost term of waypoint polyline(s) (W, 3) or (P, W, 3) with any number W >= 2 of
+        vertices, from the start to the goal as given (not checked): what :meth:`terms` computes
+        for the N free waypoints, for a path another planner made (an OMPL path of any length).
+        With a performance the polyline is turned into the flown path (fillets, climb excess) as
+        in :meth:`terms`; the smoothness is taken on the polyline's interior vertices."""
+        paths = np.asarray(path, dtype=np.float64)
+        if paths.ndim == 2:
+            paths = paths[None]
+        if paths.ndim != 3 or paths.shape[1] < 2 or paths.shape[2] != 3:
+            raise InputError(
+                f"polylines must have shape (W, 3) or (P, W, 3) with W >= 2; got {paths.shape}"
+            )
         z = self._zones
-        paths = self.paths(np.atleast_2d(np.asarray(x, dtype=np.float64)))
         smooth = smoothness_of(paths, self.smoothness) if self.smoothness else None
         ce = te = None
         perf = self.performance
