@@ -54,9 +54,15 @@ one plan takes about 1 s and about 3 s on the 2-core machine of the record (P=60
 iterations, the default, about 0.6-0.8 s); with a 10 s budget also a 10 s plan, as a reference
 for the best F reached at 10 s.
 
-The Dubins-airplane state spaces (``VanaStateSpace``, ``OwenStateSpace``) are in the 2.0
-bindings but not compared here: their motions are curves, so terrapath's straight-segment motion
-validator does not apply, and checking them state by state is a different validity model.
+The kinematic comparison (``--planners vana``, not in the default set): RRT* in OMPL's
+Dubins-airplane state space ``VanaStateSpace`` (x, y, z, yaw, pitch) with the aerosonde's turn
+radius and a pitch limit of atan(min(climb, descent gradient)) (the 2.0 bindings take a single
+symmetric limit: the pair constructor has no type caster), start and goal level and heading from
+the start to the goal; ``VanaMotionValidator`` checks its curves state by state with terrapath's
+point validity at half a cell.  RRT* warns that the space's distance is not symmetric (its
+rewiring assumes it; it still returns valid paths).  The curve, sampled at half a cell, is the
+flown path: its F is taken on it as is (no fillets), with the gradients checked on it.
+``OwenStateSpace`` is in the bindings too but not run.
 
 Target (issue 20): at equal wall time (1 s and 3 s) terrapath's mean F lower than the best OMPL
 planner's (the lowest mean F among those that solved every seed) on all three maps, with a
@@ -64,7 +70,8 @@ smaller spread, and within 2 % of the best F any planner reached at 10 s.
 
 Run (``pip install -e '.[compare]'`` first):
 ``.venv/bin/python benchmarks/compare_ompl.py [--maps jacksboro,rmnp,bigtujunga]
-[--planners rrtstar,informed,bitstar,aorrtc] [--budgets 1,3,10] [--seeds 10] [--no-record]``.
+[--planners rrtstar,informed,bitstar,aorrtc] [--altitude-planners rrtstar,bitstar]
+[--budgets 1,3,10] [--seeds 10] [--no-terrapath] [--no-record]``.
 """
 
 from __future__ import annotations
@@ -87,6 +94,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._record import emit
+from planner.flown import climb_excess
 from planner.plan import plan
 from planner.problem import PlanningProblem
 from tests.golden.scenarios import MAPS
@@ -97,7 +105,9 @@ PLANNERS = {
     "informed": "InformedRRTstar",
     "bitstar": "BITstar",
     "aorrtc": "AORRTC",
+    "vana": "RRTstar",  # in OMPL's Dubins-airplane state space (VanaStateSpace); not by default
 }
+DEFAULT_PLANNERS = ("rrtstar", "informed", "bitstar", "aorrtc")
 OBJECTIVES = ("length", "length+alt")
 ALTITUDE_PLANNERS = ("rrtstar", "bitstar")
 # (population, iterations) of one terrapath plan taking about the budget (s) on the record's machine
@@ -154,6 +164,24 @@ def _judge(problem: PlanningProblem, polyline: np.ndarray) -> tuple[float, bool,
     return float(terms.total[0]), ok, broken
 
 
+def _judge_flown(
+    problem: PlanningProblem, flown: np.ndarray
+) -> tuple[float, bool, tuple[str, ...]]:
+    """:func:`_judge` of a path that is already the flown one (a Dubins-airplane curve, densely
+    sampled): no fillets added; the climb and descent gradients checked on it."""
+    perf = problem.performance
+    assert perf is not None
+    terms = _bare(problem).polyline_terms(flown)
+    excess = float(climb_excess(flown[None], perf.climb_gradient, perf.descent_gradient)[0])
+    length = float(terms.path_length[0])
+    cost = float(terms.total[0]) + (problem.penalty + excess / length if excess > 0 else 0.0)
+    valid = bool(problem.validity.path(flown).valid.all())
+    ok = bool(problem.feasible(terms)[0]) and excess <= 0 and valid
+    row = {**terms.row(0), "climb_excess_m": excess}
+    broken = tuple(k for k in HARD if row[k] > 0) + (() if valid else ("validity",))
+    return cost, ok, broken
+
+
 def _without_limits(problem: PlanningProblem, polyline: np.ndarray) -> float:
     """F of the polyline itself, without the aircraft's limits (no fillets, no gradients)."""
     return float(_bare(problem).polyline_terms(polyline).total[0])
@@ -180,7 +208,17 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
     problem = _PROBLEMS[name]
     validity = problem.validity
     lo, hi = problem.bounds()
-    space = ob.RealVectorStateSpace(3)
+    perf = problem.performance
+    kinematic = planner == "vana"
+    if kinematic and perf is None:
+        raise ValueError("the Dubins-airplane comparison needs the aircraft's performance")
+    space = (
+        ob.VanaStateSpace(
+            perf.turn_radius, math.atan(min(perf.climb_gradient, perf.descent_gradient))
+        )
+        if kinematic and perf is not None
+        else ob.RealVectorStateSpace(3)
+    )
     bounds = ob.RealVectorBounds(3)
     for i in range(3):
         bounds.setLow(i, float(lo[i]))
@@ -213,11 +251,14 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
 
     states, motions = States(si), Motions(si)
     si.setStateValidityChecker(states)
-    if planner == "aorrtc":
-        # a Python MotionValidator crashes AORRTC's solve in the 2.0 bindings: OMPL's discrete
-        # validator checks its motions state by state, at the segments' own sample spacing
+    if planner in ("aorrtc", "vana"):
+        # a Python MotionValidator crashes AORRTC's solve in the 2.0 bindings, and a Dubins
+        # airplane's motions are curves: OMPL's validators check their states one by one, at the
+        # segments' own sample spacing
         si.setStateValidityCheckingResolution(validity.step / space.getMaximumExtent())
-    else:
+        if kinematic:
+            motions = ob.VanaMotionValidator(si)
+    if planner != "aorrtc":
         si.setMotionValidator(motions)
     si.setup()
     pdef = ob.ProblemDefinition(si)
@@ -225,6 +266,11 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
     for i in range(3):
         start[i] = float(problem.start[i])
         goal[i] = float(problem.goal[i])
+    if kinematic:  # level, heading from the start to the goal at both ends
+        yaw = math.atan2(problem.goal[1] - problem.start[1], problem.goal[0] - problem.start[0])
+        for s in (start, goal):
+            s.setYaw(yaw)
+            s.setPitch(0.0)
     pdef.setStartAndGoalStates(start, goal)
     obj = ob.PathLengthOptimizationObjective(si) if objective == "length" else LengthAltitude()
     pdef.setOptimizationObjective(obj)
@@ -250,8 +296,10 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
         return Run(name, planner, objective, budget, seed, False, math.nan, wall, math.nan,
                    math.nan, False, (), math.nan, sum(counts))  # fmt: skip
     path = pdef.getSolutionPath()
+    if kinematic:  # the curve itself, sampled at the validity's spacing, is the flown path
+        path.interpolate(int(math.ceil(path.length() / validity.step)) + 1)
     poly = np.array([xyz(path.getState(i))[0] for i in range(path.getStateCount())])
-    cost, ok, broken = _judge(problem, poly)
+    cost, ok, broken = _judge_flown(problem, poly) if kinematic else _judge(problem, poly)
     t_first = first[0] if not math.isnan(first[0]) else wall
     return Run(name, planner, objective, budget, seed, True, t_first, wall, _polyline_length(poly),
                cost, ok, broken, _without_limits(problem, poly), sum(counts))  # fmt: skip
@@ -375,7 +423,9 @@ def _target_rows(
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--maps", default=",".join(MAP_NAMES), help="of " + ", ".join(MAP_NAMES))
-    ap.add_argument("--planners", default=",".join(PLANNERS), help="of " + ", ".join(PLANNERS))
+    ap.add_argument(
+        "--planners", default=",".join(DEFAULT_PLANNERS), help="of " + ", ".join(PLANNERS)
+    )
     ap.add_argument(
         "--altitude-planners",
         default=",".join(ALTITUDE_PLANNERS),
