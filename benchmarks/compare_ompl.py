@@ -49,7 +49,9 @@ the aircraft (no fillets, no gradients: the geometry OMPL optimises, judged by s
 The cost's terrain check (Bresenham cells of the safety heights dilated by one cell) is stricter
 than the validity layer OMPL plans with (the bilinear safety heights sampled every half cell),
 as it is for terrapath's own results, which must pass both: a path valid for OMPL can still
-break the terrain term.
+break the terrain term.  ``--strict-terrain`` makes OMPL's motion validator ask both (the
+segment's cost terrain term must be zero too; not for AORRTC and vana, which use OMPL's own
+validators).
 
 Beside them terrapath at equal wall time: ``planner.plan.plan(problem, "ampso", seed=s)`` (graph
 initial population, single attempt) with the population and iterations of ``TERRAPATH`` chosen so
@@ -149,6 +151,7 @@ class Run:
     cost_bare: float  # F of the polyline without the aircraft's limits
     checks: int  # OMPL's motion + state checks, terrapath's cost evaluations
     crashed: bool = False  # the solver's process died (OMPL segfault)
+    strict: bool = False  # motions also passed the cost's terrain check (--strict-terrain)
 
 
 def _polyline_length(path: np.ndarray) -> float:
@@ -199,7 +202,9 @@ def _bare(problem: PlanningProblem) -> PlanningProblem:
     return _BARE[id(problem)]
 
 
-def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int) -> Run:
+def solve_ompl(
+    name: str, planner: str, objective: str, budget: float, seed: int, strict: bool = False
+) -> Run:
     """One OMPL solve of map ``name``'s problem (run in a fresh forked process, see the module
     docstring)."""
     from ompl import base as ob
@@ -208,6 +213,7 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
 
     ou.setLogLevel(ou.LOG_NONE)
     ou.RNG.setSeed(int(seed))
+    strict = strict and planner not in ("aorrtc", "vana")  # those use OMPL's own validators
     problem = _PROBLEMS[name]
     validity = problem.validity
     lo, hi = problem.bounds()
@@ -238,10 +244,16 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
             counts[1] += 1
             return bool(si.satisfiesBounds(s)) and bool(validity.points(xyz(s)).valid[0])
 
+    bare = _bare(problem)
+
     class Motions(ob.MotionValidator):
         def checkMotion(self, a: Any, b: Any) -> bool:
             counts[0] += 1
-            return bool(validity.segments(xyz(a), xyz(b), clearance=False).valid[0])
+            pa, pb = xyz(a), xyz(b)
+            ok = bool(validity.segments(pa, pb, clearance=False).valid[0])
+            if ok and strict:  # and the cost's own terrain check of the segment
+                ok = bool(bare.polyline_terms(np.vstack([pa, pb])).below_length[0] <= 0)
+            return ok
 
     zmin, zmax = problem.band
 
@@ -308,7 +320,7 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
     solved = bool(pdef.hasExactSolution()) and "Exact" in status.asString()
     if not solved:
         return Run(name, planner, objective, budget, seed, False, math.nan, wall, math.nan,
-                   math.nan, False, (), math.nan, sum(counts))  # fmt: skip
+                   math.nan, False, (), math.nan, sum(counts), strict=strict)  # fmt: skip
     path = pdef.getSolutionPath()
     if kinematic:  # the curve itself, sampled at the validity's spacing, is the flown path
         path.interpolate(int(math.ceil(path.length() / validity.step)) + 1)
@@ -316,21 +328,25 @@ def solve_ompl(name: str, planner: str, objective: str, budget: float, seed: int
     cost, ok, broken = _judge_flown(problem, poly) if kinematic else _judge(problem, poly)
     t_first = first[0] if not math.isnan(first[0]) else wall
     return Run(name, planner, objective, budget, seed, True, t_first, wall, _polyline_length(poly),
-               cost, ok, broken, _without_limits(problem, poly), sum(counts))  # fmt: skip
+               cost, ok, broken, _without_limits(problem, poly), sum(counts),
+               strict=strict)  # fmt: skip
 
 
 def _solve_in_child(
-    fork: Any, name: str, planner: str, objective: str, budget: float, seed: int
+    fork: Any, name: str, planner: str, objective: str, budget: float, seed: int, strict: bool
 ) -> Run:
     """:func:`solve_ompl` in a fresh forked process; a crash (OMPL's AORRTC segfaults on some
     maps) is recorded as an unsolved, crashed run."""
     try:
         with ProcessPoolExecutor(1, mp_context=fork) as pool:
-            result: Run = pool.submit(solve_ompl, name, planner, objective, budget, seed).result()
+            result: Run = pool.submit(
+                solve_ompl, name, planner, objective, budget, seed, strict
+            ).result()
             return result
     except BrokenProcessPool:
         return Run(name, planner, objective, budget, seed, False, math.nan, math.nan, math.nan,
-                   math.nan, False, (), math.nan, 0, crashed=True)  # fmt: skip
+                   math.nan, False, (), math.nan, 0, crashed=True,
+                   strict=strict and planner not in ("aorrtc", "vana"))  # fmt: skip
 
 
 def solve_terrapath(name: str, budget: float, seed: int) -> Run:
@@ -363,6 +379,8 @@ def _broken(runs: list[Run]) -> str:
 def _row(runs: list[Run]) -> tuple[str, str, str]:
     r0 = runs[0]
     label = "terrapath AMPSO" if r0.planner == "terrapath" else f"{r0.planner} [{r0.objective}]"
+    if r0.strict:
+        label += " strict-terrain"
     if r0.planner == "terrapath":
         pop, its = TERRAPATH[r0.budget]
         label += f" P={pop}/{its} it"
@@ -447,6 +465,11 @@ def main() -> None:
     )
     ap.add_argument("--budgets", default="1,3,10", help="wall seconds per solve")
     ap.add_argument("--seeds", type=int, default=10, help="seeds 1..N")
+    ap.add_argument(
+        "--strict-terrain",
+        action="store_true",
+        help="a motion must also pass the cost's terrain check (dilated Bresenham cells)",
+    )
     ap.add_argument("--no-terrapath", action="store_true", help="only the OMPL planners")
     ap.add_argument("--no-record", action="store_true", help="print, do not append RESULTS.md")
     args = ap.parse_args()
@@ -489,7 +512,11 @@ def main() -> None:
             for planner, objective in configs:
                 group = []
                 for seed in seeds:
-                    group.append(_solve_in_child(fork, name, planner, objective, budget, seed))
+                    group.append(
+                        _solve_in_child(
+                            fork, name, planner, objective, budget, seed, args.strict_terrain
+                        )
+                    )
                     print(group[-1], flush=True)
                 groups.append(group)
             if budget in TERRAPATH and not args.no_terrapath:
@@ -516,7 +543,13 @@ def main() -> None:
         f"1..{args.seeds}, one forked process per OMPL solve; F = terrapath's full cost of the "
         f"path (polyline_terms: flown with the aerosonde's fillets and gradients), flyable = "
         f"feasible by terrapath's rules; mean ± std over the solved runs; terrapath AMPSO "
-        f"(graph start, single attempt) at {pops}",
+        f"(graph start, single attempt) at {pops}"
+        + (
+            "; --strict-terrain: OMPL's motions (not AORRTC's, not vana's) also pass the cost's "
+            "terrain check (dilated Bresenham cells)"
+            if args.strict_terrain
+            else ""
+        ),
         args.no_record,
     )
 
