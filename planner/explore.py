@@ -117,6 +117,8 @@ class Exploration:
             "routes": len(self.routes),
             "route_costs": [round(r.cost, 6) for r in self.routes],
             "route_F": [round(r.f, 6) for r in self.routes],
+            # each route's seed, its free waypoints (drawn in the plan's picture)
+            "route_waypoints": [np.round(r.x.reshape(-1, 3), 1).tolist() for r in self.routes],
             "block_m": round(self.block_m, 3),
             "graph": [int(self.shape[0]), int(self.shape[1])],
             "nodes": self.nodes,

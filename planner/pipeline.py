@@ -243,6 +243,14 @@ def build_problem(request: PlanRequest) -> Prepared:
     return Prepared(grid, tuple(zlist), problem, tuple(warnings))
 
 
+def _explored(result: PlanResult) -> list[np.ndarray] | None:
+    """The map search's seeds recorded in a result (None without one)."""
+    ex = result.params.get("exploration")
+    if not isinstance(ex, dict) or not ex.get("route_waypoints"):
+        return None
+    return [np.asarray(w, dtype=np.float64) for w in ex["route_waypoints"]]
+
+
 def plan_mission(
     request: PlanRequest,
     output: str | Path | None = None,
@@ -398,5 +406,6 @@ def write_outputs(
         clearance=prepared.problem.clearance,
         feasible=result.feasible,
         flown=result.path,
+        explored=_explored(result),
     )
     return written, tuple(removed)

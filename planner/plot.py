@@ -34,10 +34,12 @@ def save_plan_picture(
     clearance: float = 0.0,
     feasible: bool = True,
     flown: npt.NDArray[np.float64] | None = None,
+    explored: list[npt.NDArray[np.float64]] | None = None,
 ) -> Path:
     """Write the map + profile PNG of a planned path: the waypoints, and the path the aircraft
     flies through them (``flown``, legs joined by turn fillets; default the polyline itself),
-    which the profile follows."""
+    which the profile follows; ``explored``: the seeds the map search gave the swarm, each the
+    free waypoints of a route (drawn thin and dashed, start and goal joined on)."""
     track = path if flown is None else np.asarray(flown, dtype=np.float64)
     xmin, ymin, xmax, ymax = grid.bounds
     aspect = (ymax - ymin) / (xmax - xmin)
@@ -51,6 +53,10 @@ def save_plan_picture(
         draw_zones(ax, zones)
     from matplotlib.patheffects import Normal, Stroke
 
+    for j, seed in enumerate(explored or ()):
+        route = np.vstack([path[:1, :2], np.asarray(seed)[:, :2], path[-1:, :2]])
+        ax.plot(route[:, 0], route[:, 1], "--", color="#444444", lw=0.9, zorder=3,
+                label="explored routes (the swarm's seeds)" if j == 0 else None)  # fmt: skip
     colour = "#d62728" if not feasible else "#ffffff"
     # the black outline is a path effect of the same line, so the legend shows it too
     ax.plot(

@@ -135,6 +135,9 @@ def test_a_plan_from_the_graph_takes_the_gap_and_records_the_exploration() -> No
     assert r.feasible and r.params["init"] == "graph" and r.params["routes"] == 5
     ex = r.params["exploration"]
     assert ex["routes"] >= 1 and ex["seconds"] > 0.0
+    # the seeds, each the N free waypoints of a route, recorded for the plan's picture
+    assert len(ex["route_waypoints"]) == ex["routes"]
+    assert all(np.shape(w) == (4, 3) for w in ex["route_waypoints"])
     path = r.path  # the flown path crosses the wall (y 2.9-3.1 km) in the near gap
     x_at_wall = np.interp(3000.0, path[:, 1], path[:, 0])
     assert 3800.0 <= x_at_wall <= 4000.0, x_at_wall
