@@ -16,6 +16,7 @@ Conventions (used everywhere in terrapath):
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Callable
@@ -28,6 +29,7 @@ import numpy.typing as npt
 from affine import Affine
 from rasterio.crs import CRS
 
+from terrain import _kernels
 from terrain.atomic import atomic_output
 from terrain.errors import InputError
 
@@ -179,6 +181,15 @@ class HeightGrid:
     @property
     def cols(self) -> int:
         return self.shape[1]
+
+    @functools.cached_property
+    def block_maxima(self) -> npt.NDArray[np.float64]:
+        """Highest height of each ``terrain._kernels.BLOCK``-square block of cells (float64,
+        read-only): lets the segment checks skip stretches of a segment far above the ground.
+        Computed on first use and kept (the heights never change)."""
+        out = _kernels.block_maxima(self.heights)
+        out.flags.writeable = False
+        return np.asarray(out, dtype=np.float64)
 
     @property
     def cell_size(self) -> tuple[float, float]:

@@ -81,7 +81,9 @@ def below_terrain_lengths(
     if backend != "numba":
         raise InputError(f"backend must be 'numba' or 'numpy'; got {backend!r}")
     table = _segment_table(grid, p0, p1)
-    return np.asarray(_kernels.below_lengths(table, grid.heights, float(clearance)))
+    return np.asarray(
+        _kernels.below_lengths(table, grid.heights, float(clearance), grid.block_maxima)
+    )
 
 
 def below_terrain_lengths_numpy(

@@ -245,3 +245,51 @@ def test_matches_dense_sampling_random_batch():
         for j in range(k):
             ref = brute_force(p0[i], p1[i], centers[j], radii[j], tops[j], n)
             assert abs(got[i, j] - ref) <= np.linalg.norm(p1[i] - p0[i]) / n + 1e-9
+
+
+def _mixed_batch(seed: int):
+    """Segments of every awkward kind against zones with and without tops and floors."""
+    rng = np.random.default_rng(seed)
+    m, k = 400, 7
+    p0 = rng.uniform([-1000, -1000, 0], [1000, 1000, 1000], (m, 3))
+    p1 = rng.uniform([-1000, -1000, 0], [1000, 1000, 1000], (m, 3))
+    p1[:40, :2] = p0[:40, :2]  # vertical
+    p1[40:60] = p0[40:60]  # points
+    p1[60:120, 2] = p0[60:120, 2]  # level
+    p0[60:90, 2] = p1[60:90, 2] = 500.0  # level in a top plane
+    p1[120:140, :2] = p0[120:140, :2] + 1e-13  # almost vertical
+    p0[140:160] += [376313.655, 3807917.83, 0.0]  # UTM-sized coordinates
+    p1[140:160] += [376313.655, 3807917.83, 0.0]
+    p0[160, 0] = np.nan
+    p1[161, 2] = np.inf
+    centers = rng.uniform(-400, 400, (k, 2))
+    centers[6] = [376313.655, 3807917.83]
+    radii = rng.uniform(100, 600, k)
+    tops = np.array([INF, 500.0, 800.0, INF, 300.0, 500.0, 900.0])
+    floors = np.array([-INF, 100.0, -INF, 400.0, 200.0, 500.0, 0.0])
+    return p0, p1, centers, radii, tops, floors
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("with_floors", [False, True])
+def test_compiled_and_numpy_backends_are_bit_identical(seed, with_floors):
+    p0, p1, centers, radii, tops, floors = _mixed_batch(seed)
+    f = floors if with_floors else None
+    fast = segment_cylinder_lengths(p0, p1, centers, radii, tops, f)
+    ref = segment_cylinder_lengths(p0, p1, centers, radii, tops, f, backend="numpy")
+    assert np.count_nonzero(ref > 0) > 100  # the batch really exercises intersections
+    assert np.isnan(ref[160:162]).all() and not np.isnan(ref[:160]).any()
+    np.testing.assert_array_equal(fast, ref)  # NaN where NaN, equal bits elsewhere
+    swapped = segment_cylinder_lengths(p1, p0, centers, radii, tops, f)
+    np.testing.assert_array_equal(swapped, fast)
+
+
+def test_nan_zone_gives_nan_column_in_both_backends():
+    p0, p1 = np.zeros((3, 3)), np.ones((3, 3)) * 50
+    for backend in ("numba", "numpy"):
+        out = segment_cylinder_lengths(
+            p0, p1, [[0, 0], [np.nan, 0]], [100, 100], [INF, INF], backend=backend
+        )
+        assert np.isnan(out[:, 1]).all() and (out[:, 0] > 0).all()
+    with pytest.raises(InputError, match="backend"):
+        segment_cylinder_lengths(p0, p1, [[0, 0]], [1], [1], backend="cuda")  # type: ignore[arg-type]

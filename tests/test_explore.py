@@ -182,3 +182,38 @@ def test_a_soft_zone_is_gone_round_when_that_costs_less_than_crossing_it() -> No
         corridor = plan(pr, "ampso", seed=seed, population=30, iterations=60, init="corridor")
         assert graph.terms["inside_zones_m"] == 0.0
         assert graph.terms["total"] < corridor.terms["total"]
+
+
+def test_batched_chord_test_agrees_with_the_chord_sampler() -> None:
+    """String pulling tests chords in batches (``_clear_chords``); each answer is the one the
+    per-chord sampler gives, over the wall, through its gaps and along it."""
+    from planner.explore import _Chords, _clear_chords, corridor_terrain
+
+    problem = _problem()
+    heights = corridor_terrain(problem)
+    rng = np.random.default_rng(4)
+    p = np.array([2900.0, 500.0, 150.0])
+    qs = np.column_stack(
+        [rng.uniform(0, 6000, 400), rng.uniform(0, 6000, 400), rng.uniform(0, 1300, 400)]
+    )
+    qs[:3, :2] = [[3900.0, 5500.0], [750.0, 5000.0], [2900.0, 500.0]]  # the gaps; no extent
+    got = _clear_chords(problem, p, qs, heights)
+    want = [_Chords(problem, np.array([p[:2], q[:2]]), heights).clear(0, p[2], q[2]) for q in qs]
+    assert got.tolist() == want
+    assert 50 < int(got.sum()) < 350  # both answers are exercised
+
+
+def test_compiled_tree_counts_match_the_python_twin() -> None:
+    from planner.explore import _along, _along_py
+
+    rng = np.random.default_rng(9)
+    n = 500
+    order = rng.permutation(n)
+    pred = np.full(n, -9999)
+    for i, v in enumerate(order[1:], start=1):  # a random tree, parents before children
+        pred[v] = order[rng.integers(0, i)]
+    top = order[: n - 20]  # the last 20 unreached
+    flag = rng.random(n) < 0.3
+    got = _along(pred, top, flag)
+    np.testing.assert_array_equal(got, _along_py(pred, top, flag))
+    assert got[order[-20:]].sum() == 0 and got.max() >= 3

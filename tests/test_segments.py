@@ -8,7 +8,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain import _kernels
+from terrain import segments as segments_module
 from terrain.errors import InputError
+from terrain.grid import HeightGrid
 from terrain.segments import (
     below_terrain_lengths,
     below_terrain_lengths_numpy,
@@ -130,3 +133,45 @@ def test_bad_segments_are_refused() -> None:
         below_terrain_lengths(FLAT, [[0.0, 0.0, 0]], [[1.0, 1.0, 1]], backend="fortran")  # type: ignore[arg-type]
     with pytest.raises(InputError, match="paths"):
         path_below_lengths(FLAT, np.zeros((3, 1, 3)))
+
+
+def _hills() -> HeightGrid:
+    """A 300 x 280 grid of smooth hills and one sharp one-cell spike."""
+    yy, xx = np.mgrid[0:300, 0:280]
+    h = 400.0 + 250.0 * np.sin(xx / 23.0) * np.cos(yy / 31.0) + 0.5 * xx
+    h[150, 140] = 1500.0
+    return make_grid(h, cell=30.0, x0=0.0, y0=9000.0)
+
+
+def test_block_skipping_changes_no_bit() -> None:
+    g = _hills()
+    assert g.block_maxima.shape == (19, 18)  # 16-cell blocks, the last ones partial
+    assert g.block_maxima[9, 8] == 1500.0  # the spike's block
+    rng = np.random.default_rng(5)
+    m = 3000
+    xmin, ymin, xmax, ymax = g.bounds
+    lo = [xmin - 500, ymin - 500, 200.0]
+    hi = [xmax + 500, ymax + 500, 1100.0]
+    p0, p1 = rng.uniform(lo, hi, (m, 3)), rng.uniform(lo, hi, (m, 3))
+    p1[:300, :2] = p0[:300, :2] + rng.uniform(-60, 60, (300, 2))  # short, within a block or two
+    p1[300:400, 0] = p0[300:400, 0]  # along a column
+    p1[400:500, 1] = p0[400:500, 1]  # along a row
+    p0[500:520] = [4200.0 - 900.0, 9000.0 - 4515.0, 1200.0]  # level, over the spike's row
+    p1[500:520] = [4200.0 + 900.0, 9000.0 - 4515.0, 1200.0]
+    table = segments_module._segment_table(g, p0, p1)
+    for clearance in (0.0, 50.0):
+        fast = below_terrain_lengths(g, p0, p1, clearance)
+        full = _kernels.below_lengths(
+            table, g.heights, clearance, np.full_like(g.block_maxima, np.inf)
+        )
+        np.testing.assert_array_equal(fast, full)  # skipped cells add nothing
+        np.testing.assert_allclose(
+            fast, below_terrain_lengths_numpy(g, p0, p1, clearance), atol=1e-8
+        )
+        assert 0.05 * m < np.count_nonzero(fast) < 0.95 * m
+        assert (fast[500:520] > 0).all()  # the spike is found inside a clear stretch
+        # blocks claiming flat ground at -inf make the walk skip everything: the check consults them
+        blind = _kernels.below_lengths(
+            table, g.heights, clearance, np.full_like(g.block_maxima, -np.inf)
+        )
+        assert not blind.any()
