@@ -16,3 +16,103 @@ def along(pred: np.ndarray, top: np.ndarray, flag: np.ndarray) -> np.ndarray:  #
         p = pred[v]
         out[v] = (1.0 if flag[v] else 0.0) + (out[p] if p >= 0 else 0.0)
     return out
+
+
+@nb.njit(cache=True, nogil=True)
+def flown(
+    paths: np.ndarray,
+    radius: float,
+    chords: int,
+    climb: float,
+    descent: float,
+    max_turn: float,
+    eps: float,
+    tolerance: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - jit
+    """``planner.flown.flown_paths`` and ``climb_excess`` of (P, W, 3) waypoint paths in one
+    pass, without temporaries: (flown polylines (P, 2 + (W - 2)(chords + 1), 3), turn excess (P,),
+    climb excess (P,)).  The same formulas in the same order as the numpy version; sums are
+    sequential (numpy's are pairwise), so totals may differ in the last bits."""
+    n_p, n_w = paths.shape[0], paths.shape[1]
+    n_i = n_w - 2
+    m = 2 + n_i * (chords + 1)
+    out = np.empty((n_p, m, 3))
+    turn_excess = np.zeros(n_p)
+    climb_excess = np.zeros(n_p)
+    length = np.empty(n_w - 1)
+    qx = np.empty(n_w - 1)
+    qy = np.empty(n_w - 1)
+    angle = np.empty(max(n_i, 0))
+    tan_half = np.empty(max(n_i, 0))
+    wanted = np.empty(max(n_i, 0))
+    scale = np.empty(n_w - 1)
+    for i in range(n_p):
+        for j in range(n_w - 1):
+            dx = paths[i, j + 1, 0] - paths[i, j, 0]
+            dy = paths[i, j + 1, 1] - paths[i, j, 1]
+            length[j] = np.hypot(dx, dy)
+            den = length[j] if length[j] > eps else 1.0
+            qx[j] = dx / den
+            qy[j] = dy / den
+        for k in range(n_i):
+            cos_d = min(max(qx[k] * qx[k + 1] + qy[k] * qy[k + 1], -1.0), 1.0)
+            a = np.arccos(cos_d)
+            if length[k] <= eps or length[k + 1] <= eps:
+                a = 0.0
+            angle[k] = a
+            tan_half[k] = np.tan(0.5 * min(a, max_turn))
+            wanted[k] = radius * tan_half[k]
+        total = 0.0
+        for j in range(n_w - 1):
+            need = (wanted[j - 1] if j >= 1 else 0.0) + (wanted[j] if j < n_i else 0.0)
+            total += max(0.0, need - length[j] - tolerance)
+            scale[j] = length[j] / (need if need > 0 else 1.0) if need > length[j] else 1.0
+        turn_excess[i] = total
+        out[i, 0, :] = paths[i, 0, :]
+        out[i, m - 1, :] = paths[i, n_w - 1, :]
+        for k in range(n_i):
+            wx, wy, wz = paths[i, k + 1, 0], paths[i, k + 1, 1], paths[i, k + 1, 2]
+            used = wanted[k] * min(scale[k], scale[k + 1])
+            arc_r = used / tan_half[k] if tan_half[k] > eps else radius
+            t1x = wx - used * qx[k]
+            t1y = wy - used * qy[k]
+            t2x = wx + used * qx[k + 1]
+            t2y = wy + used * qy[k + 1]
+            fa = used / length[k] if length[k] > eps else 0.0
+            fb = used / length[k + 1] if length[k + 1] > eps else 0.0
+            t1z = wz - fa * (wz - paths[i, k, 2])
+            t2z = wz + fb * (paths[i, k + 2, 2] - wz)
+            bx = qx[k + 1] - qx[k]
+            by = qy[k + 1] - qy[k]
+            bn = np.hypot(bx, by)
+            if bn > eps:
+                bx = bx / bn
+                by = by / bn
+            else:
+                bx = 0.0
+                by = 0.0
+            cos_half = np.cos(0.5 * min(angle[k], max_turn))
+            reach = arc_r / cos_half
+            cx = wx + reach * bx
+            cy = wy + reach * by
+            ax = t1x - cx
+            ay = t1y - cy
+            turn = (1.0 if (qx[k] * qy[k + 1] - qy[k] * qx[k + 1]) >= 0.0 else -1.0) * angle[k]
+            base = 1 + k * (chords + 1)
+            for s_i in range(chords + 1):
+                s = 1.0 if s_i == chords else s_i * (1.0 / chords)
+                th = turn * s
+                c, sn = np.cos(th), np.sin(th)
+                out[i, base + s_i, 0] = cx + ax * c - ay * sn
+                out[i, base + s_i, 1] = cy + ax * sn + ay * c
+                out[i, base + s_i, 2] = t1z + s * (t2z - t1z)
+            out[i, base, 0], out[i, base, 1], out[i, base, 2] = t1x, t1y, t1z
+            e = base + chords
+            out[i, e, 0], out[i, e, 1], out[i, e, 2] = t2x, t2y, t2z
+        over = 0.0
+        for j in range(m - 1):
+            dz = out[i, j + 1, 2] - out[i, j, 2]
+            h = np.hypot(out[i, j + 1, 0] - out[i, j, 0], out[i, j + 1, 1] - out[i, j, 1])
+            over += max(0.0, dz - climb * h - tolerance) + max(0.0, -dz - descent * h - tolerance)
+        climb_excess[i] = over
+    return out, turn_excess, climb_excess

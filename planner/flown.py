@@ -31,6 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from planner import _kernels
+
 FloatArray = npt.NDArray[np.float64]
 CHORDS = 6
 MAX_TURN = np.pi - 1e-3  # tan(D/2) of a full reversal is infinite: cap it (d = 2000 R)
@@ -165,6 +167,33 @@ def flown_paths(
     arcs = arc_points(f, chords).reshape(p.shape[0], -1, 3)
     out = np.concatenate([p[:, :1], arcs, p[:, -1:]], axis=1)
     return (out[0] if single else out), f
+
+
+def flown_with_excess(
+    paths: npt.ArrayLike,
+    radius: float,
+    climb_gradient: float,
+    descent_gradient: float,
+    chords: int = CHORDS,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """(flown polylines, turn excess, climb excess) of (P, W, 3) waypoint paths: what
+    :func:`flown_paths` and :func:`climb_excess` give, in one compiled pass
+    (``planner._kernels.flown``, about 4x faster on a swarm; the cost runs it every iteration).
+    Equal to the numpy functions to rounding (tests compare them)."""
+    p = np.ascontiguousarray(paths, dtype=np.float64)
+    if p.ndim != 3 or p.shape[1] < 2 or p.shape[2] != 3:
+        raise ValueError(f"paths must have shape (P, W >= 2, 3); got {p.shape}")
+    out, turn, climb = _kernels.flown(
+        p,
+        float(radius),
+        int(chords),
+        float(climb_gradient),
+        float(descent_gradient),
+        float(MAX_TURN),
+        _EPS,
+        TOLERANCE,
+    )
+    return np.asarray(out), np.asarray(turn), np.asarray(climb)
 
 
 def climb_excess(

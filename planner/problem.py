@@ -38,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.cost import COLLISION_PENALTY, CostTerms, path_costs, smoothness_of
-from planner.flown import CHORDS, climb_excess, flown_paths
+from planner.flown import CHORDS, flown_paths, flown_with_excess
 from planner.performance import Performance
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
@@ -377,9 +377,9 @@ class PlanningProblem:
         ce = te = None
         perf = self.performance
         if perf is not None:
-            paths, fil = flown_paths(paths, perf.turn_radius, self.chords)
-            te = fil.turn_excess
-            ce = climb_excess(paths, perf.climb_gradient, perf.descent_gradient)
+            paths, te, ce = flown_with_excess(
+                paths, perf.turn_radius, perf.climb_gradient, perf.descent_gradient, self.chords
+            )
         return path_costs(
             self._check_grid,
             paths,

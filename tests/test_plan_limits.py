@@ -413,3 +413,27 @@ def test_the_result_is_judged_by_the_validity_layer_too() -> None:
     refused = dataclasses.replace(ok, valid=np.r_[False, ok.valid[1:]])
     (v,) = find_violations(pr, pr.paths(clear), refused)
     assert v.segment == 0 and "fails the validity check" in v.detail
+
+
+@pytest.mark.parametrize("waypoints", [2, 3, 8, 12])
+def test_compiled_flown_paths_match_the_numpy_ones(waypoints: int) -> None:
+    """The cost's one-pass kernel gives the fillets, climb and turn excesses of the numpy
+    functions: random swarms with reversals, overlapping fillets, zero-length and vertical legs."""
+    from planner.flown import flown_with_excess
+
+    rng = np.random.default_rng(waypoints)
+    paths = rng.uniform([0, 0, 100], [3000, 3000, 900], (300, waypoints, 3))
+    if waypoints > 2:
+        paths[:20, 1] = paths[:20, 0]  # zero-length first leg
+        paths[20:40, 2, :2] = paths[20:40, 1, :2]  # a vertical leg
+        paths[40:60, 2, :2] = paths[40:60, 0, :2]  # a full reversal
+        paths[60:80] = paths[60:80, :1] + np.linspace(0, 1, waypoints)[:, None] * [400, 10, 5]
+    flown, fil = flown_paths(paths, 143.2)
+    climb = climb_excess(flown, 0.16, 0.096)
+    got, turn, got_climb = flown_with_excess(paths, 143.2, 0.16, 0.096)
+    np.testing.assert_allclose(got, flown, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(turn, fil.turn_excess, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(got_climb, climb, rtol=1e-12, atol=1e-9)
+    assert ((turn > 0) == (fil.turn_excess > 0)).all() and ((got_climb > 0) == (climb > 0)).all()
+    if waypoints > 2:
+        assert 0 < np.count_nonzero(turn) < 300 and 0 < np.count_nonzero(got_climb) < 300
