@@ -184,6 +184,21 @@ def _bootstrap(name: str, costs: dict[str, np.ndarray], k: int = 10) -> tuple[st
     )
 
 
+def _within(name: str, costs: dict[str, np.ndarray], share: float = 0.02) -> tuple[str, str, str]:
+    """Issue 20's no-lottery target: of each algorithm's runs, how many end within ``share`` of
+    the lowest cost any run of any algorithm reached on this map, and its worst run's excess."""
+    best = min(float(c.min()) for c in costs.values())
+    parts = [
+        f"{a} {int(np.sum(c <= best * (1 + share)))}/{len(c)} (worst +{100 * (c.max() / best - 1):.1f} %)"
+        for a, c in costs.items()
+    ]
+    return (
+        f"{name} / runs within {100 * share:.0f} % of the best run ({best:.4f})",
+        ", ".join(parts),
+        "every run (issue 20)",
+    )
+
+
 def _parse_params(ap: argparse.ArgumentParser, items: list[str]) -> dict[str, object]:
     """``KEY=VALUE`` strings as AMPSO keyword arguments (numbers where they parse as numbers)."""
     out: dict[str, object] = {}
@@ -306,11 +321,14 @@ def main() -> None:
             rows.append(
                 (
                     f"{name} / {alg}",
-                    f"{c.mean():.4f} ± {c.std():.4f} (feasible {feas}/{args.runs}, "
-                    f"{np.mean(times):.2f} s/run)",
+                    f"{c.mean():.4f} ± {c.std():.4f}, {c.min():.4f}..{c.max():.4f} (feasible "
+                    f"{feas}/{args.runs}, {np.mean(times):.2f} s/run)",
                     "ampso lowest mean and spread",
                 )
             )
+            print(rows[-1])
+        if per_alg:
+            rows.append(_within(name, per_alg))
             print(rows[-1])
         if args.runs >= 20 and "ampso" in per_alg and len(per_alg) > 1:
             rows.append(_bootstrap(name, per_alg))

@@ -50,3 +50,12 @@ def test_bootstrap_counts_samples_where_ampso_wins():
     # worse everywhere: never
     row = b._bootstrap("m", {"ampso": other + 1.0, "apso": other})
     assert row[1] == "mean 0.00, mean and spread 0.00"
+
+
+def test_within_counts_runs_near_the_best_of_all_algorithms():
+    costs = {"ampso": np.array([0.50, 0.505, 0.52]), "pso": np.array([0.51, 0.60])}
+    name, value, target = b._within("m", costs)
+    assert name == "m / runs within 2 % of the best run (0.5000)"
+    # 0.51 = +2.0 % counts (<=), 0.52 = +4 % does not
+    assert value == "ampso 2/3 (worst +4.0 %), pso 1/2 (worst +20.0 %)"
+    assert target == "every run (issue 20)"
