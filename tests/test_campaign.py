@@ -510,6 +510,12 @@ def test_bench_seed002_table2_ranks_the_planners(
         assert sorted(int(r[1]) for r in ranks) == [1, 2, 3, 4]
         # the paper's ranks: AMPSO first on Dakrong and LangCo, second on Daklak
         assert dict((a, p) for a, _, p in ranks)["ampso"] == "2/1/1"
+        # one run each: the best run is within 2 % of itself, so at least one algorithm has 1/1
+        near = re.findall(
+            rf"^{name} +(\w+) +runs within 2 % of the map's best \((0\.\d+)\) +(\d)/1", out, re.M
+        )
+        assert len(near) == 4 and len({b for _, b, _ in near}) == 1
+        assert any(k == "1" for _, _, k in near)
     assert "| rmnp | ampso | cost mean ± sd |" in summary.read_text(encoding="utf-8")
 
 
