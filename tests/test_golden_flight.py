@@ -96,6 +96,27 @@ def test_the_demo_mission_is_flown_clear_of_the_terrain(
     )
     assert m["success"] and m["end_reason"] == "goal"
     assert m["min_terrain_clearance_m"] >= 25.0
+    # `make demo`'s next step: the pop-up threats of data/threats/rmnp-demo.yaml lie on this
+    # path, so without avoidance every one of them is entered (exit 3; the demo checks that)
+    rc = main(
+        [
+            "replay",
+            str(tmp_path / "m.yaml"),
+            "--threats",
+            str(ROOT / "data/threats/rmnp-demo.yaml"),
+            "--seed",
+            "1",
+            "--no-terrain-mesh",
+            "--json",
+            "-o",
+            str(tmp_path / "none.mcap"),
+        ]
+    )
+    report = json.loads(capsys.readouterr().out)
+    assert rc == 3
+    hit = {v["threat"]: v["min_separation"] for v in report["metrics"]["violations"]}
+    assert set(hit) == {"sam-site", "drone", "storm-cell"}
+    assert max(hit.values()) < -200.0  # entered deep, not grazed: the path runs through each
 
 
 @pytest.mark.slow
