@@ -71,6 +71,7 @@ from scipy.sparse.csgraph import dijkstra
 from planner import _kernels
 from planner.problem import PlanningProblem
 from terrain.errors import InputError
+from terrain.grid import block_max
 from terrain.zones import inflated
 from terrain.zoneset import ZoneSet
 
@@ -137,15 +138,6 @@ def check_routes(k: object) -> int:
     return int(k)
 
 
-def _block_max(a: npt.NDArray[np.floating], b: int, fill: float) -> FloatArray:
-    """The maximum of each ``b x b`` block of ``a`` (edges padded with ``fill``)."""
-    rows, cols = a.shape
-    nr, nc = -(-rows // b), -(-cols // b)
-    pad = np.full((nr * b, nc * b), fill, dtype=np.float64)
-    pad[:rows, :cols] = a
-    return np.asarray(pad.reshape(nr, b, nc, b).max(axis=(1, 3)), dtype=np.float64)
-
-
 def explore(
     problem: PlanningProblem,
     k: int = ROUTES,
@@ -164,13 +156,13 @@ def explore(
     b = max(1, math.ceil(max(rows, cols) / int(cells)))
     dx, dy = grid.cell_size
     zlo, zhi = problem.band
-    top = _block_max(np.asarray(check.heights, dtype=np.float64), b, -np.inf)
+    top = block_max(check.heights, b, -np.inf)
     h = np.maximum(top + problem.clearance, zlo)  # a block's floor
     nr, nc = h.shape
     bad = h > zhi
     unknown = problem.unknown_grid
     if unknown is not None:
-        bad |= _block_max(np.asarray(unknown.heights > 0, dtype=np.float64), b, 0.0) > 0
+        bad |= block_max(unknown.heights > 0, b, 0.0) > 0
     # block centres (the middle of the block's cells that lie on the map), kept inside the
     # search box
     lo, hi = problem.bounds()
@@ -393,9 +385,15 @@ def _simplify(xy: FloatArray, n: int) -> FloatArray:
         if at < 0 or best <= 1e-9:
             break
         keep.append(at)
-    pts = [xy[i] for i in sorted(keep)]
-    while len(pts) < n + 2:
-        lens = [float(np.hypot(*(q - p))) for p, q in itertools.pairwise(pts)]
+    return _halve_longest([xy[i] for i in sorted(keep)], n + 2)
+
+
+def _halve_longest(pts: list[FloatArray], count: int) -> FloatArray:
+    """``pts`` (2-D or 3-D points) with the horizontally longest chord halved, again and again,
+    until there are ``count`` of them."""
+    pts = list(pts)
+    while len(pts) < count:
+        lens = [float(np.hypot(*(q - p)[:2])) for p, q in itertools.pairwise(pts)]
         j = int(np.argmax(lens))
         pts.insert(j + 1, 0.5 * (pts[j] + pts[j + 1]))
     return np.asarray(pts, dtype=np.float64)
@@ -494,12 +492,7 @@ def route_waypoints(
     zlo, zhi = problem.band
     pulled = _pull(problem, np.asarray(xyz, dtype=np.float64), heights)
     if len(pulled) <= n + 2:  # clear chords: halve the longest until there are N waypoints
-        pts = list(pulled)
-        while len(pts) < n + 2:
-            lens = [float(np.hypot(*(q - p)[:2])) for p, q in itertools.pairwise(pts)]
-            j = int(np.argmax(lens))
-            pts.insert(j + 1, 0.5 * (pts[j] + pts[j + 1]))
-        arr = np.asarray(pts)
+        arr = _halve_longest(list(pulled), n + 2)
         xy, z = arr[:, :2].copy(), arr[:, 2].copy()
     else:  # more corners than waypoints: the farthest ones, lifted over their chords
         xy = _simplify(pulled[:, :2], n)

@@ -52,24 +52,6 @@ SKIP_MARGIN = 1e-6  # metres: a chunk is skipped only when clear by more than ro
 
 
 @nb.njit(cache=True, nogil=True)
-def block_maxima(heights: np.ndarray) -> np.ndarray:  # pragma: no cover - jit
-    """Highest cell of each BLOCK x BLOCK block of ``heights`` (float64; the last row and column
-    of blocks may be partial)."""
-    rows, cols = heights.shape
-    nbr = (rows + BLOCK - 1) // BLOCK
-    nbc = (cols + BLOCK - 1) // BLOCK
-    out = np.full((nbr, nbc), -np.inf)
-    for r in range(rows):
-        br = r // BLOCK
-        for c in range(cols):
-            h = float(heights[r, c])
-            bc = c // BLOCK
-            if h > out[br, bc]:
-                out[br, bc] = h
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
 def _t_of(
     k: int, n: int, maj0: int, smaj: int, f0: float, span: float
 ) -> float:  # pragma: no cover
@@ -90,7 +72,7 @@ def below_lengths(
     t_k and its neighbours' (t_k is where the cell centre projects on the major axis); that part is
     below ground when the segment's altitude at t_k is below the cell's height plus clearance.
 
-    ``blocks`` (:func:`block_maxima` of ``heights``) lets the walk skip: the cells are taken in
+    ``blocks`` (``HeightGrid.block_maxima``: :func:`terrain.grid.block_max` of ``heights``) lets the walk skip: the cells are taken in
     chunks of BLOCK steps; a chunk's cells lie in the box spanned by its first and last cell (the
     line is monotone in both axes), and when the lower of its ends' altitudes clears the highest
     block over that box by more than SKIP_MARGIN, no cell of it can be below and the walk jumps

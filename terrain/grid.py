@@ -58,6 +58,17 @@ def crs_label(crs: CRS | None) -> str:
     return match.group(1) if match else crs.to_string()
 
 
+def block_max(a: npt.ArrayLike, b: int, fill: float) -> npt.NDArray[np.float64]:
+    """The maximum of each ``b x b`` block of the 2-D array ``a`` (float64; the last row and
+    column of blocks, when partial, padded with ``fill``)."""
+    arr = np.asarray(a, dtype=np.float64)
+    rows, cols = arr.shape
+    nr, nc = -(-rows // b), -(-cols // b)
+    pad = np.full((nr * b, nc * b), fill, dtype=np.float64)
+    pad[:rows, :cols] = arr
+    return np.asarray(pad.reshape(nr, b, nc, b).max(axis=(1, 3)), dtype=np.float64)
+
+
 @dataclass(frozen=True, eq=False)
 class HeightGrid:
     """Heights (float32, read-only) on a north-up grid with an affine transform and a CRS.
@@ -187,9 +198,9 @@ class HeightGrid:
         """Highest height of each ``terrain._kernels.BLOCK``-square block of cells (float64,
         read-only): lets the segment checks skip stretches of a segment far above the ground.
         Computed on first use and kept (the heights never change)."""
-        out = _kernels.block_maxima(self.heights)
+        out = block_max(self.heights, _kernels.BLOCK, -np.inf)
         out.flags.writeable = False
-        return np.asarray(out, dtype=np.float64)
+        return out
 
     @property
     def cell_size(self) -> tuple[float, float]:

@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -269,8 +269,6 @@ def load_dem(
         for s in srcs:
             s.close()
     if local_cell_size is not None:
-        from dataclasses import replace
-
         t = grid.transform
         k = float(local_cell_size) / abs(float(t.a))
         scaled = Affine(t.a * k, t.b, t.c * k, t.d, t.e * k, t.f * k)
