@@ -116,3 +116,132 @@ def flown(
             over += max(0.0, dz - climb * h - tolerance) + max(0.0, -dz - descent * h - tolerance)
         climb_excess[i] = over
     return out, turn_excess, climb_excess
+
+
+@nb.njit(cache=True, nogil=True)
+def chord_edges(
+    rc: np.ndarray,
+    xy: np.ndarray,
+    levels: np.ndarray,
+    floor: np.ndarray,
+    block: int,
+    step: float,
+    pairs: np.ndarray,
+    climb: float,
+    descent: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - jit
+    """``planner.placement._chord_edges_py``: the clear, flyable chords between the altitude
+    levels of candidate pairs, as (from state, to state, 3-D length, mid altitude); a state is
+    ``candidate * K + level``; ``floor`` holds the blocks of ``block`` x ``block`` cells, ``rc``
+    and ``step`` are in cells.  The lowest clear end of a chord from ``za`` is found on the upper
+    convex hull of the floor samples (the steepest sight line from a point left of them all ends
+    on a hull vertex)."""
+    n_k = levels.shape[1]
+    n_r, n_col = floor.shape[0] * block, floor.shape[1] * block
+    cap = pairs.shape[0] * n_k * n_k
+    u = np.empty(cap, np.int64)
+    v = np.empty(cap, np.int64)
+    l3 = np.empty(cap)
+    zm = np.empty(cap)
+    count = 0
+    most = 2
+    for e in range(pairs.shape[0]):
+        a, b = pairs[e, 0], pairs[e, 1]
+        d = np.hypot(rc[b, 0] - rc[a, 0], rc[b, 1] - rc[a, 1])
+        most = max(most, int(np.ceil(d / step)) + 1)
+    ts = np.empty(most)
+    fs = np.empty(most)
+    ht = np.empty(most)
+    hf = np.empty(most)
+    for e in range(pairs.shape[0]):
+        a, b = pairs[e, 0], pairs[e, 1]
+        r0, c0, r1, c1 = rc[a, 0], rc[a, 1], rc[b, 0], rc[b, 1]
+        m = max(2, int(np.ceil(np.hypot(r1 - r0, c1 - c0) / step)) + 1)
+        finite = True
+        for i in range(m):
+            t = 1.0 if i == m - 1 else i / (m - 1)
+            r = min(max(int(np.floor(r0 + t * (r1 - r0) + 0.5)), 0), n_r - 1)
+            c = min(max(int(np.floor(c0 + t * (c1 - c0) + 0.5)), 0), n_col - 1)
+            ts[i] = t
+            fs[i] = floor[r // block, c // block]
+            if not np.isfinite(fs[i]):
+                finite = False
+                break
+        if not finite:
+            continue
+        h = 0  # upper hull of the samples after the first (t increasing)
+        for i in range(1, m):
+            while (
+                h >= 2
+                and (ht[h - 1] - ht[h - 2]) * (fs[i] - hf[h - 2])
+                - (hf[h - 1] - hf[h - 2]) * (ts[i] - ht[h - 2])
+                >= 0.0
+            ):
+                h -= 1
+            ht[h] = ts[i]
+            hf[h] = fs[i]
+            h += 1
+        length = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
+        for ka in range(n_k):
+            za = levels[a, ka]
+            if not np.isfinite(za) or za < fs[0]:
+                continue
+            need = -np.inf
+            for j in range(h):
+                need = max(need, za + (hf[j] - za) / ht[j])
+            for kb in range(n_k):
+                zb = levels[b, kb]
+                if not np.isfinite(zb) or zb < need:
+                    continue
+                dz = zb - za
+                if dz > climb * length or -dz > descent * length:
+                    continue
+                u[count] = a * n_k + ka
+                v[count] = b * n_k + kb
+                l3[count] = np.sqrt(length * length + dz * dz)
+                zm[count] = 0.5 * (za + zb)
+                count += 1
+    return u[:count], v[:count], l3[:count], zm[:count]
+
+
+@nb.njit(cache=True, nogil=True)
+def layered_dp(
+    u: np.ndarray,
+    v: np.ndarray,
+    w: np.ndarray,
+    n_states: int,
+    start: int,
+    goal: int,
+    layers: int,
+    inner: np.ndarray,
+) -> np.ndarray:  # pragma: no cover - jit
+    """``planner.placement._layered_dp_py``: the cheapest chain start -> ``layers`` inner states
+    -> goal over the edges (u, v, w), as its states (empty when there is none)."""
+    best = np.full(n_states, np.inf)
+    best[start] = 0.0
+    back = np.full((layers, n_states), -1, np.int64)
+    for layer in range(layers):
+        new = np.full(n_states, np.inf)
+        for e in range(u.shape[0]):
+            if not inner[v[e]] or best[u[e]] == np.inf:
+                continue
+            c = best[u[e]] + w[e]
+            if c < new[v[e]]:
+                new[v[e]] = c
+                back[layer, v[e]] = u[e]
+        best = new
+    end, at = np.inf, -1
+    for e in range(u.shape[0]):
+        if v[e] == goal:
+            c = best[u[e]] + w[e]
+            if c < end:
+                end, at = c, u[e]
+    if at < 0:
+        return np.empty(0, np.int64)
+    out = np.empty(layers + 2, np.int64)
+    out[layers + 1] = goal
+    for layer in range(layers - 1, -1, -1):
+        out[layer + 1] = at
+        at = back[layer, at]
+    out[0] = start
+    return out

@@ -52,6 +52,12 @@ altitudes honoured exactly on the first and last chords, clipped to the band; th
 as both chords allow, raised to a preferred height above the ground and kept under an
 above-ground band's top where the chords allow.  The swarm moves them from there.
 
+**Placement.**  The graph fixes the corridor; where exactly the waypoints go in it, and how
+high, decides the last 10-25 % of the cost.  :func:`explore_pool` hands the three best routes to
+:func:`planner.placement.place` (a dynamic programme over a lattice of waypoints and altitude
+levels round each route, then local rounds round its best chain) and keeps the two cheapest
+feasible placements of each beside the graph's own seeds.
+
 Measured (``benchmarks/bench_plan.py``, ``benchmarks/RESULTS.md``): see the issue-20 entries.
 """
 
@@ -69,6 +75,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from planner import _kernels
+from planner.placement import Lattice, _Chords, corridor_terrain, finish_waypoints, place
 from planner.problem import PlanningProblem
 from terrain.errors import InputError
 from terrain.grid import block_max
@@ -85,9 +92,10 @@ OVERLAP = 0.5  # share of a route's nodes that may lie near a kept route
 SEED_SHARE = 0.25  # share of the population seeded from the routes (route + jittered copies)
 MAX_TRIES = 2000  # via routes built at most (the nodes near a kept route are not tried)
 RESOLUTIONS = (48, 96, 160)  # graphs searched by explore_pool (blocks along the longer side)
+PLACED = 3  # explore_pool: routes along which the waypoints are placed (planner.placement)
+KEEP_PLACED = 2  # explore_pool: the cheapest feasible placements kept per route
 DISTINCT = 0.05  # explore_pool: routes closer than this share of the start-goal distance are one
 JITTER = 0.02  # graph_population: copies' horizontal jitter, share of the start-goal distance
-GRADIENT_USE = 0.9  # share of the climb / descent gradients the seeds' legs use
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +107,7 @@ class Route:
     cost: float
     x: FloatArray  # (3N,)
     f: float = math.nan  # the problem's cost of x (explore_pool)
+    feasible: bool = False  # whether x is feasible (explore_pool)
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,6 +121,7 @@ class Exploration:
     nodes: int
     edges: int
     elapsed_s: float
+    placement_s: float = 0.0  # of elapsed_s, placing waypoints along the routes (explore_pool)
 
     def summary(self) -> dict[str, object]:
         """Plain data for a result's parameters."""
@@ -126,6 +136,7 @@ class Exploration:
             "nodes": self.nodes,
             "edges": self.edges,
             "seconds": round(self.elapsed_s, 4),
+            "placement_seconds": round(self.placement_s, 4),
         }
 
 
@@ -399,39 +410,6 @@ def _halve_longest(pts: list[FloatArray], count: int) -> FloatArray:
     return np.asarray(pts, dtype=np.float64)
 
 
-class _Chords:
-    """The terrain floor (corridor heights + clearance + 1 m) sampled every half cell along each
-    chord of a polyline: ``t`` (0..1 from its first end) and ``floor`` per chord."""
-
-    def __init__(self, problem: PlanningProblem, pts: FloatArray, heights: FloatArray) -> None:
-        grid = problem.grid
-        step = 0.25 * min(grid.cell_size)
-        self.t: list[FloatArray] = []
-        self.floor: list[FloatArray] = []
-        for p, q in itertools.pairwise(pts):
-            m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
-            t = np.linspace(0.0, 1.0, m)
-            line = p[None, :] + t[:, None] * (q - p)[None, :]
-            self.t.append(t)
-            self.floor.append(
-                heights[grid.cell_of(line[:, 0], line[:, 1])] + problem.clearance + 1.0
-            )
-
-    def clear(self, i: int, za: float, zb: float) -> bool:
-        t = self.t[i]
-        return bool(np.all(za + t * (zb - za) >= self.floor[i]))
-
-    def lowest_end(self, i: int, za: float) -> float:
-        """The lowest altitude of chord i's second end keeping it clear, its first end at za."""
-        t, f = self.t[i][1:], self.floor[i][1:]
-        return float(np.max(za + (f - za) / t))
-
-    def lowest_start(self, i: int, zb: float) -> float:
-        """The lowest altitude of chord i's first end keeping it clear, its second end at zb."""
-        t, f = self.t[i][:-1], self.floor[i][:-1]
-        return float(np.max(zb + (f - zb) / (1.0 - t)))
-
-
 def _pull(problem: PlanningProblem, xyz: FloatArray, heights: FloatArray) -> FloatArray:
     """String pulling along a route in 3-D: from each kept vertex the farthest later route point
     whose straight chord (altitudes linear between their own) clears the terrain floor and enters
@@ -489,7 +467,7 @@ def route_waypoints(
     widened by the corridor (:func:`corridor_terrain`; computed when not given)."""
     n = problem.n_waypoints
     heights = corridor_terrain(problem) if terrain is None else terrain
-    zlo, zhi = problem.band
+    zlo = problem.band[0]
     pulled = _pull(problem, np.asarray(xyz, dtype=np.float64), heights)
     if len(pulled) <= n + 2:  # clear chords: halve the longest until there are N waypoints
         arr = _halve_longest(list(pulled), n + 2)
@@ -503,70 +481,7 @@ def route_waypoints(
             z[i] = max(float(ch.floor[i - 1].max()), float(ch.floor[i].max()))
         z[1] = max(z[1], ch.lowest_end(0, z[0]))
         z[n] = max(z[n], ch.lowest_start(n, z[n + 1]))
-    z = np.minimum(z, zhi)
-    ch = _Chords(problem, xy, heights)
-    for _ in range(3):  # lower each waypoint as far as both its chords allow
-        for i in range(1, n + 1):
-            low = max(ch.lowest_end(i - 1, z[i - 1]), ch.lowest_start(i, z[i + 1]), zlo)
-            z[i] = min(z[i], low) if low <= z[i] else z[i]
-    if problem.agl_pref is not None or problem.agl_max is not None:
-        z = _into_band(problem, xy, z)
-    perf = problem.performance
-    if perf is not None:  # raise waypoints until the climbs and descents between them are flyable
-        gap = np.hypot(*np.diff(xy, axis=0).T)
-        climb, descent = GRADIENT_USE * perf.climb_gradient, GRADIENT_USE * perf.descent_gradient
-        for i in range(n, 0, -1):  # able to climb to the next one
-            z[i] = max(z[i], z[i + 1] - climb * gap[i])
-        for i in range(1, n + 1):  # able to descend from the previous one
-            z[i] = max(z[i], z[i - 1] - descent * gap[i - 1])
-    x = np.column_stack([xy[1:-1], np.clip(z[1:-1], zlo, zhi)]).ravel()
-    lo, hi = problem.bounds()
-    return np.asarray(np.clip(x, lo, hi), dtype=np.float64)
-
-
-def _into_band(problem: PlanningProblem, xy: FloatArray, low: FloatArray) -> FloatArray:
-    """Waypoint altitudes between the lowest clear profile ``low`` and a target -- the preferred
-    height above the ground at each waypoint, under the band's top there -- as far towards the
-    target as keeps every chord under the band's top (the largest such blend, by bisection:
-    the chords' heights above the ground grow with it).  Anything above ``low`` is clear."""
-    ground = problem.grid.height_at(xy[1:-1, 0], xy[1:-1, 1])
-    target = low.copy()
-    if problem.agl_pref is not None:
-        target[1:-1] = np.maximum(target[1:-1], ground + problem.agl_pref)
-    top = problem.agl_max
-    if top is None:
-        return target
-    target[1:-1] = np.maximum(np.minimum(target[1:-1], ground + top), low[1:-1])
-    step = 0.5 * min(problem.grid.cell_size)
-    ts, gs = [], []
-    for p, q in itertools.pairwise(xy):
-        m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
-        t = np.linspace(0.0, 1.0, m)
-        line = p[None, :] + t[:, None] * (q - p)[None, :]
-        ts.append(t)
-        gs.append(problem.grid.height_at(line[:, 0], line[:, 1]))
-
-    def under(z: FloatArray) -> bool:
-        return all(
-            float(np.max(z[i] + t * (z[i + 1] - z[i]) - g)) <= top
-            for i, (t, g) in enumerate(zip(ts, gs, strict=True))
-        )
-
-    if under(target):
-        return target
-    if not under(low):  # no profile over these waypoints keeps the band: leave it to the swarm
-        return low
-    lo, hi = 0.0, 1.0
-    for _ in range(20):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if under(low + mid * (target - low)) else (lo, mid)
-    return np.asarray(low + lo * (target - low), dtype=np.float64)
-
-
-def corridor_terrain(problem: PlanningProblem) -> FloatArray:
-    """The heights a seed's chords must clear: the conservative terrain the cost's Bresenham
-    walk checks (the safety heights dilated by a cell), sampled every quarter cell."""
-    return np.asarray(problem._check_grid.heights, dtype=np.float64)
+    return finish_waypoints(problem, xy, z, heights)
 
 
 def _polyline_gap(a: FloatArray, b: FloatArray, samples: int = 64) -> float:
@@ -584,34 +499,46 @@ def _polyline_gap(a: FloatArray, b: FloatArray, samples: int = 64) -> float:
 
 
 def explore_pool(
-    problem: PlanningProblem, k: int = ROUTES, resolutions: tuple[int, ...] = RESOLUTIONS
+    problem: PlanningProblem,
+    k: int = ROUTES,
+    resolutions: tuple[int, ...] = RESOLUTIONS,
+    *,
+    placed: int = PLACED,
 ) -> Exploration:
     """:func:`explore` at several graph resolutions (a coarse graph sees the broad corridors, a
     fine one the narrow valleys and gaps, and which suits ``N`` waypoints differs from map to
     map), every route scored by the problem's own cost, and the ``k`` best kept (feasible first)
     that are distinct: a route whose waypoint polyline lies on average within ``DISTINCT`` (5 %)
-    of the start-goal distance of a kept one is dropped."""
+    of the start-goal distance of a kept one is dropped.  Then the waypoints are placed along
+    the ``placed`` (3) best kept routes by :func:`planner.placement.place`, and the
+    ``KEEP_PLACED`` (2) cheapest feasible placements of each join the routes (cheapest first;
+    they share their route's polyline and surrogate cost)."""
     k = check_routes(k)
     t0 = time.perf_counter()
     found = [explore(problem, k, cells=c) for c in resolutions]
     cands = [r for e in found for r in e.routes]
+    finest = found[-1]
     if not cands:
-        return replace(found[-1], elapsed_s=time.perf_counter() - t0)
+        return replace(finest, elapsed_s=time.perf_counter() - t0)
     terms = problem.terms(np.array([r.x for r in cands]))
     ok = problem.feasible(terms)
-    order = sorted(range(len(cands)), key=lambda i: (not ok[i], float(terms.total[i])))
-    span = float(np.hypot(*(problem.goal[:2] - problem.start[:2])))
-    kept: list[Route] = []
-    lines: list[FloatArray] = []
-    for i in order:
-        line = problem.paths(cands[i].x)[:, :2]
-        if any(_polyline_gap(line, other) < DISTINCT * span for other in lines):
-            continue
-        kept.append(replace(cands[i], f=float(terms.total[i])))
-        lines.append(line)
-        if len(kept) == k:
-            break
-    finest = found[-1]
+    scored = [(replace(r, f=float(terms.total[i])), bool(ok[i])) for i, r in enumerate(cands)]
+    kept = _distinct(problem, scored, k)
+    t1 = time.perf_counter()
+    placing = placed > 0 and problem.agl_pref is None
+    if placing:
+        heights = corridor_terrain(problem)
+        new: list[Route] = []
+        lattice = Lattice(problem, heights)
+        for r in kept[:placed]:
+            xs = place(problem, r.xy, heights, lattice)
+            if not xs:
+                continue
+            terms = problem.terms(np.array(xs))
+            ok = problem.feasible(terms)
+            best = sorted((float(terms.total[i]), i) for i in range(len(xs)) if ok[i])
+            new += [Route(r.xy, r.cost, xs[i], f, True) for f, i in best[:KEEP_PLACED]]
+        kept = sorted(kept + new, key=lambda r: (not r.feasible, r.f))
     return Exploration(
         tuple(kept),
         finest.block_m,
@@ -619,7 +546,28 @@ def explore_pool(
         sum(e.nodes for e in found),
         sum(e.edges for e in found),
         time.perf_counter() - t0,
+        placement_s=time.perf_counter() - t1 if placing else 0.0,
     )
+
+
+def _distinct(problem: PlanningProblem, scored: list[tuple[Route, bool]], k: int) -> list[Route]:
+    """Up to ``k`` of the scored routes (route, feasible), feasible first and cheapest first,
+    none whose waypoint polyline lies on average within ``DISTINCT`` of the start-goal distance
+    of one kept before it."""
+    order = sorted(range(len(scored)), key=lambda i: (not scored[i][1], scored[i][0].f))
+    span = float(np.hypot(*(problem.goal[:2] - problem.start[:2])))
+    kept: list[Route] = []
+    lines: list[FloatArray] = []
+    for i in order:
+        route, ok = scored[i]
+        line = problem.paths(route.x)[:, :2]
+        if any(_polyline_gap(line, other) < DISTINCT * span for other in lines):
+            continue
+        kept.append(replace(route, feasible=ok))
+        lines.append(line)
+        if len(kept) == k:
+            break
+    return kept
 
 
 def graph_population(

@@ -70,11 +70,12 @@ def below_lengths(
     ``seg`` is (M, 7): fractional row and col of both ends, z of both ends, 3D length. Each
     Bresenham cell k stands for the part of the segment between the midpoints of its parameter
     t_k and its neighbours' (t_k is where the cell centre projects on the major axis); that part is
-    below ground when the segment's altitude at t_k is below the cell's height plus clearance.
+    below ground when the segment's lowest altitude over it (at one of its ends) is below the
+    cell's height plus clearance.
 
     ``blocks`` (``HeightGrid.block_maxima``: :func:`terrain.grid.block_max` of ``heights``) lets the walk skip: the cells are taken in
     chunks of BLOCK steps; a chunk's cells lie in the box spanned by its first and last cell (the
-    line is monotone in both axes), and when the lower of its ends' altitudes clears the highest
+    line is monotone in both axes), and when the lowest altitude of its cells' parts clears the highest
     block over that box by more than SKIP_MARGIN, no cell of it can be below and the walk jumps
     to the next chunk (the Bresenham state there from its closed form, minor_k =
     floor((2 k d_minor + d_major - 1) / (2 d_major))).  Skipped cells add nothing, so the result is
@@ -143,8 +144,13 @@ def below_lengths(
                     for bc in range(min(ca, cb) // BLOCK, max(ca, cb) // BLOCK + 1):
                         if blocks[br, bc] > top:
                             top = blocks[br, bc]
-                za = z0 + _t_of(k, n, maj0, smaj, f0, span) * (z1 - z0)
-                zb = z0 + _t_of(k_end, n, maj0, smaj, f0, span) * (z1 - z0)
+                # the chunk's parts run from t_a to t_b (the first's lower end, the last's upper)
+                t_k = _t_of(k, n, maj0, smaj, f0, span)
+                t_e = _t_of(k_end, n, maj0, smaj, f0, span)
+                t_a = 0.0 if k == 0 else 0.5 * (_t_of(k - 1, n, maj0, smaj, f0, span) + t_k)
+                t_b = 1.0 if k_end == n else 0.5 * (t_e + _t_of(k_end + 1, n, maj0, smaj, f0, span))
+                za = z0 + t_a * (z1 - z0)
+                zb = z0 + t_b * (z1 - z0)
                 if min(za, zb) > top + clearance + SKIP_MARGIN:
                     t_prev = _t_of(k_end, n, maj0, smaj, f0, span)
                     k = k_end + 1
@@ -162,7 +168,7 @@ def below_lengths(
                 r, c = maj0 + smaj * k, minor
             rr = min(max(r, 0), rows - 1)
             cc = min(max(c, 0), cols - 1)
-            z = z0 + t_cur * (z1 - z0)
+            z = z0 + (lo if z1 >= z0 else hi) * (z1 - z0)  # the part's lowest point
             if z < heights[rr, cc] + clearance:
                 total += (hi - lo) * length
             t_prev = t_cur

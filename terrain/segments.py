@@ -11,8 +11,13 @@ Bresenham's line drawing algorithm". Here that is made exact and vectorised:
   t_k is the parameter at which the major-axis coordinate of the segment reaches the cell centre
   (clamped to [0, 1]); these parts tile the segment exactly, so the lengths add up to the segment's
   3D length;
-- that part counts as below ground when the segment's altitude at t_k is below the cell's height
-  (plus an optional clearance). Cells outside the grid take the nearest edge cell's height.
+- that part counts as below ground when the segment's lowest altitude over it (at one of the
+  part's ends: the segment is straight) is below the cell's height (plus an optional clearance).
+  Cells outside the grid take the nearest edge cell's height.  Seed 002 samples one altitude a
+  cell; taking the altitude at t_k (the first version here) let a climbing or descending segment
+  dip up to its gradient x half a cell below terrain + clearance at a part's end, where the
+  validity layer's samples then refused it (0.1-5 m, found on jacksboro once the planner's plans
+  hugged the clearance floor; issue 20): the lowest altitude closes that gap.
 
 Two implementations with the same arithmetic: :func:`below_terrain_lengths` uses the numba kernel
 (``terrain._kernels``), :func:`below_terrain_lengths_numpy` is the pure-numpy reference (one
@@ -135,7 +140,8 @@ def below_terrain_lengths_numpy(
     t_next = t_of(k + 1)
     lo = np.where(k == 0, 0.0, 0.5 * (t_prev + t_cur))
     hi = np.where(k == ni, 1.0, 0.5 * (t_cur + t_next))
-    z = seg[idx, 4] + t_cur * (seg[idx, 5] - seg[idx, 4])
+    rising = seg[idx, 5] >= seg[idx, 4]
+    z = seg[idx, 4] + np.where(rising, lo, hi) * (seg[idx, 5] - seg[idx, 4])  # part's lowest
     rr = np.clip(rows, 0, grid.rows - 1)
     cc = np.clip(cols, 0, grid.cols - 1)
     below = z < grid.heights[rr, cc].astype(np.float64) + clearance

@@ -74,6 +74,21 @@ def test_descending_segment_is_below_for_about_half_its_length() -> None:
     assert abs(got - length / 2) <= length / 59 + 1e-9  # 60 cells walked
 
 
+def test_a_part_counts_when_its_lowest_end_is_below() -> None:
+    """A descending segment along one row of cells, over flat ground with 50 m clearance: from
+    60 m to 41 m over four cell steps (cell centres at t = 0, 0.25, 0.5, 0.75, 1).  Cell 2's part
+    runs t 0.375..0.625; at its centre (t = 0.5) the segment is at 50.5 m, clear, but it leaves the
+    part at 48.1 m: below.  So cells 2, 3 and 4 count (t from 0.375 on), not only 3 and 4 (the
+    altitude at the centre, which let a plan pass the cost and fail the validity layer's samples
+    at a part's end)."""
+    grid = make_grid(np.zeros((3, 8)), cell=10.0, x0=0.0, y0=30.0)
+    p0, p1 = np.array([[5.0, 15.0, 60.0]]), np.array([[45.0, 15.0, 41.0]])
+    length = float(np.linalg.norm(p1 - p0))
+    for fn in (below_terrain_lengths, below_terrain_lengths_numpy):
+        assert fn(grid, p0, p1, 50.0)[0] == pytest.approx(0.625 * length)
+        assert fn(grid, p1, p0, 50.0)[0] == pytest.approx(0.625 * length)  # either direction
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     pts=st.lists(st.floats(0.0, 1.0), min_size=6, max_size=6),
