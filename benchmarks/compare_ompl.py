@@ -57,10 +57,11 @@ first records).
 
 Beside them terrapath at equal wall time: ``planner.plan.plan(problem, "ampso", seed=s)`` (graph
 initial population, single attempt) with the population and iterations of ``TERRAPATH`` chosen so
-one plan takes about 1 s, 3 s and 10 s on the 2-core machine of the record (re-measured after
-the compiled cost kernels: P=130 / 420 iterations about 1 s, 290 / 700 about 3 s, 620 / 1200
-about 9-10 s; the plan default P=60 / 200 takes about 0.35 s); the 10 s plan is also a reference
-for the best F reached at 10 s.
+one plan takes about 1 s, 3 s and 10 s on the 2-core machine of the record (re-measured with the
+waypoint placement of the graph start, which takes 0.1-0.3 s of each: P=110 / 380 iterations
+0.84-1.01 s on the three maps, 130 / 420 1.0-1.2 s, 280 / 680 2.8-3.1 s, 620 / 1200 9.7-10.5 s;
+the plan default P=60 / 200 takes about 0.45 s); the 10 s plan is also a reference for the best F
+reached at 10 s.
 
 The kinematic comparison (``--planners vana``, not in the default set): RRT* in OMPL's
 Dubins-airplane state space ``VanaStateSpace`` (x, y, z, yaw, pitch) with the aerosonde's turn
@@ -120,7 +121,7 @@ OBJECTIVES = ("length", "length+alt")
 ALTITUDE_PLANNERS = ("rrtstar", "bitstar")
 # (population, iterations) of one terrapath plan taking about the budget (s) on the record's machine
 # (10 s: a reference for the best F at 10 s; the target compares the equal-time budgets)
-TERRAPATH = {1.0: (130, 420), 3.0: (290, 700), 10.0: (620, 1200)}
+TERRAPATH = {1.0: (115, 390), 3.0: (280, 680), 10.0: (600, 1200)}
 # the hard terms of a path's cost (CostTerms.row keys) and their names in the table
 HARD = {
     "below_terrain_m": "terrain",

@@ -40,8 +40,9 @@ the search repeated (``ITERATIONS`` = 4 at most, until the chain repeats; the fi
 
 **Local rounds.**  The chain with the lowest ``F_length + F_altitude`` is then moved waypoint by
 waypoint and all at once: each inner waypoint gets a ``LOCAL x LOCAL`` (3 x 3) grid round it,
-along and across the bisector of its turn, spaced half the station spacing, then a quarter, an
-eighth, a sixteenth (``REFINE`` = 4 rounds), with the finer ``LEVELS_FINE``; the same layered
+along and across its mean heading (the mean of its two legs' directions), spaced ``FIRST`` (half)
+the station spacing, then a quarter, an eighth, a sixteenth (``REFINE`` = 4 rounds), with the
+finer ``LEVELS_FINE``; the same layered
 search over those grids (layer ``i`` joined to layer ``i + 1`` only) keeps a round's chain when
 its ``F_length + F_altitude`` is no higher.  The lattice round the route decides which ridges the
 chords cross; the local rounds find a lower way over each.  Which basin the lattice picks still
@@ -386,7 +387,7 @@ def place(
 
 def _around(problem: PlanningProblem, chain: FloatArray, h: float) -> FloatArray:
     """Candidates round each inner waypoint of ``chain``: a ``LOCAL`` x ``LOCAL`` grid of
-    spacing ``h`` along and across its bisector (the waypoint itself at the centre), start first
+    spacing ``h`` along and across its mean heading (the waypoint itself at the centre), start first
     and goal last: (2 + N LOCAL^2, 2)."""
     p = chain[:, :2]
     into = p[1:-1] - p[:-2]

@@ -26,6 +26,7 @@ from planner.placement import (
     repair,
 )
 from planner.problem import PlanningProblem
+from terrain.grid import block_max
 from terrain.segments import below_terrain_lengths
 from tests.conftest import make_grid
 
@@ -55,8 +56,6 @@ def _tables(pr: PlanningProblem, block: int) -> tuple[object, ...]:
     route = np.array([pr.start[:2], pr.goal[:2]])
     xy, station = candidates(pr, route)
     lat = Lattice(pr, corridor_terrain(pr))
-    from terrain.grid import block_max
-
     coarse = block_max(lat.floor, block, -np.inf)
     levels = levels_of(pr, xy, lat.floor, LEVELS)
     row, col = pr.grid.xy_to_index(xy[:, 0], xy[:, 1])

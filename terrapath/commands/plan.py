@@ -107,9 +107,10 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     type=click.Choice(["graph", "corridor", "uniform"]),
     default="graph",
     show_default=True,
-    help="Initial population: graph (routes from a search of the whole map seed a quarter of it, "
-    "the rest random corridor paths), corridor (random paths from start to goal) or uniform "
-    "(uniform in the box: seed 002's protocol).",
+    help="Initial population: graph (routes from a search of the whole map, with the waypoints "
+    "placed along the best three, seed a quarter of it, the rest random corridor paths), "
+    "corridor (random paths from start to goal) or uniform (uniform in the box: seed 002's "
+    "protocol).",
 )
 @click.option(
     "--routes",
