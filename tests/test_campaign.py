@@ -207,14 +207,22 @@ def test_a_run_that_raises_is_stored_and_the_campaign_goes_on(
 
 
 def _campaign_process(spec: Path, store: Path) -> subprocess.Popen[bytes]:
+    """``terrapath campaign`` in its own process; its stderr goes to ``<spec>.stderr`` (read by
+    :func:`_stderr` when it fails)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-m", "terrapath.cli", "campaign", str(spec), "--store", str(store)]
-    return subprocess.Popen(
-        [*cmd, "--jobs", "1", "--keep-mcap", "none"],
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+    with spec.with_suffix(".stderr").open("wb") as err:
+        return subprocess.Popen(
+            [*cmd, "--jobs", "1", "--keep-mcap", "none"],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+        )
+
+
+def _stderr(spec: Path) -> str:
+    """The last lines a campaign process of :func:`_campaign_process` wrote to stderr."""
+    return "\n".join(spec.with_suffix(".stderr").read_text(errors="replace").splitlines()[-15:])
 
 
 def test_killed_half_way_and_resumed_equals_straight_through(tmp_path: Path) -> None:
@@ -263,7 +271,8 @@ def test_two_campaigns_share_one_store(tmp_path: Path) -> None:
     )
     store = tmp_path / "shared.sqlite"
     procs = [_campaign_process(a, store), _campaign_process(b, store)]
-    assert [p.wait(timeout=300) for p in procs] == [0, 0]
+    codes = [p.wait(timeout=300) for p in procs]
+    assert codes == [0, 0], "\n".join(_stderr(s) for s in (a, b))
     rows = _rows(store)
     assert len(rows) == 24 and {r["spec_name"] for r in rows} == {"test-campaign", "other"}
     assert sqlite3.connect(store).execute("PRAGMA integrity_check").fetchone()[0] == "ok"
