@@ -363,7 +363,7 @@ def place(
     if not chains:
         return []
     best = min(chains, key=lambda c: lat.surrogate(c)[0])
-    step = float(station[-1]) / (max(STATIONS, 4 * problem.n_waypoints) + 1)
+    step = float(station[1])  # the station spacing (the first station's distance)
     for r in range(REFINE):
         h = step * FIRST * 0.5**r
         xy = _around(problem, best, h)
@@ -440,18 +440,14 @@ def _depths(problem: PlanningProblem, x: FloatArray, heights: FloatArray) -> Flo
     """Per free waypoint, the deepest piece of the flown path next to it that runs below the
     floor (0 where none does)."""
     n = problem.n_waypoints
-    path = problem.paths(x[None])[0]
-    flown = problem.flown(path[None])[0]
+    flown = problem.flown(problem.paths(x))
     per = problem.chords + 1 if problem.performance is not None else 1
     below = below_terrain_lengths(problem._check_grid, flown[:-1], flown[1:], problem.clearance)
     out = np.zeros(n + 2)
-    step = 0.25 * min(problem.grid.cell_size)
     for j in np.flatnonzero(below > 0.0).tolist():
         p, q = flown[j], flown[j + 1]
-        m = max(2, int(math.ceil(float(np.hypot(*(q - p)[:2])) / step)) + 1)
-        line = p[None, :] + np.linspace(0.0, 1.0, m)[:, None] * (q - p)[None, :]
-        under = heights[problem.grid.cell_of(line[:, 0], line[:, 1])] + problem.clearance + 1.0
-        deep = max(float(np.max(under - line[:, 2])), 3.0)
+        ch = _Chords(problem, flown[j : j + 2, :2], heights)
+        deep = max(float(np.max(ch.floor[0] - (p[2] + ch.t[0] * (q[2] - p[2])))), 3.0)
         for i in (j, j + 1):  # flown point i > 0 belongs to waypoint (i - 1) // per + 1
             wp = 0 if i == 0 else min((i - 1) // per + 1, n + 1)
             out[wp] = max(out[wp], deep)

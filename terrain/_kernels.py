@@ -152,7 +152,7 @@ def below_lengths(
                 za = z0 + t_a * (z1 - z0)
                 zb = z0 + t_b * (z1 - z0)
                 if min(za, zb) > top + clearance + SKIP_MARGIN:
-                    t_prev = _t_of(k_end, n, maj0, smaj, f0, span)
+                    t_prev = t_e
                     k = k_end + 1
                     if k <= n:  # the Bresenham state at k, in closed form
                         steps = (2 * k * dmin + n - 1) // (2 * n)
