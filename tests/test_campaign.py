@@ -6,6 +6,7 @@ cooperative sensor, so a run takes a fraction of a second."""
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import re
 import signal
@@ -14,6 +15,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -24,6 +26,7 @@ from replay.campaign.runner import run_campaign, wilson
 from replay.campaign.spec import derive_seed, load_spec
 from replay.campaign.store import Store
 from replay.metrics import WALL_CLOCK_METRICS
+from terrain.errors import InputError
 from terrapath.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -276,6 +279,29 @@ def test_two_campaigns_share_one_store(tmp_path: Path) -> None:
     rows = _rows(store)
     assert len(rows) == 24 and {r["spec_name"] for r in rows} == {"test-campaign", "other"}
     assert sqlite3.connect(store).execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+
+
+def _open_store(path: Path, barrier: Any) -> str:
+    barrier.wait()
+    try:
+        Store(path, "test").close()
+    except InputError as exc:
+        return str(exc)
+    return ""
+
+
+def test_processes_opening_a_new_store_together_all_get_it(tmp_path: Path) -> None:
+    # SQLite answers "database is locked" at once (not after its busy timeout) when connections
+    # open a new file together while one switches it to WAL: 11 of 30 such starts failed before
+    # the store retried its opening (the CI failure of test_two_campaigns_share_one_store).
+    context = multiprocessing.get_context("fork")
+    with context.Manager() as manager, context.Pool(4) as pool:
+        for trial in range(12):
+            barrier = manager.Barrier(4)
+            store = tmp_path / f"s{trial}.sqlite"
+            errors = pool.starmap(_open_store, [(store, barrier)] * 4)
+            assert errors == [""] * 4
+            assert _rows(store) == []
 
 
 def test_wilson_interval() -> None:

@@ -3,7 +3,8 @@ written as each run finishes.
 
 A row is written in one transaction (``INSERT OR REPLACE`` of the run's identity), so a campaign
 killed at any moment (Ctrl-C, SIGKILL, a power cut) loses no finished run and leaves no half row;
-WAL mode and a 60 s busy timeout let two campaigns write to one store at once.  The table
+WAL mode and a 60 s busy timeout (:data:`BUSY_S`, also over the opening, where SQLite can answer
+"locked" at once) let two campaigns write to one store at once.  The table
 ``meta`` holds the store format (:data:`FORMAT`) and the terrapath version that created it; a
 store of another format is refused, naming both versions.
 
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import json
 import sqlite3
+import time
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -26,6 +28,7 @@ from typing import Any
 from terrain.errors import InputError
 
 FORMAT = "1"
+BUSY_S = 60.0  # how long to wait for another campaign holding the store
 COLUMNS = (
     *("run_hash", "spec_name", "spec_hash", "key", "mission", "row", "count", "avoider", "run"),
     *("seed", "scenario_seed", "version", "status", "success", "end_reason", "metrics"),
@@ -69,32 +72,22 @@ class Store:
         if not self.path.parent.is_dir():
             raise InputError(f"{self.path}: no folder {self.path.parent} to keep the store in")
         self.version = version
-        try:
-            self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("BEGIN IMMEDIATE")
-            tables = {
-                r[0] for r in self._db.execute("SELECT name FROM sqlite_master WHERE type='table'")
-            }
-            if tables and "meta" not in tables:
-                self._db.execute("ROLLBACK")
-                raise InputError(
-                    f"{self.path}: an SQLite database, but not a terrapath campaign store "
-                    f"(tables {', '.join(sorted(tables))})"
-                )
-            for statement in _SCHEMA.strip().split(";"):
-                if statement.strip():
-                    self._db.execute(statement)
-            meta = dict(self._db.execute("SELECT key, value FROM meta").fetchall())
-            if not meta:
-                self._db.executemany(
-                    "INSERT INTO meta (key, value) VALUES (?, ?)",
-                    [("format", FORMAT), ("created_by", version)],
-                )
-                meta = {"format": FORMAT, "created_by": version}
-            self._db.execute("COMMIT")
-        except sqlite3.DatabaseError as exc:
-            raise InputError(f"{self.path}: not a terrapath campaign store ({exc})") from None
+        deadline = time.monotonic() + BUSY_S
+        while True:
+            try:
+                meta = self._open()
+                break
+            except sqlite3.OperationalError as exc:
+                # SQLite answers "locked" at once, without its busy handler, when two
+                # connections open a new file together (one switching it to WAL while the other
+                # reads its header): wait and open again, up to the busy timeout.
+                if "locked" not in str(exc) or time.monotonic() > deadline:
+                    raise InputError(
+                        f"{self.path}: not a terrapath campaign store ({exc})"
+                    ) from None
+                time.sleep(0.05)
+            except sqlite3.DatabaseError as exc:
+                raise InputError(f"{self.path}: not a terrapath campaign store ({exc})") from None
         if meta.get("format") != FORMAT:
             self._db.close()
             raise InputError(
@@ -102,6 +95,35 @@ class Store:
                 f"{meta.get('format')!r}); this is terrapath {version}, which reads format "
                 f"{FORMAT!r}: use a new store"
             )
+
+    def _open(self) -> dict[str, str]:
+        """Connect, make the file a store if it is empty, and return its ``meta`` table."""
+        db = sqlite3.connect(self.path, timeout=BUSY_S, isolation_level=None)
+        try:
+            db.execute("PRAGMA journal_mode=WAL")
+            db.execute("BEGIN IMMEDIATE")
+            tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            if tables and "meta" not in tables:
+                raise InputError(
+                    f"{self.path}: an SQLite database, but not a terrapath campaign store "
+                    f"(tables {', '.join(sorted(tables))})"
+                )
+            for statement in _SCHEMA.strip().split(";"):
+                if statement.strip():
+                    db.execute(statement)
+            meta = dict(db.execute("SELECT key, value FROM meta").fetchall())
+            if not meta:
+                db.executemany(
+                    "INSERT INTO meta (key, value) VALUES (?, ?)",
+                    [("format", FORMAT), ("created_by", self.version)],
+                )
+                meta = {"format": FORMAT, "created_by": self.version}
+            db.execute("COMMIT")
+        except BaseException:
+            db.close()  # closing rolls back an open transaction
+            raise
+        self._db = db
+        return meta
 
     def close(self) -> None:
         self._db.close()
