@@ -47,6 +47,31 @@ def bresenham_cells(r0: int, c0: int, r1: int, c1: int) -> np.ndarray:  # pragma
     return out
 
 
+@nb.njit(cache=True, nogil=True)
+def segment_table(
+    a: np.ndarray, b: np.ndarray, left: float, top: float, dx: float, dy: float
+) -> np.ndarray:  # pragma: no cover - jit
+    """The (M, 7) table :func:`below_lengths` walks: fractional row and col of both ends
+    (``HeightGrid.xy_to_index``: ``(top - y) / dy - 0.5``, ``(x - left) / dx - 0.5``), z of both
+    ends and the 3D length (``sqrt((dx^2 + dy^2) + dz^2)``, ``np.linalg.norm``'s order), for
+    segments ``a[i] -> b[i]`` ((M, 3) map metres).  Its twin is
+    :func:`terrain.segments.segment_table_numpy`."""
+    m = a.shape[0]
+    out = np.empty((m, 7))
+    for i in range(m):
+        out[i, 0] = (top - a[i, 1]) / dy - 0.5
+        out[i, 1] = (a[i, 0] - left) / dx - 0.5
+        out[i, 2] = (top - b[i, 1]) / dy - 0.5
+        out[i, 3] = (b[i, 0] - left) / dx - 0.5
+        out[i, 4] = a[i, 2]
+        out[i, 5] = b[i, 2]
+        ex = b[i, 0] - a[i, 0]
+        ey = b[i, 1] - a[i, 1]
+        ez = b[i, 2] - a[i, 2]
+        out[i, 6] = np.sqrt(ex * ex + ey * ey + ez * ez)
+    return out
+
+
 BLOCK = 16  # cells per side of the block maxima below_lengths skips terrain with
 SKIP_MARGIN = 1e-6  # metres: a chunk is skipped only when clear by more than rounding
 

@@ -57,7 +57,9 @@ def bresenham_cells_numpy(r0: int, c0: int, r1: int, c1: int) -> npt.NDArray[np.
     return np.stack([r0 + sr * k, c0 + sc * minor], axis=1)
 
 
-def _segment_table(grid: HeightGrid, p0: npt.ArrayLike, p1: npt.ArrayLike) -> FloatArray:
+def _segment_table(
+    grid: HeightGrid, p0: npt.ArrayLike, p1: npt.ArrayLike, backend: Backend = "numba"
+) -> FloatArray:
     a = np.asarray(p0, dtype=np.float64)
     b = np.asarray(p1, dtype=np.float64)
     if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 3:
@@ -66,6 +68,19 @@ def _segment_table(grid: HeightGrid, p0: npt.ArrayLike, p1: npt.ArrayLike) -> Fl
         )
     if not (np.isfinite(a).all() and np.isfinite(b).all()):
         raise InputError("segment coordinates must be finite; found NaN or infinity")
+    if backend == "numpy":
+        return segment_table_numpy(grid, a, b)
+    dx, dy = grid.cell_size
+    left, top = float(grid.transform.c), float(grid.transform.f)
+    return np.asarray(
+        _kernels.segment_table(
+            np.ascontiguousarray(a), np.ascontiguousarray(b), left, top, float(dx), float(dy)
+        )
+    )
+
+
+def segment_table_numpy(grid: HeightGrid, a: FloatArray, b: FloatArray) -> FloatArray:
+    """Pure-numpy twin of ``terrain._kernels.segment_table``."""
     r0, c0 = grid.xy_to_index(a[:, 0], a[:, 1])
     r1, c1 = grid.xy_to_index(b[:, 0], b[:, 1])
     length = np.linalg.norm(b - a, axis=1)
@@ -95,7 +110,7 @@ def below_terrain_lengths_numpy(
     grid: HeightGrid, p0: npt.ArrayLike, p1: npt.ArrayLike, clearance: float = 0.0
 ) -> FloatArray:
     """Pure-numpy reference of :func:`below_terrain_lengths` (same cells, same arithmetic)."""
-    seg = _segment_table(grid, p0, p1)
+    seg = _segment_table(grid, p0, p1, "numpy")
     m = seg.shape[0]
     if m == 0:
         return np.zeros(0)

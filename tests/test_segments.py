@@ -131,6 +131,19 @@ def test_swarm_of_paths_in_one_call_matches_numpy() -> None:
     assert (a <= seg + 1e-9).all() and (a > 0).any() and (a < seg).any()
 
 
+def test_the_compiled_segment_table_is_its_numpy_twin_bit_for_bit() -> None:
+    # the walk's cells and parts depend on the table's exact bits (ties at cell borders)
+    xmin, ymin, xmax, ymax = ROUGH.bounds
+    rng = np.random.default_rng(5)
+    lo, hi = np.array([xmin, ymin, 0.0]), np.array([xmax, ymax, 400.0])
+    a, b = lo + rng.random((5000, 3)) * (hi - lo), lo + rng.random((5000, 3)) * (hi - lo)
+    a[:10, :2] = np.round(a[:10, :2])  # on cell borders and centres
+    table = segments_module._segment_table(ROUGH, a, b)
+    assert np.array_equal(table, segments_module.segment_table_numpy(ROUGH, a, b))
+    row, col = ROUGH.xy_to_index(a[:, 0], a[:, 1])
+    assert np.array_equal(table[:, 0], row) and np.array_equal(table[:, 1], col)
+
+
 def test_a_ridge_between_two_high_points_is_found() -> None:
     h = np.full((20, 40), 100.0)
     h[:, 20] = 800.0  # a one-cell wall across the map
