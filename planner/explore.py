@@ -75,8 +75,16 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from planner import _kernels
-from planner.placement import Lattice, _Chords, corridor_terrain, finish_waypoints, place
+from planner.placement import (
+    Lattice,
+    _Chords,
+    corridor_terrain,
+    finish_waypoints,
+    place,
+    polish,
+)
 from planner.problem import PlanningProblem
+from planner.result import above_ground
 from terrain.errors import InputError
 from terrain.grid import block_max
 from terrain.zones import inflated
@@ -94,6 +102,7 @@ MAX_TRIES = 2000  # via routes built at most (the nodes near a kept route are no
 RESOLUTIONS = (48, 96, 160)  # graphs searched by explore_pool (blocks along the longer side)
 PLACED = 3  # explore_pool: routes along which the waypoints are placed (planner.placement)
 KEEP_PLACED = 2  # explore_pool: the cheapest feasible placements kept per route
+POLISHED = 2  # explore_pool: the cheapest placements polished (planner.placement.polish)
 DISTINCT = 0.05  # explore_pool: routes closer than this share of the start-goal distance are one
 JITTER = 0.02  # graph_population: copies' horizontal jitter, share of the start-goal distance
 
@@ -504,6 +513,7 @@ def explore_pool(
     resolutions: tuple[int, ...] = RESOLUTIONS,
     *,
     placed: int = PLACED,
+    polished: int = POLISHED,
 ) -> Exploration:
     """:func:`explore` at several graph resolutions (a coarse graph sees the broad corridors, a
     fine one the narrow valleys and gaps, and which suits ``N`` waypoints differs from map to
@@ -512,7 +522,8 @@ def explore_pool(
     of the start-goal distance of a kept one is dropped.  Then the waypoints are placed along
     the ``placed`` (3) best kept routes by :func:`planner.placement.place`, and the
     ``KEEP_PLACED`` (2) cheapest feasible placements of each join the routes (cheapest first;
-    they share their route's polyline and surrogate cost)."""
+    they share their route's polyline and surrogate cost), the ``polished`` (2) cheapest of them
+    moved by :func:`planner.placement.polish` where that is cheaper and still flyable."""
     k = check_routes(k)
     t0 = time.perf_counter()
     found = [explore(problem, k, cells=c) for c in resolutions]
@@ -538,6 +549,11 @@ def explore_pool(
             ok = problem.feasible(terms)
             best = sorted((float(terms.total[i]), i) for i in range(len(xs)) if ok[i])
             new += [Route(r.xy, r.cost, xs[i], f, True) for f, i in best[:KEEP_PLACED]]
+        new.sort(key=lambda r: r.f)
+        for j, r in enumerate(new[:polished]):
+            x, f = polish(problem, r.x)
+            if f < r.f and _flyable(problem, x):
+                new[j] = replace(r, x=x, f=f)
         kept = sorted(kept + new, key=lambda r: (not r.feasible, r.f))
     return Exploration(
         tuple(kept),
@@ -547,6 +563,18 @@ def explore_pool(
         sum(e.edges for e in found),
         time.perf_counter() - t0,
         placement_s=time.perf_counter() - t1 if placing else 0.0,
+    )
+
+
+def _flyable(problem: PlanningProblem, x: FloatArray) -> bool:
+    """Whether the flown path of a seed whose cost is feasible also passes what a plan's result
+    must (:func:`planner.plan.plan`): the validity layer every half cell and the above-ground
+    band's top."""
+    flown = problem.flown(problem.paths(x))
+    if not problem.validity.path(flown).valid.all():
+        return False
+    return (
+        problem.agl_max is None or above_ground(problem, flown).clearance.max() <= problem.agl_max
     )
 
 

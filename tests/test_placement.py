@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from planner import _kernels
-from planner.explore import explore_pool
+from planner.explore import _flyable, explore_pool
 from planner.performance import Performance
 from planner.placement import (
     LEVELS,
@@ -23,6 +23,7 @@ from planner.placement import (
     corridor_terrain,
     levels_of,
     place,
+    polish,
     repair,
 )
 from planner.problem import PlanningProblem
@@ -165,6 +166,27 @@ def test_explore_pool_keeps_the_placements_that_beat_the_graph() -> None:
     assert [r.f for r in placed.routes] == sorted(r.f for r in placed.routes)
     assert 0.0 < placed.placement_s <= placed.elapsed_s
     assert placed.summary()["placement_seconds"] == round(placed.placement_s, 4)
+
+
+def test_polish_lowers_the_placements_on_the_true_cost_and_keeps_them_flyable() -> None:
+    """The compass search returns a point and its true cost, never above where it started; from
+    this map's placements (fillets and cells the surrogate does not see) it gains, and the
+    polished seeds explore_pool keeps are cheaper than the unpolished ones and pass the checks a
+    plan's result must."""
+    pr = _problem()
+    plain = explore_pool(pr, 3, polished=0)
+    done = explore_pool(pr, 3)
+    x0 = plain.routes[0].x
+    x, f = polish(pr, x0)
+    assert f == float(pr(x[None, :])[0])
+    assert f < plain.routes[0].f - 1e-3
+    assert done.routes[0].f == pytest.approx(f, abs=1e-12)
+    assert bool(pr.feasible(pr.terms(x[None, :]))[0]) and _flyable(pr, x)
+    lo, hi = pr.bounds()
+    assert (x >= lo).all() and (x <= hi).all()
+    # polishing a polished point again never costs more
+    y, g = polish(pr, x)
+    assert g <= f and polish(pr, y)[1] <= g
 
 
 def test_repair_lifts_the_flown_path_over_the_floor() -> None:
