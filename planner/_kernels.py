@@ -138,6 +138,10 @@ def chord_edges(
     on a hull vertex)."""
     n_k = levels.shape[1]
     n_r, n_col = floor.shape[0] * block, floor.shape[1] * block
+    # r // block without an integer division (the loop's slowest step): r / block is a whole
+    # number or at least 1 / block above one, and r * inv is within 1e-11 of it for any grid
+    inv = 1.0 / block
+    eps = 0.5 / block
     cap = pairs.shape[0] * n_k * n_k
     u = np.empty(cap, np.int64)
     v = np.empty(cap, np.int64)
@@ -163,7 +167,7 @@ def chord_edges(
             r = min(max(int(np.floor(r0 + t * (r1 - r0) + 0.5)), 0), n_r - 1)
             c = min(max(int(np.floor(c0 + t * (c1 - c0) + 0.5)), 0), n_col - 1)
             ts[i] = t
-            fs[i] = floor[r // block, c // block]
+            fs[i] = floor[r, c] if block == 1 else floor[int(r * inv + eps), int(c * inv + eps)]
             if not np.isfinite(fs[i]):
                 finite = False
                 break

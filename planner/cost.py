@@ -152,9 +152,10 @@ def path_costs(
     computed by the caller on the waypoint polylines (:func:`smoothness_of`)."""
     p = np.asarray(paths, dtype=np.float64)
     seg = np.diff(p, axis=1)
-    seg_len = np.linalg.norm(seg, axis=2)
+    seg_len = np.sqrt((seg * seg).sum(axis=2))  # np.linalg.norm's arithmetic, without its checks
     length = seg_len.sum(axis=1)
-    straight = np.linalg.norm(p[:, -1, :] - p[:, 0, :], axis=1)
+    ends = p[:, -1, :] - p[:, 0, :]
+    straight = np.sqrt((ends * ends).sum(axis=1))
     safe_len = np.where(length > 0, length, 1.0)
     f_length = np.where(length > 0, 1.0 - straight / safe_len, 0.0)
 
