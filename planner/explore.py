@@ -55,8 +55,9 @@ above-ground band's top where the chords allow.  The swarm moves them from there
 **Placement.**  The graph fixes the corridor; where exactly the waypoints go in it, and how
 high, decides the last 10-25 % of the cost.  :func:`explore_pool` hands the three best routes to
 :func:`planner.placement.place` (a dynamic programme over a lattice of waypoints and altitude
-levels round each route, then local rounds round its best chain) and keeps the two cheapest
-feasible placements of each beside the graph's own seeds.
+levels round each route, then local rounds round its best chain), keeps the two cheapest
+feasible placements of each beside the graph's own seeds, and polishes the two cheapest of all
+on the problem's own cost (:func:`planner.placement.polish`).
 
 Measured (``benchmarks/bench_plan.py``, ``benchmarks/RESULTS.md``): see the issue-20 entries.
 """
@@ -84,7 +85,7 @@ from planner.placement import (
     polish,
 )
 from planner.problem import PlanningProblem
-from planner.result import above_ground
+from planner.result import flown_checks
 from terrain.errors import InputError
 from terrain.grid import block_max
 from terrain.zones import inflated
@@ -568,14 +569,8 @@ def explore_pool(
 
 def _flyable(problem: PlanningProblem, x: FloatArray) -> bool:
     """Whether the flown path of a seed whose cost is feasible also passes what a plan's result
-    must (:func:`planner.plan.plan`): the validity layer every half cell and the above-ground
-    band's top."""
-    flown = problem.flown(problem.paths(x))
-    if not problem.validity.path(flown).valid.all():
-        return False
-    return (
-        problem.agl_max is None or above_ground(problem, flown).clearance.max() <= problem.agl_max
-    )
+    must (:func:`planner.result.flown_checks`)."""
+    return flown_checks(problem, problem.flown(problem.paths(x)))[0]
 
 
 def _distinct(problem: PlanningProblem, scored: list[tuple[Route, bool]], k: int) -> list[Route]:

@@ -14,7 +14,7 @@ from planner.optim import make_optimizer
 from planner.optim.termination import MaxIterations, SwarmRadius
 from planner.problem import PlanningProblem
 from planner.profile import sample_path
-from planner.result import PlanResult, above_ground, find_violations
+from planner.result import PlanResult, find_violations, flown_checks
 from terrain.errors import InputError
 
 ALGORITHMS = ("ampso", "pso", "apso", "ga")
@@ -160,14 +160,13 @@ def _plan_once(
     path = problem.paths(res.x)
     flown = problem.flown(path)
     # feasible: the cost's hard terms hold (the swarm's check, on the Bresenham cells) and the
-    # validity layer passes the flown path sampled every half cell
-    check = problem.validity.path(flown)
-    feasible = bool(problem.feasible(terms)[0]) and bool(check.valid.all())
+    # flown path sampled every half cell passes the validity layer and the band's top
+    flown_ok, check, top = flown_checks(problem, flown)
+    feasible = bool(problem.feasible(terms)[0]) and flown_ok
     row = terms.row(0)
     row["min_clearance_m"], row["over_unknown_share"] = flown_figures(problem, flown)
-    if problem.agl_max is not None:  # the band's top, on the densely sampled flown path
-        row["max_above_ground_m"] = float(above_ground(problem, flown).clearance.max())
-        feasible = feasible and row["max_above_ground_m"] <= problem.agl_max
+    if top is not None:
+        row["max_above_ground_m"] = top
     return PlanResult(
         status="feasible" if feasible else "infeasible",
         waypoints=path,

@@ -188,6 +188,21 @@ def above_ground(problem: PlanningProblem, flown: FloatArray) -> PathSamples:
     return sample_path(problem.grid, flown)
 
 
+def flown_checks(
+    problem: PlanningProblem, flown: FloatArray
+) -> tuple[bool, SegmentValidity, float | None]:
+    """What a plan's flown path must pass beyond its cost's hard terms: whether it does, the
+    validity layer's check of it (sampled every half cell) and, with an above-ground band, the
+    highest it flies above the ground (its densely sampled maximum; None without a band)."""
+    check = problem.validity.path(flown)
+    ok = bool(check.valid.all())
+    top = None
+    if problem.agl_max is not None:
+        top = float(above_ground(problem, flown).clearance.max())
+        ok = ok and top <= problem.agl_max
+    return ok, check, top
+
+
 def _band_violations(
     problem: PlanningProblem, flown: FloatArray, labels: list[str], legs: list[int]
 ) -> list[Violation]:

@@ -77,17 +77,16 @@ class Store:
             try:
                 meta = self._open()
                 break
-            except sqlite3.OperationalError as exc:
+            except sqlite3.DatabaseError as exc:
                 # SQLite answers "locked" at once, without its busy handler, when two
                 # connections open a new file together (one switching it to WAL while the other
                 # reads its header): wait and open again, up to the busy timeout.
-                if "locked" not in str(exc) or time.monotonic() > deadline:
+                locked = isinstance(exc, sqlite3.OperationalError) and "locked" in str(exc)
+                if not locked or time.monotonic() > deadline:
                     raise InputError(
                         f"{self.path}: not a terrapath campaign store ({exc})"
                     ) from None
                 time.sleep(0.05)
-            except sqlite3.DatabaseError as exc:
-                raise InputError(f"{self.path}: not a terrapath campaign store ({exc})") from None
         if meta.get("format") != FORMAT:
             self._db.close()
             raise InputError(
