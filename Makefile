@@ -4,11 +4,15 @@ PYTHON ?= $(shell command -v python3.11 2>/dev/null || command -v python3)
 VENV   := .venv
 BIN    := $(VENV)/bin
 OUT    := out/demo
+# The exact versions the tests were run with (a pip constraints file); `make test LOCK=` installs
+# the newest versions instead (use a fresh clone or `make clean-venv` first: the venv is kept).
+LOCK   ?= constraints.txt
+PIP_LOCK := $(if $(LOCK),-c $(LOCK))
 # Caches live inside the project's build folder (tests, CI and the demo all use them).
 export MPLCONFIGDIR    := $(CURDIR)/build/mpl
 export NUMBA_CACHE_DIR := $(CURDIR)/build/numba
 
-.PHONY: demo test lint typecheck pytest bench sysdeps sysdeps-test clean
+.PHONY: demo test lint typecheck pytest bench sysdeps sysdeps-test clean clean-venv lock
 
 $(VENV)/.created:
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else 1)' || \
@@ -17,12 +21,12 @@ $(VENV)/.created:
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	@touch $@
 
-$(VENV)/.run-stamp: $(VENV)/.created pyproject.toml | sysdeps
-	$(BIN)/pip install --quiet -e .
+$(VENV)/.run-stamp: $(VENV)/.created pyproject.toml $(LOCK) | sysdeps
+	$(BIN)/pip install --quiet $(PIP_LOCK) -e .
 	@touch $@
 
-$(VENV)/.test-stamp: $(VENV)/.created pyproject.toml | sysdeps sysdeps-test
-	$(BIN)/pip install --quiet -e '.[test]'
+$(VENV)/.test-stamp: $(VENV)/.created pyproject.toml $(LOCK) | sysdeps sysdeps-test
+	$(BIN)/pip install --quiet $(PIP_LOCK) -e '.[test]'
 	@touch $@ $(VENV)/.run-stamp
 
 # open3d's wheel links against the system library libusb-1.0; without it `import open3d` fails.
@@ -109,3 +113,19 @@ bench: $(VENV)/.run-stamp
 
 clean:
 	rm -rf build out .mypy_cache .ruff_cache .pytest_cache .hypothesis
+
+clean-venv:
+	rm -rf $(VENV)
+
+# Refresh constraints.txt: the newest versions in a scratch venv, frozen (then run `make test`
+# in a fresh clone and commit the file when it passes).
+lock:
+	rm -rf build/lock-venv
+	$(PYTHON) -m venv build/lock-venv
+	build/lock-venv/bin/python -m pip install --quiet --upgrade pip
+	build/lock-venv/bin/pip install --quiet -e '.[test]'
+	@{ sed -n '/^#/p' constraints.txt; \
+	  build/lock-venv/bin/pip freeze --exclude-editable | grep -vi '^terrapath'; } > constraints.txt.part
+	mv constraints.txt.part constraints.txt
+	rm -rf build/lock-venv
+	@echo "wrote constraints.txt: run make clean-venv test, then commit it"

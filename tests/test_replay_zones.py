@@ -171,26 +171,30 @@ def test_success_can_require_a_margin_from_every_surface(
 
 def test_pso_ca_keeps_its_new_waypoints_on_the_map() -> None:
     """Off the map the terrain is unknown, so invalid (terrain.validity): the obstacle is best
-    passed north, where the detour would leave a map whose edge lies 1 km north of the line;
-    PSO-CA passes south instead and never leaves the map."""
+    passed north, where the detour would leave the map by hundreds of metres (its edge lies
+    500 m north of the line, the obstacle's north side 850 m); PSO-CA passes south instead and
+    never leaves the map. The premise is asserted with a wide margin, not on the detour's last
+    metres: the obstacle reaches 350 m beyond the edge, so any northern pass is off the map."""
     from replay.avoidance import make_avoider
     from replay.threat_file import threats_from_records
 
-    grid = make_grid(np.zeros((40, 400)), cell=100.0, x0=0.0, y0=4000.0)  # y from 0 to 4000
+    edge = 3500.0
+    grid = make_grid(np.zeros((35, 400)), cell=100.0, x0=0.0, y0=edge)  # y from 0 to 3500
     line = np.array([[500.0, 3000.0, 200.0], [20000.0, 3000.0, 200.0], [39500.0, 3000.0, 200.0]])
     mission = Mission("edge", line, vehicle="solar-uav", cruise_speed=15.0, crs="local")
     threats = threats_from_records(
         [{"id": "o1", "kind": "static", "position": [10000, 2850, 200], "radius": 1000}]
     )
     params = load_vehicle("solar-uav")
-    # without a map PSO-CA passes north of the obstacle, beyond where the map ends
+    # without a map PSO-CA passes north of the obstacle, far beyond where the map ends
     r0 = simulate(mission, threats, make_avoider("pso-ca"), params, config=ReplayConfig(seed=0))
-    assert r0.metrics.success and r0.positions[:, 1].max() > 4100.0
+    assert r0.metrics.success and r0.positions[:, 1].max() > edge + 300.0
     r = simulate(
         mission, threats, make_avoider("pso-ca"), params, grid=grid, config=ReplayConfig(seed=0)
     )
     assert r.metrics.success, r.metrics
     assert r.metrics.off_map_s == 0.0 and r.metrics.min_separation["o1"]["value"] >= 0.0
+    assert r.positions[:, 1].max() < edge and r.positions[:, 1].min() > 0.0
     added = [d for d in r.decisions if d["feasible"]]
     assert added and all(d["new_waypoint"][1] < 2850.0 for d in added)  # passed south
     assert all(d["g"]["g7"] == 0.0 for d in added)
