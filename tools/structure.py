@@ -34,23 +34,22 @@ def _module(path: Path, root: Path) -> str:
     return ".".join(parts)
 
 
+def _walk(node: ast.AST, prefix: str, rel: str, out: list[tuple[int, str]]) -> None:
+    for child in ast.iter_child_nodes(node):
+        if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+            n = (child.end_lineno or child.lineno) - child.lineno + 1
+            out.append((n, f"{rel}:{child.lineno} {prefix}{child.name}"))
+            _walk(child, f"{prefix}{child.name}.", rel, out)
+        elif isinstance(child, ast.ClassDef):
+            _walk(child, f"{prefix}{child.name}.", rel, out)
+
+
 def functions(root: Path) -> list[tuple[int, str]]:
     """(length, 'path:line Qual.name') of every function and method."""
     out: list[tuple[int, str]] = []
     for path in _files(root):
         tree = ast.parse(path.read_text(), str(path))
-
-        def walk(node: ast.AST, prefix: str) -> None:
-            for child in ast.iter_child_nodes(node):
-                if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
-                    n = (child.end_lineno or child.lineno) - child.lineno + 1
-                    rel = path.relative_to(root)
-                    out.append((n, f"{rel}:{child.lineno} {prefix}{child.name}"))
-                    walk(child, f"{prefix}{child.name}.")
-                elif isinstance(child, ast.ClassDef):
-                    walk(child, f"{prefix}{child.name}.")
-
-        walk(tree, "")
+        _walk(tree, "", str(path.relative_to(root)), out)
     return sorted(out, reverse=True)
 
 
@@ -71,7 +70,9 @@ def private_imports(root: Path) -> list[str]:
     found = []
     for path in _files(root):
         for me, mod, names in _imports(path, root):
-            private_mod = [p for p in mod.split(".") if p.startswith("_") and not p.startswith("__")]
+            private_mod = [
+                p for p in mod.split(".") if p.startswith("_") and not p.startswith("__")
+            ]
             private_names = [n for n in names if n.startswith("_") and not n.startswith("__")]
             if private_mod or private_names:
                 what = ", ".join(private_names) or mod
@@ -105,7 +106,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     fns = functions(root)
     n = args.longest or 15
-    print(f"longest functions ({len(fns)} in all, {sum(1 for k, _ in fns if k > 100)} over 100 lines):")
+    print(
+        f"longest functions ({len(fns)} in all, {sum(1 for k, _ in fns if k > 100)} over 100 lines):"
+    )
     for k, name in fns[:n]:
         print(f"  {k:4d}  {name}")
     if args.longest:
