@@ -47,10 +47,10 @@ from replay.avoidance.ctga import (  # noqa: E402
     leave_angle,
     threat_test,
 )
-from replay.perception import Perception  # noqa: E402
+from replay.avoidance.perception import Perception  # noqa: E402
+from replay.flight.fixedwing.presets import load_vehicle  # noqa: E402
 from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
-from replay.vehicle.presets import load_vehicle  # noqa: E402
 from tests.test_avoidance_contract import SCENARIOS as CONTRACT  # noqa: E402
 from tests.test_avoidance_contract import _run as contract_run  # noqa: E402
 

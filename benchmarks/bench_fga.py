@@ -43,7 +43,7 @@ from replay.campaign import seed004  # noqa: E402
 from replay.campaign.generators import file_records  # noqa: E402
 from replay.run import ReplayRequest, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
-from replay.threat_file import threats_from_records  # noqa: E402
+from replay.threats.file import threats_from_records  # noqa: E402
 
 SCEN = ROOT / "data" / "scenarios"
 MISSION = SCEN / "seed004-mission.yaml"

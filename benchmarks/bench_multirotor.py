@@ -1,4 +1,4 @@
-"""Validate the multirotor (``replay/vehicle/multirotor.py``) against rotorpy's ``Multirotor``, an
+"""Validate the multirotor (``replay/flight/multirotor/model.py``) against rotorpy's ``Multirotor``, an
 independent model (Folk et al., University of Pennsylvania): the same parameters in both, the
 same figures measured on both.
 
@@ -50,11 +50,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks._record import emit
-from replay.frames import rotation_body_to_ned
-from replay.guidance import GoTo
-from replay.multirotor_stack import MultirotorStack
-from replay.vehicle import _mr_kernels as kern
-from replay.vehicle.multirotor import (
+from replay.flight.multirotor import kernels as kern
+from replay.flight.multirotor.model import (
     QUADROTOR,
     SPIN,
     MultirotorParams,
@@ -62,6 +59,9 @@ from replay.vehicle.multirotor import (
     level_speed,
     top_speed,
 )
+from replay.flight.multirotor.stack import MultirotorStack
+from replay.frames import rotation_body_to_ned
+from replay.guidance import GoTo
 
 DT = 0.01
 P = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])  # NED <-> ENU
@@ -159,7 +159,7 @@ def rotorpy_hover(p: MultirotorParams) -> float:
 
 def rotorpy_top_speed(p: MultirotorParams) -> float:
     """Level speed at the tilt limit with rotorpy's forces (the bisections of
-    :func:`replay.vehicle.multirotor.level_speed`)."""
+    :func:`replay.flight.multirotor.model.level_speed`)."""
     m = rotorpy_model(p)
     tilt = math.radians(p.tilt_max_deg)
 

@@ -37,7 +37,7 @@ from planner.pipeline import PlanRequest, build_problem  # noqa: E402
 from planner.plan import ALGORITHMS, INITS, plan  # noqa: E402
 from planner.problem import PlanningProblem  # noqa: E402
 from planner.reference import REFERENCE_MAPS  # noqa: E402
-from replay.vehicle.presets import load_vehicle  # noqa: E402
+from replay.flight.fixedwing.presets import load_vehicle  # noqa: E402
 from terrain.errors import InputError  # noqa: E402
 
 # (name, DEM, start lon/lat, goal lon/lat, danger zones as (lon, lat, diameter)): the seed 002

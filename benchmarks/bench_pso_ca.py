@@ -101,8 +101,8 @@ from replay.campaign.papers import (  # noqa: E402
 )
 from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
-from replay.threat_file import load_threats, threats_from_records  # noqa: E402
-from replay.threats import ThreatSet  # noqa: E402
+from replay.threats.file import load_threats, threats_from_records  # noqa: E402
+from replay.threats.kinds import ThreatSet  # noqa: E402
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -32,9 +32,9 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import record  # noqa: E402
 from planner.mission import load_mission  # noqa: E402
-from replay.reader import load_run  # noqa: E402
+from replay.record.reader import load_run  # noqa: E402
 from replay.run import ReplayRequest, run_replay  # noqa: E402
-from replay.threat_file import load_threats  # noqa: E402
+from replay.threats.file import load_threats  # noqa: E402
 
 MISSION = ROOT / "data" / "missions" / "seed000-table4.yaml"
 

@@ -31,8 +31,8 @@ What is measured, identically on both sides (``FlightModel`` below is all a side
   left (JSBSim's aileron travel is 15 deg up / 20 deg down by direction, ours +-17.5 deg: the
   mean of the two directions compares like with like). Target: roll rate within 30 %.
 
-Our side uses only public APIs: ``replay.vehicle.trim.trim`` (an ``InputError`` means "does not
-trim") and ``replay.vehicle.dynamics.Aircraft`` (RK4 at 100 Hz). Altitude enters only through
+Our side uses only public APIs: ``replay.flight.fixedwing.trim.trim`` (an ``InputError`` means "does not
+trim") and ``replay.flight.fixedwing.dynamics.Aircraft`` (RK4 at 100 Hz). Altitude enters only through
 ``trim(..., altitude=h)`` and the state's down position (the standard atmosphere at that
 altitude, as on JSBSim's side).
 
@@ -73,7 +73,7 @@ The reference, JSBSim's ``c172p`` as shipped with the ``jsbsim`` package:
   in this engine model at 0, 1,500 and 3,000 m (full rich at sea level).
 - The ground is put 1,000 m below sea level (``ic/terrain-elevation-ft``) so that flights at
   0 m are clear of the gear and of ground effect. JSBSim's atmosphere is its standard atmosphere
-  (1.225 kg/m^3 at sea level), as ours (replay.atmosphere); all airspeeds are true airspeeds.
+  (1.225 kg/m^3 at sea level), as ours (replay.flight.atmosphere); all airspeeds are true airspeeds.
 - Its ``c172x`` counts lift twice and is not a usable reference.
 
 Figures are appended to benchmarks/RESULTS.md through ``_record.record`` (machine, date, command)
@@ -113,13 +113,13 @@ from benchmarks._validate import (  # noqa: E402
     tally,
     turn_radius,
 )
-from replay.atmosphere import density  # noqa: E402
+from replay.flight.atmosphere import density  # noqa: E402
+from replay.flight.fixedwing.dynamics import Aircraft, air_data  # noqa: E402
+from replay.flight.fixedwing.kernels import piston_lapse  # noqa: E402
+from replay.flight.fixedwing.params import G, VehicleParams  # noqa: E402
+from replay.flight.fixedwing.presets import load_vehicle  # noqa: E402
+from replay.flight.fixedwing.trim import trim  # noqa: E402
 from replay.frames import DA, DE, DT, PD, PHI, PSI, THETA, rotation_body_to_ned  # noqa: E402
-from replay.vehicle._kernels import piston_lapse  # noqa: E402
-from replay.vehicle.dynamics import Aircraft, air_data  # noqa: E402
-from replay.vehicle.params import G, VehicleParams  # noqa: E402
-from replay.vehicle.presets import load_vehicle  # noqa: E402
-from replay.vehicle.trim import trim  # noqa: E402
 from terrain.errors import InputError  # noqa: E402
 
 FloatArray = npt.NDArray[np.float64]

@@ -75,7 +75,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from planner import _kernels
+from planner import kernels
 from planner.placement import (
     Lattice,
     _Chords,
@@ -275,10 +275,10 @@ def _edge_floor(
 def _along(pred: IntArray, top: IntArray, flag: npt.NDArray[np.bool_]) -> FloatArray:
     """For every node, how many flagged nodes its tree path from the root holds (itself
     included); ``top`` lists the nodes root first (by distance), so a parent is counted before
-    its children.  Unreached nodes count 0.  The loop runs compiled (``planner._kernels``);
+    its children.  Unreached nodes count 0.  The loop runs compiled (``planner.kernels``);
     :func:`_along_py` is its twin."""
     return np.asarray(
-        _kernels.along(
+        kernels.along(
             np.ascontiguousarray(pred, dtype=np.int64),
             np.ascontiguousarray(top, dtype=np.int64),
             np.ascontiguousarray(flag, dtype=np.bool_),

@@ -14,7 +14,7 @@ planner penalises. When fillets overlap the path is still defined (for the clear
 infeasible candidate): both tangent distances of the leg are shrunk in proportion, which tightens
 the radius of those turns below R.
 
-Altitudes (what ``replay/autopilot.py`` commands in its fillet mode): on a leg the altitude is
+Altitudes (what ``replay/flight/fixedwing/autopilot.py`` commands in its fillet mode): on a leg the altitude is
 linear in the horizontal distance between the leg's waypoints; on an arc it is linear in the
 angle turned, from the altitude of the leg at T1 to that of the next leg at T2.
 
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels
+from planner import kernels
 
 FloatArray = npt.NDArray[np.float64]
 CHORDS = 6
@@ -178,12 +178,12 @@ def flown_with_excess(
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """(flown polylines, turn excess, climb excess) of (P, W, 3) waypoint paths: what
     :func:`flown_paths` and :func:`climb_excess` give, in one compiled pass
-    (``planner._kernels.flown``, about 4x faster on a swarm; the cost runs it every iteration).
+    (``planner.kernels.flown``, about 4x faster on a swarm; the cost runs it every iteration).
     Equal to the numpy functions to rounding (tests compare them)."""
     p = np.ascontiguousarray(paths, dtype=np.float64)
     if p.ndim != 3 or p.shape[1] < 2 or p.shape[2] != 3:
         raise ValueError(f"paths must have shape (P, W >= 2, 3); got {p.shape}")
-    out, turn, climb = _kernels.flown(
+    out, turn, climb = kernels.flown(
         p,
         float(radius),
         int(chords),

@@ -13,7 +13,7 @@ turns them into the limits it checks, each with a margin so the 6-DOF aircraft u
   correct with); ``R_min = V^2 / (g tan(bank_max))`` is seed 000's eq. 13, the tightest turn.
 
 The planner is below ``replay/`` in the import order, so it cannot read vehicle presets itself:
-``replay.vehicle.params.VehicleParams.performance()`` builds one from a vehicle, and the CLI and
+``replay.flight.fixedwing.params.VehicleParams.performance()`` builds one from a vehicle, and the CLI and
 the planning pipeline pass it down.
 """
 
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from terrain.errors import InputError
 
-G = 9.81  # m/s^2, as replay/vehicle/params.py (seed 000 eq. 13)
+G = 9.81  # m/s^2, as replay/flight/fixedwing/params.py (seed 000 eq. 13)
 CLIMB_FRACTION = 0.8
 TURN_BANK_FRACTION = 0.8
 

@@ -34,7 +34,7 @@ any DEM.  Terrain the DEM did not measure is an infinite floor (unless allowed).
 with ``A = (sum l_i z_i) / L``, do not add up along a path; to first order round a path of length
 ``L0`` and mean altitude ``A0`` they change as ``sum l_i (z_i + dZ D / L0 - A0)`` (times
 ``1 / (dZ L0)``), which does.  The chain of exactly ``N`` inner states minimising it is found
-layer by layer (``planner._kernels.layered_dp``), ``(L0, A0)`` replaced by the chain's own and
+layer by layer (``planner.kernels.layered_dp``), ``(L0, A0)`` replaced by the chain's own and
 the search repeated (``ITERATIONS`` = 4 at most, until the chain repeats; the first round from
 ``L0 = 1.05 D``, ``A0`` at 40 % of the band).  Every chain found is a candidate seed.
 
@@ -78,7 +78,7 @@ from dataclasses import replace
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels
+from planner import kernels
 from planner.problem import PlanningProblem
 from terrain.grid import block_max
 from terrain.segments import below_terrain_lengths
@@ -327,7 +327,7 @@ class Lattice:
         problem = self.problem
         row, col = problem.grid.xy_to_index(xy[:, 0], xy[:, 1])
         rc = np.ascontiguousarray(np.column_stack([row, col]), dtype=np.float64)
-        u, v, l3, zm = _kernels.chord_edges(
+        u, v, l3, zm = kernels.chord_edges(
             rc, xy, levels, self.coarse, self.block, SAMPLE * self.block, pairs, self.climb,
             self.descent,
         )  # fmt: skip
@@ -345,7 +345,7 @@ class Lattice:
         out: list[FloatArray] = []
         for _ in range(ITERATIONS):
             w = l3 * (zm + self.dz * self.d / length - mean_z)
-            chain = _kernels.layered_dp(u, v, w, n_states, 0, goal, problem.n_waypoints, inner)
+            chain = kernels.layered_dp(u, v, w, n_states, 0, goal, problem.n_waypoints, inner)
             if chain.size == 0 or tuple(chain.tolist()) in seen:
                 break
             seen.add(tuple(chain.tolist()))
@@ -505,7 +505,7 @@ def _chord_edges_py(
     climb: float,
     descent: float,
 ) -> tuple[IntArray, IntArray, FloatArray, FloatArray]:
-    """Pure-numpy twin of ``planner._kernels.chord_edges`` (every sample, no hull)."""
+    """Pure-numpy twin of ``planner.kernels.chord_edges`` (every sample, no hull)."""
     k = levels.shape[1]
     out: list[tuple[int, int, float, float]] = []
     for a, b in pairs.tolist():
@@ -548,7 +548,7 @@ def _layered_dp_py(
     layers: int,
     inner: npt.NDArray[np.bool_],
 ) -> tuple[float, IntArray]:
-    """Pure-numpy twin of ``planner._kernels.layered_dp`` (dense): (cost, chain)."""
+    """Pure-numpy twin of ``planner.kernels.layered_dp`` (dense): (cost, chain)."""
     weight = np.full((n_states, n_states), np.inf)
     np.minimum.at(weight, (u, v), w)
     best = np.full(n_states, np.inf)

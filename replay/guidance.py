@@ -1,6 +1,6 @@
 """Guidance commands: what an avoider (or a test) tells a flight stack to do, typed and frozen.
 
-One command at a time; a flight stack (:mod:`replay.flightstack`) either flies it or refuses it
+One command at a time; a flight stack (:mod:`replay.flight.fixedwing.stack`) either flies it or refuses it
 with a reason (:class:`GuidanceRefused`: an orbit tighter than the aircraft can turn, a hover
 command to a fixed-wing aircraft). Positions are map metres (x east, y north, z AMSL), courses
 and yaws radians clockwise from north, rates m/s (+ up).

@@ -24,6 +24,8 @@ import yaml
 
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
+from replay.flight.fixedwing.params import VehicleParams
+from replay.flight.multirotor.model import MULTIROTOR_PRESETS, MultirotorParams
 from replay.sim import (
     ReplayConfig,
     ReplayResult,
@@ -32,10 +34,8 @@ from replay.sim import (
     simulate,
     time_limit,
 )
-from replay.threat_file import load_threats, recorded_text, threats_to_records
-from replay.threats import ThreatSet
-from replay.vehicle.multirotor import MULTIROTOR_PRESETS, MultirotorParams
-from replay.vehicle.params import VehicleParams
+from replay.threats.file import load_threats, recorded_text, threats_to_records
+from replay.threats.kinds import ThreatSet
 from terrain.errors import DataFileError, InputError
 from terrain.grid import HeightGrid
 
@@ -58,7 +58,7 @@ class ReplayRequest:
     radar_range: float = 10_000.0
     radar_noise: float = 0.0
     sensor: str = "radar"  # "cooperative": every threat in range reports itself (ADS-B-like);
-    # "rangefinder": beams of range R by ray casting (replay.rangefinder)
+    # "rangefinder": beams of range R by ray casting (replay.sensors.rangefinder)
     coop_noise_position: float = 0.0
     coop_noise_velocity: float = 0.0
     coop_latency: float = 0.0
@@ -199,7 +199,7 @@ def run_replay(
     if output is None:
         return simulate(mission, prep.threats, prep.avoider, prep.params, **kwargs)
     from planner.mission import mission_to_dict
-    from replay.record import RunRecorder
+    from replay.record.recorder import RunRecorder
 
     out = str(output)
     if not out.lower().endswith(".mcap"):
@@ -273,7 +273,7 @@ def load_source(source: str) -> tuple[Any, Any]:
 
     if not source.lower().endswith(".mcap"):
         return load_mission(source), None
-    from replay.reader import load_run
+    from replay.record.reader import load_run
 
     run = load_run(source, with_states=False)
     return mission_of_run(run, source), run
@@ -331,7 +331,7 @@ def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[
     vehicle that run flew (its ``vehicle.yaml`` attachment, or its preset).  A mission's
     ``vehicle:`` file is looked for beside the mission, then as given.  A multirotor preset
     (``quadrotor``) is taken by name."""
-    from replay.vehicle.presets import PRESETS, load_vehicle, vehicle_from_dict
+    from replay.flight.fixedwing.presets import PRESETS, load_vehicle, vehicle_from_dict
     from terrain.docfile import find_reference, reference_places
 
     if vehicle in MULTIROTOR_PRESETS:
@@ -383,7 +383,7 @@ def _vehicle(vehicle: str | None, mission: Any, source: str, run: Any) -> tuple[
 
 def recorded_threats(text: str, source: str, grid: Any) -> Any:
     """The threats an earlier run recorded (its ``threats.yaml`` attachment)."""
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     try:
         data = yaml.safe_load(text)

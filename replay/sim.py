@@ -3,14 +3,14 @@
 Per tick (the shorter of the sensor's period, 1 s by default, and the avoider's) the loop
 
 1. flies the vehicle for one tick in one compiled call of its flight stack
-   (:class:`replay.flightstack.FixedWingStack`: the 6-DOF aircraft under its autopilot, RK4 at
+   (:class:`replay.flight.fixedwing.stack.FixedWingStack`: the 6-DOF aircraft under its autopilot, RK4 at
    100 Hz), sampling the state at ``sample_hz``;
 2. advances the threats (intruders move on their own schedule) and measures, at every sample, the
    separation to each active threat's safety volume and to each of the mission's danger zones,
    the clearance above the terrain, and whether the aircraft is over the map;
 3. records the samples (the recorder keeps its own log rate), leg changes and threat changes;
 4. scans with the sensor when it is due (``radar``, the ADS-B-like ``cooperative``, or the
-   ``rangefinder`` beams of :mod:`replay.rangefinder`, given the vehicle's state), and asks
+   ``rangefinder`` beams of :mod:`replay.sensors.rangefinder`, given the vehicle's state), and asks
    the avoider when it is due; its command goes to the flight stack at once (a command the stack
    refuses is recorded with the reason), and every decision is recorded with its compute time.
 
@@ -31,19 +31,19 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.mission import Mission
-from replay.atmosphere import check_offset
-from replay.autopilot import GUIDANCE_COLUMNS
 from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
-from replay.flightstack import FixedWingStack, FlightStack
+from replay.flight.atmosphere import check_offset
+from replay.flight.fixedwing.autopilot import GUIDANCE_COLUMNS
+from replay.flight.fixedwing.params import VehicleParams
+from replay.flight.fixedwing.stack import FixedWingStack, FlightStack
+from replay.flight.multirotor.model import MultirotorParams
+from replay.flight.multirotor.stack import MultirotorStack
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GuidanceRefused, command_record
 from replay.metrics import MetricsTracker, RunMetrics
-from replay.multirotor_stack import MultirotorStack
-from replay.radar import Radar
-from replay.threat_table import ThreatTable
-from replay.threats import ThreatSet
-from replay.vehicle.multirotor import MultirotorParams
-from replay.vehicle.params import VehicleParams
+from replay.sensors.radar import Radar
+from replay.threats.kinds import ThreatSet
+from replay.threats.table import ThreatTable
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.validity import ValidityChecker
@@ -75,7 +75,7 @@ class ReplayConfig:
     coop_noise_position: float = 0.0  # cooperative sensor: 1-sigma position noise (m)
     coop_noise_velocity: float = 0.0  # cooperative sensor: 1-sigma velocity noise (m/s)
     coop_latency: float = 0.0  # cooperative sensor: age of the reports (s)
-    rangefinder_range: float = 20.0  # rangefinders (replay.rangefinder): range R (m)
+    rangefinder_range: float = 20.0  # rangefinders (replay.sensors.rangefinder): range R (m)
     rangefinder_period: float = 0.1  # s between scans (10 Hz)
     rangefinder_beams: int = 4  # evenly spaced from the front
     rangefinder_mount: str = "gimballed"  # or "body" (fixed in the body, tilting with it)
@@ -277,7 +277,7 @@ def simulate(
     x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
     radar: Any
     if cfg.sensor == "cooperative":
-        from replay.cooperative import CooperativeSensor
+        from replay.sensors.cooperative import CooperativeSensor
 
         radar = CooperativeSensor(
             range_m=cfg.radar_range,
@@ -288,7 +288,7 @@ def simulate(
             seed=rng,
         )
     elif cfg.sensor == "rangefinder":
-        from replay.rangefinder import Rangefinders
+        from replay.sensors.rangefinder import Rangefinders
 
         # seed 003's world of fixed obstacles: the avoiders act on stationary returns only
         radar = Rangefinders(

@@ -32,7 +32,7 @@ sqrt(r^2 - h^2)), so rounding in the inputs can move it by ~sqrt(r * ulp) times 
 
 Two implementations with the same arithmetic: numpy broadcasting over (segments, cylinders) (no
 Python loop; memory a handful of float64 arrays of shape (M, K)) and its compiled scalar twin in
-``terrain._kernels`` (the default: no temporaries, about 5x faster on a swarm's call); tests compare
+``terrain.kernels`` (the default: no temporaries, about 5x faster on a swarm's call); tests compare
 them bit for bit.  NaN inputs give NaN outputs.
 """
 
@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Literal, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from terrain import _kernels
+from terrain import kernels
 from terrain.errors import InputError
 
 if TYPE_CHECKING:
@@ -126,7 +126,7 @@ def segment_cylinder_lengths(
     ``p0``, ``p1``: (M, 3) map metres (x east, y north, z AMSL); ``centers`` (K, 2); ``radii`` (K,);
     ``tops`` (K,) altitudes AMSL, ``+inf`` for a zone with no top; ``floors`` (K,) altitudes AMSL,
     ``-inf`` (or ``floors=None``, the default) for a zone unbounded below.  ``backend`` "numba"
-    (the compiled loop of ``terrain._kernels``, a few times faster on a swarm) or "numpy" (the
+    (the compiled loop of ``terrain.kernels``, a few times faster on a swarm) or "numpy" (the
     broadcast reference); both give bit-identical results.
     """
     a = np.asarray(p0, dtype=np.float64)
@@ -136,7 +136,7 @@ def segment_cylinder_lengths(
     c, r, top, floor = _check_cylinders(centers, radii, tops, floors)
     if backend == "numba":
         return np.asarray(
-            _kernels.cylinder_lengths(
+            kernels.cylinder_lengths(
                 np.ascontiguousarray(a),
                 np.ascontiguousarray(b),
                 np.ascontiguousarray(c),

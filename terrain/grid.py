@@ -29,7 +29,7 @@ import numpy.typing as npt
 from affine import Affine
 from rasterio.crs import CRS
 
-from terrain import _kernels
+from terrain import kernels
 from terrain.atomic import atomic_output
 from terrain.errors import InputError
 
@@ -195,10 +195,10 @@ class HeightGrid:
 
     @functools.cached_property
     def block_maxima(self) -> npt.NDArray[np.float64]:
-        """Highest height of each ``terrain._kernels.BLOCK``-square block of cells (float64,
+        """Highest height of each ``terrain.kernels.BLOCK``-square block of cells (float64,
         read-only): lets the segment checks skip stretches of a segment far above the ground.
         Computed on first use and kept (the heights never change)."""
-        out = block_max(self.heights, _kernels.BLOCK, -np.inf)
+        out = block_max(self.heights, kernels.BLOCK, -np.inf)
         out.flags.writeable = False
         return out
 

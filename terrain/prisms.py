@@ -24,7 +24,7 @@ evaluated from its lexicographically smaller end, so swapping p0 and p1 gives a 
 result.  NaN coordinates give NaN.
 
 Two implementations with the same arithmetic: :func:`segment_polygon_lengths` runs the numba
-kernel ``terrain._kernels.polygon_lengths`` (single-threaded, a loop over segments, prisms and
+kernel ``terrain.kernels.polygon_lengths`` (single-threaded, a loop over segments, prisms and
 edges with a box test first); :func:`segment_polygon_lengths_numpy` is the pure-numpy twin the
 tests compare it with (a Python loop over the prisms, numpy over segments and edges).
 """
@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Literal, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from terrain import _kernels
+from terrain import kernels
 from terrain.cylinders import orient_segments
 from terrain.errors import InputError
 
@@ -153,7 +153,7 @@ def segment_polygon_lengths(
     if backend != "numba":
         raise InputError(f"backend must be 'numba' or 'numpy'; got {backend!r}")
     a, b = _check(p0, p1)
-    out = _kernels.polygon_lengths(
+    out = kernels.polygon_lengths(
         np.ascontiguousarray(a),
         np.ascontiguousarray(b),
         np.ascontiguousarray(polygons.edges, dtype=np.float64),
@@ -167,7 +167,7 @@ def segment_polygon_lengths(
 
 
 def _in_edges(px: FloatArray, py: FloatArray, edges: FloatArray) -> BoolArray:
-    """Numpy twin of ``_kernels.point_in_edges`` for points of any shape S: a bool array S."""
+    """Numpy twin of ``kernels.point_in_edges`` for points of any shape S: a bool array S."""
     x0, y0, x1, y1 = (edges[:, c] for c in range(4))
     qx, qy = px[..., None], py[..., None]
     cr = (x1 - x0) * (qy - y0) - (y1 - y0) * (qx - x0)

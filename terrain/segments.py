@@ -20,7 +20,7 @@ Bresenham's line drawing algorithm". Here that is made exact and vectorised:
   hugged the clearance floor; issue 20): the lowest altitude closes that gap.
 
 Two implementations with the same arithmetic: :func:`below_terrain_lengths` uses the numba kernel
-(``terrain._kernels``), :func:`below_terrain_lengths_numpy` is the pure-numpy reference (one
+(``terrain.kernels``), :func:`below_terrain_lengths_numpy` is the pure-numpy reference (one
 vectorised pass over all cells of all segments). Tests compare them.
 """
 
@@ -31,7 +31,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from terrain import _kernels
+from terrain import kernels
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 
@@ -41,7 +41,7 @@ Backend = Literal["numba", "numpy"]
 
 def bresenham_cells(r0: int, c0: int, r1: int, c1: int) -> npt.NDArray[np.int64]:
     """Cells (row, col) of the Bresenham line between two cells, ends included (numba)."""
-    return np.asarray(_kernels.bresenham_cells(int(r0), int(c0), int(r1), int(c1)))
+    return np.asarray(kernels.bresenham_cells(int(r0), int(c0), int(r1), int(c1)))
 
 
 def bresenham_cells_numpy(r0: int, c0: int, r1: int, c1: int) -> npt.NDArray[np.int64]:
@@ -73,14 +73,14 @@ def _segment_table(
     dx, dy = grid.cell_size
     left, top = float(grid.transform.c), float(grid.transform.f)
     return np.asarray(
-        _kernels.segment_table(
+        kernels.segment_table(
             np.ascontiguousarray(a), np.ascontiguousarray(b), left, top, float(dx), float(dy)
         )
     )
 
 
 def segment_table_numpy(grid: HeightGrid, a: FloatArray, b: FloatArray) -> FloatArray:
-    """Pure-numpy twin of ``terrain._kernels.segment_table``."""
+    """Pure-numpy twin of ``terrain.kernels.segment_table``."""
     r0, c0 = grid.xy_to_index(a[:, 0], a[:, 1])
     r1, c1 = grid.xy_to_index(b[:, 0], b[:, 1])
     length = np.linalg.norm(b - a, axis=1)
@@ -102,7 +102,7 @@ def below_terrain_lengths(
         raise InputError(f"backend must be 'numba' or 'numpy'; got {backend!r}")
     table = _segment_table(grid, p0, p1)
     return np.asarray(
-        _kernels.below_lengths(table, grid.heights, float(clearance), grid.block_maxima)
+        kernels.below_lengths(table, grid.heights, float(clearance), grid.block_maxima)
     )
 
 

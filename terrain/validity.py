@@ -48,7 +48,7 @@ DEFAULT_STEP_M = 25.0  # sample spacing along a leg without a grid
 
 
 class Volumes(Protocol):
-    """Time-dependent no-fly volumes, e.g. :class:`replay.threat_table.ThreatTable`."""
+    """Time-dependent no-fly volumes, e.g. :class:`replay.threats.table.ThreatTable`."""
 
     def separations(
         self, points: FloatArray, times: FloatArray

@@ -1,4 +1,4 @@
-"""The ISA standard atmosphere (replay.atmosphere) against the U.S. Standard Atmosphere 1976 tables
+"""The ISA standard atmosphere (replay.flight.atmosphere) against the U.S. Standard Atmosphere 1976 tables
 (by geometric altitude), hot days, and the airspeed conversions."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from replay.atmosphere import (
+from replay.flight.atmosphere import (
     RHO0,
     air,
     check_offset,

@@ -8,16 +8,18 @@ import math
 import numpy as np
 import pytest
 
-from replay.autopilot import (
+from replay.flight.fixedwing.autopilot import (
     GUIDANCE_COLUMNS,
     Autopilot,
     AutopilotConfig,
     FlightLog,
     design_gains,
 )
+from replay.flight.fixedwing.dynamics import air_data
+from replay.flight.fixedwing.kernels import step_n
+from replay.flight.fixedwing.presets import PRESETS
+from replay.flight.fixedwing.trim import trim
 from replay.frames import rotation_body_to_ned
-from replay.vehicle import PRESETS, step_n, trim
-from replay.vehicle.dynamics import air_data
 from terrain.errors import InputError
 
 XT = GUIDANCE_COLUMNS.index("cross_track")

@@ -20,10 +20,10 @@ import pytest
 from planner.mission import mission_from_dict
 from replay.avoidance import AVOIDERS, make_avoider
 from replay.avoidance.registry import avoider_class
+from replay.flight.fixedwing.presets import load_vehicle
 from replay.metrics import WALL_CLOCK_METRICS
 from replay.sim import ReplayConfig, ReplayResult, simulate
-from replay.threat_file import threats_from_records
-from replay.vehicle.presets import load_vehicle
+from replay.threats.file import threats_from_records
 from terrain.errors import InputError
 
 R = 1000.0  # every threat's safety radius (seed 000: RS = 1 km)

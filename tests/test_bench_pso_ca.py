@@ -11,7 +11,7 @@ from benchmarks import bench_pso_ca as b
 from planner.mission import load_mission
 from replay.avoidance.pso_ca_geometry import PsoCaParams, WaypointProblem
 from replay.campaign import generators as g
-from replay.clustering import cluster_hill_points
+from replay.threats.clusters import cluster_hill_points
 
 
 @pytest.fixture(scope="module")

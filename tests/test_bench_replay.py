@@ -6,7 +6,7 @@ import numpy as np
 
 from benchmarks import bench_replay as b
 from planner.mission import load_mission
-from replay.threat_file import threats_from_records
+from replay.threats.file import threats_from_records
 
 
 def test_distance_to_polyline() -> None:

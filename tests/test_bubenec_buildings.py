@@ -14,8 +14,8 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-from replay.threat_file import load_threats
-from replay.threats import PrismThreat
+from replay.threats.file import load_threats
+from replay.threats.kinds import PrismThreat
 
 ROOT = Path(__file__).resolve().parents[1]
 FILE = ROOT / "data" / "scenarios" / "bubenec-buildings.yaml"

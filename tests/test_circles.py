@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from replay.circles import Circle, farthest_pair_circle, min_enclosing_circle
+from replay.avoidance.circles import Circle, farthest_pair_circle, min_enclosing_circle
 from terrain.errors import InputError
 
 X0, Y0 = 376_313.655, 3_807_917.83  # map coordinates: large offsets must cost no precision

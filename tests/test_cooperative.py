@@ -10,12 +10,18 @@ import pytest
 
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.pso_ca import PsoCaAvoider
-from replay.body_threat import BodyThreat
-from replay.cooperative import CooperativePicture, CooperativeSensor
+from replay.flight.fixedwing.presets import load_vehicle
 from replay.guidance import FollowWaypoints
-from replay.radar import Radar
-from replay.threats import EDGE_SUFFIXES, CylinderThreat, HillThreat, IntruderThreat, StaticThreat
-from replay.vehicle.presets import load_vehicle
+from replay.sensors.cooperative import CooperativePicture, CooperativeSensor
+from replay.sensors.radar import Radar
+from replay.threats.body import BodyThreat
+from replay.threats.kinds import (
+    EDGE_SUFFIXES,
+    CylinderThreat,
+    HillThreat,
+    IntruderThreat,
+    StaticThreat,
+)
 from terrain.errors import InputError
 
 OWN = np.array([1000.0, 2000.0, 300.0])

@@ -25,9 +25,9 @@ from replay.avoidance.ctga import (
     leg_altitude,
     threat_test,
 )
+from replay.flight.fixedwing.presets import load_vehicle
 from replay.sim import ReplayConfig, ReplayResult, simulate
-from replay.threat_file import threats_from_records
-from replay.vehicle.presets import load_vehicle
+from replay.threats.file import threats_from_records
 from terrain.errors import InputError
 
 NORTH = 0.0
@@ -244,7 +244,7 @@ def test_the_arc_is_drawn_for_foxglove(tmp_path: Path) -> None:
     run_replay(prepare_replay(request), out)
     from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
-    from replay.reader import load_run
+    from replay.record.reader import load_run
 
     run = load_run(out, with_states=False)
     origin = np.array(json.loads(run.metadata["map_origin"]), dtype=float)
@@ -338,7 +338,7 @@ def test_a_solid_met_by_one_beam_is_gone_round_at_r_safe() -> None:
     """A rangefinder meets seed 003's 12 m tower at one point a scan: a circle of radius 0, kept
     R_safe away (it used to be dropped as "nothing at this altitude" and the aircraft flew into
     the tower undecided).  R_safe = 10 m covers the part of the tower the beam has not seen."""
-    from replay.vehicle.multirotor import MULTIROTOR_PRESETS
+    from replay.flight.multirotor.model import MULTIROTOR_PRESETS
 
     mission = load_mission(Path("data/scenarios/priority-mission.yaml"))
     doc = yaml.safe_load(Path("data/scenarios/priority-convex.yaml").read_text(encoding="utf-8"))

@@ -25,9 +25,9 @@ from replay.avoidance.fga import (
 )
 from replay.campaign import seed004
 from replay.campaign.generators import file_records
+from replay.flight.fixedwing.presets import preset
 from replay.run import ReplayRequest, run_replay
-from replay.threat_file import threats_from_records
-from replay.vehicle import preset
+from replay.threats.file import threats_from_records
 from terrain.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -392,8 +392,8 @@ def test_cones_t_c_and_the_manoeuvre_are_recorded_drawn_in_foxglove_and_the_view
     from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
     from mcap.reader import make_reader
 
-    from replay.picture import recorded_view
-    from replay.reader import load_run
+    from replay.record.picture import recorded_view
+    from replay.record.reader import load_run
     from terrapath.view.decisions import decision_marks
 
     out = tmp_path / "case9.mcap"

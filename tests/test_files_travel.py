@@ -16,7 +16,7 @@ import yaml
 from affine import Affine
 
 from planner.mission import Mission, TerrainRef, load_mission, mission_to_dict
-from replay.reader import load_run
+from replay.record.reader import load_run
 from terrain.errors import DataFileError
 from terrain.grid import HeightGrid
 from terrain.load import load_dem

@@ -11,9 +11,9 @@ from planner.flown import flown_paths
 from planner.mission import Mission
 from planner.profile import sample_path
 from replay.avoidance.base import NoAvoidance
+from replay.flight.fixedwing.presets import load_vehicle
 from replay.sim import ReplayConfig, simulate
-from replay.threats import ThreatSet
-from replay.vehicle.presets import load_vehicle
+from replay.threats.kinds import ThreatSet
 from tests.conftest import make_grid
 
 # a zig-zag of 2-3 km legs with 90, 120 and 45 deg turns, climbing within the aerosonde's limits

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from planner.mission import MISSION_KEYS, load_mission
+from replay.flight.fixedwing.presets import FIELD_NAMES, load_vehicle
 from replay.sim import check_mission
-from replay.threat_file import COMMON_KEYS, KIND_KEYS, load_threats
-from replay.vehicle.presets import FIELD_NAMES, load_vehicle
+from replay.threats.file import COMMON_KEYS, KIND_KEYS, load_threats
 from terrain.load import load_dem
 from terrain.zones import POLYGON_KEYS, ZONE_KEYS, PolygonZone, load_zones
 from tests.conftest import DATA_MAPS, ROOT

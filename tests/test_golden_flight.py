@@ -15,9 +15,9 @@ import pytest
 
 from planner.pipeline import to_mission
 from replay.avoidance.base import NoAvoidance
+from replay.flight.fixedwing.presets import load_vehicle
 from replay.sim import ReplayConfig, simulate
-from replay.threats import ThreatSet
-from replay.vehicle.presets import load_vehicle
+from replay.threats.kinds import ThreatSet
 from terrapath.cli import main
 from tests.conftest import ROOT
 from tests.golden.scenarios import ALGORITHMS, MAPS, VEHICLE

@@ -14,7 +14,8 @@ import pytest
 from planner.mission import Mission
 from replay.avoidance import AvoidanceContext, make_avoider
 from replay.avoidance.registry import AVOIDERS, avoider_class, avoider_options
-from replay.flightstack import FixedWingStack
+from replay.flight.fixedwing.presets import load_vehicle
+from replay.flight.fixedwing.stack import FixedWingStack
 from replay.frames import ned_to_map, rotation_body_to_ned
 from replay.guidance import (
     AvoidanceDecision,
@@ -31,8 +32,7 @@ from replay.guidance import (
     command_record,
 )
 from replay.sim import ReplayConfig, simulate
-from replay.threats import ThreatSet
-from replay.vehicle.presets import load_vehicle
+from replay.threats.kinds import ThreatSet
 from terrain.errors import InputError
 
 LINE = np.array([[0.0, 0.0, 500.0], [200000.0, 0.0, 500.0]])
@@ -302,7 +302,7 @@ def test_cooperative_sensor_drives_pso_ca_and_is_recorded(
 ) -> None:
     import json
 
-    from replay.reader import load_run
+    from replay.record.reader import load_run
     from terrapath.cli import main
     from tests.conftest import ROOT
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from replay.reader import load_run
+from replay.record.reader import load_run
 from terrapath.cli import main
 from terrapath.runtext import (
     PLR_MEANING,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from replay.layout import PANEL_3D, SCENE_TOPICS, check_layout, foxglove_layout
+from replay.record.foxglove_layout import PANEL_3D, SCENE_TOPICS, check_layout, foxglove_layout
 from terrapath.cli import main
 
 
@@ -38,7 +38,7 @@ def test_the_layout_topics_are_in_a_recorded_run(tmp_path: Path) -> None:
     and every field the plots draw; its separation topic agrees with the run's metrics."""
     from mcap.reader import make_reader
 
-    from replay.reader import load_run
+    from replay.record.reader import load_run
 
     root = Path(__file__).resolve().parents[1] / "data" / "scenarios"
     out = tmp_path / "run.mcap"

@@ -22,6 +22,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from replay.flight.multirotor import kernels as kern
+from replay.flight.multirotor.model import (
+    MULTIROTOR_PRESETS,
+    QUADROTOR,
+    derivatives,
+    forces_moments,
+    hover_state,
+    mix,
+    multirotor_preset,
+    rk4_step,
+    top_speed,
+)
+from replay.flight.multirotor.stack import MultirotorStack
 from replay.frames import rotation_body_to_ned
 from replay.guidance import (
     ClimbRate,
@@ -34,19 +47,6 @@ from replay.guidance import (
     HoldPosition,
     Orbit,
     YawTo,
-)
-from replay.multirotor_stack import MultirotorStack
-from replay.vehicle import _mr_kernels as kern
-from replay.vehicle.multirotor import (
-    MULTIROTOR_PRESETS,
-    QUADROTOR,
-    derivatives,
-    forces_moments,
-    hover_state,
-    mix,
-    multirotor_preset,
-    rk4_step,
-    top_speed,
 )
 from terrain.errors import InputError
 

@@ -8,11 +8,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from replay.circles import min_enclosing_circle
-from replay.cooperative import CooperativeSensor
-from replay.perception import Perception, PerceptionConfig, PerceptionState, Scan
-from replay.radar import Radar
-from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat
+from replay.avoidance.circles import min_enclosing_circle
+from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState, Scan
+from replay.sensors.cooperative import CooperativeSensor
+from replay.sensors.radar import Radar
+from replay.threats.kinds import CylinderThreat, HillThreat, IntruderThreat, StaticThreat
 from terrain.errors import InputError
 
 OWN = np.array([0.0, 0.0, 300.0])

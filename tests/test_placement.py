@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from planner import _kernels
+from planner import kernels
 from planner.explore import _flyable, explore_pool
 from planner.performance import Performance
 from planner.placement import (
@@ -71,7 +71,7 @@ def test_the_compiled_chord_table_matches_its_twin(block: int) -> None:
     """The same edges (the hull finds the same lowest clear ends as every sample) with the same
     lengths and mid altitudes, on fine and on blocked floors."""
     args = _tables(_problem(), block)
-    got = _kernels.chord_edges(*args)  # type: ignore[arg-type]
+    got = kernels.chord_edges(*args)  # type: ignore[arg-type]
     want = _chord_edges_py(*args)  # type: ignore[arg-type]
     assert len(want[0]) > 1000
     order_g = np.lexsort((got[1], got[0]))
@@ -87,7 +87,7 @@ def test_chords_clear_the_floor_and_keep_the_gradients() -> None:
     climbs and descends within the gradients."""
     pr = _problem()
     rc, xy, levels, coarse, block, step, pairs, climb, descent = _tables(pr, 1)
-    u, v, l3, zm = _kernels.chord_edges(rc, xy, levels, coarse, block, step, pairs, climb, descent)  # type: ignore[arg-type]
+    u, v, l3, zm = kernels.chord_edges(rc, xy, levels, coarse, block, step, pairs, climb, descent)  # type: ignore[arg-type]
     k = levels.shape[1]  # type: ignore[union-attr]
     pick = np.random.default_rng(1).choice(len(u), 400, replace=False)
     for e in pick.tolist():
@@ -118,7 +118,7 @@ def test_the_layered_search_matches_its_twin() -> None:
         w = rng.normal(1.0, 1.0, m)
         inner = np.ones(n_states, dtype=bool)
         inner[[0, n_states - 1]] = False
-        chain = _kernels.layered_dp(u, v, w, n_states, 0, n_states - 1, layers, inner)
+        chain = kernels.layered_dp(u, v, w, n_states, 0, n_states - 1, layers, inner)
         cost, want = _layered_dp_py(u, v, w, n_states, 0, n_states - 1, layers, inner)
         if want.size == 0:
             assert chain.size == 0

@@ -12,7 +12,7 @@ import yaml
 from planner.flown import climb_excess, flown_paths
 from planner.mission import load_mission
 from planner.problem import terrain_top
-from replay.vehicle.presets import load_vehicle
+from replay.flight.fixedwing.presets import load_vehicle
 from terrain.load import load_dem
 from terrain.zones import load_zones
 from terrapath.cli import main

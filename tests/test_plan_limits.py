@@ -14,8 +14,8 @@ from planner.performance import Performance
 from planner.pipeline import PlanRequest, build_problem
 from planner.plan import plan
 from planner.problem import PlanningProblem
-from replay.vehicle.presets import load_vehicle
-from replay.vehicle.trim import best_climb
+from replay.flight.fixedwing.presets import load_vehicle
+from replay.flight.fixedwing.trim import best_climb
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrapath.cli import main

@@ -38,9 +38,9 @@ from replay.avoidance.priority import (
     stopping_distance,
     visited,
 )
+from replay.flight.fixedwing.presets import load_vehicle
+from replay.flight.multirotor.model import MULTIROTOR_PRESETS
 from replay.guidance import FollowWaypoints, GoTo, HoldPosition, YawTo
-from replay.vehicle.multirotor import MULTIROTOR_PRESETS
-from replay.vehicle.presets import load_vehicle
 from terrain.errors import InputError
 
 FOUR = [0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi]  # front, right, back, left
@@ -507,7 +507,7 @@ def test_a_closed_box_round_the_target_ends_unreachable_not_success() -> None:
 
 
 def test_a_target_inside_an_obstacle_is_reported_unreachable() -> None:
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     tower = [{"id": "tower", "kind": "cylinder", "center": [0.0, 150.0], "radius": 15.0, "top": 40}]
     r = _replay(threats_from_records(tower))
@@ -547,7 +547,7 @@ def test_confined_the_run_ends_unreachable_and_the_cli_exits_3(tmp_path: Any, ca
     )
     assert code == 3
     assert "ended by target unreachable" in capsys.readouterr().err
-    from replay.reader import load_run
+    from replay.record.reader import load_run
 
     run = load_run(out, with_states=False)
     assert run.metrics["end_reason"] == UNREACHABLE and run.metrics["success"] is False
@@ -556,7 +556,7 @@ def test_confined_the_run_ends_unreachable_and_the_cli_exits_3(tmp_path: Any, ca
     assert len(last["scan"]["Ir"]) == 16 and len(last["scan"]["Dr"]) == 16
     assert run.topic_counts["/avoidance/guidance"] >= 1
     # the set-points S: drawn by `terrapath view` (one marker each) and in RUN.png
-    from replay.picture import recorded_view
+    from replay.record.picture import recorded_view
     from terrapath.view.decisions import decision_marks
 
     view = recorded_view(out)
@@ -568,7 +568,7 @@ def test_confined_the_run_ends_unreachable_and_the_cli_exits_3(tmp_path: Any, ca
 
 def test_bad_setups_are_refused_before_the_flight() -> None:
     from replay.run import ReplayRequest, prepare_replay
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     def prep(**kw: Any) -> None:
         kw.setdefault("sensor", "rangefinder")
@@ -596,7 +596,7 @@ def test_bad_setups_are_refused_before_the_flight() -> None:
 def test_a_start_inside_an_obstacle_ends_the_flight_when_not_refused_before() -> None:
     from planner.mission import load_mission
     from replay.sim import ReplayConfig, simulate
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     block = [{"id": "shed", "kind": "cylinder", "center": [1.0, 0.0], "radius": 4.0, "top": 50}]
     r = simulate(
@@ -657,7 +657,7 @@ def test_a_roof_just_below_the_flight_level_is_gone_round_not_skimmed() -> None:
     aircraft stops and goes round it, never within tau."""
     from planner.mission import load_mission
     from replay.sim import ReplayConfig, simulate
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     av = PriorityAvoider()
     assert av.rangefinder_spread_deg(20.0) == pytest.approx(math.degrees(math.atan(2.0 / 18.0)))

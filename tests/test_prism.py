@@ -18,12 +18,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rasterio.crs import CRS
 
-from replay.cooperative import CooperativeSensor
-from replay.messages import normalize_threat
+from replay.record.messages import normalize_threat
+from replay.record.scene import prism_mesh
 from replay.run import ReplayRequest, recorded_threats, run_replay
-from replay.scene import prism_mesh
-from replay.threat_file import load_threats, recorded_text, threats_from_records
-from replay.threats import CylinderThreat, PrismThreat, footprint_ring
+from replay.sensors.cooperative import CooperativeSensor
+from replay.threats.file import load_threats, recorded_text, threats_from_records
+from replay.threats.kinds import CylinderThreat, PrismThreat, footprint_ring
 from terrain.errors import InputError
 from terrain.zones import PolygonZone
 from tests.conftest import make_grid
@@ -439,7 +439,7 @@ def test_view_and_picture_draw_the_footprint() -> None:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Polygon
 
-    from replay.picture import _draw_threat
+    from replay.record.picture import _draw_threat
     from terrapath.view.figures import _footprints, _threat_mesh
 
     th = PrismThreat(id="l", footprint=ELL, top=30.0, bottom=10.0)
@@ -461,8 +461,8 @@ def test_a_replay_measures_the_separation_from_buildings(tmp_path: Path) -> None
     from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
     from mcap.reader import make_reader
 
-    from replay import topics as T
-    from replay.reader import load_run
+    from replay.record import topics as T
+    from replay.record.reader import load_run
 
     across = [(-20.0, 600.0), (20.0, 600.0), (20.0, 640.0), (-20.0, 640.0)]
     beside = [(30.0, 300.0), (60.0, 300.0), (60.0, 330.0), (45.0, 345.0), (30.0, 330.0)]

@@ -16,10 +16,10 @@ from planner.mission import mission_from_dict
 from replay.avoidance import make_avoider
 from replay.avoidance.pso_ca import PsoCaAvoider
 from replay.avoidance.pso_ca_geometry import PsoCaParams
-from replay.reader import load_run
+from replay.flight.fixedwing.presets import load_vehicle
+from replay.record.reader import load_run
 from replay.sim import ReplayConfig, ReplayResult, simulate
-from replay.threat_file import threats_from_records
-from replay.vehicle.presets import load_vehicle
+from replay.threats.file import threats_from_records
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrapath.cli import main
@@ -312,7 +312,7 @@ def test_reset_compiles_the_cost_before_the_flight(tmp_path: Path) -> None:
     code = (
         "import numpy as np\n"
         "from replay.avoidance import make_avoider\n"
-        "from replay.avoidance._pso_ca_kernel import penalised_costs as k, segment_clearances\n"
+        "from replay.avoidance.pso_ca_kernel import penalised_costs as k, segment_clearances\n"
         "assert not k.signatures and not segment_clearances.signatures\n"
         "a = make_avoider('pso-ca')\n"
         "assert not k.signatures\n"

@@ -209,7 +209,7 @@ def test_g4_rejects_a_hairpin_and_g2_aircraft_centre():
 
 def test_corner_cut_hand_cases():
     """The autopilot's turn: 1 km before the waypoint it heads for the next leg's line at up to
-    60 deg (replay.autopilot).  Arriving east, leaving north (90 deg left): from (-1000, 0) to the
+    60 deg (replay.flight.fixedwing.autopilot).  Arriving east, leaving north (90 deg left): from (-1000, 0) to the
     line x = 0, met at y = 1000 / tan 60; leaving 20 deg left, the line is met *behind* the
     waypoint and the part of it up to the waypoint is flown too."""
     w = np.zeros((1, 2))
@@ -416,7 +416,7 @@ def test_compiled_cost_has_one_specialisation_for_every_caller() -> None:
     """An optimiser hands f a read-only view, a rescue grid scan a writable array and a problem
     may hold read-only waypoints: all must reach the same compiled specialisation, or the first
     rescue of a flight stalls for seconds of JIT compilation."""
-    from replay.avoidance._pso_ca_kernel import penalised_costs
+    from replay.avoidance.pso_ca_kernel import penalised_costs
 
     target = np.array([20000.0, 500.0])
     target.flags.writeable = False

@@ -1,4 +1,4 @@
-"""Tests of `replay.radar.Radar`: range, terrain occlusion, terrain returns, noise, classification."""
+"""Tests of `replay.sensors.radar.Radar`: range, terrain occlusion, terrain returns, noise, classification."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from affine import Affine
 
-from replay.body_threat import BodyThreat
-from replay.radar import Radar, RadarPicture
-from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, Threat
+from replay.sensors.radar import Radar, RadarPicture
+from replay.threats.body import BodyThreat
+from replay.threats.kinds import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, Threat
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.model import TerrainModel
@@ -359,7 +359,7 @@ def test_scan_cost_on_a_real_map(shared_maps: Path) -> None:
 def test_static_threats_in_one_array_keep_order_windows_and_range() -> None:
     """Static point threats are tested as one array; the returns must be exactly those of the
     threat-by-threat rule, in the order the threats are given, interleaved with other kinds."""
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     threats = threats_from_records(
         [

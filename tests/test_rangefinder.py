@@ -14,13 +14,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from replay.body_threat import BodyThreat
-from replay.perception import Perception, Scan
-from replay.radar import RadarPicture
-from replay.rangefinder import RangefinderPicture, Rangefinders
-from replay.raycast import ray_cylinders, ray_prisms, ray_spheres, ray_superellipsoid
+from replay.avoidance.perception import Perception, Scan
+from replay.sensors.radar import RadarPicture
+from replay.sensors.rangefinder import RangefinderPicture, Rangefinders
+from replay.sensors.raycast import ray_cylinders, ray_prisms, ray_spheres, ray_superellipsoid
 from replay.sim import ReplayConfig
-from replay.threats import (
+from replay.threats.body import BodyThreat
+from replay.threats.kinds import (
     CylinderThreat,
     HillThreat,
     IntruderThreat,
@@ -459,8 +459,8 @@ def test_a_quadrotor_mission_with_rangefinders_records_the_beams(tmp_path: Path)
     from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
     from mcap.reader import make_reader
 
-    from replay import topics as T
-    from replay.reader import load_run
+    from replay.record import topics as T
+    from replay.record.reader import load_run
     from replay.run import ReplayRequest, run_replay
 
     tower = CylinderThreat(id="tower", center=(5.5, 75.0), radius=0.5, top=100.0, bottom=0.0)
@@ -506,7 +506,7 @@ def test_a_quadrotor_mission_with_rangefinders_records_the_beams(tmp_path: Path)
 
 
 def test_terrapath_replay_takes_the_rangefinder_options(tmp_path: Path) -> None:
-    from replay.reader import load_run
+    from replay.record.reader import load_run
     from terrapath.cli import main
 
     out = tmp_path / "rf.mcap"

@@ -1,4 +1,4 @@
-"""Recording a replay run as MCAP (replay.record) and reading it back (replay.reader)."""
+"""Recording a replay run as MCAP (replay.record.recorder) and reading it back (replay.record.reader)."""
 
 from __future__ import annotations
 
@@ -24,12 +24,12 @@ from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import Writer
 
-from replay import topics as T
-from replay.encoding import DIGITS
 from replay.frames import quaternion_map_from_euler
-from replay.reader import load_run, summary
-from replay.record import RunRecorder
-from replay.scene import decimate_mesh, quaternion_map, superellipsoid_mesh
+from replay.record import topics as T
+from replay.record.encoding import DIGITS
+from replay.record.reader import load_run, summary
+from replay.record.recorder import RunRecorder
+from replay.record.scene import decimate_mesh, quaternion_map, superellipsoid_mesh
 from terrain.errors import DataFileError, InputError
 
 ORIGIN = (500_000.0, 4_000_000.0, 0.0)

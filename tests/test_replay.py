@@ -12,11 +12,11 @@ import pytest
 
 from planner.mission import load_mission
 from replay.avoidance import NoAvoidance
-from replay.reader import load_run
+from replay.flight.fixedwing.presets import load_vehicle
+from replay.record.reader import load_run
 from replay.sim import ReplayConfig, simulate
-from replay.threat_file import load_threats
-from replay.threats import ThreatSet
-from replay.vehicle.presets import load_vehicle
+from replay.threats.file import load_threats
+from replay.threats.kinds import ThreatSet
 from terrapath.cli import main
 from tests.conftest import ROOT
 
@@ -334,7 +334,7 @@ def test_threat_shapes_are_recorded_when_the_active_set_changes_or_one_moves() -
     """The recording rule of the simulation loop, now on the threats as arrays: shapes are
     written at the end of a period when the set of active threats changed since the last write
     or an active threat moves -- the same periods as asking every threat."""
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     threats = threats_from_records(
         [

@@ -12,10 +12,10 @@ import pytest
 
 from planner.mission import Mission, save_mission
 from replay.avoidance.base import AvoidanceContext, NoAvoidance
+from replay.flight.fixedwing.presets import load_vehicle
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
 from replay.sim import ReplayConfig, simulate
-from replay.threats import ThreatSet
-from replay.vehicle.presets import load_vehicle
+from replay.threats.kinds import ThreatSet
 from terrain.zones import DangerZone, PolygonZone
 from terrapath.cli import main
 from tests.conftest import make_grid
@@ -109,7 +109,7 @@ def test_pso_ca_keeps_its_new_legs_out_of_the_mission_zones() -> None:
     """The village case (issue 13): the obstacle is best passed on the side of a zone; PSO-CA's
     new waypoint must not lead into it."""
     from replay.avoidance import make_avoider
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     line = np.array([[0.0, 0.0, 200.0], [20000.0, 0.0, 200.0], [40000.0, 0.0, 200.0]])
     village = DangerZone(10000.0, 1300.0, 800.0, id="village")
@@ -176,7 +176,7 @@ def test_pso_ca_keeps_its_new_waypoints_on_the_map() -> None:
     never leaves the map. The premise is asserted with a wide margin, not on the detour's last
     metres: the obstacle reaches 350 m beyond the edge, so any northern pass is off the map."""
     from replay.avoidance import make_avoider
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     edge = 3500.0
     grid = make_grid(np.zeros((35, 400)), cell=100.0, x0=0.0, y0=edge)  # y from 0 to 3500

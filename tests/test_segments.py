@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terrain import _kernels
+from terrain import kernels
 from terrain import segments as segments_module
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
@@ -189,7 +189,7 @@ def test_block_skipping_changes_no_bit() -> None:
     table = segments_module._segment_table(g, p0, p1)
     for clearance in (0.0, 50.0):
         fast = below_terrain_lengths(g, p0, p1, clearance)
-        full = _kernels.below_lengths(
+        full = kernels.below_lengths(
             table, g.heights, clearance, np.full_like(g.block_maxima, np.inf)
         )
         np.testing.assert_array_equal(fast, full)  # skipped cells add nothing
@@ -199,7 +199,7 @@ def test_block_skipping_changes_no_bit() -> None:
         assert 0.05 * m < np.count_nonzero(fast) < 0.95 * m
         assert (fast[500:520] > 0).all()  # the spike is found inside a clear stretch
         # blocks claiming flat ground at -inf make the walk skip everything: the check consults them
-        blind = _kernels.below_lengths(
+        blind = kernels.below_lengths(
             table, g.heights, clearance, np.full_like(g.block_maxima, -np.inf)
         )
         assert not blind.any()

@@ -1,4 +1,4 @@
-"""`replay.threat_table.ThreatTable` and the radar scan built on it: every threat at once, bit for
+"""`replay.threats.table.ThreatTable` and the radar scan built on it: every threat at once, bit for
 bit what the threats say one by one.
 
 The references below are the threat-by-threat code the table replaced (the radar's candidate
@@ -16,10 +16,9 @@ import numpy.typing as npt
 import pytest
 from affine import Affine
 
-from replay.body_threat import BodyThreat
-from replay.radar import Radar, RadarPicture
-from replay.threat_table import ThreatTable, norm3
-from replay.threats import (
+from replay.sensors.radar import Radar, RadarPicture
+from replay.threats.body import BodyThreat
+from replay.threats.kinds import (
     EDGE_SUFFIXES,
     CylinderThreat,
     HillThreat,
@@ -27,6 +26,7 @@ from replay.threats import (
     StaticThreat,
     Threat,
 )
+from replay.threats.table import ThreatTable, norm3
 from terrain.grid import HeightGrid
 from terrain.model import TerrainModel
 

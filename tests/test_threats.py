@@ -1,5 +1,5 @@
-"""Tests of the threats: the threat file (`replay.threat_file`), its validation, and the geometry of
-each kind (`replay.threats`, `replay.body_threat`) and hill clustering (`replay.clustering`)."""
+"""Tests of the threats: the threat file (`replay.threats.file`), its validation, and the geometry of
+each kind (`replay.threats.kinds`, `replay.threats.body`) and hill clustering (`replay.threats.clusters`)."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rasterio.crs import CRS
 
-from replay.body_threat import BodyThreat
-from replay.clustering import cluster_hill_points, cluster_terminals
-from replay.threat_file import load_threats, threats_from_records, threats_to_records
-from replay.threats import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, ThreatSet
+from replay.threats.body import BodyThreat
+from replay.threats.clusters import cluster_hill_points, cluster_terminals
+from replay.threats.file import load_threats, threats_from_records, threats_to_records
+from replay.threats.kinds import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, ThreatSet
 from terrain.errors import DataFileError, InputError
 from tests.conftest import make_grid
 

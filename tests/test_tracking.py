@@ -1,4 +1,4 @@
-"""Constant-velocity least-squares fits and closest points of approach (replay.tracking)."""
+"""Constant-velocity least-squares fits and closest points of approach (replay.avoidance.tracking)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from replay.tracking import Track, closest_approaches, fit_lines
+from replay.avoidance.tracking import Track, closest_approaches, fit_lines
 from terrain.errors import InputError
 
 

@@ -10,30 +10,22 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from replay.atmosphere import density
-from replay.frames import rotation_body_to_ned
-from replay.vehicle import (
-    PRESETS,
+from replay.flight.atmosphere import density
+from replay.flight.fixedwing.dynamics import (
     Aircraft,
-    VehicleParams,
-    derivatives,
-    load_vehicle,
-    rk4,
-    rk4_step,
-    step_n,
-    trim,
-    trim_range,
-)
-from replay.vehicle._kernels import alpha_rate
-from replay.vehicle.dynamics import (
     air_data,
+    derivatives,
     drag_coefficient,
     forces_moments,
     lift_coefficient,
     propeller,
+    rk4_step,
 )
-from replay.vehicle.params import I_DPROP, I_ENGINE, I_PMAX, I_RPM, I_S
-from replay.vehicle.trim import alpha_max_lift, best_climb
+from replay.flight.fixedwing.kernels import alpha_rate, rk4, step_n
+from replay.flight.fixedwing.params import I_DPROP, I_ENGINE, I_PMAX, I_RPM, I_S, VehicleParams
+from replay.flight.fixedwing.presets import PRESETS, load_vehicle
+from replay.flight.fixedwing.trim import alpha_max_lift, best_climb, trim, trim_range
+from replay.frames import rotation_body_to_ned
 from terrain.errors import DataFileError, InputError
 
 G = 9.81

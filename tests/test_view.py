@@ -14,7 +14,7 @@ import pytest
 import trimesh
 from matplotlib.image import imread
 
-from replay.picture import recorded_view
+from replay.record.picture import recorded_view
 from terrapath.cli import main
 from terrapath.view.decisions import DRAWINGS, decision_marks
 from terrapath.view.figures import FRAMES, RUN_COLOURS
@@ -229,7 +229,7 @@ def test_bad_sources_get_one_line(
 def test_a_run_without_a_trajectory_and_unwritable_outputs(
     runs: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from replay.record import RunRecorder
+    from replay.record.recorder import RunRecorder
 
     empty = tmp_path / "empty.mcap"
     with RunRecorder(empty) as rec:

@@ -78,7 +78,7 @@ def plan_hashes() -> dict[str, str]:
 
 def replay_hashes() -> dict[str, str]:
     from replay.run import ReplayRequest, run_replay
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
     from tests.golden.replays import CASES, SEED, _mission_file, mission_of, threat_records
 
     out: dict[str, str] = {}

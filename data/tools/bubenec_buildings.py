@@ -38,7 +38,7 @@ Steps:
      centimetre: every floor stands above the ground over the whole footprint.
 
 Ids are ``b<uID>`` (the layer's ``uID`` column).  The output is written only when every building
-kept is a valid ``prism`` (:class:`replay.threats.PrismThreat` and the threat-file loader).
+kept is a valid ``prism`` (:class:`replay.threats.kinds.PrismThreat` and the threat-file loader).
 """
 
 from __future__ import annotations
@@ -57,8 +57,8 @@ import shapely.wkb
 from rasterio.crs import CRS
 from rasterio.warp import transform
 
-from replay.threat_file import load_threats
-from replay.threats import PrismThreat
+from replay.threats.file import load_threats
+from replay.threats.kinds import PrismThreat
 from terrain.grid import HeightGrid
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -6,7 +6,7 @@ at its own period (``period`` attribute, default: the radar's) and returns an
 :class:`~replay.guidance.AvoidanceDecision` -- one typed guidance command
 (:mod:`replay.guidance`), or none to keep going, and optionally an end outcome -- or ``None``
 (nothing to decide). The loop records every decision with its compute time.  Avoiders read the
-sensor's pictures through :mod:`replay.perception` (obstacle memory, tracks, clusters, fitted
+sensor's pictures through :mod:`replay.avoidance.perception` (obstacle memory, tracks, clusters, fitted
 circles), each with the settings it needs, updated once per scan.  ``none``
 (:class:`NoAvoidance`) keeps the mission: the baseline of seed 000 Fig. 17.
 """
@@ -34,10 +34,12 @@ class AvoidanceContext:
     velocity: FloatArray  # (3,) map, m/s
     airspeed: float
     course: float  # rad, clockwise from north
-    picture: Any  # latest scan: replay.radar.RadarPicture or replay.cooperative.CooperativePicture
+    picture: Any  # latest scan: replay.sensors.radar.RadarPicture or replay.sensors.cooperative.CooperativePicture
     waypoints: FloatArray  # (W, 3) current list, map metres
     next_index: int  # index in ``waypoints`` of the waypoint being flown to
-    vehicle: Any = None  # replay.vehicle.VehicleParams (limits: bank, pitch, climb rate)
+    vehicle: Any = (
+        None  # replay.flight.fixedwing.params.VehicleParams (limits: bank, pitch, climb rate)
+    )
     terrain: Any = None  # terrain.model.TerrainModel or None (flat ground)
     terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
     switch_distance: float = 0.0  # the stack turns to the next leg this far from a waypoint

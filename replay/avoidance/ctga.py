@@ -5,8 +5,8 @@ The aircraft flies the arcs with its own closed-loop orbit mode (:class:`~replay
 Beard & McLain's orbit follower in the compiled autopilot), so its turns are the 6-DOF
 aircraft's, at its bank limit at most.
 
-**Obstacles (§2).**  Read from :mod:`replay.perception`, updated once per scan.  Stationary
-obstacles are grouped by the threat they belong to (:attr:`~replay.perception.PerceptionState.
+**Obstacles (§2).**  Read from :mod:`replay.avoidance.perception`, updated once per scan.  Stationary
+obstacles are grouped by the threat they belong to (:attr:`~replay.avoidance.perception.PerceptionState.
 bodies`): one horizontal circle per body, the smallest enclosing circle of its returns (seed 001
 eqs 1-2 take the farthest pair as the diameter and its midpoint as the centre -- eq 2 prints a
 minus where the midpoint needs a plus -- which can leave returns outside; the smallest enclosing
@@ -85,10 +85,10 @@ import numpy.typing as npt
 
 from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
-from replay.circles import min_enclosing_circle
+from replay.avoidance.circles import min_enclosing_circle
+from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
+from replay.flight.fixedwing.params import G
 from replay.guidance import AvoidanceDecision, FollowWaypoints, Orbit
-from replay.perception import Perception, PerceptionConfig, PerceptionState
-from replay.vehicle.params import G
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]

@@ -7,7 +7,7 @@ aircraft flies FGA's manoeuvres with its own closed-loop course and altitude hol
 at most, and every climb within its climb-rate limits.
 
 **Obstacles and the protected volume (§II-B, Table I).**  Each obstacle is read from
-:mod:`replay.perception` once per scan and dead-reckoned at every decision: a centre, a
+:mod:`replay.avoidance.perception` once per scan and dead-reckoned at every decision: a centre, a
 velocity, a horizontal size ``a`` and a vertical extent ``[bottom, top]``.  With the cooperative
 sensor (the paper's "perfect sensor", §II-C (3)) the size is the reported one: a cylinder
 (reported at its top-face centre, ``top`` = its z) stands on the ground (``bottom = -inf``); a
@@ -125,12 +125,12 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.optim.base import require_real
-from replay.autopilot import LoopDesign
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.ctga import bearing, wrap
+from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
+from replay.flight.fixedwing.autopilot import LoopDesign
+from replay.flight.fixedwing.params import G
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
-from replay.perception import Perception, PerceptionConfig, PerceptionState
-from replay.vehicle.params import G
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -1469,9 +1469,9 @@ def measure_turn(
     """Fly the 6-DOF aircraft through a 180 deg course step and measure its response: the time
     each course change in ``steps_deg`` takes beyond an ideal vehicle turning at ``psi_dot_max``
     from the start (``t_res`` of eq 8), and the steady turn's ground radius (eq 7's ``rho``)."""
-    from replay.flightstack import FixedWingStack
+    from replay.flight.fixedwing.presets import preset
+    from replay.flight.fixedwing.stack import FixedWingStack
     from replay.frames import rotation_body_to_ned
-    from replay.vehicle import preset
 
     params = preset(vehicle)
     stack = FixedWingStack(

@@ -18,7 +18,7 @@ is therefore a cone of half-angle ``atan(tau / (R - tau))``
 (:meth:`PriorityAvoider.rangefinder_spread_deg`, 6.3 deg for the defaults; a real rangefinder
 has a field of view, ultrasonic ones wider than this; ``--rangefinder-spread`` overrides it),
 cast as its axis and four rays on its rim (down, up, right, left), and it reads the hit nearest
-horizontally (:attr:`~replay.rangefinder.RangefinderPicture.beam_reach`).  At the set-point
+horizontally (:attr:`~replay.sensors.rangefinder.RangefinderPicture.beam_reach`).  At the set-point
 circle the rim is ``tau`` from the axis: whatever stands within ``tau`` below the flight level or
 beside a beam's line there stops the aircraft or closes the direction like a wall.  Over flat
 ground 10 m below, the lower rim meets the ground at 90 m, beyond R; flown lower than ``R
@@ -154,8 +154,8 @@ import numpy.typing as npt
 from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.ctga import bearing, wrap
+from replay.flight.multirotor.stack import ControllerDesign
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GoTo, HoldPosition, YawTo
-from replay.multirotor_stack import ControllerDesign
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -541,7 +541,7 @@ class PriorityAvoider:
     # -- set-up -----------------------------------------------------------------------------------
     def check_vehicle(self, params: Any, speed: float) -> None:
         """The aircraft must hover (the scan turns in place) and stop in time."""
-        from replay.vehicle.multirotor import MultirotorParams
+        from replay.flight.multirotor.model import MultirotorParams
 
         if not isinstance(params, MultirotorParams):
             raise InputError(
@@ -762,7 +762,7 @@ class PriorityAvoider:
 
     @staticmethod
     def _inside(ctx: AvoidanceContext) -> bool:
-        """A beam starting inside an obstacle reads 0 (replay.rangefinder)."""
+        """A beam starting inside an obstacle reads 0 (replay.sensors.rangefinder)."""
         return bool((np.asarray(ctx.picture.beam_ranges) <= 0.0).any())
 
     def _on_climb(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:

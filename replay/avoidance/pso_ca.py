@@ -3,7 +3,7 @@
 After every radar scan (Fig. 4 / Fig. 5, main module):
 
 1. **What is an obstacle.**  The avoider reads the sensor through its own
-   :class:`~replay.perception.Perception` (memory ``memory_s`` seconds, solid bodies per
+   :class:`~replay.avoidance.perception.Perception` (memory ``memory_s`` seconds, solid bodies per
    ``BODY_CELL_M`` = 100 m cell, tracks of the last two fixes): the obstacles perception calls
    stationary (the radar: Fig. 7), and the terrain returns of hills that rise above what the
    aircraft can fly over (below; the others are left out of the memory with ``keep``) -- so a
@@ -132,6 +132,7 @@ from planner.optim.base import require_real
 from planner.optim.pso import SEED000_PSO
 from planner.optim.termination import MaxIterations, Stall
 from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
 from replay.avoidance.pso_ca_geometry import (
     G,
     PsoCaParams,
@@ -142,10 +143,9 @@ from replay.avoidance.pso_ca_geometry import (
     segment_clearance,
     tangent_seed_points,
 )
-from replay.clustering import cluster_terminals
+from replay.avoidance.tracking import Track
 from replay.guidance import AvoidanceDecision, FollowWaypoints
-from replay.perception import Perception, PerceptionConfig, PerceptionState
-from replay.tracking import Track
+from replay.threats.clusters import cluster_terminals
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]

@@ -11,7 +11,7 @@ Coordinates are map metres (x east, y north; :mod:`replay.frames`).  The pieces:
   :func:`segment_hits_sphere`, restricted to the segment ``t in [0, 1]`` (the paper tests the
   infinite line), and :func:`segment_clearance` (closest approach of segments to centres).
 - **Classification** (§3.7, Figs 8-10, §5.3): :func:`group_obstacles` (single linkage < 1 km,
-  :func:`replay.clustering.cluster_hill_points`), :func:`continuous_mask`, :func:`near_end_waypoint`,
+  :func:`replay.threats.clusters.cluster_hill_points`), :func:`continuous_mask`, :func:`near_end_waypoint`,
   :func:`obstacle_between`, :func:`closest_first`.
 - **Seeds** (eq 27, Fig. 14): :func:`tangent_points`, :func:`tangent_seed_points`.
 - **Objective and constraints** (§2.3, eqs 2-12): :class:`PsoCaParams`, :class:`WaypointProblem`
@@ -55,7 +55,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from replay.clustering import HILL_LINK_M, cluster_hill_points
+from replay.threats.clusters import HILL_LINK_M, cluster_hill_points
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -164,7 +164,7 @@ def segment_hits_sphere(
 def segment_clearance(p0: npt.ArrayLike, p1: npt.ArrayLike, centers: npt.ArrayLike) -> FloatArray:
     """Closest distance (P, K) from each segment ``p0[i] -> p1[i]`` ((P, D) each) to each centre
     (K, D).  ``clearance > r`` is the same as "no real root of eq 24 in [0, 1]" (no hit)."""
-    from replay.avoidance._pso_ca_kernel import segment_clearances
+    from replay.avoidance.pso_ca_kernel import segment_clearances
 
     a0 = _points(p0, "p0").reshape(-1, np.shape(p0)[-1])
     a1 = _points(p1, "p1").reshape(a0.shape)
@@ -179,7 +179,7 @@ def segment_clearance(p0: npt.ArrayLike, p1: npt.ArrayLike, centers: npt.ArrayLi
 # -- 2. grouping and classification (Figs 8-10, §5.3) ---------------------------------------------
 def group_obstacles(points: npt.ArrayLike, link: float = HILL_LINK_M) -> tuple[IntArray, ...]:
     """Continuous obstacles (Fig. 8, §5.3): index arrays of points (N, 2 or 3) whose chains of
-    distances are < ``link`` (1 km), via :func:`replay.clustering.cluster_hill_points`.  2D points
+    distances are < ``link`` (1 km), via :func:`replay.threats.clusters.cluster_hill_points`.  2D points
     are grouped on the plane (z = 0)."""
     p = _points(points, "points").reshape(-1, np.shape(points)[-1])
     if p.shape[1] == 2:
@@ -320,7 +320,7 @@ def corner_cut(
     ``(c1 -> m, m -> w)`` of (P, 2) arrays each.
 
     The legs arrive along ``u_in`` (P, 2) and leave along ``u_next`` (P, 2) (any lengths: the
-    leg vectors).  :mod:`replay.autopilot` ends a leg ``switch`` metres before its waypoint (at
+    leg vectors).  :mod:`replay.flight.fixedwing.autopilot` ends a leg ``switch`` metres before its waypoint (at
     most half the leg's length) at ``c1`` and from there follows the next leg's *line* with the
     vector field ``chi_leg - chi_inf (2/pi) atan(k DD)``: it heads for the line at up to
     ``approach_deg`` (``chi_inf``, 60 deg) and meets it at ``m``, the point reached at that angle
@@ -606,8 +606,8 @@ class WaypointProblem:
     def __call__(self, X: npt.ArrayLike) -> FloatArray:
         """Penalised cost (P,) of candidates X (P, 2) -- the function a PSO minimises; the same
         numbers as ``terms(X).penalised`` from a compiled loop
-        (:mod:`replay.avoidance._pso_ca_kernel`), about 100x faster for 10 candidates."""
-        from replay.avoidance._pso_ca_kernel import penalised_costs
+        (:mod:`replay.avoidance.pso_ca_kernel`), about 100x faster for 10 candidates."""
+        from replay.avoidance.pso_ca_kernel import penalised_costs
 
         pr = self.params
         # Always a fresh writable C array: an optimiser hands f a read-only view of its

@@ -306,7 +306,7 @@ def _seed002(runs: int) -> list[Line]:
     from planner.pipeline import PlanRequest, build_problem
     from planner.plan import plan
     from planner.reference import REFERENCE_MAPS
-    from replay.vehicle.presets import load_vehicle
+    from replay.flight.fixedwing.presets import load_vehicle
 
     paper_rank = {
         terrain: sorted(PLAN_ALGORITHMS, key=lambda a: costs[a][0]).index

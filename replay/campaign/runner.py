@@ -44,7 +44,7 @@ def scenario(run: Run) -> Any:
 
     from planner.mission import load_mission
     from replay.campaign.generators import GENERATORS, file_records
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     if run.row.file is not None:
         return str(run.row.file)  # read by the replay, with the mission's map
@@ -64,7 +64,7 @@ def case(run: Run) -> tuple[Any, Any, dict[str, Any]]:
 
     from planner.mission import mission_from_dict
     from replay.campaign.generators import CASE_GENERATORS, file_records
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     assert run.generator is not None and run.row.dynamic is not None
     rng = np.random.default_rng(run.scenario_seed)

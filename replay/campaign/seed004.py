@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from replay.threats import solid_separation
+from replay.threats.kinds import solid_separation
 
 FloatArray = npt.NDArray[np.float64]
 

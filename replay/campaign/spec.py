@@ -23,7 +23,7 @@ duration: null                                   # optional: longest flight (s)
 ```
 
 ``sensor_range`` is the radar's or the cooperative sensor's range (default 10 km), or with
-``sensor: rangefinder`` (seed 003's beams, :mod:`replay.rangefinder`, whose hits reach the
+``sensor: rangefinder`` (seed 003's beams, :mod:`replay.sensors.rangefinder`, whose hits reach the
 avoiders as sensor returns) the beams' range R (default 20 m; four beams, gimballed, no noise).
 
 Paths are relative to the spec's folder.  The study's **rows** are the counts (a generator) or the
@@ -461,7 +461,7 @@ def _check_files(missions: tuple[Path, ...], rows: tuple[Row, ...]) -> None:
     if not files:
         return
     from planner.mission import load_mission
-    from replay.threat_file import load_threats
+    from replay.threats.file import load_threats
 
     for m in missions:
         mission = load_mission(m)

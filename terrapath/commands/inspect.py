@@ -26,14 +26,14 @@ def inspect_cmd(run: str, as_json: bool, png: str | None) -> None:
     """Summarise a replay MCAP: what was flown (mission, terrain, vehicle, seed, avoidance), the
     metrics (success, PLR, terrain clearance, minimum separation to each threat), topics and
     attachments; --json adds the final waypoint list; --png draws the run."""
-    from replay.reader import load_run, summary
+    from replay.record.reader import load_run, summary
 
     if png is not None:
         if not png.lower().endswith(".png"):
             raise click.BadParameter(
                 f"the picture must end in .png; got {png!r}", param_hint="--png"
             )
-        from replay.picture import run_picture
+        from replay.record.picture import run_picture
 
         run_picture(run, png)
         click.echo(f"wrote {png}", err=True)

@@ -18,7 +18,7 @@ def layout_cmd(output: str | None) -> None:
     the aircraft, with the terrain, threats, path, radar detections and the avoider's orbits;
     plots of altitude, airspeed and bank against their commands; the avoidance decisions.
     Import it in Foxglove with Layouts -> Import from file."""
-    from replay.layout import layout_json, write_layout
+    from replay.record.foxglove_layout import layout_json, write_layout
 
     if output is None:
         click.echo(layout_json(), nl=False)

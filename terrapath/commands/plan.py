@@ -281,7 +281,7 @@ def plan_cmd(
 
     from planner.performance import Performance
     from planner.pipeline import PlanRequest
-    from replay.vehicle.presets import load_vehicle
+    from replay.flight.fixedwing.presets import load_vehicle
 
     if not output.lower().endswith((".yaml", ".yml")):
         raise click.BadParameter(

@@ -375,7 +375,7 @@ def replay_cmd(
         result = run_replay(prepared, output, progress=progress)
     picture = None
     if not no_picture:  # drawn from the replay in memory, not read back from the MCAP
-        from replay.picture import draw_run, replay_view
+        from replay.record.picture import draw_run, replay_view
 
         view = replay_view(prepared, result, Path(output).name)
         picture = draw_run(view, Path(output).with_suffix(".png"))

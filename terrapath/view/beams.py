@@ -1,5 +1,5 @@
 """How ``terrapath view`` draws a run's rangefinder beams (seed 003; ``/rangefinder/beams``,
-written by :meth:`replay.record.RunRecorder.write_beams`): the beams of the scans nearest to
+written by :meth:`replay.record.recorder.RunRecorder.write_beams`): the beams of the scans nearest to
 :data:`BEAM_SCANS` evenly spaced times of the recording, each a segment from the aircraft to
 where the beam ended -- red where it hit something, green where it reached its full range.
 
@@ -30,7 +30,7 @@ def beam_marks(path: str | Path, scans: int = BEAM_SCANS) -> list[Mark]:
     from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
     from mcap.reader import make_reader
 
-    from replay import topics as T
+    from replay.record import topics as T
 
     with open(path, "rb") as f:
         reader = make_reader(f)

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from replay.circles import cone_outline
+from replay.avoidance.circles import cone_outline
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -17,7 +17,7 @@ above the terrain and the separation to the nearest active threat.
 
 **Time plots** (:func:`time_figure`): altitude and the terrain below it, airspeed, bank, and the
 separation from each threat's surface against the run's margin (violations in red): per run the
-``replay.picture.NEAREST_DRAWN`` threats that came closest, as in the run's picture.
+``replay.record.picture.NEAREST_DRAWN`` threats that came closest, as in the run's picture.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from replay.picture import NEAREST_DRAWN, nearest_threats
+from replay.record.picture import NEAREST_DRAWN, nearest_threats
 from terrapath.view.decisions import Mark, decision_marks
 from terrapath.view.shapes import (
     Mesh,

@@ -5,7 +5,7 @@ threat's volume is a solid, and a closed mesh is what a browser shades right):
 
 - :func:`sphere_mesh` -- a UV sphere (a static threat, each point of a hill, an intruder);
 - :func:`superellipsoid_mesh` -- seed 001's convex body
-  ``|x/a|^(2p) + |y/b|^(2q) + |z/c|^(2r) = 1`` (:mod:`replay.body_threat`): each vertex of a unit
+  ``|x/a|^(2p) + |y/b|^(2q) + |z/c|^(2r) = 1`` (:mod:`replay.threats.body`): each vertex of a unit
   sphere is pushed along its direction to the surface (the radial distance solves a monotone
   equation, by bisection), so any exponents >= 0.5 mesh the body's true shape;
 - :func:`cylinder_mesh` -- a vertical cylinder with both caps (a cylinder threat, a circular

@@ -45,7 +45,7 @@ class Track:
 @dataclass(frozen=True, eq=False)
 class Source:
     """One SOURCE: its mission, its map (None: flat ground, or a DEM no longer found) and, for a
-    run, what the run's picture draws (:class:`replay.picture.RunView`) and its track."""
+    run, what the run's picture draws (:class:`replay.record.picture.RunView`) and its track."""
 
     path: Path
     mission: Any
@@ -67,7 +67,7 @@ def read_source(path: str | Path) -> Source:
     """A SOURCE: a replay MCAP (by its magic bytes) or a mission YAML; a one-line error for
     anything else, a missing file, or a run without a trajectory."""
     from planner.mission import load_mission
-    from replay.picture import load_grid, recorded_view
+    from replay.record.picture import load_grid, recorded_view
 
     p = Path(path)
     if not p.is_file():
@@ -132,7 +132,7 @@ def _map_name(s: Source) -> str:
 
 def track_of(run: Any, max_points: int = MAX_TRACK) -> Track:
     """The display samples of a run (module docstring)."""
-    from replay.picture import separation_of
+    from replay.record.picture import separation_of
 
     n = len(run.times)
     step = max(1, math.ceil(n / max_points))

@@ -104,7 +104,7 @@ def threat_records(mission: Any) -> list[dict[str, Any]]:
 def fly(scenario: MapScenario, avoid: str) -> dict[str, Any]:
     """The golden figures of one flight."""
     from replay.run import ReplayRequest, run_replay
-    from replay.threat_file import threats_from_records
+    from replay.threats.file import threats_from_records
 
     prepared = scenario.prepared()
     mission = mission_of(scenario)

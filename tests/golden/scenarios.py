@@ -21,7 +21,7 @@ from planner.pipeline import PlanRequest, Prepared, build_problem
 from planner.plan import plan
 from planner.problem import PlanningProblem
 from planner.reference import REFERENCE_MAPS, ReferenceMap
-from replay.vehicle.presets import load_vehicle
+from replay.flight.fixedwing.presets import load_vehicle
 
 GOLDEN = Path(__file__).resolve().parent / "plans.json"
 ALGORITHMS = ("ampso", "apso", "pso", "ga")

@@ -1,0 +1,202 @@
+"""Flight stacks: a vehicle's 6-DOF dynamics and its controller, driven by guidance commands.
+
+The simulation loop (:func:`replay.sim.simulate`) only talks to a :class:`FlightStack`: it asks it
+for the initial state over the first waypoint, hands it every avoider's command
+(:mod:`replay.guidance`), and lets it fly for a period in compiled steps. The distances that must
+scale with the vehicle (when a waypoint counts as reached, when to turn for the next leg) belong
+to the stack, not to the loop.
+
+:class:`FixedWingStack` is the fixed-wing aircraft under :class:`replay.flight.fixedwing.autopilot.Autopilot`:
+waypoint legs (turn fillets of the mission's radius, or seed 000's switch 1 km before a
+waypoint), hold course, orbit (refused when tighter than V^2 / (g tan(bank_max))), climb rate,
+flight-path angle and hold altitude. It cannot hover: go-to, hold-position and yaw-to commands are
+refused. The multirotor's stack is :class:`replay.flight.multirotor.stack.MultirotorStack` (go-to,
+hold position, yaw-to, waypoints, hold course, orbits at the speed their radius allows).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig, FlightLog, TerrainHeight
+from replay.flight.fixedwing.params import VehicleParams
+from replay.flight.fixedwing.trim import trim
+from replay.frames import PD, PE, PN, PSI
+from replay.guidance import (
+    HOVER_COMMANDS,
+    ClimbRate,
+    FlightPathAngle,
+    FollowWaypoints,
+    GuidanceCommand,
+    GuidanceRefused,
+    HoldAltitude,
+    HoldCourse,
+    Orbit,
+    check_command,
+)
+
+FloatArray = npt.NDArray[np.float64]
+SEED000_SWITCH_M = 1000.0  # seed 000 §3.6: the next leg is taken 1 km before a waypoint
+ARRIVAL_M = 100.0
+
+
+class FlightStack(Protocol):
+    """What the simulation loop needs of a vehicle and its controller."""
+
+    name: str
+    params: Any
+    hover_capable: bool
+    arrival_distance: float
+    switch_distance: float  # 0 when corners are flown as fillets
+    corner_distance: float  # how far before a waypoint the flown path leaves the leg
+
+    @property
+    def dt(self) -> float: ...
+
+    @property
+    def waypoints(self) -> FloatArray: ...
+
+    @property
+    def next_index(self) -> int: ...
+
+    @property
+    def done(self) -> bool: ...
+
+    def initial_state(self) -> FloatArray: ...
+
+    def apply(self, command: GuidanceCommand) -> None: ...
+
+    def fly(
+        self, state: FloatArray, t: float, duration: float, *, record_every: int
+    ) -> FlightLog: ...
+
+
+class FixedWingStack:
+    """A fixed-wing aircraft (``params``) under its autopilot, flying ``waypoints`` at ``airspeed``.
+
+    ``turn_radius``: corners are flown as fillets of that radius (what the planner checked); None:
+    seed 000's rule, the next leg 1 km (``switch_distance``) before a waypoint. ``terrain_height``
+    and ``terrain_clearance`` > 0 turn on terrain following.
+    """
+
+    hover_capable = False
+
+    def __init__(
+        self,
+        params: VehicleParams,
+        waypoints: npt.ArrayLike,
+        *,
+        airspeed: float | None = None,
+        turn_radius: float | None = None,
+        switch_distance: float = SEED000_SWITCH_M,
+        arrival_distance: float = ARRIVAL_M,
+        terrain_height: TerrainHeight | None = None,
+        terrain_clearance: float = 0.0,
+        temperature_offset: float = 0.0,
+    ) -> None:
+        self.params = params
+        self.temperature_offset = float(temperature_offset)
+        self.name = params.name
+        self.airspeed = float(params.cruise_speed if airspeed is None else airspeed)
+        self.config = AutopilotConfig(
+            switch_distance=switch_distance,
+            turn_radius=turn_radius,
+            arrival_distance=arrival_distance,
+            terrain_clearance=terrain_clearance,
+        )
+        wp = np.array(waypoints, dtype=np.float64)
+        self._wp0 = wp
+        # trim first: "cannot trim" names the speeds the aircraft can fly, more than the envelope
+        self._x0 = self._trimmed_start()
+        self.autopilot = Autopilot(
+            params,
+            wp,
+            airspeed=self.airspeed,
+            config=self.config,
+            terrain_height=terrain_height if terrain_clearance > 0 else None,
+            temperature_offset=self.temperature_offset,
+        )
+        self.arrival_distance = float(arrival_distance)
+        self.switch_distance = 0.0 if turn_radius is not None else float(switch_distance)
+        # how far before a waypoint the flown path leaves the leg: the switch distance, or with
+        # fillets the tangent distance of a right-angle turn (R tan 45 deg = R)
+        self.corner_distance = (
+            float(turn_radius) if turn_radius is not None else float(switch_distance)
+        )
+
+    # -- state ----------------------------------------------------------------------------------
+    @property
+    def waypoints(self) -> FloatArray:
+        return self.autopilot.waypoints
+
+    @property
+    def next_index(self) -> int:
+        return self.autopilot.next_index
+
+    @property
+    def done(self) -> bool:
+        return self.autopilot.done
+
+    @property
+    def dt(self) -> float:
+        return float(self.config.dt)
+
+    def initial_state(self) -> FloatArray:
+        """Trimmed level flight at the airspeed over the first waypoint, heading for the second."""
+        return self._x0.copy()
+
+    def _trimmed_start(self) -> FloatArray:
+        """The start state; first the level trim at the mission's highest waypoint, where the
+        air is thinnest: a mission the aircraft cannot fly up there is refused before take-off,
+        naming the altitude and the speeds it can fly there."""
+        dtemp = self.temperature_offset
+        top = float(self._wp0[:, 2].max())
+        trim(self.params, self.airspeed, altitude=top, temperature_offset=dtemp)
+        start, nxt = self._wp0[0], self._wp0[min(1, len(self._wp0) - 1)]
+        tr = trim(self.params, self.airspeed, altitude=float(start[2]), temperature_offset=dtemp)
+        x = np.array(tr.x, dtype=np.float64)
+        x[PN], x[PE], x[PD] = start[1], start[0], -start[2]
+        x[PSI] = math.atan2(nxt[0] - start[0], nxt[1] - start[1])
+        return x
+
+    # -- commands -------------------------------------------------------------------------------
+    def apply(self, command: GuidanceCommand) -> None:
+        """Fly ``command`` from now on, or raise :class:`GuidanceRefused` saying why not."""
+        cmd = check_command(command)
+        ap = self.autopilot
+        if isinstance(cmd, HOVER_COMMANDS):
+            raise GuidanceRefused(
+                f"{type(cmd).__name__} needs a vehicle that can hover; {self.name} is a "
+                "fixed-wing aircraft"
+            )
+        if isinstance(cmd, FollowWaypoints):
+            ap.set_waypoints(cmd.waypoints, cmd.next_index, direct=cmd.direct)
+            ap.clear_override()
+        elif isinstance(cmd, HoldCourse):
+            ap.clear_override()
+            ap.set_override(course=cmd.course, altitude=cmd.altitude, climb_rate=cmd.climb_rate)
+        elif isinstance(cmd, Orbit):
+            ap.set_orbit(
+                cmd.center,
+                cmd.radius,
+                clockwise=cmd.clockwise,
+                altitude=cmd.altitude,
+                center_velocity=cmd.center_velocity,
+            )
+        elif isinstance(cmd, ClimbRate):
+            ap.set_override(climb_rate=cmd.rate)
+        elif isinstance(cmd, FlightPathAngle):
+            ap.set_override(climb_rate=ap.airspeed * math.sin(cmd.gamma))
+        elif isinstance(cmd, HoldAltitude):
+            ap.set_override(altitude=cmd.altitude)
+
+    # -- flying ---------------------------------------------------------------------------------
+    def fly(self, state: FloatArray, t: float, duration: float, *, record_every: int) -> FlightLog:
+        return self.autopilot.fly(state, t, duration, record_every=record_every)
+
+
+__all__ = ["ARRIVAL_M", "SEED000_SWITCH_M", "FixedWingStack", "FlightStack"]

@@ -1,0 +1,326 @@
+"""How the content of a message becomes bytes, fast: the encoders of :mod:`replay.record.recorder`.
+
+What a message says is decided by :mod:`replay.record.recorder`; here it is encoded, with the bytes the
+general encoders (protobuf's ``SerializeToString``, ``json``) would give, by hand where a message is
+large or frequent:
+
+- **protobuf wire format** for large arrays (terrain, track, detection markers), written with numpy
+  and struct (:func:`ld`, :func:`doubles_messages`, :func:`packed_fixed32`, :func:`sphere_field`);
+  the field numbers used (``TRI_POINTS``, ``UPDATE_ENTITIES``...) are read from, and checked
+  against, the installed foxglove schemas at import;
+- **JSON**: plain JSON data from numpy values (:func:`jsonable`; NaN and infinities become
+  ``null``), compact encoding (:func:`dumps`), numbers to ``DIGITS`` significant digits;
+- the **vehicle state** text, one %-format per set of extras names (:class:`StateText`);
+- a **radar scan**, its marker scene update and its detection list, with the encoded pieces of
+  repeated detections kept (:class:`ScanEncoder`; bounded memos).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import struct
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from foxglove_schemas_protobuf.Color_pb2 import Color
+from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
+from foxglove_schemas_protobuf.Point3_pb2 import Point3
+from foxglove_schemas_protobuf.Pose_pb2 import Pose
+from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
+from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
+from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
+from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
+
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+
+# significant digits of the numbers in /vehicle/state: 1e-5 m at 10,000 km; formatting 17 (exact
+# round trip) costs twice as much, and this message is written 288,000 times in an 8-hour mission
+DIGITS = 12
+MEMO_SIZE = 50_000  # encoded detections kept (a few MB), cleared when full
+
+# ---------------------------------------------------------------------------------------------
+# protobuf wire format for large arrays (fields checked against the schema descriptors below)
+
+_WIRE_DOUBLE = 1
+_WIRE_LEN = 2
+_FIXED32 = 7  # FieldDescriptor.TYPE_FIXED32
+
+
+def _tag(field: int, wire: int) -> bytes:
+    return _varint(field << 3 | wire)
+
+
+def _varint(n: int) -> bytes:
+    out = bytearray()
+    while n > 0x7F:
+        out.append(n & 0x7F | 0x80)
+        n >>= 7
+    out.append(n)
+    return bytes(out)
+
+
+def ld(field: int, payload: bytes) -> bytes:
+    """A length-delimited field (embedded message, string, packed array)."""
+    return _tag(field, _WIRE_LEN) + _varint(len(payload)) + payload
+
+
+def doubles_messages(field: int, values: FloatArray) -> bytes:
+    """``repeated M field`` where M has only double fields 1..k (Point3, Color): one embedded
+    message per row of ``values`` (n, k), every field written (also zeros, which is valid)."""
+    n, k = values.shape
+    out = np.empty((n, 2 + 9 * k), dtype=np.uint8)
+    out[:] = _row_template(field, k)
+    raw = np.ascontiguousarray(values, dtype="<f8").view(np.uint8).reshape(n, k, 8)
+    for j in range(k):
+        out[:, 3 + 9 * j : 11 + 9 * j] = raw[:, j]
+    return out.tobytes()
+
+
+@functools.cache
+def _row_template(field: int, k: int) -> npt.NDArray[np.uint8]:
+    """The bytes of one embedded message of ``doubles_messages`` with all doubles zero."""
+    tag = _tag(field, _WIRE_LEN)
+    if len(tag) != 1 or k > 15:
+        raise ValueError("only fields 1..15 with up to 15 doubles are supported")
+    row = [tag[0], 9 * k]
+    for j in range(k):
+        row += [(j + 1) << 3 | _WIRE_DOUBLE] + [0] * 8
+    return np.array(row, dtype=np.uint8)
+
+
+def packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
+    return ld(field, np.ascontiguousarray(values, dtype="<u4").tobytes())
+
+
+_DOUBLE = struct.Struct("<d")
+_NO_BITS = bytes(8)
+
+
+def _vector3(x: float, y: float, z: float) -> bytes:
+    """A Vector3 / Point3 message as protobuf writes it: the doubles x (1), y (2), z (3), each
+    left out when its bits are all zero (proto3 default; -0.0 is written)."""
+    out = b""
+    for tag, v in ((b"\x09", x), (b"\x11", y), (b"\x19", z)):
+        raw = _DOUBLE.pack(v)
+        if raw != _NO_BITS:
+            out += tag + raw
+    return out
+
+
+def sphere_field(field: int, x: float, y: float, z: float, tail: bytes) -> bytes:
+    """One ``SpherePrimitive field``: ``pose {position: (x, y, z), orientation: identity}``
+    followed by ``tail``, the sphere's encoded ``size`` and ``color`` fields (the bytes of
+    SerializeToString; the tests compare them)."""
+    position = _vector3(x, y, z)
+    pose = bytes((_POSE_POSITION_TAG, len(position))) + position + _IDENTITY
+    sphere = bytes((_SPHERE_POSE_TAG, len(pose))) + pose + tail
+    return ld(field, sphere)
+
+
+def _check_wire_layout() -> None:
+    """The hand-encoded fields must be what the installed schemas say (fails at import if not)."""
+
+    def number(msg: Any, name: str, ftype: int | None = None) -> int:
+        f = msg.DESCRIPTOR.fields_by_name[name]
+        if ftype is not None and f.type != ftype:
+            raise ImportError(f"unexpected type for {msg.DESCRIPTOR.full_name}.{name}")
+        return int(f.number)
+
+    expected: dict[tuple[Any, str], int] = {
+        (Point3, "x"): 1,
+        (Point3, "y"): 2,
+        (Point3, "z"): 3,
+        (Color, "r"): 1,
+        (Color, "g"): 2,
+        (Color, "b"): 3,
+        (Color, "a"): 4,
+    }
+    for (msg, name), num in expected.items():
+        if number(msg, name, 1) != num:  # TYPE_DOUBLE
+            raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
+    number(TriangleListPrimitive, "indices", _FIXED32)
+    for msg in (Vector3, Point3):
+        for j, name in enumerate("xyz"):
+            if number(msg, name, 1) != j + 1:
+                raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
+    if (number(Pose, "position"), number(Pose, "orientation")) != (1, 2) or number(
+        SpherePrimitive, "pose"
+    ) >= min(number(SpherePrimitive, "size"), number(SpherePrimitive, "color")):
+        raise ImportError("unexpected field numbers for foxglove.Pose or SpherePrimitive")
+
+
+_check_wire_layout()
+TRI_POINTS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["points"].number
+TRI_COLORS = TriangleListPrimitive.DESCRIPTOR.fields_by_name["colors"].number
+TRI_INDICES = TriangleListPrimitive.DESCRIPTOR.fields_by_name["indices"].number
+LINE_POINTS = LinePrimitive.DESCRIPTOR.fields_by_name["points"].number
+ENTITY_LINES = SceneEntity.DESCRIPTOR.fields_by_name["lines"].number
+ENTITY_TRIANGLES = SceneEntity.DESCRIPTOR.fields_by_name["triangles"].number
+UPDATE_ENTITIES = SceneUpdate.DESCRIPTOR.fields_by_name["entities"].number
+ENTITY_SPHERES = SceneEntity.DESCRIPTOR.fields_by_name["spheres"].number
+_SPHERE_POSE = SpherePrimitive.DESCRIPTOR.fields_by_name["pose"].number
+_POSE_POSITION = Pose.DESCRIPTOR.fields_by_name["position"].number
+_SPHERE_POSE_TAG = _tag(_SPHERE_POSE, _WIRE_LEN)[0]  # one byte each (fields 1..15), and so are
+_POSE_POSITION_TAG = _tag(_POSE_POSITION, _WIRE_LEN)[0]  # the lengths: a pose is < 128 bytes
+_IDENTITY = Pose(orientation=Quaternion(w=1.0)).SerializeToString()  # the orientation field
+
+
+# ---------------------------------------------------------------------------------------------
+# JSON
+
+
+def jsonable(value: Any) -> Any:
+    """Plain JSON data from numbers, numpy scalars and arrays, tuples, mappings; NaN and infinities
+    become ``null`` (JSON has no such numbers)."""
+    if isinstance(value, str | bool) or value is None:
+        return value
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        f = float(value)
+        return f if math.isfinite(f) else None
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, Iterable):
+        return [jsonable(v) for v in value]
+    raise TypeError(f"{type(value).__name__} is not JSON data")
+
+
+_JSON = json.JSONEncoder(separators=(",", ":"), allow_nan=False)  # json.dumps with these settings
+
+
+def dumps(value: Any) -> bytes:
+    """Compact JSON bytes (NaN and infinities refused: pass :func:`jsonable` data)."""
+    return _JSON.encode(value).encode()
+
+
+def number_text(x: float) -> str:
+    """A number as the state message writes it: ``DIGITS`` significant digits, ``null`` if not finite."""
+    return f"{x:.{DIGITS}g}" if math.isfinite(x) else "null"
+
+
+# ---------------------------------------------------------------------------------------------
+# the vehicle state
+
+
+class StateText:
+    """The JSON text of a state message: ``keys`` (the fixed numbers, in order) then ``extras``
+    (name -> number), each number to ``DIGITS`` significant digits.  One %-format is kept per
+    tuple of extras names; a message with a value that is not finite writes it as ``null``.
+    ``where`` prefixes error messages (the file)."""
+
+    def __init__(self, keys: Sequence[str], where: str = "") -> None:
+        self._keys = tuple(keys)
+        self._where = where
+        self._head = ",".join(f'"{k}":%.{DIGITS}g' for k in self._keys)
+        self._formats: dict[tuple[str, ...], str] = {(): "{" + self._head + ',"extras":{}}'}
+
+    def text(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
+        """The message for ``values`` (one per key) and ``extras``; a value that is not a number
+        raises TypeError, an extras name that is not text InputError."""
+        if extras:
+            fmt = self._formats.get(tuple(extras)) or self._format(extras)
+            values += tuple(extras.values())
+        else:
+            fmt = self._formats[()]
+        return fmt % values if math.isfinite(sum(values)) else self._with_nulls(values, extras)
+
+    def _format(self, extras: Mapping[str, float]) -> str:
+        """The %-format of a state message with these extras names (cached per name tuple)."""
+        names = tuple(extras)
+        for name in names:
+            if not isinstance(name, str) or not name:
+                raise InputError(f"{self._where}extras: names must be non-empty text ({name!r})")
+        fields = ",".join(f"{json.dumps(name)}:%.{DIGITS}g" for name in names)
+        fmt = self._formats[names] = "{" + self._head + ',"extras":{' + fields + "}}"
+        return fmt
+
+    def _with_nulls(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
+        """The state message when some value is not finite (written as null)."""
+        nums = [number_text(float(x)) for x in values]
+        body = ",".join(f'"{k}":{n}' for k, n in zip(self._keys, nums, strict=False))
+        names = tuple(extras or ())
+        more = ",".join(
+            f"{json.dumps(k)}:{n}" for k, n in zip(names, nums[len(self._keys) :], strict=True)
+        )
+        return "{" + body + ',"extras":{' + more + "}}"
+
+
+# ---------------------------------------------------------------------------------------------
+# a radar scan
+
+
+def bounded(memo: dict[Any, Any]) -> dict[Any, Any]:
+    """``memo``, emptied first when it holds more than ``MEMO_SIZE`` entries."""
+    if len(memo) > MEMO_SIZE:  # a noisy radar never repeats a point: keep it bounded
+        memo.clear()
+    return memo
+
+
+class ScanEncoder:
+    """The two messages of one radar scan.  A radar sees a static threat at the same point scan
+    after scan: the encoded marker of a detection and its JSON up to the range are kept (bounded,
+    :func:`bounded`).  ``map_origin`` is subtracted from the marker positions."""
+
+    def __init__(self, map_origin: Sequence[float]) -> None:
+        self._origin = (float(map_origin[0]), float(map_origin[1]), float(map_origin[2]))
+        self._sphere_memo: dict[tuple[Any, ...], bytes] = {}  # detection marker bytes
+        self._json_memo: dict[tuple[Any, ...], str] = {}  # detection JSON up to the range
+
+    def markers(self, entity: bytes, positions: list[list[float]], tails: list[bytes]) -> bytes:
+        """The scene update: the encoded entity ``entity`` with a sphere at each position (map CRS
+        metres) followed by its ``tail`` (the sphere's encoded size and colour fields)."""
+        ox, oy, oz = self._origin
+        memo = bounded(self._sphere_memo)
+        spheres = []
+        for (x, y, z), tail in zip(positions, tails, strict=True):
+            # (0.0 and -0.0 are equal keys with different bits: not kept)
+            key = (x, y, z, tail) if x and y and z else None
+            sphere = memo.get(key)
+            if sphere is None:
+                sphere = sphere_field(ENTITY_SPHERES, x - ox, y - oy, z - oz, tail)
+                if key is not None:
+                    memo[key] = sphere
+            spheres.append(sphere)
+        return ld(UPDATE_ENTITIES, entity + b"".join(spheres))
+
+    def json(
+        self,
+        ids: Sequence[str],
+        positions: list[list[float]],
+        flags: list[tuple[bool, bool]],
+        ranges: list[float],
+    ) -> bytes:
+        """``dumps({"detections": [...]})`` of complete detections (finite numbers; ``flags`` are
+        (terrain, moving)) written directly: JSON writes a float as its ``repr``; everything up to
+        the range is kept per id, position and flags.  The tests compare it with the recorder's
+        ``write_detections``."""
+        memo = bounded(self._json_memo)
+        parts = []
+        for ident, (x, y, z), (terrain, moving), r in zip(
+            ids, positions, flags, ranges, strict=True
+        ):
+            key = (ident, x, y, z, terrain, moving) if x and y and z else None  # as above
+            head = memo.get(key)
+            if head is None:
+                head = (
+                    f'{{"id":{dumps(str(ident)).decode()},"position":[{x!r},{y!r},{z!r}],'
+                    f'"kind":"{"terrain" if terrain else "threat"}",'
+                    f'"moving":{"true" if moving else "false"},"range":'
+                )
+                if key is not None:
+                    memo[key] = head
+            parts.append(f"{head}{r!r}}}")
+        return f'{{"detections":[{",".join(parts)}]}}'.encode()

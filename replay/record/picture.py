@@ -1,0 +1,400 @@
+"""A picture of a recorded run (``RUN.png``): what ``terrapath replay`` writes beside the MCAP and
+``terrapath inspect RUN.mcap --png OUT.png`` makes from any recorded run.
+
+``inspect`` draws from the MCAP itself (its states, waypoint changes, decisions and attachments:
+the mission, the threat file) and the DEM tiles it names (:func:`recorded_view`); ``replay`` draws
+the same from the flight it has in memory (:func:`replay_view`: nothing read back). A run over
+flat ground (no DEM, or tiles no longer where they were recorded) is drawn without a map, and the
+title says so.
+
+- **Plan view** (top): the hillshade of the DEM, the mission's danger zones, the planned waypoints
+  (the list the run started with, dashed), the flown track, the final waypoint list when the
+  avoider changed it, every threat's footprint (a circle of its safety radius about each point --
+  a static threat, a hill's points, an intruder at its closest approach, whose track is drawn too
+  -- a cylinder's circle, a convex body's widest section), the orbits an avoider commanded (CTGA's
+  arcs, dotted), the priority loop's set-points (crosses) and the points of the track inside a
+  threat's volume or a zone, in red.
+  When the flight covers a small part of a large map (under a third of it each way: a priority
+  loop's block of a city district) the view is zoomed onto the flight (:func:`zoom_box`).
+- **Separation** (middle): the distance from each threat's surface against time (NaN while it is
+  not active), the success margin and zero, violations in red; the :data:`NEAREST_DRAWN` threats
+  that came closest (:func:`nearest_threats`: 143 buildings would be a legend, not a plot), the
+  scale up to four times the largest of their least separations.
+- **Above the ground** (bottom): the altitude above the terrain under the aircraft against time
+  (with a DEM), or the altitude (flat ground).
+
+At most :data:`MAX_POINTS` samples of the trajectory are drawn (a regular stride: the 8-hour seed
+000 flight has 290,000 states); the separations are computed on those samples.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from replay.frames import PD, PE, PHI, PN, U, V, W
+from replay.record import topics as T
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+MAX_POINTS = 20_000
+RED = "#d62728"
+NEAREST_DRAWN = 8  # threats drawn in the separation panel: those that came closest
+
+
+@dataclass(frozen=True, eq=False)
+class RunView:
+    """What the picture draws of one run: from its MCAP (:func:`recorded_view`) or from the
+    replay just flown (:func:`replay_view`, nothing read back)."""
+
+    title: str
+    mission: Any
+    grid: Any  # HeightGrid or None (flat ground, or a DEM no longer where it was)
+    note: str  # said in the title when there is no map
+    threats: tuple[Any, ...]
+    times: FloatArray  # (K,)
+    positions: FloatArray  # (K, 3) map
+    initial_waypoints: FloatArray
+    final_waypoints: FloatArray
+    decisions: tuple[dict[str, Any], ...]
+    margin: float
+    airspeed: FloatArray  # (K,) m/s
+    bank: FloatArray  # (K,) rad
+    # the waypoint lists an avoider commanded, (t, (W, 3), reason) (recorded runs only: a
+    # replay's result keeps its final list)
+    changes: tuple[tuple[float, FloatArray, str], ...] = ()
+    success: bool = True
+    avoid: str | None = None
+    stride: int = 1  # times/positions hold every stride-th recorded state
+    n_states: int = 0  # states recorded (0: len(times))
+
+
+def _title(name: str, avoid: str | None, success: bool) -> str:
+    return f"{name}: {avoid or 'no avoidance'}, {'success' if success else 'FAILED'}"
+
+
+def recorded_view(run: str | Path, max_states: int | None = MAX_POINTS) -> RunView:
+    """The view of a recorded run (one read of the MCAP, decoding at most about ``max_states``
+    states, a regular stride); a one-line error when it has no trajectory."""
+    from replay.record.reader import load_run
+    from replay.run import mission_of_run, recorded_threats
+
+    src = Path(run)
+    record = load_run(src, max_states=max_states)
+    if len(record.times) < 2:
+        raise InputError(f"{src}: the run has no trajectory to draw (fewer than 2 states)")
+    mission = mission_of_run(record, str(src))
+    grid, note = load_grid(mission)
+    threat_text = record.attachments.get("threats.yaml")
+    threats = (
+        tuple(recorded_threats(threat_text.decode("utf-8"), str(src), grid))
+        if threat_text is not None
+        else ()
+    )
+    s = record.states
+    start = record.waypoints[0].waypoints if record.waypoints else mission.waypoints
+    m = record.metrics
+    return RunView(
+        _title(src.name, record.metadata.get("avoid"), bool(m.get("success"))),
+        mission,
+        grid,
+        note,
+        threats,
+        record.times,
+        np.column_stack([s[:, PE], s[:, PN], -s[:, PD]]),
+        start,
+        record.waypoints[-1].waypoints if record.waypoints else start,
+        tuple(d.decision for d in record.decisions),
+        float(m.get("margin_m") or 0.0),
+        np.linalg.norm(s[:, [U, V, W]], axis=1),
+        s[:, PHI].copy(),
+        tuple((c.t, c.waypoints, c.reason) for c in record.waypoints[1:]),
+        bool(m.get("success")),
+        record.metadata.get("avoid"),
+        record.state_stride,
+        record.topic_counts.get(T.VEHICLE_STATE, 0),
+    )
+
+
+def replay_view(prepared: Any, result: Any, name: str) -> RunView:
+    """The view of the replay just flown (``replay.run.PreparedReplay`` and its result)."""
+    grid = prepared.grid
+    return RunView(
+        _title(name, prepared.request.avoid, result.metrics.success),
+        prepared.mission,
+        grid,
+        "" if grid is not None else " (flat ground)",
+        tuple(prepared.threats),
+        result.times,
+        result.positions,
+        result.initial_waypoints,
+        result.waypoints,
+        tuple(result.decisions),
+        float(result.metrics.margin_m),
+        np.linalg.norm(result.states[:, [U, V, W]], axis=1),
+        result.states[:, PHI].copy(),
+        success=bool(result.metrics.success),
+        avoid=prepared.request.avoid,
+    )
+
+
+def run_picture(run: str | Path, out: str | Path) -> Path:
+    """Write the picture of the recorded run ``run`` (an MCAP) to ``out``."""
+    return draw_run(recorded_view(run), out)
+
+
+def draw_run(view: RunView, out: str | Path) -> Path:
+    """Write the picture of ``view`` to ``out`` (PNG, through a temporary name)."""
+    from terrain.plot import draw_hillshade, draw_zones, legend_below, new_figure, save_figure
+
+    grid, mission, note = view.grid, view.mission, view.note
+    n = view.n_states or len(view.times)
+    step = max(1, math.ceil(len(view.times) / MAX_POINTS))
+    t = view.times[::step]
+    xyz = view.positions[::step]
+
+    width = 9.0
+    if grid is not None:
+        xmin, ymin, xmax, ymax = grid.bounds
+        map_h = max(3.5, min(width * (ymax - ymin) / (xmax - xmin), 10.0))
+    else:
+        map_h = 6.0
+    fig = new_figure(width, map_h + 5.6)
+    gs = fig.add_gridspec(3, 1, height_ratios=[map_h, 2.4, 2.2])
+    ax = fig.add_subplot(gs[0])
+    if grid is not None:
+        draw_hillshade(fig, ax, grid, view.title + note)
+    else:
+        ax.set_title(view.title + note)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x east (m)")
+        ax.set_ylabel("y north (m)")
+    if mission.danger_zones:
+        draw_zones(ax, mission.danger_zones)
+    sep = {th.id: separation_of(th, xyz, t) for th in view.threats}
+    for th in view.threats:
+        _draw_threat(ax, th, xyz, t, sep[th.id])
+    start, final = view.initial_waypoints, view.final_waypoints
+    ax.plot(start[:, 0], start[:, 1], "--o", color="#1f77b4", ms=4, lw=1.2, label="planned")
+    if len(final) != len(start) or not np.allclose(final, start):
+        ax.plot(
+            final[:, 0],
+            final[:, 1],
+            "o",
+            color="#ff7f0e",
+            mec="black",
+            ms=5,
+            ls="",
+            label="waypoints after avoidance",
+        )
+    from matplotlib.patheffects import Normal, Stroke
+
+    ax.plot(
+        xyz[:, 0],
+        xyz[:, 1],
+        "-",
+        color="white",
+        lw=1.4,
+        label="flown",
+        path_effects=[Stroke(linewidth=2.8, foreground="black"), Normal()],
+    )
+    inside = np.zeros(len(t), dtype=bool)
+    for v in sep.values():
+        inside |= np.nan_to_num(v, nan=np.inf) < 0.0
+    if inside.any():
+        ax.plot(xyz[inside, 0], xyz[inside, 1], ".", color=RED, ms=3, label="inside a threat")
+    drawn: set[tuple[int, int, int]] = set()
+    for d in view.decisions:  # each distinct orbit once (an arc's updates move it little)
+        cmd = d.get("command")
+        if isinstance(cmd, dict) and cmd.get("command") == "Orbit":
+            cx, cy = cmd["center"]
+            r = cmd["radius"]
+            key = (round(cx / 50.0), round(cy / 50.0), round(r / 50.0))
+            if key in drawn:
+                continue
+            drawn.add(key)
+            a = np.linspace(0.0, 2.0 * math.pi, 73)
+            label = "avoider's orbits" if len(drawn) == 1 else None
+            ax.plot(
+                cx + r * np.sin(a), cy + r * np.cos(a), ":", color="#e377c2", lw=1.0, label=label
+            )
+    setpoints = next((d["setpoints"] for d in reversed(view.decisions) if d.get("setpoints")), None)
+    if setpoints:  # the priority loop's path S, as its last decision had it
+        s = np.asarray(setpoints, dtype=np.float64)
+        ax.plot(s[:, 0], s[:, 1], "x", color="#ff7f0e", ms=5, mew=1.5, ls="", label="set-points S")
+    if grid is None:
+        _frame(ax, xyz, start)
+    else:
+        box = zoom_box(grid.bounds, np.vstack([xyz[:, :2], start[:, :2]]))
+        if box is not None:
+            ax.set_xlim(box[0], box[2])
+            ax.set_ylim(box[1], box[3])
+    legend_below(ax)
+
+    ax2 = fig.add_subplot(gs[1])
+    margin = view.margin
+    shown = nearest_threats(sep, NEAREST_DRAWN)
+    if len(shown) < len(sep):
+        ax2.set_title(f"the {len(shown)} threats that came closest, of {len(sep)}", fontsize=8)
+    sep = {ident: sep[ident] for ident in shown}
+    for ident, v in sep.items():
+        ax2.plot(t / 60.0, v, lw=1.0, label=ident)
+        bad = v < margin
+        if bad.any():
+            ax2.plot(t[bad] / 60.0, v[bad], ".", color=RED, ms=2)
+    ax2.axhline(0.0, color="black", lw=0.8)
+    if margin:
+        ax2.axhline(margin, color=RED, lw=0.8, ls="--", label=f"margin {margin:g} m")
+    ax2.set_ylabel("separation from\nthe surface (m)")
+    ax2.set_xlim(t[0] / 60.0, t[-1] / 60.0)
+    if sep:
+        finite = np.concatenate([v[np.isfinite(v)] for v in sep.values()] + [np.zeros(1)])
+        closest = max(float(np.nanmin(v)) if np.isfinite(v).any() else 0.0 for v in sep.values())
+        # the close passes matter: up to four times the largest of the drawn threats' minimum
+        top = max(4.0 * closest, 2.0 * margin, 10.0)
+        ax2.set_ylim(min(float(finite.min()), 0.0) - 0.05 * top, top)
+        ax2.legend(fontsize=7, ncol=4, loc="upper right")
+    else:
+        ax2.text(0.5, 0.5, "no threats", transform=ax2.transAxes, ha="center")
+
+    ax3 = fig.add_subplot(gs[2], sharex=ax2)
+    if grid is not None:
+        agl = xyz[:, 2] - np.asarray(grid.height_at(xyz[:, 0], xyz[:, 1]), dtype=np.float64)
+        ax3.plot(t / 60.0, agl, color="#2ca02c", lw=1.0)
+        low = agl < 0.0
+        if low.any():
+            ax3.plot(t[low] / 60.0, agl[low], ".", color=RED, ms=2)
+        ax3.axhline(0.0, color="#8c6d46", lw=1.2)
+        ax3.set_ylabel("above the\nterrain (m)")
+    else:
+        ax3.plot(t / 60.0, xyz[:, 2], color="#2ca02c", lw=1.0)
+        ax3.set_ylabel("altitude (m)")
+    every = step * view.stride
+    ax3.set_xlabel("time (min)" + (f"; 1 in {every} of {n} states drawn" if every > 1 else ""))
+    return save_figure(fig, out)
+
+
+def load_grid(mission: Any) -> tuple[Any, str]:
+    """The run's DEM, or None with a note for the title (flat ground, or tiles not found).
+    (Several runs of one map, as ``terrapath view`` compares, load it once.)"""
+    if mission.terrain is None:
+        return None, " (flat ground)"
+    try:
+        t = mission.terrain
+        return _load_tiles(t.paths(), t.cell_size, t.local_cell_size), ""
+    except InputError:
+        return None, " (its DEM is not where it was recorded: drawn without the map)"
+
+
+@functools.lru_cache(maxsize=2)
+def _load_tiles(paths: tuple[str, ...], cell_size: Any, local_cell_size: Any = None) -> Any:
+    from terrain.load import load_dem
+
+    return load_dem(list(paths), cell_size=cell_size, local_cell_size=local_cell_size)
+
+
+def separation_of(th: Any, xyz: FloatArray, t: FloatArray) -> FloatArray:
+    """Distance from the threat's surface at each sample, NaN while it is not active."""
+    sep = np.asarray(th.separation(xyz, t), dtype=np.float64).reshape(-1)
+    return np.where(active_at(th, t), sep, np.nan)
+
+
+def active_at(th: Any, t: FloatArray) -> npt.NDArray[np.bool_]:
+    """``appears_at <= t < disappears_at`` at each time."""
+    end = math.inf if th.disappears_at is None else th.disappears_at
+    return np.asarray((t >= th.appears_at) & (t < end))
+
+
+def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArray) -> None:
+    """A threat's footprint: circles of its shapes (a body's widest section), a prism's polygon,
+    an intruder's track and its circle where it came closest."""
+    from matplotlib.patches import Circle, Polygon
+
+    colour = "#9467bd"
+    if th.kind == "intruder":
+        active = active_at(th, t)
+        if active.any():
+            track = np.asarray(th.position(t[active]), dtype=np.float64).reshape(-1, 3)
+            ax.plot(track[:, 0], track[:, 1], "-", color=colour, lw=1.0)
+            k = int(np.nanargmin(np.where(active, sep, np.inf)))
+            p = np.asarray(th.position(t[k]), dtype=np.float64).reshape(3)
+            ax.add_patch(Circle((p[0], p[1]), th.radius, fill=False, ec=colour, lw=1.2))
+            ax.annotate(th.id, (p[0], p[1]), color=colour, fontsize=7)
+        return
+    shapes = th.shapes(float(t[0]))
+    for sh in shapes:
+        if sh.get("kind") == "prism":
+            ring = np.asarray(sh["footprint"], dtype=np.float64)
+            ax.add_patch(Polygon(ring, closed=True, fill=False, ec=colour, lw=1.2))
+            continue
+        c = np.asarray(sh["center"], dtype=np.float64).reshape(-1, 3)
+        r = np.atleast_1d(np.asarray(sh.get("radius", 0.0), dtype=np.float64))
+        if sh.get("kind") == "body" or "axes" in sh:
+            axes = sh.get("axes") or (r[0], r[0])
+            r = np.array([max(float(axes[0]), float(axes[1]))])
+        for k in range(len(c)):
+            rk = float(r[min(k, len(r) - 1)])
+            ax.add_patch(Circle((c[k, 0], c[k, 1]), rk, fill=False, ec=colour, lw=1.2))
+    c0 = np.asarray(shapes[0]["center"], dtype=np.float64).reshape(-1, 3)[0]
+    ax.annotate(th.id, (c0[0], c0[1]), color=colour, fontsize=7)
+
+
+def nearest_threats(sep: dict[str, FloatArray], k: int) -> list[str]:
+    """The ids of the ``k`` threats whose least separation is smallest, in their given order
+    (a threat never active -- all NaN -- counts as infinitely far)."""
+    least = {
+        ident: float(np.nanmin(v)) if np.isfinite(v).any() else math.inf for ident, v in sep.items()
+    }
+    keep = set(sorted(least, key=lambda i: least[i])[:k])
+    return [ident for ident in sep if ident in keep]
+
+
+def zoom_box(
+    bounds: tuple[float, float, float, float], pts: FloatArray
+) -> tuple[float, float, float, float] | None:
+    """Plot limits round ``pts`` (the flight and its waypoints) when they span under a third of
+    the map each way, padded by a quarter of their span (at least 50 m) and kept on the map;
+    None to show the whole map."""
+    xmin, ymin, xmax, ymax = bounds
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = hi - lo
+    if span[0] >= (xmax - xmin) / 3.0 or span[1] >= (ymax - ymin) / 3.0:
+        return None
+    half = 0.5 * float(max(span)) + max(0.25 * float(max(span)), 50.0)
+    cx, cy = 0.5 * (lo + hi)
+    return (
+        max(xmin, float(cx) - half),
+        max(ymin, float(cy) - half),
+        min(xmax, float(cx) + half),
+        min(ymax, float(cy) + half),
+    )
+
+
+def _frame(ax: Any, xyz: FloatArray, wps: FloatArray) -> None:
+    """Limits round the track and the waypoints (flat ground: no map to set them)."""
+    pts = np.vstack([xyz[:, :2], np.asarray(wps, dtype=np.float64)[:, :2]])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.08 * float(max(hi - lo)) + 100.0
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+
+
+__all__ = [
+    "MAX_POINTS",
+    "RunView",
+    "active_at",
+    "draw_run",
+    "load_grid",
+    "nearest_threats",
+    "recorded_view",
+    "replay_view",
+    "run_picture",
+    "separation_of",
+    "zoom_box",
+]
