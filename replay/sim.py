@@ -33,9 +33,10 @@ import numpy.typing as npt
 from planner.mission import Mission
 from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
 from replay.flight.atmosphere import check_offset
-from replay.flight.fixedwing.autopilot import GUIDANCE_COLUMNS
+from replay.flight.base import FlightStack
 from replay.flight.fixedwing.params import VehicleParams
-from replay.flight.fixedwing.stack import FixedWingStack, FlightStack
+from replay.flight.fixedwing.stack import FixedWingStack
+from replay.flight.log import GUIDANCE_COLUMNS
 from replay.flight.multirotor.model import MultirotorParams
 from replay.flight.multirotor.stack import MultirotorStack
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned

@@ -8,17 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from replay.flight.fixedwing.autopilot import (
-    GUIDANCE_COLUMNS,
-    Autopilot,
-    AutopilotConfig,
-    FlightLog,
-    design_gains,
-)
+from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig
 from replay.flight.fixedwing.dynamics import air_data
+from replay.flight.fixedwing.gains import design_gains
 from replay.flight.fixedwing.kernels import step_n
 from replay.flight.fixedwing.presets import PRESETS
 from replay.flight.fixedwing.trim import trim
+from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
 from replay.frames import rotation_body_to_ned
 from terrain.errors import InputError
 

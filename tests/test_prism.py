@@ -20,8 +20,9 @@ from rasterio.crs import CRS
 
 from replay.record.messages import normalize_threat
 from replay.record.scene import prism_mesh
-from replay.run import ReplayRequest, recorded_threats, run_replay
+from replay.run import ReplayRequest, run_replay
 from replay.sensors.cooperative import CooperativeSensor
+from replay.source import recorded_threats
 from replay.threats.file import load_threats, recorded_text, threats_from_records
 from replay.threats.kinds import CylinderThreat, PrismThreat, footprint_ring
 from terrain.errors import InputError

@@ -128,7 +128,7 @@ from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.ctga import bearing, wrap
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
-from replay.flight.fixedwing.autopilot import LoopDesign
+from replay.flight.fixedwing.gains import LoopDesign
 from replay.flight.fixedwing.params import G
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
 from terrain.errors import InputError

@@ -14,7 +14,7 @@ The layout (Foxglove's layout JSON: ``configById`` -- each panel's settings unde
   command and its compute time.
 
 Every topic and message path it names is one the recorder writes (:mod:`replay.record.topics`,
-:data:`replay.record.messages.STATE_KEYS`, :data:`replay.flight.fixedwing.autopilot.GUIDANCE_COLUMNS`,
+:data:`replay.record.messages.STATE_KEYS`, :data:`replay.flight.log.GUIDANCE_COLUMNS`,
 :data:`replay.record.messages.SEPARATION_DOCS`): ``check_layout`` says so, and the tests hold it to
 that.
 """
@@ -129,7 +129,7 @@ def check_layout(layout: dict[str, Any]) -> list[str]:
     """What is wrong with ``layout`` (empty: nothing): the tree's panels and ``configById`` agree,
     each split has a direction and two children, the panel types are Foxglove's, and every topic
     and ``/vehicle/state`` path is one the recorder writes."""
-    from replay.flight.fixedwing.autopilot import GUIDANCE_COLUMNS
+    from replay.flight.log import GUIDANCE_COLUMNS
     from replay.record.messages import SEPARATION_DOCS, STATE_KEYS
 
     problems: list[str] = []

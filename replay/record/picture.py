@@ -83,7 +83,7 @@ def recorded_view(run: str | Path, max_states: int | None = MAX_POINTS) -> RunVi
     """The view of a recorded run (one read of the MCAP, decoding at most about ``max_states``
     states, a regular stride); a one-line error when it has no trajectory."""
     from replay.record.reader import load_run
-    from replay.run import mission_of_run, recorded_threats
+    from replay.source import mission_of_run, recorded_threats
 
     src = Path(run)
     record = load_run(src, max_states=max_states)

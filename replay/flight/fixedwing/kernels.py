@@ -102,7 +102,7 @@ from replay.flight.fixedwing.params import (
 )
 from replay.flight.rigid import attitude, body_to_ned, ned_to_body, record
 
-# ---- autopilot gains (filled by replay.flight.fixedwing.autopilot.design_gains) --------------------------------
+# ---- autopilot gains (filled by replay.flight.fixedwing.gains.design_gains) ----------------------
 K_ROLL_P, K_ROLL_I, K_ROLL_D = 0, 1, 2
 K_COURSE_P, K_COURSE_I = 3, 4
 K_PITCH_P, K_PITCH_D = 5, 6

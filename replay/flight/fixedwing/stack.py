@@ -1,10 +1,5 @@
-"""Flight stacks: a vehicle's 6-DOF dynamics and its controller, driven by guidance commands.
-
-The simulation loop (:func:`replay.sim.simulate`) only talks to a :class:`FlightStack`: it asks it
-for the initial state over the first waypoint, hands it every avoider's command
-(:mod:`replay.guidance`), and lets it fly for a period in compiled steps. The distances that must
-scale with the vehicle (when a waypoint counts as reached, when to turn for the next leg) belong
-to the stack, not to the loop.
+"""The fixed-wing flight stack (:class:`replay.flight.base.FlightStack`): the 6-DOF aircraft and
+its autopilot, driven by guidance commands.
 
 :class:`FixedWingStack` is the fixed-wing aircraft under :class:`replay.flight.fixedwing.autopilot.Autopilot`:
 waypoint legs (turn fillets of the mission's radius, or seed 000's switch 1 km before a
@@ -17,14 +12,14 @@ hold position, yaw-to, waypoints, hold course, orbits at the speed their radius 
 from __future__ import annotations
 
 import math
-from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig, FlightLog, TerrainHeight
+from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig, TerrainHeight
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.fixedwing.trim import trim
+from replay.flight.log import FlightLog
 from replay.frames import PD, PE, PN, PSI
 from replay.guidance import (
     HOVER_COMMANDS,
@@ -42,37 +37,6 @@ from replay.guidance import (
 FloatArray = npt.NDArray[np.float64]
 SEED000_SWITCH_M = 1000.0  # seed 000 §3.6: the next leg is taken 1 km before a waypoint
 ARRIVAL_M = 100.0
-
-
-class FlightStack(Protocol):
-    """What the simulation loop needs of a vehicle and its controller."""
-
-    name: str
-    params: Any
-    hover_capable: bool
-    arrival_distance: float
-    switch_distance: float  # 0 when corners are flown as fillets
-    corner_distance: float  # how far before a waypoint the flown path leaves the leg
-
-    @property
-    def dt(self) -> float: ...
-
-    @property
-    def waypoints(self) -> FloatArray: ...
-
-    @property
-    def next_index(self) -> int: ...
-
-    @property
-    def done(self) -> bool: ...
-
-    def initial_state(self) -> FloatArray: ...
-
-    def apply(self, command: GuidanceCommand) -> None: ...
-
-    def fly(
-        self, state: FloatArray, t: float, duration: float, *, record_every: int
-    ) -> FlightLog: ...
 
 
 class FixedWingStack:
@@ -199,4 +163,4 @@ class FixedWingStack:
         return self.autopilot.fly(state, t, duration, record_every=record_every)
 
 
-__all__ = ["ARRIVAL_M", "SEED000_SWITCH_M", "FixedWingStack", "FlightStack"]
+__all__ = ["ARRIVAL_M", "SEED000_SWITCH_M", "FixedWingStack"]

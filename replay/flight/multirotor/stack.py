@@ -65,11 +65,11 @@ flight-path angle) is refused (:class:`GuidanceRefused`), as is a climb or desce
 the limits and an orbit about a centre faster than the speed limit. Not supported: terrain
 following (a multirotor mission flies its waypoints' altitudes).
 
-Logged (:class:`replay.flight.fixedwing.autopilot.FlightLog`): ``states`` the 12 rigid-body states (the rotor
+Logged (:class:`replay.flight.log.FlightLog`): ``states`` the 12 rigid-body states (the rotor
 speeds are the stack's own state between calls: :attr:`MultirotorStack.rotor_speeds`);
 ``controls`` the four rotor speed commands (rad/s, rotors 0-3 of ``multirotor.py``) -- the
 recorder's columns are named for a fixed wing's surfaces; ``guidance`` the nine columns of
-:data:`replay.flight.fixedwing.autopilot.GUIDANCE_COLUMNS` read as: yaw command (course_cmd), roll command
+:data:`replay.flight.log.GUIDANCE_COLUMNS` read as: yaw command (course_cmd), roll command
 (bank_cmd), altitude command, climb-rate command, pitch command, speed command (airspeed_cmd:
 the magnitude of v_c), cross-track (m, + right of the leg), along-track (m), distance to the
 target point (m, 3D).
@@ -83,8 +83,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from replay.flight.fixedwing.autopilot import FlightLog, FlightRecorder, WaypointReached
 from replay.flight.fixedwing.params import G
+from replay.flight.log import FlightLog, FlightRecorder, WaypointReached
 from replay.flight.multirotor import kernels as kern
 from replay.flight.multirotor.model import DT, N_MR_STATES, MultirotorParams, hover_state
 from replay.frames import N_STATES, map_to_ned, ned_to_map, rotation_body_to_ned

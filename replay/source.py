@@ -1,0 +1,152 @@
+"""What a replay flies: a mission file, or an earlier run (its ``.mcap``) re-flown with the
+mission, vehicle and threats it recorded; the DEM tiles found (or replaced by ``--dem``) and the
+vehicle chosen before anything is written. :func:`replay.run.prepare_replay` calls these.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from replay.flight.multirotor.model import MULTIROTOR_PRESETS
+from terrain.errors import DataFileError, InputError
+
+
+def load_source(source: str) -> tuple[Any, Any]:
+    """(mission, the earlier run when SOURCE is an .mcap, else None).
+
+    The mission inside a run names its DEM tiles relative to the run's folder (see
+    :func:`planner.mission.mission_to_dict`); they are looked for there, then as given, then where the run
+    found them (metadata ``dem``)."""
+    from planner.mission import load_mission
+
+    if not source.lower().endswith(".mcap"):
+        return load_mission(source), None
+    from replay.record.reader import load_run
+
+    run = load_run(source, with_states=False)
+    return mission_of_run(run, source), run
+
+
+def mission_of_run(run: Any, source: str) -> Any:
+    """The mission a recorded run flew (its ``mission.yaml`` attachment), with its DEM tiles
+    looked for where :func:`load_source` says."""
+    from planner.mission import mission_from_dict
+
+    text = run.attachments.get("mission.yaml")
+    if text is None:
+        raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
+    try:
+        doc = yaml.safe_load(text.decode("utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError):
+        raise DataFileError(
+            f"{source!r}, attachment 'mission.yaml': not a valid mission YAML"
+        ) from None
+    mission = mission_from_dict(doc, source, attachment="mission.yaml")
+    if mission.terrain is not None:
+        try:
+            flown = json.loads(run.metadata.get("dem", "[]"))
+        except json.JSONDecodeError:
+            flown = []
+        if isinstance(flown, list) and all(isinstance(d, str) for d in flown):
+            mission = replace(mission, terrain=mission.terrain.also_look_in(flown))
+    return mission
+
+
+def find_terrain(mission: Any, dem_tiles: tuple[str, ...]) -> Any:
+    """The mission with its DEM tiles found (absolute paths), or replaced by ``--dem``; raises
+    before anything is written when a tile is found nowhere."""
+    from planner.mission import TerrainRef
+
+    ref = mission.terrain
+    if dem_tiles:
+        cell = ref.cell_size if ref is not None else None
+        local = ref.local_cell_size if ref is not None else None
+        ref = TerrainRef(
+            tuple(str(Path(t).absolute()) for t in dem_tiles), cell, local_cell_size=local
+        )
+    if ref is None:
+        return mission
+    found = tuple(str(Path(t).resolve()) for t in ref.paths())
+    return replace(
+        mission, terrain=TerrainRef(found, ref.cell_size, local_cell_size=ref.local_cell_size)
+    )
+
+
+def source_vehicle(
+    vehicle: str | None, mission: Any, source: str, run: Any
+) -> tuple[Any, bytes | None]:
+    """(vehicle parameters, the vehicle file to attach or None).
+
+    ``--vehicle`` paths are relative to the working directory.  Re-flying a run flies the
+    vehicle that run flew (its ``vehicle.yaml`` attachment, or its preset).  A mission's
+    ``vehicle:`` file is looked for beside the mission, then as given.  A multirotor preset
+    (``quadrotor``) is taken by name."""
+    from replay.flight.fixedwing.presets import PRESETS, load_vehicle, vehicle_from_dict
+    from terrain.docfile import find_reference, reference_places
+
+    if vehicle in MULTIROTOR_PRESETS:
+        return MULTIROTOR_PRESETS[vehicle], None
+    if vehicle:
+        params = load_vehicle(vehicle, base_dir=Path.cwd())
+        path = Path(vehicle)
+        is_file = path.suffix.lower() in (".yaml", ".yml") and path.is_file()
+        return params, path.read_bytes() if is_file else None
+    if run is not None:
+        text = run.attachments.get("vehicle.yaml")
+        if text is not None:
+            label = f"{source} (attachment vehicle.yaml)"
+            try:
+                data = yaml.safe_load(text.decode("utf-8"))
+            except (yaml.YAMLError, UnicodeDecodeError):
+                raise DataFileError(f"{label!r}: not a valid vehicle YAML") from None
+            return vehicle_from_dict(data, label), text
+        flown = run.metadata.get("vehicle", "")
+        if flown in PRESETS:
+            return PRESETS[flown], None
+        if flown in MULTIROTOR_PRESETS:
+            return MULTIROTOR_PRESETS[flown], None
+    name = mission.vehicle
+    if name in PRESETS:
+        return PRESETS[name], None
+    if name in MULTIROTOR_PRESETS:
+        return MULTIROTOR_PRESETS[name], None
+    places = reference_places(name, source)
+    if (
+        Path(name).suffix.lower() in (".yaml", ".yml")
+        or "/" in name
+        or any(Path(q).exists() for q in places)
+    ):
+        path = Path(
+            find_reference(
+                places,
+                name,
+                holder=source,
+                attachment="mission.yaml" if run is not None else None,
+                field="vehicle",
+                what="vehicle file",
+                hint="; give it with --vehicle",
+            )
+        )
+        return load_vehicle(path), path.read_bytes()
+    return load_vehicle(name), None  # not a preset: says which presets exist
+
+
+def recorded_threats(text: str, source: str, grid: Any) -> Any:
+    """The threats an earlier run recorded (its ``threats.yaml`` attachment)."""
+    from replay.threats.file import threats_from_records
+
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError:
+        data = None
+    if not isinstance(data, dict):
+        raise DataFileError(f"{source!r}, attachment 'threats.yaml': not a threat file")
+    name = data.get("name")
+    return threats_from_records(
+        data.get("threats"), grid, source=source, name=name if isinstance(name, str) else None
+    )
