@@ -38,9 +38,10 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import emit as _out  # noqa: E402
 from planner.mission import mission_from_dict  # noqa: E402
-from replay.avoidance.fga import FgaAvoider, measure_turn  # noqa: E402
+from replay.avoidance.fga import FgaAvoider  # noqa: E402
 from replay.campaign import seed004  # noqa: E402
 from replay.campaign.generators import file_records  # noqa: E402
+from replay.flight.fixedwing.stack import measure_turn  # noqa: E402
 from replay.run import ReplayRequest, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
 from replay.threats.file import threats_from_records  # noqa: E402

@@ -14,6 +14,8 @@ Control vector (4 floats): ``[delta_e, delta_a, delta_r, delta_t]`` (radians, th
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
@@ -134,3 +136,15 @@ def _quat_from_matrix(m: FloatArray) -> tuple[float, float, float, float]:
             0.25 * s,
         )
     return (float(x), float(y), float(z), float(w))
+
+
+def wrap(a: float) -> float:
+    """``a`` wrapped to [-pi, pi) (the scalar twin of :func:`wrap_pi`, same arithmetic)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def bearing(frm: npt.ArrayLike, to: npt.ArrayLike) -> float:
+    """Bearing from ``frm`` to ``to`` (x east, y north), clockwise from north."""
+    f = np.asarray(frm, dtype=np.float64)
+    t = np.asarray(to, dtype=np.float64)
+    return math.atan2(float(t[0] - f[0]), float(t[1] - f[1]))

@@ -11,21 +11,21 @@ import pytest
 
 from planner.mission import mission_from_dict
 from replay.avoidance import make_avoider
-from replay.avoidance.fga import (
-    FgaAvoider,
+from replay.avoidance.fga import FgaAvoider
+from replay.avoidance.fga_geometry import (
     FgaObstacle,
-    _flips,
     cone_half_angle,
     conflict_matrix,
     encounter,
+    flips,
     in_conflict,
-    measure_turn,
     tangent_course,
     tangent_courses,
 )
 from replay.campaign import seed004
 from replay.campaign.generators import file_records
 from replay.flight.fixedwing.presets import preset
+from replay.flight.fixedwing.stack import measure_turn
 from replay.run import ReplayRequest, run_replay
 from replay.threats.file import threats_from_records
 from terrain.errors import InputError
@@ -247,15 +247,15 @@ def test_only_a_closing_course_can_flip_the_side_an_obstacle_is_passed_on() -> N
     ahead = FgaObstacle("a", (-20.0, 100.0, 100.0), (0.0, 0.0, 0.0), 5.0, -math.inf, 200.0)
     pos = np.array([0.0, 0.0, 100.0])
     north = np.array([0.0, 15.0, 0.0])
-    side = 1 if _flips(pos, north, ahead, -1) else -1  # the side north passes it on
-    assert not _flips(pos, north, ahead, side)
+    side = 1 if flips(pos, north, ahead, -1) else -1  # the side north passes it on
+    assert not flips(pos, north, ahead, side)
     west = np.array([-15.0 * math.sin(0.5), 15.0 * math.cos(0.5), 0.0])  # across its line of sight
-    assert _flips(pos, west, ahead, side)
+    assert flips(pos, west, ahead, side)
     # once behind (as after holding past it), every turn opens the range: nothing flips
     behind = FgaObstacle("b", (-20.0, -60.0, 100.0), (0.0, 0.0, 0.0), 5.0, -math.inf, 200.0)
     for c in np.radians([-60.0, -20.0, 0.0, 30.0, 70.0]):
         v = np.array([15 * math.sin(c), 15 * math.cos(c), 0.0])
-        assert not _flips(pos, v, behind, 1) and not _flips(pos, v, behind, -1)
+        assert not flips(pos, v, behind, 1) and not flips(pos, v, behind, -1)
 
 
 def test_the_manoeuvre_governs_the_conflict_entered_first() -> None:
@@ -468,7 +468,7 @@ def test_pitch_latest_start_leaves_time_to_climb_or_descend(side: int) -> None:
     limit clears the obstacle's interval by its horizontal entry -- for a descent too."""
     from types import SimpleNamespace
 
-    from replay.avoidance.fga import _climbed
+    from replay.avoidance.fga_geometry import climbed
 
     fga = FgaAvoider()
     pos = np.array([0.0, 0.0, 120.0])
@@ -486,7 +486,7 @@ def test_pitch_latest_start_leaves_time_to_climb_or_descend(side: int) -> None:
     # from the latest start the climb (descent) gets exactly 2 buffers beyond the interval
     up, down = fga._climb_limits(ctx.vehicle)
     rate = 0.9 * (up if side > 0 else -down)
-    reach = 120.0 + _climbed(rate, entry[0] - plan.t_c)
+    reach = 120.0 + climbed(rate, entry[0] - plan.t_c)
     goal = (o.top if side > 0 else o.bottom) + side * (D_M + 2 * fga.buffer_m)
     assert 0.0 <= plan.t_c < entry[0]
     assert reach == pytest.approx(goal, abs=0.05)

@@ -88,6 +88,7 @@ from replay.avoidance.base import AvoidanceContext
 from replay.avoidance.circles import min_enclosing_circle
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
 from replay.flight.fixedwing.params import G
+from replay.frames import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, Orbit
 from terrain.errors import InputError
 
@@ -100,18 +101,6 @@ REISSUE_RADIUS = 0.02
 REISSUE_SPEED = 1.0  # m/s: a moving obstacle's velocity changed this much: the orbit follows
 SWITCH_SLACK = 0.3  # the next body's arc may pass the current body at 70 % of R_safe
 COMPLEX_S = 5.0  # a body found this soon after an arc is left belongs to the same obstacle
-
-
-def wrap(a: float) -> float:
-    """``a`` wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def bearing(frm: npt.ArrayLike, to: npt.ArrayLike) -> float:
-    """Bearing from ``frm`` to ``to`` (x east, y north), clockwise from north."""
-    f = np.asarray(frm, dtype=np.float64)
-    t = np.asarray(to, dtype=np.float64)
-    return math.atan2(float(t[0] - f[0]), float(t[1] - f[1]))
 
 
 @dataclass(frozen=True)
@@ -649,7 +638,6 @@ __all__ = [
     "CtgaObstacle",
     "Threat",
     "arc_radius",
-    "bearing",
     "can_join",
     "clockwise_for",
     "clockwise_for_threat",
@@ -657,5 +645,4 @@ __all__ = [
     "leg_altitude",
     "threat_test",
     "turn_radius",
-    "wrap",
 ]

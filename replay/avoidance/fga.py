@@ -126,329 +126,41 @@ import numpy.typing as npt
 
 from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
-from replay.avoidance.ctga import bearing, wrap
+from replay.avoidance.fga_geometry import (
+    Encounter,
+    FgaObstacle,
+    climb_time,
+    climbed,
+    cone_half_angle,
+    conflict_matrix,
+    encounter,
+    flips,
+    in_conflict,
+    interval_disk,
+    pass_side,
+    path_separation,
+    tangent_course,
+    tangent_courses,
+)
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
 from replay.flight.fixedwing.gains import LoopDesign
 from replay.flight.fixedwing.params import G
+from replay.frames import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 
 SURVEILLANCE_PER_D_M = 10.0  # §II-C (4): R = 10 d_m (Table II: 300 m for d_m = 30 m)
-DYNAMIC_MPS = 0.5  # an obstacle faster than this is dynamic (§III-A)
 CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
-CLIMB_SLEW = LoopDesign.climb_slew  # m/s^2: the autopilot's climb-rate command slew
 FORMATION_MPS = 3.0  # a course this slow relative to a moving obstacle flies alongside it
 TURN_CHECKS = 12  # the cheapest free courses whose turns are flown kinematically
 SLOW_CPA_S = 20.0  # an encounter whose closest approach is further off than this is slow
 STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
 LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
 RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
-
-
-def _climbed(rate: float, t: float) -> float:
-    """Height gained in ``t`` seconds by a climb-rate command ``rate`` from level flight, slewed
-    at the autopilot's ``CLIMB_SLEW`` (m/s^2)."""
-    if t <= 0.0:
-        return 0.0
-    ramp = abs(rate) / CLIMB_SLEW
-    if t <= ramp:
-        return math.copysign(0.5 * CLIMB_SLEW * t * t, rate)
-    return rate * (t - 0.5 * ramp)
-
-
-def _climb_time(rate: float, height: float) -> float:
-    """The time :func:`_climbed` takes to gain ``height`` (> 0) at ``|rate|``."""
-    r = abs(rate)
-    if r <= 0.0:
-        return math.inf
-    if height <= 0.5 * r * r / CLIMB_SLEW:
-        return math.sqrt(2.0 * height / CLIMB_SLEW)
-    return height / r + 0.5 * r / CLIMB_SLEW
-
-
-@dataclass(frozen=True)
-class FgaObstacle:
-    """One obstacle as FGA sees it: ``center`` (x, y, z: a sphere's centre, a cylinder's top
-    face), ``velocity`` (3), horizontal size ``radius`` and vertical extent ``bottom``..``top``."""
-
-    key: str
-    center: tuple[float, float, float]
-    velocity: tuple[float, float, float]
-    radius: float
-    bottom: float
-    top: float
-
-    @property
-    def moving(self) -> bool:
-        return math.hypot(*self.velocity) > DYNAMIC_MPS
-
-    def at(self, dt: float) -> FgaObstacle:
-        """The obstacle ``dt`` seconds later (constant velocity)."""
-        if dt == 0.0 or not self.moving:
-            return self
-        vx, vy, vz = self.velocity
-        x, y, z = self.center
-        return FgaObstacle(
-            self.key,
-            (x + vx * dt, y + vy * dt, z + vz * dt),
-            self.velocity,
-            self.radius,
-            self.bottom + vz * dt,
-            self.top + vz * dt,
-        )
-
-
-def cone_half_angle(distance: float, keep: float) -> float:
-    """Eq 1 with the exact tangent: ``asin(keep / distance)`` (pi/2 inside)."""
-    if distance <= keep:
-        return 0.5 * math.pi
-    return math.asin(keep / distance)
-
-
-@dataclass(frozen=True)
-class Encounter:
-    """One obstacle against one own velocity (module docstring): the relative geometry in the
-    horizontal plane, the conflict window, and eq 7's critical time."""
-
-    obstacle: FgaObstacle
-    distance: float  # horizontal range r
-    along: float  # r cos theta: along-track distance to the CPA (> 0: ahead)
-    miss: float  # r |sin theta|
-    closing: float  # |V_r| horizontal
-    range_rate: float  # d|r|/dt (3-D), < 0 closing
-    window: tuple[float, float] | None  # times (from now) inside the protected volume
-    inside: bool  # inside the protected volume now
-    t_c: float  # eq 7 (inf: no conflict)
-
-
-def _interval_1d(x0: float, rate: float, lo: float, hi: float) -> tuple[float, float] | None:
-    """Times at which ``x0 + rate t`` lies in (lo, hi)."""
-    if abs(rate) < 1e-9:
-        return (-math.inf, math.inf) if lo < x0 < hi else None
-    a, b = (lo - x0) / rate, (hi - x0) / rate
-    return (min(a, b), max(a, b))
-
-
-def _interval_disk(
-    px: float, py: float, wx: float, wy: float, keep: float
-) -> tuple[float, float] | None:
-    """Times at which the aircraft, at ``-p`` from the obstacle moving at ``w`` relative to it,
-    is within ``keep`` horizontally."""
-    a = wx * wx + wy * wy
-    c = px * px + py * py - keep * keep
-    if a < 1e-12:
-        return (-math.inf, math.inf) if c < 0.0 else None
-    b = -2.0 * (px * wx + py * wy)
-    disc = b * b - 4.0 * a * c
-    if disc <= 0.0:
-        return None
-    s = math.sqrt(disc)
-    return ((-b - s) / (2.0 * a), (-b + s) / (2.0 * a))
-
-
-def encounter(
-    position: npt.ArrayLike,
-    velocity: npt.ArrayLike,
-    obs: FgaObstacle,
-    *,
-    keep_h: float,
-    keep_v: float,
-    rho: float,
-    horizon: float,
-    speed: float | None = None,
-) -> Encounter:
-    """The encounter of an aircraft at ``position`` flying ``velocity`` with ``obs`` (both at
-    constant velocity); ``keep_h`` is added to the obstacle's radius, ``keep_v`` above its top
-    and below its bottom.  ``t_c`` is eq 7 with ``rho`` taken in the relative frame: eq 7's
-    ``rho`` is the distance flown while turning one radian at the limit, which relative to the
-    obstacle is ``rho |V_r| / V_u`` (``speed`` = ``V_u``; the same ``rho`` for a static
-    obstacle).  Plain floats: this runs for every obstacle and candidate."""
-    p = np.asarray(position, dtype=np.float64)
-    v = np.asarray(velocity, dtype=np.float64)
-    ox, oy, _oz = obs.center
-    ux, uy, uz = obs.velocity
-    px, py = ox - float(p[0]), oy - float(p[1])  # line of sight aircraft -> obstacle
-    wx, wy, wz = float(v[0]) - ux, float(v[1]) - uy, float(v[2]) - uz  # V_r = V_u - V_a
-    r = math.hypot(px, py)
-    keep = obs.radius + keep_h
-    closing = math.hypot(wx, wy)
-    if closing > 1e-9:
-        along = (px * wx + py * wy) / closing
-        miss = abs(px * wy - py * wx) / closing
-    else:
-        along, miss = 0.0, r
-    pz = obs.center[2] - float(p[2])
-    r3 = math.sqrt(r * r + pz * pz)
-    range_rate = -(px * wx + py * wy + pz * wz) / r3 if r3 > 1e-9 else 0.0
-    z = float(p[2])
-    lo, hi = obs.bottom - keep_v, obs.top + keep_v
-    inside = r < keep and lo < z < hi
-    window = None
-    h = _interval_disk(px, py, wx, wy, keep)
-    if h is not None:
-        vert = _interval_1d(z, wz, lo, hi)
-        if vert is not None:
-            start = max(h[0], vert[0], 0.0)
-            end = min(h[1], vert[1], horizon)
-            if start < end:
-                window = (start, end)
-    t_c = math.inf
-    if window is not None and closing > 1e-9:
-        v_u = closing if speed is None else speed
-        t_c = (along - rho * closing / max(v_u, 1e-9) - (keep - miss)) / closing  # eq 7
-    return Encounter(obs, r, along, miss, closing, range_rate, window, inside, t_c)
-
-
-def in_conflict(
-    x: float,
-    y: float,
-    z: float,
-    vx: float,
-    vy: float,
-    vz: float,
-    obs: FgaObstacle,
-    keep: float,
-    horizon: float,
-) -> bool:
-    """Whether :func:`encounter` would find a conflict window (``keep_h = keep_v = keep``):
-    the same test in plain floats, for the many course candidates of a decision."""
-    ux, uy, uz = obs.velocity
-    h = _interval_disk(obs.center[0] - x, obs.center[1] - y, vx - ux, vy - uy, obs.radius + keep)
-    if h is None:
-        return False
-    v = _interval_1d(z, vz - uz, obs.bottom - keep, obs.top + keep)
-    if v is None:
-        return False
-    return max(h[0], v[0], 0.0) < min(h[1], v[1], horizon)
-
-
-def conflict_matrix(
-    position: npt.ArrayLike,
-    velocities: FloatArray,
-    obstacles: list[FgaObstacle],
-    keep: float,
-    horizon: float,
-) -> npt.NDArray[np.bool_]:
-    """:func:`in_conflict` for many own velocities (N x 3) against many obstacles at once: an
-    (N, M) array, element for element the same arithmetic (a decision tests some 80 course
-    candidates against every obstacle within ``R``)."""
-    x, y, z = (float(c) for c in np.asarray(position, dtype=np.float64)[:3])
-    v = np.asarray(velocities, dtype=np.float64).reshape(-1, 3)
-    if not obstacles:
-        return np.zeros((len(v), 0), dtype=bool)
-    o = np.array(
-        [(*ob.center[:2], *ob.velocity, ob.radius, ob.bottom, ob.top) for ob in obstacles],
-        dtype=np.float64,
-    )
-    px, py = o[:, 0] - x, o[:, 1] - y
-    wx = v[:, 0:1] - o[None, :, 2]
-    wy = v[:, 1:2] - o[None, :, 3]
-    k = o[:, 5] + keep
-    a = wx * wx + wy * wy
-    c = px * px + py * py - k * k
-    b = -2.0 * (px * wx + py * wy)
-    disc = b * b - 4.0 * a * c
-    still = a < 1e-12
-    with np.errstate(divide="ignore", invalid="ignore"):
-        root = np.sqrt(np.maximum(disc, 0.0))
-        h0 = np.where(still, -np.inf, (-b - root) / (2.0 * a))
-        h1 = np.where(still, np.inf, (-b + root) / (2.0 * a))
-        h_ok = np.where(still, c < 0.0, disc > 0.0)
-        rate = v[:, 2:3] - o[None, :, 4]
-        lo, hi = o[:, 6] - keep, o[:, 7] + keep
-        level = np.abs(rate) < 1e-9
-        ta, tb = (lo - z) / rate, (hi - z) / rate
-        v0 = np.where(level, -np.inf, np.minimum(ta, tb))
-        v1 = np.where(level, np.inf, np.maximum(ta, tb))
-    v_ok = np.where(level, (lo < z) & (z < hi), True)
-    start = np.maximum(np.maximum(h0, v0), 0.0)
-    end = np.minimum(np.minimum(h1, v1), horizon)
-    return np.asarray(h_ok & v_ok & (start < end), dtype=bool)
-
-
-def path_separation(
-    t: FloatArray, x: FloatArray, y: FloatArray, z: FloatArray, obstacles: list[FgaObstacle]
-) -> tuple[float, str]:
-    """The least separation of the path (x, y, z) at times ``t`` from ``obstacles`` (each at
-    constant velocity from now) in the protected volume's metric -- the larger of the horizontal
-    distance outside its radius and the vertical distance outside [bottom, top] -- and the
-    obstacle it is least from ((inf, "") without obstacles)."""
-    worst = (math.inf, "")
-    for o in obstacles:
-        dh = np.hypot(x - (o.center[0] + o.velocity[0] * t), y - (o.center[1] + o.velocity[1] * t))
-        climb = o.velocity[2] * t
-        dv = np.maximum(z - (o.top + climb), (o.bottom + climb) - z)
-        sep = float(np.maximum(dh - o.radius, dv).min())
-        if sep < worst[0]:
-            worst = (sep, o.key)
-    return worst
-
-
-def _pass_side(position: FloatArray, velocity: FloatArray, obs: FgaObstacle) -> int:
-    """+1 when the relative velocity points clockwise of the line of sight to ``obs`` (it
-    passes on the aircraft's left), -1 otherwise."""
-    px, py = obs.center[0] - float(position[0]), obs.center[1] - float(position[1])
-    wx, wy = float(velocity[0]) - obs.velocity[0], float(velocity[1]) - obs.velocity[1]
-    return 1 if wrap(math.atan2(wx, wy) - math.atan2(px, py)) >= 0.0 else -1
-
-
-def _flips(position: FloatArray, velocity: FloatArray, obs: FgaObstacle, side: int) -> bool:
-    """Whether ``velocity`` passes ``obs`` on the other side than ``side`` while still closing
-    on it.  A course whose relative velocity opens the range has left the obstacle behind: its
-    "side" flips without crossing the cone (an obstacle passed on the left is, once behind,
-    "passed on the right" by any turn to the right), so only a closing course can flip."""
-    px, py = obs.center[0] - float(position[0]), obs.center[1] - float(position[1])
-    wx, wy = float(velocity[0]) - obs.velocity[0], float(velocity[1]) - obs.velocity[1]
-    return px * wx + py * wy > 0.0 and _pass_side(position, velocity, obs) != side
-
-
-def tangent_courses(
-    position: npt.ArrayLike, obs: FgaObstacle, keep: float, speed: float, side: int
-) -> list[float]:
-    """Every own course at horizontal ``speed`` that puts the relative velocity on the
-    ``side`` edge (:func:`tangent_course`): for an obstacle faster than the aircraft both
-    positive roots of the quadratic are courses (the smaller root lets it pass ahead)."""
-    p = np.asarray(position, dtype=np.float64)
-    px, py = obs.center[0] - float(p[0]), obs.center[1] - float(p[1])
-    r = math.hypot(px, py)
-    if r <= keep:
-        return []
-    edge = math.atan2(px, py) + side * math.asin(keep / r)
-    ex, ey = math.sin(edge), math.cos(edge)
-    ux, uy = obs.velocity[0], obs.velocity[1]
-    if ux == 0.0 and uy == 0.0:
-        return [wrap(edge)]
-    ue = ux * ex + uy * ey
-    disc = ue * ue - (ux * ux + uy * uy) + speed * speed
-    if disc < 0.0:
-        return []
-    root = math.sqrt(disc)
-    return [
-        math.atan2(ux + lam * ex, uy + lam * ey) for lam in (-ue + root, -ue - root) if lam > 1e-9
-    ]
-
-
-def tangent_course(
-    position: npt.ArrayLike,
-    obs: FgaObstacle,
-    keep: float,
-    speed: float,
-    side: int,
-) -> float | None:
-    """The own course at horizontal ``speed`` that puts the relative velocity on the ``side``
-    edge of the obstacle's horizontal cone (``+1``: the obstacle passes on the aircraft's left,
-    i.e. the edge clockwise of the line of sight; ``-1``: on its right), ``keep`` the cone's
-    radius about the obstacle's centre (its radius included).  Static: ``LOS + side asin(keep /
-    r)``.  Moving at ``u``: the relative velocity is ``lambda e`` along the edge's unit vector
-    ``e``, so ``|u + lambda e| = speed``: ``lambda = -u.e + sqrt((u.e)^2 - |u|^2 + speed^2)``
-    (the larger root; None when it is not positive: the obstacle outruns the aircraft on that
-    edge): the first of :func:`tangent_courses`."""
-    roots = tangent_courses(position, obs, keep, speed, side)
-    return roots[0] if roots else None
 
 
 @dataclass
@@ -810,7 +522,7 @@ class FgaAvoider:
         ):
             if not hit:
                 penalty = 5.0 if slow else 0.0
-                if keep_side is not None and _flips(pos, v, *keep_side):
+                if keep_side is not None and flips(pos, v, *keep_side):
                     penalty += 10.0
                 free.append((abs(wrap(c - course)) + penalty, c, side, key))
         if not free:
@@ -834,7 +546,7 @@ class FgaAvoider:
         if first is not None and key != first.key:
             # the course is another obstacle's edge or the fan's: the manoeuvre still steers
             # round the nearest obstacle in conflict, on the side this course passes it
-            key, side = first.key, _pass_side(pos, self._velocity(c, horizontal, 0.0), first)
+            key, side = first.key, pass_side(pos, self._velocity(c, horizontal, 0.0), first)
         turn = wrap(c - course)
         cost = self.t_res + abs(turn) / turn_rate
         t_c = min((e.t_c for e in targets), default=math.inf)
@@ -876,7 +588,7 @@ class FgaAvoider:
                 o = e.obstacle
                 assert e.window is not None
                 wz = o.velocity[2]
-                h = _interval_disk(
+                h = interval_disk(
                     o.center[0] - float(pos[0]),
                     o.center[1] - float(pos[1]),
                     float(vel[0]) - o.velocity[0],
@@ -891,7 +603,7 @@ class FgaAvoider:
                     if not math.isfinite(goal):
                         ok = False
                         break
-                    reach = z + _climbed(rate, t)
+                    reach = z + climbed(rate, t)
                     if (side > 0 and reach < goal) or (side < 0 and reach > goal):
                         ok = False
                         break
@@ -901,7 +613,7 @@ class FgaAvoider:
                     for _ in range(30):  # bisection: beyond the goal (above it climbing,
                         # below it descending) when the climb starts at mid
                         mid = 0.5 * (lo_t + hi_t)
-                        there = z + float(vel[2]) * mid + _climbed(rate, t - mid)
+                        there = z + float(vel[2]) * mid + climbed(rate, t - mid)
                         if (there - goal) * side >= 0.0:
                             lo_t = mid
                         else:
@@ -919,7 +631,7 @@ class FgaAvoider:
                 pos, v, [o for o in near if o.key not in {e.obstacle.key for e in targets}], rho
             ):
                 continue
-            cost = _climb_time(rate, abs(need - z))
+            cost = climb_time(rate, abs(need - z))
             plan = _Plan(
                 "pitch",
                 side,
@@ -1236,7 +948,7 @@ class FgaAvoider:
             gov = by_key.get(man.governing)
             keep_side = None
             if man.plane == "heading" and gov is not None:
-                keep_side = (gov, _pass_side(pos, planned, gov))
+                keep_side = (gov, pass_side(pos, planned, gov))
             # from the manoeuvre's own course (not the turn's transient), in its own plane first
             plan = self._choose(
                 ctx, pos, planned, man.course, near, conflicts, rho, turn_rate, keep_side, man.plane
@@ -1288,7 +1000,7 @@ class FgaAvoider:
                 if not self._clear(pos, v, near, rho):
                     # the edge runs into another cone: the free course nearest to the aircraft's,
                     # passing the governing obstacle on the same side (the union of the cones)
-                    keep_side = (gov, _pass_side(pos, planned, gov))
+                    keep_side = (gov, pass_side(pos, planned, gov))
                     edge = self._heading_plan(pos, vel, course, [], near, rho, turn_rate, keep_side)
                     c = edge.course if edge is not None else None
                     if c is not None and abs(wrap(c - man.course)) > math.radians(STEER_STEP_DEG):
@@ -1461,58 +1173,4 @@ class FgaAvoider:
         }
 
 
-def measure_turn(
-    vehicle: str = "seed004-uas",
-    airspeed: float = 15.0,
-    steps_deg: tuple[float, ...] = (30, 60, 90, 135, 170),
-) -> dict[str, Any]:
-    """Fly the 6-DOF aircraft through a 180 deg course step and measure its response: the time
-    each course change in ``steps_deg`` takes beyond an ideal vehicle turning at ``psi_dot_max``
-    from the start (``t_res`` of eq 8), and the steady turn's ground radius (eq 7's ``rho``)."""
-    from replay.flight.fixedwing.presets import preset
-    from replay.flight.fixedwing.stack import FixedWingStack
-    from replay.frames import rotation_body_to_ned
-
-    params = preset(vehicle)
-    stack = FixedWingStack(
-        params, np.array([[0.0, 0.0, 100.0], [0.0, 10_000.0, 100.0]]), airspeed=airspeed
-    )
-    log = stack.fly(stack.initial_state(), 0.0, 10.0, record_every=1)
-    stack.apply(HoldCourse(math.pi, altitude=100.0))
-    t0 = log.t
-    log = stack.fly(log.x, log.t, 30.0, record_every=1)
-    v = np.array([rotation_body_to_ned(*s[6:9]) @ s[3:6] for s in log.states])
-    course = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
-    turned = np.abs(course - course[0])
-    rate = np.abs(np.gradient(course, log.times))
-    ideal_rate = G * math.tan(math.radians(params.bank_max_deg)) / airspeed
-    t_res = {}
-    for deg in steps_deg:
-        i = int(np.argmax(turned >= math.radians(deg)))
-        t_res[float(deg)] = float(log.times[i] - t0 - math.radians(deg) / ideal_rate)
-    steady = rate > 0.97 * rate.max()
-    ground = np.hypot(v[:, 0], v[:, 1])
-    radius = float(np.mean(ground[steady] / rate[steady]))
-    return {
-        "vehicle": vehicle,
-        "airspeed": airspeed,
-        "t_res": t_res,
-        "radius_m": radius,
-        "radius_eq3_m": params.min_turn_radius(airspeed),
-        "max_rate_deg_s": math.degrees(float(rate.max())),
-        "ideal_rate_deg_s": math.degrees(ideal_rate),
-    }
-
-
-__all__ = [
-    "Encounter",
-    "FgaAvoider",
-    "FgaObstacle",
-    "cone_half_angle",
-    "encounter",
-    "measure_turn",
-    "path_separation",
-    "tangent_course",
-    "tangent_courses",
-    "wrap",
-]
+__all__ = ["FgaAvoider"]

@@ -153,8 +153,8 @@ import numpy.typing as npt
 
 from planner.optim.base import require_real
 from replay.avoidance.base import AvoidanceContext
-from replay.avoidance.ctga import bearing, wrap
 from replay.flight.multirotor.stack import ControllerDesign
+from replay.frames import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GoTo, HoldPosition, YawTo
 from terrain.errors import InputError
 

@@ -551,11 +551,11 @@ class PsoCaAvoider:
 
     def _critical_start(self, ctx: AvoidanceContext, st: PerceptionState, hit: _Hit) -> float:
         """Seconds until seed 004's critical start ``t_k = t_c - t_res`` (eqs 7-8, as FGA
-        reads them: :func:`replay.avoidance.fga.encounter`) for ``hit``: each of its points
+        reads them: :func:`replay.avoidance.fga_geometry.encounter`) for ``hit``: each of its points
         a vertical cylinder of radius RS (a moving one with its track's velocity); the
         earliest over its points, on the aircraft's present velocity.  0 when the point is
         already inside."""
-        from replay.avoidance.fga import FgaObstacle, encounter
+        from replay.avoidance.fga_geometry import FgaObstacle, encounter
 
         pos = np.asarray(ctx.position, dtype=np.float64)
         vel = np.asarray(ctx.velocity, dtype=np.float64)

@@ -12,12 +12,13 @@ hold position, yaw-to, waypoints, hold course, orbits at the speed their radius 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig, TerrainHeight
-from replay.flight.fixedwing.params import VehicleParams
+from replay.flight.fixedwing.params import G, VehicleParams
 from replay.flight.fixedwing.trim import trim
 from replay.flight.log import FlightLog
 from replay.frames import PD, PE, PN, PSI
@@ -163,4 +164,46 @@ class FixedWingStack:
         return self.autopilot.fly(state, t, duration, record_every=record_every)
 
 
-__all__ = ["ARRIVAL_M", "SEED000_SWITCH_M", "FixedWingStack"]
+__all__ = ["ARRIVAL_M", "SEED000_SWITCH_M", "FixedWingStack", "measure_turn"]
+
+
+def measure_turn(
+    vehicle: str = "seed004-uas",
+    airspeed: float = 15.0,
+    steps_deg: tuple[float, ...] = (30, 60, 90, 135, 170),
+) -> dict[str, Any]:
+    """Fly the 6-DOF aircraft through a 180 deg course step and measure its response: the time
+    each course change in ``steps_deg`` takes beyond an ideal vehicle turning at ``psi_dot_max``
+    from the start (``t_res`` of eq 8), and the steady turn's ground radius (eq 7's ``rho``)."""
+    from replay.flight.fixedwing.presets import preset
+    from replay.frames import rotation_body_to_ned
+
+    params = preset(vehicle)
+    stack = FixedWingStack(
+        params, np.array([[0.0, 0.0, 100.0], [0.0, 10_000.0, 100.0]]), airspeed=airspeed
+    )
+    log = stack.fly(stack.initial_state(), 0.0, 10.0, record_every=1)
+    stack.apply(HoldCourse(math.pi, altitude=100.0))
+    t0 = log.t
+    log = stack.fly(log.x, log.t, 30.0, record_every=1)
+    v = np.array([rotation_body_to_ned(*s[6:9]) @ s[3:6] for s in log.states])
+    course = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
+    turned = np.abs(course - course[0])
+    rate = np.abs(np.gradient(course, log.times))
+    ideal_rate = G * math.tan(math.radians(params.bank_max_deg)) / airspeed
+    t_res = {}
+    for deg in steps_deg:
+        i = int(np.argmax(turned >= math.radians(deg)))
+        t_res[float(deg)] = float(log.times[i] - t0 - math.radians(deg) / ideal_rate)
+    steady = rate > 0.97 * rate.max()
+    ground = np.hypot(v[:, 0], v[:, 1])
+    radius = float(np.mean(ground[steady] / rate[steady]))
+    return {
+        "vehicle": vehicle,
+        "airspeed": airspeed,
+        "t_res": t_res,
+        "radius_m": radius,
+        "radius_eq3_m": params.min_turn_radius(airspeed),
+        "max_rate_deg_s": math.degrees(float(rate.max())),
+        "ideal_rate_deg_s": math.degrees(ideal_rate),
+    }
