@@ -114,9 +114,10 @@ from benchmarks._validate import (  # noqa: E402
     turn_radius,
 )
 from replay.flight.atmosphere import density  # noqa: E402
+from replay.flight.base import G  # noqa: E402
 from replay.flight.fixedwing.dynamics import Aircraft, air_data  # noqa: E402
 from replay.flight.fixedwing.kernels import piston_lapse  # noqa: E402
-from replay.flight.fixedwing.params import G, VehicleParams  # noqa: E402
+from replay.flight.fixedwing.params import VehicleParams  # noqa: E402
 from replay.flight.fixedwing.presets import load_vehicle  # noqa: E402
 from replay.flight.fixedwing.trim import trim  # noqa: E402
 from replay.frames import DA, DE, DT, PD, PHI, PSI, THETA, rotation_body_to_ned  # noqa: E402

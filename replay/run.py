@@ -144,18 +144,15 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         temperature_offset=r.temperature_offset,
     )
     speed = config.airspeed or mission.cruise_speed
-    if isinstance(params, MultirotorParams):
-        params.check_speed(speed, "cruise speed")
-    check = getattr(avoider, "check_vehicle", None)
-    if check is not None:  # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes
-        check(params, float(speed))
-    setup = getattr(avoider, "check_setup", None)
-    if setup is not None:  # e.g. the priority loop: its sensor, a start outside the obstacles
-        setup(config, mission, threats, grid, float(speed))
+    params.check_speed(speed, "cruise speed")
+    # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes
+    avoider.check_vehicle(params, float(speed))
+    # e.g. the priority loop: its sensor, a start outside the obstacles
+    avoider.check_setup(config, mission, threats, grid, float(speed))
     planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config)
     warnings = tuple(threats.warn_after(planned))
-    if isinstance(params, MultirotorParams) and following:
+    if following and not params.follows_terrain:
         warnings += (
             f"{params.name} is a multirotor: it flies the waypoints' altitudes and does not "
             f"follow the terrain ({following:g} m of clearance asked)",

@@ -31,18 +31,15 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.mission import Mission
-from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
+from replay.avoidance.base import AvoidanceContext, Avoider
 from replay.flight.atmosphere import check_offset
-from replay.flight.base import FlightStack
-from replay.flight.fixedwing.params import VehicleParams
-from replay.flight.fixedwing.stack import FixedWingStack
-from replay.flight.log import GUIDANCE_COLUMNS
-from replay.flight.multirotor.model import MultirotorParams
-from replay.flight.multirotor.stack import MultirotorStack
+from replay.flight.base import FlightStack, Vehicle
+from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GuidanceRefused, command_record
 from replay.metrics import MetricsTracker, RunMetrics
-from replay.sensors.radar import Radar
+from replay.record.base import Recorder
+from replay.sensors.base import Sensor
 from replay.threats.kinds import ThreatSet
 from replay.threats.table import ThreatTable
 from terrain.errors import InputError
@@ -141,6 +138,45 @@ class ReplayConfig:
                 f"duration must be a positive number of seconds; got {self.duration!r}"
             )
 
+    def make_sensor(self, rng: np.random.Generator, spread_deg: float = 0.0) -> Sensor:
+        """The configured sensor, drawing its noise from ``rng`` (the run's generator):
+        ``radar`` (seed 000), ``cooperative`` (ADS-B-like reports) or ``rangefinder`` (beams by
+        ray casting, each a cone of ``spread_deg``; seed 003's world of fixed obstacles: the
+        avoiders act on stationary returns only)."""
+        if self.sensor == "cooperative":
+            from replay.sensors.cooperative import CooperativeSensor
+
+            return CooperativeSensor(
+                range_m=self.radar_range,
+                period_s=self.radar_period,
+                noise_position_m=self.coop_noise_position,
+                noise_velocity_mps=self.coop_noise_velocity,
+                latency_s=self.coop_latency,
+                seed=rng,
+            )
+        if self.sensor == "rangefinder":
+            from replay.sensors.rangefinder import Rangefinders
+
+            return Rangefinders(
+                range_m=self.rangefinder_range,
+                period_s=self.rangefinder_period,
+                beams=self.rangefinder_beams,
+                mount=self.rangefinder_mount,
+                noise_m=self.rangefinder_noise,
+                seed=rng,
+                assume_static=True,
+                spread_deg=spread_deg,
+            )
+        from replay.sensors.radar import Radar
+
+        return Radar(
+            range_m=self.radar_range,
+            period_s=self.radar_period,
+            noise_range_m=self.radar_noise_range,
+            noise_bearing_rad=self.radar_noise_bearing,
+            seed=rng,
+        )
+
 
 @dataclass(frozen=True, eq=False)
 class ReplayResult:
@@ -171,37 +207,6 @@ def time_limit(mission: Mission, cfg: ReplayConfig) -> float:
     return 1.5 * estimated_flight_time(np.asarray(mission.waypoints, np.float64), speed) + 600.0
 
 
-def fixed_wing_stack(
-    mission: Mission, params: VehicleParams, grid: HeightGrid | None, cfg: ReplayConfig
-) -> FixedWingStack:
-    """The fixed-wing stack a mission is flown with: its waypoints at its cruise speed (or the
-    configured one), its turn fillets when it records a turn radius (else seed 000's 1 km leg
-    switch), terrain following when configured."""
-    return FixedWingStack(
-        params,
-        np.array(mission.waypoints, dtype=np.float64),
-        airspeed=float(cfg.airspeed or mission.cruise_speed),
-        turn_radius=mission.turn_radius,
-        switch_distance=cfg.switch_distance,
-        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
-        terrain_clearance=cfg.terrain_following or 0.0,
-        temperature_offset=cfg.temperature_offset,
-    )
-
-
-def multirotor_stack(
-    mission: Mission, params: MultirotorParams, cfg: ReplayConfig
-) -> MultirotorStack:
-    """The multirotor stack a mission is flown with: its waypoints at its cruise speed (or the
-    configured one), in the day's air (no terrain following: it flies the waypoints' altitudes)."""
-    return MultirotorStack(
-        params,
-        np.array(mission.waypoints, dtype=np.float64),
-        speed=float(cfg.airspeed or mission.cruise_speed),
-        temperature_offset=cfg.temperature_offset,
-    )
-
-
 def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
     """Waypoints must lie inside the map and above the terrain (flat ground at 0 m without one)."""
     w = mission.waypoints
@@ -229,206 +234,258 @@ def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
         )
 
 
-def rangefinder_spread(cfg: ReplayConfig, avoider: Any) -> float:
+def rangefinder_spread(cfg: ReplayConfig, avoider: Avoider) -> float:
     """The half-angle of the rangefinders' beams (deg): the setting, else the avoider's
     (``rangefinder_spread_deg(R)``: the priority loop's sees tau round a beam's axis at R - tau),
     else 0 (a line)."""
     if cfg.rangefinder_spread is not None:
         return float(cfg.rangefinder_spread)
-    hook = getattr(avoider, "rangefinder_spread_deg", None)
-    return float(hook(cfg.rangefinder_range)) if hook is not None else 0.0
+    return float(avoider.rangefinder_spread_deg(cfg.rangefinder_range))
 
 
 def simulate(
     mission: Mission,
     threats: ThreatSet,
     avoider: Avoider,
-    vehicle: VehicleParams | MultirotorParams | FlightStack,
+    vehicle: Vehicle,
     *,
     grid: HeightGrid | None = None,
     terrain_model: Any = None,
     config: ReplayConfig | None = None,
-    recorder: Any = None,
+    recorder: Recorder | None = None,
     progress: Callable[[float, float], None] | None = None,
+    sensor: Sensor | None = None,
+    stack: FlightStack | None = None,
 ) -> ReplayResult:
-    """Fly ``mission`` with ``vehicle`` (a flight stack, or fixed-wing parameters: then
-    :func:`fixed_wing_stack`, or multirotor parameters: :func:`multirotor_stack`) among
-    ``threats``, letting ``avoider`` react to the radar at its own period."""
+    """Fly ``mission`` with ``vehicle`` among ``threats``, letting ``avoider`` react to what the
+    sensor sees at its own period.
+
+    The flight stack is the vehicle's own (:meth:`replay.flight.base.Vehicle.flight_stack`: the
+    mission's waypoints at its cruise speed or the configured one, its turn radius, terrain
+    following when configured) unless ``stack`` is given; the sensor is the configured one
+    (:meth:`ReplayConfig.make_sensor`, seeded with the run's generator, which the avoider shares)
+    unless ``sensor`` is given. ``recorder`` (:class:`replay.record.base.Recorder`) records the
+    run; ``progress(t, limit)`` is called after every tick."""
     cfg = config or ReplayConfig()
     wall0 = time.perf_counter()
     check_mission(mission, grid)
-    wp0 = np.array(mission.waypoints, dtype=np.float64)
-    duration = time_limit(mission, cfg)
     rng = np.random.default_rng(cfg.seed)
-    ground: Callable[[FloatArray, FloatArray], FloatArray]
-    if grid is not None:
-        ground = grid.height_at
-    else:
-
-        def ground(x: FloatArray, y: FloatArray) -> FloatArray:
-            return np.zeros_like(np.asarray(x, dtype=np.float64))
-
-    stack: FlightStack
-    if isinstance(vehicle, VehicleParams):
-        stack = fixed_wing_stack(mission, vehicle, grid, cfg)
-    elif isinstance(vehicle, MultirotorParams):
-        stack = multirotor_stack(mission, vehicle, cfg)
-    else:
-        stack = vehicle
+    if stack is None:
+        stack = _vehicle_stack(mission, vehicle, grid, cfg)
     x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
-    radar: Any
-    if cfg.sensor == "cooperative":
-        from replay.sensors.cooperative import CooperativeSensor
-
-        radar = CooperativeSensor(
-            range_m=cfg.radar_range,
-            period_s=cfg.radar_period,
-            noise_position_m=cfg.coop_noise_position,
-            noise_velocity_mps=cfg.coop_noise_velocity,
-            latency_s=cfg.coop_latency,
-            seed=rng,
-        )
-    elif cfg.sensor == "rangefinder":
-        from replay.sensors.rangefinder import Rangefinders
-
-        # seed 003's world of fixed obstacles: the avoiders act on stationary returns only
-        radar = Rangefinders(
-            range_m=cfg.rangefinder_range,
-            period_s=cfg.rangefinder_period,
-            beams=cfg.rangefinder_beams,
-            mount=cfg.rangefinder_mount,
-            noise_m=cfg.rangefinder_noise,
-            seed=rng,
-            assume_static=True,
-            spread_deg=rangefinder_spread(cfg, avoider),
-        )
-    else:
-        radar = Radar(
-            range_m=cfg.radar_range,
-            period_s=cfg.radar_period,
-            noise_range_m=cfg.radar_noise_range,
-            noise_bearing_rad=cfg.radar_noise_bearing,
-            seed=rng,
-        )
-    avoider.reset(wp0, rng)
-    passive = isinstance(avoider, NoAvoidance)
-    scan_period = float(radar.period_s)
-    avoid_period = float(cfg.avoid_period or getattr(avoider, "period", None) or scan_period)
-    tick = min(scan_period, avoid_period)
-    attitude = cfg.sensor == "rangefinder"  # the sensors that take the vehicle's state
-    next_decision = 0.0
-    zones = tuple(f"zone:{z.id or k}" for k, z in enumerate(mission.danger_zones))
-    tracker = MetricsTracker([*threats.ids, *zones], wp0[0], wp0[-1], cfg.margin)
-    record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
-    if recorder is not None:
-        recorder.write_waypoints(0.0, wp0, "initial", 1)
-
-    times: list[FloatArray] = []
-    states: list[FloatArray] = []
-    decisions: list[dict[str, Any]] = []
-    t = 0.0
-    end_reason = "time limit"
-    contact = False
-    table = ThreatTable(threats.threats)  # activity and separations of every threat at once
-    # what the metrics judge the flight by: the map, its measured terrain, the mission's danger
-    # zones (no-fly volumes) and the threats' safety volumes
-    validity = ValidityChecker(grid=grid, zones=mission.danger_zones, volumes=table)
-    # what an avoider's new waypoints and legs must pass: the same without the threats, which
-    # the avoider knows only through its sensor
-    candidates = ValidityChecker(grid=grid, zones=mission.danger_zones)
-    shown = np.zeros(len(table), dtype=bool)  # the active threats last recorded
-    pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
-    picture: Any = None
-    while t < duration - 1e-9:
-        period = min(tick, duration - t)
-        if period < 0.5 * stack.dt:
-            break  # the limit falls between two steps of the integrator: nothing left to fly
-        log = stack.fly(x, t, period, record_every=record_every)
-        x, t = log.x, log.t
-        ts, xs = log.times, log.states
-        if len(ts):
-            pos = ned_to_map(xs[:, :3])
-            clearance = pos[:, 2] - ground(pos[:, 0], pos[:, 1])
-            hit = np.flatnonzero(clearance < 0.0)
-            keep = int(hit[0]) + 1 if hit.size else len(ts)
-            pending.append((ts[:keep], pos[:keep], clearance[:keep]))
-            times.append(ts[:keep])
-            states.append(xs[:keep])
-            if recorder is not None:
-                _record_samples(recorder, log, pos)
-            if ts[keep - 1] - pending[0][0][0] >= _METRICS_BATCH_S:
-                _flush(pending, validity, tracker, zones, recorder)
-            if hit.size:
-                contact = True
-                end_reason = "terrain contact"
-                t = float(ts[hit[0]])
-                if recorder is not None:
-                    recorder.write_log(
-                        t,
-                        "error",
-                        f"terrain contact at x={pos[hit[0], 0]:.0f}, y={pos[hit[0], 1]:.0f}",
-                    )
-                break
-        if recorder is not None:
-            for r in log.reached:
-                recorder.write_log(
-                    r.t, "info", f"waypoint {r.index} reached ({r.how}, {r.distance:.0f} m)"
-                )
-            active = table.active(t)
-            if not np.array_equal(active, shown) or bool((active & table.moving).any()):
-                recorder.write_threats(t, threats.shapes(t))
-                shown = active
-        if progress is not None:
-            progress(t, duration)
-        if stack.done:
-            end_reason = _arrival(stack, ned_to_map(x[:3]))
-            break
-        if radar.due(t):
-            own = ned_to_map(x[:3])
-            picture = radar.scan(
-                t,
-                own,
-                threats.threats,
-                terrain_model=terrain_model if cfg.terrain_returns else None,
-                min_clearance=cfg.terrain_clearance,
-                **({"state": x} if attitude else {}),
-            )
-            if recorder is not None and (len(picture) or attitude):
-                _record_picture(recorder, t, picture)
-        if passive or picture is None or t < next_decision - 1e-9:
-            continue  # "none" never changes the mission: skip building its context
-        next_decision = t + avoid_period
-        ctx = _context(t, x, picture, stack, terrain_model, cfg, mission.danger_zones, candidates)
-        t0 = time.perf_counter()
-        decision = avoider.decide(ctx)
-        compute = time.perf_counter() - t0
-        tracker.call(compute)
-        if decision is not None:
-            decisions.append(_apply(decision, stack, t, compute, avoider, tracker, recorder))
-            if decision.end is not None:
-                end_reason = decision.end
-                if recorder is not None:
-                    recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
-                break
-    _flush(pending, validity, tracker, zones, recorder)
-    metrics = tracker.finish(
-        t, reached_goal=end_reason == "goal", terrain_contact=contact, end_reason=end_reason
-    )
-    if recorder is not None:
-        recorder.write_metrics(metrics.as_dict())
-    tt = np.concatenate(times) if times else np.zeros(0)
-    xx = np.concatenate(states) if states else np.zeros((0, 12))
+    if sensor is None:
+        sensor = cfg.make_sensor(rng, rangefinder_spread(cfg, avoider))
+    loop = _Loop(mission, threats, avoider, stack, sensor, grid, terrain_model, cfg, recorder)
+    avoider.reset(loop.wp0, rng)
+    loop.fly(x, progress)
+    metrics = loop.finish()
+    tt = np.concatenate(loop.times) if loop.times else np.zeros(0)
+    xx = np.concatenate(loop.states) if loop.states else np.zeros((0, 12))
     return ReplayResult(
         metrics=metrics,
         times=tt,
         states=xx,
         positions=ned_to_map(xx[:, :3]) if len(xx) else np.zeros((0, 3)),
         waypoints=stack.waypoints,
-        initial_waypoints=wp0,
-        decisions=tuple(decisions),
+        initial_waypoints=loop.wp0,
+        decisions=tuple(loop.decisions),
         seed=cfg.seed,
         wall_s=time.perf_counter() - wall0,
     )
+
+
+def _vehicle_stack(
+    mission: Mission, vehicle: Vehicle, grid: HeightGrid | None, cfg: ReplayConfig
+) -> FlightStack:
+    """The vehicle's flight stack for the mission: its waypoints at its cruise speed (or the
+    configured one), its turn fillets when it records a turn radius (else seed 000's 1 km leg
+    switch), terrain following when configured, in the configured day's air."""
+    return vehicle.flight_stack(
+        np.array(mission.waypoints, dtype=np.float64),
+        speed=float(cfg.airspeed or mission.cruise_speed),
+        turn_radius=mission.turn_radius,
+        switch_distance=cfg.switch_distance,
+        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
+        terrain_clearance=cfg.terrain_following or 0.0,
+        temperature_offset=cfg.temperature_offset,
+    )
+
+
+class _Loop:
+    """One replay while it flies: the stack, sensor and avoider, what is judged (threats, zones,
+    terrain, map) and what is kept (samples, decisions, the end)."""
+
+    def __init__(
+        self,
+        mission: Mission,
+        threats: ThreatSet,
+        avoider: Avoider,
+        stack: FlightStack,
+        sensor: Sensor,
+        grid: HeightGrid | None,
+        terrain_model: Any,
+        cfg: ReplayConfig,
+        recorder: Recorder | None,
+    ) -> None:
+        self.mission, self.threats, self.avoider = mission, threats, avoider
+        self.stack, self.sensor, self.grid, self.cfg = stack, sensor, grid, cfg
+        self.terrain_model, self.recorder = terrain_model, recorder
+        self.wp0 = np.array(mission.waypoints, dtype=np.float64)
+        self.duration = time_limit(mission, cfg)
+        scan_period = float(sensor.period_s)
+        self.avoid_period = float(cfg.avoid_period or avoider.period or scan_period)
+        self.tick = min(scan_period, self.avoid_period)
+        self.next_decision = 0.0
+        self.zones = tuple(f"zone:{z.id or k}" for k, z in enumerate(mission.danger_zones))
+        self.tracker = MetricsTracker(
+            [*threats.ids, *self.zones], self.wp0[0], self.wp0[-1], cfg.margin
+        )
+        self.record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
+        self.times: list[FloatArray] = []
+        self.states: list[FloatArray] = []
+        self.decisions: list[dict[str, Any]] = []
+        self.t = 0.0
+        self.end_reason = "time limit"
+        self.contact = False
+        self.table = ThreatTable(threats.threats)  # activity and separations of every threat
+        # what the metrics judge the flight by: the map, its measured terrain, the mission's
+        # danger zones (no-fly volumes) and the threats' safety volumes
+        self.validity = ValidityChecker(grid=grid, zones=mission.danger_zones, volumes=self.table)
+        # what an avoider's new waypoints and legs must pass: the same without the threats,
+        # which the avoider knows only through its sensor
+        self.candidates = ValidityChecker(grid=grid, zones=mission.danger_zones)
+        self.shown = np.zeros(len(self.table), dtype=bool)  # the active threats last recorded
+        self.pending: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+        self.picture: Any = None
+        if recorder is not None:
+            recorder.write_waypoints(0.0, self.wp0, "initial", 1)
+
+    def ground(self, x: FloatArray, y: FloatArray) -> FloatArray:
+        if self.grid is not None:
+            return self.grid.height_at(x, y)
+        return np.zeros_like(np.asarray(x, dtype=np.float64))
+
+    def fly(self, x: FloatArray, progress: Callable[[float, float], None] | None) -> None:
+        """Tick by tick until the goal, terrain contact, the avoider's end or the time limit."""
+        t = 0.0
+        stack = self.stack
+        while t < self.duration - 1e-9:
+            period = min(self.tick, self.duration - t)
+            if period < 0.5 * stack.dt:
+                break  # the limit falls between two steps of the integrator: nothing left to fly
+            log = stack.fly(x, t, period, record_every=self.record_every)
+            x, t = log.x, log.t
+            contact_t = self._samples(log)
+            if contact_t is not None:
+                t = contact_t
+                break
+            self._events(log, t)
+            if progress is not None:
+                progress(t, self.duration)
+            if stack.done:
+                self.end_reason = _arrival(stack, ned_to_map(x[:3]))
+                break
+            if self.sensor.due(t):
+                self._scan(t, x)
+            if self._decide(t, x):
+                break
+        self.t = t
+
+    def _samples(self, log: FlightLog) -> float | None:
+        """Keep the tick's samples (up to terrain contact) for the metrics and the recording;
+        the time of terrain contact, else None."""
+        ts, xs = log.times, log.states
+        if not len(ts):
+            return None
+        pos = ned_to_map(xs[:, :3])
+        clearance = pos[:, 2] - self.ground(pos[:, 0], pos[:, 1])
+        hit = np.flatnonzero(clearance < 0.0)
+        keep = int(hit[0]) + 1 if hit.size else len(ts)
+        self.pending.append((ts[:keep], pos[:keep], clearance[:keep]))
+        self.times.append(ts[:keep])
+        self.states.append(xs[:keep])
+        rec = self.recorder
+        if rec is not None:
+            _record_samples(rec, log, pos)
+        if ts[keep - 1] - self.pending[0][0][0] >= _METRICS_BATCH_S:
+            _flush(self.pending, self.validity, self.tracker, self.zones, rec)
+        if not hit.size:
+            return None
+        self.contact = True
+        self.end_reason = "terrain contact"
+        if rec is not None:
+            where = f"x={pos[hit[0], 0]:.0f}, y={pos[hit[0], 1]:.0f}"
+            rec.write_log(float(ts[hit[0]]), "error", f"terrain contact at {where}")
+        return float(ts[hit[0]])
+
+    def _events(self, log: FlightLog, t: float) -> None:
+        """Record the tick's leg changes and the threats when they changed."""
+        rec = self.recorder
+        if rec is None:
+            return
+        for r in log.reached:
+            rec.write_log(r.t, "info", f"waypoint {r.index} reached ({r.how}, {r.distance:.0f} m)")
+        table = self.table
+        active = table.active(t)
+        if not np.array_equal(active, self.shown) or bool((active & table.moving).any()):
+            rec.write_threats(t, self.threats.shapes(t))
+            self.shown = active
+
+    def _scan(self, t: float, x: FloatArray) -> None:
+        cfg = self.cfg
+        self.picture = picture = self.sensor.scan(
+            t,
+            ned_to_map(x[:3]),
+            self.threats.threats,
+            terrain_model=self.terrain_model if cfg.terrain_returns else None,
+            min_clearance=cfg.terrain_clearance,
+            state=x,
+        )
+        if self.recorder is not None and (len(picture) or cfg.sensor == "rangefinder"):
+            _record_picture(self.recorder, t, picture)
+
+    def _decide(self, t: float, x: FloatArray) -> bool:
+        """Ask the avoider when it is due; True when its decision ends the run."""
+        avoider = self.avoider
+        if avoider.passive or self.picture is None or t < self.next_decision - 1e-9:
+            return False  # "none" never changes the mission: skip building its context
+        self.next_decision = t + self.avoid_period
+        ctx = _context(
+            t,
+            x,
+            self.picture,
+            self.stack,
+            self.terrain_model,
+            self.cfg,
+            self.mission.danger_zones,
+            self.candidates,
+        )
+        t0 = time.perf_counter()
+        decision = avoider.decide(ctx)
+        compute = time.perf_counter() - t0
+        self.tracker.call(compute)
+        if decision is None:
+            return False
+        record = _apply(decision, self.stack, t, compute, avoider, self.tracker, self.recorder)
+        self.decisions.append(record)
+        if decision.end is None:
+            return False
+        self.end_reason = decision.end
+        if self.recorder is not None:
+            self.recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
+        return True
+
+    def finish(self) -> RunMetrics:
+        _flush(self.pending, self.validity, self.tracker, self.zones, self.recorder)
+        metrics = self.tracker.finish(
+            self.t,
+            reached_goal=self.end_reason == "goal",
+            terrain_contact=self.contact,
+            end_reason=self.end_reason,
+        )
+        if self.recorder is not None:
+            self.recorder.write_metrics(metrics.as_dict())
+        return metrics
 
 
 GOAL_MISS_FACTOR = 2.0  # passing the goal's plane farther than this x the arrival distance
@@ -454,7 +511,7 @@ def _flush(
     validity: ValidityChecker,
     tracker: MetricsTracker,
     zones: tuple[str, ...],
-    recorder: Any = None,
+    recorder: Recorder | None = None,
 ) -> None:
     """Separation to every active threat and to every danger zone of the mission, time off the
     map and over unknown terrain (all from ``validity``), and the metrics update, for the
@@ -479,7 +536,7 @@ def _flush(
         recorder.write_separations(ts, ids, seps, margin_m=tracker.margin)
 
 
-def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
+def _record_samples(recorder: Recorder, log: FlightLog, pos: FloatArray) -> None:
     for i, tk in enumerate(log.times):
         if not recorder.state_due(float(tk)):
             continue
@@ -491,7 +548,7 @@ def _record_samples(recorder: Any, log: Any, pos: FloatArray) -> None:
 RECORDED_TERRAIN_RETURNS = 48  # the nearest terrain returns of a scan that go into the MCAP
 
 
-def _record_picture(recorder: Any, t: float, picture: Any) -> None:
+def _record_picture(recorder: Recorder, t: float, picture: Any) -> None:
     """Every threat return of a scan, and its nearest terrain returns (a mountain scan can hold
     hundreds; recording them all would dominate the run's time and file size); and the
     rangefinders' beams."""
@@ -562,7 +619,7 @@ def _apply(
     compute: float,
     avoider: Avoider,
     tracker: MetricsTracker,
-    recorder: Any,
+    recorder: Recorder | None,
 ) -> dict[str, Any]:
     """Hand the decision's command to the flight stack (a refusal is recorded, not raised)."""
     added = 0

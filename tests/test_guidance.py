@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from planner.mission import Mission
-from replay.avoidance import AvoidanceContext, make_avoider
+from replay.avoidance import AvoidanceContext, AvoiderBase, make_avoider
 from replay.avoidance.registry import AVOIDERS, avoider_class, avoider_options
 from replay.flight.fixedwing.presets import load_vehicle
 from replay.flight.fixedwing.stack import FixedWingStack
@@ -155,7 +155,7 @@ def test_command_record_is_plain_data() -> None:
 
 
 # -- the avoider in the loop ---------------------------------------------------------------------------
-class _Scripted:
+class _Scripted(AvoiderBase):
     """An avoider that records when it is asked and orbits, refuses, or ends the run."""
 
     name = "scripted"

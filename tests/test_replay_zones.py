@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from planner.mission import Mission, save_mission
-from replay.avoidance.base import AvoidanceContext, NoAvoidance
+from replay.avoidance.base import AvoidanceContext, AvoiderBase, NoAvoidance
 from replay.flight.fixedwing.presets import load_vehicle
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
 from replay.sim import ReplayConfig, simulate
@@ -64,7 +64,7 @@ def test_a_zone_flown_over_is_no_violation() -> None:
     assert r.metrics.min_separation["zone:low"]["value"] == pytest.approx(100.0, abs=1.0)
 
 
-class _Detour:
+class _Detour(AvoiderBase):
     """Turns north off the map at 60 s, back to the mission at 300 s."""
 
     name = "detour"

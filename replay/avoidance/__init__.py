@@ -1,7 +1,7 @@
 """Online avoiders: one interface (:class:`replay.avoidance.base.Avoider`), one module each, listed
 in an explicit table (:mod:`replay.avoidance.registry`)."""
 
-from replay.avoidance.base import AvoidanceContext, Avoider, NoAvoidance
+from replay.avoidance.base import AvoidanceContext, Avoider, AvoiderBase, NoAvoidance
 from replay.avoidance.registry import AVOIDERS, avoider_options, make_avoider
 from replay.guidance import AvoidanceDecision
 
@@ -10,6 +10,7 @@ __all__ = [
     "AvoidanceContext",
     "AvoidanceDecision",
     "Avoider",
+    "AvoiderBase",
     "NoAvoidance",
     "avoider_options",
     "make_avoider",

@@ -49,17 +49,59 @@ class AvoidanceContext:
 
 
 class Avoider(Protocol):
+    """Every hook the replay calls on an avoider (:class:`AvoiderBase` gives the defaults).
+
+    - ``name``: how runs and decisions name it; ``period``: seconds between its decisions (None:
+      the sensor's scan period); ``passive``: True for an avoider that never acts (the loop then
+      builds no context for it);
+    - :meth:`check_vehicle` and :meth:`check_setup`, before anything is flown: refuse (with a
+      one-line :class:`terrain.errors.InputError`) an aircraft or a set-up the method cannot
+      work with;
+    - :meth:`rangefinder_spread_deg`: the half-angle (deg) of the rangefinder beams it wants
+      when the user sets none (0: a line);
+    - :meth:`reset` at the start of a flight (the run's random generator, shared with the
+      sensor) and :meth:`decide` at its period."""
+
     name: str
+    period: float | None
+    passive: bool
+
+    def check_vehicle(self, params: Any, speed: float) -> None: ...
+
+    def check_setup(
+        self, config: Any, mission: Any, threats: Any, grid: Any, speed: float
+    ) -> None: ...
+
+    def rangefinder_spread_deg(self, range_m: float) -> float: ...
 
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None: ...
 
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None: ...
 
 
-class NoAvoidance:
+class AvoiderBase:
+    """The defaults of the optional hooks of :class:`Avoider`: the sensor's period, every
+    vehicle and set-up accepted, rangefinder beams as lines."""
+
+    name = "avoider"
+    period: float | None = None
+    passive = False
+
+    def check_vehicle(self, params: Any, speed: float) -> None:
+        return None
+
+    def check_setup(self, config: Any, mission: Any, threats: Any, grid: Any, speed: float) -> None:
+        return None
+
+    def rangefinder_spread_deg(self, range_m: float) -> float:
+        return 0.0
+
+
+class NoAvoidance(AvoiderBase):
     """Keep the mission whatever the sensors see."""
 
     name = "none"
+    passive = True
 
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         return None
@@ -68,4 +110,4 @@ class NoAvoidance:
         return None
 
 
-__all__ = ["AvoidanceContext", "AvoidanceDecision", "Avoider", "NoAvoidance"]
+__all__ = ["AvoidanceContext", "AvoidanceDecision", "Avoider", "AvoiderBase", "NoAvoidance"]

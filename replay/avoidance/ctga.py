@@ -84,10 +84,10 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.optim.base import require_real
-from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.base import AvoidanceContext, AvoiderBase
 from replay.avoidance.circles import min_enclosing_circle
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
-from replay.flight.fixedwing.params import G
+from replay.flight.base import G
 from replay.frames import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, Orbit
 from terrain.errors import InputError
@@ -262,7 +262,7 @@ class _Arc:
     issued_t: float = 0.0  # when the orbit was last commanded (its centre moves from there)
 
 
-class CtgaAvoider:
+class CtgaAvoider(AvoiderBase):
     """Seed 001's CTGA (see the module docstring)."""
 
     name = "ctga"

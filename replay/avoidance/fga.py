@@ -125,7 +125,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.optim.base import require_real
-from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.base import AvoidanceContext, AvoiderBase
 from replay.avoidance.fga_geometry import (
     Encounter,
     FgaObstacle,
@@ -143,8 +143,8 @@ from replay.avoidance.fga_geometry import (
     tangent_courses,
 )
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
+from replay.flight.base import G
 from replay.flight.fixedwing.gains import LoopDesign
-from replay.flight.fixedwing.params import G
 from replay.frames import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
 from terrain.errors import InputError
@@ -191,7 +191,7 @@ class _Plan:
     costs: dict[str, float] = field(default_factory=dict)
 
 
-class FgaAvoider:
+class FgaAvoider(AvoiderBase):
     """Seed 004's FGA (see the module docstring)."""
 
     name = "fga"

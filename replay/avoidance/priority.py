@@ -152,7 +152,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.optim.base import require_real
-from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.base import AvoidanceContext, AvoiderBase
 from replay.flight.multirotor.stack import ControllerDesign
 from replay.frames import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GoTo, HoldPosition, YawTo
@@ -484,7 +484,7 @@ class _Scan:
         return wrap(self.heading + self.steps[self.k] * SLOT)
 
 
-class PriorityAvoider:
+class PriorityAvoider(AvoiderBase):
     """Seed 003's priority loop (see the module docstring)."""
 
     name = "priority"

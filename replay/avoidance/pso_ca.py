@@ -131,7 +131,7 @@ from planner.optim import make_optimizer
 from planner.optim.base import require_real
 from planner.optim.pso import SEED000_PSO
 from planner.optim.termination import MaxIterations, Stall
-from replay.avoidance.base import AvoidanceContext
+from replay.avoidance.base import AvoidanceContext, AvoiderBase
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
 from replay.avoidance.pso_ca_geometry import (
     G,
@@ -250,7 +250,7 @@ START_MODES = ("detection", "critical")
 CRITICAL_PERIOD_S = 1.0  # PSO-CA decides at the radar's scans: start when t_k is within one
 
 
-class PsoCaAvoider:
+class PsoCaAvoider(AvoiderBase):
     """Radar-driven waypoint re-planning of seed 000 (see the module docstring)."""
 
     name = "pso-ca"

@@ -9,6 +9,9 @@ when to turn for the next leg) belong to the stack. The stacks:
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
+from dataclasses import fields
 from typing import Any, Protocol
 
 import numpy as np
@@ -16,8 +19,10 @@ import numpy.typing as npt
 
 from replay.flight.log import FlightLog
 from replay.guidance import GuidanceCommand
+from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
+G = 9.81  # m/s^2, the value seed 000 uses (eq. 13)
 
 
 class FlightStack(Protocol):
@@ -51,4 +56,61 @@ class FlightStack(Protocol):
     ) -> FlightLog: ...
 
 
-__all__ = ["FlightStack"]
+TerrainHeight = Callable[[FloatArray, FloatArray], npt.ArrayLike]
+
+
+class Vehicle(Protocol):
+    """What a replay needs of a vehicle's parameters (fixed wing:
+    :class:`replay.flight.fixedwing.params.VehicleParams`; multirotor:
+    :class:`replay.flight.multirotor.model.MultirotorParams`): its name and cruise speed, whether
+    its stack follows the terrain, the speeds it accepts, and the flight stack that flies it."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def cruise_speed(self) -> float: ...
+
+    @property
+    def follows_terrain(self) -> bool: ...
+
+    def check_speed(self, speed: float, what: str = "speed") -> float: ...
+
+    def flight_stack(
+        self,
+        waypoints: npt.ArrayLike,
+        *,
+        speed: float,
+        turn_radius: float | None = None,
+        switch_distance: float = 1000.0,
+        terrain_height: TerrainHeight | None = None,
+        terrain_clearance: float = 0.0,
+        temperature_offset: float = 0.0,
+    ) -> FlightStack: ...
+
+
+def check_numbers(
+    p: Any,
+    skip: tuple[str, ...],
+    positive: tuple[str, ...],
+    non_negative: tuple[str, ...],
+    bad: Callable[[str, str, Any], InputError],
+) -> None:
+    """The number checks of a vehicle's ``validate`` (fixed-wing and multirotor): every field of
+    the dataclass ``p`` but those in ``skip`` a finite number, those in ``positive`` > 0 and in
+    ``non_negative`` >= 0; the first that is not raises ``bad(field, expected, found)``."""
+    for f in fields(p):
+        if f.name in skip:
+            continue
+        v = getattr(p, f.name)
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise bad(f.name, "a finite number", v)
+    for k in positive:
+        if getattr(p, k) <= 0:
+            raise bad(k, "a number > 0", getattr(p, k))
+    for k in non_negative:
+        if getattr(p, k) < 0:
+            raise bad(k, "a number >= 0", getattr(p, k))
+
+
+__all__ = ["FlightStack", "G", "TerrainHeight", "Vehicle", "check_numbers"]

@@ -81,7 +81,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.frames import course_of
-from replay.sensors.radar import check_own_position, scan_due, sensor_number, sensor_rng
+from replay.sensors.base import check_own_position, scan_due, sensor_number, sensor_rng
 from replay.threats.body import BodyThreat
 from replay.threats.kinds import HillThreat, PrismThreat, StaticThreat, Threat
 from terrain.errors import InputError
@@ -299,9 +299,11 @@ class CooperativeSensor:
         threats: Iterable[Threat],
         terrain_model: TerrainModel | None = None,
         min_clearance: float | None = None,
+        state: npt.ArrayLike | None = None,
     ) -> CooperativePicture:
-        """The reports heard at time t (see the module docstring); ``terrain_model`` and
-        ``min_clearance`` are ignored (the radar's signature, so the loop calls either)."""
+        """The reports heard at time t (see the module docstring); ``terrain_model``,
+        ``min_clearance`` and ``state`` are ignored (:class:`replay.sensors.base.Sensor`'s
+        signature, so the loop calls any sensor alike)."""
         own = check_own_position(own_position)
         t = _number("scan time", t, -math.inf, False)
         tm = t - self.latency_s

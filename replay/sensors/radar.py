@@ -77,12 +77,13 @@ import math
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from replay.frames import course_of
+from replay.sensors.base import check_own_position, scan_due, sensor_number, sensor_rng
 from replay.threats.kinds import EDGE_SUFFIXES, Threat
 from replay.threats.table import ThreatTable
 from terrain.errors import InputError
@@ -97,7 +98,6 @@ IntArray = npt.NDArray[np.int64]
 DetectionKind = Literal["threat", "terrain"]
 DEFAULT_ELEVATIONS_DEG = (-0.5, 0.0, 0.5, 1.5, 3.0)
 TERRAIN_SOURCE = "terrain"
-_DUE_SLACK_S = 1e-6  # scans fall due this much early, so sums of 0.01 s steps do not skip one
 _ALT_SLACK_M = 1e-3  # float32 ray casting rounds hit altitudes by up to ~1 mm
 
 
@@ -198,51 +198,14 @@ class RadarPicture:
         return self.detections[self.n_threat :]
 
 
-def sensor_number(sensor: str, name: str, value: Any, minimum: float, strict: bool) -> float:
-    """A sensor parameter as a finite float above (``strict``) or at least ``minimum``; else a
-    one-line error naming the sensor and the parameter."""
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        out = math.nan
-    ok = math.isfinite(out) and (out > minimum if strict else out >= minimum)
-    if isinstance(value, bool) or not ok:
-        rel = ">" if strict else ">="
-        raise InputError(
-            f"{sensor} {name} must be a finite number {rel} {minimum:g}; got {value!r}"
-        )
-    return out
-
-
-def sensor_rng(sensor: str, seed: Any) -> tuple[np.random.Generator, int | None]:
-    """(the sensor's random generator, its integer seed or None when a Generator was given)."""
-    if isinstance(seed, np.random.Generator):
-        return seed, None
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
-        raise InputError(f"{sensor} seed must be an integer or a numpy Generator; got {seed!r}")
-    return np.random.default_rng(int(seed)), int(seed)
-
-
-def scan_due(last_scan_t: float | None, period_s: float, t: float) -> bool:
-    """A sensor's ``due``: True when no scan happened yet or ``period_s`` has passed since the
-    last one (less ``_DUE_SLACK_S``)."""
-    return last_scan_t is None or t >= last_scan_t + period_s - _DUE_SLACK_S
-
-
-def check_own_position(value: npt.ArrayLike) -> FloatArray:
-    """A sensor's own position: 3 finite map coordinates, else a one-line error."""
-    own = np.asarray(value, dtype=np.float64)
-    if own.shape != (3,) or not np.all(np.isfinite(own)):
-        raise InputError(f"own position must be 3 finite map coordinates; got {value!r}")
-    return own
-
-
 def _number(name: str, value: float, minimum: float, strict: bool) -> float:
     return sensor_number("radar", name, value, minimum, strict)
 
 
 class Radar:
     """Radar with one random generator; keeps the previous picture for classification."""
+
+    name = "radar"
 
     def __init__(
         self,
@@ -326,8 +289,10 @@ class Radar:
         threats: Iterable[Threat],
         terrain_model: TerrainModel | None = None,
         min_clearance: float | None = None,
+        state: npt.ArrayLike | None = None,
     ) -> RadarPicture:
-        """Scan now (see the module docstring); the picture also becomes :attr:`previous`."""
+        """Scan now (see the module docstring); the picture also becomes :attr:`previous`.
+        ``state`` (the vehicle's attitude) is not read: the radar scans a stabilised sphere."""
         own = check_own_position(own_position)
         t = _number("scan time", t, -math.inf, False)
         clearance = (

@@ -89,13 +89,8 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.frames import PHI, PSI, THETA, course_of, ned_to_map, rotation_body_to_ned
-from replay.sensors.radar import (
-    RadarPicture,
-    check_own_position,
-    scan_due,
-    sensor_number,
-    sensor_rng,
-)
+from replay.sensors.base import check_own_position, scan_due, sensor_number, sensor_rng
+from replay.sensors.radar import RadarPicture
 from replay.sensors.raycast import (
     ray_cylinders,
     ray_flat_ground,

@@ -157,7 +157,7 @@ eq. 20); ``command`` measures the period from successive ``t``; ``fly`` can run 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -166,6 +166,7 @@ import numpy.typing as npt
 
 from planner.flown import Fillets, fillets
 from replay.flight.atmosphere import check_offset
+from replay.flight.base import TerrainHeight
 from replay.flight.fixedwing import kernels as kern
 from replay.flight.fixedwing.dynamics import DT
 from replay.flight.fixedwing.gains import Gains, LoopDesign, design_gains
@@ -176,7 +177,6 @@ from replay.guidance import GuidanceRefused
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
-TerrainHeight = Callable[[FloatArray, FloatArray], npt.ArrayLike]
 
 
 @dataclass(frozen=True)

@@ -44,8 +44,9 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.flight.atmosphere import RHO0, check_offset, density_at
+from replay.flight.base import G
 from replay.flight.fixedwing import kernels
-from replay.flight.fixedwing.params import G, VehicleParams
+from replay.flight.fixedwing.params import VehicleParams
 from replay.frames import N_STATES, rotation_body_to_ned, translational_rates
 from terrain.errors import InputError
 

@@ -13,9 +13,10 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.flight.atmosphere import density
+from replay.flight.base import G
 from replay.flight.fixedwing import kernels as kern
 from replay.flight.fixedwing.dynamics import drag_coefficient
-from replay.flight.fixedwing.params import G, VehicleParams
+from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.fixedwing.trim import trim
 from terrain.errors import InputError
 

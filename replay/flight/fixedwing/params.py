@@ -68,19 +68,21 @@ parameters into the float64 array the numba kernels take (layout: the ``I_*`` in
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from planner.performance import Performance
 from replay.flight.atmosphere import check_offset, true_airspeed
+from replay.flight.base import G, TerrainHeight, check_numbers
 from terrain.errors import InputError
 
+if TYPE_CHECKING:
+    from replay.flight.fixedwing.stack import FixedWingStack
+
 FloatArray = npt.NDArray[np.float64]
-G = 9.81  # m/s^2, the value seed 000 uses (eq. 13)
 
 
 @dataclass(frozen=True)
@@ -220,6 +222,43 @@ class VehicleParams:
             true_airspeed([self.airspeed_min, self.airspeed_max], altitude, temperature_offset)
         )
         return float(lo), float(hi)
+
+    @property
+    def follows_terrain(self) -> bool:
+        """The fixed-wing stack follows the terrain when asked (its autopilot's floor)."""
+        return True
+
+    def check_speed(self, speed: float, what: str = "speed") -> float:
+        """``speed`` as a float: the fixed wing's trim at the start of a flight refuses a speed it
+        cannot fly, naming those it can."""
+        return float(speed)
+
+    def flight_stack(
+        self,
+        waypoints: npt.ArrayLike,
+        *,
+        speed: float,
+        turn_radius: float | None = None,
+        switch_distance: float = 1000.0,
+        terrain_height: TerrainHeight | None = None,
+        terrain_clearance: float = 0.0,
+        temperature_offset: float = 0.0,
+    ) -> FixedWingStack:
+        """The aircraft under its autopilot flying ``waypoints`` at ``speed``: turn fillets of
+        ``turn_radius`` (else the leg switch ``switch_distance`` before a waypoint), terrain
+        following when ``terrain_height`` is given."""
+        from replay.flight.fixedwing.stack import FixedWingStack
+
+        return FixedWingStack(
+            self,
+            waypoints,
+            airspeed=speed,
+            turn_radius=turn_radius,
+            switch_distance=switch_distance,
+            terrain_height=terrain_height,
+            terrain_clearance=terrain_clearance,
+            temperature_offset=temperature_offset,
+        )
 
     def min_turn_radius(self, speed: float | None = None) -> float:
         """V^2 / (g tan(bank_max)) (seed 000 eq. 13) at ``speed`` (default: cruise)."""
@@ -416,30 +455,6 @@ _NON_NEGATIVE = ("motor_no_load_current",)
 
 def _bad(field: str, expected: str, found: Any) -> InputError:
     return InputError(f"field {field!r}: expected {expected}, found {found!r}")
-
-
-def check_numbers(
-    p: Any,
-    skip: tuple[str, ...],
-    positive: tuple[str, ...],
-    non_negative: tuple[str, ...],
-    bad: Callable[[str, str, Any], InputError],
-) -> None:
-    """The number checks of a vehicle's ``validate`` (fixed-wing and multirotor): every field of
-    the dataclass ``p`` but those in ``skip`` a finite number, those in ``positive`` > 0 and in
-    ``non_negative`` >= 0; the first that is not raises ``bad(field, expected, found)``."""
-    for f in fields(p):
-        if f.name in skip:
-            continue
-        v = getattr(p, f.name)
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise bad(f.name, "a finite number", v)
-    for k in positive:
-        if getattr(p, k) <= 0:
-            raise bad(k, "a number > 0", getattr(p, k))
-    for k in non_negative:
-        if getattr(p, k) < 0:
-            raise bad(k, "a number >= 0", getattr(p, k))
 
 
 def validate(p: VehicleParams) -> None:

@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig, TerrainHeight
-from replay.flight.fixedwing.params import G, VehicleParams
+from replay.flight.base import G, TerrainHeight
+from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig
+from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.fixedwing.trim import trim
 from replay.flight.log import FlightLog
 from replay.frames import PD, PE, PN, PSI

@@ -56,15 +56,19 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from replay.flight.atmosphere import RHO0, check_offset, density_at
-from replay.flight.fixedwing.params import G, check_numbers
+from replay.flight.base import G, check_numbers
 from replay.frames import rotation_body_to_ned, translational_rates
 from terrain.errors import InputError
+
+if TYPE_CHECKING:
+    from replay.flight.base import TerrainHeight
+    from replay.flight.multirotor.stack import MultirotorStack
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -161,6 +165,29 @@ class MultirotorParams:
                 f"(0, {self.speed_max:g}] m/s"
             )
         return v
+
+    @property
+    def follows_terrain(self) -> bool:
+        """The multirotor flies the waypoints' altitudes: it does not follow the terrain."""
+        return False
+
+    def flight_stack(
+        self,
+        waypoints: npt.ArrayLike,
+        *,
+        speed: float,
+        turn_radius: float | None = None,
+        switch_distance: float = 1000.0,
+        terrain_height: TerrainHeight | None = None,
+        terrain_clearance: float = 0.0,
+        temperature_offset: float = 0.0,
+    ) -> MultirotorStack:
+        """The multirotor under its controller flying ``waypoints`` at ``speed`` in the day's air
+        (turn radius, leg switch and terrain following do not apply: it turns on the spot and
+        flies the waypoints' altitudes)."""
+        from replay.flight.multirotor.stack import MultirotorStack
+
+        return MultirotorStack(self, waypoints, speed=speed, temperature_offset=temperature_offset)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -83,7 +83,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from replay.flight.fixedwing.params import G
+from replay.flight.base import G
 from replay.flight.log import FlightLog, FlightRecorder, WaypointReached
 from replay.flight.multirotor import kernels as kern
 from replay.flight.multirotor.model import DT, N_MR_STATES, MultirotorParams, hover_state
