@@ -73,7 +73,7 @@ def fga_options(vehicle: str, speed: float) -> dict[str, Any]:
 def seed001(name: str, avoider: str, sensor: str = "cooperative", **options: Any) -> ReplayResult:
     if avoider == "fga" and not options:
         options = fga_options("cessna172", 50.0)
-    request = ReplayRequest(
+    request = ReplayRequest.of(
         str(SCENARIO_DIR / "seed001-mission.yaml"),
         threats=str(SCENARIO_DIR / f"seed001-{name}-threats.yaml"),
         avoid=avoider,
@@ -90,7 +90,7 @@ def contract(name: str, avoider: str) -> ReplayResult:
 
 
 def table4(avoider: str) -> ReplayResult:
-    request = ReplayRequest(
+    request = ReplayRequest.of(
         str(ROOT / "data" / "missions" / "seed000-table4.yaml"),
         threats=str(ROOT / "data" / "threats" / "seed000-table4.yaml"),
         avoid=avoider,

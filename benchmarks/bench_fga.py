@@ -77,7 +77,7 @@ PSO_CA_SEED004 = {
 
 def fly(threats: Any, avoider: str, mission: Any = None) -> ReplayResult:
     return run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             mission if mission is not None else str(MISSION),
             threats=threats,
             avoid=avoider,

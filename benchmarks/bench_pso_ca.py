@@ -227,7 +227,7 @@ def _warm_up(optimizer: str) -> None:
 
 def _request(threats: ThreatSet, optimizer: str, seed: int, **kw: Any) -> ReplayRequest:
     """The replay of the seed 000 mission with ``threats`` and PSO-CA over ``optimizer``."""
-    return ReplayRequest(
+    return ReplayRequest.of(
         str(MISSION),
         threats=threats,
         avoid="pso-ca",

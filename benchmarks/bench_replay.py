@@ -18,7 +18,6 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -40,8 +39,8 @@ MISSION = ROOT / "data" / "missions" / "seed000-table4.yaml"
 
 
 def bench_empty() -> None:
-    request = ReplayRequest(str(MISSION), seed=0, command="bench_replay")
-    run_replay(replace(request, duration=5.0))  # JIT warm-up
+    request = ReplayRequest.of(str(MISSION), seed=0, command="bench_replay")
+    run_replay(request.but(duration=5.0))  # JIT warm-up
     t = time.perf_counter()
     bare = run_replay(request)
     t_bare = time.perf_counter() - t
@@ -194,7 +193,7 @@ def bench_obstacles(count: int, repeats: int, seed: int, note: str = "") -> None
                 w, c, reports[case] = _timed(partial(_cli_replay, file, folder / f"{case}.mcap"))
                 wall["cli", case].append(w)
                 cpu["cli", case].append(c)
-                lib = ReplayRequest(str(MISSION), threats=threats if file else None)
+                lib = ReplayRequest.of(str(MISSION), threats=threats if file else None)
                 w, c, res = _timed(partial(run_replay, lib))
                 wall["lib", case].append(w)
                 cpu["lib", case].append(c)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -43,9 +43,16 @@ from terrain.grid import HeightGrid
 
 @dataclass(frozen=True)
 class ReplayRequest:
-    """What a replay is made of (``terrapath replay``'s options). ``source`` is a mission YAML or
-    an earlier run's ``.mcap``; ``threats`` a threat file or threats built in memory (recorded in
-    the MCAP as a threat file); ``avoid_options`` are the avoider's keyword options."""
+    """What a replay is made of (``terrapath replay``'s options): what to fly (``source``: a
+    mission YAML, an earlier run's ``.mcap``, or a mission built in memory), among which threats
+    (a threat file, or threats built in memory, recorded in the MCAP as a threat file), avoided
+    by which avoider (``avoid_options``: its keyword options), with which vehicle and DEM tiles
+    (default: the mission's), the loop's settings (``config``, :class:`replay.sim.ReplayConfig`:
+    seed, sensor, limits, margin, atmosphere) and how it is recorded.
+
+    ``terrain_following`` is the user's: None keeps the clearance the mission was planned with,
+    0 turns it off; :func:`prepare_replay` puts the resolved clearance into the config.
+    :meth:`of` and :meth:`but` take the config's fields by name beside the request's own."""
 
     source: str | Mission  # a mission file, a run (.mcap), or a mission built in memory
     threats: str | ThreatSet | None = None
@@ -53,27 +60,40 @@ class ReplayRequest:
     avoid_options: dict[str, Any] = field(default_factory=dict)
     vehicle: str | None = None
     dem: tuple[str, ...] = ()
-    seed: int = 0
-    duration: float | None = None
-    log_rate: float = 10.0
-    radar_range: float = 10_000.0
-    radar_noise: float = 0.0
-    sensor: str = "radar"  # "cooperative": every threat in range reports itself (ADS-B-like);
-    # "rangefinder": beams of range R by ray casting (replay.sensors.rangefinder)
-    coop_noise_position: float = 0.0
-    coop_noise_velocity: float = 0.0
-    coop_latency: float = 0.0
-    rangefinder_range: float = 20.0
-    rangefinder_beams: int = 4
-    rangefinder_mount: str = "gimballed"  # or "body"
-    rangefinder_noise: float = 0.0
-    rangefinder_spread: float | None = None  # deg; None: the avoider's choice (replay.sim)
-    margin: float = 0.0  # success needs every separation >= this (m)
-    temperature_offset: float = 0.0  # K off the ISA standard day
+    config: ReplayConfig = field(default_factory=ReplayConfig)
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
+    log_rate: float = 10.0
     terrain_mesh: bool = True
     command: str = "terrapath replay"  # recorded in the MCAP
     software_version: str = ""
+
+    @property
+    def seed(self) -> int:
+        return self.config.seed
+
+    @classmethod
+    def of(cls, source: str | Mission, **settings: Any) -> ReplayRequest:
+        """A request from keyword settings that name its own fields or the config's, e.g.
+        ``ReplayRequest.of(path, avoid="fga", sensor="cooperative", margin=30.0, seed=2)``."""
+        own, config = _split_settings(settings)
+        return cls(source, config=ReplayConfig(**config), **own)
+
+    def but(self, **settings: Any) -> ReplayRequest:
+        """This request with some of its own or its config's fields replaced."""
+        own, config = _split_settings(settings)
+        return replace(self, config=replace(self.config, **config), **own)
+
+
+def _split_settings(settings: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(the request's own fields, the config's) of keyword ``settings``; the request's own
+    ``terrain_following`` wins (the config's is the resolved one)."""
+    own_names = {f.name for f in fields(ReplayRequest)} - {"source", "config"}
+    config_names = {f.name for f in fields(ReplayConfig)}
+    unknown = sorted(set(settings) - own_names - config_names)
+    if unknown:
+        raise TypeError(f"unknown replay setting(s): {', '.join(unknown)}")
+    own = {k: v for k, v in settings.items() if k in own_names}
+    return own, {k: v for k, v in settings.items() if k not in own_names}
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,24 +145,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         following = float(mission.plan.get("clearance", 0.0) or 0.0) or None
     elif following == 0:
         following = None
-    config = ReplayConfig(
-        seed=r.seed,
-        duration=r.duration,
-        radar_range=r.radar_range,
-        radar_noise_range=r.radar_noise,
-        terrain_following=following,
-        sensor=r.sensor,
-        coop_noise_position=r.coop_noise_position,
-        coop_noise_velocity=r.coop_noise_velocity,
-        coop_latency=r.coop_latency,
-        rangefinder_range=r.rangefinder_range,
-        rangefinder_beams=r.rangefinder_beams,
-        rangefinder_mount=r.rangefinder_mount,
-        rangefinder_noise=r.rangefinder_noise,
-        rangefinder_spread=r.rangefinder_spread,
-        margin=r.margin,
-        temperature_offset=r.temperature_offset,
-    )
+    config = replace(r.config, terrain_following=following)
     speed = config.airspeed or mission.cruise_speed
     params.check_speed(speed, "cruise speed")
     # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes
@@ -206,10 +209,10 @@ def run_replay(
     extra = {
         "vehicle": prep.params.name,
         "source": str(r.source),
-        "sensor": r.sensor,
-        "atmosphere": f"ISA{r.temperature_offset:+g} K",
+        "sensor": prep.config.sensor,
+        "atmosphere": f"ISA{prep.config.temperature_offset:+g} K",
     }
-    if r.sensor == "rangefinder":
+    if prep.config.sensor == "rangefinder":
         c = prep.config
         extra["rangefinder"] = json.dumps(
             {

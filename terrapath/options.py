@@ -89,3 +89,30 @@ def load_grid(
 
 
 json_option = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
+
+
+def seed_option(help: str) -> Callable[[F], F]:
+    """``--seed``: the run's random seed (an integer, 0 by default); ``help`` says what it seeds
+    and where it is recorded."""
+    return click.option("--seed", type=int, default=0, show_default=True, help=help)
+
+
+def output_option(
+    help: str, *, default: str | None = None, required: bool = True, directory: bool = False
+) -> Callable[[F], F]:
+    """``-o/--output``: the file (or with ``directory`` the folder) a command writes; required
+    unless it has a ``default`` or ``required`` is False."""
+    return click.option(
+        "-o",
+        "--output",
+        required=required and default is None,
+        default=default,
+        show_default=default is not None,
+        type=click.Path(file_okay=not directory, dir_okay=directory),
+        help=help,
+    )
+
+
+def vehicle_option(help: str, default: str | None = None) -> Callable[[F], F]:
+    """``--vehicle``: a preset name or a vehicle file."""
+    return click.option("--vehicle", default=default, show_default=default is not None, help=help)

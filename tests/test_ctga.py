@@ -235,7 +235,7 @@ def test_the_arc_is_drawn_for_foxglove(tmp_path: Path) -> None:
     from replay.run import ReplayRequest, prepare_replay, run_replay
 
     out = tmp_path / "simple.mcap"
-    request = ReplayRequest(
+    request = ReplayRequest.of(
         str(SCENARIO_DIR / "seed001-mission.yaml"),
         threats=str(SCENARIO_DIR / "seed001-simple-threats.yaml"),
         avoid="ctga",

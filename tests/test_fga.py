@@ -38,7 +38,7 @@ D_M = 30.0
 
 def _fly(threats: object, **kw: object):  # type: ignore[no-untyped-def]
     return run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             str(MISSION),
             threats=threats,  # type: ignore[arg-type]
             avoid="fga",
@@ -81,7 +81,7 @@ def test_a_vehicle_that_cannot_turn_within_d_m_is_refused_naming_both_numbers() 
     fga.check_vehicle(preset("seed004-uas"), 15.0)  # 29.4 m: fine
     doc = mission_from_dict({**seed004.mission_doc(), "vehicle": "small-uas"}, "small-uas mission")
     with pytest.raises(InputError, match="minimum turn radius"):
-        run_replay(ReplayRequest(doc, avoid="fga"))
+        run_replay(ReplayRequest.of(doc, avoid="fga"))
 
 
 @pytest.mark.parametrize(
@@ -290,7 +290,7 @@ def test_monte_carlo_cases_once_failed_now_keep_d_m(dynamic: bool, run: int) -> 
     mission, threats, notes = case(flight)
     assert notes["hazards"] >= 1
     r = run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             mission,
             threats=threats,
             avoid="fga",
@@ -304,7 +304,7 @@ def test_monte_carlo_cases_once_failed_now_keep_d_m(dynamic: bool, run: int) -> 
     assert _least(r) >= D_M
     # and without FGA the same case breaks d_m
     bare = run_replay(
-        ReplayRequest(mission, threats=threats, sensor=flight.sensor, margin=flight.margin)
+        ReplayRequest.of(mission, threats=threats, sensor=flight.sensor, margin=flight.margin)
     )
     assert _least(bare) < D_M
 
@@ -338,7 +338,7 @@ TABLE8 = {5: "heading", 6: "heading", 7: "heading", 8: "heading", 9: "heading"}
 def test_table8_cases_keep_d_m_where_the_mission_alone_would_not(case: int) -> None:
     threats = str(SCEN / f"seed004-case{case}.yaml")
     before = run_replay(
-        ReplayRequest(str(MISSION), threats=threats, sensor="cooperative", margin=D_M)
+        ReplayRequest.of(str(MISSION), threats=threats, sensor="cooperative", margin=D_M)
     )
     assert _least(before) < D_M  # the undisturbed flight breaks d_m (the paper's "orig. min")
     r = _fly(threats)
@@ -398,7 +398,7 @@ def test_cones_t_c_and_the_manoeuvre_are_recorded_drawn_in_foxglove_and_the_view
 
     out = tmp_path / "case9.mcap"
     _fly_out = run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             str(MISSION),
             threats=str(SCEN / "seed004-case9.yaml"),
             avoid="fga",

@@ -237,7 +237,7 @@ def test_run_replay_is_what_the_cli_runs(tmp_path: Any, capsys: pytest.CaptureFi
 
     mission = str(ROOT / "data/missions/seed000-table4.yaml")
     threats = str(ROOT / "data/threats/seed000-table4.yaml")
-    req = ReplayRequest(mission, threats=threats, avoid="pso-ca", avoid_options={"rs": 1200.0})
+    req = ReplayRequest.of(mission, threats=threats, avoid="pso-ca", avoid_options={"rs": 1200.0})
     lib = run_replay(req)  # no output: nothing written
     rc = main(
         [

@@ -340,7 +340,7 @@ def test_a_quadrotor_mission_flown_by_run_replay(tmp_path: Path) -> None:
         "cruise: {speed: 5.0, altitude: 30.0}\n"
         "waypoints:\n- [0, 0, 30]\n- [0, 150, 30]\n- [100, 150, 50]\n- [100, 0, 50]\n"
     )
-    prep = prepare_replay(ReplayRequest(source=str(mission)))
+    prep = prepare_replay(ReplayRequest.of(source=str(mission)))
     assert prep.params is Q
     res = run_replay(prep)
     assert res.metrics.end_reason == "goal" and res.metrics.success
@@ -354,15 +354,15 @@ def test_a_quadrotor_mission_flown_by_run_replay(tmp_path: Path) -> None:
         s = np.clip((p - a) @ d / (d @ d), 0.0, 1.0)
         off = np.minimum(off, np.linalg.norm(p - (a + s[:, None] * d), axis=1))
     assert off.max() < 0.5
-    warned = prepare_replay(ReplayRequest(source=str(mission), terrain_following=50.0))
+    warned = prepare_replay(ReplayRequest.of(source=str(mission), terrain_following=50.0))
     assert any("does not follow the terrain (50 m" in w for w in warned.warnings)
     # recorded, and re-flown from the recording: the same quadrotor, the same flight
     run = tmp_path / "quad.mcap"
     run_replay(prep, run)
-    again = prepare_replay(ReplayRequest(source=str(run)))
+    again = prepare_replay(ReplayRequest.of(source=str(run)))
     assert again.params is Q
     assert np.allclose(run_replay(again).positions, res.positions)
     fast = tmp_path / "fast.yaml"
     fast.write_text(mission.read_text().replace("speed: 5.0", "speed: 15.0"))
     with pytest.raises(InputError, match=r"cruise speed 15\.0 m/s is beyond quadrotor's"):
-        prepare_replay(ReplayRequest(source=str(fast)))
+        prepare_replay(ReplayRequest.of(source=str(fast)))

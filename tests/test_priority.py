@@ -467,7 +467,9 @@ def _replay(threats: Any, **kw: Any) -> Any:
 
     kw.setdefault("duration", 3000.0)
     return run_replay(
-        ReplayRequest(source=MISSION, threats=threats, avoid="priority", sensor="rangefinder", **kw)
+        ReplayRequest.of(
+            source=MISSION, threats=threats, avoid="priority", sensor="rangefinder", **kw
+        )
     )
 
 
@@ -572,7 +574,7 @@ def test_bad_setups_are_refused_before_the_flight() -> None:
 
     def prep(**kw: Any) -> None:
         kw.setdefault("sensor", "rangefinder")
-        prepare_replay(ReplayRequest(source=MISSION, avoid="priority", **kw))
+        prepare_replay(ReplayRequest.of(source=MISSION, avoid="priority", **kw))
 
     prep()
     with pytest.raises(InputError, match="priority option tau"):
@@ -628,7 +630,7 @@ def test_over_terrain_it_flies_10_m_above_the_higher_of_start_and_target(tmp_pat
         f"waypoints:\n- [{s[0]}, {s[1]}, 400.0]\n- [{t[0]}, {t[1]}, 400.0]\n"
     )
     r = run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             source=str(mission),
             avoid="priority",
             sensor="rangefinder",

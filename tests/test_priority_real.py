@@ -32,7 +32,7 @@ def test_bubenec_buildings_are_crossed_keeping_tau(above: float) -> None:
     from replay.run import ReplayRequest, run_replay
 
     r: Any = run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             source=str(BUBENEC),
             threats=str(BUILDINGS),
             avoid="priority",
@@ -84,7 +84,7 @@ def test_jacksboro_ridge_is_flown_round_and_compared_with_the_global_plan(tmp_pa
     assert grid.height_at(line[:, 0], line[:, 1]).max() > JK_ALT + 20.0  # the ridge blocks it
 
     r: Any = run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             source=str(JACKSBORO),
             avoid="priority",
             sensor="rangefinder",

@@ -475,7 +475,7 @@ def test_a_replay_measures_the_separation_from_buildings(tmp_path: Path) -> None
         ],
     }
     path = write(tmp_path, yaml.safe_dump(doc))
-    res = run_replay(ReplayRequest(str(MISSION), threats=str(path)), tmp_path / "run.mcap")
+    res = run_replay(ReplayRequest.of(str(MISSION), threats=str(path)), tmp_path / "run.mcap")
     m = res.metrics.as_dict()
     x, y, z = res.positions.T
     inside = (np.abs(x) <= 20.0) & (np.abs(y - 620.0) <= 20.0)

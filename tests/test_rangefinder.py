@@ -465,7 +465,7 @@ def test_a_quadrotor_mission_with_rangefinders_records_the_beams(tmp_path: Path)
 
     tower = CylinderThreat(id="tower", center=(5.5, 75.0), radius=0.5, top=100.0, bottom=0.0)
     out = tmp_path / "rf.mcap"
-    request = ReplayRequest(
+    request = ReplayRequest.of(
         source=str(ROOT / "data" / "scenarios" / "quadrotor-mission.yaml"),
         threats=ThreatSet((tower,)),
         sensor="rangefinder",

@@ -91,7 +91,7 @@ def replay_hashes() -> dict[str, str]:
             threat_records(mission_of(sc)), prepared.grid, name=f"golden-{sc.name}"
         )
         r = run_replay(
-            ReplayRequest(
+            ReplayRequest.of(
                 str(_mission_file(sc)), threats=threats, avoid=avoid, seed=SEED, terrain_mesh=False
             )
         )

@@ -77,9 +77,9 @@ def case(run: Run) -> tuple[Any, Any, dict[str, Any]]:
 def _sensor_range(run: Run, option: str) -> float:
     """The replay's ``radar_range`` (also the cooperative sensor's) or ``rangefinder_range``: the
     spec's ``sensor_range`` for the run's sensor, the replay's default otherwise."""
-    from replay.run import ReplayRequest
+    from replay.sim import ReplayConfig
 
-    default = float(getattr(ReplayRequest, option))
+    default = float(getattr(ReplayConfig, option))
     if run.sensor_range is None:
         return default
     mine = "rangefinder_range" if run.sensor == "rangefinder" else "radar_range"
@@ -126,7 +126,7 @@ def execute(
             source, threats, notes = case(run)
         else:
             source, threats = str(run.mission), scenario(run)
-        request = ReplayRequest(
+        request = ReplayRequest.of(
             source,
             threats=threats,
             avoid=run.avoider.name,

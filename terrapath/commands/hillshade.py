@@ -6,14 +6,12 @@ from typing import Any
 
 import click
 
-from terrapath.options import dem_options, load_grid
+from terrapath.options import dem_options, load_grid, output_option
 
 
 @click.command("hillshade")
 @dem_options
-@click.option(
-    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG file to write."
-)
+@output_option("PNG file to write.")
 @click.option(
     "--zones",
     type=click.Path(dir_okay=False),

@@ -4,15 +4,11 @@ from __future__ import annotations
 
 import click
 
+from terrapath.options import output_option
+
 
 @click.command("layout")
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(dir_okay=False),
-    default=None,
-    help="Write the layout to this JSON file (default: print it).",
-)
+@output_option("Write the layout to this JSON file (default: print it).", required=False)
 def layout_cmd(output: str | None) -> None:
     """Print (or write) a Foxglove layout for replay MCAPs: a 3D panel in the map frame following
     the aircraft, with the terrain, threats, path, radar detections and the avoider's orbits;

@@ -8,7 +8,7 @@ from typing import Any
 import click
 import numpy as np
 
-from terrapath.options import dem_options
+from terrapath.options import dem_options, output_option, seed_option, vehicle_option
 from terrapath.progress import progress_bar
 
 EXIT_INFEASIBLE = 3
@@ -99,9 +99,7 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     show_default=True,
     help="Restart from derived seeds while the result is infeasible (1: a single run).",
 )
-@click.option(
-    "--seed", type=int, default=0, show_default=True, help="Random seed (recorded in the mission)."
-)
+@seed_option("Random seed (recorded in the mission).")
 @click.option(
     "--init",
     type=click.Choice(["graph", "corridor", "uniform"]),
@@ -200,11 +198,9 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "altitude band; the plan keeps the descent and turn limits at this speed and the climb the "
     "aircraft makes at the top of the band.",
 )
-@click.option(
-    "--vehicle",
+@vehicle_option(
+    "Vehicle preset or vehicle file: the plan is flyable by it, and the mission names it.",
     default="aerosonde",
-    show_default=True,
-    help="Vehicle preset or vehicle file: the plan is flyable by it, and the mission names it.",
 )
 @click.option(
     "--allow-unknown-terrain",
@@ -226,13 +222,7 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "under the start where the aircraft arms).",
 )
 @click.option("--name", default=None, help="Mission name (default: the output file's stem).")
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(dir_okay=False),
-    help="Mission YAML to write; exports go beside it.",
-)
+@output_option("Mission YAML to write; exports go beside it.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def plan_cmd(
     dem: tuple[str, ...],

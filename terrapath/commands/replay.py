@@ -10,6 +10,7 @@ from typing import Any
 import click
 import yaml
 
+from terrapath.options import output_option, seed_option, vehicle_option
 from terrapath.progress import progress_bar
 from terrapath.runtext import duration, metrics_rows, report_lines
 
@@ -70,7 +71,6 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 @click.argument("source", type=click.Path(dir_okay=False, exists=False))
 @click.option(
     "--threats",
-    "threats_path",
     type=click.Path(dir_okay=False),
     default=None,
     help="Pop-up threats (YAML, or GeoJSON buildings). For an .mcap source, default: the threats "
@@ -132,10 +132,8 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     help="pso-ca: seed 000's decision logic only -- straight legs (no cut corners) and no rescue "
     "grid, narrower gap or skipped waypoint when the paper's search fails (to reproduce the paper).",
 )
-@click.option(
-    "--vehicle",
-    default=None,
-    help="Vehicle preset or file (default: the mission's; for an .mcap source, the vehicle that run flew).",
+@vehicle_option(
+    "Vehicle preset or file (default: the mission's; for an .mcap source, the vehicle that run flew)."
 )
 @click.option(
     "--dem",
@@ -146,13 +144,7 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "mission's cell size is kept). Default: the mission's tiles, looked for beside the mission "
     "(or the .mcap), then as written.",
 )
-@click.option(
-    "--seed",
-    type=int,
-    default=0,
-    show_default=True,
-    help="Random seed (radar noise, avoiders); recorded in the MCAP.",
-)
+@seed_option("Random seed (radar noise, avoiders); recorded in the MCAP.")
 @click.option(
     "--duration",
     type=click.FloatRange(min=0.0, min_open=True),
@@ -175,6 +167,7 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 )
 @click.option(
     "--radar-noise",
+    "radar_noise_range",
     type=click.FloatRange(min=0.0),
     default=0.0,
     show_default=True,
@@ -269,42 +262,19 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     help="Do not write RUN.png beside the MCAP (plan view with the planned and flown tracks, "
     "threats and decisions; separation to each threat and height above the terrain against time).",
 )
-@click.option(
-    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="MCAP file to write."
-)
+@output_option("MCAP file to write.")
 @click.option("--json", "as_json", is_flag=True, help="Print the metrics as JSON.")
 def replay_cmd(
     source: str,
-    threats_path: str | None,
     avoid: str,
     avoid_opts: tuple[str, ...],
-    ca_optimizer: str | None,
-    ca_safety_radius: float | None,
-    ca_moving_radius: float | None,
-    ca_mxrsk: float | None,
-    ca_paper: bool,
-    vehicle: str | None,
     dem_tiles: tuple[str, ...],
-    seed: int,
-    duration: float | None,
-    log_rate: float,
-    radar_range: float,
-    radar_noise: float,
-    sensor: str,
     coop_noise: tuple[float, float],
-    coop_latency: float,
-    rangefinder_range: float,
-    rangefinder_beams: int,
-    rangefinder_mount: str,
-    rangefinder_noise: float,
-    rangefinder_spread: float | None,
-    margin: float,
-    temperature_offset: float,
-    terrain_following: float | None,
     no_terrain_mesh: bool,
     no_picture: bool,
     output: str,
     as_json: bool,
+    **settings: Any,
 ) -> int:
     """Re-fly SOURCE (a mission YAML, or an earlier run's .mcap) in the 6-DOF simulation, with
     pop-up threats, and record everything as MCAP for Foxglove.
@@ -313,54 +283,20 @@ def replay_cmd(
     flight failed (still recorded), 1 error."""
     from replay.run import ReplayRequest, prepare_replay, run_replay
 
-    if not output.lower().endswith(".mcap"):
-        raise click.BadParameter(
-            f"the output must end in .mcap; got {output!r}", param_hint="-o/--output"
-        )
-    if Path(output).resolve() == Path(source).resolve():
-        raise click.BadParameter(
-            f"{output!r} is the run being re-flown; write the new run to another file",
-            param_hint="-o/--output",
-        )
-    ca = {
-        "optimizer": ca_optimizer,
-        "rs": ca_safety_radius,
-        "moving_rs": ca_moving_radius,
-        "mxrsk": ca_mxrsk,
-    }
-    ca = {k: v for k, v in ca.items() if v is not None}
-    if ca_paper:
-        ca.update(rescue=False, narrow=False, max_skip=0, corners=False)
-    if ca and avoid != "pso-ca":
-        raise click.UsageError("the --ca-* options apply to --avoid pso-ca only")
-    options = {**ca, **_options(avoid_opts)}
-    request = ReplayRequest(
-        source=source,
-        threats=threats_path,
+    _check_output(source, output)
+    options = {**_ca_options(avoid, settings), **_options(avoid_opts)}
+    # the other options are named after the request's fields and the replay settings'
+    request = ReplayRequest.of(
+        source,
         avoid=avoid,
         avoid_options=options,
-        vehicle=vehicle,
         dem=tuple(dem_tiles),
-        seed=seed,
-        duration=duration,
-        log_rate=log_rate,
-        radar_range=radar_range,
-        radar_noise=radar_noise,
-        sensor=sensor,
         coop_noise_position=coop_noise[0],
         coop_noise_velocity=coop_noise[1],
-        coop_latency=coop_latency,
-        rangefinder_range=rangefinder_range,
-        rangefinder_beams=rangefinder_beams,
-        rangefinder_mount=rangefinder_mount,
-        rangefinder_noise=rangefinder_noise,
-        rangefinder_spread=rangefinder_spread,
-        margin=margin,
-        temperature_offset=temperature_offset,
-        terrain_following=terrain_following,
         terrain_mesh=not no_terrain_mesh,
         command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
         software_version=_software_version(),
+        **settings,
     )
     prepared = prepare_replay(request)  # every input error surfaces before anything is written
     for warning in prepared.warnings:
@@ -380,21 +316,53 @@ def replay_cmd(
         view = replay_view(prepared, result, Path(output).name)
         picture = draw_run(view, Path(output).with_suffix(".png"))
     _report(result, output, as_json, picture)
-    m = result.metrics
-    if not m.success:
-        reasons = []
-        if m.end_reason != "goal":
-            reasons.append(f"ended by {m.end_reason}")
-        if m.violations:
-            n = len(m.violations)
-            reasons.append(f"{n} safety violation{'s' if n != 1 else ''}")
-        click.echo(
-            f"terrapath: replay failed: {', '.join(reasons) or 'not a success'} "
-            f"(the run is recorded in {output})",
-            err=True,
+    return _verdict(result.metrics, output)
+
+
+def _check_output(source: str, output: str) -> None:
+    if not output.lower().endswith(".mcap"):
+        raise click.BadParameter(
+            f"the output must end in .mcap; got {output!r}", param_hint="-o/--output"
         )
-        return EXIT_FAILED
-    return 0
+    if Path(output).resolve() == Path(source).resolve():
+        raise click.BadParameter(
+            f"{output!r} is the run being re-flown; write the new run to another file",
+            param_hint="-o/--output",
+        )
+
+
+def _ca_options(avoid: str, settings: dict[str, Any]) -> dict[str, Any]:
+    """PSO-CA's options given by the ``--ca-*`` shortcuts (taken out of ``settings``)."""
+    ca = {
+        "optimizer": settings.pop("ca_optimizer"),
+        "rs": settings.pop("ca_safety_radius"),
+        "moving_rs": settings.pop("ca_moving_radius"),
+        "mxrsk": settings.pop("ca_mxrsk"),
+    }
+    ca = {k: v for k, v in ca.items() if v is not None}
+    if settings.pop("ca_paper"):
+        ca.update(rescue=False, narrow=False, max_skip=0, corners=False)
+    if ca and avoid != "pso-ca":
+        raise click.UsageError("the --ca-* options apply to --avoid pso-ca only")
+    return ca
+
+
+def _verdict(m: Any, output: str) -> int:
+    """0 for a success; else say why the flight failed, and EXIT_FAILED."""
+    if m.success:
+        return 0
+    reasons = []
+    if m.end_reason != "goal":
+        reasons.append(f"ended by {m.end_reason}")
+    if m.violations:
+        n = len(m.violations)
+        reasons.append(f"{n} safety violation{'s' if n != 1 else ''}")
+    click.echo(
+        f"terrapath: replay failed: {', '.join(reasons) or 'not a success'} "
+        f"(the run is recorded in {output})",
+        err=True,
+    )
+    return EXIT_FAILED
 
 
 def _report(result: Any, output: str, as_json: bool, picture: Path | None = None) -> None:

@@ -6,15 +6,13 @@ from pathlib import Path
 
 import click
 
+from terrapath.options import output_option
+
 
 @click.command("report")
 @click.argument("store", type=click.Path(dir_okay=False))
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(file_okay=False),
-    required=True,
-    help="Folder for index.md, the tables and the plots (created if missing).",
+@output_option(
+    "Folder for index.md, the tables and the plots (created if missing).", directory=True
 )
 @click.option(
     "--name", default=None, help="Only the campaign of this name (default: all in the store)."

@@ -4,19 +4,13 @@ from __future__ import annotations
 
 import click
 
+from terrapath.options import output_option
 from terrapath.view.figures import COLOR_BY
 
 
 @click.command("view")
 @click.argument("sources", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(dir_okay=False),
-    default="view.html",
-    show_default=True,
-    help="The HTML file to write.",
-)
+@output_option("The HTML file to write.", default="view.html")
 @click.option(
     "--exaggeration",
     type=click.FloatRange(min=0.1, max=50.0),

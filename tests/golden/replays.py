@@ -113,7 +113,7 @@ def fly(scenario: MapScenario, avoid: str) -> dict[str, Any]:
     )
     mission_file = _mission_file(scenario)
     result = run_replay(
-        ReplayRequest(
+        ReplayRequest.of(
             str(mission_file), threats=threats, avoid=avoid, seed=SEED, terrain_mesh=False
         )
     )
