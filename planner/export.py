@@ -21,7 +21,7 @@ Danger zones become exclusion geofences in the ``.plan``: cylinders as ``circles
 ``polygons`` (QGroundControl's ``{"inclusion": false, "polygon": [[lat, lon], ...], "version": 1}``,
 one per part; the geofence has no holes, so a hole is left out of the exclusion, the safe side).
 Geofences are 2D: a zone's floor and top are not part of them.  The GeoJSON carries the path, the
-waypoints and every danger zone as a polygon (see :func:`terrain.zones.zone_feature`).  These
+waypoints and every danger zone as a polygon (see :func:`terrain.zone_file.zone_feature`).  These
 exports need a georeferenced map (lon/lat).
 """
 
@@ -38,7 +38,8 @@ from planner.mission import Mission
 from terrain.atomic import atomic_output
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
-from terrain.zones import DangerZone, zone_feature
+from terrain.zone_file import zone_feature
+from terrain.zones import DangerZone
 
 AltFrame = Literal["amsl", "relative"]
 MAV_FRAME_GLOBAL = 0

@@ -41,7 +41,8 @@ from terrain.docfile import (
 )
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid, crs_label
-from terrain.zones import Zone, zones_from_records, zones_to_records
+from terrain.zone_file import zones_from_records, zones_to_records
+from terrain.zones import Zone
 
 MISSION_KEYS = (
     "terrapath",

@@ -186,7 +186,7 @@ def _check_reach(problem: PlanningProblem, perf: Performance) -> None:
 def build_problem(request: PlanRequest) -> Prepared:
     """Load the DEM and zones and build the planning problem (step 1 of :func:`plan_mission`)."""
     from terrain.load import load_dem
-    from terrain.zones import load_zones, zones_from_records
+    from terrain.zone_file import load_zones, zones_from_records
 
     r = request
     grid = load_dem(list(r.dem), **r.dem_options)

@@ -14,7 +14,8 @@ from replay.flight.fixedwing.presets import FIELD_NAMES, load_vehicle
 from replay.sim import check_mission
 from replay.threats.file import COMMON_KEYS, KIND_KEYS, load_threats
 from terrain.load import load_dem
-from terrain.zones import POLYGON_KEYS, ZONE_KEYS, PolygonZone, load_zones
+from terrain.zone_file import POLYGON_KEYS, ZONE_KEYS, load_zones
+from terrain.zones import PolygonZone
 from tests.conftest import DATA_MAPS, ROOT
 
 DOC = ROOT / "docs" / "formats.md"

@@ -14,7 +14,7 @@ from planner.mission import load_mission
 from planner.problem import terrain_top
 from replay.flight.fixedwing.presets import load_vehicle
 from terrain.load import load_dem
-from terrain.zones import load_zones
+from terrain.zone_file import load_zones
 from terrapath.cli import main
 from tests.conftest import DATA_MAPS, ROOT
 

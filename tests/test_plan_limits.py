@@ -295,7 +295,8 @@ def test_plan_keeps_out_of_polygon_zones_and_exports_them(tmp_path: Path) -> Non
 
     from planner.mission import load_mission
     from terrain.load import load_dem
-    from terrain.zones import PolygonZone, load_zones
+    from terrain.zone_file import load_zones
+    from terrain.zones import PolygonZone
     from terrain.zoneset import ZoneSet
 
     zones_file = str(Path(__file__).resolve().parents[1] / "data/zones/rmnp-polygons.geojson")

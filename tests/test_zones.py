@@ -11,13 +11,13 @@ import pytest
 import yaml
 
 from terrain.errors import DataFileError, InputError, TerrapathError
-from terrain.zones import (
-    DangerZone,
+from terrain.zone_file import (
     load_zones,
     zones_from_records,
     zones_to_geojson,
     zones_to_records,
 )
+from terrain.zones import DangerZone
 from tests.conftest import X0, Y0  # the Big Tujunga corner of the utm_grid fixture
 
 

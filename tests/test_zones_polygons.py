@@ -11,14 +11,13 @@ import pytest
 
 from terrain.cylinders import zones_arrays
 from terrain.errors import InputError
-from terrain.zones import (
-    DangerZone,
-    PolygonZone,
+from terrain.zone_file import (
     load_zones,
     zones_from_records,
     zones_to_geojson,
     zones_to_records,
 )
+from terrain.zones import DangerZone, PolygonZone
 from tests.conftest import X0, Y0
 from tests.test_zones import error_of, write, write_yaml  # the cylinder zones' test helpers
 

@@ -21,7 +21,7 @@ from terrapath.options import dem_options, load_grid, output_option
 def hillshade(dem: tuple[str, ...], output: str, zones: str | None, **opts: Any) -> None:
     """Write a tinted hillshade PNG of DEM tile(s)."""
     from terrain.plot import save_hillshade
-    from terrain.zones import load_zones
+    from terrain.zone_file import load_zones
 
     grid = load_grid(dem, **opts)
     zlist = load_zones(zones, grid) if zones else ()
