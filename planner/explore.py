@@ -77,8 +77,8 @@ from scipy.sparse.csgraph import dijkstra
 
 from planner import kernels
 from planner.placement import (
+    Chords,
     Lattice,
-    _Chords,
     corridor_terrain,
     finish_waypoints,
     place,
@@ -172,7 +172,7 @@ def explore(
     k = check_routes(k)
     t0 = time.perf_counter()
     grid = problem.grid
-    check = problem._check_grid  # the terrain the cost checks (conservative, dilated)
+    check = problem.check_grid  # the terrain the cost checks (conservative, dilated)
     rows, cols = grid.shape
     b = max(1, math.ceil(max(rows, cols) / int(cells)))
     dx, dy = grid.cell_size
@@ -230,7 +230,7 @@ def explore(
         length = np.maximum(length, np.abs(hv - hu) / g)
     w = length * (1.0 + (e - zlo) / (zhi - zlo))
     if problem.zones and not problem.avoid_zones:  # soft zones: their cost term, in metres
-        soft = problem._zones  # the zones as the cost sees them (grown by the margin)
+        soft = problem.cost_zones  # the zones as the cost sees them (grown by the margin)
         inside = soft.segment_lengths(p_u, p_v)
         straight = float(np.linalg.norm(problem.goal - problem.start))
         w = w + straight * (inside / soft.sizes[None, :]).sum(axis=1) / len(soft)
@@ -425,7 +425,7 @@ def _pull(problem: PlanningProblem, xyz: FloatArray, heights: FloatArray) -> Flo
     whose straight chord (altitudes linear between their own) clears the terrain floor and enters
     no danger zone (as the cost sees them, grown by the margin), the chords up to the first that
     does not tested together in growing batches (the same answer as one at a time)."""
-    zones = problem._zones if problem.zones else None
+    zones = problem.cost_zones if problem.zones else None
     out = [0]
     a = 0
     m = len(xyz)
@@ -453,7 +453,7 @@ def _clear_chords(
     problem: PlanningProblem, p: FloatArray, qs: FloatArray, heights: FloatArray
 ) -> npt.NDArray[np.bool_]:
     """For each chord p -> qs[i] (3-D, altitude linear), whether it clears the terrain floor at
-    the samples :class:`_Chords` takes (the same points, bit for bit: quarter-cell steps)."""
+    the samples :class:`Chords` takes (the same points, bit for bit: quarter-cell steps)."""
     grid = problem.grid
     step = 0.25 * min(grid.cell_size)
     d = qs - p[None, :]
@@ -486,7 +486,7 @@ def route_waypoints(
         xy = _simplify(pulled[:, :2], n)
         z = np.full(n + 2, zlo)
         z[0], z[-1] = problem.start[2], problem.goal[2]
-        ch = _Chords(problem, xy, heights)
+        ch = Chords(problem, xy, heights)
         for i in range(1, n + 1):
             z[i] = max(float(ch.floor[i - 1].max()), float(ch.floor[i].max()))
         z[1] = max(z[1], ch.lowest_end(0, z[0]))

@@ -109,10 +109,10 @@ POLISH_Z = 0.01  # its first vertical step, share of the altitude band
 def corridor_terrain(problem: PlanningProblem) -> FloatArray:
     """The heights a seed's chords must clear: the conservative terrain the cost's Bresenham
     walk checks (the safety heights dilated by a cell)."""
-    return np.asarray(problem._check_grid.heights, dtype=np.float64)
+    return np.asarray(problem.check_grid.heights, dtype=np.float64)
 
 
-class _Chords:
+class Chords:
     """The terrain floor (corridor heights + clearance + 1 m) sampled every quarter cell along
     each chord of a polyline: ``t`` (0..1 from its first end) and ``floor`` per chord."""
 
@@ -156,7 +156,7 @@ def finish_waypoints(
     n = problem.n_waypoints
     zlo, zhi = problem.band
     z = np.minimum(np.asarray(z, dtype=np.float64), zhi)
-    ch = _Chords(problem, xy, heights)
+    ch = Chords(problem, xy, heights)
     for _ in range(3):  # lower each waypoint as far as both its chords allow
         for i in range(1, n + 1):
             low = max(ch.lowest_end(i - 1, z[i - 1]), ch.lowest_start(i, z[i + 1]), zlo)
@@ -281,7 +281,7 @@ def _zone_free(problem: PlanningProblem, xy: FloatArray, pairs: IntArray) -> Int
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     if not problem.zones or not len(pairs):
         return pairs
-    tall = ZoneSet.of(tuple(replace(z, floor=None, top=None) for z in problem._zones.zones))
+    tall = ZoneSet.of(tuple(replace(z, floor=None, top=None) for z in problem.cost_zones.zones))
     p = np.column_stack([xy[pairs[:, 0]], np.zeros(len(pairs))])
     q = np.column_stack([xy[pairs[:, 1]], np.zeros(len(pairs))])
     hit = (tall.segment_lengths(p, q) > 0.0).any(axis=1)
@@ -452,11 +452,11 @@ def _depths(problem: PlanningProblem, x: FloatArray, heights: FloatArray) -> Flo
     n = problem.n_waypoints
     flown = problem.flown(problem.paths(x))
     per = problem.chords + 1 if problem.performance is not None else 1
-    below = below_terrain_lengths(problem._check_grid, flown[:-1], flown[1:], problem.clearance)
+    below = below_terrain_lengths(problem.check_grid, flown[:-1], flown[1:], problem.clearance)
     out = np.zeros(n + 2)
     for j in np.flatnonzero(below > 0.0).tolist():
         p, q = flown[j], flown[j + 1]
-        ch = _Chords(problem, flown[j : j + 2, :2], heights)
+        ch = Chords(problem, flown[j : j + 2, :2], heights)
         deep = max(float(np.max(ch.floor[0] - (p[2] + ch.t[0] * (q[2] - p[2])))), 3.0)
         for i in (j, j + 1):  # flown point i > 0 belongs to waypoint (i - 1) // per + 1
             wp = 0 if i == 0 else min((i - 1) // per + 1, n + 1)

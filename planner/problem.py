@@ -233,6 +233,16 @@ class PlanningProblem:
                     f"of {self.clearance:g} m; raise it to at least {top + self.clearance:.1f} m"
                 )
 
+    @property
+    def check_grid(self) -> HeightGrid:
+        """The terrain the cost checks: the safety heights, dilated by a cell when conservative."""
+        return self._check_grid
+
+    @property
+    def cost_zones(self) -> ZoneSet:
+        """The zones as the cost sees them: every zone grown by the zone margin."""
+        return self._zones
+
     def _check_above_ground(self) -> None:
         """The above-ground band and preferred height (one line naming the option when wrong);
         the band's floor raises the clearance."""

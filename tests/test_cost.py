@@ -159,7 +159,7 @@ def test_corridor_population_progresses_and_keeps_waypoints_above_the_ground() -
     lo, hi = p.bounds()
     assert X.shape == (400, 15) and (X >= lo).all() and (X <= hi).all()
     W = X.reshape(400, 5, 3)
-    g = p._check_grid
+    g = p.check_grid
     ground = g.heights[g.cell_of(W[..., 0].ravel(), W[..., 1].ravel())].reshape(400, 5)
     assert (W[..., 2] >= np.minimum(ground + 20.0, p.band[1]) - 1e-9).all()
     # next to the wall (dilated: 3 columns) the only room is between wall + clearance and Zmax

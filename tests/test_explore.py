@@ -187,7 +187,7 @@ def test_a_soft_zone_is_gone_round_when_that_costs_less_than_crossing_it() -> No
 def test_batched_chord_test_agrees_with_the_chord_sampler() -> None:
     """String pulling tests chords in batches (``_clear_chords``); each answer is the one the
     per-chord sampler gives, over the wall, through its gaps and along it."""
-    from planner.explore import _Chords, _clear_chords, corridor_terrain
+    from planner.explore import Chords, _clear_chords, corridor_terrain
 
     problem = _problem()
     heights = corridor_terrain(problem)
@@ -198,7 +198,7 @@ def test_batched_chord_test_agrees_with_the_chord_sampler() -> None:
     )
     qs[:3, :2] = [[3900.0, 5500.0], [750.0, 5000.0], [2900.0, 500.0]]  # the gaps; no extent
     got = _clear_chords(problem, p, qs, heights)
-    want = [_Chords(problem, np.array([p[:2], q[:2]]), heights).clear(0, p[2], q[2]) for q in qs]
+    want = [Chords(problem, np.array([p[:2], q[:2]]), heights).clear(0, p[2], q[2]) for q in qs]
     assert got.tolist() == want
     assert 50 < int(got.sum()) < 350  # both answers are exercised
 

@@ -198,10 +198,10 @@ def test_repair_lifts_the_flown_path_over_the_floor() -> None:
           (10000.0, 2000.0)]  # fmt: skip
     x = np.array([[a, b, 150.0] for a, b in xy]).ravel()
     flown = pr.flown(pr.paths(x))
-    assert below_terrain_lengths(pr._check_grid, flown[:-1], flown[1:], pr.clearance).sum() > 0.0
+    assert below_terrain_lengths(pr.check_grid, flown[:-1], flown[1:], pr.clearance).sum() > 0.0
     fixed = repair(pr, x, corridor_terrain(pr))
     flown = pr.flown(pr.paths(fixed))
-    assert below_terrain_lengths(pr._check_grid, flown[:-1], flown[1:], pr.clearance).sum() == 0.0
+    assert below_terrain_lengths(pr.check_grid, flown[:-1], flown[1:], pr.clearance).sum() == 0.0
     np.testing.assert_array_equal(fixed.reshape(-1, 3)[:, :2], x.reshape(-1, 3)[:, :2])
     assert (fixed.reshape(-1, 3)[:, 2] >= x.reshape(-1, 3)[:, 2]).all()
     assert (fixed.reshape(-1, 3)[:, 2] <= pr.band[1]).all()
