@@ -22,6 +22,7 @@ from replay.avoidance.fga_geometry import (
     tangent_course,
     tangent_courses,
 )
+from replay.avoidance.fga_plan import climb_limits
 from replay.campaign import seed004
 from replay.campaign.generators import file_records
 from replay.flight.fixedwing.presets import preset
@@ -211,12 +212,12 @@ def test_several_threats_the_chosen_course_is_outside_the_union_of_their_cones()
     alone = tangent_course(pos, a, 10.0 + D_M + 6.0, 15.0, 1)
     assert alone is not None
     v_alone = np.array([15 * math.sin(alone), 15 * math.cos(alone), 0.0])
-    assert fga._enc(pos, v_alone, b, 30.0).window is not None
-    targets = [fga._enc(pos, vel, o, 30.0) for o in (a, b)]
-    plan = fga._heading_plan(pos, vel, 0.0, targets, [a, b], 30.0, 0.5)
+    assert fga.planner.encounter(pos, v_alone, b, 30.0).window is not None
+    targets = [fga.planner.encounter(pos, vel, o, 30.0) for o in (a, b)]
+    plan = fga.planner.heading_plan(pos, vel, 0.0, targets, [a, b], 30.0, 0.5)
     assert plan is not None
     v = np.array([15 * math.sin(plan.course), 15 * math.cos(plan.course), 0.0])
-    assert all(fga._enc(pos, v, o, 30.0).window is None for o in (a, b))
+    assert all(fga.planner.encounter(pos, v, o, 30.0).window is None for o in (a, b))
 
 
 def test_the_candidates_array_test_is_in_conflict_element_for_element() -> None:
@@ -265,11 +266,11 @@ def test_the_manoeuvre_governs_the_conflict_entered_first() -> None:
     # a slow intruder overtaking from close behind, and a fast one crossing from farther ahead
     behind = FgaObstacle("behind", (5.0, -60.0, 100.0), (0.0, 16.0, 0.0), 1.0, 99.0, 101.0)
     crossing = FgaObstacle("crossing", (90.0, 75.0, 100.0), (-15.0, 0.0, 0.0), 1.0, 99.0, 101.0)
-    targets = [fga._enc(pos, vel, o, 30.0) for o in (behind, crossing)]
+    targets = [fga.planner.encounter(pos, vel, o, 30.0) for o in (behind, crossing)]
     assert targets[0].distance < targets[1].distance
     assert targets[0].window and targets[1].window
     assert targets[1].window[0] < targets[0].window[0]
-    assert fga._first(pos, targets, [behind, crossing]) is crossing
+    assert fga.planner.first(pos, targets, [behind, crossing]) is crossing
 
 
 # Monte Carlo cases (seed004-table3 / -table4 runs) FGA once failed, each for a reason fixed since:
@@ -476,15 +477,15 @@ def test_pitch_latest_start_leaves_time_to_climb_or_descend(side: int) -> None:
     # a sphere 1 m across whose near side is 32 m away: inside the call margin (33 m)
     zc = 120.0 - side * 33.0
     o = FgaObstacle("o", (0.0, 300.0, zc), (0.0, 0.0, 0.0), 1.0, zc - 1.0, zc + 1.0)
-    e = fga._enc(pos, vel, o, 30.0)
+    e = fga.planner.encounter(pos, vel, o, 30.0)
     assert e.window is not None
     ctx = SimpleNamespace(vehicle=preset("seed004-uas"), terrain=None)
-    plan = fga._pitch_plan(ctx, pos, vel, 0.0, [e], [o], 30.0)  # type: ignore[arg-type]
+    plan = fga.planner.pitch_plan(ctx, pos, vel, 0.0, [e], [o], 30.0)  # type: ignore[arg-type]
     assert plan is not None and plan.side == side
-    entry = fga._enc(pos, vel, o, 30.0, fga.buffer_m).window
+    entry = fga.planner.encounter(pos, vel, o, 30.0, fga.buffer_m).window
     assert entry is not None
     # from the latest start the climb (descent) gets exactly 2 buffers beyond the interval
-    up, down = fga._climb_limits(ctx.vehicle)
+    up, down = climb_limits(ctx.vehicle)
     rate = 0.9 * (up if side > 0 else -down)
     reach = 120.0 + climbed(rate, entry[0] - plan.t_c)
     goal = (o.top if side > 0 else o.bottom) + side * (D_M + 2 * fga.buffer_m)

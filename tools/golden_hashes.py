@@ -11,7 +11,10 @@ Run it before and after a change on the same machine with the same lock file and
     .venv/bin/python -m tools.golden_hashes -o build/hashes-after.json --compare build/hashes-before.json
 
 Arrays are hashed bit for bit (dtype, shape and bytes); floats in the outcome through ``repr``, so
-any change in the last bit shows. ``--plans-only`` / ``--replays-only`` run half of it. Exit status
+any change in the last bit shows. Beyond the golden files, a few replays of data/'s scenarios
+cover every avoider (FGA, CTGA, the priority loop, PSO-CA), every sensor (cooperative,
+rangefinder, a noisy radar) and the multirotor (their decisions hashed too, less compute times).
+``--plans-only`` / ``--replays-only`` / ``--extra-only`` run one part. Exit status
 1 when ``--compare`` finds a difference (each one listed), 0 otherwise.
 """
 
@@ -77,8 +80,12 @@ def plan_hashes() -> dict[str, str]:
 
 
 def replay_hashes() -> dict[str, str]:
-    from replay.run import ReplayRequest, run_replay
-    from replay.threats.file import threats_from_records
+    from replay.run import run_replay
+
+    try:
+        from replay.threats.file import threats_from_records
+    except ImportError:  # before the house was rearranged
+        from replay.threat_file import threats_from_records  # type: ignore[no-redef]
     from tests.golden.replays import CASES, SEED, _mission_file, mission_of, threat_records
 
     out: dict[str, str] = {}
@@ -90,11 +97,7 @@ def replay_hashes() -> dict[str, str]:
         threats = threats_from_records(
             threat_records(mission_of(sc)), prepared.grid, name=f"golden-{sc.name}"
         )
-        r = run_replay(
-            ReplayRequest.of(
-                str(_mission_file(sc)), threats=threats, avoid=avoid, seed=SEED, terrain_mesh=False
-            )
-        )
+        r = run_replay(_request(str(_mission_file(sc)), threats, {"avoid": avoid, "seed": SEED}))
         m = r.metrics
         outcome = {
             "success": bool(m.success),
@@ -119,6 +122,77 @@ def replay_hashes() -> dict[str, str]:
     return out
 
 
+# beyond the golden replays: every avoider, every sensor, the multirotor, a noisy radar (the
+# scenarios of the tests and benchmarks: data/)
+EXTRA = (
+    (
+        "fga-cooperative",
+        "data/scenarios/seed004-mission.yaml",
+        "data/scenarios/seed004-case9.yaml",
+        {"avoid": "fga", "sensor": "cooperative", "margin": 30.0},
+    ),
+    (
+        "ctga-cooperative",
+        "data/scenarios/seed001-mission.yaml",
+        "data/scenarios/seed001-simple-threats.yaml",
+        {"avoid": "ctga", "sensor": "cooperative"},
+    ),
+    (
+        "priority-rangefinder",
+        "data/scenarios/priority-mission.yaml",
+        "data/scenarios/priority-box.yaml",
+        {"avoid": "priority", "sensor": "rangefinder"},
+    ),
+    (
+        "pso-ca-noisy-radar",
+        "data/missions/seed000-table4.yaml",
+        "data/threats/seed000-table4.yaml",
+        {"avoid": "pso-ca", "seed": 3, "radar_noise": 5.0},
+    ),
+    ("quadrotor", "data/scenarios/quadrotor-mission.yaml", None, {}),
+)
+
+
+def _request(source: str, threats: str | None, settings: dict[str, Any]) -> Any:
+    """A replay request in this checkout's API (settings in ReplayRequest itself before the
+    house was rearranged, in its ReplayConfig after)."""
+    from replay.run import ReplayRequest
+
+    settings = {**settings, "terrain_mesh": False}
+    if hasattr(ReplayRequest, "of"):
+        if "radar_noise" in settings:
+            settings["radar_noise_range"] = settings.pop("radar_noise")
+        return ReplayRequest.of(source, threats=threats, **settings)
+    return ReplayRequest(source, threats=threats, **settings)
+
+
+def extra_hashes() -> dict[str, str]:
+    from replay.run import run_replay
+
+    out: dict[str, str] = {}
+    for name, mission, threats, settings in EXTRA:
+        t0 = time.perf_counter()
+        r = run_replay(_request(mission, threats, settings))
+        m = r.metrics
+        outcome = {
+            "success": bool(m.success),
+            "end_reason": m.end_reason,
+            "min_separation": {k: v["value"] for k, v in m.min_separation.items()},
+            "plr": m.plr,
+            "flight_time_s": m.flight_time_s,
+        }
+        key = f"extra/{name}"
+        out[key] = _digest(
+            np.asarray(r.times),
+            np.asarray(r.states),
+            np.asarray(r.waypoints),
+            _exact(outcome),
+            _exact([{k: v for k, v in d.items() if k != "compute_s"} for d in r.decisions]),
+        )
+        print(f"  {key:28s} {out[key][:16]}  ({time.perf_counter() - t0:.1f} s)")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-o", "--output", type=Path, help="write the hashes here (JSON)")
@@ -126,15 +200,19 @@ def main(argv: list[str] | None = None) -> int:
     half = ap.add_mutually_exclusive_group()
     half.add_argument("--plans-only", action="store_true")
     half.add_argument("--replays-only", action="store_true")
+    half.add_argument("--extra-only", action="store_true")
     args = ap.parse_args(argv)
 
     hashes: dict[str, str] = {}
-    if not args.replays_only:
+    if not (args.replays_only or args.extra_only):
         print("golden plans:")
         hashes.update(plan_hashes())
-    if not args.plans_only:
+    if not (args.plans_only or args.extra_only):
         print("golden replays:")
         hashes.update(replay_hashes())
+    if not (args.plans_only or args.replays_only):
+        print("every avoider, sensor and vehicle kind:")
+        hashes.update(extra_hashes())
     if args.output:
         args.output.parent.mkdir(parents=True, exist_ok=True)
         tmp = args.output.with_name(args.output.name + ".part")

@@ -117,8 +117,7 @@ check_vehicle`, called before the flight).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -129,21 +128,12 @@ from replay.avoidance.base import AvoidanceContext, AvoiderBase
 from replay.avoidance.fga_geometry import (
     Encounter,
     FgaObstacle,
-    climb_time,
-    climbed,
     cone_half_angle,
-    conflict_matrix,
-    encounter,
-    flips,
-    in_conflict,
-    interval_disk,
     pass_side,
-    path_separation,
-    tangent_course,
     tangent_courses,
 )
+from replay.avoidance.fga_plan import FgaPlanner, Plan, climb_limits, limits, velocity
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
-from replay.flight.base import G
 from replay.flight.fixedwing.gains import LoopDesign
 from replay.frames import bearing, wrap
 from replay.guidance import AvoidanceDecision, FollowWaypoints, HoldCourse
@@ -153,10 +143,6 @@ FloatArray = npt.NDArray[np.float64]
 
 SURVEILLANCE_PER_D_M = 10.0  # §II-C (4): R = 10 d_m (Table II: 300 m for d_m = 30 m)
 CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
-FAN_DEG = 5.0  # the course fan searched when no cone edge is free
-CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
-FORMATION_MPS = 3.0  # a course this slow relative to a moving obstacle flies alongside it
-TURN_CHECKS = 12  # the cheapest free courses whose turns are flown kinematically
 SLOW_CPA_S = 20.0  # an encounter whose closest approach is further off than this is slow
 STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
 LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
@@ -175,20 +161,6 @@ class _Manoeuvre:
     held: bool = False  # heading: converged on the edge, now held
     reason: str = ""
     free: bool = True  # False: an escape, no course was free
-
-
-@dataclass
-class _Plan:
-    plane: str
-    side: int
-    course: float
-    altitude: float | None
-    cost: float
-    t_c: float
-    governing: str
-    why: str
-    free: bool  # clear of every obstacle within R
-    costs: dict[str, float] = field(default_factory=dict)
 
 
 class FgaAvoider(AvoiderBase):
@@ -242,6 +214,9 @@ class FgaAvoider(AvoiderBase):
         self.moving_radius = require_real("FGA option moving_radius", moving_radius, 0.0)
         self.point_radius = require_real("FGA option point_radius", point_radius, 0.0)
         memory_s = require_real("FGA option memory_s", memory_s, 0.0, open_low=True)
+        self.planner = FgaPlanner(
+            self.d_m, self.buffer_m, self.horizon_s, self.t_res, self.floor_m, self.period
+        )
         self._perception = Perception(PerceptionConfig(memory_s=float(memory_s)))
         self._state: PerceptionState | None = None
         self._obstacles: list[FgaObstacle] = []
@@ -341,419 +316,12 @@ class FgaAvoider(AvoiderBase):
             )
         return out
 
-    # -- geometry helpers ----------------------------------------------------------------------
-    @staticmethod
-    def _limits(ctx: AvoidanceContext) -> tuple[float, float]:
-        """(rho, psi_dot_max) of the aircraft now: its minimum turn radius and turn rate."""
-        speed = max(float(ctx.airspeed), 1e-3)
-        tan_bank = math.tan(math.radians(float(getattr(ctx.vehicle, "bank_max_deg", 30.0))))
-        return speed * speed / (G * tan_bank), G * tan_bank / speed
-
-    @staticmethod
-    def _climb_limits(params: Any) -> tuple[float, float]:
-        """(climb, descent) rates the autopilot commands at most: the vehicle's limits less
-        its climb margin."""
-        inside = 1.0 - LoopDesign.climb_margin
-        return (
-            inside * float(getattr(params, "climb_rate_max", 3.0)),
-            inside * float(getattr(params, "descent_rate_max", 2.0)),
-        )
-
-    def _enc(
-        self, pos: FloatArray, vel: FloatArray, o: FgaObstacle, rho: float, extra: float = 0.0
-    ) -> Encounter:
-        keep = self.d_m + self.buffer_m + extra
-        return encounter(pos, vel, o, keep_h=keep, keep_v=keep, rho=rho, horizon=self.horizon_s)
-
-    def _critical(
-        self, pos: FloatArray, vel: FloatArray, course: float, o: FgaObstacle, rho: float
-    ) -> Encounter:
-        """The encounter with eq 7's ``t_c`` for the turn this obstacle needs: ``rho`` is the
-        distance flown while turning one radian; a turn of more than a radian onto the nearest
-        edge of the cone (a fast obstacle nearly head-on) takes proportionally longer."""
-        horizontal = float(math.hypot(vel[0], vel[1]))
-        keep = o.radius + self.d_m + 2.0 * self.buffer_m
-        turns = [
-            abs(wrap(c - course))
-            for c in (tangent_course(pos, o, keep, horizontal, s) for s in (1, -1))
-            if c is not None
-        ]
-        need = max(1.0, min(turns, default=math.pi))
-        k = self.d_m + self.buffer_m
-        e = encounter(
-            pos,
-            vel,
-            o,
-            keep_h=k,
-            keep_v=k,
-            rho=rho * need,
-            horizon=self.horizon_s,
-            speed=max(horizontal, 1e-3),
-        )
-        if e.window is None:
-            return e
-        # eq 7 takes the obstacle small against the turn; a large one's protected volume is
-        # entered before eq 7's point: start no later than the entry less the turn's time
-        turn_rate = horizontal / max(rho, 1e-9)
-        entry = e.window[0] - need / turn_rate - self.t_res
-        return replace(e, t_c=min(e.t_c, entry)) if entry < e.t_c else e
-
-    def _conflicting(
-        self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle], extra: float = 0.0
-    ) -> Iterator[FgaObstacle]:
-        """The obstacles of ``near`` the aircraft flying ``vel`` is in conflict with (lazily)."""
-        x, y, z = float(pos[0]), float(pos[1]), float(pos[2])
-        vx, vy, vz = float(vel[0]), float(vel[1]), float(vel[2])
-        keep, horizon = self.d_m + self.buffer_m + extra, self.horizon_s
-        return (o for o in near if in_conflict(x, y, z, vx, vy, vz, o, keep, horizon))
-
-    def _clear(
-        self,
-        pos: FloatArray,
-        vel: FloatArray,
-        near: list[FgaObstacle],
-        rho: float,
-        extra: float = 0.0,
-    ) -> bool:
-        return next(self._conflicting(pos, vel, near, extra), None) is None
-
-    def _conflicts(
-        self, pos: FloatArray, vel: FloatArray, near: list[FgaObstacle]
-    ) -> list[FgaObstacle]:
-        return list(self._conflicting(pos, vel, near))
-
-    @staticmethod
-    def _velocity(course: float, horizontal: float, climb: float) -> FloatArray:
-        return np.array([horizontal * math.sin(course), horizontal * math.cos(course), climb])
-
-    def _ground(self, ctx: AvoidanceContext, pos: FloatArray) -> float:
-        terrain = ctx.terrain
-        if terrain is None:
-            return 0.0
-        try:
-            h = float(np.asarray(terrain.height_at(pos[0:1], pos[1:2])).reshape(-1)[0])
-        except Exception:  # a terrain without heights here: the floor is not lowered
-            return float(pos[2])
-        return h if math.isfinite(h) else float(pos[2])
-
-    # -- planning ------------------------------------------------------------------------------
-    @staticmethod
-    def _first(
-        pos: FloatArray, targets: list[Encounter], near: list[FgaObstacle]
-    ) -> FgaObstacle | None:
-        """The obstacle a manoeuvre steers round: of the conflicts, the one whose protected
-        volume is entered first (a fast intruder crossing ahead comes before a nearer one
-        overtaking slowly from behind); without conflicts, the nearest obstacle."""
-        timed = [e for e in targets if e.window is not None]
-        if timed:
-            return min(timed, key=lambda e: e.window[0] if e.window else math.inf).obstacle
-        return min(
-            [e.obstacle for e in targets] or near,
-            key=lambda o: math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) - o.radius,
-            default=None,
-        )
-
-    def _heading_plan(
-        self,
-        pos: FloatArray,
-        vel: FloatArray,
-        course: float,
-        targets: list[Encounter],
-        near: list[FgaObstacle],
-        rho: float,
-        turn_rate: float,
-        keep_side: tuple[FgaObstacle, int] | None = None,
-        flown_from: float | None = None,
-    ) -> _Plan | None:
-        """The smallest course change outside the union of the cones of ``near`` (module
-        docstring); None when no course is free.  ``keep_side`` (an obstacle and a side): a
-        manoeuvre under way keeps passing that obstacle on the same side when it can (a course
-        that flips to the other side crosses its cone).  ``flown_from`` (the aircraft's course
-        now): the turn onto the course is flown kinematically (:meth:`_turn_separation`) and
-        the cheapest course whose turn keeps ``d_m + buffer_m / 2`` is taken -- else the one
-        whose turn keeps the most."""
-        horizontal = float(math.hypot(vel[0], vel[1]))
-        keep = self.d_m + 2.0 * self.buffer_m
-        candidates: list[tuple[float, int, str]] = []
-        seen = {e.obstacle.key: e.obstacle for e in targets}
-        for o in near:
-            seen.setdefault(o.key, o)
-        for o in seen.values():
-            for side in (1, -1):
-                for c in tangent_courses(pos, o, o.radius + keep, horizontal, side):
-                    candidates.append((c, side, o.key))
-        # a fan besides the edges: the nearest free course need not lie on an edge (an obstacle
-        # overtaking from behind leaves every course ahead free, and its edges point back)
-        # the fan's courses resolve the nearest obstacle in conflict (the one steered round; its
-        # side is worked out below for the course chosen, as for another obstacle's edge)
-        first = self._first(pos, targets, list(seen.values()))
-        if first is not None:
-            for k in range(1, int(180 / FAN_DEG) + 1):
-                for sgn in (1, -1):
-                    candidates.append((wrap(course + sgn * math.radians(FAN_DEG * k)), 0, ""))
-        free = []
-        # clear by half a buffer more than the conflict test calls: a course chosen right at
-        # another obstacle's threshold would be called in conflict again at the next decision
-        courses = np.array([c for c, _side, _key in candidates], dtype=np.float64)
-        velocities = np.column_stack(
-            [
-                horizontal * np.sin(courses),
-                horizontal * np.cos(courses),
-                np.full(len(courses), float(vel[2])),
-            ]
-        )
-        keep_clear = self.d_m + 1.5 * self.buffer_m
-        blocked = np.any(
-            conflict_matrix(pos, velocities, near, keep_clear, self.horizon_s), axis=1
-        ).tolist()
-        # flying alongside an obstacle (hardly any relative speed) never resolves: the encounter
-        # is only put off -- taken only when nothing else is free
-        moving = np.array([o.velocity[:2] for o in seen.values() if o.moving], dtype=np.float64)
-        alongside = (
-            np.hypot(
-                velocities[:, 0:1] - moving[None, :, 0], velocities[:, 1:2] - moving[None, :, 1]
-            ).min(axis=1)
-            < FORMATION_MPS
-            if len(moving)
-            else np.zeros(len(candidates), dtype=bool)
-        )
-        for (c, side, key), v, hit, slow in zip(
-            candidates, velocities, blocked, alongside, strict=True
-        ):
-            if not hit:
-                penalty = 5.0 if slow else 0.0
-                if keep_side is not None and flips(pos, v, *keep_side):
-                    penalty += 10.0
-                free.append((abs(wrap(c - course)) + penalty, c, side, key))
-        if not free:
-            return None
-        free.sort()
-        if flown_from is None:
-            _, c, side, key = free[0]
-        else:
-            best: tuple[float, tuple[float, float, int, str]] | None = None
-            for item in free[:TURN_CHECKS]:
-                sep, _k = self._turn_separation(
-                    pos, vel, flown_from, item[1], self.t_res, near, turn_rate
-                )
-                if sep >= self.d_m + 0.5 * self.buffer_m:
-                    best = (math.inf, item)
-                    break
-                if best is None or sep > best[0]:
-                    best = (sep, item)
-            assert best is not None
-            _, c, side, key = best[1]
-        if first is not None and key != first.key:
-            # the course is another obstacle's edge or the fan's: the manoeuvre still steers
-            # round the nearest obstacle in conflict, on the side this course passes it
-            key, side = first.key, pass_side(pos, self._velocity(c, horizontal, 0.0), first)
-        turn = wrap(c - course)
-        cost = self.t_res + abs(turn) / turn_rate
-        t_c = min((e.t_c for e in targets), default=math.inf)
-        return _Plan(
-            "heading",
-            side,
-            c,
-            None,
-            cost,
-            t_c,
-            key,
-            f"steer {'right' if turn > 0 else 'left'} {abs(math.degrees(turn)):.0f} deg",
-            True,
-            {"heading_s": cost},
-        )
-
-    def _pitch_plan(
-        self,
-        ctx: AvoidanceContext,
-        pos: FloatArray,
-        vel: FloatArray,
-        course: float,
-        targets: list[Encounter],
-        near: list[FgaObstacle],
-        rho: float,
-    ) -> _Plan | None:
-        """Climb (or descend) clear of every target's vertical interval before its horizontal
-        entry, course unchanged (module docstring); None when not feasible."""
-        up, down = (CLIMB_MARGIN * r for r in self._climb_limits(ctx.vehicle))
-        z = float(pos[2])
-        keep = self.d_m + 2.0 * self.buffer_m
-        best: _Plan | None = None
-        for side in (1, -1):
-            rate = up if side > 0 else -down
-            need = z
-            latest = math.inf
-            ok = True
-            for e in targets:
-                o = e.obstacle
-                assert e.window is not None
-                wz = o.velocity[2]
-                h = interval_disk(
-                    o.center[0] - float(pos[0]),
-                    o.center[1] - float(pos[1]),
-                    float(vel[0]) - o.velocity[0],
-                    float(vel[1]) - o.velocity[1],
-                    o.radius + keep,
-                )
-                if h is None:
-                    continue
-                enter, leave = max(h[0], 0.0), h[1]
-                for t in (enter, leave):
-                    goal = (o.top + keep + wz * t) if side > 0 else (o.bottom - keep + wz * t)
-                    if not math.isfinite(goal):
-                        ok = False
-                        break
-                    reach = z + climbed(rate, t)
-                    if (side > 0 and reach < goal) or (side < 0 and reach > goal):
-                        ok = False
-                        break
-                    need = max(need, goal) if side > 0 else min(need, goal)
-                    # the latest start from which the climb at the limit still gets there
-                    lo_t, hi_t = 0.0, t
-                    for _ in range(30):  # bisection: beyond the goal (above it climbing,
-                        # below it descending) when the climb starts at mid
-                        mid = 0.5 * (lo_t + hi_t)
-                        there = z + float(vel[2]) * mid + climbed(rate, t - mid)
-                        if (there - goal) * side >= 0.0:
-                            lo_t = mid
-                        else:
-                            hi_t = mid
-                    latest = min(latest, lo_t)
-                if not ok:
-                    break
-            if not ok:
-                continue
-            if side < 0 and need - self._ground(ctx, pos) < self.floor_m:
-                continue
-            target = need + side * self.buffer_m
-            v = np.array([vel[0], vel[1], rate])
-            if not self._clear(
-                pos, v, [o for o in near if o.key not in {e.obstacle.key for e in targets}], rho
-            ):
-                continue
-            cost = climb_time(rate, abs(need - z))
-            plan = _Plan(
-                "pitch",
-                side,
-                course,
-                target,
-                cost,
-                latest,
-                targets[0].obstacle.key,
-                f"pitch {'up' if side > 0 else 'down'} to {target:.0f} m",
-                True,
-                {"pitch_s": cost},
-            )
-            if best is None or plan.cost < best.cost:
-                best = plan
-        return best
-
-    def _late_by(
-        self,
-        ctx: AvoidanceContext,
-        pos: FloatArray,
-        vel: FloatArray,
-        course: float,
-        near: list[FgaObstacle],
-        rho: float,
-        turn_rate: float,
-    ) -> tuple[float, str] | None:
-        """Whether a heading manoeuvre started one decision period from now would come too
-        late: the turn flown kinematically -- straight for ``period + t_res``, then at the
-        aircraft's turn rate onto the course the heading plan chooses from there, then straight
-        -- passes an obstacle within ``R`` closer than ``d_m + buffer_m / 2`` (its protected
-        volume with half the margin).  Returns (the least separation, the obstacle) when it
-        does, else None."""
-        delay = self.period + self.t_res
-        start = pos + delay * np.array([vel[0], vel[1], vel[2]])
-        moved = [o.at(delay) for o in near]
-        targets = [self._enc(start, vel, o, rho) for o in self._conflicts(start, vel, moved)]
-        if not targets:
-            return None
-        plan = self._heading_plan(start, vel, course, targets, moved, rho, turn_rate)
-        if plan is None:
-            return (-math.inf, targets[0].obstacle.key)
-        worst = self._turn_separation(pos, vel, course, plan.course, delay, near, turn_rate)
-        return worst if worst[0] < self.d_m + 0.5 * self.buffer_m else None
-
-    def _turn_separation(
-        self,
-        pos: FloatArray,
-        vel: FloatArray,
-        course: float,
-        target: float,
-        delay: float,
-        near: list[FgaObstacle],
-        turn_rate: float,
-        climb: float | None = None,
-    ) -> tuple[float, str]:
-        """The least separation from ``near`` (the protected volume's metric: the larger of the
-        horizontal and the vertical distance outside the obstacle) of the aircraft flying
-        straight for ``delay``, then turning the short way at ``turn_rate`` from ``course`` onto
-        ``target``, then straight for ``horizon_s`` -- its turn flown kinematically (the
-        obstacles at constant velocity), and the obstacle it is least from."""
-        horizontal = float(math.hypot(vel[0], vel[1]))
-        start = pos + delay * np.array([vel[0], vel[1], vel[2]])
-        turn = wrap(target - course)
-        t_turn = abs(turn) / turn_rate
-        ts = np.linspace(0.0, t_turn, 12)
-        if abs(turn) > 1e-9:
-            sgn = float(np.sign(turn))
-            psi = course + sgn * turn_rate * ts
-            arm = horizontal / turn_rate  # the turn's radius
-            ax = start[0] + sgn * arm * (math.cos(course) - np.cos(psi))
-            ay = start[1] + sgn * arm * (np.sin(psi) - math.sin(course))
-        else:
-            ax = np.full(len(ts), start[0])
-            ay = np.full(len(ts), start[1])
-        tail = np.linspace(0.0, self.horizon_s, 121)[1:]
-        bx = ax[-1] + horizontal * math.sin(target) * tail
-        by = ay[-1] + horizontal * math.cos(target) * tail
-        t_all = np.concatenate([[0.0], delay + np.concatenate([ts, t_turn + tail])])
-        px = np.concatenate([[pos[0]], ax, bx])
-        py = np.concatenate([[pos[1]], ay, by])
-        vz = float(vel[2])
-        if climb is None:
-            pz = float(pos[2]) + vz * t_all
-        else:  # the climb (descent) the way back asks for, from the end of the delay
-            pz = (
-                float(pos[2])
-                + vz * np.minimum(t_all, delay)
-                + climb * np.maximum(t_all - delay, 0.0)
-            )
-        return path_separation(t_all, px, py, pz, near)
-
-    def _escape(
-        self,
-        pos: FloatArray,
-        vel: FloatArray,
-        course: float,
-        near: list[FgaObstacle],
-        rho: float,
-    ) -> _Plan:
-        """No free course: the course of a 5 deg fan whose worst predicted separation is the
-        largest (an obstacle that outruns the aircraft, or one already inside)."""
-        horizontal = float(math.hypot(vel[0], vel[1]))
-        best: tuple[float, float] | None = None
-        times = np.linspace(0.0, min(self.horizon_s, 30.0), 61)
-        for k in range(int(360 / FAN_DEG)):
-            c = wrap(course + math.radians(FAN_DEG * k))
-            own = pos[None, :] + times[:, None] * self._velocity(c, horizontal, 0.0)[None, :]
-            worst, _key = path_separation(times, own[:, 0], own[:, 1], own[:, 2], near)
-            score = worst - 1e-3 * abs(wrap(c - course))
-            if best is None or score > best[0]:
-                best = (score, c)
-        assert best is not None
-        return _Plan(
-            "heading", 0, best[1], None, math.inf, -math.inf, "", "escape: no free course", False
-        )
-
     # -- decisions -----------------------------------------------------------------------------
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
         obstacles = self._observe(ctx)
         pos = np.asarray(ctx.position, dtype=np.float64)
         vel = np.asarray(ctx.velocity, dtype=np.float64)
-        rho, turn_rate = self._limits(ctx)
+        rho, turn_rate = limits(ctx)
         course = float(ctx.course)
         near = [
             o
@@ -763,7 +331,7 @@ class FgaAvoider(AvoiderBase):
         ]
         z = float(pos[2])
         violated = [
-            self._enc(pos, vel, o, rho, -self.buffer_m)
+            self.planner.encounter(pos, vel, o, rho, -self.buffer_m)
             for o in near
             if o.key not in self._violated
             and math.hypot(o.center[0] - pos[0], o.center[1] - pos[1]) < o.radius + self.d_m
@@ -774,7 +342,8 @@ class FgaAvoider(AvoiderBase):
         if self._man is not None:
             return self._continue(ctx, self._man, pos, vel, course, near, rho, turn_rate, violated)
         conflicts = [
-            self._critical(pos, vel, course, o, rho) for o in self._conflicts(pos, vel, near)
+            self.planner.critical(pos, vel, course, o, rho)
+            for o in self.planner.conflicts(pos, vel, near)
         ]
         if not conflicts:
             self._waiting = ()
@@ -793,14 +362,14 @@ class FgaAvoider(AvoiderBase):
         turn_rate: float,
         keep_side: tuple[FgaObstacle, int] | None = None,
         plane: str | None = None,
-    ) -> _Plan:
-        heading = self._heading_plan(
+    ) -> Plan:
+        heading = self.planner.heading_plan(
             pos, vel, course, targets, near, rho, turn_rate, keep_side, float(ctx.course)
         )
-        pitch = self._pitch_plan(ctx, pos, vel, course, targets, near, rho)
+        pitch = self.planner.pitch_plan(ctx, pos, vel, course, targets, near, rho)
         plans = [p for p in (heading, pitch) if p is not None]
         if not plans:
-            return self._escape(pos, vel, course, near, rho)
+            return self.planner.escape(pos, vel, course, near, rho)
         # a manoeuvre under way stays in its plane while that plane has a free course
         plan = min(plans, key=lambda p: (p.plane != plane, p.cost, p.plane != "heading"))
         plan.costs = {**(heading.costs if heading else {}), **(pitch.costs if pitch else {})}
@@ -827,7 +396,7 @@ class FgaAvoider(AvoiderBase):
             self.period < t_k < LATE_WINDOW_S
             and not violated
             and plan.plane == "heading"
-            and self._late_by(ctx, pos, vel, course, near, rho, turn_rate) is not None
+            and self.planner.late_by(ctx, pos, vel, course, near, rho, turn_rate) is not None
         ):
             t_k = 0.0  # eq 7 assumes a sharper turn than the aircraft's: start now
         if t_k > self.period and not violated:
@@ -883,7 +452,7 @@ class FgaAvoider(AvoiderBase):
                 return HoldCourse(man.course, altitude=man.altitude)
             # on the way: at the limit the plan counted on (an altitude command slows down
             # near its target), then held there (_continue)
-            up, down = self._climb_limits(ctx.vehicle)
+            up, down = climb_limits(ctx.vehicle)
             rate = up if man.side > 0 else -down
             return HoldCourse(man.course, climb_rate=rate)
         return HoldCourse(man.course)  # the altitude mode is kept
@@ -900,10 +469,37 @@ class FgaAvoider(AvoiderBase):
         turn_rate: float,
         violated: list[Encounter],
     ) -> AvoidanceDecision | None:
+        """A manoeuvre under way: re-planned on a new urgent conflict, else settled (a climb
+        reaching its altitude, a turn converging on its cone's edge and steering along it), else
+        ended by the way back to the mission (step 9)."""
         by_key = {o.key: o for o in near}
         horizontal = float(math.hypot(vel[0], vel[1]))
         # the velocity the manoeuvre is flying to (the command, not the transient)
-        planned = self._velocity(man.course, horizontal, float(vel[2]))
+        planned = velocity(man.course, horizontal, float(vel[2]))
+        in_way, others = self._new_conflicts(ctx, man, pos, planned, near, rho, turn_rate)
+        if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
+            return self._replan(
+                ctx, man, pos, planned, near, rho, turn_rate, in_way, others, violated, by_key
+            )
+        if man.plane == "pitch" and not man.held:
+            return self._settle_pitch(ctx, man, pos)
+        if man.plane == "heading" and not man.held:
+            return self._steer_heading(
+                ctx, man, pos, vel, course, near, rho, turn_rate, planned, by_key
+            )
+        return self._step_back(ctx, man, pos, vel, course, near, rho, turn_rate, by_key)
+
+    def _new_conflicts(
+        self,
+        ctx: AvoidanceContext,
+        man: _Manoeuvre,
+        pos: FloatArray,
+        planned: FloatArray,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+    ) -> tuple[list[FgaObstacle], list[Encounter]]:
+        """(the obstacles in the way of the course flown to, the urgent new conflicts)."""
         # a conflict of the course being flown to -- with a new obstacle, or with one of the
         # manoeuvre's own once the geometry has moved (an obstacle converging at the aircraft's
         # own speed) -- except the one being steered round, or climbed over, on the way there
@@ -917,19 +513,19 @@ class FgaAvoider(AvoiderBase):
             settling = set(man.keys)
         # -- re-planned only when urgent (step 5: t_k within a decision period, or within the
         # late-start check's reach); a later one is met when its time comes
-        in_way = self._conflicts(pos, planned, near)
+        in_way = self.planner.conflicts(pos, planned, near)
         # the late-start check plans round every obstacle but the one being settled: the turn a
         # new conflict needs may be set by a neighbour (two obstacles closer than 2 d_m apart
         # close the gap between them, and the way round both is a much larger turn)
         # (one check for all of them: it does not depend on which new conflict asks)
         fresh = [
-            self._critical(pos, planned, man.course, o, rho)
+            self.planner.critical(pos, planned, man.course, o, rho)
             for o in in_way
             if o.key not in settling
         ]
         urgent = [e.t_c - self.t_res <= self.period for e in fresh]
         late = not all(urgent) and (
-            self._late_by(
+            self.planner.late_by(
                 ctx,
                 pos,
                 planned,
@@ -940,89 +536,143 @@ class FgaAvoider(AvoiderBase):
             )
             is not None
         )
-        others = [e for e, now in zip(fresh, urgent, strict=True) if now or late]
-        if others or violated:  # a new conflict on the way: steps 1-5 again, same side first
-            hit = {o.key for o in in_way}
-            hit |= {v.obstacle.key for v in violated}
-            conflicts = [self._enc(pos, planned, o, rho) for o in near if o.key in hit] or others
-            gov = by_key.get(man.governing)
-            keep_side = None
-            if man.plane == "heading" and gov is not None:
-                keep_side = (gov, pass_side(pos, planned, gov))
-            # from the manoeuvre's own course (not the turn's transient), in its own plane first
-            plan = self._choose(
-                ctx, pos, planned, man.course, near, conflicts, rho, turn_rate, keep_side, man.plane
-            )
-            self._man = _Manoeuvre(
-                plan.plane,
-                plan.side,
-                tuple(sorted(set(man.keys) | {e.obstacle.key for e in conflicts})),
-                plan.governing,
-                plan.course,
-                plan.altitude,
-                ctx.t,
-                reason=plan.why,
-                free=plan.free,
-            )
+        return in_way, [e for e, now in zip(fresh, urgent, strict=True) if now or late]
+
+    def _replan(
+        self,
+        ctx: AvoidanceContext,
+        man: _Manoeuvre,
+        pos: FloatArray,
+        planned: FloatArray,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+        in_way: list[FgaObstacle],
+        others: list[Encounter],
+        violated: list[Encounter],
+        by_key: dict[str, FgaObstacle],
+    ) -> AvoidanceDecision:
+        """Steps 1-5 again for a new conflict, from the manoeuvre's own course, in its own plane
+        and on the same side first."""
+        hit = {o.key for o in in_way}
+        hit |= {v.obstacle.key for v in violated}
+        conflicts = [
+            self.planner.encounter(pos, planned, o, rho) for o in near if o.key in hit
+        ] or others
+        gov = by_key.get(man.governing)
+        keep_side = None
+        if man.plane == "heading" and gov is not None:
+            keep_side = (gov, pass_side(pos, planned, gov))
+        # from the manoeuvre's own course (not the turn's transient), in its own plane first
+        plan = self._choose(
+            ctx, pos, planned, man.course, near, conflicts, rho, turn_rate, keep_side, man.plane
+        )
+        self._man = _Manoeuvre(
+            plan.plane,
+            plan.side,
+            tuple(sorted(set(man.keys) | {e.obstacle.key for e in conflicts})),
+            plan.governing,
+            plan.course,
+            plan.altitude,
+            ctx.t,
+            reason=plan.why,
+            free=plan.free,
+        )
+        return AvoidanceDecision(
+            self._command(self._man, ctx),
+            reason=f"{self._kind(conflicts)}: {plan.why} (new conflict)",
+            info=self._info(ctx, pos, conflicts, plan, 0.0, conflicts, near, rho),
+        )
+
+    def _settle_pitch(
+        self, ctx: AvoidanceContext, man: _Manoeuvre, pos: FloatArray
+    ) -> AvoidanceDecision | None:
+        """A climb or descent holds the altitude it was flying to once there."""
+        assert man.altitude is not None
+        if (float(pos[2]) - man.altitude) * man.side >= 0.0:
+            man.held = True
             return AvoidanceDecision(
-                self._command(self._man, ctx),
-                reason=f"{self._kind(conflicts)}: {plan.why} (new conflict)",
-                info=self._info(ctx, pos, conflicts, plan, 0.0, conflicts, near, rho),
+                self._command(man, ctx),
+                reason=f"at {man.altitude:.0f} m: holding it",
+                info={"fga": "hold altitude", "altitude": man.altitude},
             )
-        if man.plane == "pitch" and not man.held:
-            assert man.altitude is not None
-            if (float(pos[2]) - man.altitude) * man.side >= 0.0:
-                man.held = True
+        return None
+
+    def _steer_heading(
+        self,
+        ctx: AvoidanceContext,
+        man: _Manoeuvre,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+        planned: FloatArray,
+        by_key: dict[str, FgaObstacle],
+    ) -> AvoidanceDecision | None:
+        """A turn converges on its cone's edge (then holds) and steers along the edge while it
+        moves (step 8)."""
+        horizontal = float(math.hypot(vel[0], vel[1]))
+        gov = by_key.get(man.governing)
+        err = abs(wrap(course - man.course))
+        if gov is None or err < CONVERGED_RAD:
+            man.held = True
+            return None
+        keep = gov.radius + self.d_m + 2.0 * self.buffer_m
+        # the root of the edge's quadratic nearest to the course being flown to
+        roots = tangent_courses(pos, gov, keep, horizontal, man.side)
+        c = min(roots, key=lambda r: abs(wrap(r - man.course))) if roots else None
+        if c is None or abs(wrap(c - man.course)) > math.radians(STEER_STEP_DEG):
+            # the edge steered to is gone (no course puts the relative velocity on it any
+            # more, e.g. an obstacle as fast on a converging course): hold the course; the
+            # conflict test of the course flown to re-plans if it must
+            man.held = True
+            return None
+        if abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
+            v = velocity(c, horizontal, float(vel[2]))
+            if not self.planner.clear(pos, v, near, rho):
+                # the edge runs into another cone: the free course nearest to the aircraft's,
+                # passing the governing obstacle on the same side (the union of the cones)
+                keep_side = (gov, pass_side(pos, planned, gov))
+                edge = self.planner.heading_plan(
+                    pos, vel, course, [], near, rho, turn_rate, keep_side
+                )
+                c = edge.course if edge is not None else None
+                if c is not None and abs(wrap(c - man.course)) > math.radians(STEER_STEP_DEG):
+                    # not a step along the edge but another manoeuvre (a reversal across the
+                    # obstacle's track): hold; the conflict test re-plans if it must
+                    man.held = True
+                    return None
+            if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
+                man.course = c
                 return AvoidanceDecision(
                     self._command(man, ctx),
-                    reason=f"at {man.altitude:.0f} m: holding it",
-                    info={"fga": "hold altitude", "altitude": man.altitude},
+                    reason=f"steer on the cone edge of {gov.key}",
+                    info={"obstacle": gov.key, "course_deg": math.degrees(c), "fga": "steer"},
                 )
-            return None
-        if man.plane == "heading" and not man.held:
-            gov = by_key.get(man.governing)
-            err = abs(wrap(course - man.course))
-            if gov is None or err < CONVERGED_RAD:
-                man.held = True
-                return None
-            keep = gov.radius + self.d_m + 2.0 * self.buffer_m
-            # the root of the edge's quadratic nearest to the course being flown to
-            roots = tangent_courses(pos, gov, keep, horizontal, man.side)
-            c = min(roots, key=lambda r: abs(wrap(r - man.course))) if roots else None
-            if c is None or abs(wrap(c - man.course)) > math.radians(STEER_STEP_DEG):
-                # the edge steered to is gone (no course puts the relative velocity on it any
-                # more, e.g. an obstacle as fast on a converging course): hold the course; the
-                # conflict test of the course flown to re-plans if it must
-                man.held = True
-                return None
-            if abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
-                v = self._velocity(c, horizontal, float(vel[2]))
-                if not self._clear(pos, v, near, rho):
-                    # the edge runs into another cone: the free course nearest to the aircraft's,
-                    # passing the governing obstacle on the same side (the union of the cones)
-                    keep_side = (gov, pass_side(pos, planned, gov))
-                    edge = self._heading_plan(pos, vel, course, [], near, rho, turn_rate, keep_side)
-                    c = edge.course if edge is not None else None
-                    if c is not None and abs(wrap(c - man.course)) > math.radians(STEER_STEP_DEG):
-                        # not a step along the edge but another manoeuvre (a reversal across the
-                        # obstacle's track): hold; the conflict test re-plans if it must
-                        man.held = True
-                        return None
-                if c is not None and abs(wrap(c - man.course)) > 0.2 * CONVERGED_RAD:
-                    man.course = c
-                    return AvoidanceDecision(
-                        self._command(man, ctx),
-                        reason=f"steer on the cone edge of {gov.key}",
-                        info={"obstacle": gov.key, "course_deg": math.degrees(c), "fga": "steer"},
-                    )
-            return None
-        # step 9: the closest approach passed and the way back clear -> the mission
+        return None
+
+    def _step_back(
+        self,
+        ctx: AvoidanceContext,
+        man: _Manoeuvre,
+        pos: FloatArray,
+        vel: FloatArray,
+        course: float,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+        by_key: dict[str, FgaObstacle],
+    ) -> AvoidanceDecision | None:
+        """Step 9: the closest approach passed and the way back clear -> the mission."""
+        horizontal = float(math.hypot(vel[0], vel[1]))
         back = self._return(ctx, pos, vel, course, near, rho)
         if back is None:
             return self._toward_return(ctx, man, pos, vel, near, rho, turn_rate)
         index, info = back
         ahead = float(info["climb"])
-        going = self._velocity(math.radians(info["course_deg"]), horizontal, ahead)
+        going = velocity(math.radians(info["course_deg"]), horizontal, ahead)
         # the obstacle steered round (a climb: every one climbed over) must have passed its
         # closest approach; the others met on the way need only the clear way back
         for key in man.keys if man.plane == "pitch" else (man.governing,):
@@ -1031,8 +681,8 @@ class FgaAvoider(AvoiderBase):
             # parallel course), the way back itself opens the range
             if o is None:
                 continue
-            held = self._enc(pos, vel, o, rho)
-            if held.range_rate > 0.0 or self._enc(pos, going, o, rho).range_rate > 0.0:
+            held = self.planner.encounter(pos, vel, o, rho)
+            if held.range_rate > 0.0 or self.planner.encounter(pos, going, o, rho).range_rate > 0.0:
                 continue
             # a slow encounter (its closest approach on the held course far off): holding
             # only puts it off -- the clear way back (checked above) is taken
@@ -1066,17 +716,20 @@ class FgaAvoider(AvoiderBase):
         j = min(ctx.next_index, len(w) - 1)
         home = bearing(pos, w[j])
         horizontal = float(math.hypot(vel[0], vel[1]))
-        back = self._velocity(home, horizontal, float(vel[2]))
-        blocking = [self._enc(pos, back, o, rho) for o in self._conflicts(pos, back, near)]
+        back = velocity(home, horizontal, float(vel[2]))
+        blocking = [
+            self.planner.encounter(pos, back, o, rho)
+            for o in self.planner.conflicts(pos, back, near)
+        ]
         if not blocking:
             return None
-        plan = self._heading_plan(pos, back, home, blocking, near, rho, turn_rate)
+        plan = self.planner.heading_plan(pos, back, home, blocking, near, rho, turn_rate)
         if plan is None:
             return None
         gain = abs(wrap(man.course - home)) - abs(wrap(plan.course - home))
         if gain < math.radians(RETURN_STEP_DEG):
             return None
-        sep, _key = self._turn_separation(
+        sep, _key = self.planner.turn_separation(
             pos, vel, man.course, plan.course, self.t_res, near, turn_rate
         )
         if sep < self.d_m + 2.0 * self.buffer_m:
@@ -1102,7 +755,7 @@ class FgaAvoider(AvoiderBase):
         (module docstring), or None."""
         w = np.asarray(ctx.waypoints, dtype=np.float64)
         horizontal = float(math.hypot(vel[0], vel[1]))
-        up, down = self._climb_limits(ctx.vehicle)
+        up, down = climb_limits(ctx.vehicle)
         turn_rate = horizontal / max(rho, 1e-9)
         for j in range(min(ctx.next_index, len(w) - 1), len(w)):
             d = float(np.hypot(*(w[j, :2] - pos[:2])))
@@ -1111,7 +764,7 @@ class FgaAvoider(AvoiderBase):
             c = bearing(pos, w[j])
             # the climb the autopilot's altitude loop will command towards the waypoint
             climb = min(max(LoopDesign.altitude_gain * float(w[j, 2] - pos[2]), -down), up)
-            sep, _key = self._turn_separation(
+            sep, _key = self.planner.turn_separation(
                 pos, vel, course, c, self.t_res, near, turn_rate, climb
             )
             if sep >= self.d_m + 2.0 * self.buffer_m:  # the steering margin: hysteresis
@@ -1124,7 +777,7 @@ class FgaAvoider(AvoiderBase):
         ctx: AvoidanceContext,
         pos: FloatArray,
         conflicts: list[Encounter],
-        plan: _Plan,
+        plan: Plan,
         t_k: float,
         urgent: list[Encounter],
         near: list[FgaObstacle],

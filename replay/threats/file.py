@@ -33,7 +33,7 @@ AMSL) instead of ``position`` / ``center``, ``cylinder`` ``lon``, ``lat`` instea
 waypoints are map metres only.
 
 **GeoJSON** (a ``.json``/``.geojson`` file, or any file whose content is a mapping with ``type``
-and no ``terrapath`` key, as for danger zones, :mod:`terrain.zones`): a FeatureCollection of
+and no ``terrapath`` key, as for danger zones, :mod:`terrain.zone_file`): a FeatureCollection of
 Polygon features (RFC 7946: lon/lat WGS84, closed rings, a third coordinate ignored), each a
 ``prism`` threat whose footprint is the polygon's exterior ring; properties ``id`` (else
 ``name``, else the feature's own ``id``; required), ``top`` (required), ``bottom``,
