@@ -144,48 +144,8 @@ class PlanningProblem:
                 f"start and goal are the same place ({span:.1f} m apart, less than a cell); "
                 "plan a round trip as two missions, out and back"
             )
-        for name, p in (("start", self.start), ("goal", self.goal)):
-            if not bool(g.contains(p[0], p[1])):
-                xmin, ymin, xmax, ymax = g.bounds
-                raise InputError(
-                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) lies outside the map "
-                    f"(x {xmin:.1f} .. {xmax:.1f}, y {ymin:.1f} .. {ymax:.1f})"
-                )
-            ground = float(g.height_at(p[0], p[1]))
-            if p[2] < ground + self.clearance:
-                need = f"terrain {ground:.1f} m" + (
-                    f" + clearance {self.clearance:g} m" if self.clearance else ""
-                )
-                raise InputError(
-                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is inside the terrain "
-                    f"(needs at least {need})"
-                )
-            if self.agl_max is not None and p[2] - ground > self.agl_max:
-                raise InputError(
-                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is {p[2] - ground:.0f} m "
-                    f"above the ground, above --agl-max {self.agl_max:g} m; lower it"
-                )
-        relief = g.zmax - g.zmin
-        zmin = g.zmin - 1.0 if self.zmin is None else float(self.zmin)
-        margin = self.clearance + max(50.0, 0.05 * relief)
-        zmax = g.zmax + margin if self.zmax is None else float(self.zmax)
-        if self.zmax is None:
-            zmax = max(zmax, float(self.start[2]), float(self.goal[2]))
-        if self.zmin is None:
-            zmin = min(zmin, float(self.start[2]), float(self.goal[2]))
-        if not (math.isfinite(zmin) and math.isfinite(zmax)) or zmin >= zmax:
-            raise InputError(f"altitude band must have Zmin < Zmax; got [{zmin}, {zmax}]")
-        if self.agl_min is not None and zmax <= g.zmin + self.clearance:
-            raise InputError(
-                f"the above-ground band lies above the altitude band: {self.clearance:g} m over "
-                f"the lowest terrain ({g.zmin:.1f} m) is above Zmax {zmax:.1f} m"
-            )
-        if zmax <= g.zmin + self.clearance:
-            raise InputError(
-                f"altitude band [{zmin:.1f}, {zmax:.1f}] m lies entirely below the terrain "
-                f"(lowest point {g.zmin:.1f} m"
-                + (f" + clearance {self.clearance:g} m)" if self.clearance else ")")
-            )
+        self._check_ends_on_the_map()
+        zmin, zmax = self._altitude_band()
         set_(self, "zmin", zmin)
         set_(self, "zmax", zmax)
         set_(self, "zones", tuple(self.zones))
@@ -215,6 +175,63 @@ class PlanningProblem:
                 zone_margin=self.zone_margin,
             ),
         )
+        self._check_ends_known_and_clear()
+
+    def _check_ends_on_the_map(self) -> None:
+        """Start and goal inside the map, above the terrain by the clearance, below --agl-max."""
+        g = self.grid
+        for name, p in (("start", self.start), ("goal", self.goal)):
+            if not bool(g.contains(p[0], p[1])):
+                xmin, ymin, xmax, ymax = g.bounds
+                raise InputError(
+                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) lies outside the map "
+                    f"(x {xmin:.1f} .. {xmax:.1f}, y {ymin:.1f} .. {ymax:.1f})"
+                )
+            ground = float(g.height_at(p[0], p[1]))
+            if p[2] < ground + self.clearance:
+                need = f"terrain {ground:.1f} m" + (
+                    f" + clearance {self.clearance:g} m" if self.clearance else ""
+                )
+                raise InputError(
+                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is inside the terrain "
+                    f"(needs at least {need})"
+                )
+            if self.agl_max is not None and p[2] - ground > self.agl_max:
+                raise InputError(
+                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is {p[2] - ground:.0f} m "
+                    f"above the ground, above --agl-max {self.agl_max:g} m; lower it"
+                )
+
+    def _altitude_band(self) -> tuple[float, float]:
+        """[Zmin, Zmax]: as given, else the terrain's range, widened by the clearance and a
+        margin above and to take the start and goal in."""
+        g = self.grid
+        relief = g.zmax - g.zmin
+        zmin = g.zmin - 1.0 if self.zmin is None else float(self.zmin)
+        margin = self.clearance + max(50.0, 0.05 * relief)
+        zmax = g.zmax + margin if self.zmax is None else float(self.zmax)
+        if self.zmax is None:
+            zmax = max(zmax, float(self.start[2]), float(self.goal[2]))
+        if self.zmin is None:
+            zmin = min(zmin, float(self.start[2]), float(self.goal[2]))
+        if not (math.isfinite(zmin) and math.isfinite(zmax)) or zmin >= zmax:
+            raise InputError(f"altitude band must have Zmin < Zmax; got [{zmin}, {zmax}]")
+        if self.agl_min is not None and zmax <= g.zmin + self.clearance:
+            raise InputError(
+                f"the above-ground band lies above the altitude band: {self.clearance:g} m over "
+                f"the lowest terrain ({g.zmin:.1f} m) is above Zmax {zmax:.1f} m"
+            )
+        if zmax <= g.zmin + self.clearance:
+            raise InputError(
+                f"altitude band [{zmin:.1f}, {zmax:.1f}] m lies entirely below the terrain "
+                f"(lowest point {g.zmin:.1f} m"
+                + (f" + clearance {self.clearance:g} m)" if self.clearance else ")")
+            )
+        return zmin, zmax
+
+    def _check_ends_known_and_clear(self) -> None:
+        """Start and goal over measured terrain (unless allowed) and clear of the planner's
+        conservative terrain by the clearance."""
         if self._unknown is not None:
             for name, p in (("start", self.start), ("goal", self.goal)):
                 if float(self._unknown.heights[self._unknown.cell_of(p[0], p[1])]) > 0:

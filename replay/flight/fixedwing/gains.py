@@ -157,74 +157,23 @@ def design_gains(
     x_t, u_t = trim(p, va, altitude, temperature_offset=temperature_offset)
     alpha_t = math.atan2(x_t[5], x_t[3])
     de_t, dt_t = float(u_t[0]), float(u_t[3])
-    _, _, _, g3, g4, _, _, _, _ = p.gammas()
     rho = float(density(altitude, temperature_offset))
-    s, b, c = p.S, p.b, p.c
     lo, hi = p.control_limits()
 
-    # roll
-    c_pp = g3 * p.Clp + g4 * p.Cnp
-    c_pda = g3 * p.Clda + g4 * p.Cnda
-    a_phi1 = -0.25 * rho * va * s * b * b * c_pp
-    a_phi2 = 0.5 * rho * va * va * s * b * c_pda
-    da_max = hi[1]
-    wn_phi = min(
-        math.sqrt(abs(a_phi2) * da_max / math.radians(d.roll_error_max_deg)), d.roll_wn_max
-    )
-    # a heavily roll-damped airframe (a_phi1 > 2 zeta wn) would need rate feedback of the wrong
-    # sign: raise wn until its own damping gives zeta (with k_d = 0)
-    wn_phi = min(max(wn_phi, a_phi1 / (2.0 * d.roll_zeta)), d.roll_wn_max)
-    roll_p = wn_phi * wn_phi / a_phi2
-    roll_d = (2.0 * d.roll_zeta * wn_phi - a_phi1) / a_phi2
-    if roll_d * roll_p < 0:  # the airframe's own roll damping is already enough
-        roll_d = 0.0
-    roll_i = d.roll_integral_fraction * wn_phi * roll_p
+    roll_p, roll_i, roll_d, wn_phi = _roll_gains(p, d, rho, va, hi[1])
 
     # course
     wn_chi = wn_phi / d.course_separation
     course_p = 2.0 * d.course_zeta * wn_chi * va / G
     course_i = wn_chi * wn_chi * va / G
 
-    # pitch
-    k = rho * va * va * c * s / (2.0 * p.Jy)
-    a_th1 = -k * p.Cmq * c / (2.0 * va)
-    a_th2 = -k * p.Cmalpha
-    a_th3 = k * p.Cmde
-    de_max = min(-lo[0], hi[0])
-    pitch_p = math.copysign(de_max / math.radians(d.pitch_error_max_deg), a_th3)
-    wn_th = math.sqrt(a_th2 + pitch_p * a_th3)
-    pitch_d = (2.0 * d.pitch_zeta * wn_th - a_th1) / a_th3
-    if pitch_d * pitch_p < 0:
-        pitch_d = 0.0
-    k_dc = pitch_p * a_th3 / (a_th2 + pitch_p * a_th3)
+    pitch_p, pitch_d, k_dc, wn_th = _pitch_gains(p, d, rho, va, lo, hi)
 
-    # airspeed: the thrust's slopes in airspeed and throttle at the trim, numerically from the
-    # engine model (params.py)
-    packed = p.pack(temperature_offset=temperature_offset)
+    speed_p, speed_i, thrust_t = _airspeed_gains(
+        p, d, rho, va, alpha_t, de_t, dt_t, temperature_offset
+    )
 
-    def thrust_at(v: float, throttle: float) -> float:
-        return float(kern.propeller(v, min(max(throttle, 0.0), 1.0), rho, packed)[0])
-
-    dv, ddt = 0.01 * va, 0.01
-    t_dv = (thrust_at(va + dv, dt_t) - thrust_at(va - dv, dt_t)) / (2.0 * dv)
-    lo_t, hi_t = max(dt_t - ddt, 0.0), min(dt_t + ddt, 1.0)
-    t_ddt = (thrust_at(va, hi_t) - thrust_at(va, lo_t)) / (hi_t - lo_t)
-    cd_t = drag_coefficient(alpha_t, p) + p.CDde * abs(de_t)
-    a_v1 = rho * va * s * cd_t / p.mass - t_dv / p.mass
-    a_v2 = max(t_ddt / p.mass, 1e-6)
-    speed_i = d.airspeed_wn**2 / a_v2
-    speed_p = max(0.0, (2.0 * d.airspeed_zeta * d.airspeed_wn - a_v1) / a_v2)
-    thrust_t = thrust_at(va, dt_t)
-
-    # pitch and elevator feed-forwards from the climb and descent trims at the limits
-    slopes = []
-    for rate in (p.climb_rate_max, -p.descent_rate_max):
-        gam = math.asin(max(-0.9, min(0.9, rate / va)))
-        try:
-            x_g, u_g = trim(p, va, altitude, gam, temperature_offset=temperature_offset)
-            slopes.append(((x_g[7] - x_t[7]) / gam, (u_g[0] - de_t) / gam))
-        except InputError:  # e.g. an idle descent that needs negative thrust: gamma alone
-            slopes.append((1.0, 0.0))
+    slopes = _feed_forwards(p, va, altitude, temperature_offset, x_t, de_t)
 
     envelope = p.airspeed_range(altitude, temperature_offset)
     return Gains(
@@ -264,6 +213,104 @@ def design_gains(
         airspeed_min=envelope[0],
         airspeed_max=envelope[1],
     )
+
+
+def _roll_gains(
+    p: VehicleParams, d: LoopDesign, rho: float, va: float, da_max: float
+) -> tuple[float, float, float, float]:
+    """(k_p, k_i, k_d, wn_phi) of the roll loop (Beard & McLain §6.1.1)."""
+    _, _, _, g3, g4, _, _, _, _ = p.gammas()
+    s, b = p.S, p.b
+    # roll
+    c_pp = g3 * p.Clp + g4 * p.Cnp
+    c_pda = g3 * p.Clda + g4 * p.Cnda
+    a_phi1 = -0.25 * rho * va * s * b * b * c_pp
+    a_phi2 = 0.5 * rho * va * va * s * b * c_pda
+    wn_phi = min(
+        math.sqrt(abs(a_phi2) * da_max / math.radians(d.roll_error_max_deg)), d.roll_wn_max
+    )
+    # a heavily roll-damped airframe (a_phi1 > 2 zeta wn) would need rate feedback of the wrong
+    # sign: raise wn until its own damping gives zeta (with k_d = 0)
+    wn_phi = min(max(wn_phi, a_phi1 / (2.0 * d.roll_zeta)), d.roll_wn_max)
+    roll_p = wn_phi * wn_phi / a_phi2
+    roll_d = (2.0 * d.roll_zeta * wn_phi - a_phi1) / a_phi2
+    if roll_d * roll_p < 0:  # the airframe's own roll damping is already enough
+        roll_d = 0.0
+    roll_i = d.roll_integral_fraction * wn_phi * roll_p
+    return roll_p, roll_i, roll_d, wn_phi
+
+
+def _pitch_gains(
+    p: VehicleParams, d: LoopDesign, rho: float, va: float, lo: FloatArray, hi: FloatArray
+) -> tuple[float, float, float, float]:
+    """(k_p, k_d, K_DC, wn_theta) of the pitch loop (Beard & McLain §6.1.2)."""
+    s, c = p.S, p.c
+    # pitch
+    k = rho * va * va * c * s / (2.0 * p.Jy)
+    a_th1 = -k * p.Cmq * c / (2.0 * va)
+    a_th2 = -k * p.Cmalpha
+    a_th3 = k * p.Cmde
+    de_max = min(-lo[0], hi[0])
+    pitch_p = math.copysign(de_max / math.radians(d.pitch_error_max_deg), a_th3)
+    wn_th = math.sqrt(a_th2 + pitch_p * a_th3)
+    pitch_d = (2.0 * d.pitch_zeta * wn_th - a_th1) / a_th3
+    if pitch_d * pitch_p < 0:
+        pitch_d = 0.0
+    k_dc = pitch_p * a_th3 / (a_th2 + pitch_p * a_th3)
+    return pitch_p, pitch_d, k_dc, wn_th
+
+
+def _airspeed_gains(
+    p: VehicleParams,
+    d: LoopDesign,
+    rho: float,
+    va: float,
+    alpha_t: float,
+    de_t: float,
+    dt_t: float,
+    temperature_offset: float,
+) -> tuple[float, float, float]:
+    """(k_p, k_i, the trim thrust) of the airspeed-by-throttle loop."""
+    s = p.S
+    # airspeed: the thrust's slopes in airspeed and throttle at the trim, numerically from the
+    # engine model (params.py)
+    packed = p.pack(temperature_offset=temperature_offset)
+
+    def thrust_at(v: float, throttle: float) -> float:
+        return float(kern.propeller(v, min(max(throttle, 0.0), 1.0), rho, packed)[0])
+
+    dv, ddt = 0.01 * va, 0.01
+    t_dv = (thrust_at(va + dv, dt_t) - thrust_at(va - dv, dt_t)) / (2.0 * dv)
+    lo_t, hi_t = max(dt_t - ddt, 0.0), min(dt_t + ddt, 1.0)
+    t_ddt = (thrust_at(va, hi_t) - thrust_at(va, lo_t)) / (hi_t - lo_t)
+    cd_t = drag_coefficient(alpha_t, p) + p.CDde * abs(de_t)
+    a_v1 = rho * va * s * cd_t / p.mass - t_dv / p.mass
+    a_v2 = max(t_ddt / p.mass, 1e-6)
+    speed_i = d.airspeed_wn**2 / a_v2
+    speed_p = max(0.0, (2.0 * d.airspeed_zeta * d.airspeed_wn - a_v1) / a_v2)
+    thrust_t = thrust_at(va, dt_t)
+    return speed_p, speed_i, thrust_t
+
+
+def _feed_forwards(
+    p: VehicleParams,
+    va: float,
+    altitude: float,
+    temperature_offset: float,
+    x_t: FloatArray,
+    de_t: float,
+) -> list[tuple[float, float]]:
+    """[(pitch, elevator) per radian of flight-path angle] for climbs and for descents."""
+    # pitch and elevator feed-forwards from the climb and descent trims at the limits
+    slopes = []
+    for rate in (p.climb_rate_max, -p.descent_rate_max):
+        gam = math.asin(max(-0.9, min(0.9, rate / va)))
+        try:
+            x_g, u_g = trim(p, va, altitude, gam, temperature_offset=temperature_offset)
+            slopes.append(((x_g[7] - x_t[7]) / gam, (u_g[0] - de_t) / gam))
+        except InputError:  # e.g. an idle descent that needs negative thrust: gamma alone
+            slopes.append((1.0, 0.0))
+    return slopes
 
 
 __all__ = ["Gains", "LoopDesign", "design_gains"]
