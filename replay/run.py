@@ -264,7 +264,7 @@ def _lonlat(grid: HeightGrid | None) -> Any:
     return grid.lonlat_interpolator()
 
 
-def _map_origin(mission: Any, grid: Any) -> tuple[float, float, float]:
+def _map_origin(mission: Mission, grid: HeightGrid | None) -> tuple[float, float, float]:
     if grid is not None:
         xmin, ymin, xmax, ymax = grid.bounds
         return (round((xmin + xmax) / 2.0), round((ymin + ymax) / 2.0), 0.0)

@@ -25,7 +25,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -45,6 +45,10 @@ from replay.threats.table import ThreatTable
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.validity import ValidityChecker
+
+if TYPE_CHECKING:
+    from terrain.model import TerrainModel
+    from terrain.zones import Zone
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -250,7 +254,7 @@ def simulate(
     vehicle: Vehicle,
     *,
     grid: HeightGrid | None = None,
-    terrain_model: Any = None,
+    terrain_model: TerrainModel | None = None,
     config: ReplayConfig | None = None,
     recorder: Recorder | None = None,
     progress: Callable[[float, float], None] | None = None,
@@ -323,7 +327,7 @@ class _Loop:
         stack: FlightStack,
         sensor: Sensor,
         grid: HeightGrid | None,
-        terrain_model: Any,
+        terrain_model: TerrainModel | None,
         cfg: ReplayConfig,
         recorder: Recorder | None,
     ) -> None:
@@ -585,9 +589,9 @@ def _context(
     x: FloatArray,
     picture: Any,
     stack: FlightStack,
-    terrain: Any,
+    terrain: TerrainModel | None,
     cfg: ReplayConfig,
-    zones: tuple[Any, ...] = (),
+    zones: tuple[Zone, ...] = (),
     validity: ValidityChecker | None = None,
 ) -> AvoidanceContext:
     rot = rotation_body_to_ned(x[6], x[7], x[8])

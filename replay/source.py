@@ -8,15 +8,23 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import yaml
 
 from replay.flight.multirotor.model import MULTIROTOR_PRESETS
 from terrain.errors import DataFileError, InputError
 
+if TYPE_CHECKING:
+    from planner.mission import Mission
+    from replay.flight.fixedwing.params import VehicleParams
+    from replay.flight.multirotor.model import MultirotorParams
+    from replay.record.reader import RunRecord
+    from replay.threats.kinds import ThreatSet
+    from terrain.grid import HeightGrid
 
-def load_source(source: str) -> tuple[Any, Any]:
+
+def load_source(source: str) -> tuple[Mission, RunRecord | None]:
     """(mission, the earlier run when SOURCE is an .mcap, else None).
 
     The mission inside a run names its DEM tiles relative to the run's folder (see
@@ -32,7 +40,7 @@ def load_source(source: str) -> tuple[Any, Any]:
     return mission_of_run(run, source), run
 
 
-def mission_of_run(run: Any, source: str) -> Any:
+def mission_of_run(run: RunRecord, source: str) -> Mission:
     """The mission a recorded run flew (its ``mission.yaml`` attachment), with its DEM tiles
     looked for where :func:`load_source` says."""
     from planner.mission import mission_from_dict
@@ -57,7 +65,7 @@ def mission_of_run(run: Any, source: str) -> Any:
     return mission
 
 
-def find_terrain(mission: Any, dem_tiles: tuple[str, ...]) -> Any:
+def find_terrain(mission: Mission, dem_tiles: tuple[str, ...]) -> Mission:
     """The mission with its DEM tiles found (absolute paths), or replaced by ``--dem``; raises
     before anything is written when a tile is found nowhere."""
     from planner.mission import TerrainRef
@@ -78,8 +86,8 @@ def find_terrain(mission: Any, dem_tiles: tuple[str, ...]) -> Any:
 
 
 def source_vehicle(
-    vehicle: str | None, mission: Any, source: str, run: Any
-) -> tuple[Any, bytes | None]:
+    vehicle: str | None, mission: Mission, source: str, run: RunRecord | None
+) -> tuple[VehicleParams | MultirotorParams, bytes | None]:
     """(vehicle parameters, the vehicle file to attach or None).
 
     ``--vehicle`` paths are relative to the working directory.  Re-flying a run flies the
@@ -136,7 +144,7 @@ def source_vehicle(
     return load_vehicle(name), None  # not a preset: says which presets exist
 
 
-def recorded_threats(text: str, source: str, grid: Any) -> Any:
+def recorded_threats(text: str, source: str, grid: HeightGrid | None) -> ThreatSet:
     """The threats an earlier run recorded (its ``threats.yaml`` attachment)."""
     from replay.threats.file import threats_from_records
 

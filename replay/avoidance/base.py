@@ -14,12 +14,21 @@ circles), each with the settings it needs, updated once per scan.  ``none``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from replay.guidance import AvoidanceDecision
+
+if TYPE_CHECKING:
+    from planner.mission import Mission
+    from replay.flight.base import Vehicle
+    from replay.sim import ReplayConfig
+    from replay.threats.kinds import ThreatSet
+    from terrain.grid import HeightGrid
+    from terrain.validity import ValidityChecker
+    from terrain.zones import Zone
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -34,18 +43,19 @@ class AvoidanceContext:
     velocity: FloatArray  # (3,) map, m/s
     airspeed: float
     course: float  # rad, clockwise from north
-    picture: Any  # latest scan: replay.sensors.radar.RadarPicture or replay.sensors.cooperative.CooperativePicture
+    # the latest scan: a RadarPicture (the rangefinders' subclass) or a CooperativePicture, read
+    # through replay.avoidance.perception; each avoider reads the attributes of its sensor
+    picture: Any
     waypoints: FloatArray  # (W, 3) current list, map metres
     next_index: int  # index in ``waypoints`` of the waypoint being flown to
-    vehicle: Any = (
-        None  # replay.flight.fixedwing.params.VehicleParams (limits: bank, pitch, climb rate)
-    )
-    terrain: Any = None  # terrain.model.TerrainModel or None (flat ground)
+    # the vehicle's parameters (a Vehicle: fixed wing or multirotor; limits: bank, pitch, climb)
+    vehicle: Any = None
+    terrain: Any = None  # terrain.model.TerrainModel, or None: flat ground
     terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
     switch_distance: float = 0.0  # the stack turns to the next leg this far from a waypoint
-    zones: tuple[Any, ...] = ()  # the mission's danger zones (terrain.zones): no-fly volumes
+    zones: tuple[Zone, ...] = ()  # the mission's danger zones: no-fly volumes
     # what a new waypoint or leg must pass: the map, its measured terrain and the danger zones
-    validity: Any = None  # terrain.validity.ValidityChecker, or None: nothing to check
+    validity: ValidityChecker | None = None  # None: nothing to check
 
 
 class Avoider(Protocol):
@@ -66,10 +76,15 @@ class Avoider(Protocol):
     period: float | None
     passive: bool
 
-    def check_vehicle(self, params: Any, speed: float) -> None: ...
+    def check_vehicle(self, params: Vehicle, speed: float) -> None: ...
 
     def check_setup(
-        self, config: Any, mission: Any, threats: Any, grid: Any, speed: float
+        self,
+        config: ReplayConfig,
+        mission: Mission,
+        threats: ThreatSet,
+        grid: HeightGrid | None,
+        speed: float,
     ) -> None: ...
 
     def rangefinder_spread_deg(self, range_m: float) -> float: ...
@@ -87,10 +102,17 @@ class AvoiderBase:
     period: float | None = None
     passive = False
 
-    def check_vehicle(self, params: Any, speed: float) -> None:
+    def check_vehicle(self, params: Vehicle, speed: float) -> None:
         return None
 
-    def check_setup(self, config: Any, mission: Any, threats: Any, grid: Any, speed: float) -> None:
+    def check_setup(
+        self,
+        config: ReplayConfig,
+        mission: Mission,
+        threats: ThreatSet,
+        grid: HeightGrid | None,
+        speed: float,
+    ) -> None:
         return None
 
     def rangefinder_spread_deg(self, range_m: float) -> float:

@@ -235,7 +235,7 @@ def leg_check(
         sv = chk.segments(a, b, clearance=False)
         v = sv.zone_lengths.sum(axis=1) + sv.off_map_lengths + sv.unknown_lengths
         out = v[:n] + v[n:]
-        if edge > 0.0:  # the turn at the new waypoint must not swing off the map
+        if edge > 0.0 and chk.grid is not None:  # the turn must not swing off the map
             xmin, ymin, xmax, ymax = chk.grid.bounds
             inside = np.minimum.reduce(
                 [X[:, 0] - xmin, xmax - X[:, 0], X[:, 1] - ymin, ymax - X[:, 1]]
