@@ -4,10 +4,13 @@
   ``dynamics.py`` (its numpy :func:`~replay.flight.fixedwing.dynamics.derivatives` is the twin the tests
   compare against; keep the arithmetic of both identical) and a classical RK4 step at ``dt`` with
   the controls held; ``step_n`` advances n steps in one call.
-- :func:`guidance` / :func:`control_law` / :func:`fly`: the autopilot of ``replay/flight/fixedwing/autopilot.py``
+- :func:`control_law` / :func:`fly`: the autopilot of ``replay/flight/fixedwing/autopilot.py``
   (the equations and every gain are documented there). ``control_law`` is called from Python by
   ``Autopilot.command`` and from :func:`fly` at every control step, so the slow path and the fast
-  path are the same code.
+  path are the same code. It runs, in this order: :func:`flight_data`, the lateral guidance
+  (:func:`course_command`), :func:`course_loop`, :func:`roll_loop`, the longitudinal guidance
+  (:func:`altitude_command`), :func:`climb_loop`, :func:`pitch_loop`, :func:`airspeed_loop` and
+  :func:`yaw_loop`.
 
 Parameters come packed in one float64 array (``VehicleParams.pack``, ``I_*`` layout) so each kernel
 compiles once for every vehicle and caches on disk (``NUMBA_CACHE_DIR``). The autopilot's arrays
@@ -593,15 +596,13 @@ def leg_done(x, leg):  # pragma: no cover - jit
 
 
 @nb.njit(cache=True, nogil=True)
-def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
-    """Guidance and the inner loops for one control period ``dtc``: writes ``u`` and updates the
-    integrators and logged signals in ``ap``."""
+def flight_data(x, p):  # pragma: no cover - jit
+    """``(vn, ve, vd, va, inv_va, sbeta, vg2, chi)`` of the state ``x`` for the control law: the
+    ground velocity (NED), the airspeed (at least 1 m/s) and its inverse, the sine of the
+    sideslip, the squared ground speed and the course (the heading below 0.5 m/s ground speed)."""
     phi = x[6]
     theta = x[7]
     psi = x[8]
-    pr = x[9]
-    qr = x[10]
-    rr = x[11]
     r = attitude(phi, theta, psi)[6]
     uu = x[3]
     vv = x[4]
@@ -620,16 +621,18 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     sbeta = (vv - ned_to_body(r, wn, we, wd)[1]) * inv_va
     vg2 = vn * vn + ve * ve
     chi = atan2f(ve, vn) if vg2 > 0.25 else psi
-    h = -x[2]
-    hdot = -vd
-    if ap[A_INIT] < 0.5:
-        ap[A_R_LOW] = rr
-        ap[A_INIT] = 1.0
+    return vn, ve, vd, va, inv_va, sbeta, vg2, chi
 
+
+@nb.njit(cache=True, nogil=True)
+def course_command(
+    x, p, gk, cmd, leg, mode, on_arc, xtrack, vn, ve, va, vg2, dtc
+):  # pragma: no cover - jit
+    """Lateral guidance: ``(chi_c, phi_ff)``, the course command and the bank feed-forward of
+    lateral mode ``mode`` (``C_LAT_MODE``): on a line leg the vector field on the cross-track
+    error ``xtrack``, on a turn fillet (``on_arc``) or around an orbit the orbit-following
+    vector field; a moving orbit's centre in ``cmd`` advances by ``dtc``."""
     # ---- lateral guidance: course command (vector field on the cross-track error)
-    xtrack, along, dist = leg_geometry(x, leg)
-    mode = int(cmd[C_LAT_MODE] + 0.5)
-    on_arc = leg[L_ARC] > 0.5 and leg[L_ACTIVE] > 0.5
     phi_ff = 0.0
     if mode == 0 and on_arc:
         # a turn fillet: orbit following with the steady bank of the turn as feed-forward
@@ -666,6 +669,14 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
         chi_c = leg[L_CHI] - gk[K_CHI_INF] * (2.0 / math.pi) * math.atan(gk[K_PATH] * xtrack)
     else:
         chi_c = cmd[C_COURSE]
+    return chi_c, phi_ff
+
+
+@nb.njit(cache=True, nogil=True)
+def course_loop(gk, cmd, ap, mode, chi_c, chi, phi_ff, dtc):  # pragma: no cover - jit
+    """The course loop: ``(chi_c, phi_c)``, the course command as flown (``chi`` plus the wrapped
+    error) and the bank command (PI on the course error plus ``phi_ff``, limited to the maximum
+    bank; the bank command ``C_BANK`` itself in mode 2). Integrates ``A_I_COURSE``."""
     bank_max = gk[K_BANK_MAX]
     if mode == 2:
         phi_c = min(max(cmd[C_BANK], -bank_max), bank_max)
@@ -678,6 +689,17 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
         if phi_c == raw or (raw > bank_max and e_chi < 0.0) or (raw < -bank_max and e_chi > 0.0):
             ap[A_I_COURSE] += dtc * e_chi
         chi_c = chi + e_chi
+    return chi_c, phi_c
+
+
+@nb.njit(cache=True, nogil=True)
+def roll_loop(x, p, gk, ap, phi_c, sbeta, bv, u, dtc):  # pragma: no cover - jit
+    """The roll loop: ``(phi_c, da)``, the bank command after its rate limit and the aileron
+    (PID on the bank error with a feed-forward; ``bv`` = b / (2 Va), ``u[2]`` the last rudder).
+    Integrates ``A_I_ROLL``."""
+    phi = x[6]
+    pr = x[9]
+    rr = x[11]
     # ---- roll loop (aileron); the bank command is rate limited (A_PHI_C holds the last one)
     slew = gk[K_ROLL_SLEW] * dtc
     phi_c = min(max(phi_c, ap[A_PHI_C] - slew), ap[A_PHI_C] + slew)
@@ -687,7 +709,6 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     kp = gk[K_ROLL_P]
     # feed-forward cancelling the rolling moments of sideslip, yaw rate and rudder
     # (Beard & McLain's roll model keeps only roll damping and aileron)
-    bv = 0.5 * p[I_B] * inv_va
     da_ff = -(gk[K_CP0] + gk[K_CPB] * sbeta + gk[K_CPR] * bv * rr + gk[K_CPDR] * u[2]) / gk[K_CPDA]
     raw = da_ff + kp * e_phi + gk[K_ROLL_I] * ap[A_I_ROLL] - gk[K_ROLL_D] * pr
     da = min(max(raw, da_lo), da_hi)
@@ -695,7 +716,14 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
         da == raw or (raw > da_hi and e_phi * kp < 0.0) or (raw < da_lo and e_phi * kp > 0.0)
     ):
         ap[A_I_ROLL] += dtc * e_phi
+    return phi_c, da
 
+
+@nb.njit(cache=True, nogil=True)
+def altitude_command(x, cmd, leg, on_arc, along, h, vn, ve):  # pragma: no cover - jit
+    """Longitudinal guidance: ``(h_c, hdot_ff)``, the altitude command of altitude mode
+    ``C_ALT_MODE`` (on a leg: its end's altitude, or linear in the progress ``along`` it or round
+    the turn fillet) at least the terrain floor, and the climb rate fed forward."""
     # ---- longitudinal guidance: altitude command
     # the climb rate the profile asks for is fed forward (no lag on a climbing leg)
     hdot_ff = 0.0
@@ -723,6 +751,16 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     if cmd[C_FLOOR] > h_c:
         h_c = cmd[C_FLOOR]
         hdot_ff = 0.0
+    return h_c, hdot_ff
+
+
+@nb.njit(cache=True, nogil=True)
+def climb_loop(gk, ap, h_c, hdot_ff, h, hdot, inv_va, dtc):  # pragma: no cover - jit
+    """The altitude and climb-rate loops: ``(hdot_c, sgam, theta_c, de_ff)``, the climb-rate
+    command (``hdot_ff`` plus P on the altitude error, limited, slew limited: ``A_HDOT_C`` holds
+    the last one), the sine of its flight-path angle, the pitch command (PI on the flight-path
+    angle error with the trim pitch of the commanded climb as feed-forward, limited) and the
+    elevator trim of that climb. Integrates ``A_I_CLIMB``."""
     hdot_c = hdot_ff + gk[K_ALT_P] * (h_c - h)
     hdot_c = min(max(hdot_c, -gk[K_DESCENT_MAX]), gk[K_CLIMB_MAX])
     slew = gk[K_VACC_MAX] * dtc
@@ -742,10 +780,24 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     theta_c = min(max(raw, th_lo), th_hi)
     if theta_c == raw or (raw > th_hi and e_gam < 0.0) or (raw < th_lo and e_gam > 0.0):
         ap[A_I_CLIMB] += dtc * e_gam
+    return hdot_c, sgam, theta_c, de_ff
+
+
+@nb.njit(cache=True, nogil=True)
+def pitch_loop(x, p, gk, theta_c, de_ff):  # pragma: no cover - jit
+    """The pitch loop: the elevator (PD on the pitch error with ``de_ff`` as feed-forward)."""
+    theta = x[7]
+    qr = x[10]
     # ---- pitch loop (elevator)
     raw = de_ff + gk[K_PITCH_P] * (theta_c - theta) - gk[K_PITCH_D] * qr
-    de = min(max(raw, p[I_DE_MIN]), p[I_DE_MAX])
+    return min(max(raw, p[I_DE_MIN]), p[I_DE_MAX])
 
+
+@nb.njit(cache=True, nogil=True)
+def airspeed_loop(x, p, gk, cmd, ap, va, sgam, dtc):  # pragma: no cover - jit
+    """The airspeed loop: ``(va_c, thr)``, the airspeed command (limited) and the throttle (PI on
+    the airspeed error with the throttle of the commanded climb's thrust, ``sgam`` the sine of
+    its flight-path angle, as feed-forward). Integrates ``A_I_SPEED``."""
     # ---- airspeed loop (throttle) with the thrust for the commanded climb as feed-forward
     va_c = min(max(cmd[C_AIRSPEED], gk[K_VA_MIN]), gk[K_VA_MAX])
     e_v = va_c - va
@@ -760,7 +812,16 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     thr_idle = 0.0 if (t_ff >= 0.0 and raw >= dt_ff) else throttle_for(0.0, va, rho_here, p)
     if (thr_idle <= raw <= 1.0) or (raw > 1.0 and e_v < 0.0) or (raw < thr_idle and e_v > 0.0):
         ap[A_I_SPEED] += dtc * e_v
+    return va_c, thr
 
+
+@nb.njit(cache=True, nogil=True)
+def yaw_loop(x, p, gk, ap, sbeta, bv, da, u, dtc):  # pragma: no cover - jit
+    """The yaw loop: the rudder (PI on the sideslip error plus the washed-out yaw damper;
+    ``bv`` = b / (2 Va), ``da`` this step's aileron, ``u[2]`` the last rudder). Runs the
+    washout filter ``A_R_LOW`` and integrates ``A_I_BETA``."""
+    pr = x[9]
+    rr = x[11]
     # ---- yaw: coordinated flight (no aerodynamic side force: the ball centred) by a sideslip
     # hold on the sideslip of zero side force, and a washed-out yaw damper (rudder)
     ap[A_R_LOW] += (dtc / (gk[K_WASHOUT_TAU] + dtc)) * (rr - ap[A_R_LOW])
@@ -784,6 +845,36 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
             or (raw < p[I_DR_MIN] and e_beta * cndr < 0.0)
         ):
             ap[A_I_BETA] += dtc * e_beta
+    return dr
+
+
+@nb.njit(cache=True, nogil=True)
+def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
+    """Guidance and the inner loops for one control period ``dtc``: writes ``u`` and updates the
+    integrators and logged signals in ``ap``."""
+    rr = x[11]
+    vn, ve, vd, va, inv_va, sbeta, vg2, chi = flight_data(x, p)
+    h = -x[2]
+    hdot = -vd
+    if ap[A_INIT] < 0.5:
+        ap[A_R_LOW] = rr
+        ap[A_INIT] = 1.0
+
+    xtrack, along, dist = leg_geometry(x, leg)
+    mode = int(cmd[C_LAT_MODE] + 0.5)
+    on_arc = leg[L_ARC] > 0.5 and leg[L_ACTIVE] > 0.5
+    chi_c, phi_ff = course_command(x, p, gk, cmd, leg, mode, on_arc, xtrack, vn, ve, va, vg2, dtc)
+    chi_c, phi_c = course_loop(gk, cmd, ap, mode, chi_c, chi, phi_ff, dtc)
+    bv = 0.5 * p[I_B] * inv_va  # b / (2 Va): the roll feed-forward's and the yaw loop's rate scale
+    phi_c, da = roll_loop(x, p, gk, ap, phi_c, sbeta, bv, u, dtc)
+
+    h_c, hdot_ff = altitude_command(x, cmd, leg, on_arc, along, h, vn, ve)
+    hdot_c, sgam, theta_c, de_ff = climb_loop(gk, ap, h_c, hdot_ff, h, hdot, inv_va, dtc)
+    de = pitch_loop(x, p, gk, theta_c, de_ff)
+
+    va_c, thr = airspeed_loop(x, p, gk, cmd, ap, va, sgam, dtc)
+
+    dr = yaw_loop(x, p, gk, ap, sbeta, bv, da, u, dtc)
 
     u[0] = de
     u[1] = da
