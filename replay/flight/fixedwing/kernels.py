@@ -595,7 +595,7 @@ def leg_done(x, leg):  # pragma: no cover - jit
     return 0
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def flight_data(x, p):  # pragma: no cover - jit
     """``(vn, ve, vd, va, inv_va, sbeta, vg2, chi)`` of the state ``x`` for the control law: the
     ground velocity (NED), the airspeed (at least 1 m/s) and its inverse, the sine of the
@@ -624,7 +624,7 @@ def flight_data(x, p):  # pragma: no cover - jit
     return vn, ve, vd, va, inv_va, sbeta, vg2, chi
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def course_command(
     x, p, gk, cmd, leg, mode, on_arc, xtrack, vn, ve, va, vg2, dtc
 ):  # pragma: no cover - jit
@@ -672,7 +672,7 @@ def course_command(
     return chi_c, phi_ff
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def course_loop(gk, cmd, ap, mode, chi_c, chi, phi_ff, dtc):  # pragma: no cover - jit
     """The course loop: ``(chi_c, phi_c)``, the course command as flown (``chi`` plus the wrapped
     error) and the bank command (PI on the course error plus ``phi_ff``, limited to the maximum
@@ -692,7 +692,7 @@ def course_loop(gk, cmd, ap, mode, chi_c, chi, phi_ff, dtc):  # pragma: no cover
     return chi_c, phi_c
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def roll_loop(x, p, gk, ap, phi_c, sbeta, bv, u, dtc):  # pragma: no cover - jit
     """The roll loop: ``(phi_c, da)``, the bank command after its rate limit and the aileron
     (PID on the bank error with a feed-forward; ``bv`` = b / (2 Va), ``u[2]`` the last rudder).
@@ -719,7 +719,7 @@ def roll_loop(x, p, gk, ap, phi_c, sbeta, bv, u, dtc):  # pragma: no cover - jit
     return phi_c, da
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def altitude_command(x, cmd, leg, on_arc, along, h, vn, ve):  # pragma: no cover - jit
     """Longitudinal guidance: ``(h_c, hdot_ff)``, the altitude command of altitude mode
     ``C_ALT_MODE`` (on a leg: its end's altitude, or linear in the progress ``along`` it or round
@@ -754,7 +754,7 @@ def altitude_command(x, cmd, leg, on_arc, along, h, vn, ve):  # pragma: no cover
     return h_c, hdot_ff
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def climb_loop(gk, ap, h_c, hdot_ff, h, hdot, inv_va, dtc):  # pragma: no cover - jit
     """The altitude and climb-rate loops: ``(hdot_c, sgam, theta_c, de_ff)``, the climb-rate
     command (``hdot_ff`` plus P on the altitude error, limited, slew limited: ``A_HDOT_C`` holds
@@ -783,7 +783,7 @@ def climb_loop(gk, ap, h_c, hdot_ff, h, hdot, inv_va, dtc):  # pragma: no cover 
     return hdot_c, sgam, theta_c, de_ff
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def pitch_loop(x, p, gk, theta_c, de_ff):  # pragma: no cover - jit
     """The pitch loop: the elevator (PD on the pitch error with ``de_ff`` as feed-forward)."""
     theta = x[7]
@@ -793,7 +793,7 @@ def pitch_loop(x, p, gk, theta_c, de_ff):  # pragma: no cover - jit
     return min(max(raw, p[I_DE_MIN]), p[I_DE_MAX])
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def airspeed_loop(x, p, gk, cmd, ap, va, sgam, dtc):  # pragma: no cover - jit
     """The airspeed loop: ``(va_c, thr)``, the airspeed command (limited) and the throttle (PI on
     the airspeed error with the throttle of the commanded climb's thrust, ``sgam`` the sine of
@@ -815,7 +815,7 @@ def airspeed_loop(x, p, gk, cmd, ap, va, sgam, dtc):  # pragma: no cover - jit
     return va_c, thr
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def yaw_loop(x, p, gk, ap, sbeta, bv, da, u, dtc):  # pragma: no cover - jit
     """The yaw loop: the rudder (PI on the sideslip error plus the washed-out yaw damper;
     ``bv`` = b / (2 Va), ``da`` this step's aileron, ``u[2]`` the last rudder). Runs the
@@ -851,7 +851,8 @@ def yaw_loop(x, p, gk, ap, sbeta, bv, da, u, dtc):  # pragma: no cover - jit
 @nb.njit(cache=True, nogil=True)
 def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     """Guidance and the inner loops for one control period ``dtc``: writes ``u`` and updates the
-    integrators and logged signals in ``ap``."""
+    integrators and logged signals in ``ap``. The loops are kernels of their own, inlined here
+    (``inline="always"``): one compiled function as before, without a call per loop."""
     rr = x[11]
     vn, ve, vd, va, inv_va, sbeta, vg2, chi = flight_data(x, p)
     h = -x[2]
