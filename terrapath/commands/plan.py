@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 import numpy as np
 
 from terrapath.options import dem_options, output_option, seed_option, vehicle_option
 from terrapath.progress import progress_bar
+
+if TYPE_CHECKING:
+    from planner.performance import Performance
+    from planner.pipeline import PlanOutcome
+    from planner.result import PlanResult
 
 EXIT_INFEASIBLE = 3
 DEFAULT_CRUISE_AGL = 150.0  # as planner.pipeline.DEFAULT_CRUISE_AGL
@@ -33,6 +39,40 @@ def _extra_terms(t: dict[str, float]) -> str:
     names = (("above_band", "above band"), ("preferred_height", "preferred height"),
              ("smoothness", "smoothness"))  # fmt: skip
     return "".join(f", {label} {t[key]:.4f}" for key, label in names if t.get(key))
+
+
+def _check_output(output: str) -> None:
+    """The mission file is YAML."""
+    if not output.lower().endswith((".yaml", ".yml")):
+        raise click.BadParameter(
+            f"the mission file must end in .yaml; got {output!r}", param_hint="-o/--output"
+        )
+
+
+def _vehicle_limits(
+    vehicle: str, speed: float | None
+) -> tuple[Performance, Callable[[float, float], Performance]]:
+    """The vehicle's limits at the cruise speed (``speed``, default the vehicle's cruise speed,
+    checked against its envelope): at sea level, and over an altitude band (low, high)."""
+    from planner.performance import Performance
+    from replay.flight.fixedwing.presets import load_vehicle
+
+    if speed is not None and not speed > 0:
+        raise click.BadParameter(f"expected a speed > 0 m/s; got {speed:g}", param_hint="--speed")
+    params = load_vehicle(vehicle, base_dir=Path.cwd())
+    v = params.cruise_speed if speed is None else float(speed)
+    if not v >= params.airspeed_min:
+        raise click.BadParameter(
+            f"{v:g} m/s is below {params.name}'s slowest airspeed at any altitude "
+            f"({params.airspeed_min:g} m/s, at sea level)",
+            param_hint="--speed",
+        )
+    # the limits at sea level until the map gives the altitude band; then the true-airspeed
+    # envelope over the band and the climb the aircraft makes at its top (VehicleParams)
+    performance = Performance(
+        params.name, v, params.climb_rate_max, params.descent_rate_max, params.bank_max_deg
+    )
+    return performance, lambda low, high: params.performance(v, (low, high))
 
 
 def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: bool) -> Any:
@@ -267,37 +307,16 @@ def plan_cmd(
     (QGC WPL 110). Exit status: 0 feasible, 3 infeasible (the mission and picture are written,
     marked infeasible; no ground-station files unless --force-export), 1 error.
     """
-    import json
-
-    from planner.performance import Performance
     from planner.pipeline import PlanRequest
-    from replay.flight.fixedwing.presets import load_vehicle
 
-    if not output.lower().endswith((".yaml", ".yml")):
-        raise click.BadParameter(
-            f"the mission file must end in .yaml; got {output!r}", param_hint="-o/--output"
-        )
-    if speed is not None and not speed > 0:
-        raise click.BadParameter(f"expected a speed > 0 m/s; got {speed:g}", param_hint="--speed")
-    params = load_vehicle(vehicle, base_dir=Path.cwd())
-    v = params.cruise_speed if speed is None else float(speed)
-    if not v >= params.airspeed_min:
-        raise click.BadParameter(
-            f"{v:g} m/s is below {params.name}'s slowest airspeed at any altitude "
-            f"({params.airspeed_min:g} m/s, at sea level)",
-            param_hint="--speed",
-        )
-    # the limits at sea level until the map gives the altitude band; then the true-airspeed
-    # envelope over the band and the climb the aircraft makes at its top (VehicleParams)
-    performance = Performance(
-        params.name, v, params.climb_rate_max, params.descent_rate_max, params.bank_max_deg
-    )
+    _check_output(output)
+    performance, performance_at = _vehicle_limits(vehicle, speed)
     request = PlanRequest(
         dem=tuple(dem),
         start=start,
         goal=goal,
         performance=performance,
-        performance_at=lambda low, high: params.performance(v, (low, high)),
+        performance_at=performance_at,
         vehicle=vehicle,
         map_coords=map_coords,
         dem_options=opts,
@@ -325,51 +344,63 @@ def plan_cmd(
         name=name,
     )
     outcome = _run_with_progress(request, output, alt_frame, force_export)
-    result = outcome.result
     for warning in outcome.warnings:
         click.echo(f"terrapath: warning: {warning}", err=True)
     if as_json:
-        click.echo(
-            json.dumps(
-                {
-                    "status": result.status,
-                    "cost": result.terms,
-                    "vehicle_limits": performance.as_dict(),
-                    "outputs": {k: str(v) for k, v in outcome.written.items()},
-                    "removed": [str(p) for p in outcome.removed],
-                    "violations": [v.as_dict() for v in result.violations],
-                    "seed": int(seed),
-                },
-                indent=2,
-            )
-        )
+        _echo_json(outcome, performance, seed)
     else:
-        t = result.terms
-        click.echo(
-            f"{result.status}: cost {t['total']:.4f} (length {t['length']:.4f}, altitude "
-            f"{t['altitude']:.4f}, collision {t['collision']:.4f}, danger zones "
-            f"{t['dangerzones']:.4f}, climb {t['climb']:.4f}, turn {t['turn']:.4f}, unknown "
-            f"terrain {t['unknown']:.4f}{_extra_terms(t)}); flown path "
-            f"{t['path_length_m'] / 1000:.2f} km, min "
-            f"clearance {t['min_clearance_m']:.0f} m, {result.iterations} iterations, "
-            f"{result.elapsed_s:.1f} s"
+        _echo_summary(outcome, performance)
+    return _exit_status(outcome.result, force_export)
+
+
+def _echo_json(outcome: PlanOutcome, performance: Performance, seed: int) -> None:
+    """The result as JSON (--json)."""
+    import json
+
+    result = outcome.result
+    click.echo(
+        json.dumps(
+            {
+                "status": result.status,
+                "cost": result.terms,
+                "vehicle_limits": performance.as_dict(),
+                "outputs": {k: str(v) for k, v in outcome.written.items()},
+                "removed": [str(p) for p in outcome.removed],
+                "violations": [v.as_dict() for v in result.violations],
+                "seed": int(seed),
+            },
+            indent=2,
         )
-        click.echo(f"  limits    {performance.describe()}")
-        ex = result.params.get("exploration")
-        if isinstance(ex, dict):
-            found = (
-                f"{ex['routes']} routes" if ex["routes"] else "no route (start and goal unlinked)"
-            )
-            best = (
-                f", the best seeds the swarm at cost {ex['route_F'][0]:.4f}" if ex["routes"] else ""
-            )
-            click.echo(
-                f"  explored  {found} on graphs of the whole map in {ex['seconds']:.2f} s{best}"
-            )
-        for k, v in outcome.written.items():
-            click.echo(f"  {k:9s} {v}")
-        for p in outcome.removed:
-            click.echo(f"  removed   {p} (from an earlier run: this plan is infeasible)")
+    )
+
+
+def _echo_summary(outcome: PlanOutcome, performance: Performance) -> None:
+    """The result as text: the cost and its terms, the limits, the exploration, the files."""
+    result = outcome.result
+    t = result.terms
+    click.echo(
+        f"{result.status}: cost {t['total']:.4f} (length {t['length']:.4f}, altitude "
+        f"{t['altitude']:.4f}, collision {t['collision']:.4f}, danger zones "
+        f"{t['dangerzones']:.4f}, climb {t['climb']:.4f}, turn {t['turn']:.4f}, unknown "
+        f"terrain {t['unknown']:.4f}{_extra_terms(t)}); flown path "
+        f"{t['path_length_m'] / 1000:.2f} km, min "
+        f"clearance {t['min_clearance_m']:.0f} m, {result.iterations} iterations, "
+        f"{result.elapsed_s:.1f} s"
+    )
+    click.echo(f"  limits    {performance.describe()}")
+    ex = result.params.get("exploration")
+    if isinstance(ex, dict):
+        found = f"{ex['routes']} routes" if ex["routes"] else "no route (start and goal unlinked)"
+        best = f", the best seeds the swarm at cost {ex['route_F'][0]:.4f}" if ex["routes"] else ""
+        click.echo(f"  explored  {found} on graphs of the whole map in {ex['seconds']:.2f} s{best}")
+    for k, v in outcome.written.items():
+        click.echo(f"  {k:9s} {v}")
+    for p in outcome.removed:
+        click.echo(f"  removed   {p} (from an earlier run: this plan is infeasible)")
+
+
+def _exit_status(result: PlanResult, force_export: bool) -> int:
+    """0 for a feasible plan; for an infeasible one, say why on stderr and return 3."""
     if not result.feasible:
         first = result.violations[0].detail if result.violations else "constraint violated"
         more = len(result.violations) - 1
