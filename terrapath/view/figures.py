@@ -199,23 +199,63 @@ def scene_figure(
     runs = [s for s in sources if s.run is not None]
     color_by = color_by or ("time" if len(runs) == 1 else "run")
     floor = _floor(sources)
+    if grid is not None:
+        _add_terrain(fig, grid, notes)
+    top = _scene_top(sources, grid, floor)
+    _add_zones(fig, sources[0].mission.danger_zones, floor, top)
+    for mark, line3d in _layers(sources, color_by):
+        fig.add_trace(_trace(mark, line3d))
+    aircraft = _add_aircraft(fig, runs, notes)
+    threats = _threats(sources)
+    t_end = max((float(s.run.times[-1]) for s in runs), default=0.0)
+    threat_traces = _add_threats(fig, threats, floor, t_end)
+    # the slider: each run's aircraft, each threat's visibility, each intruder's sphere
+    times = np.linspace(0.0, t_end, FRAMES) if runs else np.zeros(1)
+    frames, steps = _frames(times, runs, aircraft, threats, threat_traces)
+    if runs:
+        _add_player(fig, frames, steps)
+    else:
+        for i in threat_traces:
+            fig.data[i].visible = True
+    shown = _scene_layout(fig, sources, grid, floor, top, exaggeration)
+    if shown > exaggeration * 1.01:
+        notes.append(
+            f"3D: vertical exaggeration x{shown:.3g} (x{exaggeration:g} asked: raised so that "
+            f"the height is at least {MIN_Z_ASPECT:g} of the width; hover values are true)"
+        )
+    else:
+        notes.append(f"3D: vertical exaggeration x{exaggeration:g} (hover values are true)")
+    return fig, notes
+
+
+def _add_terrain(fig: Any, grid: Any, notes: list[str]) -> None:
+    """The terrain's surface, and a note when it is decimated."""
+    surface, step = _surface(grid)
+    fig.add_trace(surface)
+    if step > 1:
+        notes.append(
+            f"3D terrain: 1 in {step} rows and columns of the {grid.rows} x {grid.cols} "
+            f"grid ({grid.cell_size[0] * step:.0f} m spacing)"
+        )
+
+
+def _scene_top(sources: list[Source], grid: Any, floor: float) -> float:
+    """The top of the scene: 200 m over the highest of the terrain, the waypoints and the
+    flights."""
     zs: list[float] = [floor]
     if grid is not None:
-        surface, step = _surface(grid)
-        fig.add_trace(surface)
         zs.append(float(grid.zmax))
-        if step > 1:
-            notes.append(
-                f"3D terrain: 1 in {step} rows and columns of the {grid.rows} x {grid.cols} "
-                f"grid ({grid.cell_size[0] * step:.0f} m spacing)"
-            )
     # what is flown and planned, first: it sets the height of the open-topped zones
     for s in sources:
         zs.extend(np.asarray(s.mission.waypoints)[:, 2].tolist())
         if s.track is not None:
             zs.extend([float(s.track.xyz[:, 2].min()), float(s.track.xyz[:, 2].max())])
-    top = max(zs) + 200.0
-    for k, zone in enumerate(sources[0].mission.danger_zones):
+    return max(zs) + 200.0
+
+
+def _add_zones(fig: Any, zones: Any, floor: float, top: float) -> None:
+    """The danger zones as translucent solids (one legend entry for them all)."""
+    for k, zone in enumerate(zones):
         fig.add_trace(
             _mesh_trace(
                 _zone_mesh(zone, floor, top),
@@ -227,8 +267,13 @@ def scene_figure(
             )
         )
         fig.data[-1].name = "danger zones" if k == 0 else f"danger zone {zone.id or k}"
-    for mark, line3d in _layers(sources, color_by):
-        fig.add_trace(_trace(mark, line3d))
+
+
+def _add_aircraft(fig: Any, runs: list[Source], notes: list[str]) -> list[int]:
+    """Each run's aircraft marker (the slider moves it), and a note of how its flight is
+    sampled; returns the markers' trace indices."""
+    import plotly.graph_objects as go
+
     aircraft: list[int] = []
     for s in runs:
         tr = s.track
@@ -257,8 +302,12 @@ def scene_figure(
             )
         )
         aircraft.append(len(fig.data) - 1)
-    threats = _threats(sources)
-    t_end = max((float(s.run.times[-1]) for s in runs), default=0.0)
+    return aircraft
+
+
+def _add_threats(fig: Any, threats: list[Any], floor: float, t_end: float) -> list[int]:
+    """Every threat as its shape (an intruder: its sphere at the start, and its dotted track);
+    returns the shapes' trace indices."""
     threat_traces: list[int] = []
     movers: list[tuple[int, Any]] = []
     for n, th in enumerate(threats):
@@ -282,8 +331,20 @@ def scene_figure(
         if n == 0:
             fig.data[-1].name = "threats"
         threat_traces.append(len(fig.data) - 1)
-    # the slider: each run's aircraft, each threat's visibility, each intruder's sphere
-    times = np.linspace(0.0, t_end, FRAMES) if runs else np.zeros(1)
+    return threat_traces
+
+
+def _frames(
+    times: FloatArray,
+    runs: list[Source],
+    aircraft: list[int],
+    threats: list[Any],
+    threat_traces: list[int],
+) -> tuple[list[Any], list[dict[str, Any]]]:
+    """The slider's frames and steps: at each time each run's aircraft, each threat's
+    visibility, each intruder's sphere."""
+    import plotly.graph_objects as go
+
     frames, steps = [], []
     unit = _unit_sphere(8, 12)
     for t in times:
@@ -317,75 +378,68 @@ def scene_figure(
                 ],
             }
         )
-    if runs:
-        last = frames[-1]
-        for upd, i in zip(last.data, last.traces, strict=True):
-            for prop in ("x", "y", "z", "visible"):
-                if upd[prop] is not None:
-                    fig.data[i][prop] = upd[prop]
-        fig.frames = frames
-        fig.update_layout(
-            sliders=[
-                {
-                    "active": len(steps) - 1,
-                    "steps": steps,
-                    # the steps' labels would overlap: the current one is shown above the slider
-                    "font": {"color": "rgba(0,0,0,0)"},
-                    "ticklen": 3,
-                    "minorticklen": 0,
-                    "currentvalue": {"prefix": "t = ", "font": {"color": "#222", "size": 14}},
-                    "pad": {"t": 10},
-                    "len": 0.85,
-                    "x": 0.12,
-                }
-            ],
-            updatemenus=[
-                {
-                    "type": "buttons",
-                    "showactive": False,
-                    "x": 0.0,
-                    "y": 0.0,
-                    "xanchor": "left",
-                    "yanchor": "top",
-                    "pad": {"t": 30},
-                    "buttons": [
-                        {
-                            "label": "play",
-                            "method": "animate",
-                            "args": [
-                                None,
-                                {
-                                    "mode": "immediate",
-                                    "fromcurrent": True,
-                                    "frame": {"duration": 60, "redraw": True},
-                                    "transition": {"duration": 0},
-                                },
-                            ],
-                        },
-                        {
-                            "label": "pause",
-                            "method": "animate",
-                            "args": [
-                                [None],
-                                {"mode": "immediate", "frame": {"duration": 0, "redraw": False}},
-                            ],
-                        },
-                    ],
-                }
-            ],
-        )
-    else:
-        for i in threat_traces:
-            fig.data[i].visible = True
-    shown = _scene_layout(fig, sources, grid, floor, top, exaggeration)
-    if shown > exaggeration * 1.01:
-        notes.append(
-            f"3D: vertical exaggeration x{shown:.3g} (x{exaggeration:g} asked: raised so that "
-            f"the height is at least {MIN_Z_ASPECT:g} of the width; hover values are true)"
-        )
-    else:
-        notes.append(f"3D: vertical exaggeration x{exaggeration:g} (hover values are true)")
-    return fig, notes
+    return frames, steps
+
+
+def _add_player(fig: Any, frames: list[Any], steps: list[dict[str, Any]]) -> None:
+    """The frames, the scene as the last one shows it, the slider and the play and pause
+    buttons."""
+    last = frames[-1]
+    for upd, i in zip(last.data, last.traces, strict=True):
+        for prop in ("x", "y", "z", "visible"):
+            if upd[prop] is not None:
+                fig.data[i][prop] = upd[prop]
+    fig.frames = frames
+    fig.update_layout(
+        sliders=[
+            {
+                "active": len(steps) - 1,
+                "steps": steps,
+                # the steps' labels would overlap: the current one is shown above the slider
+                "font": {"color": "rgba(0,0,0,0)"},
+                "ticklen": 3,
+                "minorticklen": 0,
+                "currentvalue": {"prefix": "t = ", "font": {"color": "#222", "size": 14}},
+                "pad": {"t": 10},
+                "len": 0.85,
+                "x": 0.12,
+            }
+        ],
+        updatemenus=[
+            {
+                "type": "buttons",
+                "showactive": False,
+                "x": 0.0,
+                "y": 0.0,
+                "xanchor": "left",
+                "yanchor": "top",
+                "pad": {"t": 30},
+                "buttons": [
+                    {
+                        "label": "play",
+                        "method": "animate",
+                        "args": [
+                            None,
+                            {
+                                "mode": "immediate",
+                                "fromcurrent": True,
+                                "frame": {"duration": 60, "redraw": True},
+                                "transition": {"duration": 0},
+                            },
+                        ],
+                    },
+                    {
+                        "label": "pause",
+                        "method": "animate",
+                        "args": [
+                            [None],
+                            {"mode": "immediate", "frame": {"duration": 0, "redraw": False}},
+                        ],
+                    },
+                ],
+            }
+        ],
+    )
 
 
 def _clock(t: float) -> str:
