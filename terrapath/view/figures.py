@@ -800,10 +800,22 @@ def _below(t: FloatArray, v: FloatArray, top: float) -> tuple[Any, Any]:
 
 def time_figure(sources: list[Source]) -> Any:
     """The time plots (module docstring)."""
-    import plotly.graph_objects as go
+    runs = [s for s in sources if s.run is not None]
+    fig = _time_subplots(runs)
+    grid = sources[0].grid
+    threat_ids = [th.id for th in _threats(sources)]
+    shown, margin, top, hidden = _separation_scale(runs)
+    for n, s in enumerate(runs):
+        _add_flight_plots(fig, _colour(sources, s), s, n, grid)
+        _add_separations(fig, s, n, shown[id(s)], threat_ids, top)
+    _time_layout(fig, runs, margin, top, hidden)
+    return fig
+
+
+def _time_subplots(runs: list[Source]) -> Any:
+    """The four rows of plots sharing the time axis (a note in them when there is no flight)."""
     from plotly.subplots import make_subplots
 
-    runs = [s for s in sources if s.run is not None]
     fig = make_subplots(
         rows=4,
         cols=1,
@@ -820,8 +832,14 @@ def time_figure(sources: list[Source]) -> Any:
             y=0.5,
             showarrow=False,
         )
-    grid = sources[0].grid
-    threat_ids = [th.id for th in _threats(sources)]
+    return fig
+
+
+def _separation_scale(
+    runs: list[Source],
+) -> tuple[dict[int, list[str]], float, float, int]:
+    """Per run (by ``id``) the threats its separation plot draws, the largest success margin,
+    the top of the separation plot and the most threats a run leaves out."""
     # per run the threats that came closest (143 buildings would be a legend, not a plot)
     shown = {
         id(s): nearest_threats(s.track.separations, NEAREST_DRAWN) if s.track is not None else []
@@ -841,87 +859,108 @@ def time_figure(sources: list[Source]) -> Any:
     margin = max((float(s.run.margin) for s in runs), default=0.0)
     top = max(4.0 * closest, 2.0 * margin, 10.0)
     hidden = max((len(s.track.separations) - len(shown[id(s)]) for s in runs if s.track), default=0)
-    for n, s in enumerate(runs):
-        tr = s.track
-        assert tr is not None
-        colour = _colour(sources, s)
-        k = _stride(len(tr.t), PLOT_POINTS)
-        tm = (tr.t[::k] / 60.0).astype(np.float32)
-        name = s.path.name
+    return shown, margin, top, hidden
+
+
+def _add_flight_plots(fig: Any, colour: str, s: Source, n: int, grid: Any) -> None:
+    """A run's altitude (and the terrain below it), airspeed and bank."""
+    import plotly.graph_objects as go
+
+    tr = s.track
+    assert tr is not None
+    k = _stride(len(tr.t), PLOT_POINTS)
+    tm = (tr.t[::k] / 60.0).astype(np.float32)
+    name = s.path.name
+    fig.add_trace(
+        go.Scatter(
+            x=tm,
+            y=tr.xyz[::k, 2].astype(np.float32),
+            name=f"{name}: altitude",
+            line={"color": colour},
+            legendgroup=name,
+        ),
+        row=1,
+        col=1,
+    )
+    if grid is not None:
+        ground = (tr.xyz[::k, 2] - tr.agl[::k]).astype(np.float32)
         fig.add_trace(
             go.Scatter(
                 x=tm,
-                y=tr.xyz[::k, 2].astype(np.float32),
-                name=f"{name}: altitude",
-                line={"color": colour},
+                y=ground,
+                name=f"{name}: terrain below",
+                line={"color": "#8c6d46", "width": 1},
+                fill="tozeroy" if n == 0 else None,  # the axis starts just below it
+                fillcolor="rgba(140,109,70,0.25)",
                 legendgroup=name,
             ),
             row=1,
             col=1,
         )
-        if grid is not None:
-            ground = (tr.xyz[::k, 2] - tr.agl[::k]).astype(np.float32)
+    for row, what, values in ((2, "airspeed", tr.airspeed), (3, "bank", np.degrees(tr.bank))):
+        fig.add_trace(
+            go.Scatter(
+                x=tm,
+                y=values[::k].astype(np.float32),
+                name=f"{name}: {what}",
+                line={"color": colour},
+                legendgroup=name,
+                showlegend=False,
+            ),
+            row=row,
+            col=1,
+        )
+
+
+def _add_separations(
+    fig: Any, s: Source, n: int, shown: list[str], threat_ids: list[str], top: float
+) -> None:
+    """A run's separation from each threat it draws (the runs differ by dash), the samples
+    inside the margin in red."""
+    import plotly.graph_objects as go
+
+    tr = s.track
+    assert tr is not None
+    name = s.path.name
+    dashes = ("solid", "dot", "dash", "longdash", "dashdot")
+    for ident in shown:
+        v = tr.separations[ident]
+        ts, vs = _below(tr.t / 60.0, v, top)
+        fig.add_trace(
+            go.Scatter(
+                x=ts,
+                y=vs,
+                name=f"{name}: {ident}",
+                line={
+                    "width": 1.2,
+                    "dash": dashes[n % len(dashes)],
+                    "color": THREAT_COLOURS[threat_ids.index(ident) % len(THREAT_COLOURS)],
+                },
+                legendgroup=name,
+                hovertemplate=f"{ident}: %{{y:.0f}} m at %{{x:.2f}} min<extra>{name}</extra>",
+            ),
+            row=4,
+            col=1,
+        )
+        bad = v < s.run.margin
+        if bad.any():
             fig.add_trace(
                 go.Scatter(
-                    x=tm,
-                    y=ground,
-                    name=f"{name}: terrain below",
-                    line={"color": "#8c6d46", "width": 1},
-                    fill="tozeroy" if n == 0 else None,  # the axis starts just below it
-                    fillcolor="rgba(140,109,70,0.25)",
-                    legendgroup=name,
-                ),
-                row=1,
-                col=1,
-            )
-        for row, what, values in ((2, "airspeed", tr.airspeed), (3, "bank", np.degrees(tr.bank))):
-            fig.add_trace(
-                go.Scatter(
-                    x=tm,
-                    y=values[::k].astype(np.float32),
-                    name=f"{name}: {what}",
-                    line={"color": colour},
+                    x=tr.t[bad] / 60.0,
+                    y=v[bad],
+                    mode="markers",
+                    marker={"color": RED, "size": 3},
+                    name=f"{name}: {ident} inside the margin",
                     legendgroup=name,
                     showlegend=False,
-                ),
-                row=row,
-                col=1,
-            )
-        dashes = ("solid", "dot", "dash", "longdash", "dashdot")
-        for ident in shown[id(s)]:
-            v = tr.separations[ident]
-            ts, vs = _below(tr.t / 60.0, v, top)
-            fig.add_trace(
-                go.Scatter(
-                    x=ts,
-                    y=vs,
-                    name=f"{name}: {ident}",
-                    line={
-                        "width": 1.2,
-                        "dash": dashes[n % len(dashes)],
-                        "color": THREAT_COLOURS[threat_ids.index(ident) % len(THREAT_COLOURS)],
-                    },
-                    legendgroup=name,
-                    hovertemplate=f"{ident}: %{{y:.0f}} m at %{{x:.2f}} min<extra>{name}</extra>",
                 ),
                 row=4,
                 col=1,
             )
-            bad = v < s.run.margin
-            if bad.any():
-                fig.add_trace(
-                    go.Scatter(
-                        x=tr.t[bad] / 60.0,
-                        y=v[bad],
-                        mode="markers",
-                        marker={"color": RED, "size": 3},
-                        name=f"{name}: {ident} inside the margin",
-                        legendgroup=name,
-                        showlegend=False,
-                    ),
-                    row=4,
-                    col=1,
-                )
+
+
+def _time_layout(fig: Any, runs: list[Source], margin: float, top: float, hidden: int) -> None:
+    """Zero and the margin on the separation plot; the axes' ranges and titles; the size."""
     fig.add_hline(y=0.0, line={"color": "black", "width": 1}, row=4, col=1)
     if margin:
         fig.add_hline(
@@ -947,7 +986,6 @@ def time_figure(sources: list[Source]) -> Any:
     fig.update_layout(
         height=900, margin={"l": 70, "r": 10, "t": 10, "b": 50}, hovermode="x unified"
     )
-    return fig
 
 
 __all__ = [
