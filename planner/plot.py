@@ -6,11 +6,12 @@ Legends sit below their panels so they never hide the path, the start or the goa
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from planner.profile import sample_path
+from planner.profile import PathSamples, sample_path
 from terrain.grid import HeightGrid
 from terrain.plot import (
     UNKNOWN_FACE,
@@ -51,12 +52,34 @@ def save_plan_picture(
     draw_hillshade(fig, ax, grid, title or None)
     if zones:
         draw_zones(ax, zones)
-    from matplotlib.patheffects import Normal, Stroke
+    _draw_explored(ax, path, explored)
+    _draw_path(ax, path, track, feasible)
+    legend_below(ax)
 
+    ax2 = fig.add_subplot(gs[1])
+    samples = sample_path(grid, track)
+    _draw_ground(ax2, grid, samples)
+    _draw_profile(ax2, samples, clearance)
+    legend_below(ax2)
+    return save_figure(fig, out)
+
+
+def _draw_explored(
+    ax: Any, path: npt.NDArray[np.float64], explored: list[npt.NDArray[np.float64]] | None
+) -> None:
+    """The routes the map search seeded the swarm with, start and goal joined on."""
     for j, seed in enumerate(explored or ()):
         route = np.vstack([path[:1, :2], np.asarray(seed)[:, :2], path[-1:, :2]])
         ax.plot(route[:, 0], route[:, 1], "--", color="#444444", lw=0.9, zorder=3,
                 label="explored routes (the swarm's seeds)" if j == 0 else None)  # fmt: skip
+
+
+def _draw_path(
+    ax: Any, path: npt.NDArray[np.float64], track: npt.NDArray[np.float64], feasible: bool
+) -> None:
+    """The flown path (red when infeasible), the free waypoints, the start and the goal."""
+    from matplotlib.patheffects import Normal, Stroke
+
     colour = "#d62728" if not feasible else "#ffffff"
     # the black outline is a path effect of the same line, so the legend shows it too
     ax.plot(
@@ -100,11 +123,12 @@ def save_plan_picture(
         ls="",
         label="goal",
     )
-    legend_below(ax)
 
-    ax2 = fig.add_subplot(gs[1])
-    samples = sample_path(grid, track)
-    d, z, g = samples.distance, samples.points[:, 2], samples.ground
+
+def _draw_ground(ax2: Any, grid: HeightGrid, samples: PathSamples) -> None:
+    """The terrain under the path in the profile (unknown ground hatched) and the safety grid's
+    highest cells."""
+    d, g = samples.distance, samples.ground
     floor = grid.zmin - 0.02 * (grid.zmax - grid.zmin + 1)
     ax2.fill_between(d / 1000.0, floor, g, color="#8c6d46", alpha=0.8, label="terrain")
     cells = grid.cell_of(samples.points[:, 0], samples.points[:, 1])
@@ -131,6 +155,12 @@ def save_plan_picture(
             lw=0.8,
             label="highest source cell (safety)",
         )
+
+
+def _draw_profile(ax2: Any, samples: PathSamples, clearance: float) -> None:
+    """The path's altitude along it, the clearance line over the terrain and the samples below
+    it; the profile's axes."""
+    d, z, g = samples.distance, samples.points[:, 2], samples.ground
     if clearance > 0:
         ax2.plot(
             d / 1000.0,
@@ -155,5 +185,3 @@ def save_plan_picture(
     ax2.set_ylabel("altitude (m AMSL)")
     ax2.set_xlim(0, d[-1] / 1000.0 if d[-1] > 0 else 1)
     ax2.grid(alpha=0.3)
-    legend_below(ax2)
-    return save_figure(fig, out)
