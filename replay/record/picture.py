@@ -151,9 +151,9 @@ def run_picture(run: str | Path, out: str | Path) -> Path:
 
 def draw_run(view: RunView, out: str | Path) -> Path:
     """Write the picture of ``view`` to ``out`` (PNG, through a temporary name)."""
-    from terrain.plot import draw_hillshade, draw_zones, legend_below, new_figure, save_figure
+    from terrain.plot import legend_below, new_figure, save_figure
 
-    grid, mission, note = view.grid, view.mission, view.note
+    grid = view.grid
     n = view.n_states or len(view.times)
     step = max(1, math.ceil(len(view.times) / MAX_POINTS))
     t = view.times[::step]
@@ -168,6 +168,31 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     fig = new_figure(width, map_h + 5.6)
     gs = fig.add_gridspec(3, 1, height_ratios=[map_h, 2.4, 2.2])
     ax = fig.add_subplot(gs[0])
+    _draw_map(fig, ax, view)
+    sep = {th.id: separation_of(th, xyz, t) for th in view.threats}
+    for th in view.threats:
+        _draw_threat(ax, th, xyz, t, sep[th.id])
+    _draw_flight(ax, view, xyz, t, sep)
+    _draw_decisions(ax, view.decisions)
+    _set_limits(ax, grid, xyz, view.initial_waypoints)
+    legend_below(ax)
+
+    ax2 = fig.add_subplot(gs[1])
+    _draw_separations(ax2, sep, t, view.margin)
+
+    ax3 = fig.add_subplot(gs[2], sharex=ax2)
+    _draw_height(ax3, grid, t, xyz)
+    every = step * view.stride
+    ax3.set_xlabel("time (min)" + (f"; 1 in {every} of {n} states drawn" if every > 1 else ""))
+    return save_figure(fig, out)
+
+
+def _draw_map(fig: Any, ax: Any, view: RunView) -> None:
+    """The plan view's background: the hillshade (or bare axes over flat ground), the title and
+    the mission's danger zones."""
+    from terrain.plot import draw_hillshade, draw_zones
+
+    grid, mission, note = view.grid, view.mission, view.note
     if grid is not None:
         draw_hillshade(fig, ax, grid, view.title + note)
     else:
@@ -177,9 +202,15 @@ def draw_run(view: RunView, out: str | Path) -> Path:
         ax.set_ylabel("y north (m)")
     if mission.danger_zones:
         draw_zones(ax, mission.danger_zones)
-    sep = {th.id: separation_of(th, xyz, t) for th in view.threats}
-    for th in view.threats:
-        _draw_threat(ax, th, xyz, t, sep[th.id])
+
+
+def _draw_flight(
+    ax: Any, view: RunView, xyz: FloatArray, t: FloatArray, sep: dict[str, FloatArray]
+) -> None:
+    """The planned waypoints, the final list when the avoider changed it, the flown track and
+    its points inside a threat."""
+    from matplotlib.patheffects import Normal, Stroke
+
     start, final = view.initial_waypoints, view.final_waypoints
     ax.plot(start[:, 0], start[:, 1], "--o", color="#1f77b4", ms=4, lw=1.2, label="planned")
     if len(final) != len(start) or not np.allclose(final, start):
@@ -193,8 +224,6 @@ def draw_run(view: RunView, out: str | Path) -> Path:
             ls="",
             label="waypoints after avoidance",
         )
-    from matplotlib.patheffects import Normal, Stroke
-
     ax.plot(
         xyz[:, 0],
         xyz[:, 1],
@@ -209,8 +238,12 @@ def draw_run(view: RunView, out: str | Path) -> Path:
         inside |= np.nan_to_num(v, nan=np.inf) < 0.0
     if inside.any():
         ax.plot(xyz[inside, 0], xyz[inside, 1], ".", color=RED, ms=3, label="inside a threat")
+
+
+def _draw_decisions(ax: Any, decisions: tuple[dict[str, Any], ...]) -> None:
+    """The orbits the avoider commanded (dotted) and the priority loop's last set-points."""
     drawn: set[tuple[int, int, int]] = set()
-    for d in view.decisions:  # each distinct orbit once (an arc's updates move it little)
+    for d in decisions:  # each distinct orbit once (an arc's updates move it little)
         cmd = d.get("command")
         if isinstance(cmd, dict) and cmd.get("command") == "Orbit":
             cx, cy = cmd["center"]
@@ -224,10 +257,15 @@ def draw_run(view: RunView, out: str | Path) -> Path:
             ax.plot(
                 cx + r * np.sin(a), cy + r * np.cos(a), ":", color="#e377c2", lw=1.0, label=label
             )
-    setpoints = next((d["setpoints"] for d in reversed(view.decisions) if d.get("setpoints")), None)
+    setpoints = next((d["setpoints"] for d in reversed(decisions) if d.get("setpoints")), None)
     if setpoints:  # the priority loop's path S, as its last decision had it
         s = np.asarray(setpoints, dtype=np.float64)
         ax.plot(s[:, 0], s[:, 1], "x", color="#ff7f0e", ms=5, mew=1.5, ls="", label="set-points S")
+
+
+def _set_limits(ax: Any, grid: Any, xyz: FloatArray, start: FloatArray) -> None:
+    """The plan view's limits: round the track and the waypoints over flat ground; zoomed onto a
+    small flight on a large map (:func:`zoom_box`); else the map's."""
     if grid is None:
         _frame(ax, xyz, start)
     else:
@@ -235,10 +273,11 @@ def draw_run(view: RunView, out: str | Path) -> Path:
         if box is not None:
             ax.set_xlim(box[0], box[2])
             ax.set_ylim(box[1], box[3])
-    legend_below(ax)
 
-    ax2 = fig.add_subplot(gs[1])
-    margin = view.margin
+
+def _draw_separations(ax2: Any, sep: dict[str, FloatArray], t: FloatArray, margin: float) -> None:
+    """The separation panel: the threats that came closest against time, violations in red,
+    zero and the margin."""
     shown = nearest_threats(sep, NEAREST_DRAWN)
     if len(shown) < len(sep):
         ax2.set_title(f"the {len(shown)} threats that came closest, of {len(sep)}", fontsize=8)
@@ -263,7 +302,10 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     else:
         ax2.text(0.5, 0.5, "no threats", transform=ax2.transAxes, ha="center")
 
-    ax3 = fig.add_subplot(gs[2], sharex=ax2)
+
+def _draw_height(ax3: Any, grid: Any, t: FloatArray, xyz: FloatArray) -> None:
+    """The bottom panel: the height above the terrain (below it in red), or the altitude over
+    flat ground."""
     if grid is not None:
         agl = xyz[:, 2] - np.asarray(grid.height_at(xyz[:, 0], xyz[:, 1]), dtype=np.float64)
         ax3.plot(t / 60.0, agl, color="#2ca02c", lw=1.0)
@@ -275,9 +317,6 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     else:
         ax3.plot(t / 60.0, xyz[:, 2], color="#2ca02c", lw=1.0)
         ax3.set_ylabel("altitude (m)")
-    every = step * view.stride
-    ax3.set_xlabel("time (min)" + (f"; 1 in {every} of {n} states drawn" if every > 1 else ""))
-    return save_figure(fig, out)
 
 
 def load_grid(mission: Any) -> tuple[Any, str]:
