@@ -124,7 +124,7 @@ def replay_hashes() -> dict[str, str]:
 
 # beyond the golden replays: every avoider, every sensor, the multirotor, a noisy radar (the
 # scenarios of the tests and benchmarks: data/)
-EXTRA = (
+EXTRA: tuple[tuple[str, str, str | None, dict[str, Any]], ...] = (
     (
         "fga-cooperative",
         "data/scenarios/seed004-mission.yaml",
@@ -153,7 +153,7 @@ EXTRA = (
 )
 
 
-def _request(source: str, threats: str | None, settings: dict[str, Any]) -> Any:
+def _request(source: str, threats: Any, settings: dict[str, Any]) -> Any:
     """A replay request in this checkout's API (settings in ReplayRequest itself before the
     house was rearranged, in its ReplayConfig after)."""
     from replay.run import ReplayRequest
