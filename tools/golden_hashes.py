@@ -56,6 +56,20 @@ def _exact(value: Any) -> Any:
     return value
 
 
+def _outcome(m: Any) -> dict[str, Any]:
+    """A replay's outcome (its metrics as the golden file holds them)."""
+    return {
+        "success": bool(m.success),
+        "end_reason": m.end_reason,
+        "min_separation": {k: v["value"] for k, v in m.min_separation.items()},
+        "plr": m.plr,
+        "waypoints_added": int(m.waypoints_added),
+        "flight_time_s": m.flight_time_s,
+        "min_terrain_clearance_m": m.min_terrain_clearance_m,
+        "off_map_s": m.off_map_s,
+    }
+
+
 def plan_hashes() -> dict[str, str]:
     from tests.golden.scenarios import ALGORITHMS, MAPS
 
@@ -98,17 +112,7 @@ def replay_hashes() -> dict[str, str]:
             threat_records(mission_of(sc)), prepared.grid, name=f"golden-{sc.name}"
         )
         r = run_replay(_request(str(_mission_file(sc)), threats, {"avoid": avoid, "seed": SEED}))
-        m = r.metrics
-        outcome = {
-            "success": bool(m.success),
-            "end_reason": m.end_reason,
-            "min_separation": {k: v["value"] for k, v in m.min_separation.items()},
-            "plr": m.plr,
-            "waypoints_added": int(m.waypoints_added),
-            "flight_time_s": m.flight_time_s,
-            "min_terrain_clearance_m": m.min_terrain_clearance_m,
-            "off_map_s": m.off_map_s,
-        }
+        outcome = _outcome(r.metrics)
         key = f"replay/{sc.name}/{avoid}"
         out[key] = _digest(
             np.asarray(r.times),
@@ -153,6 +157,9 @@ EXTRA: tuple[tuple[str, str, str | None, dict[str, Any]], ...] = (
 )
 
 
+EXTRA_OUTCOME = ("success", "end_reason", "min_separation", "plr", "flight_time_s")
+
+
 def _request(source: str, threats: Any, settings: dict[str, Any]) -> Any:
     """A replay request in this checkout's API (settings in ReplayRequest itself before the
     house was rearranged, in its ReplayConfig after)."""
@@ -173,14 +180,7 @@ def extra_hashes() -> dict[str, str]:
     for name, mission, threats, settings in EXTRA:
         t0 = time.perf_counter()
         r = run_replay(_request(mission, threats, settings))
-        m = r.metrics
-        outcome = {
-            "success": bool(m.success),
-            "end_reason": m.end_reason,
-            "min_separation": {k: v["value"] for k, v in m.min_separation.items()},
-            "plr": m.plr,
-            "flight_time_s": m.flight_time_s,
-        }
+        outcome = {k: v for k, v in _outcome(r.metrics).items() if k in EXTRA_OUTCOME}
         key = f"extra/{name}"
         out[key] = _digest(
             np.asarray(r.times),
