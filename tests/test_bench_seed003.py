@@ -54,7 +54,8 @@ def test_a_rangefinder_spec_sets_the_beams_range(
     monkeypatch.setattr("replay.run.run_replay", capture)
     row = execute(run, "s", "", "test", "", "none", None)
     r = seen["request"]
-    assert (r.sensor, r.rangefinder_range, r.radar_range) == ("rangefinder", 12.0, 10_000.0)
+    c = r.config
+    assert (c.sensor, c.rangefinder_range, c.radar_range) == ("rangefinder", 12.0, 10_000.0)
     assert row["status"] == "error" and row["error"] == "RuntimeError: not flown"
     path.write_text(text.replace("sensor: rangefinder", "sensor: sonar"), encoding="utf-8")
     with pytest.raises(InputError, match="expected one of radar, cooperative, rangefinder"):
