@@ -157,8 +157,8 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     warnings = tuple(threats.warn_after(planned))
     if following and not params.follows_terrain:
         warnings += (
-            f"{params.name} is a multirotor: it flies the waypoints' altitudes and does not "
-            f"follow the terrain ({following:g} m of clearance asked)",
+            f"{params.name} flies the waypoints' altitudes and does not follow the terrain "
+            f"({following:g} m of clearance asked)",
         )
     return PreparedReplay(
         r,

@@ -445,7 +445,7 @@ class _Loop:
             min_clearance=cfg.terrain_clearance,
             state=x,
         )
-        if self.recorder is not None and (len(picture) or cfg.sensor == "rangefinder"):
+        if self.recorder is not None:
             _record_picture(self.recorder, t, picture)
 
     def _decide(self, t: float, x: FloatArray) -> bool:
@@ -555,11 +555,12 @@ RECORDED_TERRAIN_RETURNS = 48  # the nearest terrain returns of a scan that go i
 def _record_picture(recorder: Recorder, t: float, picture: Any) -> None:
     """Every threat return of a scan, and its nearest terrain returns (a mountain scan can hold
     hundreds; recording them all would dominate the run's time and file size); and the
-    rangefinders' beams."""
+    rangefinders' beams (every scan: they show what the beams saw, hits or not). A scan with no
+    return and no beams records nothing."""
     if getattr(picture, "beam_ranges", None) is not None:
         recorder.write_beams(t, picture.own_position, picture.beam_ends, picture.beam_hits)
-        if not len(picture):
-            return
+    if not len(picture):
+        return
     n = picture.n_threat
     if len(picture) == n:  # threat returns only: all of them, as they are
         terrain = np.zeros(n, dtype=bool)

@@ -6,7 +6,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tools.structure import PACKAGES, _files, _imports, _module, edges, private_imports, top_level
+from tools.structure import (
+    PACKAGES,
+    edges,
+    module_imports,
+    module_name,
+    package_files,
+    private_imports,
+    top_level,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -15,8 +23,8 @@ def test_imports_run_one_way_only() -> None:
     rank = {pkg: k for k, pkg in enumerate(PACKAGES)}  # terrain, planner, replay, terrapath
     upward = [
         f"{me} imports {mod}"
-        for path in _files(ROOT)
-        for me, mod, _ in _imports(path, ROOT)
+        for path in package_files(ROOT)
+        for me, mod, _ in module_imports(path, ROOT)
         if rank[mod.split(".")[0]] > rank[me.split(".")[0]]
     ]
     assert upward == []
@@ -51,5 +59,5 @@ def test_no_avoider_imports_another() -> None:
 
 
 def test_the_module_names_come_from_the_paths() -> None:
-    assert _module(ROOT / "replay" / "avoidance" / "__init__.py", ROOT) == "replay.avoidance"
-    assert _module(ROOT / "replay" / "sim.py", ROOT) == "replay.sim"
+    assert module_name(ROOT / "replay" / "avoidance" / "__init__.py", ROOT) == "replay.avoidance"
+    assert module_name(ROOT / "replay" / "sim.py", ROOT) == "replay.sim"

@@ -22,12 +22,12 @@ from pathlib import Path
 PACKAGES = ("terrain", "planner", "replay", "terrapath")
 
 
-def _files(root: Path) -> Iterator[Path]:
+def package_files(root: Path) -> Iterator[Path]:
     for pkg in PACKAGES:
         yield from sorted((root / pkg).rglob("*.py"))
 
 
-def _module(path: Path, root: Path) -> str:
+def module_name(path: Path, root: Path) -> str:
     parts = list(path.relative_to(root).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
@@ -47,15 +47,15 @@ def _walk(node: ast.AST, prefix: str, rel: str, out: list[tuple[int, str]]) -> N
 def functions(root: Path) -> list[tuple[int, str]]:
     """(length, 'path:line Qual.name') of every function and method."""
     out: list[tuple[int, str]] = []
-    for path in _files(root):
+    for path in package_files(root):
         tree = ast.parse(path.read_text(), str(path))
         _walk(tree, "", str(path.relative_to(root)), out)
     return sorted(out, reverse=True)
 
 
-def _imports(path: Path, root: Path) -> Iterator[tuple[str, str, list[str]]]:
+def module_imports(path: Path, root: Path) -> Iterator[tuple[str, str, list[str]]]:
     """(importing module, imported module, names) of every absolute import of our packages."""
-    me = _module(path, root)
+    me = module_name(path, root)
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             if node.module.split(".")[0] in PACKAGES:
@@ -68,8 +68,8 @@ def _imports(path: Path, root: Path) -> Iterator[tuple[str, str, list[str]]]:
 
 def private_imports(root: Path) -> list[str]:
     found = []
-    for path in _files(root):
-        for me, mod, names in _imports(path, root):
+    for path in package_files(root):
+        for me, mod, names in module_imports(path, root):
             private_mod = [
                 p for p in mod.split(".") if p.startswith("_") and not p.startswith("__")
             ]
@@ -83,8 +83,8 @@ def private_imports(root: Path) -> list[str]:
 def edges(root: Path) -> list[str]:
     """``a -> b`` for every module of replay importing another of replay (one line each)."""
     out = set()
-    for path in _files(root):
-        for me, mod, _ in _imports(path, root):
+    for path in package_files(root):
+        for me, mod, _ in module_imports(path, root):
             if me.startswith("replay") and mod.startswith("replay") and me != mod:
                 out.add(f"{me} -> {mod}")
     return sorted(out)
