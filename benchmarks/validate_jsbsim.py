@@ -150,7 +150,7 @@ class Plan:
 
     trim_speeds: tuple[float, ...] = (30.0, 40.0, 50.0, 55.0)
     trim_altitudes: tuple[float, ...] = (0.0, 1500.0)
-    climb_altitudes: tuple[float, ...] = (0.0, 1500.0, 3000.0)
+    climb_altitudes: tuple[float, ...] = (0.0, 1500.0, 3000.0, 3500.0, 4000.0)
     glide_altitude: float = 1500.0
     speed_tol: float = 0.05  # m/s, stall and top speed
     gamma_tol: float = 1e-4  # rad, climb and glide angles

@@ -3,8 +3,10 @@
 Structure (Beard & McLain, *Small Unmanned Aircraft*, 2012, ch. 6 "successive loop closure"; the
 guidance after Krishnan & Manimala 2020 — seed 000 — §3.5-3.6, eqs 13-20)::
 
-    waypoints --leg--> course command chi_c --course PI--> bank phi_c --roll PID--> aileron
-              --leg--> altitude h_c --P--> climb rate hdot_c --PI--> pitch theta_c --PD--> elevator
+    waypoints --leg--> course command chi_c --course PI--> bank phi_c (<= the bank the excess
+              power sustains) --roll PID--> aileron
+              --leg--> altitude h_c --P--> climb rate hdot_c (within the energy available)
+              --PI--> pitch theta_c --PD--> elevator
     airspeed command Va_c --PI + climb thrust feed-forward--> throttle
     sideslip (PI) + washed-out yaw rate --> rudder
 
@@ -110,6 +112,35 @@ climb-rate and pitch limits)::
     theta_c = sat(theta_ff + k_pg e_gamma + k_ig int e_gamma, pitch_min, pitch_max),
               k_pg = 2, k_ig = 0.2 1/s
     theta_ff = theta* + (dtheta/dgamma) gamma_c,  de_ff = delta_e* + (ddelta_e/dgamma) gamma_c
+
+Energy management (after the total energy control of ArduPilot's and PX4's TECS, and Beard &
+McLain's climb zone: full throttle, the airspeed first). The loops above split the work the usual
+way -- throttle for the airspeed, pitch for the climb -- which fails at the envelope's edge: told
+to climb more than the engine gives, the pitch loop keeps pitching up, the throttle saturates and
+the airspeed bleeds onto the back of the power curve (a Cessna told to climb from 3,500 m to
+4,000 m at 45 m/s sank at full throttle to 2,733 m at 31 m/s). So every control step measures the
+climb the aircraft has (``kernels.energy_state``)::
+
+    Edot      = hdot + Va Va' / g                      (specific total-energy rate, m/s; Va'
+                                                        filtered with tau = 1 s)
+    hdot_up   = Edot + (T(full) - T) Va / (m g)        (T: the last throttle's thrust at this
+    hdot_dn   = Edot + (T(idle) - T) Va / (m g)         airspeed and density; filtered, 1 s)
+
+and the climb-rate command is bounded by them less what the airspeed's recovery needs::
+
+    a       = sat(0.2 (Va_c - Va), +-0.5 m/s^2)
+    hdot_c <= max(hdot_up - Va a / g, lo),   lo = 0 told to climb (never descends), or the
+                                             descent limit when Va < 0.9 Va_c (underspeed: the
+                                             airspeed comes first, altitude is traded for it)
+    hdot_c >= min(hdot_dn - Va a / g, hi)    (the same for descents and overspeed)
+
+so it climbs at the best rate it has at the commanded airspeed and, at its ceiling, holds the
+highest altitude it can. Turns: a coordinated turn at load factor n costs the induced drag
+``k_i n^2 W^2 / (q S)`` (``k_i = 1 / (pi e AR)``); the bank is limited to the load factor that
+leaves 0.2 m/s of climb (``hdot_up + k_i W Va (n_now^2 - n^2) / (q S) = 0.2``), at least 10 deg,
+so a turn at altitude keeps the airspeed with a shallower bank when no throttle is left. Away from
+the edge none of this binds (a climb with power to spare is flown as commanded). The numbers are
+:class:`LoopDesign`'s ``energy_*``, ``turn_climb_margin`` and ``bank_floor_deg``.
 
 The feed-forward slopes come from the trims at the climb and the descent limits (straight lines
 from level trim, one for climbs, one for descents; gamma alone if a trim does not exist, e.g. an

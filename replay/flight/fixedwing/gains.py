@@ -49,6 +49,13 @@ class LoopDesign:
     yaw_beta_integral: float = 0.5  # 1/s, in units of Cnbeta
     yaw_rate: float = 1.0  # yaw damper gain, in units of |Cnr|
     washout_tau: float = 1.0  # s
+    # energy management (kernels.energy_state, kernels.climb_loop)
+    energy_tau: float = 1.0  # s, filter of the measured energy rates
+    energy_recovery: float = 0.2  # 1/s, acceleration asked per m/s of airspeed error
+    energy_acceleration_max: float = 0.5  # m/s^2
+    energy_speed_band: float = 0.1  # of the commanded airspeed: beyond it the airspeed comes first
+    turn_climb_margin: float = 0.2  # m/s of climb a turn must leave (else a shallower bank)
+    bank_floor_deg: float = 10.0  # the bank limit never falls below this
 
 
 @dataclass(frozen=True)
@@ -91,6 +98,7 @@ class Gains:
     altitude: float = 0.0  # m AMSL, where the gains were designed (the air's density there)
     airspeed_min: float = 0.0  # the true-airspeed envelope there (the vehicle's EAS envelope)
     airspeed_max: float = math.inf
+    design: LoopDesign = LoopDesign()
 
     def pack(
         self, params: VehicleParams, chi_inf: float, path_gain: float, orbit_gain: float = 4.0
@@ -138,6 +146,13 @@ class Gains:
         gk[kern.K_THETA_DN] = self.theta_per_gamma_down
         gk[kern.K_DE_UP] = self.elevator_per_gamma_up
         gk[kern.K_DE_DN] = self.elevator_per_gamma_down
+        d = self.design
+        gk[kern.K_E_TAU] = d.energy_tau
+        gk[kern.K_E_ACC] = d.energy_recovery
+        gk[kern.K_E_ACC_MAX] = d.energy_acceleration_max
+        gk[kern.K_E_SPEED_BAND] = d.energy_speed_band
+        gk[kern.K_E_TURN_MARGIN] = d.turn_climb_margin
+        gk[kern.K_E_BANK_MIN] = min(math.radians(d.bank_floor_deg), gk[kern.K_BANK_MAX])
         return gk
 
 
@@ -212,6 +227,7 @@ def design_gains(
         altitude=float(altitude),
         airspeed_min=envelope[0],
         airspeed_max=envelope[1],
+        design=d,
     )
 
 

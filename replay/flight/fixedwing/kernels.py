@@ -125,7 +125,14 @@ K_ROLL_BAND = 33  # rad: the roll integrator runs only for roll errors below thi
 K_ROLL_SLEW = 34  # rad/s: rate limit of the bank command
 K_CP0, K_CPB, K_CPR, K_CPDR, K_CPDA = 35, 36, 37, 38, 39  # C_p coefficients (G3 Cl + G4 Cn)
 K_ORBIT = 40  # orbit-following gain k_orbit (Beard & McLain eq. 10.13)
-N_GAINS = 41
+# energy management (see energy_state and climb_loop)
+K_E_TAU = 41  # s: time constant of the filtered energy rates
+K_E_ACC = 42  # 1/s: airspeed recovery, acceleration asked per m/s of airspeed error
+K_E_ACC_MAX = 43  # m/s^2: at most this acceleration (or deceleration) is asked
+K_E_SPEED_BAND = 44  # fraction of the commanded airspeed: under/overspeed beyond it
+K_E_TURN_MARGIN = 45  # m/s: the climb a turn leaves (the bank limit keeps this much)
+K_E_BANK_MIN = 46  # rad: the bank limit never falls below this (the aircraft can still turn)
+N_GAINS = 47
 
 # ---- commands ---------------------------------------------------------------------------------
 C_LAT_MODE = 0  # 0: follow the leg, 1: hold course, 2: hold bank, 3: orbit
@@ -157,7 +164,10 @@ A_I_COURSE, A_I_ROLL, A_I_CLIMB, A_I_SPEED, A_I_BETA, A_R_LOW = 0, 1, 2, 3, 4, 5
 A_CHI_C, A_PHI_C, A_H_C, A_HDOT_C, A_THETA_C, A_VA_C = 6, 7, 8, 9, 10, 11
 A_XTRACK, A_ALONG, A_DIST = 12, 13, 14  # cross-track (m, + right), along-track (m), to leg end (m)
 A_INIT = 15  # 0 until the first control step (the washout filter starts at the current r)
-N_AP = 16
+A_VA_LAST, A_VDOT = 16, 17  # airspeed at the last control step; its filtered rate (m/s^2)
+A_HDOT_UP, A_HDOT_DN = 18, 19  # m/s: climb rate available at full / idle throttle (filtered)
+A_BANK_LIM = 20  # rad: the bank the aircraft can sustain with K_E_TURN_MARGIN of climb left
+N_AP = 21
 
 N_GUIDANCE_LOG = 9  # rec_g columns: A_CHI_C .. A_DIST
 
@@ -625,6 +635,53 @@ def flight_data(x, p):  # pragma: no cover - jit
 
 
 @nb.njit(cache=True, nogil=True, inline="always")
+def energy_state(x, p, gk, ap, va, hdot, u, dtc):  # pragma: no cover - jit
+    """Energy management's measurements (the total-energy view of TECS): the climb rate the
+    aircraft has available at full and at idle throttle, ``A_HDOT_UP`` / ``A_HDOT_DN``, and the
+    bank it can sustain, ``A_BANK_LIM``; each filtered with ``K_E_TAU``.
+
+    The specific total-energy rate ``Edot = hdot + Va Va' / g`` (m/s) is what the aircraft does
+    now with the last throttle's thrust ``T``; moving the throttle to full (idle) adds
+    ``(T_max - T) Va / (m g)`` (``(T_idle - T) Va / (m g)``), from the engine model at this
+    airspeed and air density. Measured, not modelled: the drag of the moment (a turn's induced
+    drag, a climb's angle of attack, the thin air at altitude) is in ``Edot``.
+
+    The bank limit: a coordinated turn at load factor ``n = 1 / cos(phi)`` costs the induced drag
+    ``k_i n^2 W^2 / (q S)`` (``k_i = 1 / (pi e AR)``), so the climb available at load factor
+    ``n`` is ``hdot_up + k_i W Va (n_now^2 - n^2) / (q S)``; the limit is the ``n`` that leaves
+    ``K_E_TURN_MARGIN`` of climb, at least ``K_E_BANK_MIN``."""
+    g = p[I_GRAV]
+    w = p[I_MASS] * g
+    rho = density_at(-x[2], p[I_DTEMP])
+    if ap[A_INIT] < 0.5:
+        ap[A_VA_LAST] = va
+        ap[A_VDOT] = 0.0
+    vdot_raw = (va - ap[A_VA_LAST]) / dtc
+    ap[A_VA_LAST] = va
+    k = dtc / (gk[K_E_TAU] + dtc)
+    ap[A_VDOT] += k * (vdot_raw - ap[A_VDOT])
+    thrust = propeller(va, u[3], rho, p)[0]
+    e_dot = hdot + va * ap[A_VDOT] / g
+    up = e_dot + (propeller(va, 1.0, rho, p)[0] - thrust) * va / w
+    dn = e_dot + (propeller(va, 0.0, rho, p)[0] - thrust) * va / w
+    # the bank the excess power sustains
+    cphi = max(math.cos(x[6]), 0.17)
+    qs = 0.5 * rho * va * va * p[I_S]
+    per_n2 = p[I_KIND] * w * va / qs  # m/s of climb per unit of n^2
+    n2 = 1.0 / (cphi * cphi) + (up - gk[K_E_TURN_MARGIN]) / per_n2
+    bank = math.acos(1.0 / math.sqrt(n2)) if n2 > 1.0 else 0.0
+    bank = min(max(bank, gk[K_E_BANK_MIN]), gk[K_BANK_MAX])
+    if ap[A_INIT] < 0.5:
+        ap[A_HDOT_UP] = up
+        ap[A_HDOT_DN] = dn
+        ap[A_BANK_LIM] = bank
+    else:
+        ap[A_HDOT_UP] += k * (up - ap[A_HDOT_UP])
+        ap[A_HDOT_DN] += k * (dn - ap[A_HDOT_DN])
+        ap[A_BANK_LIM] += k * (bank - ap[A_BANK_LIM])
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
 def course_command(
     x, p, gk, cmd, leg, mode, on_arc, xtrack, vn, ve, va, vg2, dtc
 ):  # pragma: no cover - jit
@@ -676,8 +733,9 @@ def course_command(
 def course_loop(gk, cmd, ap, mode, chi_c, chi, phi_ff, dtc):  # pragma: no cover - jit
     """The course loop: ``(chi_c, phi_c)``, the course command as flown (``chi`` plus the wrapped
     error) and the bank command (PI on the course error plus ``phi_ff``, limited to the maximum
-    bank; the bank command ``C_BANK`` itself in mode 2). Integrates ``A_I_COURSE``."""
-    bank_max = gk[K_BANK_MAX]
+    bank or to the bank the aircraft sustains, ``A_BANK_LIM``, when less; the bank command
+    ``C_BANK`` itself in mode 2). Integrates ``A_I_COURSE``."""
+    bank_max = min(gk[K_BANK_MAX], ap[A_BANK_LIM])
     if mode == 2:
         phi_c = min(max(cmd[C_BANK], -bank_max), bank_max)
         ap[A_I_COURSE] = 0.0
@@ -755,14 +813,31 @@ def altitude_command(x, cmd, leg, on_arc, along, h, vn, ve):  # pragma: no cover
 
 
 @nb.njit(cache=True, nogil=True, inline="always")
-def climb_loop(gk, ap, h_c, hdot_ff, h, hdot, inv_va, dtc):  # pragma: no cover - jit
+def climb_loop(gk, cmd, ap, h_c, hdot_ff, h, hdot, va, inv_va, g, dtc):  # pragma: no cover - jit
     """The altitude and climb-rate loops: ``(hdot_c, sgam, theta_c, de_ff)``, the climb-rate
-    command (``hdot_ff`` plus P on the altitude error, limited, slew limited: ``A_HDOT_C`` holds
-    the last one), the sine of its flight-path angle, the pitch command (PI on the flight-path
-    angle error with the trim pitch of the commanded climb as feed-forward, limited) and the
-    elevator trim of that climb. Integrates ``A_I_CLIMB``."""
-    hdot_c = hdot_ff + gk[K_ALT_P] * (h_c - h)
-    hdot_c = min(max(hdot_c, -gk[K_DESCENT_MAX]), gk[K_CLIMB_MAX])
+    command (``hdot_ff`` plus P on the altitude error, limited, energy managed, slew limited:
+    ``A_HDOT_C`` holds the last one), the sine of its flight-path angle, the pitch command (PI
+    on the flight-path angle error with the trim pitch of the commanded climb as feed-forward,
+    limited) and the elevator trim of that climb. Integrates ``A_I_CLIMB``.
+
+    Energy management (the throttle holds the airspeed, the pitch the climb, so the climb asked
+    must be one the engine can give): the climb-rate command is at most the climb available at
+    full throttle less what the airspeed's recovery needs, ``A_HDOT_UP - (Va / g) a``, and at
+    least the climb at idle less the same, ``A_HDOT_DN - (Va / g) a``, where ``a`` is the
+    acceleration asked, ``K_E_ACC (Va_c - Va)`` within ``K_E_ACC_MAX``. Told to climb it never
+    descends (told to descend, never climbs) unless the airspeed is more than ``K_E_SPEED_BAND``
+    of its command below (above) it: then the airspeed comes first, and the aircraft trades
+    altitude for it rather than fly on towards the stall."""
+    want = hdot_ff + gk[K_ALT_P] * (h_c - h)
+    want = min(max(want, -gk[K_DESCENT_MAX]), gk[K_CLIMB_MAX])
+    va_c = min(max(cmd[C_AIRSPEED], gk[K_VA_MIN]), gk[K_VA_MAX])
+    e_v = va_c - va
+    acc = min(max(gk[K_E_ACC] * e_v, -gk[K_E_ACC_MAX]), gk[K_E_ACC_MAX])
+    band = gk[K_E_SPEED_BAND] * va_c
+    lo = -gk[K_DESCENT_MAX] if e_v > band else min(want, 0.0)
+    hi = gk[K_CLIMB_MAX] if -e_v > band else max(want, 0.0)
+    hdot_c = min(want, max(ap[A_HDOT_UP] - va * acc / g, lo))
+    hdot_c = max(hdot_c, min(ap[A_HDOT_DN] - va * acc / g, hi))
     slew = gk[K_VACC_MAX] * dtc
     hdot_c = min(max(hdot_c, ap[A_HDOT_C] - slew), ap[A_HDOT_C] + slew)
     sgam = min(max(hdot_c * inv_va, -0.9), 0.9)
@@ -857,6 +932,7 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     vn, ve, vd, va, inv_va, sbeta, vg2, chi = flight_data(x, p)
     h = -x[2]
     hdot = -vd
+    energy_state(x, p, gk, ap, va, hdot, u, dtc)  # before A_INIT is set: it starts its filters
     if ap[A_INIT] < 0.5:
         ap[A_R_LOW] = rr
         ap[A_INIT] = 1.0
@@ -870,7 +946,9 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     phi_c, da = roll_loop(x, p, gk, ap, phi_c, sbeta, bv, u, dtc)
 
     h_c, hdot_ff = altitude_command(x, cmd, leg, on_arc, along, h, vn, ve)
-    hdot_c, sgam, theta_c, de_ff = climb_loop(gk, ap, h_c, hdot_ff, h, hdot, inv_va, dtc)
+    hdot_c, sgam, theta_c, de_ff = climb_loop(
+        gk, cmd, ap, h_c, hdot_ff, h, hdot, va, inv_va, p[I_GRAV], dtc
+    )
     de = pitch_loop(x, p, gk, theta_c, de_ff)
 
     va_c, thr = airspeed_loop(x, p, gk, cmd, ap, va, sgam, dtc)
