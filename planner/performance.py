@@ -1,7 +1,9 @@
 """What the planner must know of the aircraft to plan a path it can fly.
 
 A :class:`Performance` is the few numbers of a vehicle that make a path flyable or not: cruise
-airspeed, the sustained climb and descent rates at that speed, and the bank limit. The planner
+airspeed, the sustained climb and descent rates at that speed, the bank limit and the ceiling at
+that speed (where the vehicle knows it: the altitude above which it climbs less than 0.5 m/s, or
+flies slower than its envelope: ``terrapath plan`` prints it beside the limits). The planner
 turns them into the limits it checks, each with a margin so the 6-DOF aircraft under its autopilot
 (``replay/``) flies what was planned rather than just failing to:
 
@@ -31,7 +33,8 @@ TURN_BANK_FRACTION = 0.8
 
 @dataclass(frozen=True)
 class Performance:
-    """Cruise airspeed (m/s), sustained climb / descent rates at it (m/s), bank limit (deg)."""
+    """Cruise airspeed (m/s), sustained climb / descent rates at it (m/s), bank limit (deg);
+    ``ceiling`` (m AMSL) at that airspeed, ``inf`` where not known."""
 
     name: str
     speed: float
@@ -40,6 +43,7 @@ class Performance:
     bank_max_deg: float
     climb_fraction: float = CLIMB_FRACTION
     turn_bank_fraction: float = TURN_BANK_FRACTION
+    ceiling: float = math.inf
 
     def __post_init__(self) -> None:
         for fld in ("speed", "climb_rate", "descent_rate", "bank_max_deg"):
@@ -51,6 +55,8 @@ class Performance:
             object.__setattr__(self, fld, float(v))
         if not self.bank_max_deg < 90.0:
             raise InputError(f"{self.name}: bank_max_deg must be below 90; got {self.bank_max_deg}")
+        if math.isnan(self.ceiling):
+            raise InputError(f"{self.name}: ceiling must be a number of metres or inf; got nan")
         for fld in ("climb_fraction", "turn_bank_fraction"):
             v = getattr(self, fld)
             if not (isinstance(v, int | float) and 0.0 < v <= 1.0):
@@ -81,17 +87,19 @@ class Performance:
         return self.speed**2 / (G * math.tan(math.radians(self.bank_max_deg)))
 
     def describe(self) -> str:
-        """One line for messages: the limits the plan is held to."""
+        """One line for messages: the limits the plan is held to (the climb as the violation
+        messages of ``planner.result`` state it), and the ceiling at this speed where known."""
+        ceiling = f", ceiling {self.ceiling:,.0f} m" if math.isfinite(self.ceiling) else ""
         return (
             f"{self.name} at {self.speed:g} m/s: climb <= {100 * self.climb_gradient:.1f} % "
             f"({self.climb_fraction:g} x {self.climb_rate:g} m/s), descent <= "
             f"{100 * self.descent_gradient:.1f} %, turns of radius {self.turn_radius:.0f} m "
-            f"({self.turn_bank_deg:.0f} deg bank)"
+            f"({self.turn_bank_deg:.0f} deg bank){ceiling}"
         )
 
     def as_dict(self) -> dict[str, float | str]:
-        """Plain data for the mission's provenance."""
-        return {
+        """Plain data for the mission's provenance (the ceiling where known)."""
+        out: dict[str, float | str] = {
             "vehicle": self.name,
             "speed": self.speed,
             "climb_rate": self.climb_rate,
@@ -102,3 +110,6 @@ class Performance:
             "turn_radius": round(self.turn_radius, 2),
             "turn_bank_deg": round(self.turn_bank_deg, 3),
         }
+        if math.isfinite(self.ceiling):
+            out["ceiling"] = self.ceiling
+        return out

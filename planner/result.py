@@ -159,7 +159,7 @@ def find_violations(
             )
     out.extend(_unknown_violations(problem, samples, labels, legs))
     if perf is not None:
-        out.extend(_climb_violations(perf, flown, labels, legs))
+        out.extend(_climb_violations(perf, path, flown, labels, legs))
         out.extend(_turn_violations(perf, path))
     out.extend(_band_violations(problem, flown, labels, legs))
     if check is None:
@@ -279,9 +279,14 @@ def _unknown_violations(
 
 
 def _climb_violations(
-    perf: Performance, flown: FloatArray, labels: list[str], legs: list[int]
+    perf: Performance, path: FloatArray, flown: FloatArray, labels: list[str], legs: list[int]
 ) -> list[Violation]:
-    """One violation per leg or turn whose gradient exceeds the aircraft's (the steepest piece)."""
+    """One violation per leg or turn whose gradient exceeds the aircraft's (the steepest piece).
+
+    A leg's figures are those of the line between its waypoints (the straight piece the aircraft
+    flies is part of it, with the same gradient, but may be only metres long between two turn
+    fillets); a leg with no horizontal length climbs straight up, which no gradient describes.
+    A turn's are those of its arc."""
     d = np.diff(flown, axis=0)
     h = np.hypot(d[:, 0], d[:, 1])
     dz = d[:, 2]
@@ -295,22 +300,31 @@ def _climb_violations(
             continue
         done.add(label)
         members = [j for j, lab in enumerate(labels) if lab == label]
-        rise = float(dz[members].sum())
-        run = float(h[members].sum())
+        if label.startswith("leg "):  # the waypoints' line
+            k = legs[int(i)]
+            rise = float(path[k + 1, 2] - path[k, 2])
+            run = float(np.hypot(*(path[k + 1, :2] - path[k, :2])))
+        else:
+            rise = float(dz[members].sum())
+            run = float(h[members].sum())
         climbing = rise > 0
         limit = perf.climb_gradient if climbing else perf.descent_gradient
         rate = perf.climb_rate if climbing else perf.descent_rate
-        grad = abs(rise) / run if run > 0 else float("inf")
         excess = float(np.maximum(up[members], down[members]).clip(min=0).sum())
         mid = 0.5 * (flown[members[0]] + flown[members[-1] + 1])
         verb = "climbs" if climbing else "descends"
+        where = (
+            f"in {run / 1000:.2f} km ({100 * abs(rise) / run:.1f} %)"
+            if run > TOLERANCE
+            else "with no horizontal length (straight " + ("up)" if climbing else "down)")
+        )
         out.append(
             _at(
                 "climb",
                 legs[int(i)],
                 mid,
                 excess,
-                f"{label} {verb} {abs(rise):.0f} m in {run / 1000:.2f} km ({100 * grad:.1f} %); "
+                f"{label} {verb} {abs(rise):.0f} m {where}; "
                 f"the {perf.name} at {perf.speed:g} m/s can {verb[:-1]} at most "
                 f"{100 * limit:.1f} % ({perf.climb_fraction:g} x {rate:g} m/s)",
             )

@@ -363,7 +363,7 @@ def _echo_json(outcome: PlanOutcome, performance: Performance, seed: int) -> Non
             {
                 "status": result.status,
                 "cost": result.terms,
-                "vehicle_limits": performance.as_dict(),
+                "vehicle_limits": (outcome.prepared.problem.performance or performance).as_dict(),
                 "outputs": {k: str(v) for k, v in outcome.written.items()},
                 "removed": [str(p) for p in outcome.removed],
                 "violations": [v.as_dict() for v in result.violations],
@@ -387,7 +387,10 @@ def _echo_summary(outcome: PlanOutcome, performance: Performance) -> None:
         f"clearance {t['min_clearance_m']:.0f} m, {result.iterations} iterations, "
         f"{result.elapsed_s:.1f} s"
     )
-    click.echo(f"  limits    {performance.describe()}")
+    # the limits the plan was held to: over the altitude band once the map gave it (the climb
+    # at the band's top, as the violations state it), with the ceiling at the cruise speed
+    enforced = outcome.prepared.problem.performance or performance
+    click.echo(f"  limits    {enforced.describe()}")
     ex = result.params.get("exploration")
     if isinstance(ex, dict):
         found = f"{ex['routes']} routes" if ex["routes"] else "no route (start and goal unlinked)"

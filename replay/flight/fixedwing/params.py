@@ -280,7 +280,8 @@ class VehicleParams:
         grow with height, so the highest altitude sets the slowest speed and the lowest the
         fastest), and the climb rate is the smaller of the autopilot's limit and the best
         steady climb the aircraft makes at that speed at the highest altitude (thinner air, less
-        power: the Cessna's 3 m/s limit is 1.3 m/s at 3,000 m)."""
+        power: the Cessna's 3 m/s limit is 1.3 m/s at 3,000 m); the ceiling at that speed
+        (:meth:`ceiling`) goes with it."""
         v = self.cruise_speed if speed is None else float(speed)
         if altitudes is None:
             if not (math.isfinite(v) and self.airspeed_min <= v <= self.airspeed_max):
@@ -289,9 +290,13 @@ class VehicleParams:
                     f"{self.airspeed_min:g}–{self.airspeed_max:g} m/s"
                 )
             climb = self.climb_rate_max
+            ceiling = math.inf
         else:
             climb = self._climb_over(v, altitudes, temperature_offset)
-        return Performance(self.name, v, climb, self.descent_rate_max, self.bank_max_deg)
+            ceiling = self.ceiling(v, temperature_offset)
+        return Performance(
+            self.name, v, climb, self.descent_rate_max, self.bank_max_deg, ceiling=ceiling
+        )
 
     def _climb_over(
         self, v: float, altitudes: tuple[float, float], temperature_offset: float
@@ -318,6 +323,40 @@ class VehicleParams:
                 "(--speed) or a lower band (--zmax)"
             )
         return min(self.climb_rate_max, best)
+
+    def ceiling(self, speed: float | None = None, temperature_offset: float = 0.0) -> float:
+        """The ceiling (m AMSL, to 25 m) at true airspeed ``speed`` (default: cruise) on a day
+        ``temperature_offset`` K off standard: the lower of the altitude where its best steady
+        climb falls below 0.5 m/s (:func:`replay.flight.fixedwing.trim.ceiling`) and
+        :meth:`envelope_ceiling`. Cached: a bisection of trim solves, a few tenths of a second."""
+        from replay.flight.fixedwing.trim import ceiling  # trim imports this module
+
+        v = self.cruise_speed if speed is None else float(speed)
+        return min(
+            ceiling(self, v, float(temperature_offset)),
+            self.envelope_ceiling(v, temperature_offset),
+        )
+
+    def envelope_ceiling(
+        self, speed: float | None = None, temperature_offset: float = 0.0
+    ) -> float:
+        """The highest altitude (m AMSL, rounded down to 25 m) at which true airspeed ``speed``
+        is still inside the envelope: ``airspeed_min`` is an equivalent airspeed, its true speed
+        grows with height, and above this altitude ``speed`` is slower than it. ``inf`` for a
+        speed already below ``airspeed_min`` at sea level: the replay flies such a speed as asked
+        (it refuses only what does not trim), so the envelope sets it no ceiling."""
+        from replay.flight.fixedwing.trim import CEILING_RESOLUTION, CEILING_TOP
+
+        v = self.cruise_speed if speed is None else float(speed)
+        if v < self.airspeed_min or self.airspeed_range(CEILING_TOP, temperature_offset)[0] <= v:
+            return math.inf
+        lo, hi = 0.0, CEILING_TOP
+        while hi - lo > CEILING_RESOLUTION:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (
+                (mid, hi) if self.airspeed_range(mid, temperature_offset)[0] <= v else (lo, mid)
+            )
+        return math.floor(lo / CEILING_RESOLUTION) * CEILING_RESOLUTION
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -304,3 +304,51 @@ def best_climb(
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
     return va * math.sin(lo)
+
+
+def holds_climb(
+    params: VehicleParams,
+    airspeed: float,
+    altitude: float,
+    rate: float,
+    temperature_offset: float = 0.0,
+) -> bool:
+    """Whether a steady straight climb of ``rate`` m/s (negative: a descent) trims at true
+    ``airspeed`` and ``altitude`` with the throttle in [0, 1]: one trim solve, where
+    :func:`best_climb` takes a bisection of them."""
+    va = float(airspeed)
+    if not abs(rate) < va:
+        return False
+    packed = params.pack(temperature_offset=temperature_offset)
+    gamma = math.asin(rate / va)
+    return _solve(params, packed, va, altitude, gamma, math.inf, None)[1] < TOLERANCE
+
+
+CEILING_CLIMB = 0.5  # m/s: the service ceiling's climb rate
+CEILING_RESOLUTION = 25.0  # m
+CEILING_TOP = 20_000.0  # m: the atmosphere model's standard layers end there
+
+
+@lru_cache(maxsize=128)
+def ceiling(
+    params: VehicleParams,
+    airspeed: float,
+    temperature_offset: float = 0.0,
+    climb: float = CEILING_CLIMB,
+    resolution: float = CEILING_RESOLUTION,
+) -> float:
+    """The ceiling at true ``airspeed``: the highest altitude (m AMSL, rounded down to
+    ``resolution``) at which the aircraft still climbs ``climb`` m/s steadily (full throttle at
+    most) -- the service ceiling at that speed. Bisection on the altitude with one trim solve
+    a step (about ten), cached per vehicle, speed and day. ``-inf`` when it does not climb that
+    fast even at sea level, ``inf`` when it still does at 20 km."""
+    v, dt = float(airspeed), float(temperature_offset)
+    if not holds_climb(params, v, 0.0, climb, dt):
+        return -math.inf
+    if holds_climb(params, v, CEILING_TOP, climb, dt):
+        return math.inf
+    lo, hi = 0.0, CEILING_TOP
+    while hi - lo > resolution:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if holds_climb(params, v, mid, climb, dt) else (lo, mid)
+    return math.floor(lo / resolution) * resolution
