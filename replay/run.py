@@ -8,7 +8,9 @@ tiles are looked for beside the MCAP, then as written, then where that run found
 DEM tiles (or takes ``dem`` instead), the vehicle (``vehicle``; else a re-flown run's own, else the
 mission's, a vehicle file looked for beside the mission), the threats (``threats``; else a re-flown
 run's), builds the avoider from the explicit registry with its options, and the settings
-(terrain following defaults to the clearance the mission was planned with).
+(terrain following defaults to the clearance the mission was planned with). Then it asks whether
+the vehicle can fly the mission at all (:mod:`replay.preflight`: the ceiling at the cruise speed,
+the climb each leg needs against the climb available, the turn radius) and refuses one it cannot.
 """
 
 from __future__ import annotations
@@ -26,9 +28,11 @@ from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.multirotor.model import MultirotorParams
+from replay.preflight import Preflight, preflight
 from replay.sim import (
     ReplayConfig,
     ReplayResult,
+    check_mission,
     estimated_flight_time,
     rangefinder_spread,
     simulate,
@@ -98,7 +102,9 @@ def _split_settings(settings: dict[str, Any]) -> tuple[dict[str, Any], dict[str,
 
 @dataclass(frozen=True, eq=False)
 class PreparedReplay:
-    """Everything a replay needs, validated; ``warnings`` for the user."""
+    """Everything a replay needs, validated; ``warnings`` for the user; ``preflight``: what the
+    vehicle can do on this mission (its :meth:`~replay.preflight.Preflight.describe` is the
+    line printed before take-off)."""
 
     request: ReplayRequest
     mission: Mission
@@ -111,6 +117,7 @@ class PreparedReplay:
     config: ReplayConfig
     time_limit: float
     warnings: tuple[str, ...]
+    preflight: Preflight
 
 
 def prepare_replay(request: ReplayRequest) -> PreparedReplay:
@@ -152,9 +159,13 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     avoider.check_vehicle(params, float(speed))
     # e.g. the priority loop: its sensor, a start outside the obstacles
     avoider.check_setup(config, mission, threats, grid, float(speed))
+    # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)
+    check_mission(mission, grid)
+    flight = preflight(mission, params, float(speed), config.temperature_offset)
+    flight.check()
     planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config)
-    warnings = tuple(threats.warn_after(planned))
+    warnings = tuple(threats.warn_after(planned)) + flight.warnings
     if following and not params.follows_terrain:
         warnings += (
             f"{params.name} flies the waypoints' altitudes and does not follow the terrain "
@@ -172,6 +183,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         config,
         limit,
         warnings,
+        flight,
     )
 
 

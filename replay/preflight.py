@@ -1,0 +1,364 @@
+"""Can it fly this? A mission checked against its vehicle before take-off (issue 32).
+
+The replay's aircraft flies straight lines between the waypoints at the cruise speed ``V`` (true
+airspeed for a fixed wing, horizontal speed for a multirotor), on a day ``temperature_offset`` K
+off the standard atmosphere. Before anything is flown, :func:`preflight` works out from the
+vehicle model:
+
+- **the ceiling at V**: for a fixed wing the lower of the altitude where its best steady climb at
+  V falls below 0.5 m/s (:func:`replay.flight.fixedwing.trim.ceiling`, a bisection of trim
+  solves to 25 m, cached) and the altitude where V, a true airspeed, falls below the envelope's
+  slowest (an equivalent) airspeed (:meth:`VehicleParams.envelope_ceiling`); for a multirotor
+  the altitude where its rotors at full speed lift it at less than 0.5 m/s (thrust falls with
+  the density, the airframe's vertical drag ``drag_z`` holds the climb back; the controller's
+  margin for attitude is not counted);
+- **the climb each leg needs against the climb available**: a leg from waypoint k to k + 1 rises
+  ``dz`` over the horizontal length ``L``; flown at V it needs ``V sin(atan(dz / L))`` m/s of
+  climb (a multirotor keeps its horizontal speed: ``V dz / L``). A fixed wing has at most the
+  smaller of its autopilot's limit ``climb_rate_max`` and its best steady climb at V at the
+  leg's top altitude (the conservative end: thinner air, less power), and descends at most
+  ``descent_rate_max``. (Not the steepest idle descent at V: the autopilot's descent limit is
+  what the planner plans with -- for the solar UAV it is steeper than the idle glide at cruise,
+  which the aircraft flies a little faster than V -- and what it commands.)
+- ``cruise.turn_radius`` against the tightest turn at V, ``V^2 / (g tan(bank_max))`` (fixed
+  wing only: a multirotor's legs meet at points).
+
+**Refused** (:meth:`Preflight.check`, an :class:`InputError` of one line naming the leg, its
+altitudes, the climb it needs and the climb available, and the ceiling when the leg goes above
+it): a leg above the ceiling, a fixed wing's leg needing more climb or descent than available,
+a turn radius tighter than the aircraft turns. A replay of such a mission only produces a
+failure later (a Cessna asked to descend to 20 m in a few kilometres passes that waypoint at
+1,466 m), so there is no override: an experiment that does not care about the mission's
+altitudes (an avoider alone) can write its waypoints at altitudes the aircraft flies. A
+multirotor's leg steeper than its climb or descent limit is **not** refused but warned: its
+controller scales the velocity to the limits and flies the leg straight, slower.
+
+Before all that the level trim at the highest waypoint is asked for (as the fixed-wing flight
+stack does at take-off), so a speed the aircraft cannot fly there is refused with the trim's own
+message, naming the speeds it can.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import numpy.typing as npt
+
+from planner.mission import Mission
+from replay.flight.atmosphere import RHO0, check_offset, density_at
+from replay.flight.base import G
+from replay.flight.fixedwing.params import VehicleParams
+from replay.flight.fixedwing.trim import (
+    CEILING_CLIMB,
+    CEILING_RESOLUTION,
+    CEILING_TOP,
+    best_climb,
+    holds_climb,
+    trim,
+)
+from replay.flight.multirotor.model import MultirotorParams
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+
+_best_climb = lru_cache(maxsize=512)(best_climb)
+_holds_climb = lru_cache(maxsize=2048)(holds_climb)
+
+
+@dataclass(frozen=True)
+class LegProblem:
+    """A leg the vehicle cannot fly as written: leg ``index`` (waypoint index -> index + 1) from
+    altitude ``z0`` to ``z1`` (m AMSL) over ``length`` horizontal metres, needing ``need`` m/s of
+    climb (negative: of descent) at the cruise speed where ``available`` m/s (a positive rate, of
+    climb or of descent as ``need``) is what the vehicle has there (``limit`` names what sets it),
+    above the ceiling or not; ``refused`` False for a warning."""
+
+    index: int
+    z0: float
+    z1: float
+    length: float
+    need: float
+    available: float
+    limit: str
+    above_ceiling: bool
+    refused: bool
+
+
+@dataclass(frozen=True)
+class Preflight:
+    """What the vehicle can do on this mission at ``speed`` (m/s) on a day ``temperature_offset``
+    K off standard: its ``ceiling`` (m AMSL; ``-inf`` when it cannot climb 0.5 m/s even at sea
+    level, ``inf`` above 20 km) and what sets it (``ceiling_by``), the highest waypoint
+    (``top``, m AMSL) and the climb available there (``climb_at_top``, m/s: the smaller of the
+    limit and ``best_at_top``, the best steady climb there), the legs it cannot fly and other
+    refusals (one line each, the mission's file first), and warnings."""
+
+    vehicle: str
+    kind: str  # "fixed-wing" or "multirotor"
+    speed: float
+    temperature_offset: float
+    ceiling: float
+    ceiling_by: str
+    top: float
+    climb_at_top: float
+    best_at_top: float
+    climb_limit: float
+    legs: tuple[LegProblem, ...]
+    refusals: tuple[str, ...]
+    warnings: tuple[str, ...]
+
+    @property
+    def ok(self) -> bool:
+        return not self.refusals
+
+    def check(self) -> None:
+        """Raise an :class:`InputError` naming the first refusal (and how many more) if any."""
+        if self.refusals:
+            more = len(self.refusals) - 1
+            tail = f" (and {more} more problem{'s' if more > 1 else ''})" if more else ""
+            raise InputError(self.refusals[0] + tail)
+
+    def describe(self) -> str:
+        """One line for the replay's header, before take-off."""
+        day = f" (ISA{self.temperature_offset:+g} K)" if self.temperature_offset else ""
+        if math.isinf(self.ceiling):
+            ceiling = "above 20,000 m" if self.ceiling > 0 else "below sea level"
+        else:
+            ceiling = f"{self.ceiling:,.0f} m"
+        held = ""
+        if self.best_at_top > self.climb_limit:
+            held = (
+                f" (its autopilot's limit; {_rate(self.best_at_top)} m/s its best steady climb)"
+                if self.kind == "fixed-wing"
+                else " (its limit)"
+            )
+        return (
+            f"{self.vehicle} at {self.speed:g} m/s{day}: ceiling {ceiling} ({self.ceiling_by}), "
+            f"climb {_rate(self.climb_at_top)} m/s{held} at the highest waypoint "
+            f"({self.top:,.0f} m)"
+        )
+
+
+def preflight(
+    mission: Mission,
+    params: VehicleParams | MultirotorParams,
+    speed: float,
+    temperature_offset: float = 0.0,
+) -> Preflight:
+    """The mission's legs checked against the vehicle at ``speed`` (module docstring). Raises
+    only the level trim's refusal (a speed the fixed wing cannot fly at the highest waypoint);
+    everything else is in the result (:meth:`Preflight.check` raises it)."""
+    v, dt = float(speed), check_offset(temperature_offset)
+    w = np.asarray(mission.waypoints, dtype=np.float64)
+    where = f"{mission.source}: " if mission.source else f"mission {mission.name!r}: "
+    top = float(w[:, 2].max())
+    if isinstance(params, MultirotorParams):
+        return _multirotor(mission, params, v, dt, w, where, top)
+    trim(params, v, altitude=top, temperature_offset=dt)  # the trim's own message if not
+    aero = _fixed_ceiling(params, v, dt)
+    envelope = params.envelope_ceiling(v, dt)
+    ceiling = min(aero, envelope)
+    by = (
+        f"{v:g} m/s true is its slowest airspeed there, {params.airspeed_min:g} m/s equivalent"
+        if envelope < aero
+        else f"best climb {CEILING_CLIMB:g} m/s"
+    )
+    legs: list[LegProblem] = []
+    for k, (z0, z1, length, dz) in enumerate(_legs(w)):
+        high = max(z0, z1)
+        above = high > ceiling
+        if dz > 0:
+            need = v * math.sin(math.atan2(dz, length))
+            fits = need <= params.climb_rate_max and _holds_climb(params, v, high, need, dt)
+            if fits and not above:
+                continue
+            best = _best_climb(params, v, high, dt)
+            available = min(params.climb_rate_max, best)
+            limit = (
+                f"its best steady climb at {high:,.0f} m"
+                if best < params.climb_rate_max
+                else "its autopilot's climb limit"
+            )
+        elif dz < 0:
+            need = -v * math.sin(math.atan2(-dz, length))
+            if -need <= params.descent_rate_max and not above:
+                continue
+            available, limit = params.descent_rate_max, "its autopilot's descent limit"
+        else:
+            if not above:
+                continue
+            need, available, limit = 0.0, 0.0, ""
+        legs.append(LegProblem(k, z0, z1, length, need, available, limit, above, True))
+    refusals = [where + _leg_text(p, params.name, v, ceiling, by) for p in legs]
+    if mission.turn_radius is not None:
+        r_min = params.min_turn_radius(v)
+        if mission.turn_radius < r_min:
+            refusals.insert(
+                0,
+                f"{where}cruise.turn_radius {mission.turn_radius:g} m is tighter than "
+                f"{params.name} turns at {v:g} m/s: at least {r_min:.0f} m "
+                f"(V^2 / (g tan {params.bank_max_deg:g} deg), its bank limit)",
+            )
+    if ceiling == -math.inf:
+        refusals.insert(
+            0,
+            f"{where}{params.name} cannot climb {CEILING_CLIMB:g} m/s at {v:g} m/s even at sea "
+            "level: choose another speed (cruise.speed, --airspeed)",
+        )
+    best_top = _best_climb(params, v, top, dt)
+    return Preflight(
+        params.name,
+        "fixed-wing",
+        v,
+        dt,
+        ceiling,
+        by,
+        top,
+        min(params.climb_rate_max, best_top),
+        best_top,
+        params.climb_rate_max,
+        tuple(legs),
+        tuple(refusals),
+        (),
+    )
+
+
+@lru_cache(maxsize=128)
+def _fixed_ceiling(params: VehicleParams, speed: float, temperature_offset: float) -> float:
+    from replay.flight.fixedwing.trim import ceiling
+
+    return ceiling(params, speed, temperature_offset)
+
+
+def multirotor_climb(params: MultirotorParams, altitude: float, temperature_offset: float) -> float:
+    """The steady vertical climb (m/s) of a multirotor with its rotors at full speed at
+    ``altitude``: ``T_max - W = sigma drag_z v^2`` (0 when it cannot hover; ``inf`` without
+    vertical drag), before its controller's limit ``climb_rate_max``."""
+    sigma = density_at(float(altitude), temperature_offset) / RHO0
+    spare = params.thrust_max(altitude, temperature_offset) - params.mass * G
+    if spare <= 0:
+        return 0.0
+    if params.drag_z <= 0:
+        return math.inf
+    return math.sqrt(spare / (sigma * params.drag_z))
+
+
+@lru_cache(maxsize=64)
+def multirotor_ceiling(params: MultirotorParams, temperature_offset: float = 0.0) -> float:
+    """The altitude (m AMSL, rounded down to 25 m) above which :func:`multirotor_climb` is below
+    0.5 m/s; ``-inf`` / ``inf`` as :func:`replay.flight.fixedwing.trim.ceiling`."""
+
+    def ok(h: float) -> bool:
+        return multirotor_climb(params, h, temperature_offset) >= CEILING_CLIMB
+
+    if not ok(0.0):
+        return -math.inf
+    if ok(CEILING_TOP):
+        return math.inf
+    lo, hi = 0.0, CEILING_TOP
+    while hi - lo > CEILING_RESOLUTION:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return math.floor(lo / CEILING_RESOLUTION) * CEILING_RESOLUTION
+
+
+def _multirotor(
+    mission: Mission,
+    params: MultirotorParams,
+    v: float,
+    dt: float,
+    w: FloatArray,
+    where: str,
+    top: float,
+) -> Preflight:
+    ceiling = multirotor_ceiling(params, dt)
+    by = f"climb {CEILING_CLIMB:g} m/s at full rotor speed"
+    legs: list[LegProblem] = []
+    for k, (z0, z1, length, dz) in enumerate(_legs(w)):
+        high = max(z0, z1)
+        above = high > ceiling
+        available = (
+            min(params.climb_rate_max, multirotor_climb(params, high, dt))
+            if dz >= 0
+            else params.descent_rate_max
+        )
+        if dz == 0:
+            need = 0.0
+        else:
+            need = math.copysign(math.inf, dz) if length == 0 else v * dz / length
+        steep = length > 0 and abs(need) > available
+        if above or steep:
+            limit = "its climb limit" if dz >= 0 else "its descent limit"
+            legs.append(LegProblem(k, z0, z1, length, need, available, limit, above, above))
+    refusals = [where + _leg_text(p, params.name, v, ceiling, by) for p in legs if p.refused]
+    warnings = [
+        f"{where}{_leg_text(p, params.name, v, ceiling, by)}: it flies that leg at "
+        f"{v * p.available / abs(p.need):.1f} m/s (its velocity scaled to the limits)"
+        for p in legs
+        if not p.refused
+    ]
+    if ceiling == -math.inf:
+        refusals.insert(
+            0, f"{where}{params.name} cannot climb {CEILING_CLIMB:g} m/s even at sea level"
+        )
+    best_top = multirotor_climb(params, top, dt)
+    return Preflight(
+        params.name,
+        "multirotor",
+        v,
+        dt,
+        ceiling,
+        by,
+        top,
+        min(params.climb_rate_max, best_top),
+        best_top,
+        params.climb_rate_max,
+        tuple(legs),
+        tuple(refusals),
+        tuple(warnings),
+    )
+
+
+def _legs(w: FloatArray) -> list[tuple[float, float, float, float]]:
+    """(start altitude, end altitude, horizontal length, rise) of every leg; a leg with neither
+    length nor rise (a repeated waypoint) rises 0 over 0 m and is never a problem."""
+    d = np.diff(w, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    return [
+        (float(w[k, 2]), float(w[k + 1, 2]), float(length[k]), float(d[k, 2]))
+        for k in range(len(d))
+    ]
+
+
+def _rate(x: float) -> str:
+    """A climb rate as the messages print it: two decimals below 10 m/s, one above."""
+    if math.isinf(x):
+        return "unlimited"
+    return f"{x:.2f}" if abs(x) < 10.0 else f"{x:.1f}"
+
+
+def _leg_text(p: LegProblem, name: str, v: float, ceiling: float, by: str) -> str:
+    """One line: the leg, its altitudes, the climb it needs and has, the ceiling if above."""
+    leg = f"leg {p.index} (waypoint {p.index} -> {p.index + 1})"
+    span = f"from {p.z0:,.0f} m to {p.z1:,.0f} m"
+    over = f"in {p.length / 1000:.2f} km" if p.length > 0 else "with no horizontal length"
+    if p.need == 0:
+        text = f"{leg} flies level at {p.z0:,.0f} m"
+    else:
+        verb, what = ("climbs", "climb") if p.need > 0 else ("descends", "descent")
+        need = (
+            f"straight {'up' if p.need > 0 else 'down'}"
+            if math.isinf(p.need)
+            else f"{_rate(abs(p.need))} m/s of {what}"
+        )
+        text = (
+            f"{leg} {verb} {span} {over}: at {v:g} m/s that needs {need}; {name} has "
+            f"{_rate(p.available)} m/s ({p.limit})"
+        )
+    if p.above_ceiling:
+        high = max(p.z0, p.z1)
+        text += f"; {high:,.0f} m is above its ceiling at {v:g} m/s, {ceiling:,.0f} m ({by})"
+    return text
