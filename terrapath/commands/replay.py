@@ -301,6 +301,8 @@ def replay_cmd(
     prepared = prepare_replay(request)  # every input error surfaces before anything is written
     for warning in prepared.warnings:
         click.echo(f"terrapath: warning: {warning}", err=True)
+    if not as_json:  # before take-off: what the vehicle can do on this mission
+        click.echo(prepared.preflight.describe())
     with progress_bar(int(prepared.time_limit), "replay (simulated s)") as report:
         progress = None
         if report is not None:
