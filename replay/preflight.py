@@ -64,6 +64,7 @@ from replay.flight.fixedwing.trim import (
     holds_climb,
     trim,
 )
+from replay.flight.fixedwing.trim import ceiling as trim_ceiling
 from replay.flight.multirotor.model import MultirotorParams
 from terrain.errors import InputError
 
@@ -163,7 +164,7 @@ def preflight(
     if isinstance(params, MultirotorParams):
         return _multirotor(mission, params, v, dt, w, where, top)
     trim(params, v, altitude=top, temperature_offset=dt)  # the trim's own message if not
-    aero = _fixed_ceiling(params, v, dt)
+    aero = trim_ceiling(params, v, dt)  # cached
     envelope = params.envelope_ceiling(v, dt)
     ceiling = min(aero, envelope)
     by = (
@@ -231,13 +232,6 @@ def preflight(
         tuple(refusals),
         (),
     )
-
-
-@lru_cache(maxsize=128)
-def _fixed_ceiling(params: VehicleParams, speed: float, temperature_offset: float) -> float:
-    from replay.flight.fixedwing.trim import ceiling
-
-    return ceiling(params, speed, temperature_offset)
 
 
 def multirotor_climb(params: MultirotorParams, altitude: float, temperature_offset: float) -> float:
