@@ -48,6 +48,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -103,7 +104,7 @@ class Preflight:
     refusals (one line each, the mission's file first), and warnings."""
 
     vehicle: str
-    kind: str  # "fixed-wing" or "multirotor"
+    kind: Literal["fixed-wing", "multirotor"]
     speed: float
     temperature_offset: float
     ceiling: float
