@@ -279,8 +279,13 @@ def replay_cmd(
     """Re-fly SOURCE (a mission YAML, or an earlier run's .mcap) in the 6-DOF simulation, with
     pop-up threats, and record everything as MCAP for Foxglove.
 
+    Before take-off it prints what the vehicle can do on the mission (its ceiling at the cruise
+    speed, its climb at the highest waypoint) and refuses a mission it cannot fly: above that
+    ceiling, a leg climbing or descending faster than it can, a cruise.turn_radius tighter than
+    it turns.
+
     Exit status: 0 success (goal reached, no safety volume entered, no terrain contact), 3 the
-    flight failed (still recorded), 1 error."""
+    flight failed (still recorded), 1 error (a refused mission among them)."""
     from replay.run import ReplayRequest, prepare_replay, run_replay
 
     _check_output(source, output)
