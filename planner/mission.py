@@ -37,12 +37,21 @@ from terrain.docfile import (
     FORMAT_VERSION,
     absolute_as_written,
     find_reference,
+    found,
+    kind_of,
+    parse_yaml,
     reference_places,
 )
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid, crs_label
 from terrain.zone_file import zones_from_records, zones_to_records
 from terrain.zones import Zone
+
+# The coordinates a mission may hold: map metres (UTM northings reach 10,000 km) and altitudes
+# (metres AMSL, from below the Dead Sea to above any aircraft's ceiling); beyond them the numbers
+# only overflow the flight model (a waypoint at 1e308 m, an altitude of 1e9 m).
+MAX_XY = 1e8
+ALTITUDES = (-1_000.0, 50_000.0)
 
 MISSION_KEYS = (
     "terrapath",
@@ -185,7 +194,9 @@ def _num(value: Any, path: str | None, fld: str, positive: bool = False) -> floa
 
 def _mapping(value: Any, path: str | None, fld: str, keys: tuple[str, ...]) -> dict[str, Any]:
     if not isinstance(value, dict):
-        raise _fail(path, fld, f"expected a mapping with keys {', '.join(keys)}; found {value!r}")
+        # the whole document (fld ""): say what it is, not what it holds (it may not be a mission)
+        what = kind_of(value) if not fld else found(value)
+        raise _fail(path, fld, f"expected a mapping with keys {', '.join(keys)}; found {what}")
     unknown = sorted(set(map(str, value)) - set(keys))
     if unknown:
         raise _fail(path, fld, f"unknown key(s) {', '.join(unknown)}; allowed: {', '.join(keys)}")
@@ -212,18 +223,34 @@ def mission_from_dict(
     cruise = _mapping(doc.get("cruise", {}), path, "cruise", ("speed", "altitude", "turn_radius"))
     speed = _num(cruise.get("speed", DEFAULT_CRUISE["speed"]), path, "cruise.speed", positive=True)
     alt = _num(cruise.get("altitude", DEFAULT_CRUISE["altitude"]), path, "cruise.altitude")
+    if not ALTITUDES[0] <= alt <= ALTITUDES[1]:
+        lo, hi = ALTITUDES
+        raise _fail(
+            path, "cruise.altitude", f"expected metres AMSL in {lo:,.0f}..{hi:,.0f}, found {alt:g}"
+        )
     turn = cruise.get("turn_radius")
     turn_radius = None if turn is None else _num(turn, path, "cruise.turn_radius", positive=True)
     raw = doc.get("waypoints")
     if not isinstance(raw, list) or len(raw) < 2:
         raise _fail(
-            path, "waypoints", f"expected a list of at least two [x, y] or [x, y, z]; found {raw!r}"
+            path,
+            "waypoints",
+            f"expected a list of at least two [x, y] or [x, y, z]; found {found(raw)}",
         )
     pts = []
     for i, w in enumerate(raw):
         if not isinstance(w, list | tuple) or len(w) not in (2, 3):
-            raise _fail(path, f"waypoints[{i}]", f"expected [x, y] or [x, y, z], found {w!r}")
+            raise _fail(path, f"waypoints[{i}]", f"expected [x, y] or [x, y, z], found {found(w)}")
         xyz = [_num(v, path, f"waypoints[{i}][{j}]") for j, v in enumerate(w)]
+        for j, v in enumerate(xyz):
+            lo, hi = (-MAX_XY, MAX_XY) if j < 2 else ALTITUDES
+            if not lo <= v <= hi:
+                what = "an altitude in metres AMSL" if j == 2 else "map metres"
+                raise _fail(
+                    path,
+                    f"waypoints[{i}][{j}]",
+                    f"expected {what} in {lo:,.0f}..{hi:,.0f}, found {v:g}",
+                )
         pts.append(xyz if len(xyz) == 3 else [*xyz, alt])
     terrain = None
     if doc.get("terrain") is not None:
@@ -280,13 +307,10 @@ def load_mission(path: str | os.PathLike[str]) -> Mission:
     if not p.is_file():
         raise DataFileError(f"{str(p)!r}: no such file")
     try:
-        data = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        at = f" at line {mark.line + 1}" if mark is not None else ""
-        raise DataFileError(f"{str(p)!r}: not valid YAML{at}") from None
+        text = p.read_text(encoding="utf-8")
     except UnicodeDecodeError:
         raise DataFileError(f"{str(p)!r}: not a text file, expected a mission YAML") from None
+    data = parse_yaml(text, repr(str(p)))
     return mission_from_dict(data, str(p))
 
 

@@ -10,9 +10,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import yaml
-
 from replay.flight.multirotor.model import MULTIROTOR_PRESETS
+from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError
 
 if TYPE_CHECKING:
@@ -48,12 +47,12 @@ def mission_of_run(run: RunRecord, source: str) -> Mission:
     text = run.attachments.get("mission.yaml")
     if text is None:
         raise InputError(f"{source!r}: this run carries no mission.yaml attachment to re-fly")
+    label = f"{source!r}, attachment 'mission.yaml'"
     try:
-        doc = yaml.safe_load(text.decode("utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError):
-        raise DataFileError(
-            f"{source!r}, attachment 'mission.yaml': not a valid mission YAML"
-        ) from None
+        decoded = text.decode("utf-8")
+    except UnicodeDecodeError:
+        raise DataFileError(f"{label}: not a valid mission YAML (not UTF-8 text)") from None
+    doc = parse_yaml(decoded, label)
     mission = mission_from_dict(doc, source, attachment="mission.yaml")
     if mission.terrain is not None:
         try:
@@ -109,8 +108,8 @@ def source_vehicle(
         if text is not None:
             label = f"{source} (attachment vehicle.yaml)"
             try:
-                data = yaml.safe_load(text.decode("utf-8"))
-            except (yaml.YAMLError, UnicodeDecodeError):
+                data = parse_yaml(text.decode("utf-8"), repr(label))
+            except (DataFileError, UnicodeDecodeError):
                 raise DataFileError(f"{label!r}: not a valid vehicle YAML") from None
             return vehicle_from_dict(data, label), text
         flown = run.metadata.get("vehicle", "")
@@ -149,8 +148,8 @@ def recorded_threats(text: str, source: str, grid: HeightGrid | None) -> ThreatS
     from replay.threats.file import threats_from_records
 
     try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError:
+        data = parse_yaml(text, repr(source))
+    except DataFileError:
         data = None
     if not isinstance(data, dict):
         raise DataFileError(f"{source!r}, attachment 'threats.yaml': not a threat file")

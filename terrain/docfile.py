@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Iterable, Sequence
 from os import PathLike
 from pathlib import Path
@@ -16,6 +17,58 @@ import yaml
 from terrain.errors import DataFileError, InputError, where
 
 FORMAT_VERSION = 1
+MAX_DEPTH = 100  # nesting levels of lists and mappings a YAML document may have
+
+
+class _DepthLimitedLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, refusing documents nested deeper than :data:`MAX_DEPTH` (a
+    thousand nested lists made the composer recurse out of the stack: a RecursionError)."""
+
+    _depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None,
+                    None,
+                    f"nested deeper than {MAX_DEPTH} levels",
+                    self.peek_event().start_mark,
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+def parse_yaml(text: str | bytes, label: str) -> Any:
+    """``text`` parsed with the safe loader, nesting limited to :data:`MAX_DEPTH` levels.
+
+    A document that is not YAML raises a one-line DataFileError naming ``label`` (the file, or
+    ``'run.mcap', attachment 'mission.yaml'``), the line and the column, and PyYAML's words for
+    the problem without the quoted bits: never the content of a file that may not be ours."""
+    loader = _DepthLimitedLoader(text)
+    try:
+        return loader.get_single_data()
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        problem = re.sub(r"\s*(['\"]).*?\1", "", getattr(exc, "problem", None) or "")
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        raise DataFileError(
+            f"{label}: not valid YAML{at}{': ' + problem if problem else ''}"
+        ) from None
+    except RecursionError:  # pragma: no cover - the depth limit comes first
+        raise DataFileError(f"{label}: nested too deeply") from None
+    finally:
+        loader.dispose()
+
+
+def kind_of(value: Any) -> str:
+    """What a parsed document is, without its content (for a file that may not be ours)."""
+    if value is None:
+        return "an empty file"
+    kinds: dict[type, str] = {str: "text", list: "a list", dict: "a mapping", bool: "a boolean"}
+    return kinds.get(type(value), "a number" if isinstance(value, int | float) else "a value")
 
 
 def finite_number(value: Any, what: str) -> float:
@@ -65,13 +118,9 @@ def read_document(path: Path, what: str, json_suffixes: Iterable[str] = ()) -> A
             raise DataFileError(
                 f"{where(path)}not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
             ) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        raise DataFileError(f"{where(path)}not valid YAML{at}: {problem}") from None
+        except RecursionError:
+            raise DataFileError(f"{where(path)}not valid JSON: nested too deeply") from None
+    return parse_yaml(text, repr(str(path)))
 
 
 def check_header(
@@ -81,9 +130,9 @@ def check_header(
     ``list_key`` entry (``items`` names its contents in messages: "zones", "threats")."""
     keys = tuple(allowed)
     if not isinstance(data, dict):
-        what = "an empty file" if data is None else found(data)
         raise DataFileError(
-            f"{where(path)}expected a mapping with 'terrapath: 1' and '{list_key}', found {what}"
+            f"{where(path)}expected a mapping with 'terrapath: 1' and '{list_key}', "
+            f"found {kind_of(data)}"
         )
     if "terrapath" not in data:
         raise DataFileError(

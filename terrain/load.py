@@ -109,7 +109,7 @@ def _open(path: PathLike) -> rasterio.DatasetReader:
             "ESRI ASCII grid"
         )
     try:
-        return rasterio.open(p)
+        src = rasterio.open(p)
     except RasterioIOError as exc:
         reason = str(exc).split("\n")[0]
         if len(reason) > 160 or not reason:
@@ -118,6 +118,14 @@ def _open(path: PathLike) -> rasterio.DatasetReader:
             f"{str(p)!r}: not a raster GDAL can read (expected a DEM such as GeoTIFF, SRTM .hgt "
             f"or ESRI ASCII grid; {reason})"
         ) from None
+    t = src.transform
+    if not (math.isfinite(t.determinant) and t.determinant != 0 and all(map(math.isfinite, t))):
+        src.close()  # an ESRI ASCII grid with 'cellsize 0', a GeoTIFF with a degenerate transform
+        raise DataFileError(
+            f"{str(p)!r}: cell size {abs(t.a):g} x {abs(t.e):g} (its georeference); expected positive, "
+            "finite cell sizes"
+        )
+    return src
 
 
 def utm_crs_for(lon: float, lat: float) -> CRS:
@@ -183,7 +191,12 @@ def check_grid_memory(rows: int, cols: int, cell_size: float) -> None:
 
 
 def _read_band(src: rasterio.DatasetReader, band: int, path: str) -> npt.NDArray[np.float32]:
-    data = src.read(band, masked=True).astype(np.float32)
+    try:
+        data = src.read(band, masked=True).astype(np.float32)
+    except RasterioIOError:  # GDAL's "Read failed": a truncated or damaged file
+        raise DataFileError(
+            f"{path!r}: its heights cannot be read (band {band}): the file is truncated or damaged"
+        ) from None
     arr = np.ma.filled(data, np.nan).astype(np.float32, copy=False)
     arr[~np.isfinite(arr)] = np.nan
     if not np.isfinite(arr).any():

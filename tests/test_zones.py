@@ -335,7 +335,7 @@ def test_yaml_uses_safe_loader(tmp_path):
         (
             "- 1\n",
             None,
-            "expected a mapping with 'terrapath: 1' and 'danger_zones', found [1] (a list)",
+            "expected a mapping with 'terrapath: 1' and 'danger_zones', found a list",
         ),
         ("danger_zones: []\n", "terrapath", "missing format version key; expected 'terrapath: 1'"),
         ("terrapath: 2\ndanger_zones: []\n", "terrapath", "expected format version 1, found 2"),

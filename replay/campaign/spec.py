@@ -53,9 +53,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from replay.campaign.generators import CASE_GENERATORS, GENERATORS, Params
+from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError
 
 SPEC_KEYS = (
@@ -290,12 +289,7 @@ def load_spec(path: str | Path) -> Spec:
         raise InputError(f"{src}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise DataFileError(f"{src}: cannot read the campaign spec ({exc})") from None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise DataFileError(f"{src}: not valid YAML{where}") from None
+    doc = parse_yaml(text, str(src))
     if not isinstance(doc, dict):
         raise InputError(f"{src}: a campaign spec is a mapping (terrapath: 1, name, mission, ...)")
     unknown = sorted(set(doc) - set(SPEC_KEYS))

@@ -73,9 +73,15 @@ from replay.threats.kinds import (
     Vec3,
     footprint_ring,
 )
-from terrain.docfile import check_header, feature_id, geojson_features, read_document
+from terrain.docfile import (
+    check_header,
+    feature_id,
+    geojson_features,
+    parse_yaml,
+    read_document,
+)
 from terrain.docfile import found as _found
-from terrain.errors import InputError, where
+from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid
 
 DOCUMENT_KEYS = ("terrapath", "name", "threats")
@@ -593,8 +599,8 @@ def recorded_text(path: str | PathLike[str], threats: ThreatSet) -> str:
 
     text = Path(path).read_text(encoding="utf-8")
     try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError:
+        data = parse_yaml(text, repr(str(path)))
+    except DataFileError:
         data = None
     if isinstance(data, dict) and "terrapath" in data:
         return text

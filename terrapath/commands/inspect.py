@@ -7,8 +7,9 @@ from datetime import UTC, datetime
 from typing import Any
 
 import click
-import yaml
 
+from terrain.docfile import parse_yaml
+from terrain.errors import DataFileError
 from terrapath.runtext import duration, metrics_rows, plural, report_lines, table
 
 
@@ -101,8 +102,8 @@ def _mission(text: bytes | None) -> dict[str, Any] | None:
     if text is None:
         return None
     try:
-        doc = yaml.safe_load(text.decode("utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError):
+        doc = parse_yaml(text.decode("utf-8"), "mission.yaml")
+    except (DataFileError, UnicodeDecodeError):
         return None
     return doc if isinstance(doc, dict) else None
 

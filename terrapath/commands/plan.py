@@ -30,6 +30,12 @@ def _parse_point(ctx: click.Context, param: click.Parameter, value: str) -> tupl
         raise click.BadParameter(
             f"expected A,B or A,B,ALT (numbers: lon,lat or x,y with --map-coords); got {value!r}"
         )
+    from planner.mission import ALTITUDES
+
+    if len(parts) == 3 and not ALTITUDES[0] <= parts[2] <= ALTITUDES[1]:
+        raise click.BadParameter(
+            f"ALT must be metres AMSL in {ALTITUDES[0]:,.0f}..{ALTITUDES[1]:,.0f}; got {value!r}"
+        )
     return parts
 
 

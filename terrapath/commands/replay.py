@@ -8,8 +8,9 @@ from pathlib import Path
 from typing import Any
 
 import click
-import yaml
 
+from terrain.docfile import parse_yaml
+from terrain.errors import DataFileError
 from terrapath.options import output_option, seed_option, vehicle_option
 from terrapath.progress import progress_bar
 from terrapath.runtext import duration, metrics_rows, report_lines
@@ -32,8 +33,8 @@ def _options(items: tuple[str, ...]) -> dict[str, Any]:
         if not sep or not key.strip():
             raise click.BadParameter(f"expected KEY=VALUE; got {item!r}", param_hint="--avoid-opt")
         try:
-            value = yaml.safe_load(raw) if raw.strip() else raw
-        except yaml.YAMLError:
+            value = parse_yaml(raw, "--avoid-opt") if raw.strip() else raw
+        except DataFileError:
             value = raw
         if isinstance(value, dict | list):
             value = raw

@@ -17,7 +17,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from terrain.errors import InputError, TerrapathError
+from terrain.docfile import parse_yaml
+from terrain.errors import DataFileError, InputError, TerrapathError
 
 FloatArray = npt.NDArray[np.float64]
 MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -93,11 +94,9 @@ def read_source(path: str | Path) -> Source:
 
 def _looks_like_a_mission(p: Path) -> bool:
     """A YAML mapping with waypoints (what every mission has)."""
-    import yaml
-
     try:
-        doc = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        doc = parse_yaml(p.read_text(encoding="utf-8"), repr(str(p)))
+    except (OSError, UnicodeDecodeError, DataFileError):
         return False
     return isinstance(doc, dict) and "waypoints" in doc
 

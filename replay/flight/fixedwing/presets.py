@@ -85,9 +85,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from replay.flight.fixedwing.params import ENGINE_PARAMETERS, ENGINES, FIELD_NAMES, VehicleParams
+from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError, where
 
 FORMAT_VERSION = 1
@@ -376,10 +375,7 @@ def vehicle_from_file(path: str | Path) -> VehicleParams:
         raise DataFileError(
             f"{where(p)}cannot read the vehicle file: {exc.strerror or exc}"
         ) from exc
-    try:
-        data = yaml.safe_load(raw)
-    except yaml.YAMLError as exc:
-        raise DataFileError(f"{where(p)}not valid YAML: {exc}") from exc
+    data = parse_yaml(raw, repr(str(p)))
     return vehicle_from_dict(data, str(p))
 
 
