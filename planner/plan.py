@@ -21,6 +21,9 @@ ALGORITHMS = ("ampso", "pso", "apso", "ga")
 INITS = ("graph", "corridor", "uniform")
 DEFAULT_ALGORITHM = "ampso"
 SWARM_RADIUS_EPS = 1e-4
+# The largest swarm: the papers fly 30-200; 100,000 is ~150 MB of working arrays on rmnp, while
+# 100,000,000 took 23 GB before the optimiser's first step.
+MAX_POPULATION = 100_000
 
 
 def flown_figures(problem: PlanningProblem, flown: np.ndarray) -> tuple[float, float]:
@@ -128,6 +131,8 @@ def _plan_once(
         raise InputError(f"unknown algorithm {algorithm!r}; choose one of {', '.join(ALGORITHMS)}")
     if isinstance(population, bool) or int(population) != population or population < 2:
         raise InputError(f"population must be an integer >= 2; got {population!r}")
+    if population > MAX_POPULATION:
+        raise InputError(f"population must be at most {MAX_POPULATION:,}; got {population:,}")
     if isinstance(iterations, bool) or int(iterations) != iterations or iterations < 1:
         raise InputError(f"iterations must be an integer >= 1; got {iterations!r}")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):

@@ -91,10 +91,24 @@ def load_grid(
 json_option = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
 
 
+def _check_seed(ctx: click.Context, param: click.Parameter, value: int) -> int:
+    if value < 0:  # numpy's generators take no negative seeds (a traceback deep in the run)
+        raise click.BadParameter(f"must be an integer >= 0; got {value}")
+    return value
+
+
 def seed_option(help: str) -> Callable[[F], F]:
-    """``--seed``: the run's random seed (an integer, 0 by default); ``help`` says what it seeds
-    and where it is recorded."""
-    return click.option("--seed", type=int, default=0, show_default=True, help=help)
+    """``--seed``: the run's random seed (an integer >= 0, 0 by default); ``help`` says what it
+    seeds and where it is recorded."""
+    return click.option(
+        "--seed",
+        type=int,
+        default=0,
+        show_default=True,
+        callback=_check_seed,
+        metavar="INTEGER>=0",
+        help=help,
+    )
 
 
 def output_option(

@@ -259,6 +259,11 @@ def _number(path: Path, fld: str, value: Any, *, minimum: float | None = None) -
     return float(value)
 
 
+# Runs one campaign may hold (missions x rows x avoiders x runs): each run is seconds to minutes
+# of flight, so a million is months of computing; the list of runs is made in memory.
+MAX_RUNS = 1_000_000
+
+
 def _integer(path: Path, fld: str, value: Any, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise _fail(path, fld, f"expected a whole number, found {value!r}")
@@ -335,6 +340,14 @@ def load_spec(path: str | Path) -> Spec:
     if sensor not in SENSORS:
         raise _fail(src, "sensor", f"expected one of {', '.join(SENSORS)}, found {sensor!r}")
     runs = _integer(src, "runs", doc.get("runs"), 1)
+    total = len(missions) * len(rows) * len(avoiders) * runs
+    if total > MAX_RUNS:  # refused before the list of runs is made (1e9 runs filled the memory)
+        raise _fail(
+            src,
+            "runs",
+            f"{runs:,} runs of {len(missions)} mission(s) x {len(rows)} threat row(s) x "
+            f"{len(avoiders)} avoider(s) make {total:,} runs; at most {MAX_RUNS:,} a campaign",
+        )
     seed = _integer(src, "seed", doc.get("seed", 0), 0)
     margin = _number(src, "margin", doc.get("margin", 0.0), minimum=0.0)
     duration = doc.get("duration")

@@ -136,7 +136,13 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     show_default=True,
     help="Number of free waypoints N.",
 )
-@click.option("--population", type=int, default=60, show_default=True)
+@click.option(
+    "--population",
+    type=click.IntRange(2, 100_000),  # planner.plan.MAX_POPULATION: refused before any allocation
+    default=60,
+    show_default=True,
+    help="Swarm (or GA population) size, 2 to 100,000.",
+)
 @click.option("--iterations", type=int, default=200, show_default=True)
 @click.option(
     "--attempts",
