@@ -236,6 +236,34 @@ def _check_integrity(f: IO[bytes]) -> None:
     f.seek(0)
 
 
+def _check_metadata(run: dict[str, str], name: str) -> None:
+    """The run metadata that is JSON must be the JSON the recorder writes: ``map_origin`` three
+    finite numbers, ``dem`` a list of paths (a tampered file: a DataFileError naming it)."""
+    expected = {"map_origin": "a JSON list of 3 numbers [x, y, z]", "dem": "a JSON list of paths"}
+    for key, what in expected.items():
+        if key not in run:
+            continue
+        try:
+            value = json.loads(run[key])
+        except (ValueError, RecursionError):
+            value = None
+        if key == "map_origin":
+            ok = (
+                isinstance(value, list)
+                and len(value) == 3
+                and all(
+                    isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in value
+                )
+            )
+        else:
+            ok = isinstance(value, list) and all(isinstance(v, str) for v in value)
+        if not ok:
+            raise DataFileError(
+                f"{name!r}: metadata {T.RUN_METADATA!r} field {key!r}: expected {what}"
+            )
+
+
 def _crc(f: IO[bytes], start: int, end: int) -> int:
     f.seek(start)
     crc, left = 0, end - start
@@ -264,6 +292,7 @@ def _read(
             f"{name!r}: terrapath run format {version!r} is not supported (this version reads "
             f"{T.FORMAT_VERSION!r})"
         )
+    _check_metadata(run, name)
     attachments: dict[str, bytes] = {}
     media: dict[str, str] = {}
     for att in reader.iter_attachments():
