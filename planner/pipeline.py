@@ -371,12 +371,33 @@ def write_outputs(
 ) -> tuple[dict[str, Path], tuple[Path, ...]]:
     """Write the mission YAML and picture; the GeoJSON and ground-station files only for a
     feasible plan or with ``force_export`` (stale ones of an earlier run are removed). Returns
-    (files written by kind, files removed)."""
+    (files written by kind, files removed). The files go together: when one cannot be written
+    (a full disk, an interrupt) the ones already written by this call are removed again, so no
+    mission is left without its picture."""
+    written: dict[str, Path] = {}
+    try:
+        removed = _write_outputs(mission, result, prepared, out, written, alt_frame, force_export)
+    except BaseException:
+        for path in written.values():
+            path.unlink(missing_ok=True)
+        raise
+    return written, removed
+
+
+def _write_outputs(
+    mission: Mission,
+    result: PlanResult,
+    prepared: Prepared,
+    out: Path,
+    written: dict[str, Path],
+    alt_frame: str,
+    force_export: bool,
+) -> tuple[Path, ...]:
     from planner.export import to_geojson, to_qgc_plan, to_wpl, write_json, write_text
     from planner.plot import save_plan_picture
 
     grid = prepared.grid
-    written: dict[str, Path] = {"mission": save_mission(mission, out, grid)}
+    written["mission"] = save_mission(mission, out, grid)
     stem = out.with_suffix("")
     removed: list[Path] = []
     export = result.feasible or force_export
@@ -408,4 +429,4 @@ def write_outputs(
         flown=result.path,
         explored=_explored(result),
     )
-    return written, tuple(removed)
+    return tuple(removed)

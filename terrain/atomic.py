@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from terrain.errors import DataFileError
+from terrain.errors import DataFileError, NoRoomError
 
 
 @contextlib.contextmanager
@@ -31,7 +32,16 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     try:
         yield tmp
         os.replace(tmp, final)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+        if isinstance(exc, OSError) and exc.errno in _NO_ROOM:
+            raise NoRoomError(
+                f"{str(final)!r}: cannot be written: {exc.strerror or exc} (nothing was written)"
+            ) from None
         raise
+
+
+# What a write answers when the disk (or the quota, or the file size limit) leaves no room: the
+# output is named, since the error itself names no file.
+_NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})

@@ -26,6 +26,10 @@ class DataFileError(TerrapathError, OSError):
     """A file is missing, unreadable, or not what it should be (not a raster, wrong structure)."""
 
 
+class NoRoomError(DataFileError):
+    """An output could not be written for lack of room (a full disk, a quota, a size limit)."""
+
+
 class ResourceError(InputError):
     """The request would need more memory (or other resources) than the machine has."""
 

@@ -28,7 +28,7 @@ from typing import Any
 
 from replay.campaign.spec import Run, Spec
 from replay.campaign.store import Store
-from terrain.errors import InputError
+from terrain.errors import InputError, NoRoomError
 
 KEEP = ("none", "failures", "all")
 EXECUTORS = ("pool", "dask-local", "scheduler")
@@ -162,6 +162,8 @@ def execute(
             mcap=out,
             error=None,
         )
+    except NoRoomError:  # no room for the recording: every later run would fail the same way
+        raise
     except Exception as exc:  # the campaign goes on; the row says what happened
         row.update(
             status="error",

@@ -25,7 +25,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from terrain.errors import InputError
+from terrain.errors import DataFileError, InputError
 
 FORMAT = "1"
 BUSY_S = 60.0  # how long to wait for another campaign holding the store
@@ -61,6 +61,9 @@ CREATE TABLE IF NOT EXISTS runs (
 CREATE INDEX IF NOT EXISTS runs_by_spec ON runs (spec_name, mission, row, avoider);
 """
 
+# What SQLite says when the disk (or a size limit) leaves no room
+_NO_ROOM = frozenset({"database or disk is full", "disk I/O error"})
+
 
 class Store:
     """A campaign store (module docstring); ``version`` is the terrapath writing to it."""
@@ -82,6 +85,8 @@ class Store:
                 # connections open a new file together (one switching it to WAL while the other
                 # reads its header): wait and open again, up to the busy timeout.
                 locked = isinstance(exc, sqlite3.OperationalError) and "locked" in str(exc)
+                if str(exc) in _NO_ROOM:  # a full disk, not a stranger's file
+                    raise DataFileError(f"{str(self.path)!r}: cannot be written: {exc}") from None
                 if not locked or time.monotonic() > deadline:
                     raise InputError(
                         f"{self.path}: not a terrapath campaign store ({exc})"
@@ -153,15 +158,22 @@ class Store:
             for c in COLUMNS
         ]
         marks = ",".join("?" * len(COLUMNS))
-        self._db.execute("BEGIN IMMEDIATE")
         try:
-            self._db.execute(
-                f"INSERT OR REPLACE INTO runs ({','.join(COLUMNS)}) VALUES ({marks})", values
-            )
-        except BaseException:
-            self._db.execute("ROLLBACK")
-            raise
-        self._db.execute("COMMIT")
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                self._db.execute(
+                    f"INSERT OR REPLACE INTO runs ({','.join(COLUMNS)}) VALUES ({marks})", values
+                )
+            except BaseException:
+                self._db.execute("ROLLBACK")
+                raise
+            self._db.execute("COMMIT")
+        except sqlite3.OperationalError as exc:  # "database or disk is full", "disk I/O error"
+            if "locked" in str(exc):
+                raise
+            raise DataFileError(
+                f"{str(self.path)!r}: cannot write the row of run {row.get('key')!r}: {exc}"
+            ) from None
 
     def rows(
         self, spec_name: str | None = None, hashes: Iterable[str] | None = None
