@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Iterable
+from pathlib import Path
 from typing import Any, TypeVar
 
 import click
@@ -125,6 +127,27 @@ def output_option(
         type=click.Path(file_okay=not directory, dir_okay=directory),
         help=help,
     )
+
+
+def _same_file(a: str | Path, b: str | Path) -> bool:
+    try:
+        return os.path.samefile(a, b)  # hard links and symlinks too
+    except OSError:  # one of them does not exist (yet)
+        return Path(a).resolve() == Path(b).resolve()
+
+
+def refuse_overwriting(outputs: Iterable[str | Path], inputs: dict[str, Iterable[str]]) -> None:
+    """Refuse to write any of ``outputs`` over one of the ``inputs`` (what names them, e.g.
+    ``"--zones"``, to the files it names), before anything is read or written."""
+    for out in outputs:
+        for what, paths in inputs.items():
+            for p in paths:
+                if _same_file(out, p):
+                    raise click.BadParameter(
+                        f"{str(out)!r} would overwrite the {what} file {p!r}; write to another "
+                        "file",
+                        param_hint="-o/--output",
+                    )
 
 
 def vehicle_option(help: str, default: str | None = None) -> Callable[[F], F]:

@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from terrapath.options import dem_options, load_grid, output_option
+from terrapath.options import dem_options, load_grid, output_option, refuse_overwriting
 
 
 @click.command("hillshade")
@@ -23,6 +23,7 @@ def hillshade(dem: tuple[str, ...], output: str, zones: str | None, **opts: Any)
     from terrain.plot import save_hillshade
     from terrain.zone_file import load_zones
 
+    refuse_overwriting([output], {"DEM": dem, "--zones": [zones] if zones else []})
     grid = load_grid(dem, **opts)
     zlist = load_zones(zones, grid) if zones else ()
     out = save_hillshade(grid, output, zones=zlist)

@@ -9,7 +9,13 @@ from typing import TYPE_CHECKING, Any
 import click
 import numpy as np
 
-from terrapath.options import dem_options, output_option, seed_option, vehicle_option
+from terrapath.options import (
+    dem_options,
+    output_option,
+    refuse_overwriting,
+    seed_option,
+    vehicle_option,
+)
 from terrapath.progress import progress_bar
 
 if TYPE_CHECKING:
@@ -322,6 +328,11 @@ def plan_cmd(
     from planner.pipeline import PlanRequest
 
     _check_output(output)
+    stem = Path(output).with_suffix("")
+    refuse_overwriting(
+        [output, *(stem.with_suffix(s) for s in (".png", ".geojson", ".plan", ".waypoints"))],
+        {"DEM": dem, "--zones": [zones] if zones else [], "--vehicle": [vehicle]},
+    )
     performance, performance_at = _vehicle_limits(vehicle, speed)
     request = PlanRequest(
         dem=tuple(dem),
