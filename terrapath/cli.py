@@ -2,13 +2,22 @@
 
 Errors that terrapath raises on purpose (:class:`terrain.errors.TerrapathError`) are printed as
 one line on stderr and exit with status 1; usage errors exit with 2 (click's convention).
+
+Signals: SIGINT (Ctrl-C), SIGTERM and SIGHUP all end a command the same way -- as an interrupt
+(:class:`Terminated` is a ``KeyboardInterrupt``), so every output being written is removed
+(``terrain.atomic``: no ``.part`` is left) and a campaign ends its workers -- and exit with the
+shell's status for the signal: 130 (SIGINT), 143 (SIGTERM), 129 (SIGHUP).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import signal
 import sys
+import threading
+from collections.abc import Iterator
 
 import click
 
@@ -26,6 +35,35 @@ from terrapath.commands.report import report_cmd
 from terrapath.commands.view import view_cmd
 
 EXIT_ERROR = 1
+EXIT_SIGNAL_BASE = 128  # the shell's convention: 128 + the signal's number
+ENDING_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised where the program is, as Ctrl-C raises KeyboardInterrupt."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def _raise_terminated(signum: int, frame: object) -> None:
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise :class:`Terminated` while a command runs (the previous handlers
+    are put back after it: tests call :func:`main` in their own process)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, _raise_terminated) for sig in ENDING_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -57,13 +95,18 @@ cli.add_command(bench_cmd)
 def main(argv: list[str] | None = None) -> int:
     """Console entry point: run the group, turn TerrapathError into a one-line message."""
     try:
-        rv = cli.main(args=argv, prog_name="terrapath", standalone_mode=False)
+        with _signals_interrupt():
+            rv = cli.main(args=argv, prog_name="terrapath", standalone_mode=False)
     except TerrapathError as exc:
         click.echo(f"terrapath: error: {exc}", err=True)
         return EXIT_ERROR
-    except click.exceptions.Abort:
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
+        cause = exc if isinstance(exc, Terminated) else exc.__cause__
+        if isinstance(cause, Terminated):
+            click.echo(f"terrapath: terminated ({signal.Signals(cause.signum).name})", err=True)
+            return EXIT_SIGNAL_BASE + cause.signum
         click.echo("terrapath: aborted", err=True)
-        return 130
+        return EXIT_SIGNAL_BASE + signal.SIGINT
     except click.ClickException as exc:
         exc.show()
         return exc.exit_code

@@ -19,6 +19,8 @@ recorded); ``"none"`` records nothing.
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import replace
@@ -28,6 +30,8 @@ from typing import Any
 
 from replay.campaign.spec import Run, Spec
 from replay.campaign.store import Store
+from replay.campaign.workers import bind_to_parent, end_workers
+from terrain.atomic import remove_stale_parts
 from terrain.errors import InputError, NoRoomError
 
 KEEP = ("none", "failures", "all")
@@ -184,6 +188,13 @@ def warm_up(run: Run) -> None:
     execute(replace(run, duration=10.0), "warm-up", "", "", "", "none", None)
 
 
+def start_worker(run: Run, parent: int) -> None:
+    """A pool worker's first work: end with the campaign (:mod:`replay.campaign.workers`), then
+    :func:`warm_up`."""
+    bind_to_parent(parent)
+    warm_up(run)
+
+
 def _pool(runs: list[Run], args: tuple[Any, ...], jobs: int) -> Iterator[dict[str, Any]]:
     if jobs <= 1:
         for r in runs:
@@ -191,11 +202,19 @@ def _pool(runs: list[Run], args: tuple[Any, ...], jobs: int) -> Iterator[dict[st
         return
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    pool = ProcessPoolExecutor(max_workers=jobs, initializer=warm_up, initargs=(runs[0],))
+    before = {p.pid for p in multiprocessing.active_children()}
+    pool = ProcessPoolExecutor(
+        max_workers=jobs, initializer=start_worker, initargs=(runs[0], os.getpid())
+    )
     try:
         futures = [pool.submit(execute, r, *args) for r in runs]
         for f in as_completed(futures):
             yield f.result()
+    except BaseException:  # SIGTERM, Ctrl-C, a full disk: the workers' runs are not waited for
+        end_workers(p for p in multiprocessing.active_children() if p.pid not in before)
+        if args[-1] is not None:  # the recordings the workers were writing
+            remove_stale_parts(args[-1])
+        raise
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
 
@@ -292,6 +311,7 @@ def run_campaign(
             else store.path.parent / f"{store.path.stem}-mcap"
         )
         folder.mkdir(parents=True, exist_ok=True)
+        remove_stale_parts(folder)  # recordings a killed campaign left half-written
     args = (
         spec.name,
         spec.spec_hash,
