@@ -69,7 +69,10 @@ def _alive(pid: int) -> bool:
         return False
     except PermissionError:  # someone else's process
         return True
-    return True
+    try:  # a zombie (killed, not yet reaped: PID 1 in a container may never reap it) is dead
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):  # no /proc (not Linux), or it has just gone
+        return True
 
 
 # What a write answers when the disk (or the quota, or the file size limit) leaves no room: the

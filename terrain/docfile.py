@@ -52,7 +52,7 @@ def parse_yaml(text: str | bytes, label: str) -> Any:
         return loader.get_single_data()
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        problem = re.sub(r"\s*(['\"]).*?\1", "", getattr(exc, "problem", None) or "")
+        problem = re.sub(r"'([^']*)'", _grammar_only, getattr(exc, "problem", None) or "")
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         raise DataFileError(
             f"{label}: not valid YAML{at}{': ' + problem if problem else ''}"
@@ -61,6 +61,18 @@ def parse_yaml(text: str | bytes, label: str) -> Any:
         raise DataFileError(f"{label}: nested too deeply") from None
     finally:
         loader.dispose()
+
+
+def _grammar_only(quoted: re.Match[str]) -> str:
+    """A quoted bit of PyYAML's problem kept when it names the grammar (``','``, ``'<stream
+    end>'``), dropped when it may be the file's content (an alias, a tag, a character)."""
+    text = quoted.group(1)
+    return (
+        quoted.group(0)
+        if text in (",", "[", "]", "{", "}", ":", "-", "?")
+        or (text.startswith("<") and text.endswith(">"))
+        else "(...)"
+    )
 
 
 def kind_of(value: Any) -> str:

@@ -53,7 +53,7 @@ def inspect_cmd(run: str, as_json: bool, png: str | None) -> None:
         ("run", s["path"]),
         ("recorded", f"{_utc(s['started_utc'])} by terrapath {s['software_version'] or '?'}"),
         ("command", s["command"] or "n/a"),
-        ("mission", _describe_mission(mission, s)),
+        ("mission", _describe_mission(mission, s, "mission.yaml" in record.attachments)),
         ("terrain", _describe_terrain(mission, s)),
         ("vehicle", s["vehicle"] or (mission or {}).get("vehicle") or "n/a"),
         ("seed", "n/a" if s["seed"] is None else str(s["seed"])),
@@ -108,9 +108,13 @@ def _mission(text: bytes | None) -> dict[str, Any] | None:
     return doc if isinstance(doc, dict) else None
 
 
-def _describe_mission(mission: dict[str, Any] | None, s: dict[str, Any]) -> str:
+def _describe_mission(mission: dict[str, Any] | None, s: dict[str, Any], attached: bool) -> str:
     if mission is None:
-        return "n/a (no mission.yaml attachment)"
+        return (
+            "n/a (its mission.yaml attachment is not a mission)"
+            if attached
+            else ("n/a (no mission.yaml attachment)")
+        )
     wps = mission.get("waypoints")
     text = str(mission.get("name", "?"))
     if isinstance(wps, list):
