@@ -45,6 +45,15 @@ def _parse_point(ctx: click.Context, param: click.Parameter, value: str) -> tupl
     return parts
 
 
+def _check_population(ctx: click.Context, param: click.Parameter, value: int) -> int:
+    """The swarm's upper limit, refused before the map is read (the planner refuses < 2)."""
+    from planner.plan import MAX_POPULATION
+
+    if value > MAX_POPULATION:
+        raise click.BadParameter(f"must be at most {MAX_POPULATION:,}; got {value:,}")
+    return value
+
+
 def _extra_terms(t: dict[str, float]) -> str:
     """The optional terms of the cost that are in use (above-ground band, preferred height,
     smoothness), as the summary line prints the others."""
@@ -144,7 +153,8 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
 )
 @click.option(
     "--population",
-    type=click.IntRange(2, 100_000),  # planner.plan.MAX_POPULATION: refused before any allocation
+    type=int,
+    callback=_check_population,
     default=60,
     show_default=True,
     help="Swarm (or GA population) size, 2 to 100,000.",
