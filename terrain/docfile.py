@@ -46,7 +46,8 @@ def parse_yaml(text: str | bytes, label: str) -> Any:
 
     A document that is not YAML raises a one-line DataFileError naming ``label`` (the file, or
     ``'run.mcap', attachment 'mission.yaml'``), the line and the column, and PyYAML's words for
-    the problem without the quoted bits: never the content of a file that may not be ours."""
+    the problem with only its grammar tokens quoted (:func:`_grammar_only`): never the content of
+    a file that may not be ours."""
     loader = _DepthLimitedLoader(text)
     try:
         return loader.get_single_data()
