@@ -36,7 +36,8 @@ from terrapath.commands.view import view_cmd
 
 EXIT_ERROR = 1
 EXIT_SIGNAL_BASE = 128  # the shell's convention: 128 + the signal's number
-ENDING_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+# SIGHUP is POSIX only
+ENDING_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
 
 
 class Terminated(KeyboardInterrupt):

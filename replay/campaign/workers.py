@@ -27,8 +27,9 @@ PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 def bind_to_parent(parent: int) -> None:
     """End this process (SIGTERM) when ``parent`` -- the campaign -- dies."""
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, signal.SIG_DFL)
+    for name in ("SIGTERM", "SIGHUP"):  # SIGHUP is POSIX only
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
     if sys.platform.startswith("linux") and _pdeathsig(signal.SIGTERM):
         if os.getppid() != parent:  # the parent died before the request was made
             os.kill(os.getpid(), signal.SIGTERM)
