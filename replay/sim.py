@@ -37,6 +37,7 @@ from replay.flight.base import FlightStack, Vehicle
 from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
 from replay.guidance import AvoidanceDecision, FollowWaypoints, GuidanceRefused, command_record
+from replay.judge import RETURN_TIME_S, Conformance, StallJudge, Tolerances, stall_eas
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.record.base import Recorder
 from replay.sensors.base import Sensor
@@ -85,6 +86,14 @@ class ReplayConfig:
     # each beam a cone of this half-angle (deg; None: the avoider's choice, else a line)
     rangefinder_spread: float | None = None
     temperature_offset: float = 0.0  # K off the ISA standard day (hot day > 0), within +-50
+    # success: time over terrain the DEM did not measure is accepted (else a failure)
+    allow_unknown_terrain: bool = False
+    # conformance (replay.judge): the track within these of the plan (m; None: the larger of
+    # 30 m and half the planned clearance / of 50 m and a quarter of the turn radius), and back
+    # within them this long (s) after an avoider's manoeuvre or a new plan
+    vertical_tolerance: float | None = None
+    lateral_tolerance: float | None = None
+    return_time: float = RETURN_TIME_S
 
     def __post_init__(self) -> None:
         if self.avoid_period is not None and not (
@@ -126,7 +135,12 @@ class ReplayConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise InputError(f"replay setting {name!r} must be a number >= 0; got {v!r}")
+        for name in ("vertical_tolerance", "lateral_tolerance"):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise InputError(f"replay setting {name!r} must be a positive number; got {v!r}")
         for name in (
+            "return_time",
             "sample_hz",
             "radar_range",
             "radar_period",
@@ -303,13 +317,18 @@ def _vehicle_stack(
 ) -> FlightStack:
     """The vehicle's flight stack for the mission: its waypoints at its cruise speed (or the
     configured one), its turn fillets when it records a turn radius (else seed 000's 1 km leg
-    switch), terrain following when configured, in the configured day's air."""
+    switch), terrain following when configured (above the grid's conservative heights), in the
+    configured day's air."""
     return vehicle.flight_stack(
         np.array(mission.waypoints, dtype=np.float64),
         speed=float(cfg.airspeed or mission.cruise_speed),
         turn_radius=mission.turn_radius,
         switch_distance=cfg.switch_distance,
-        terrain_height=grid.height_at if (grid is not None and cfg.terrain_following) else None,
+        # the conservative heights the planner's clearance was checked on (bilinear: smooth
+        # enough for the controller's look-ahead)
+        terrain_height=(
+            grid.safety().height_at if (grid is not None and cfg.terrain_following) else None
+        ),
         terrain_clearance=cfg.terrain_following or 0.0,
         temperature_offset=cfg.temperature_offset,
     )
@@ -342,8 +361,20 @@ class _Loop:
         self.next_decision = 0.0
         self.zones = tuple(f"zone:{z.id or k}" for k, z in enumerate(mission.danger_zones))
         self.tracker = MetricsTracker(
-            [*threats.ids, *self.zones], self.wp0[0], self.wp0[-1], cfg.margin
+            [*threats.ids, *self.zones],
+            self.wp0[0],
+            self.wp0[-1],
+            cfg.margin,
+            allow_unknown=cfg.allow_unknown_terrain,
         )
+        # terrain is judged on the measured, conservative heights: the highest source value of
+        # the grid cell under the aircraft (the display heights are for the picture)
+        self.safety = grid.safety() if grid is not None else None
+        self.contact_at: tuple[float, float, float] | None = None
+        self.tolerances = tolerances(mission, stack, cfg)
+        self.conformance = Conformance(self.tolerances)
+        eas = stall_eas(stack.params)
+        self.stall = None if eas is None else StallJudge(eas, cfg.temperature_offset)
         self.record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
         self.times: list[FloatArray] = []
         self.states: list[FloatArray] = []
@@ -365,8 +396,12 @@ class _Loop:
             recorder.write_waypoints(0.0, self.wp0, "initial", 1)
 
     def ground(self, x: FloatArray, y: FloatArray) -> FloatArray:
-        if self.grid is not None:
-            return self.grid.height_at(x, y)
+        """The terrain the flight is judged against: the safety grid's height of the cell
+        containing each point (the highest measured height anywhere in it; never below the
+        bilinear display or safety heights there); 0 m without a map."""
+        g = self.safety
+        if g is not None:
+            return np.asarray(g.heights[g.cell_of(x, y)], dtype=np.float64)
         return np.zeros_like(np.asarray(x, dtype=np.float64))
 
     def fly(self, x: FloatArray, progress: Callable[[float, float], None] | None) -> None:
@@ -377,9 +412,10 @@ class _Loop:
             period = min(self.tick, self.duration - t)
             if period < 0.5 * stack.dt:
                 break  # the limit falls between two steps of the integrator: nothing left to fly
+            following = follows_plan(stack)
             log = stack.fly(x, t, period, record_every=self.record_every)
             x, t = log.x, log.t
-            contact_t = self._samples(log)
+            contact_t = self._samples(log, following)
             if contact_t is not None:
                 t = contact_t
                 break
@@ -395,8 +431,9 @@ class _Loop:
                 break
         self.t = t
 
-    def _samples(self, log: FlightLog) -> float | None:
-        """Keep the tick's samples (up to terrain contact) for the metrics and the recording;
+    def _samples(self, log: FlightLog, following: bool = True) -> float | None:
+        """Keep the tick's samples (up to terrain contact) for the metrics and the recording,
+        and judge them (stall, conformance: ``following`` whether the stack followed its legs);
         the time of terrain contact, else None."""
         ts, xs = log.times, log.states
         if not len(ts):
@@ -408,6 +445,7 @@ class _Loop:
         self.pending.append((ts[:keep], pos[:keep], clearance[:keep]))
         self.times.append(ts[:keep])
         self.states.append(xs[:keep])
+        self._judge(log, pos, keep, following)
         rec = self.recorder
         if rec is not None:
             _record_samples(rec, log, pos)
@@ -417,10 +455,29 @@ class _Loop:
             return None
         self.contact = True
         self.end_reason = "terrain contact"
+        h = int(hit[0])
+        self.contact_at = (float(pos[h, 0]), float(pos[h, 1]), float(clearance[h]))
         if rec is not None:
             where = f"x={pos[hit[0], 0]:.0f}, y={pos[hit[0], 1]:.0f}"
             rec.write_log(float(ts[hit[0]]), "error", f"terrain contact at {where}")
         return float(ts[hit[0]])
+
+    def _judge(self, log: FlightLog, pos: FloatArray, keep: int, following: bool) -> None:
+        """Stall and conformance of the first ``keep`` samples of the tick."""
+        ts, g = log.times[:keep], log.guidance[:keep]
+        if self.stall is not None:
+            airspeed = np.linalg.norm(log.states[:keep][:, [U, V, W]], axis=1)
+            self.stall.update(ts, pos[:keep], airspeed)
+        # a leg change that is not a fillet turns the aircraft onto a leg it is not yet on
+        turns = [r.t for r in log.reached if r.how != "fillet"]
+        self.conformance.update(
+            ts,
+            pos[:keep],
+            g[:, _CROSS_TRACK],
+            g[:, _ALTITUDE_CMD],
+            following,
+            converge_from=turns,
+        )
 
     def _events(self, log: FlightLog, t: float) -> None:
         """Record the tick's leg changes and the threats when they changed."""
@@ -472,6 +529,8 @@ class _Loop:
             return False
         record = _apply(decision, self.stack, t, compute, avoider, self.tracker, self.recorder)
         self.decisions.append(record)
+        if decision.command is not None and "refused" not in record:
+            self.conformance.settle(t)  # a new plan or a manoeuvre: time to converge
         if decision.end is None:
             return False
         self.end_reason = decision.end
@@ -481,15 +540,65 @@ class _Loop:
 
     def finish(self) -> RunMetrics:
         _flush(self.pending, self.validity, self.tracker, self.zones, self.recorder)
+        judged = list(self.conformance.failures(self.t))
+        if self.stall is not None:
+            judged += self.stall.failures(self.t)
+        tol = self.tolerances
         metrics = self.tracker.finish(
             self.t,
             reached_goal=self.end_reason == "goal",
             terrain_contact=self.contact,
             end_reason=self.end_reason,
+            contact_at=self.contact_at,
+            failures=judged,
+            off_plan_s=self.conformance.off_plan_s,
+            judged_by={
+                "terrain": "the highest measured height of the grid cell under the aircraft"
+                if self.safety is not None
+                else "flat ground at 0 m",
+                "vertical_tolerance_m": tol.vertical,
+                "lateral_tolerance_m": tol.lateral,
+                "return_time_s": tol.return_time,
+                "stall_eas_mps": None if self.stall is None else self.stall.eas,
+                "stall_min_s": None if self.stall is None else self.stall.min_s,
+                "allow_unknown_terrain": self.cfg.allow_unknown_terrain,
+            },
         )
         if self.recorder is not None:
             self.recorder.write_metrics(metrics.as_dict())
         return metrics
+
+
+_CROSS_TRACK = GUIDANCE_COLUMNS.index("cross_track")
+_ALTITUDE_CMD = GUIDANCE_COLUMNS.index("altitude_cmd")
+
+
+def follows_plan(stack: FlightStack) -> bool:
+    """Whether the stack follows its waypoint legs (or a go-to leg an avoider gave it), rather
+    than flying an avoider's commands (a course, an orbit, a climb rate, a held position): the
+    fixed wing's autopilot in its ``waypoints`` mode, the multirotor in its ``leg`` mode."""
+    autopilot = getattr(stack, "autopilot", None)
+    if autopilot is not None:
+        return bool(autopilot.guidance.mode == "waypoints")
+    mode = getattr(stack, "mode", None)
+    return mode is None or mode == "leg"
+
+
+def tolerances(mission: Mission, stack: FlightStack, cfg: ReplayConfig) -> Tolerances:
+    """The conformance tolerances of a run: the configured ones, else the defaults from the
+    mission's planned clearance and turn radius (else the vehicle's tightest turn at the
+    airspeed)."""
+    radius = mission.turn_radius
+    if radius is None and hasattr(stack.params, "min_turn_radius"):
+        radius = stack.params.min_turn_radius(float(cfg.airspeed or mission.cruise_speed))
+    clearance = mission.plan.get("clearance") if isinstance(mission.plan, dict) else None
+    return Tolerances.of(
+        cfg.vertical_tolerance,
+        cfg.lateral_tolerance,
+        cfg.return_time,
+        planned_clearance=clearance if isinstance(clearance, int | float) else None,
+        turn_radius=radius,
+    )
 
 
 GOAL_MISS_FACTOR = 2.0  # passing the goal's plane farther than this x the arrival distance
@@ -646,7 +755,14 @@ def _apply(
                         f"avoidance: {avoider.name} {decision.reason}".strip(),
                         cmd.next_index,
                     )
-    tracker.decision(compute, added)
+    gave_up = None
+    if refused is not None:
+        gave_up = f"refused by the flight stack: {refused}"
+    elif decision.end is not None:
+        gave_up = f"ended the run: {decision.end}"
+    elif decision.reason.startswith("failed"):
+        gave_up = decision.reason
+    tracker.decision(compute, added, t=t, gave_up=gave_up)
     record: dict[str, Any] = {
         "t": t,
         "algorithm": avoider.name,

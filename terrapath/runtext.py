@@ -69,22 +69,18 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
     """The run-level metrics (a ``RunMetrics.as_dict()``); keys a run did not record are left out."""
     rows: list[tuple[str, str]] = []
     if "success" in m:
+        failures = [f for f in m.get("failures") or [] if isinstance(f, dict)]
         if m["success"]:
-            verdict = (
-                "yes (reached the goal, no safety volume or danger zone entered, no terrain "
-                "contact, always over the map)"
+            verdict = "yes (the goal reached and the mission flown: no failure)"
+        elif failures:
+            names = list(dict.fromkeys(str(f.get("name")) for f in failures))
+            verdict = f"NO ({plural(len(failures), 'failure')}: {', '.join(names)}; see below)"
+        else:  # a run recorded before failures were named
+            verdict = "NO" + (
+                f" (ended by {m['end_reason']})"
+                if m.get("end_reason") not in (None, "goal")
+                else ""
             )
-        else:
-            why = []
-            if m.get("end_reason") not in (None, "goal"):
-                why.append(f"ended by {m['end_reason']}")
-            if m.get("terrain_contact") and m.get("end_reason") != "terrain contact":
-                why.append("terrain contact")
-            if m.get("violations"):
-                why.append(plural(len(m["violations"]), "safety violation"))
-            if _number(m.get("off_map_s")):
-                why.append(f"{seconds(m['off_map_s'])} off the map")
-            verdict = "NO" + (f" ({', '.join(why)})" if why else "")
         rows.append(("success", verdict))
     if "flight_time_s" in m:
         rows.append(("flight time", duration(m["flight_time_s"])))
@@ -112,6 +108,15 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
         rows.append(
             ("over unknown terrain", seconds(m["unknown_terrain_s"]) + " (the DEM filled it)")
         )
+    if _number(m.get("off_plan_s")):
+        judged = m.get("judged_by") or {}
+        tol = (
+            f" (beyond {metres(judged.get('lateral_tolerance_m'))} laterally or "
+            f"{metres(judged.get('vertical_tolerance_m'))} vertically, or on an avoider's commands)"
+            if judged
+            else ""
+        )
+        rows.append(("off the plan", seconds(m["off_plan_s"]) + tol))
     if "waypoints_added" in m:
         rows.append(("waypoints added", str(m["waypoints_added"])))
     if "decisions" in m:
@@ -167,11 +172,49 @@ def threat_lines(m: Mapping[str, Any]) -> list[str]:
     return [*lines, SEPARATION_NOTE]
 
 
+MAX_FAILURE_LINES = 12  # more of them are counted per name on one line
+
+
+def failure_lines(m: Mapping[str, Any]) -> list[str]:
+    """One line per failure of metrics ``m`` (``name: why``), the first ``MAX_FAILURE_LINES``,
+    then the rest counted per name; [] for a success."""
+    failures = [f for f in m.get("failures") or [] if isinstance(f, dict)]
+    if not failures:
+        return []
+    lines = ["why it failed:"]
+    lines += [f"  {f.get('name')}: {f.get('text')}" for f in failures[:MAX_FAILURE_LINES]]
+    rest = failures[MAX_FAILURE_LINES:]
+    if rest:
+        counts: dict[str, int] = {}
+        for f in rest:
+            counts[str(f.get("name"))] = counts.get(str(f.get("name")), 0) + 1
+        lines.append("  and " + ", ".join(f"{n} more {k}" for k, n in counts.items()))
+    return lines
+
+
+def gave_up_lines(m: Mapping[str, Any]) -> list[str]:
+    """The avoider's decisions that gave up, per reason: how many and the first time; []
+    when none did."""
+    entries = [g for g in m.get("gave_up") or [] if isinstance(g, dict)]
+    if not entries:
+        return []
+    total = sum(int(g.get("count", 0)) for g in entries)
+    lines = [f"the avoider gave up {plural(total, 'time')}:"]
+    for g in entries:
+        first = str(g.get("first", ""))
+        lines.append(
+            f"  {g.get('count')} x {g.get('reason')} (first at t = {seconds(g.get('t_first'))}"
+            + (f": {first})" if first and first != g.get("reason") else ")")
+        )
+    return lines
+
+
 def report_lines(rows: list[tuple[str, str]], m: Mapping[str, Any]) -> list[str]:
-    """The aligned ``rows`` and, after a blank line, the threat table of metrics ``m`` (if any):
-    what ``replay`` and ``inspect`` print."""
+    """The aligned ``rows``; after a blank line each, why the run failed, the avoider's
+    decisions that gave up and the threat table of metrics ``m`` (those it has): what
+    ``replay`` and ``inspect`` print."""
     out = table(rows)
-    threats = threat_lines(m)
-    if threats:
-        out += ["", *threats]
+    for block in (failure_lines(m), gave_up_lines(m), threat_lines(m)):
+        if block:
+            out += ["", *block]
     return out

@@ -242,6 +242,35 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "stay >= this many metres (e.g. FGA's d_m, CTGA's R_safe); reported with the metrics.",
 )
 @click.option(
+    "--allow-unknown-terrain",
+    is_flag=True,
+    help="Accept time over terrain the DEM did not measure (filled nodata, outside the source "
+    "raster); by default it is a failure (unknown_terrain), like the map's edge.",
+)
+@click.option(
+    "--vertical-tolerance",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    help="Success needs the altitude within this many metres of the autopilot's altitude "
+    "command along the plan (default: the larger of 30 m and half the planned clearance).",
+)
+@click.option(
+    "--lateral-tolerance",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    help="Success needs the track within this many metres of the path it is meant to fly (the "
+    "legs and their turn fillets; default: the larger of 50 m and a quarter of the turn radius).",
+)
+@click.option(
+    "--return-time",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=60.0,
+    show_default=True,
+    help="Seconds the aircraft has to get back within the tolerances after an avoider's "
+    "manoeuvre or new plan (or a leg change that is not a turn fillet); still off then: "
+    "not_back_on_plan.",
+)
+@click.option(
     "--temperature-offset",
     type=click.FloatRange(min=-50.0, max=50.0),
     default=0.0,
@@ -285,8 +314,10 @@ def replay_cmd(
     ceiling, a leg climbing or descending faster than it can, a cruise.turn_radius tighter than
     it turns.
 
-    Exit status: 0 success (goal reached, no safety volume entered, no terrain contact), 3 the
-    flight failed (still recorded), 1 error (a refused mission among them)."""
+    Exit status: 0 success (the goal reached and the mission flown: no safety volume entered,
+    no terrain contact on the measured heights, over known terrain on the map, no stall, the
+    track within the tolerances of the plan), 3 the flight failed (still recorded; each failure
+    named), 1 error (a refused mission among them)."""
     from replay.run import ReplayRequest, prepare_replay, run_replay
 
     _check_output(source, output)
@@ -356,17 +387,12 @@ def _ca_options(avoid: str, settings: dict[str, Any]) -> dict[str, Any]:
 
 
 def _verdict(m: Any, output: str) -> int:
-    """0 for a success; else say why the flight failed, and EXIT_FAILED."""
+    """0 for a success; else name the failures, and EXIT_FAILED."""
     if m.success:
         return 0
-    reasons = []
-    if m.end_reason != "goal":
-        reasons.append(f"ended by {m.end_reason}")
-    if m.violations:
-        n = len(m.violations)
-        reasons.append(f"{n} safety violation{'s' if n != 1 else ''}")
+    names = list(dict.fromkeys(f.name for f in m.failures))
     click.echo(
-        f"terrapath: replay failed: {', '.join(reasons) or 'not a success'} "
+        f"terrapath: replay failed: {', '.join(names) or 'not a success'} "
         f"(the run is recorded in {output})",
         err=True,
     )

@@ -1,0 +1,318 @@
+"""Was the mission flown? The judgements of a replay beyond the threats (DESIGN.md §4, issue 32),
+each a named :class:`Failure` in the run's metrics.
+
+- **Spans** (:class:`Spans`): the intervals where a per-sample condition holds, fed chunk by
+  chunk, each with its start and end, the worst value and where it was.
+- **Stall** (:class:`StallJudge`): the equivalent airspeed below the fixed-wing aircraft's 1-g
+  stall speed (``sqrt(2 W / (rho0 S CL_max))``, EAS: the same at every altitude) for more than
+  ``STALL_MIN_S`` seconds.  Multirotors have no stall.
+- **Conformance** (:class:`Conformance`): the track within ``lateral`` metres of the path the
+  autopilot was asked to fly (its own cross-track error to the current leg or turn fillet) and
+  within ``vertical`` metres of the altitude it was asked to hold (its altitude command along the
+  leg).  While an avoider steers with commands rather than a path (a course, an orbit, a climb
+  rate...) the track is not judged; after every command, and after every leg change that is not a
+  turn fillet (seed 000's switch 1 km before a waypoint turns the aircraft onto a leg it is not
+  yet on), the aircraft has ``return_time`` seconds to converge.  An excursion that is already
+  under way when that time runs out is ``not_back_on_plan``; one that starts later is a
+  ``lateral_excursion`` or ``vertical_excursion``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from terrain.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+STALL_MIN_S = 2.0  # below the stall speed for longer than this is a stall (a gust is not)
+RETURN_TIME_S = 60.0  # default: back within the tolerances this long after a manoeuvre
+VERTICAL_TOLERANCE_M = 30.0  # default: at least this, or half the planned clearance
+LATERAL_TOLERANCE_M = 50.0  # default: at least this, or a quarter of the turn radius
+
+# every failure a run can have, in the order they are listed
+FAILURE_NAMES = (
+    "terrain_contact",
+    "off_map",
+    "unknown_terrain",
+    "violation",
+    "stall",
+    "lateral_excursion",
+    "vertical_excursion",
+    "not_back_on_plan",
+    "missed_goal",
+    "avoider_end",
+    "time_limit",
+)
+
+
+@dataclass(frozen=True)
+class Failure:
+    """One reason a run is not a success: its ``name`` (one of ``FAILURE_NAMES``), when (``t_end``
+    None: until the end of the run), where (map x, y of the worst moment), the worst ``value``
+    (metres, or m/s for a stall; NaN when it has none) and one line for people."""
+
+    name: str
+    t_start: float
+    t_end: float | None
+    where: tuple[float, float] | None
+    value: float
+    text: str
+
+
+@dataclass
+class Span:
+    """An interval of samples (``t_end`` is the first sample after it; None: still open)."""
+
+    t_start: float
+    t_end: float | None
+    worst: float
+    x: float
+    y: float
+    tag: bool = False  # e.g. opened as a manoeuvre's grace ran out
+
+    def duration(self, t_end: float) -> float:
+        return (t_end if self.t_end is None else self.t_end) - self.t_start
+
+
+class Spans:
+    """The intervals where a per-sample condition holds, fed chunk by chunk (the result does not
+    depend on how the samples are chunked)."""
+
+    def __init__(self) -> None:
+        self.spans: list[Span] = []
+        self.open: Span | None = None
+
+    def update(
+        self,
+        times: FloatArray,
+        mask: npt.ArrayLike,
+        values: FloatArray,
+        positions: FloatArray,
+        tags: BoolArray | None = None,
+    ) -> None:
+        """``mask`` (k,) where the condition holds at ``times`` (k,), its ``values`` (k,; the
+        worst is the largest) at ``positions`` (k, >= 2); ``tags`` (k,) what a span opening at a
+        sample is tagged with."""
+        m = np.asarray(mask, dtype=bool)
+        if not len(m):
+            return
+        if self.open is not None and not m[0]:
+            self._close(float(times[0]))
+        cuts = [0, *(np.flatnonzero(np.diff(m.astype(np.int8))) + 1).tolist(), len(m)]
+        for a, b in itertools.pairwise(cuts):
+            if not m[a]:
+                continue
+            k = a + int(np.argmax(values[a:b]))
+            worst = float(values[k])
+            span = self.open
+            if span is None:
+                tag = bool(tags[a]) if tags is not None else False
+                span = Span(float(times[a]), None, -math.inf, math.nan, math.nan, tag)
+                self.open = span
+            if worst > span.worst:
+                span.worst, span.x, span.y = worst, float(positions[k, 0]), float(positions[k, 1])
+            if b < len(m):
+                self._close(float(times[b]))
+
+    def _close(self, t: float) -> None:
+        assert self.open is not None
+        self.open.t_end = t
+        self.spans.append(self.open)
+        self.open = None
+
+    def finish(self) -> list[Span]:
+        """Every span, the one still open last (``t_end`` None)."""
+        if self.open is not None:
+            self.spans.append(self.open)
+            self.open = None
+        return self.spans
+
+
+def span_text(span: Span, t_end: float) -> str:
+    """``t = 12.0-15.5 s (3.5 s) at (x, y)``."""
+    end = "the end" if span.t_end is None else f"{span.t_end:.1f}"
+    return (
+        f"t = {span.t_start:.1f} s to {end}{'' if span.t_end is None else ' s'} ({span.duration(t_end):.1f} s) "
+        f"at ({_metre(span.x)}, {_metre(span.y)})"
+    )
+
+
+def _metre(v: float) -> str:
+    return "?" if math.isnan(v) else str(int(round(v)))
+
+
+def _where(span: Span) -> tuple[float, float] | None:
+    return None if math.isnan(span.x) else (span.x, span.y)
+
+
+# ---- stall -----------------------------------------------------------------------------------
+def stall_eas(params: Any) -> float | None:
+    """The 1-g stall speed (m/s, equivalent airspeed) of a fixed-wing vehicle: the speed at which
+    level flight needs the largest lift coefficient of its lift curve; None for a vehicle without
+    a wing (a multirotor)."""
+    if not hasattr(params, "CLalpha"):
+        return None
+    from replay.flight.atmosphere import RHO0
+    from replay.flight.fixedwing.dynamics import lift_coefficient
+    from replay.flight.fixedwing.trim import alpha_max_lift
+
+    cl_max = lift_coefficient(alpha_max_lift(params), params)
+    return math.sqrt(2.0 * params.weight / (RHO0 * params.S * cl_max))
+
+
+class StallJudge:
+    """Spans with the equivalent airspeed below the stall's ``eas`` (m/s); those longer than
+    ``min_s`` are stalls."""
+
+    def __init__(self, eas: float, temperature_offset: float = 0.0, min_s: float = STALL_MIN_S):
+        self.eas = float(eas)
+        self.dtemp = float(temperature_offset)
+        self.min_s = float(min_s)
+        self.spans = Spans()
+
+    def update(self, times: FloatArray, positions: FloatArray, airspeed: FloatArray) -> None:
+        from replay.flight.atmosphere import equivalent_airspeed
+
+        eas = np.asarray(equivalent_airspeed(airspeed, positions[:, 2], self.dtemp))
+        self.spans.update(times, eas < self.eas, self.eas - eas, positions)
+
+    def failures(self, t_end: float) -> list[Failure]:
+        out = []
+        for s in self.spans.finish():
+            if s.duration(t_end) <= self.min_s:
+                continue
+            low = self.eas - s.worst
+            out.append(
+                Failure(
+                    "stall",
+                    s.t_start,
+                    s.t_end,
+                    _where(s),
+                    low,
+                    f"airspeed {low:.1f} m/s EAS, below the stall's {self.eas:.1f} m/s, "
+                    + span_text(s, t_end),
+                )
+            )
+        return out
+
+
+# ---- conformance -----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Tolerances:
+    """How far the track may stray from the plan (m) and how long a return may take (s)."""
+
+    vertical: float
+    lateral: float
+    return_time: float
+
+    def __post_init__(self) -> None:
+        for name in ("vertical", "lateral", "return_time"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise InputError(f"conformance {name} must be a positive number; got {v!r}")
+
+    @classmethod
+    def of(
+        cls,
+        vertical: float | None,
+        lateral: float | None,
+        return_time: float | None,
+        *,
+        planned_clearance: float | None,
+        turn_radius: float | None,
+    ) -> Tolerances:
+        """The given tolerances, else the defaults: vertical the larger of 30 m and half the
+        planned clearance, lateral the larger of 50 m and a quarter of the turn radius, the
+        return 60 s."""
+        if vertical is None:
+            vertical = max(VERTICAL_TOLERANCE_M, 0.5 * float(planned_clearance or 0.0))
+        if lateral is None:
+            lateral = max(LATERAL_TOLERANCE_M, 0.25 * float(turn_radius or 0.0))
+        return cls(float(vertical), float(lateral), float(return_time or RETURN_TIME_S))
+
+
+class Conformance:
+    """The track against the autopilot's own guidance, sample by sample (module docstring)."""
+
+    def __init__(self, tolerances: Tolerances) -> None:
+        self.tol = tolerances
+        self.lateral = Spans()
+        self.vertical = Spans()
+        self.settle_until = -math.inf
+        self.after_command = False  # the latest grace follows an avoider's command
+        self.judged_before = True
+        self.off_plan_s = 0.0
+        self.t_last: float | None = None
+
+    def settle(self, t: float) -> None:
+        """A new plan or command at ``t``: the aircraft has the return time to converge."""
+        self.settle_until = max(self.settle_until, float(t) + self.tol.return_time)
+        self.after_command = True
+
+    def update(
+        self,
+        times: FloatArray,
+        positions: FloatArray,
+        cross_track: FloatArray,
+        altitude_cmd: FloatArray,
+        following: bool,
+        converge_from: Sequence[float] = (),
+    ) -> None:
+        """One chunk: map ``positions`` (k, 3) at ``times``, the autopilot's ``cross_track`` and
+        ``altitude_cmd`` there; ``following`` whether it followed its legs (else it flew an
+        avoider's commands); ``converge_from``: times in the chunk after which it has to converge
+        anew (leg changes that are not fillets)."""
+        if not len(times):
+            return
+        rt = self.tol.return_time
+        settled = times >= self.settle_until
+        for te in converge_from:
+            settled &= ~((times >= te) & (times < te + rt))
+            if te + rt >= self.settle_until:
+                self.settle_until, self.after_command = te + rt, False
+        judged = settled & bool(following)
+        lat = np.abs(cross_track)
+        vert = np.abs(positions[:, 2] - altitude_cmd)
+        # the first judged samples after an avoider's manoeuvre or new plan
+        fresh = judged & ~np.concatenate([[self.judged_before], judged[:-1]]) & self.after_command
+        self.judged_before = bool(judged[-1])
+        self.lateral.update(times, judged & (lat > self.tol.lateral), lat, positions, fresh)
+        self.vertical.update(times, judged & (vert > self.tol.vertical), vert, positions, fresh)
+        prev = self.t_last if self.t_last is not None else float(times[0])
+        step = np.diff(np.concatenate([[prev], times]))
+        self.t_last = float(times[-1])
+        # off the plan: flying an avoider's commands, or beyond a tolerance (settling or not)
+        off = (lat > self.tol.lateral) | (vert > self.tol.vertical) | (not following)
+        self.off_plan_s += float(step[off].sum())
+
+    def failures(self, t_end: float) -> list[Failure]:
+        out = []
+        for what, spans, tol in (
+            ("lateral", self.lateral, self.tol.lateral),
+            ("vertical", self.vertical, self.tol.vertical),
+        ):
+            for s in spans.finish():
+                if s.tag:
+                    name = "not_back_on_plan"
+                    text = (
+                        f"still {s.worst:.0f} m off the plan {what}ly {self.tol.return_time:g} s "
+                        f"after the avoider's last command (tolerance {tol:g} m), "
+                    )
+                else:
+                    name = f"{what}_excursion"
+                    text = f"{s.worst:.0f} m off the plan {what}ly (tolerance {tol:g} m), "
+                out.append(
+                    Failure(
+                        name, s.t_start, s.t_end, _where(s), s.worst, text + span_text(s, t_end)
+                    )
+                )
+        return out
