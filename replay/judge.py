@@ -241,10 +241,23 @@ class Tolerances:
 
 
 class Conformance:
-    """The track against the autopilot's own guidance, sample by sample (module docstring)."""
+    """The track against the autopilot's own guidance, sample by sample (module docstring).
 
-    def __init__(self, tolerances: Tolerances) -> None:
+    Vertically the altitude is compared with the altitude command as the vehicle can follow it:
+    the command rate-limited to its ``climb_rate`` and ``descent_rate`` (m/s), from where the
+    aircraft was when it last took up its legs -- a terrain-following floor that steps up is
+    then judged by whether the aircraft climbs as fast as it can, not by the step."""
+
+    def __init__(
+        self,
+        tolerances: Tolerances,
+        climb_rate: float = math.inf,
+        descent_rate: float = math.inf,
+    ) -> None:
         self.tol = tolerances
+        self.climb_rate = float(climb_rate)
+        self.descent_rate = float(descent_rate)
+        self.reference: float | None = None  # the reachable altitude command
         self.lateral = Spans()
         self.vertical = Spans()
         self.settle_until = -math.inf
@@ -281,7 +294,9 @@ class Conformance:
                 self.settle_until, self.after_command = te + rt, False
         judged = settled & bool(following)
         lat = np.abs(cross_track)
-        vert = np.abs(positions[:, 2] - altitude_cmd)
+        vert = np.abs(
+            positions[:, 2] - self._reachable(times, positions[:, 2], altitude_cmd, following)
+        )
         # the first judged samples after an avoider's manoeuvre or new plan
         fresh = judged & ~np.concatenate([[self.judged_before], judged[:-1]]) & self.after_command
         self.judged_before = bool(judged[-1])
@@ -293,6 +308,24 @@ class Conformance:
         # off the plan: flying an avoider's commands, or beyond a tolerance (settling or not)
         off = (lat > self.tol.lateral) | (vert > self.tol.vertical) | (not following)
         self.off_plan_s += float(step[off].sum())
+
+    def _reachable(
+        self, times: FloatArray, z: FloatArray, command: FloatArray, following: bool
+    ) -> FloatArray:
+        """The altitude command rate-limited to the vehicle's climb and descent rates (the
+        aircraft's own altitude while it flies an avoider's commands)."""
+        if not following:
+            self.reference = float(z[-1])
+            return np.asarray(z, dtype=np.float64)
+        out = np.empty(len(times))
+        ref = float(z[0]) if self.reference is None else self.reference
+        prev = float(times[0]) if self.t_last is None else self.t_last
+        for k, (t, c) in enumerate(zip(times.tolist(), command.tolist(), strict=True)):
+            dt = max(0.0, t - prev)
+            ref = min(max(c, ref - self.descent_rate * dt), ref + self.climb_rate * dt)
+            out[k], prev = ref, t
+        self.reference = ref
+        return out
 
     def failures(self, t_end: float) -> list[Failure]:
         out = []

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -133,7 +133,6 @@ class MetricsTracker:
         self.allow_unknown = bool(allow_unknown)
         self.off_map_spans = Spans()
         self.unknown_spans = Spans()
-        self.violation_where: dict[tuple[str, float], tuple[float, float]] = {}
         self.gave_up: dict[str, dict[str, Any]] = {}
         self.t_last: float | None = None
 
@@ -192,11 +191,9 @@ class MetricsTracker:
         # a threat never inside in this chunk, and not inside before it, opens no interval
         entered = np.flatnonzero((separations < self.margin).any(axis=0)).tolist()
         for c in sorted({*entered, *(c for c, tid in enumerate(ids) if tid in self.inside)}):
-            self._track_violation(ids[c], times, separations[:, c], positions)
+            self._track_violation(ids[c], times, separations[:, c])
 
-    def _track_violation(
-        self, tid: str, times: FloatArray, sep: FloatArray, positions: FloatArray | None = None
-    ) -> None:
+    def _track_violation(self, tid: str, times: FloatArray, sep: FloatArray) -> None:
         """Open/close violation intervals at the samples where the separation crosses the margin
         (0: the threat's surface)."""
         inside = sep < self.margin
@@ -207,11 +204,6 @@ class MetricsTracker:
         for e in np.flatnonzero(inside != before).tolist():
             if inside[e]:  # enters at sample e
                 t0, low, start = float(times[e]), math.inf, e
-                if positions is not None:
-                    self.violation_where[(tid, t0)] = (
-                        float(positions[e, 0]),
-                        float(positions[e, 1]),
-                    )
             else:  # leaves at sample e
                 low = min(low, float(sep[start:e].min())) if e > start else low
                 self.violations.append(Violation(tid, t0, float(times[e]), low))
@@ -255,9 +247,11 @@ class MetricsTracker:
         failures: Sequence[Failure] = (),
         off_plan_s: float = 0.0,
         judged_by: dict[str, Any] | None = None,
+        position_at: Callable[[float], tuple[float, float]] | None = None,
     ) -> RunMetrics:
         """The run's metrics; ``contact_at`` (x, y, clearance) where the terrain was touched,
-        ``failures`` the loop's other judges found (stall, conformance)."""
+        ``failures`` the loop's other judges found (stall, conformance), ``position_at(t)`` the
+        map (x, y) of the aircraft at time t (where a violation began)."""
         for tid, (t0, m) in list(self.inside.items()):
             self.violations.append(Violation(tid, t0, None, m))
         self.inside.clear()
@@ -265,7 +259,9 @@ class MetricsTracker:
         straight = float(np.linalg.norm(self.goal - self.start))
         dt = self.decision_times
         found = [
-            *self._failures(t_end, reached_goal, terrain_contact, end_reason, contact_at),
+            *self._failures(
+                t_end, reached_goal, terrain_contact, end_reason, contact_at, position_at
+            ),
             *failures,
         ]
         order = {n: k for k, n in enumerate(FAILURE_NAMES)}
@@ -307,6 +303,7 @@ class MetricsTracker:
         terrain_contact: bool,
         end_reason: str,
         contact_at: tuple[float, float, float] | None,
+        position_at: Callable[[float], tuple[float, float]] | None = None,
     ) -> list[Failure]:
         """The failures this tracker judges: terrain contact, the map, unknown terrain, safety
         volumes and how the run ended."""
@@ -343,7 +340,7 @@ class MetricsTracker:
                     )
                 )
         for v in self.violations:
-            where = self.violation_where.get((v.threat, v.t_enter))
+            where = None if position_at is None else position_at(v.t_enter)
             end = "the end" if v.t_exit is None else f"{v.t_exit:.1f} s"
             inside = f"closer than {self.margin:g} m to" if self.margin else "inside"
             out.append(

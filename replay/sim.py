@@ -372,7 +372,11 @@ class _Loop:
         self.safety = grid.safety() if grid is not None else None
         self.contact_at: tuple[float, float, float] | None = None
         self.tolerances = tolerances(mission, stack, cfg)
-        self.conformance = Conformance(self.tolerances)
+        params = stack.params
+        climb = float(getattr(params, "climb_rate_max", math.inf))
+        self.conformance = Conformance(
+            self.tolerances, climb, float(getattr(params, "descent_rate_max", climb))
+        )
         eas = stall_eas(stack.params)
         self.stall = None if eas is None else StallJudge(eas, cfg.temperature_offset)
         self.record_every = max(1, int(round(1.0 / (cfg.sample_hz * stack.dt))))
@@ -538,6 +542,17 @@ class _Loop:
             self.recorder.write_log(t, "error", f"{avoider.name}: {decision.end}")
         return True
 
+    def _position_at(self, t: float) -> tuple[float, float]:
+        """Map (x, y) of the sample at (or just after) time ``t`` (of the samples kept so far)."""
+        if not self.times:
+            return (math.nan, math.nan)
+        if len(self.times) > 1:  # once: the run has ended when this is asked
+            self.times, self.states = [np.concatenate(self.times)], [np.concatenate(self.states)]
+        times, states = self.times[0], self.states[0]
+        k = min(int(np.searchsorted(times, t)), len(times) - 1)
+        p = ned_to_map(states[k, :3])
+        return (float(p[0]), float(p[1]))
+
     def finish(self) -> RunMetrics:
         _flush(self.pending, self.validity, self.tracker, self.zones, self.recorder)
         judged = list(self.conformance.failures(self.t))
@@ -550,6 +565,7 @@ class _Loop:
             terrain_contact=self.contact,
             end_reason=self.end_reason,
             contact_at=self.contact_at,
+            position_at=self._position_at,
             failures=judged,
             off_plan_s=self.conformance.off_plan_s,
             judged_by={

@@ -65,22 +65,52 @@ def table(rows: list[tuple[str, str]]) -> list[str]:
     return [f"{k:<{width}}  {v}" for k, v in rows]
 
 
+# how the failures of a kind are summed up on the success line (the run's end is said apart)
+_SUMMARY = {
+    "violation": ("safety violation", None),
+    "stall": ("stall", None),
+    "lateral_excursion": ("lateral excursion", None),
+    "vertical_excursion": ("vertical excursion", None),
+    "not_back_on_plan": ("time not back on the plan in time", "times not back on the plan in time"),
+}
+
+
+def failure_summary(m: Mapping[str, Any]) -> list[str]:
+    """Why a run failed, in a few words each: how it ended, then each kind of failure
+    (``ended by time limit``, ``1 safety violation``, ``35.2 s over unknown terrain``...); a
+    run recorded before failures were named gives what its metrics say."""
+    why = []
+    end = m.get("end_reason")
+    if end not in (None, "goal"):
+        why.append(f"ended by {end}")
+    failures = [f for f in m.get("failures") or [] if isinstance(f, dict)]
+    names = [str(f.get("name")) for f in failures]
+    if "failures" not in m:  # an older run: its violations and time off the map
+        names = ["violation"] * len(m.get("violations") or [])
+        names += ["off_map"] if _number(m.get("off_map_s")) else []
+        names += ["terrain_contact"] if m.get("terrain_contact") else []
+    for name in dict.fromkeys(names):
+        n = names.count(name)
+        if name == "terrain_contact" and end != "terrain contact":
+            why.append("terrain contact")
+        elif name == "off_map":
+            why.append(f"{seconds(m.get('off_map_s'))} off the map")
+        elif name == "unknown_terrain":
+            why.append(f"{seconds(m.get('unknown_terrain_s'))} over unknown terrain")
+        elif name in _SUMMARY:
+            why.append(plural(n, *_SUMMARY[name]))
+    return why
+
+
 def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
     """The run-level metrics (a ``RunMetrics.as_dict()``); keys a run did not record are left out."""
     rows: list[tuple[str, str]] = []
     if "success" in m:
-        failures = [f for f in m.get("failures") or [] if isinstance(f, dict)]
+        why = failure_summary(m)
         if m["success"]:
             verdict = "yes (the goal reached and the mission flown: no failure)"
-        elif failures:
-            names = list(dict.fromkeys(str(f.get("name")) for f in failures))
-            verdict = f"NO ({plural(len(failures), 'failure')}: {', '.join(names)}; see below)"
-        else:  # a run recorded before failures were named
-            verdict = "NO" + (
-                f" (ended by {m['end_reason']})"
-                if m.get("end_reason") not in (None, "goal")
-                else ""
-            )
+        else:
+            verdict = "NO" + (f" ({', '.join(why)})" if why else "")
         rows.append(("success", verdict))
     if "flight_time_s" in m:
         rows.append(("flight time", duration(m["flight_time_s"])))

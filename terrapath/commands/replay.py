@@ -13,7 +13,7 @@ from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError
 from terrapath.options import output_option, seed_option, vehicle_option
 from terrapath.progress import progress_bar
-from terrapath.runtext import duration, metrics_rows, report_lines
+from terrapath.runtext import duration, failure_summary, metrics_rows, report_lines
 
 EXIT_FAILED = 3  # the flight was recorded but is not a success (as `plan`'s infeasible)
 
@@ -387,12 +387,13 @@ def _ca_options(avoid: str, settings: dict[str, Any]) -> dict[str, Any]:
 
 
 def _verdict(m: Any, output: str) -> int:
-    """0 for a success; else name the failures, and EXIT_FAILED."""
+    """0 for a success; else say why the flight failed (each failure is listed above), and
+    EXIT_FAILED."""
     if m.success:
         return 0
-    names = list(dict.fromkeys(f.name for f in m.failures))
+    reasons = failure_summary(m.as_dict())
     click.echo(
-        f"terrapath: replay failed: {', '.join(names) or 'not a success'} "
+        f"terrapath: replay failed: {', '.join(reasons) or 'not a success'} "
         f"(the run is recorded in {output})",
         err=True,
     )
