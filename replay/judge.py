@@ -243,10 +243,11 @@ class Tolerances:
 class Conformance:
     """The track against the autopilot's own guidance, sample by sample (module docstring).
 
-    Vertically the altitude is compared with the altitude command as the vehicle can follow it:
-    the command rate-limited to its ``climb_rate`` and ``descent_rate`` (m/s), from where the
-    aircraft was when it last took up its legs -- a terrain-following floor that steps up is
-    then judged by whether the aircraft climbs as fast as it can, not by the step."""
+    Vertically the altitude is compared with the altitude command and with the command as the
+    vehicle can follow it (rate-limited to its ``climb_rate`` and ``descent_rate``, m/s, from
+    where the aircraft was when it last took up its legs): between the two is on the plan, and
+    the error is the distance outside them -- a terrain-following floor that steps up is judged
+    by whether the aircraft climbs as fast as it can, not by the step."""
 
     def __init__(
         self,
@@ -294,9 +295,11 @@ class Conformance:
                 self.settle_until, self.after_command = te + rt, False
         judged = settled & bool(following)
         lat = np.abs(cross_track)
-        vert = np.abs(
-            positions[:, 2] - self._reachable(times, positions[:, 2], altitude_cmd, following)
-        )
+        z = positions[:, 2]
+        reach = self._reachable(times, z, altitude_cmd, following)
+        # between the command and where the vehicle could be by now is on the plan
+        vert = np.maximum(np.minimum(reach, altitude_cmd) - z, z - np.maximum(reach, altitude_cmd))
+        vert = np.maximum(vert, 0.0)
         # the first judged samples after an avoider's manoeuvre or new plan
         fresh = judged & ~np.concatenate([[self.judged_before], judged[:-1]]) & self.after_command
         self.judged_before = bool(judged[-1])

@@ -21,6 +21,7 @@ time limit passes (``time limit``).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -373,7 +374,12 @@ class _Loop:
         self.contact_at: tuple[float, float, float] | None = None
         self.tolerances = tolerances(mission, stack, cfg)
         params = stack.params
-        climb = float(getattr(params, "climb_rate_max", math.inf))
+        climb = climb_rate(
+            params,
+            float(cfg.airspeed or mission.cruise_speed),
+            float(self.wp0[:, 2].max()),
+            cfg.temperature_offset,
+        )
         self.conformance = Conformance(
             self.tolerances, climb, float(getattr(params, "descent_rate_max", climb))
         )
@@ -598,6 +604,23 @@ def follows_plan(stack: FlightStack) -> bool:
         return bool(autopilot.guidance.mode == "waypoints")
     mode = getattr(stack, "mode", None)
     return mode is None or mode == "leg"
+
+
+@functools.lru_cache(maxsize=64)
+def climb_rate(params: Any, speed: float, altitude: float, temperature_offset: float) -> float:
+    """The climb rate (m/s) the vehicle can keep at ``speed`` up to ``altitude``: its limit, or
+    for a fixed wing the best steady climb there when that is less (thin air, little power);
+    what the vertical conformance expects of it."""
+    limit = float(getattr(params, "climb_rate_max", math.inf))
+    if not hasattr(params, "CLalpha"):
+        return limit
+    from replay.flight.fixedwing.trim import best_climb
+
+    try:
+        best = best_climb(params, speed, altitude, temperature_offset)
+    except (InputError, ValueError, ArithmeticError):
+        return limit
+    return min(limit, best) if best > 0.0 else limit
 
 
 def tolerances(mission: Mission, stack: FlightStack, cfg: ReplayConfig) -> Tolerances:
