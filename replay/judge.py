@@ -37,6 +37,9 @@ STALL_MIN_S = 2.0  # below the stall speed for longer than this is a stall (a gu
 RETURN_TIME_S = 60.0  # default: back within the tolerances this long after a manoeuvre
 VERTICAL_TOLERANCE_M = 30.0  # default: at least this, or half the planned clearance
 LATERAL_TOLERANCE_M = 50.0  # default: at least this, or a quarter of the turn radius
+# the share of its climb and descent rates a vehicle is expected to make good on a step of the
+# altitude command (an autopilot closes on its limits, it does not fly them exactly)
+RATE_SHARE = 0.8
 
 # every failure a run can have, in the order they are listed
 FAILURE_NAMES = (
@@ -244,7 +247,8 @@ class Conformance:
     """The track against the autopilot's own guidance, sample by sample (module docstring).
 
     Vertically the altitude is compared with the altitude command and with the command as the
-    vehicle can follow it (rate-limited to its ``climb_rate`` and ``descent_rate``, m/s, from
+    vehicle can follow it (rate-limited to ``RATE_SHARE`` of its ``climb_rate`` and
+    ``descent_rate``, m/s, from
     where the aircraft was when it last took up its legs): between the two is on the plan, and
     the error is the distance outside them -- a terrain-following floor that steps up is judged
     by whether the aircraft climbs as fast as it can, not by the step."""
@@ -256,8 +260,8 @@ class Conformance:
         descent_rate: float = math.inf,
     ) -> None:
         self.tol = tolerances
-        self.climb_rate = float(climb_rate)
-        self.descent_rate = float(descent_rate)
+        self.climb_rate = RATE_SHARE * float(climb_rate)
+        self.descent_rate = RATE_SHARE * float(descent_rate)
         self.reference: float | None = None  # the reachable altitude command
         self.lateral = Spans()
         self.vertical = Spans()
