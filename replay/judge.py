@@ -246,12 +246,12 @@ class Tolerances:
 class Conformance:
     """The track against the autopilot's own guidance, sample by sample (module docstring).
 
-    Vertically the altitude is compared with the altitude command and with the command as the
-    vehicle can follow it (rate-limited to ``RATE_SHARE`` of its ``climb_rate`` and
-    ``descent_rate``, m/s, from
-    where the aircraft was when it last took up its legs): between the two is on the plan, and
-    the error is the distance outside them -- a terrain-following floor that steps up is judged
-    by whether the aircraft climbs as fast as it can, not by the step."""
+    Vertically the altitude must lie in a band round the altitude command: after the command
+    steps up, its lower edge climbs to it at ``RATE_SHARE`` of the vehicle's ``climb_rate``
+    (m/s); after it steps down, its upper edge descends at that share of its ``descent_rate``
+    (from where the aircraft was when it last took up its legs).  The error is the distance
+    outside the band -- a terrain-following floor that steps up (or falls away) is judged by
+    whether the aircraft climbs (or descends) about as fast as it can, not by the step."""
 
     def __init__(
         self,
@@ -262,7 +262,8 @@ class Conformance:
         self.tol = tolerances
         self.climb_rate = RATE_SHARE * float(climb_rate)
         self.descent_rate = RATE_SHARE * float(descent_rate)
-        self.reference: float | None = None  # the reachable altitude command
+        # the band of altitudes the vehicle can be in on its way to the command (None: none yet)
+        self.band: tuple[float, float] | None = None
         self.lateral = Spans()
         self.vertical = Spans()
         self.settle_until = -math.inf
@@ -300,10 +301,8 @@ class Conformance:
         judged = settled & bool(following)
         lat = np.abs(cross_track)
         z = positions[:, 2]
-        reach = self._reachable(times, z, altitude_cmd, following)
-        # between the command and where the vehicle could be by now is on the plan
-        vert = np.maximum(np.minimum(reach, altitude_cmd) - z, z - np.maximum(reach, altitude_cmd))
-        vert = np.maximum(vert, 0.0)
+        low, high = self._reachable(times, z, altitude_cmd, following)
+        vert = np.maximum(np.maximum(low - z, z - high), 0.0)  # outside the band
         # the first judged samples after an avoider's manoeuvre or new plan
         fresh = judged & ~np.concatenate([[self.judged_before], judged[:-1]]) & self.after_command
         self.judged_before = bool(judged[-1])
@@ -318,21 +317,27 @@ class Conformance:
 
     def _reachable(
         self, times: FloatArray, z: FloatArray, command: FloatArray, following: bool
-    ) -> FloatArray:
-        """The altitude command rate-limited to the vehicle's climb and descent rates (the
-        aircraft's own altitude while it flies an avoider's commands)."""
+    ) -> tuple[FloatArray, FloatArray]:
+        """The band (low, high) of altitudes on the plan: the command, widened after a step by
+        where the vehicle can be by now -- ``low`` follows the command up at the climb rate (and
+        down at once), ``high`` follows it down at the descent rate (and up at once). While the
+        vehicle flies an avoider's commands the band is its own altitude."""
         if not following:
-            self.reference = float(z[-1])
-            return np.asarray(z, dtype=np.float64)
-        out = np.empty(len(times))
-        ref = float(z[0]) if self.reference is None else self.reference
+            self.band = (float(z[-1]), float(z[-1]))
+            return np.asarray(z, dtype=np.float64), np.asarray(z, dtype=np.float64)
+        low, high = np.empty(len(times)), np.empty(len(times))
+        if self.band is None:
+            self.band = (min(float(z[0]), float(command[0])), max(float(z[0]), float(command[0])))
+        lo, hi = self.band
         prev = float(times[0]) if self.t_last is None else self.t_last
+        up, down = self.climb_rate, self.descent_rate
         for k, (t, c) in enumerate(zip(times.tolist(), command.tolist(), strict=True)):
             dt = max(0.0, t - prev)
-            ref = min(max(c, ref - self.descent_rate * dt), ref + self.climb_rate * dt)
-            out[k], prev = ref, t
-        self.reference = ref
-        return out
+            lo = min(c, lo + up * dt)
+            hi = max(c, hi - down * dt)
+            low[k], high[k], prev = lo, hi, t
+        self.band = (lo, hi)
+        return low, high
 
     def failures(self, t_end: float) -> list[Failure]:
         out = []
