@@ -91,10 +91,11 @@ class ReplayConfig:
     allow_unknown_terrain: bool = False
     # conformance (replay.judge): the track within these of the plan (m; None: the larger of
     # 30 m and half the planned clearance / of 50 m and a quarter of the turn radius), and back
-    # within them this long (s) after an avoider's manoeuvre or a new plan
+    # within them this long (s) after an avoider's manoeuvre, a new plan or a leg change that is
+    # not a fillet (None: the longer of 60 s and two corner distances of flight)
     vertical_tolerance: float | None = None
     lateral_tolerance: float | None = None
-    return_time: float = RETURN_TIME_S
+    return_time: float | None = None
 
     def __post_init__(self) -> None:
         if self.avoid_period is not None and not (
@@ -136,12 +137,11 @@ class ReplayConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise InputError(f"replay setting {name!r} must be a number >= 0; got {v!r}")
-        for name in ("vertical_tolerance", "lateral_tolerance"):
+        for name in ("vertical_tolerance", "lateral_tolerance", "return_time"):
             v = getattr(self, name)
             if v is not None and not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise InputError(f"replay setting {name!r} must be a positive number; got {v!r}")
         for name in (
-            "return_time",
             "sample_hz",
             "radar_range",
             "radar_period",
@@ -626,15 +626,20 @@ def climb_rate(params: Any, speed: float, altitude: float, temperature_offset: f
 def tolerances(mission: Mission, stack: FlightStack, cfg: ReplayConfig) -> Tolerances:
     """The conformance tolerances of a run: the configured ones, else the defaults from the
     mission's planned clearance and turn radius (else the vehicle's tightest turn at the
-    airspeed)."""
+    airspeed), and a return time of 60 s or two corner distances of flight (seed 000's switch
+    1 km before a waypoint leaves a slow aircraft up to 1 km off its next leg), the longer."""
+    speed = float(cfg.airspeed or mission.cruise_speed)
+    back = cfg.return_time
+    if back is None:
+        back = max(RETURN_TIME_S, 2.0 * float(stack.corner_distance) / speed)
     radius = mission.turn_radius
     if radius is None and hasattr(stack.params, "min_turn_radius"):
-        radius = stack.params.min_turn_radius(float(cfg.airspeed or mission.cruise_speed))
+        radius = stack.params.min_turn_radius(speed)
     clearance = mission.plan.get("clearance") if isinstance(mission.plan, dict) else None
     return Tolerances.of(
         cfg.vertical_tolerance,
         cfg.lateral_tolerance,
-        cfg.return_time,
+        back,
         planned_clearance=clearance if isinstance(clearance, int | float) else None,
         turn_radius=radius,
     )

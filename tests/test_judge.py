@@ -303,9 +303,9 @@ def test_tolerance_defaults_and_settings() -> None:
     assert Tolerances.of(10.0, 20.0, 5.0, planned_clearance=500.0, turn_radius=1e4) == Tolerances(
         10.0, 20.0, 5.0
     )
-    for bad in ({"vertical_tolerance": -1.0}, {"lateral_tolerance": 0.0}, {"return_time": 0}):
+    for bad in ({"vertical_tolerance": -1.0}, {"lateral_tolerance": 0.0}, {"return_time": 0.0}):
         with pytest.raises(InputError, match=next(iter(bad))):
-            ReplayConfig(**bad)
+            ReplayConfig(**bad)  # type: ignore[arg-type]
 
 
 def test_reasons_are_grouped_without_the_obstacles_they_name() -> None:

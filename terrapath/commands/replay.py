@@ -264,11 +264,10 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 @click.option(
     "--return-time",
     type=click.FloatRange(min=0.0, min_open=True),
-    default=60.0,
-    show_default=True,
+    default=None,
     help="Seconds the aircraft has to get back within the tolerances after an avoider's "
     "manoeuvre or new plan (or a leg change that is not a turn fillet); still off then: "
-    "not_back_on_plan.",
+    "not_back_on_plan (default: the longer of 60 s and two corner distances of flight).",
 )
 @click.option(
     "--temperature-offset",
