@@ -7,14 +7,16 @@ each a named :class:`Failure` in the run's metrics.
   stall speed (``sqrt(2 W / (rho0 S CL_max))``, EAS: the same at every altitude) for more than
   ``STALL_MIN_S`` seconds.  Multirotors have no stall.
 - **Conformance** (:class:`Conformance`): the track within ``lateral`` metres of the path the
-  autopilot was asked to fly (its own cross-track error to the current leg or turn fillet) and
-  within ``vertical`` metres of the altitude it was asked to hold (its altitude command along the
-  leg).  While an avoider steers with commands rather than a path (a course, an orbit, a climb
-  rate...) the track is not judged; after every command, and after every leg change that is not a
-  turn fillet (seed 000's switch 1 km before a waypoint turns the aircraft onto a leg it is not
-  yet on), the aircraft has ``return_time`` seconds to converge.  An excursion that is already
-  under way when that time runs out is ``not_back_on_plan``; one that starts later is a
-  ``lateral_excursion`` or ``vertical_excursion``.
+  autopilot was asked to fly (its own cross-track error to the current leg or turn fillet: an
+  avoider's new waypoints are the plan) and within ``vertical`` metres of a band round the
+  altitude command it was asked to hold (the command, widened after a step by how fast the
+  vehicle can climb or descend to it).  While an avoider steers with commands rather than a path
+  (a course, an orbit, a climb rate, a held position) the track is not judged; after every
+  command, and after every leg change that is not a turn fillet (seed 000's switch 1 km before a
+  waypoint turns the aircraft onto a leg it is not yet on), the aircraft has ``return_time``
+  seconds to converge.  An excursion already under way when the time after an avoider's command
+  runs out is ``not_back_on_plan``; any other is a ``lateral_excursion`` or
+  ``vertical_excursion``.
 """
 
 from __future__ import annotations

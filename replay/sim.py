@@ -7,7 +7,10 @@ Per tick (the shorter of the sensor's period, 1 s by default, and the avoider's)
    100 Hz), sampling the state at ``sample_hz``;
 2. advances the threats (intruders move on their own schedule) and measures, at every sample, the
    separation to each active threat's safety volume and to each of the mission's danger zones,
-   the clearance above the terrain, and whether the aircraft is over the map;
+   the clearance above the terrain (the highest measured height of the grid cell under the
+   aircraft), whether the aircraft is over the map and over measured terrain, its equivalent
+   airspeed against its stall speed and its track against the autopilot's guidance
+   (:mod:`replay.judge`);
 3. records the samples (the recorder keeps its own log rate), leg changes and threat changes;
 4. scans with the sensor when it is due (``radar``, the ADS-B-like ``cooperative``, or the
    ``rangefinder`` beams of :mod:`replay.sensors.rangefinder`, given the vehicle's state), and asks
