@@ -309,7 +309,9 @@ class Conformance:
         fresh = judged & ~np.concatenate([[self.judged_before], judged[:-1]]) & self.after_command
         self.judged_before = bool(judged[-1])
         self.lateral.update(times, judged & (lat > self.tol.lateral), lat, positions, fresh)
-        self.vertical.update(times, judged & (vert > self.tol.vertical), vert, positions, fresh)
+        # how far: from the altitude commanded (the band decides whether it is off at all)
+        off_cmd = np.abs(z - altitude_cmd)
+        self.vertical.update(times, judged & (vert > self.tol.vertical), off_cmd, positions, fresh)
         prev = self.t_last if self.t_last is not None else float(times[0])
         step = np.diff(np.concatenate([[prev], times]))
         self.t_last = float(times[-1])
