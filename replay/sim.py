@@ -409,13 +409,19 @@ class _Loop:
             recorder.write_waypoints(0.0, self.wp0, "initial", 1)
 
     def ground(self, x: FloatArray, y: FloatArray) -> FloatArray:
-        """The terrain the flight is judged against: the safety grid's height of the cell
-        containing each point (the highest measured height anywhere in it; never below the
-        bilinear display or safety heights there); 0 m without a map."""
+        """The terrain the flight is judged against, from the measured heights: on a grid that
+        keeps the highest source value of each cell (``upper``: it was resampled, and that
+        value may lie anywhere in the cell) the value of the cell containing each point, never
+        below the bilinear safety or display heights there; on a grid whose heights are the
+        source cells themselves, the bilinear surface through them (what the planner's
+        clearance uses); 0 m without a map."""
         g = self.safety
-        if g is not None:
-            return np.asarray(g.heights[g.cell_of(x, y)], dtype=np.float64)
-        return np.zeros_like(np.asarray(x, dtype=np.float64))
+        if g is None:
+            return np.zeros_like(np.asarray(x, dtype=np.float64))
+        bilinear = g.height_at(x, y)
+        if self.grid is None or self.grid.upper is None:
+            return bilinear
+        return np.maximum(bilinear, g.heights[g.cell_of(x, y)])
 
     def fly(self, x: FloatArray, progress: Callable[[float, float], None] | None) -> None:
         """Tick by tick until the goal, terrain contact, the avoider's end or the time limit."""
@@ -578,9 +584,11 @@ class _Loop:
             failures=judged,
             off_plan_s=self.conformance.off_plan_s,
             judged_by={
-                "terrain": "the highest measured height of the grid cell under the aircraft"
-                if self.safety is not None
-                else "flat ground at 0 m",
+                "terrain": "flat ground at 0 m"
+                if self.grid is None
+                else "the highest measured height of the grid cell under the aircraft"
+                if self.grid.upper is not None
+                else "the measured heights (bilinear)",
                 "vertical_tolerance_m": tol.vertical,
                 "lateral_tolerance_m": tol.lateral,
                 "return_time_s": tol.return_time,
