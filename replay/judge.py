@@ -273,10 +273,13 @@ class Conformance:
         self.judged_before = True
         self.off_plan_s = 0.0
         self.t_last: float | None = None
+        self.at_waypoints: list[Failure] = []
+        self.command_until = -math.inf  # converging after an avoider's command until then
 
     def settle(self, t: float) -> None:
         """A new plan or command at ``t``: the aircraft has the return time to converge."""
         self.settle_until = max(self.settle_until, float(t) + self.tol.return_time)
+        self.command_until = max(self.command_until, float(t) + self.tol.return_time)
         self.after_command = True
 
     def update(
@@ -343,8 +346,54 @@ class Conformance:
         self.band = (lo, hi)
         return low, high
 
+    def waypoint(
+        self,
+        index: int,
+        t: float,
+        position: FloatArray,
+        leg: FloatArray,
+        altitude_cmd: float,
+    ) -> None:
+        """Waypoint ``index`` reached at ``t`` at map ``position`` on the leg ``leg`` (2, 3: its
+        start and end): the altitude must be within the vertical tolerance of the leg's profile
+        there (linear along the leg, as the autopilot commands it). The band of :meth:`update`
+        lets the aircraft lag a command at the rate it climbs, which a terrain-following floor
+        needs -- but it would also excuse a mission's own climb the aircraft cannot make (a
+        Cessna passing its 4,000 m waypoint at 3,513 m, climbing as well as it can): where a
+        leg ends, the plan's altitude is what was asked. Above the profile is on the plan when
+        the command there was higher (the terrain floor raised it). Not judged while the
+        aircraft still converges after an avoider's command (a leg change's lateral
+        convergence does not excuse the altitude)."""
+        if t < self.command_until:
+            return
+        a, b = np.asarray(leg[0], dtype=np.float64), np.asarray(leg[1], dtype=np.float64)
+        run = b[:2] - a[:2]
+        length2 = float(run @ run)
+        f = 1.0 if length2 < 1e-9 else float(np.clip((position[:2] - a[:2]) @ run / length2, 0, 1))
+        profile = float(a[2] + f * (b[2] - a[2]))
+        z = float(position[2])
+        below = profile - z
+        above = z - max(profile, float(altitude_cmd))
+        if below <= self.tol.vertical and above <= self.tol.vertical:
+            return
+        off = below if below > 0 else above
+        way = "below" if below > 0 else "above"
+        where = (float(position[0]), float(position[1]))
+        self.at_waypoints.append(
+            Failure(
+                "vertical_excursion",
+                float(t),
+                float(t),
+                where,
+                float(off),
+                f"passed waypoint {index} at {z:,.0f} m, {off:.0f} m {way} the plan's "
+                f"{profile:,.0f} m there (tolerance {self.tol.vertical:g} m), t = {t:.1f} s "
+                f"at ({where[0]:.0f}, {where[1]:.0f})",
+            )
+        )
+
     def failures(self, t_end: float) -> list[Failure]:
-        out = []
+        out = list(self.at_waypoints)
         for what, spans, tol in (
             ("lateral", self.lateral, self.tol.lateral),
             ("vertical", self.vertical, self.tol.vertical),

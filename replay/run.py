@@ -68,6 +68,7 @@ class ReplayRequest:
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
     log_rate: float = 10.0
     terrain_mesh: bool = True
+    fly_anyway: bool = False  # a mission the vehicle cannot fly: warned and flown, not refused
     command: str = "terrapath replay"  # recorded in the MCAP
     software_version: str = ""
 
@@ -162,7 +163,10 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)
     check_mission(mission, grid)
     flight = preflight(mission, params, float(speed), config.temperature_offset)
-    flight.check()
+    if not r.fly_anyway:
+        flight.check()
+    flown_anyway = tuple(f"flown anyway (--fly-anyway): {why}" for why in flight.refusals)
+    flight = replace(flight, warnings=flight.warnings + flown_anyway) if flown_anyway else flight
     planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config)
     warnings = tuple(threats.warn_after(planned)) + flight.warnings
@@ -202,7 +206,9 @@ def run_replay(
     if grid is not None:
         from terrain.model import TerrainModel
 
-        terrain_model = TerrainModel.from_grid(grid, max_faces=2_000_000)
+        # the world the sensors see is the ground the flight is judged on (the measured,
+        # conservative heights: sim._Loop.ground); the recorded picture keeps the display grid
+        terrain_model = TerrainModel.from_grid(grid.safety(), max_faces=2_000_000)
     kwargs: dict[str, Any] = {
         "grid": grid,
         "terrain_model": terrain_model,

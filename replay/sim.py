@@ -7,8 +7,8 @@ Per tick (the shorter of the sensor's period, 1 s by default, and the avoider's)
    100 Hz), sampling the state at ``sample_hz``;
 2. advances the threats (intruders move on their own schedule) and measures, at every sample, the
    separation to each active threat's safety volume and to each of the mission's danger zones,
-   the clearance above the terrain (the highest measured height of the grid cell under the
-   aircraft), whether the aircraft is over the map and over measured terrain, its equivalent
+   the clearance above the terrain (the measured, conservative heights: the bilinear surface
+   through the highest source value of each grid cell, the ground the sensors see), whether the aircraft is over the map and over measured terrain, its equivalent
    airspeed against its stall speed and its track against the autopilot's guidance
    (:mod:`replay.judge`);
 3. records the samples (the recorder keeps its own log rate), leg changes and threat changes;
@@ -371,8 +371,8 @@ class _Loop:
             cfg.margin,
             allow_unknown=cfg.allow_unknown_terrain,
         )
-        # terrain is judged on the measured, conservative heights: the highest source value of
-        # the grid cell under the aircraft (the display heights are for the picture)
+        # terrain is judged on the measured, conservative heights (the display heights are for
+        # the picture): the surface the sensors see and terrain following keeps clear of
         self.safety = grid.safety() if grid is not None else None
         self.contact_at: tuple[float, float, float] | None = None
         self.tolerances = tolerances(mission, stack, cfg)
@@ -409,19 +409,21 @@ class _Loop:
             recorder.write_waypoints(0.0, self.wp0, "initial", 1)
 
     def ground(self, x: FloatArray, y: FloatArray) -> FloatArray:
-        """The terrain the flight is judged against, from the measured heights: on a grid that
-        keeps the highest source value of each cell (``upper``: it was resampled, and that
-        value may lie anywhere in the cell) the value of the cell containing each point, never
-        below the bilinear safety or display heights there; on a grid whose heights are the
-        source cells themselves, the bilinear surface through them (what the planner's
-        clearance uses); 0 m without a map."""
+        """The terrain the flight is judged against, from the measured heights: the bilinear
+        surface through the grid's safety heights (on a resampled grid, ``upper``: the highest
+        source value in each cell, the heights the planner checks clearance with; else the
+        source cells themselves) -- the surface terrain following keeps clear of and the one the
+        sensors see (``run.run_replay`` builds the ray-casting mesh from it); 0 m without a map.
+
+        Not the cell's highest value held over the whole cell: that value lies somewhere in the
+        cell, and on a coarse grid (Jacksboro's 75 m) a block of it stands up to 12 m above the
+        surface through the same values -- an aircraft the sensors keep 2 m above the measured
+        ground would be "in contact" with a block edge they cannot see. The summit the display
+        grid smooths away (RMNP: 4,261 m measured, 4,192 m displayed) is contact either way."""
         g = self.safety
         if g is None:
             return np.zeros_like(np.asarray(x, dtype=np.float64))
-        bilinear = g.height_at(x, y)
-        if self.grid is None or self.grid.upper is None:
-            return bilinear
-        return np.maximum(bilinear, g.heights[g.cell_of(x, y)])
+        return g.height_at(x, y)
 
     def fly(self, x: FloatArray, progress: Callable[[float, float], None] | None) -> None:
         """Tick by tick until the goal, terrain contact, the avoider's end or the time limit."""
@@ -487,6 +489,15 @@ class _Loop:
         if self.stall is not None:
             airspeed = np.linalg.norm(log.states[:keep][:, [U, V, W]], axis=1)
             self.stall.update(ts, pos[:keep], airspeed)
+        # where a leg ends, the altitude against the plan's (Conformance.waypoint)
+        if following and len(ts):
+            wps = np.asarray(self.stack.waypoints, dtype=np.float64)
+            for r in log.reached:
+                if 1 <= r.index < len(wps):
+                    k = min(int(np.searchsorted(ts, r.t)), len(ts) - 1)
+                    self.conformance.waypoint(
+                        r.index, r.t, pos[k], wps[r.index - 1 : r.index + 1], g[k, _ALTITUDE_CMD]
+                    )
         # a leg change that is not a fillet turns the aircraft onto a leg it is not yet on
         turns = [r.t for r in log.reached if r.how != "fillet"]
         self.conformance.update(
@@ -586,7 +597,7 @@ class _Loop:
             judged_by={
                 "terrain": "flat ground at 0 m"
                 if self.grid is None
-                else "the highest measured height of the grid cell under the aircraft"
+                else "the measured heights: bilinear through each cell's highest source value"
                 if self.grid.upper is not None
                 else "the measured heights (bilinear)",
                 "vertical_tolerance_m": tol.vertical,

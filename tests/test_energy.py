@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
@@ -141,3 +142,50 @@ def test_energy_management_leaves_a_climb_within_the_engine_unchanged() -> None:
     rate = np.polyfit(t[on_climb], z[on_climb], 1)[0]
     assert rate == pytest.approx(25.0 * 1000.0 / 12500.0, rel=0.03)
     assert best_climb(AEROSONDE, 25.0, 1200.0) > 1.5 * rate
+
+
+# ---- the issue's five altitude shapes through `terrapath replay` -----------------------------
+SHAPES = {
+    # name: (vehicle, speed, waypoints, extra options)
+    "climb": ("cessna172", 45.0, "[0,0,3500],[3000,0,3500],[4000,0,4000],[40000,0,4000]", ()),
+    "reversal": ("cessna172", 45.0, "[0,0,4000],[8000,0,4000],[8000,1500,4000],[0,1500,4000]", ()),
+    "to-9000": ("aerosonde", 25.0, "[0,0,1000],[5000,0,1000],[60000,0,9000],[80000,0,9000]", ()),
+    "descent": ("cessna172", 45.0, "[0,0,1500],[3000,0,1500],[4000,0,20],[20000,0,20]", ()),
+    "hot-day": (
+        "cessna172",
+        45.0,
+        "[0,0,200],[3000,0,200],[6000,0,1100],[30000,0,1100]",
+        ("--temperature-offset", "50"),
+    ),
+}
+
+
+@pytest.mark.parametrize("shape", list(SHAPES))
+def test_the_altitude_shapes_are_refused_or_fail_by_name(
+    shape: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Each of the issue's missions (before: ``success yes``, exit 0) is refused before take-off
+    with the leg and the numbers (exit 1); flown anyway, it ends as a named failure (exit 3):
+    the climbs and the descent pass a waypoint off the plan's altitude, the reversal at the
+    ceiling turns wider than the plan (a shallower bank: the airspeed kept)."""
+    from terrapath.cli import main
+
+    vehicle, speed, wps, extra = SHAPES[shape]
+    mission = tmp_path / f"{shape}.yaml"
+    mission.write_text(
+        f"terrapath: 1\nname: {shape}\ncrs: local\nvehicle: {vehicle}\n"
+        f"cruise: {{speed: {speed}}}\nwaypoints: [{wps}]\n"
+    )
+    out = tmp_path / f"{shape}.mcap"
+    args = ["replay", str(mission), "-o", str(out), "--no-picture", *extra]
+    assert main(args) == 1
+    refused = capsys.readouterr().err
+    assert f"{mission}: leg " in refused and "m/s" in refused and not out.exists()
+    assert main([*args, "--fly-anyway", "--json"]) == 3
+    import json
+
+    metrics = json.loads(capsys.readouterr().out)["metrics"]
+    names = {f["name"] for f in metrics["failures"]}
+    assert not metrics["success"] and metrics["reached_goal"]
+    want = "lateral_excursion" if shape == "reversal" else "vertical_excursion"
+    assert want in names and "stall" not in names and "terrain_contact" not in names

@@ -284,6 +284,13 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     default=None,
     help="Keep at least this clearance (m) above the terrain ahead (default: the clearance the mission was planned with, when it has terrain; 0: off).",
 )
+@click.option(
+    "--fly-anyway",
+    is_flag=True,
+    help="Fly a mission the vehicle cannot fly (above its ceiling, a leg steeper than it climbs, "
+    "a turn radius tighter than it turns) instead of refusing it: each problem is a warning, "
+    "and the flight is judged as any other (it fails, exit 3, where it does not fly the mission).",
+)
 @click.option("--no-terrain-mesh", is_flag=True, help="Do not store the terrain mesh in the MCAP.")
 @click.option(
     "--no-picture",
@@ -311,7 +318,7 @@ def replay_cmd(
     Before take-off it prints what the vehicle can do on the mission (its ceiling at the cruise
     speed, its climb at the highest waypoint) and refuses a mission it cannot fly: above that
     ceiling, a leg climbing or descending faster than it can, a cruise.turn_radius tighter than
-    it turns.
+    it turns (--fly-anyway flies it, and judges what it flew).
 
     Exit status: 0 success (the goal reached and the mission flown: no safety volume entered,
     no terrain contact on the measured heights, over known terrain on the map, no stall, the
