@@ -275,6 +275,8 @@ class Conformance:
         self.t_last: float | None = None
         self.at_waypoints: list[Failure] = []
         self.command_until = -math.inf  # converging after an avoider's command until then
+        # the band's upper edge over the last chunk (times, high): Conformance.waypoint
+        self.highs: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros(0))
 
     def settle(self, t: float) -> None:
         """A new plan or command at ``t``: the aircraft has the return time to converge."""
@@ -307,6 +309,7 @@ class Conformance:
         lat = np.abs(cross_track)
         z = positions[:, 2]
         low, high = self._reachable(times, z, altitude_cmd, following)
+        self.highs = (np.asarray(times, dtype=np.float64), high)
         vert = np.maximum(np.maximum(low - z, z - high), 0.0)  # outside the band
         # the first judged samples after an avoider's manoeuvre or new plan
         fresh = judged & ~np.concatenate([[self.judged_before], judged[:-1]]) & self.after_command
@@ -353,6 +356,7 @@ class Conformance:
         position: FloatArray,
         leg: FloatArray,
         altitude_cmd: float,
+        terrain_following: bool = False,
     ) -> None:
         """Waypoint ``index`` reached at ``t`` at map ``position`` on the leg ``leg`` (2, 3: its
         start and end): the altitude must be within the vertical tolerance of the leg's profile
@@ -361,7 +365,10 @@ class Conformance:
         needs -- but it would also excuse a mission's own climb the aircraft cannot make (a
         Cessna passing its 4,000 m waypoint at 3,513 m, climbing as well as it can): where a
         leg ends, the plan's altitude is what was asked. Above the profile is on the plan when
-        the command there was higher (the terrain floor raised it). Not judged while the
+        the command there was higher, and -- with ``terrain_following``, the one thing that
+        lifts the aircraft above its plan on purpose -- while it descends from a floor that fell
+        away about as fast as it can (the band's upper edge: :meth:`update` of the chunk
+        first). Not judged while the
         aircraft still converges after an avoider's command (a leg change's lateral
         convergence does not excuse the altitude)."""
         if t < self.command_until:
@@ -373,7 +380,11 @@ class Conformance:
         profile = float(a[2] + f * (b[2] - a[2]))
         z = float(position[2])
         below = profile - z
-        above = z - max(profile, float(altitude_cmd))
+        ceiling = max(profile, float(altitude_cmd))
+        times, high = self.highs
+        if terrain_following and len(times):
+            ceiling = max(ceiling, float(high[min(int(np.searchsorted(times, t)), len(times) - 1)]))
+        above = z - ceiling
         if below <= self.tol.vertical and above <= self.tol.vertical:
             return
         off = below if below > 0 else above

@@ -489,15 +489,6 @@ class _Loop:
         if self.stall is not None:
             airspeed = np.linalg.norm(log.states[:keep][:, [U, V, W]], axis=1)
             self.stall.update(ts, pos[:keep], airspeed)
-        # where a leg ends, the altitude against the plan's (Conformance.waypoint)
-        if following and len(ts):
-            wps = np.asarray(self.stack.waypoints, dtype=np.float64)
-            for r in log.reached:
-                if 1 <= r.index < len(wps):
-                    k = min(int(np.searchsorted(ts, r.t)), len(ts) - 1)
-                    self.conformance.waypoint(
-                        r.index, r.t, pos[k], wps[r.index - 1 : r.index + 1], g[k, _ALTITUDE_CMD]
-                    )
         # a leg change that is not a fillet turns the aircraft onto a leg it is not yet on
         turns = [r.t for r in log.reached if r.how != "fillet"]
         self.conformance.update(
@@ -508,6 +499,20 @@ class _Loop:
             following,
             converge_from=turns,
         )
+        # where a leg ends, the altitude against the plan's (Conformance.waypoint)
+        if following and len(ts):
+            wps = np.asarray(self.stack.waypoints, dtype=np.float64)
+            for r in log.reached:
+                if 1 <= r.index < len(wps):
+                    k = min(int(np.searchsorted(ts, r.t)), len(ts) - 1)
+                    self.conformance.waypoint(
+                        r.index,
+                        r.t,
+                        pos[k],
+                        wps[r.index - 1 : r.index + 1],
+                        g[k, _ALTITUDE_CMD],
+                        bool(self.cfg.terrain_following),
+                    )
 
     def _events(self, log: FlightLog, t: float) -> None:
         """Record the tick's leg changes and the threats when they changed."""
