@@ -219,6 +219,58 @@ def command_record(command: GuidanceCommand) -> dict[str, Any]:
 
 
 @dataclass(frozen=True)
+class Commanded:
+    """What a flight stack flies while an avoider steers it with commands rather than legs: the
+    reference its track is judged against (``replay.judge.Conformance``), read from the stack's
+    own command at the start of each tick.
+
+    ``lateral``: ``"course"`` (hold ``course``), ``"orbit"`` (``center`` at time ``t``, moving at
+    ``center_velocity``, ``radius``, ``clockwise``), ``"point"`` (hold ``point``'s x, y) or
+    ``"bank"`` (a held bank angle: no track to judge). ``vertical``: ``"altitude"`` (the logged
+    altitude command is the reference), ``"climb"`` (climb at ``climb_rate``: never below where
+    the climb began, or above where a descent began) or ``"none"``."""
+
+    t: float
+    lateral: str
+    vertical: str
+    course: float = 0.0
+    center: tuple[float, float] = (0.0, 0.0)
+    center_velocity: tuple[float, float] = (0.0, 0.0)
+    radius: float = 0.0
+    clockwise: bool = True
+    point: tuple[float, float] = (0.0, 0.0)
+    climb_rate: float = 0.0
+
+    def center_at(self, times: FloatArray) -> FloatArray:
+        """The orbit's centre (k, 2) at ``times`` (a moving centre advances from ``t``)."""
+        dt = np.asarray(times, dtype=np.float64) - self.t
+        return np.column_stack(
+            [
+                self.center[0] + self.center_velocity[0] * dt,
+                self.center[1] + self.center_velocity[1] * dt,
+            ]
+        )
+
+    def same_as(self, other: Commanded | None) -> bool:
+        """Whether ``other`` asks for the same track (an avoider re-issuing its command, or the
+        same orbit with its centre moved on): the time it has to get there is not restarted."""
+        if other is None or other.lateral != self.lateral:
+            return False
+        if self.lateral == "course":
+            return abs(math.remainder(self.course - other.course, math.tau)) < 1e-3
+        if self.lateral == "orbit":
+            here = other.center_at(np.array([self.t]))[0]
+            return (
+                float(np.hypot(*(here - np.asarray(self.center)))) < 1.0
+                and abs(self.radius - other.radius) < 1.0
+                and self.clockwise == other.clockwise
+            )
+        if self.lateral == "point":
+            return float(np.hypot(*np.subtract(self.point, other.point))) < 1.0
+        return True
+
+
+@dataclass(frozen=True)
 class AvoidanceDecision:
     """An avoider's answer: one guidance command (None: keep going as before) and why.
 
@@ -244,6 +296,7 @@ __all__: Sequence[str] = [
     "HOVER_COMMANDS",
     "AvoidanceDecision",
     "ClimbRate",
+    "Commanded",
     "FlightPathAngle",
     "FollowWaypoints",
     "GoTo",

@@ -11,11 +11,19 @@ each a named :class:`Failure` in the run's metrics.
   avoider's new waypoints are the plan) and within ``vertical`` metres of a band round the
   altitude command it was asked to hold (the command, widened after a step by how fast the
   vehicle can climb or descend to it).  While an avoider steers with commands rather than a path
-  (a course, an orbit, a climb rate, a held position) the track is not judged; after every
-  command, and after every leg change that is not a turn fillet (seed 000's switch 1 km before a
-  waypoint turns the aircraft onto a leg it is not yet on), the aircraft has ``return_time``
-  seconds to converge.  An excursion already under way when the time after an avoider's command
-  runs out is ``not_back_on_plan``; any other is a ``lateral_excursion`` or
+  (a course, an orbit, a climb rate, a held position) the track is judged against what it
+  commanded (:class:`replay.guidance.Commanded`, the flight stack's own command): laterally the
+  distance from the commanded orbit's circle (its centre moving as commanded), from the line of a
+  held course (through where the aircraft was once the turn onto it should be done), from a held
+  point, or the leg's cross-track when only the vertical axis is overridden; vertically the band
+  round the altitude command as on the legs, and for a climb-rate command the altitude where the
+  climb began (told to climb it must not end up lower; told to descend, not higher).  Each new
+  command has the time it takes to fly onto it (:meth:`Conformance.grace`); a command re-issued
+  unchanged keeps its time.  Failing it is ``off_command``.  After every command that hands
+  back the legs, and after every leg change that is not a turn fillet (seed 000's switch 1 km
+  before a waypoint turns the aircraft onto a leg it is not yet on), the aircraft has
+  ``return_time`` seconds to converge.  An excursion already under way when the time after an
+  avoider's command runs out is ``not_back_on_plan``; any other is a ``lateral_excursion`` or
   ``vertical_excursion``.
 """
 
@@ -30,6 +38,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from replay.guidance import Commanded
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -42,6 +51,10 @@ LATERAL_TOLERANCE_M = 50.0  # default: at least this, or a quarter of the turn r
 # the share of its climb and descent rates a vehicle is expected to make good on a step of the
 # altitude command (an autopilot closes on its limits, it does not fly them exactly)
 RATE_SHARE = 0.8
+# the time an avoider's command is given beyond the turn (or the distance) it takes to fly onto
+# it: the course loop's settling after the turn, the orbit's vector field converging
+SETTLE_S = 10.0
+ORBIT_GAIN = 4.0  # the orbit vector field's gain k the grace assumes (the autopilot's default)
 
 # every failure a run can have, in the order they are listed
 FAILURE_NAMES = (
@@ -53,6 +66,7 @@ FAILURE_NAMES = (
     "lateral_excursion",
     "vertical_excursion",
     "not_back_on_plan",
+    "off_command",
     "missed_goal",
     "avoider_end",
     "time_limit",
@@ -260,8 +274,14 @@ class Conformance:
         tolerances: Tolerances,
         climb_rate: float = math.inf,
         descent_rate: float = math.inf,
+        speed: float = math.inf,
+        turn_rate: float = math.inf,
+        orbit_gain: float = ORBIT_GAIN,
     ) -> None:
         self.tol = tolerances
+        self.speed = float(speed)
+        self.turn_rate = float(turn_rate)
+        self.orbit_gain = float(orbit_gain)
         self.climb_rate = RATE_SHARE * float(climb_rate)
         self.descent_rate = RATE_SHARE * float(descent_rate)
         # the band of altitudes the vehicle can be in on its way to the command (None: none yet)
@@ -277,6 +297,14 @@ class Conformance:
         self.command_until = -math.inf  # converging after an avoider's command until then
         # the band's upper edge over the last chunk (times, high): Conformance.waypoint
         self.highs: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros(0))
+        # an avoider's command: the one flown, judged from when, a held course's line, where a
+        # climb or descent began; the spans off it, by axis and kind
+        self.command: Commanded | None = None
+        self.command_from = math.inf
+        self.anchor: tuple[float, float] | None = None
+        self.climb_key: tuple[str, float] | None = None
+        self.climb_from = 0.0
+        self.off_command: dict[tuple[str, str], Spans] = {}
 
     def settle(self, t: float) -> None:
         """A new plan or command at ``t``: the aircraft has the return time to converge."""
@@ -292,13 +320,20 @@ class Conformance:
         altitude_cmd: FloatArray,
         following: bool,
         converge_from: Sequence[float] = (),
+        commanded: Commanded | None = None,
     ) -> None:
         """One chunk: map ``positions`` (k, 3) at ``times``, the autopilot's ``cross_track`` and
         ``altitude_cmd`` there; ``following`` whether it followed its legs (else it flew an
-        avoider's commands); ``converge_from``: times in the chunk after which it has to converge
-        anew (leg changes that are not fillets)."""
+        avoider's command, ``commanded``: judged against it, see the module docstring);
+        ``converge_from``: times in the chunk after which it has to converge anew (leg changes
+        that are not fillets)."""
         if not len(times):
             return
+        if following or commanded is None:
+            self.command, self.climb_key = None, None
+            self._close_commanded(float(times[0]))
+        else:
+            self._commanded(times, positions, cross_track, altitude_cmd, commanded)
         rt = self.tol.return_time
         settled = times >= self.settle_until
         for te in converge_from:
@@ -308,7 +343,12 @@ class Conformance:
         judged = settled & bool(following)
         lat = np.abs(cross_track)
         z = positions[:, 2]
-        low, high = self._reachable(times, z, altitude_cmd, following)
+        low, high = self._reachable(
+            times,
+            z,
+            altitude_cmd,
+            following or (commanded is not None and commanded.vertical == "altitude"),
+        )
         self.highs = (np.asarray(times, dtype=np.float64), high)
         vert = np.maximum(np.maximum(low - z, z - high), 0.0)  # outside the band
         # the first judged samples after an avoider's manoeuvre or new plan
@@ -318,12 +358,113 @@ class Conformance:
         # how far: from the altitude commanded (the band decides whether it is off at all)
         off_cmd = np.abs(z - altitude_cmd)
         self.vertical.update(times, judged & (vert > self.tol.vertical), off_cmd, positions, fresh)
+        if not following and commanded is not None and commanded.vertical == "altitude":
+            spans = self._spans("vertical", "altitude", float(times[0]))
+            spans.update(times, vert > self.tol.vertical, off_cmd, positions)
         prev = self.t_last if self.t_last is not None else float(times[0])
         step = np.diff(np.concatenate([[prev], times]))
         self.t_last = float(times[-1])
         # off the plan: flying an avoider's commands, or beyond a tolerance (settling or not)
         off = (lat > self.tol.lateral) | (vert > self.tol.vertical) | (not following)
         self.off_plan_s += float(step[off].sum())
+
+    def grace(self, command: Commanded, position: FloatArray, course: float | None) -> float:
+        """The time (s) an aircraft at ``position`` (map) on ``course`` (rad; None: unknown) has
+        to fly onto ``command``: the turn onto a held course at the vehicle's turn rate; half a
+        turn and the way onto an orbit's circle as its vector field closes it (Beard & McLain
+        eq 10.9: the course ``pi/2 + atan(k e / rho)`` off the radial, so the distance ``e`` to
+        the circle shrinks as ``de/dt = -V a e / sqrt(1 + a^2 e^2)``, ``a = k / rho``, ``V`` the
+        speed it closes on a moving centre with, at least a fifth of its own; integrated from
+        ``e0`` to half the tolerance: ``(F(e0) - F(e1)) / (V a)``, ``F(e) = u - atanh(1 / u)``,
+        ``u = sqrt(1 + a^2 e^2)``); the way to a held point at the speed -- each plus
+        ``SETTLE_S``."""
+        v, w = self.speed, self.turn_rate
+        p = np.asarray(position[:2], dtype=np.float64)
+        if command.lateral == "course":
+            turn = (
+                math.pi
+                if course is None
+                else abs(math.remainder(command.course - course, math.tau))
+            )
+            return turn / w + SETTLE_S
+        if command.lateral == "orbit":
+            d = float(np.hypot(*(p - command.center_at(np.array([command.t]))[0])))
+            closing = max(v - float(np.hypot(*command.center_velocity)), 0.2 * v)
+            a = self.orbit_gain / max(command.radius, 1e-6)
+            e0, e1 = abs(d - command.radius), 0.5 * self.tol.lateral
+
+            def f(e: float) -> float:
+                u = math.sqrt(1.0 + (a * e) ** 2)
+                return u - math.atanh(1.0 / u)
+
+            join = (f(e0) - f(e1)) / (closing * a) if e0 > e1 else 0.0
+            return join + math.pi / w + SETTLE_S
+        if command.lateral == "point":
+            return float(np.hypot(*(p - np.asarray(command.point)))) / v + SETTLE_S
+        return SETTLE_S
+
+    def _commanded(
+        self,
+        times: FloatArray,
+        positions: FloatArray,
+        cross_track: FloatArray,
+        altitude_cmd: FloatArray,
+        command: Commanded,
+    ) -> None:
+        """Judge one chunk flown on an avoider's ``command`` (module docstring)."""
+        z = positions[:, 2]
+        if not command.same_as(self.command):
+            course = None
+            if len(positions) > 1:
+                d = positions[1, :2] - positions[0, :2]
+                course = (
+                    math.atan2(float(d[0]), float(d[1])) if float(np.hypot(*d)) > 1e-6 else None
+                )
+            self.command_from = float(times[0]) + self.grace(command, positions[0], course)
+            self.anchor = None
+        self.command = command
+        key = (command.vertical, command.climb_rate if command.vertical == "climb" else 0.0)
+        if key != self.climb_key:
+            self.climb_key, self.climb_from = key, float(z[0])
+        judged = times >= self.command_from
+        xy = positions[:, :2]
+        kind = command.lateral
+        if kind == "course":
+            if self.anchor is None and judged.any():
+                k = int(np.argmax(judged))
+                self.anchor = (float(xy[k, 0]), float(xy[k, 1]))
+            u = np.array([math.sin(command.course), math.cos(command.course)])
+            rel = xy - np.asarray(self.anchor if self.anchor is not None else xy[0])
+            lat = np.abs(rel[:, 0] * u[1] - rel[:, 1] * u[0])
+        elif kind == "orbit":
+            lat = np.abs(np.hypot(*(xy - command.center_at(times)).T) - command.radius)
+        elif kind == "point":
+            lat = np.hypot(*(xy - np.asarray(command.point)).T)
+        elif kind == "path":
+            lat = np.abs(np.asarray(cross_track, dtype=np.float64))
+        else:  # a held bank: no track to judge
+            lat = np.zeros(len(times))
+        lateral = self._spans("lateral", kind, float(times[0]))
+        lateral.update(times, judged & (lat > self.tol.lateral), lat, positions)
+        if command.vertical == "climb":
+            z0, rate = self.climb_from, command.climb_rate
+            off = np.where(rate > 0.0, z0 - z, np.where(rate < 0.0, z - z0, np.abs(z - z0)))
+            vertical = self._spans("vertical", "climb", float(times[0]))
+            vertical.update(times, off > self.tol.vertical, off, positions)
+
+    def _spans(self, axis: str, kind: str, t: float) -> Spans:
+        """The spans off the command on ``axis`` for commands of ``kind`` (the same axis's
+        others closed at ``t``)."""
+        for (a, k), spans in self.off_command.items():
+            if a == axis and k != kind and spans.open is not None:
+                spans._close(t)
+        return self.off_command.setdefault((axis, kind), Spans())
+
+    def _close_commanded(self, t: float) -> None:
+        """Close at ``t`` every open span off an avoider's command (the legs are flown again)."""
+        for spans in self.off_command.values():
+            if spans.open is not None:
+                spans._close(t)
 
     def _reachable(
         self, times: FloatArray, z: FloatArray, command: FloatArray, following: bool
@@ -405,6 +546,28 @@ class Conformance:
 
     def failures(self, t_end: float) -> list[Failure]:
         out = list(self.at_waypoints)
+        names = {
+            "course": "held course's line",
+            "orbit": "orbit's circle",
+            "point": "held position",
+            "path": "leg (its vertical axis overridden)",
+            "climb": "climb's start altitude",
+            "altitude": "altitude commanded",
+        }
+        for (axis, kind), spans in sorted(self.off_command.items()):
+            tol = self.tol.lateral if axis == "lateral" else self.tol.vertical
+            for s in spans.finish():
+                out.append(
+                    Failure(
+                        "off_command",
+                        s.t_start,
+                        s.t_end,
+                        _where(s),
+                        s.worst,
+                        f"{s.worst:.0f} m {axis}ly off the avoider's command (the "
+                        f"{names.get(kind, kind)}, tolerance {tol:g} m), " + span_text(s, t_end),
+                    )
+                )
         for what, spans, tol in (
             ("lateral", self.lateral, self.tol.lateral),
             ("vertical", self.vertical, self.tol.vertical),

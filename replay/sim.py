@@ -40,8 +40,14 @@ from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
 from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
-from replay.guidance import AvoidanceDecision, FollowWaypoints, GuidanceRefused, command_record
-from replay.judge import RETURN_TIME_S, Conformance, StallJudge, Tolerances, stall_eas
+from replay.guidance import (
+    AvoidanceDecision,
+    Commanded,
+    FollowWaypoints,
+    GuidanceRefused,
+    command_record,
+)
+from replay.judge import ORBIT_GAIN, RETURN_TIME_S, Conformance, StallJudge, Tolerances, stall_eas
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.record.base import Recorder
 from replay.sensors.base import Sensor
@@ -383,8 +389,18 @@ class _Loop:
             float(self.wp0[:, 2].max()),
             cfg.temperature_offset,
         )
+        speed = float(cfg.airspeed or mission.cruise_speed)
+        tightest = getattr(params, "min_turn_radius", None)
+        autopilot = getattr(stack, "autopilot", None)
         self.conformance = Conformance(
-            self.tolerances, climb, float(getattr(params, "descent_rate_max", climb))
+            self.tolerances,
+            climb,
+            float(getattr(params, "descent_rate_max", climb)),
+            speed=speed,
+            turn_rate=math.inf if tightest is None else speed / float(tightest(speed)),
+            orbit_gain=float(getattr(autopilot.config, "orbit_gain", ORBIT_GAIN))
+            if autopilot is not None
+            else ORBIT_GAIN,
         )
         eas = stall_eas(stack.params)
         self.stall = None if eas is None else StallJudge(eas, cfg.temperature_offset)
@@ -434,9 +450,10 @@ class _Loop:
             if period < 0.5 * stack.dt:
                 break  # the limit falls between two steps of the integrator: nothing left to fly
             following = follows_plan(stack)
+            commanded = None if following else stack.commanded(t)
             log = stack.fly(x, t, period, record_every=self.record_every)
             x, t = log.x, log.t
-            contact_t = self._samples(log, following)
+            contact_t = self._samples(log, following, commanded)
             if contact_t is not None:
                 t = contact_t
                 break
@@ -452,10 +469,13 @@ class _Loop:
                 break
         self.t = t
 
-    def _samples(self, log: FlightLog, following: bool = True) -> float | None:
+    def _samples(
+        self, log: FlightLog, following: bool = True, commanded: Commanded | None = None
+    ) -> float | None:
         """Keep the tick's samples (up to terrain contact) for the metrics and the recording,
-        and judge them (stall, conformance: ``following`` whether the stack followed its legs);
-        the time of terrain contact, else None."""
+        and judge them (stall, conformance: ``following`` whether the stack followed its legs,
+        else the avoider's command it flew, ``commanded``); the time of terrain contact, else
+        None."""
         ts, xs = log.times, log.states
         if not len(ts):
             return None
@@ -466,7 +486,7 @@ class _Loop:
         self.pending.append((ts[:keep], pos[:keep], clearance[:keep]))
         self.times.append(ts[:keep])
         self.states.append(xs[:keep])
-        self._judge(log, pos, keep, following)
+        self._judge(log, pos, keep, following, commanded)
         rec = self.recorder
         if rec is not None:
             _record_samples(rec, log, pos)
@@ -483,7 +503,14 @@ class _Loop:
             rec.write_log(float(ts[hit[0]]), "error", f"terrain contact at {where}")
         return float(ts[hit[0]])
 
-    def _judge(self, log: FlightLog, pos: FloatArray, keep: int, following: bool) -> None:
+    def _judge(
+        self,
+        log: FlightLog,
+        pos: FloatArray,
+        keep: int,
+        following: bool,
+        commanded: Commanded | None = None,
+    ) -> None:
         """Stall and conformance of the first ``keep`` samples of the tick."""
         ts, g = log.times[:keep], log.guidance[:keep]
         if self.stall is not None:
@@ -498,6 +525,7 @@ class _Loop:
             g[:, _ALTITUDE_CMD],
             following,
             converge_from=turns,
+            commanded=commanded,
         )
         # where a leg ends, the altitude against the plan's (Conformance.waypoint)
         if following and len(ts):

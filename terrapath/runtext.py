@@ -72,6 +72,7 @@ _SUMMARY = {
     "lateral_excursion": ("lateral excursion", None),
     "vertical_excursion": ("vertical excursion", None),
     "not_back_on_plan": ("time not back on the plan in time", "times not back on the plan in time"),
+    "off_command": ("time off the avoider's command", "times off the avoider's command"),
 }
 
 

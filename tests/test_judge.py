@@ -17,6 +17,7 @@ from affine import Affine
 
 from planner.mission import load_mission, mission_from_dict
 from replay.avoidance import make_avoider
+from replay.avoidance.base import AvoiderBase
 from replay.flight.fixedwing.presets import preset
 from replay.flight.fixedwing.trim import trim_range
 from replay.judge import RATE_SHARE, Conformance, Spans, StallJudge, Tolerances, stall_eas
@@ -204,7 +205,8 @@ def test_the_stall_speed_is_the_vehicles_own() -> None:
 
 def test_flying_below_the_stall_speed_is_a_stall() -> None:
     """A Cessna whose envelope was widened below its stall, commanded to 20 m/s: it stalls
-    (and recovers, and stalls again), each time for longer than 2 s."""
+    (and recovers, and stalls again), each time for longer than 2 s, and loses the altitude
+    it was told to hold (the airspeed command is judged like an avoider's: off it)."""
     mission = _local("cessna172", 45.0, [[0, 0, 1500], [30000, 0, 1500]])
     params = dataclasses.replace(preset("cessna172"), airspeed_min=15.0)
     stack = params.flight_stack(mission.waypoints, speed=45.0)
@@ -219,7 +221,9 @@ def test_flying_below_the_stall_speed_is_a_stall() -> None:
     )
     m = r.metrics
     stalls = [f for f in m.failures if f.name == "stall"]
-    assert stalls and set(_names(m)) == {"stall", "time_limit"}
+    assert stalls and set(_names(m)) == {"stall", "off_command", "time_limit"}
+    (lost,) = [f for f in m.failures if f.name == "off_command"]
+    assert "vertically" in lost.text and lost.value > 100.0
     eas = m.judged_by["stall_eas_mps"]
     assert eas == pytest.approx(stall_eas(params))
     for f in stalls:
@@ -365,3 +369,160 @@ def test_an_avoider_that_gives_up_says_why_in_replay_and_inspect(
     for shown in (text, capsys.readouterr().out):
         assert f"the avoider gave up {gave_up['count']} times:\n{line}\n" in shown
         assert "why it failed:\n  violation: inside hill from t = " in shown
+
+
+# ---- conformance to an avoider's commands ----------------------------------------------------
+def _orbit_track(
+    t: np.ndarray, center: tuple[float, float], radius: float, speed: float, velocity=(0.0, 0.0)
+) -> np.ndarray:
+    w = speed / radius
+    cx = center[0] + velocity[0] * t
+    cy = center[1] + velocity[1] * t
+    return np.column_stack(
+        [cx + radius * np.sin(w * t), cy + radius * np.cos(w * t), np.full_like(t, 1000.0)]
+    )
+
+
+def _feed(c: Conformance, t: np.ndarray, pos: np.ndarray, cmd: Any, alt: Any = None) -> None:
+    """The chunks of a run on one command, 1 s each, as the loop feeds them (the stack's
+    command read at each chunk's start: a moving orbit's centre where it is then)."""
+    altitude = np.full(len(t), 1000.0) if alt is None else alt
+    for i in range(0, len(t), 10):
+        sl = slice(i, i + 10)
+        t0 = float(t[sl][0])
+        centre = cmd.center_at(np.array([t0]))[0]
+        c.update(
+            t[sl],
+            pos[sl],
+            np.zeros(len(t[sl])),
+            altitude[sl],
+            following=False,
+            commanded=dataclasses.replace(cmd, t=t0, center=(float(centre[0]), float(centre[1]))),
+        )
+
+
+def test_an_orbit_flown_on_its_circle_conforms_and_one_left_is_off_command() -> None:
+    """A moving orbit flown on its circle (the centre drifting as commanded): no failure; the
+    same track judged against a centre 200 m away: off the command once the grace has run out,
+    not before."""
+    from replay.guidance import Commanded
+
+    tol = Tolerances(vertical=30.0, lateral=50.0, return_time=60.0)
+    t = np.arange(0.0, 300.0, 0.1)
+    pos = _orbit_track(t, (0.0, 0.0), 400.0, 25.0, velocity=(3.0, -1.0))
+    cmd = Commanded(
+        0.0, "orbit", "altitude", center=(0.0, 0.0), center_velocity=(3.0, -1.0), radius=400.0
+    )
+    good = Conformance(tol, speed=25.0, turn_rate=0.2)
+    _feed(good, t, pos, cmd)
+    assert good.failures(300.0) == []
+    wrong = dataclasses.replace(cmd, center=(200.0, 0.0))
+    bad = Conformance(tol, speed=25.0, turn_rate=0.2)
+    _feed(bad, t, pos, wrong)
+    grace = bad.grace(wrong, pos[0], None)
+    fails = bad.failures(300.0)
+    assert fails and {f.name for f in fails} == {"off_command"}
+    assert min(f.t_start for f in fails) >= grace - 1e-9
+    assert max(f.value for f in fails) == pytest.approx(200.0, abs=5.0)
+    assert "orbit's circle" in fails[0].text
+
+
+def test_a_held_course_is_judged_on_its_line_and_a_reissued_command_keeps_its_time() -> None:
+    """East at 25 m/s, commanded east: on the line. Commanded north-east and never turning:
+    off the line by the drift once the turn should have been done. Re-issuing the same course
+    every second does not restart the time to turn."""
+    from replay.guidance import Commanded
+
+    tol = Tolerances(vertical=30.0, lateral=50.0, return_time=60.0)
+    t = np.arange(0.0, 120.0, 0.1)
+    pos = np.column_stack([25.0 * t, np.zeros_like(t), np.full_like(t, 1000.0)])
+    east = Commanded(0.0, "course", "altitude", course=math.pi / 2)
+    on = Conformance(tol, speed=25.0, turn_rate=0.2)
+    _feed(on, t, pos, east)
+    assert on.failures(120.0) == []
+    ne = Commanded(0.0, "course", "altitude", course=math.pi / 4)
+    off = Conformance(tol, speed=25.0, turn_rate=0.2)
+    _feed(off, t, pos, ne)
+    (f,) = off.failures(120.0)
+    grace = (math.pi / 4) / 0.2 + 10.0
+    assert f.name == "off_command" and f.t_start > grace
+    # the drift from the line through where the turn should have ended: 25 m/s sin 45 deg
+    assert f.value == pytest.approx(25.0 * math.sin(math.pi / 4) * (120.0 - 0.1 - grace), rel=0.02)
+
+
+def test_a_climb_command_must_not_lose_altitude_and_a_held_altitude_is_judged() -> None:
+    from replay.guidance import Commanded
+
+    tol = Tolerances(vertical=30.0, lateral=50.0, return_time=60.0)
+    t = np.arange(0.0, 100.0, 0.1)
+    xy = np.column_stack([25.0 * t, np.zeros_like(t)])
+    climb = Commanded(0.0, "path", "climb", climb_rate=5.0)
+    sinking = np.column_stack([xy, 1000.0 - 1.0 * t])  # told to climb, it sinks 1 m/s
+    c = Conformance(tol, climb_rate=5.0, speed=25.0, turn_rate=0.2)
+    _feed(c, t, sinking, climb)
+    (f,) = c.failures(100.0)
+    assert f.name == "off_command" and f.t_start == pytest.approx(30.1, abs=0.11)
+    assert "climb's start altitude" in f.text
+    slow = np.column_stack([xy, 1000.0 + 0.5 * t])  # climbs, slower than commanded: physics
+    d = Conformance(tol, climb_rate=5.0, speed=25.0, turn_rate=0.2)
+    _feed(d, t, slow, climb)
+    assert d.failures(100.0) == []
+    # an altitude held 100 m below the command (the band: the climb it could have made)
+    hold = Commanded(0.0, "path", "altitude")
+    e = Conformance(tol, climb_rate=5.0 / RATE_SHARE, speed=25.0, turn_rate=0.2)
+    _feed(e, t, np.column_stack([xy, np.full_like(t, 1000.0)]), hold, np.full(len(t), 1100.0))
+    (g,) = e.failures(100.0)
+    assert g.name == "off_command" and "altitude commanded" in g.text
+    assert g.t_start == pytest.approx(30.0 / 5.0, abs=0.2)  # the band climbs 5 m/s from 1,000 m
+
+
+class _Orbiting(AvoiderBase):
+    """An avoider that orbits a moving centre at 10 s and hands back the legs at 130 s."""
+
+    name = "orbiting"
+
+    def __init__(self, centre_speed: float, waypoints: Any) -> None:
+        from replay.guidance import AvoidanceDecision, FollowWaypoints, Orbit
+
+        self.period = 1.0
+        self.plan = {
+            10.0: AvoidanceDecision(
+                Orbit((250.0, 600.0), 350.0, True, 1000.0, (centre_speed, 0.0)), reason="orbit"
+            ),
+            130.0: AvoidanceDecision(FollowWaypoints(np.array(waypoints), 1), reason="back"),
+        }
+
+    def reset(self, waypoints: Any, rng: Any) -> None:
+        pass
+
+    def decide(self, ctx: Any) -> Any:
+        return self.plan.get(round(ctx.t, 6))
+
+
+@pytest.mark.parametrize(("centre_speed", "flown"), [(15.0, True), (30.0, False)])
+def test_an_orbit_the_aircraft_can_keep_up_with_is_flown_and_one_it_cannot_is_off_command(
+    centre_speed: float, flown: bool
+) -> None:
+    """The aerosonde (25 m/s) told to orbit a centre drifting east: at 15 m/s it stays on the
+    moving circle and, handed back its legs, is back on the plan -- a success; at 30 m/s the
+    centre outruns it and the run fails ``off_command`` (laterally, hundreds of metres), where
+    before the manoeuvre was not judged at all."""
+    from replay.flight.fixedwing.presets import load_vehicle
+
+    mission = _local("aerosonde", 25.0, [[0, 0, 1000], [8000, 0, 1000]])
+    avoider = _Orbiting(centre_speed, mission.waypoints)
+    r = simulate(
+        mission,
+        ThreatSet(()),
+        avoider,
+        load_vehicle("aerosonde"),
+        config=ReplayConfig(duration=900.0),
+    )
+    m = r.metrics
+    assert m.off_plan_s >= 120.0  # the manoeuvre is time off the plan either way
+    if flown:
+        assert m.success and m.failures == ()
+    else:
+        (f,) = [f for f in m.failures if f.name == "off_command"]
+        assert not m.success and "orbit's circle" in f.text and f.value > 300.0
+        assert f.t_end == pytest.approx(130.0, abs=1.0)  # judged until the legs are handed back

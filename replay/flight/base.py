@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.flight.log import FlightLog
-from replay.guidance import GuidanceCommand
+from replay.guidance import Commanded, GuidanceCommand
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -50,6 +50,8 @@ class FlightStack(Protocol):
     def initial_state(self) -> FloatArray: ...
 
     def apply(self, command: GuidanceCommand) -> None: ...
+
+    def commanded(self, t: float) -> Commanded: ...
 
     def fly(
         self, state: FloatArray, t: float, duration: float, *, record_every: int

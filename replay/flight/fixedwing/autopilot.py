@@ -204,7 +204,7 @@ from replay.flight.fixedwing.gains import Gains, LoopDesign, design_gains
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.log import FlightLog, FlightRecorder, WaypointReached
 from replay.frames import N_CONTROLS, N_STATES, map_to_ned
-from replay.guidance import GuidanceRefused
+from replay.guidance import Commanded, GuidanceRefused
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -838,6 +838,25 @@ class Autopilot:
             pitch_cmd=float(ap[kern.A_THETA_C]),
             airspeed_cmd=float(ap[kern.A_VA_C]),
             terrain_floor=None if math.isinf(floor) else floor,
+        )
+
+    def commanded(self, t: float) -> Commanded:
+        """What the autopilot flies at ``t`` beside its legs (see :class:`Commanded`): the
+        lateral override (a course, a bank, an orbit; else the leg, ``"path"``) and whether the
+        altitude is a command (held, or the leg's profile) or a climb rate."""
+        cmd = self._cmd
+        lateral = self._override_lat or "path"
+        vertical = "climb" if self._override_alt == "climb" else "altitude"
+        return Commanded(
+            t=float(t),
+            lateral=lateral,
+            vertical=vertical,
+            course=float(cmd[kern.C_COURSE]),
+            center=(float(cmd[kern.C_ORB_E]), float(cmd[kern.C_ORB_N])),
+            center_velocity=(float(cmd[kern.C_ORB_VE]), float(cmd[kern.C_ORB_VN])),
+            radius=float(cmd[kern.C_ORB_R]),
+            clockwise=bool(cmd[kern.C_ORB_LAM] > 0.0),
+            climb_rate=float(cmd[kern.C_CLIMB]),
         )
 
     def retune(self, airspeed: float) -> None:

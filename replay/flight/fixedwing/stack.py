@@ -26,6 +26,7 @@ from replay.frames import PD, PE, PN, PSI
 from replay.guidance import (
     HOVER_COMMANDS,
     ClimbRate,
+    Commanded,
     FlightPathAngle,
     FollowWaypoints,
     GuidanceCommand,
@@ -159,6 +160,10 @@ class FixedWingStack:
             ap.set_override(climb_rate=ap.airspeed * math.sin(cmd.gamma))
         elif isinstance(cmd, HoldAltitude):
             ap.set_override(altitude=cmd.altitude)
+
+    def commanded(self, t: float) -> Commanded:
+        """What the autopilot flies at ``t`` beside its legs (:meth:`Autopilot.commanded`)."""
+        return self.autopilot.commanded(t)
 
     # -- flying ---------------------------------------------------------------------------------
     def fly(self, state: FloatArray, t: float, duration: float, *, record_every: int) -> FlightLog:

@@ -90,6 +90,7 @@ from replay.flight.multirotor.model import DT, N_MR_STATES, MultirotorParams, ho
 from replay.frames import N_STATES, map_to_ned, ned_to_map, rotation_body_to_ned
 from replay.guidance import (
     ClimbRate,
+    Commanded,
     FlightPathAngle,
     FollowWaypoints,
     GoTo,
@@ -237,6 +238,24 @@ class MultirotorStack:
     def mode(self) -> str:
         """``"hold"``, ``"leg"``, ``"course"`` or ``"orbit"``."""
         return ("hold", "leg", "course", "orbit")[int(self._cmd[kern.C_LAT])]
+
+    def commanded(self, t: float) -> Commanded:
+        """What the stack flies at ``t`` beside a leg (see :class:`Commanded`): a held point, a
+        course or an orbit, and whether the altitude is a command or a climb rate."""
+        c = self._cmd
+        lateral = ("point", "path", "course", "orbit")[int(c[kern.C_LAT])]
+        return Commanded(
+            t=float(t),
+            lateral=lateral,
+            vertical="climb" if c[kern.C_VERT] == 2.0 else "altitude",
+            course=float(c[kern.C_COURSE]),
+            center=(float(c[kern.C_ORB_E]), float(c[kern.C_ORB_N])),
+            center_velocity=(float(c[kern.C_ORB_VE]), float(c[kern.C_ORB_VN])),
+            radius=float(c[kern.C_ORB_R]),
+            clockwise=bool(c[kern.C_ORB_LAM] > 0.0),
+            point=(float(c[kern.C_TE]), float(c[kern.C_TN])),
+            climb_rate=float(c[kern.C_CLIMB]),
+        )
 
     def initial_state(self) -> FloatArray:
         """Hover over the first waypoint facing the second (rotors at hover speed)."""
