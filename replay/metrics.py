@@ -4,7 +4,7 @@
   each named): ``terrain_contact`` (judged on the conservative heights), ``off_map``,
   ``unknown_terrain`` (unless accepted), ``violation`` (a threat's or zone's safety volume,
   ids ``zone:<id>``), ``stall``, ``lateral_excursion``, ``vertical_excursion``,
-  ``not_back_on_plan`` (:mod:`replay.judge`), ``missed_goal``, ``avoider_end`` (an avoider ended
+  ``not_back_on_plan``, ``off_command`` (:mod:`replay.judge`), ``missed_goal``, ``avoider_end`` (an avoider ended
   the run, e.g. "target unreachable") or ``time_limit``;
 - minimum separation to each threat (distance to its safety surface; negative = inside) and when;
 - violations: every interval spent inside a threat's safety volume -- or closer to its surface

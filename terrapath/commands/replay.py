@@ -259,7 +259,8 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     type=click.FloatRange(min=0.0, min_open=True),
     default=None,
     help="Success needs the track within this many metres of the path it is meant to fly (the "
-    "legs and their turn fillets; default: the larger of 50 m and a quarter of the turn radius).",
+    "legs and their turn fillets, or an avoider's orbit, held course or held position; "
+    "default: the larger of 50 m and a quarter of the turn radius).",
 )
 @click.option(
     "--return-time",
