@@ -17,6 +17,14 @@ items.  So the aircraft climbs from the launch point to the start's altitude in 
 mode (that climb is the autopilot's, not part of the planned path) and then flies to waypoint 1;
 an item's altitude plus home's is always the planned AMSL altitude.
 
+A climb or descent spiral at a waypoint (:mod:`planner.spiral`) follows that waypoint's item as a
+``NAV_LOITER_TO_ALT`` (31) item at the helix's centre: param 1 = 1 (leave only when heading for
+the next waypoint, as the plan's helix leaves tangentially), param 2 the radius (positive
+clockwise, negative counter-clockwise, MAVLink's convention), param 4 = 1 (then track from where it
+leaves the circle to the next waypoint), the altitude the spiral ends at; the waypoint's own item
+has the altitude the spiral is entered at.  The autopilot circles until the altitude is reached
+(the plan's turn count is the one the climb needs at the planned gradient).
+
 Danger zones become exclusion geofences in the ``.plan``: cylinders as ``circles``, polygon zones as
 ``polygons`` (QGroundControl's ``{"inclusion": false, "polygon": [[lat, lon], ...], "version": 1}``,
 one per part; the geofence has no holes, so a hole is left out of the exclusion, the safe side).
@@ -46,6 +54,7 @@ MAV_FRAME_GLOBAL = 0
 MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
 MAV_CMD_NAV_WAYPOINT = 16
 MAV_CMD_NAV_TAKEOFF = 22
+MAV_CMD_NAV_LOITER_TO_ALT = 31
 MAV_TYPE_FIXED_WING = 1
 MAV_AUTOPILOT_PX4 = 12
 QGC_ALT_MODE = {"relative": 1, "amsl": 2}
@@ -115,10 +124,41 @@ def _provenance(mission: Mission) -> dict[str, Any]:
     return {k: plan[k] for k in ("algorithm", "seed", "feasible") if k in plan}
 
 
-def _item_altitudes(alt: np.ndarray, home: float, frame: AltFrame) -> list[float]:
-    """Every waypoint's altitude in ``frame`` (2 decimals), relative to the rounded ``home``."""
+def _items(
+    mission: Mission, grid: HeightGrid, home: float, frame: AltFrame
+) -> list[tuple[int, float, float, float, float, float, float]]:
+    """The mission items (command, param 1, param 2, param 4, lat, lon, altitude in ``frame``,
+    2 decimals, relative to the rounded ``home``): take-off to waypoint 0, waypoints, and a
+    loiter-to-altitude after each waypoint with a spiral (module docstring)."""
+    from planner.spiral import centre
+
+    lon, lat, alt = _geo(mission, grid)
     base = 0.0 if frame == "amsl" else home
-    return [round(float(a) - base, 2) for a in alt]
+    spirals = {s.at: s for s in mission.spirals}
+    radius = float(mission.turn_radius or 0.0)
+    out = []
+    for i in range(len(alt)):
+        sp = spirals.get(i)
+        arrive = float(alt[i]) if sp is None else sp.entry
+        cmd = MAV_CMD_NAV_TAKEOFF if i == 0 else MAV_CMD_NAV_WAYPOINT
+        p1 = 15.0 if i == 0 else 0.0  # takeoff: minimum pitch (deg)
+        out.append((cmd, p1, 0.0, 0.0, float(lat[i]), float(lon[i]), round(arrive - base, 2)))
+        if sp is not None:
+            c = centre(mission.waypoints, sp, radius or sp.radius)
+            clon, clat = grid.to_lonlat(c[0], c[1])
+            signed = sp.radius if sp.clockwise else -sp.radius
+            out.append(
+                (
+                    MAV_CMD_NAV_LOITER_TO_ALT,
+                    1.0,
+                    round(signed, 2),
+                    1.0,
+                    float(np.asarray(clat).reshape(-1)[0]),
+                    float(np.asarray(clon).reshape(-1)[0]),
+                    round(float(alt[i]) - base, 2),
+                )
+            )
+    return out
 
 
 def _geofence(mission: Mission, grid: HeightGrid) -> dict[str, Any]:
@@ -154,13 +194,11 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict
     """A QGroundControl plan (fileType "Plan", version 1, mission version 2): home on the ground
     under the start, then one item per waypoint (take-off to waypoint 0, then waypoints)."""
     frame_ = _frame(frame)
-    lon, lat, alt = _geo(mission, grid)
+    lon, lat, _ = _geo(mission, grid)
     home_alt = round(_ground_under_start(mission, grid), 2)
     mav_frame = MAV_FRAME_GLOBAL if frame_ == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
     items = []
-    for i, a in enumerate(_item_altitudes(alt, home_alt, frame_)):
-        cmd = MAV_CMD_NAV_TAKEOFF if i == 0 else MAV_CMD_NAV_WAYPOINT
-        p1 = 15.0 if cmd == MAV_CMD_NAV_TAKEOFF else 0.0  # takeoff: minimum pitch (deg)
+    for i, (cmd, p1, p2, p4, la, lo, a) in enumerate(_items(mission, grid, home_alt, frame_)):
         items.append(
             {
                 "AMSLAltAboveTerrain": None,
@@ -170,7 +208,15 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict
                 "command": cmd,
                 "doJumpId": i + 1,
                 "frame": mav_frame,
-                "params": [p1, 0, 0, None, round(float(lat[i]), 8), round(float(lon[i]), 8), a],
+                "params": [
+                    p1,
+                    p2,
+                    0,
+                    p4 if cmd == MAV_CMD_NAV_LOITER_TO_ALT else None,
+                    round(la, 8),
+                    round(lo, 8),
+                    a,
+                ],
                 "type": "SimpleItem",
             }
         )
@@ -197,11 +243,11 @@ def to_wpl(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> str:
     """``QGC WPL 110`` text: item 0 is home on the ground under the start (AMSL), then one item
     per waypoint in ``frame`` (take-off to waypoint 0, then waypoints)."""
     frame_ = _frame(frame)
-    lon, lat, alt = _geo(mission, grid)
+    lon, lat, _ = _geo(mission, grid)
     home_alt = round(_ground_under_start(mission, grid), 2)
     mav_frame = MAV_FRAME_GLOBAL if frame_ == "amsl" else MAV_FRAME_GLOBAL_RELATIVE_ALT
     lines = ["QGC WPL 110"]
-    row = "{i}\t{cur}\t{fr}\t{cmd}\t{p1}\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t{alt:.2f}\t1"
+    row = "{i}\t{cur}\t{fr}\t{cmd}\t{p1:g}\t{p2:g}\t0\t{p4:g}\t{lat:.8f}\t{lon:.8f}\t{alt:.2f}\t1"
     lines.append(
         row.format(
             i=0,
@@ -209,23 +255,17 @@ def to_wpl(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> str:
             fr=MAV_FRAME_GLOBAL,
             cmd=MAV_CMD_NAV_WAYPOINT,
             p1=0,
+            p2=0,
+            p4=0,
             lat=lat[0],
             lon=lon[0],
             alt=home_alt,
         )
     )
-    for i, a in enumerate(_item_altitudes(alt, home_alt, frame_)):
-        cmd = MAV_CMD_NAV_TAKEOFF if i == 0 else MAV_CMD_NAV_WAYPOINT
+    for i, (cmd, p1, p2, p4, la, lo, a) in enumerate(_items(mission, grid, home_alt, frame_)):
         lines.append(
             row.format(
-                i=i + 1,
-                cur=0,
-                fr=mav_frame,
-                cmd=cmd,
-                p1=15 if i == 0 else 0,
-                lat=lat[i],
-                lon=lon[i],
-                alt=a,
+                i=i + 1, cur=0, fr=mav_frame, cmd=cmd, p1=p1, p2=p2, p4=p4, lat=la, lon=lo, alt=a
             )
         )
     return "\n".join(lines) + "\n"

@@ -9,7 +9,10 @@ vehicle: solar-uav
 cruise: {speed: 15.0, altitude: 200.0, turn_radius: 143.0}   # altitude used for waypoints given as
                              # [x, y]; turn_radius: corners are flown as fillets of this radius
                              # (absent: the autopilot turns 1 km before each waypoint, seed 000)
-waypoints: [[x, y, z], ...]  # map metres, z metres AMSL
+waypoints: [[x, y, z], ...]  # map metres, z metres AMSL (where a spiral is: the altitude it ends at)
+spirals: [{waypoint, entry_altitude, turns, radius, direction}, ...]   # climb / descent spirals
+                             # (planner.spiral): at waypoint i the aircraft arrives at
+                             # entry_altitude and circles `turns` times to the waypoint's altitude
 danger_zones: [{x, y, diameter, floor?, top?, id?} or {vertices: [[x, y], ...], floor?, top?, id?}, ...]
 plan: {...}                  # provenance written by `terrapath plan`
 waypoints_geo: [{lon, lat, alt_amsl, alt_agl}, ...]   # written for people and other tools; ignored on read
@@ -32,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from planner.spiral import Spiral
 from terrain.atomic import atomic_output
 from terrain.docfile import (
     FORMAT_VERSION,
@@ -61,6 +65,7 @@ MISSION_KEYS = (
     "vehicle",
     "cruise",
     "waypoints",
+    "spirals",
     "danger_zones",
     "plan",
     "waypoints_geo",
@@ -166,6 +171,7 @@ class Mission:
     danger_zones: tuple[Zone, ...] = ()
     plan: dict[str, Any] = field(default_factory=dict)
     source: str | None = None
+    spirals: tuple[Spiral, ...] = ()
 
     def __post_init__(self) -> None:
         w = np.array(self.waypoints, dtype=np.float64, copy=True)
@@ -175,6 +181,11 @@ class Mission:
             )
         w.flags.writeable = False
         object.__setattr__(self, "waypoints", w)
+        at = [s.at for s in self.spirals]
+        if len(set(at)) != len(at) or any(a >= len(w) for a in at):
+            raise InputError(
+                f"mission spirals must be at distinct waypoints 0..{len(w) - 1}; got {at}"
+            )
 
 
 def _fail(path: str | None, fld: str, msg: str) -> InputError:
@@ -286,6 +297,29 @@ def mission_from_dict(
     if not isinstance(plan, dict):
         raise _fail(path, "plan", f"expected a mapping, found {plan!r}")
     zones = zones_from_records(doc.get("danger_zones") or [], None, source=path)
+    raw_spirals = doc.get("spirals") or []
+    if not isinstance(raw_spirals, list):
+        raise _fail(path, "spirals", f"expected a list of spirals, found {found(raw_spirals)}")
+    spirals = tuple(
+        Spiral.from_dict(d, where(path, f"spirals[{i}]").rstrip(": ") or f"spirals[{i}]")
+        for i, d in enumerate(raw_spirals)
+    )
+    for i, sp in enumerate(spirals):
+        if sp.at >= len(pts):
+            raise _fail(
+                path,
+                f"spirals[{i}].waypoint",
+                f"expected a waypoint index 0..{len(pts) - 1}, found {sp.at}",
+            )
+        if not ALTITUDES[0] <= sp.entry <= ALTITUDES[1]:
+            lo, hi = ALTITUDES
+            raise _fail(
+                path,
+                f"spirals[{i}].entry_altitude",
+                f"expected metres AMSL in {lo:,.0f}..{hi:,.0f}, found {sp.entry:g}",
+            )
+    if len({sp.at for sp in spirals}) != len(spirals):
+        raise _fail(path, "spirals", "expected at most one spiral per waypoint")
     return Mission(
         name=str(name),
         waypoints=np.array(pts),
@@ -298,6 +332,7 @@ def mission_from_dict(
         danger_zones=zones,
         plan=plan,
         source=path,
+        spirals=spirals,
     )
 
 
@@ -341,6 +376,8 @@ def mission_to_dict(
     if mission.turn_radius is not None:
         doc["cruise"]["turn_radius"] = round(float(mission.turn_radius), 2)
     doc["waypoints"] = [[_r(v) for v in w] for w in mission.waypoints]
+    if mission.spirals:
+        doc["spirals"] = [s.as_dict() for s in mission.spirals]
     doc["danger_zones"] = zones_to_records(mission.danger_zones)
     doc["plan"] = mission.plan
     if grid is not None:

@@ -29,6 +29,9 @@ from terrain.errors import InputError
 G = 9.81  # m/s^2, as replay/flight/fixedwing/params.py (seed 000 eq. 13)
 CLIMB_FRACTION = 0.8
 TURN_BANK_FRACTION = 0.8
+# without a vehicle model: the climb in the planned turn as a share of the straight climb (the
+# aerosonde's at 24 deg bank is 0.95-0.97 of it from 3,000 to 4,500 m)
+TURN_CLIMB_SHARE = 0.9
 
 
 @dataclass(frozen=True)
@@ -44,6 +47,10 @@ class Performance:
     climb_fraction: float = CLIMB_FRACTION
     turn_bank_fraction: float = TURN_BANK_FRACTION
     ceiling: float = math.inf
+    # the climb rate (m/s) it sustains in a helix of the planned turn radius (a climb spiral,
+    # planner.spiral): less than in straight flight (the bank's induced drag); None: unknown,
+    # taken as ``turn_climb_share`` of the straight climb
+    turn_climb_rate: float | None = None
 
     def __post_init__(self) -> None:
         for fld in ("speed", "climb_rate", "descent_rate", "bank_max_deg"):
@@ -71,6 +78,16 @@ class Performance:
     def descent_gradient(self) -> float:
         """Steepest planned descent, metres down per metre of horizontal travel."""
         return self.climb_fraction * self.descent_rate / self.speed
+
+    @property
+    def turn_climb_gradient(self) -> float:
+        """Steepest planned climb in a climb spiral (metres up per metre flown round it): the
+        climb fraction of the climb in the banked turn (:attr:`turn_climb_rate`; without it,
+        ``TURN_CLIMB_SHARE`` of the straight climb), never more than the straight one."""
+        rate = self.turn_climb_rate
+        if rate is None:
+            rate = TURN_CLIMB_SHARE * self.climb_rate
+        return self.climb_fraction * min(rate, self.climb_rate) / self.speed
 
     @property
     def turn_bank_deg(self) -> float:
@@ -112,4 +129,7 @@ class Performance:
         }
         if math.isfinite(self.ceiling):
             out["ceiling"] = self.ceiling
+        if self.turn_climb_rate is not None:
+            out["turn_climb_rate"] = round(self.turn_climb_rate, 4)
+        out["turn_climb_gradient"] = round(self.turn_climb_gradient, 5)
         return out

@@ -357,6 +357,7 @@ def to_mission(
         turn_radius=perf.turn_radius,
         danger_zones=prepared.zones,
         plan=provenance,
+        spirals=result.spirals,
     )
 
 

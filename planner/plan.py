@@ -14,7 +14,8 @@ from planner.optim import make_optimizer
 from planner.optim.termination import MaxIterations, SwarmRadius
 from planner.problem import PlanningProblem
 from planner.profile import sample_path
-from planner.result import PlanResult, find_violations, flown_checks
+from planner.result import PlanResult, find_violations, flown_checks, spiral_violation
+from planner.spiral import Spiral, only_too_steep, spiral_repair
 from terrain.errors import InputError
 
 ALGORITHMS = ("ampso", "pso", "apso", "ga")
@@ -169,9 +170,27 @@ def _plan_once(
     flown_ok, check, top = flown_checks(problem, flown)
     feasible = bool(problem.feasible(terms)[0]) and flown_ok
     row = terms.row(0)
+    spirals: tuple[Spiral, ...] = ()
+    spiral_note = None
+    if not feasible and flown_ok and problem.performance is not None and only_too_steep(row):
+        repaired = spiral_repair(problem, path)
+        if repaired.reason is None:
+            path, flown, row, spirals = (
+                repaired.path,
+                repaired.flown,
+                repaired.terms,
+                repaired.spirals,
+            )
+            flown_ok, check, top = flown_checks(problem, flown)
+            feasible = repaired.feasible and flown_ok
+        else:
+            spiral_note = repaired.reason
     row["min_clearance_m"], row["over_unknown_share"] = flown_figures(problem, flown)
     if top is not None:
         row["max_above_ground_m"] = top
+    violations = () if feasible else find_violations(problem, path, check)
+    if spiral_note is not None:
+        violations = (*violations, spiral_violation(spiral_note))
     return PlanResult(
         status="feasible" if feasible else "infeasible",
         waypoints=path,
@@ -191,6 +210,7 @@ def _plan_once(
         stop_reason=str(res.status),
         history_best=np.asarray(res.history_best),
         history_mean=np.asarray(res.history_mean),
-        violations=() if feasible else find_violations(problem, path, check),
+        violations=violations,
         flown=flown,
+        spirals=spirals,
     )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -12,6 +13,7 @@ from planner.flown import TOLERANCE, fillets
 from planner.performance import Performance
 from planner.problem import PlanningProblem
 from planner.profile import PathSamples, sample_path
+from planner.spiral import Spiral
 from terrain.validity import SegmentValidity
 
 FloatArray = npt.NDArray[np.float64]
@@ -22,7 +24,9 @@ Status = Literal["feasible", "infeasible"]
 class Violation:
     """One broken constraint: what, which segment, where (map metres), how much."""
 
-    kind: Literal["terrain", "danger_zone", "climb", "turn", "unknown_terrain", "above_band"]
+    kind: Literal[
+        "terrain", "danger_zone", "climb", "turn", "unknown_terrain", "above_band", "spiral"
+    ]
     segment: int
     x: float
     y: float
@@ -60,6 +64,7 @@ class PlanResult:
     history_mean: FloatArray = field(repr=False)
     violations: tuple[Violation, ...] = ()
     flown: FloatArray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    spirals: tuple[Spiral, ...] = ()  # climb and descent spirals (planner.spiral)
 
     @property
     def path(self) -> FloatArray:
@@ -78,6 +83,14 @@ class PlanResult:
             if len(self.violations) > 1:
                 s += f" (and {len(self.violations) - 1} more)"
         return s
+
+
+def spiral_violation(reason: str) -> Violation:
+    """Why the climb and descent spirals that would have made a too-steep plan flyable could not
+    be placed (:func:`planner.spiral.spiral_repair`)."""
+    return Violation(
+        "spiral", -1, math.nan, math.nan, math.nan, 0.0, f"spirals cannot help: {reason}"
+    )
 
 
 def _at(kind: Any, leg: int, point: FloatArray, amount: float, detail: str) -> Violation:

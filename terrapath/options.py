@@ -118,14 +118,16 @@ def output_option(
 ) -> Callable[[F], F]:
     """``-o/--output``: the file (or with ``directory`` the folder) a command writes; required
     unless it has a ``default`` or ``required`` is False."""
+    # no default at all rather than ``default=None``: click 8.2+ takes an explicit None as a
+    # value given, and a required option then reaches the command as None
+    extra: dict[str, Any] = {} if default is None else {"default": default, "show_default": True}
     return click.option(
         "-o",
         "--output",
         required=required and default is None,
-        default=default,
-        show_default=default is not None,
         type=click.Path(file_okay=not directory, dir_okay=directory),
         help=help,
+        **extra,
     )
 
 

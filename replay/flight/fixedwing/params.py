@@ -68,7 +68,7 @@ parameters into the float64 array the numba kernels take (layout: the ``I_*`` in
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -294,9 +294,16 @@ class VehicleParams:
         else:
             climb = self._climb_over(v, altitudes, temperature_offset)
             ceiling = self.ceiling(v, temperature_offset)
-        return Performance(
+        perf = Performance(
             self.name, v, climb, self.descent_rate_max, self.bank_max_deg, ceiling=ceiling
         )
+        if altitudes is None:
+            return perf
+        from replay.flight.fixedwing.trim import best_climb
+
+        # the climb in a spiral of the planned turn radius, at the highest altitude
+        turn = best_climb(self, v, float(altitudes[1]), temperature_offset, perf.turn_radius)
+        return replace(perf, turn_climb_rate=min(self.climb_rate_max, turn))
 
     def _climb_over(
         self, v: float, altitudes: tuple[float, float], temperature_offset: float

@@ -285,15 +285,17 @@ def best_climb(
     airspeed: float,
     altitude: float = 0.0,
     temperature_offset: float = 0.0,
+    turn_radius: float = math.inf,
 ) -> float:
     """The steepest steady climb rate (m/s) at true ``airspeed`` and ``altitude``: the largest
     flight-path angle that still trims (full throttle at most), to 1 mm/s; 0 when not even level
-    flight trims there."""
+    flight trims there. With a finite ``turn_radius`` (m), in a coordinated helix of that radius:
+    the bank's load factor adds induced drag, so the climb in a turn is less."""
     packed = params.pack(temperature_offset=temperature_offset)
     va = float(airspeed)
 
     def ok(gamma: float) -> bool:
-        return _solve(params, packed, va, altitude, gamma, math.inf, None)[1] < TOLERANCE
+        return _solve(params, packed, va, altitude, gamma, turn_radius, None)[1] < TOLERANCE
 
     if not ok(0.0):
         return 0.0

