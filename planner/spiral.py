@@ -342,7 +342,10 @@ def add_spirals(
     share = GRADIENT_MARGIN * np.minimum(arc_share[:-1], arc_share[1:])
     out: list[FloatArray] = [w[0].copy()]  # z: the altitude each waypoint is left at
     entry: list[float] = [float(w[0, 2])]  # the altitude each is arrived at
-    origin: list[int] = [0]  # the input waypoint each is (-1: a new one on a leg)
+
+    def push(point: npt.ArrayLike, arrive: float) -> None:
+        out.append(np.array(point, dtype=np.float64))
+        entry.append(float(arrive))
     a = float(w[0, 2])
     for k in range(n - 1):
         b = w[k + 1]
@@ -370,9 +373,7 @@ def add_spirals(
                 if not fits(before)[0]:
                     continue
                 if _spiral(k, x, q, z0, z1, perf, fits)[0] is not None:
-                    out.append(np.array([x[0], x[1], z1]))
-                    entry.append(z0)
-                    origin.append(-1)
+                    push([x[0], x[1], z1], z0)
                     a, placed = z1, True
                     break
             if not placed:
@@ -385,9 +386,7 @@ def add_spirals(
                     "clearance), a zone, unknown terrain or the map's edge -- the valley is "
                     "narrower than the turn's diameter",
                 )
-            out.append(b.copy())
-            entry.append(float(b[2]))
-            origin.append(k + 1)
+            push(b, b[2])
             a = float(b[2])
         elif a - b[2] > down * big_l + TOLERANCE:  # a descent it cannot make
             placed = False
@@ -396,9 +395,7 @@ def add_spirals(
                     p, qa = anchor(w, k + 1, radius)
                     z0 = a - down * big_l
                     if _spiral(k + 1, p, qa, z0, float(b[2]), perf, fits)[0] is not None:
-                        out.append(b.copy())
-                        entry.append(z0)
-                        origin.append(k + 1)
+                        push(b, z0)
                         placed = True
                         break
                     continue
@@ -410,12 +407,8 @@ def add_spirals(
                 if not fits(after)[0]:
                     continue
                 if _spiral(k, x, q, z0, z1, perf, fits)[0] is not None:
-                    out.append(np.array([x[0], x[1], z1]))
-                    entry.append(z0)
-                    origin.append(-1)
-                    out.append(b.copy())
-                    entry.append(float(b[2]))
-                    origin.append(k + 1)
+                    push([x[0], x[1], z1], z0)
+                    push(b, b[2])
                     placed = True
                     break
             if not placed:
@@ -429,9 +422,7 @@ def add_spirals(
                 )
             a = float(b[2])
         else:
-            out.append(b.copy())
-            entry.append(float(b[2]))
-            origin.append(k + 1)
+            push(b, b[2])
             a = float(b[2])
     path = np.asarray(out, dtype=np.float64)
     spirals: list[Spiral] = []
