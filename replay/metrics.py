@@ -81,9 +81,13 @@ class RunMetrics:
     gave_up: tuple[dict[str, Any], ...] = ()
     # what the run was judged by: vertical_m, lateral_m, return_time_s, stall_eas_mps ...
     judged_by: dict[str, Any] = field(default_factory=dict)
+    # each climb or descent spiral flown: waypoint, t (s), the altitude it was left at and the
+    # plan's (m AMSL)
+    spirals: tuple[dict[str, Any], ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
+        d["spirals"] = [dict(s) for s in self.spirals]
         d["violations"] = [asdict(v) for v in self.violations]
         d["failures"] = [asdict(f) for f in self.failures]
         d["gave_up"] = [dict(g) for g in self.gave_up]
@@ -248,6 +252,7 @@ class MetricsTracker:
         off_plan_s: float = 0.0,
         judged_by: dict[str, Any] | None = None,
         position_at: Callable[[float], tuple[float, float]] | None = None,
+        spirals: Sequence[dict[str, Any]] = (),
     ) -> RunMetrics:
         """The run's metrics; ``contact_at`` (x, y, clearance) where the terrain was touched,
         ``failures`` the loop's other judges found (stall, conformance), ``position_at(t)`` the
@@ -294,6 +299,7 @@ class MetricsTracker:
             off_plan_s=float(off_plan_s),
             gave_up=tuple(gave_up),
             judged_by=dict(judged_by or {}),
+            spirals=tuple(dict(s) for s in spirals),
         )
 
     def _failures(

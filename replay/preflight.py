@@ -173,8 +173,11 @@ def preflight(
         if envelope < aero
         else f"best climb {CEILING_CLIMB:g} m/s"
     )
+    arrive = w[:, 2].copy()  # a leg ends at the altitude its end is arrived at: a spiral's entry
+    for sp in mission.spirals:
+        arrive[sp.at] = sp.entry
     legs: list[LegProblem] = []
-    for k, (z0, z1, length, dz) in enumerate(_legs(w)):
+    for k, (z0, z1, length, dz) in enumerate(_legs(w, arrive)):
         high = max(z0, z1)
         above = high > ceiling
         if dz > 0:
@@ -202,6 +205,7 @@ def preflight(
             need, available, limit = 0.0, 0.0, ""
         legs.append(LegProblem(k, z0, z1, length, need, available, limit, above, True))
     refusals = [where + _leg_text(p, params.name, v, ceiling, by) for p in legs]
+    refusals += [where + text for text in _spirals(mission, params, v, dt)]
     if mission.turn_radius is not None:
         r_min = params.min_turn_radius(v)
         if mission.turn_radius < r_min:
@@ -278,8 +282,11 @@ def _multirotor(
 ) -> Preflight:
     ceiling = multirotor_ceiling(params, dt)
     by = f"climb {CEILING_CLIMB:g} m/s at full rotor speed"
+    arrive = w[:, 2].copy()  # a leg ends at the altitude its end is arrived at: a spiral's entry
+    for sp in mission.spirals:
+        arrive[sp.at] = sp.entry
     legs: list[LegProblem] = []
-    for k, (z0, z1, length, dz) in enumerate(_legs(w)):
+    for k, (z0, z1, length, dz) in enumerate(_legs(w, arrive)):
         high = max(z0, z1)
         above = high > ceiling
         available = (
@@ -334,15 +341,53 @@ def _average_climb(rates: list[float]) -> float:
     return 6.0 / (1.0 / r0 + 4.0 / rm + 1.0 / r1)
 
 
-def _legs(w: FloatArray) -> list[tuple[float, float, float, float]]:
-    """(start altitude, end altitude, horizontal length, rise) of every leg; a leg with neither
-    length nor rise (a repeated waypoint) rises 0 over 0 m and is never a problem."""
-    d = np.diff(w, axis=0)
+def _legs(
+    w: FloatArray, arrive: FloatArray | None = None
+) -> list[tuple[float, float, float, float]]:
+    """(start altitude, end altitude, horizontal length, rise) of every leg, from the altitude
+    its start is left at to the one its end is arrived at (``arrive``, default the waypoints'
+    own); a leg with neither length nor rise (a repeated waypoint) rises 0 over 0 m and is
+    never a problem."""
+    end = w[:, 2] if arrive is None else arrive
+    d = np.diff(w[:, :2], axis=0)
     length = np.hypot(d[:, 0], d[:, 1])
     return [
-        (float(w[k, 2]), float(w[k + 1, 2]), float(length[k]), float(d[k, 2]))
+        (float(w[k, 2]), float(end[k + 1]), float(length[k]), float(end[k + 1] - w[k, 2]))
         for k in range(len(d))
     ]
+
+
+def _spirals(mission: Mission, params: VehicleParams, v: float, dt: float) -> list[str]:
+    """Each climb spiral the aircraft cannot climb in its banked turn (the trim in a helix of
+    its radius at the spiral's top), and each descent spiral steeper than its descent limit."""
+    from replay.flight.fixedwing.trim import best_climb
+
+    out = []
+    w = mission.waypoints
+    for sp in mission.spirals:
+        dz = float(w[sp.at, 2]) - sp.entry
+        run = 2.0 * math.pi * sp.radius * sp.turns
+        need = v * math.sin(math.atan2(abs(dz), run))
+        what = (
+            f"the {'climb' if dz > 0 else 'descent'} spiral at waypoint {sp.at} "
+            f"({sp.entry:,.0f} -> {w[sp.at, 2]:,.0f} m in {sp.turns} turns of {sp.radius:.0f} m)"
+        )
+        if dz > 0:
+            have = min(
+                params.climb_rate_max,
+                best_climb(params, v, float(w[sp.at, 2]), dt, turn_radius=sp.radius),
+            )
+            if need > have:
+                out.append(
+                    f"{what} needs {_rate(need)} m/s of climb; {params.name} climbs "
+                    f"{_rate(have)} m/s in that turn at its top"
+                )
+        elif need > params.descent_rate_max:
+            out.append(
+                f"{what} needs {_rate(need)} m/s of descent; {params.name} has "
+                f"{_rate(params.descent_rate_max)} m/s (descent_rate_max)"
+            )
+    return out
 
 
 def _rate(x: float) -> str:

@@ -129,13 +129,6 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     else:
         mission, old_run = load_source(r.source)
         source = r.source
-    if mission.spirals:
-        at = ", ".join(str(sp.at) for sp in mission.spirals)
-        raise InputError(
-            f"{source}: the mission climbs or descends in {len(mission.spirals)} spiral(s) (at "
-            f"waypoint {at}); the replay cannot fly spirals yet, and flying the legs without "
-            "them would not be the mission planned (issue 33)"
-        )
     mission = find_terrain(mission, r.dem)
     grid = mission.terrain.load() if mission.terrain is not None else None
     params, vehicle_file = source_vehicle(r.vehicle, mission, source, old_run)

@@ -228,11 +228,13 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
 
 def time_limit(mission: Mission, cfg: ReplayConfig) -> float:
     """How long a replay may fly (s): the configured duration, else 1.5 x the mission's flight
-    time at its airspeed + 10 minutes."""
+    time at its airspeed (its spirals' circles counted) + 10 minutes."""
     if cfg.duration:
         return float(cfg.duration)
     speed = float(cfg.airspeed or mission.cruise_speed)
-    return 1.5 * estimated_flight_time(np.asarray(mission.waypoints, np.float64), speed) + 600.0
+    loops = sum(2.0 * math.pi * sp.radius * sp.turns for sp in mission.spirals)  # climb spirals
+    flight = estimated_flight_time(np.asarray(mission.waypoints, np.float64), speed)
+    return 1.5 * (flight + loops / speed) + 600.0
 
 
 def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
@@ -341,6 +343,7 @@ def _vehicle_stack(
         ),
         terrain_clearance=cfg.terrain_following or 0.0,
         temperature_offset=cfg.temperature_offset,
+        spirals=mission.spirals,
     )
 
 
@@ -408,6 +411,7 @@ class _Loop:
         self.times: list[FloatArray] = []
         self.states: list[FloatArray] = []
         self.decisions: list[dict[str, Any]] = []
+        self.spiral_exits: list[dict[str, Any]] = []
         self.t = 0.0
         self.end_reason = "time limit"
         self.contact = False
@@ -517,7 +521,7 @@ class _Loop:
             airspeed = np.linalg.norm(log.states[:keep][:, [U, V, W]], axis=1)
             self.stall.update(ts, pos[:keep], airspeed)
         # a leg change that is not a fillet turns the aircraft onto a leg it is not yet on
-        turns = [r.t for r in log.reached if r.how != "fillet"]
+        turns = [r.t for r in log.reached if r.how not in ("fillet", "spiral")]
         self.conformance.update(
             ts,
             pos[:keep],
@@ -527,20 +531,39 @@ class _Loop:
             converge_from=turns,
             commanded=commanded,
         )
-        # where a leg ends, the altitude against the plan's (Conformance.waypoint)
+        # where a leg ends, the altitude against the plan's (Conformance.waypoint): the leg's
+        # profile to the altitude its end is arrived at (a spiral's entry); where a spiral ends,
+        # the waypoint's own altitude
         if following and len(ts):
             wps = np.asarray(self.stack.waypoints, dtype=np.float64)
+            arrivals = getattr(self.stack, "arrivals", wps[:, 2])
             for r in log.reached:
-                if 1 <= r.index < len(wps):
-                    k = min(int(np.searchsorted(ts, r.t)), len(ts) - 1)
-                    self.conformance.waypoint(
-                        r.index,
-                        r.t,
-                        pos[k],
-                        wps[r.index - 1 : r.index + 1],
-                        g[k, _ALTITUDE_CMD],
-                        bool(self.cfg.terrain_following),
+                if not (1 <= r.index < len(wps) or (r.how == "spiral" and r.index == 0)):
+                    continue
+                k = min(int(np.searchsorted(ts, r.t)), len(ts) - 1)
+                if r.how == "spiral":
+                    # the plan's altitude where the helix touches the path again
+                    planned = getattr(self.stack, "spiral_exits", {}).get(r.index, wps[r.index, 2])
+                    leg = np.array([[*pos[k, :2], planned], [*pos[k, :2], planned]])
+                    self.spiral_exits.append(
+                        {
+                            "waypoint": int(r.index),
+                            "t": round(float(r.t), 2),
+                            "altitude": round(float(pos[k, 2]), 2),
+                            "planned": round(float(planned), 2),
+                        }
                     )
+                else:
+                    leg = wps[r.index - 1 : r.index + 1].copy()
+                    leg[1, 2] = arrivals[r.index]
+                self.conformance.waypoint(
+                    r.index,
+                    r.t,
+                    pos[k],
+                    leg,
+                    g[k, _ALTITUDE_CMD],
+                    bool(self.cfg.terrain_following),
+                )
 
     def _events(self, log: FlightLog, t: float) -> None:
         """Record the tick's leg changes and the threats when they changed."""
@@ -627,6 +650,7 @@ class _Loop:
             position_at=self._position_at,
             failures=judged,
             off_plan_s=self.conformance.off_plan_s,
+            spirals=self.spiral_exits,
             judged_by={
                 "terrain": "flat ground at 0 m"
                 if self.grid is None

@@ -133,6 +133,18 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
         t = m.get("min_terrain_clearance_t")
         at = f" at t = {seconds(t)}" if _number(t) is not None else ""
         rows.append(("min terrain clearance", metres(m["min_terrain_clearance_m"]) + at))
+    spirals = [sp for sp in m.get("spirals") or [] if isinstance(sp, dict)]
+    if spirals:
+        rows.append(
+            (
+                "spirals",
+                "; ".join(
+                    f"waypoint {sp.get('waypoint')} left at {metres(sp.get('altitude'))} "
+                    f"(plan {metres(sp.get('planned'))})"
+                    for sp in spirals
+                ),
+            )
+        )
     if _number(m.get("off_map_s")):
         rows.append(("off the map", seconds(m["off_map_s"]) + " (terrain unknown there)"))
     if _number(m.get("unknown_terrain_s")):

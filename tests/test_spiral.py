@@ -3,7 +3,6 @@ repair that puts the climb a leg cannot make into spirals, the mission record an
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 from pathlib import Path
@@ -181,26 +180,26 @@ def test_exports_fly_a_spiral_as_loiter_to_altitude() -> None:
     json.dumps(items)  # plain data
 
 
-def test_the_replay_refuses_a_mission_it_cannot_fly_as_planned(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    m, grid = _spiral_mission()
-    path = save_mission(dataclasses.replace(m), tmp_path / "s.yaml", grid)
-    assert main(["replay", str(path), "-o", str(tmp_path / "r.mcap")]) == 1
-    err = capsys.readouterr().err
-    assert "cannot fly spirals yet" in err and err.count("\n") == 1
-    assert not (tmp_path / "r.mcap").exists()
+def test_a_multirotor_flies_no_spirals() -> None:
+    from replay.flight.multirotor.model import multirotor_preset
+
+    m, _ = _spiral_mission()
+    with pytest.raises(InputError, match="multirotor: it climbs on the spot"):
+        multirotor_preset("quadrotor").flight_stack(m.waypoints, speed=10.0, spirals=m.spirals)
 
 
 # ---- the planner ------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("goal", ["-105.75,40.30", "-105.62,40.40"])
 def test_a_valley_launch_the_straight_climb_cannot_leave_is_planned_with_spirals(
-    tmp_path: Path, goal: str
+    tmp_path: Path, goal: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Issue 33's RMNP cases: from the valley at 3,040 m every straight route out needs more
     climb than the aerosonde's 9.2 %; with spirals the plan is feasible, each helix clears the
     terrain + clearance on the safety heights, and no piece of the flown path climbs beyond
-    the aircraft's gradient (the helix's: the climb in the banked turn)."""
+    the aircraft's gradient (the helix's: the climb in the banked turn). The 6-DOF aircraft
+    flies it (no terrain following) to success, at least half the planned clearance above the
+    measured terrain, leaving every spiral within 15 m of the plan's altitude."""
     from replay.flight.fixedwing.presets import preset
 
     out = tmp_path / "m.yaml"
@@ -235,3 +234,14 @@ def test_a_valley_launch_the_straight_climb_cannot_leave_is_planned_with_spirals
     need = (w[:, 2].max() - w[0, 2]) / perf.climb_gradient
     flown_len = float(np.hypot(*np.diff(fp.points[:, :2], axis=0).T).sum())
     assert flown_len >= need
+    # flown by the 6-DOF aircraft without terrain following: the mission as planned
+    run = tmp_path / "r.mcap"
+    args = ["replay", str(out), "-o", str(run), "--terrain-following", "0", "--no-picture"]
+    capsys.readouterr()
+    assert main([*args, "--no-terrain-mesh", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["metrics"]
+    assert got["success"] and not got["terrain_contact"]
+    assert got["min_terrain_clearance_m"] >= 0.5 * m.plan["clearance"]
+    assert [sp["waypoint"] for sp in got["spirals"]] == [sp.at for sp in m.spirals]
+    for sp in got["spirals"]:
+        assert abs(sp["altitude"] - sp["planned"]) <= 15.0, sp

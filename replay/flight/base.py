@@ -10,7 +10,7 @@ when to turn for the next leg) belong to the stack. The stacks:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import fields
 from typing import Any, Protocol
 
@@ -88,6 +88,7 @@ class Vehicle(Protocol):
         terrain_height: TerrainHeight | None = None,
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
+        spirals: Sequence[Any] = (),
     ) -> FlightStack: ...
 
 

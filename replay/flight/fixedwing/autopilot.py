@@ -187,6 +187,7 @@ eq. 20); ``command`` measures the period from successive ``t``; ``fly`` can run 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -196,6 +197,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.flown import Fillets, fillets
+from planner.spiral import Spiral
 from replay.flight.atmosphere import check_offset
 from replay.flight.base import TerrainHeight
 from replay.flight.fixedwing import kernels as kern
@@ -352,6 +354,14 @@ class Autopilot:
         self._hold_alt_pending = False  # hold the altitude flown at the next control step
         self._override_speed = False
         self.reached: list[WaypointReached] = []
+        # climb and descent spirals (planner.spiral) by waypoint index: (entry altitude, turns,
+        # radius, clockwise); the quarter arcs of the one being flown, what comes after it
+        self._spirals: dict[int, tuple[float, int, float, bool]] = {}
+        self._arcs: list[tuple[float, ...]] = []
+        self._after: tuple[str, int, Fillets | None] | None = None
+        self._spiral_z0: dict[int, float] = {}  # the altitude a spiral starts at (its T1's)
+        # the altitude the plan leaves each spiral flown so far at (where it touches the path)
+        self.spiral_exits: dict[int, float] = {}
         self._hold_pending = waypoints is None
         if waypoints is not None:
             self.set_waypoints(waypoints, 1)
@@ -419,11 +429,13 @@ class Autopilot:
                 f"next waypoint index must be in [0, {len(w) - 1}] for {len(w)} waypoints, "
                 f"found {next_index!r}"
             )
+        self._rekey_spirals(w)
         self._wp = w
         self._next = int(next_index)
         self._origin = None
         self._done = False
         self._hold_pending = False
+        self._arcs, self._after = [], None
         direct = direct or self._next == 0
         if direct and self._x_last is None:
             self._pending_direct = True
@@ -431,6 +443,109 @@ class Autopilot:
         else:
             self._start_leg(direct)
         self._apply_modes()
+
+    def set_spirals(self, spirals: Sequence[Spiral]) -> None:
+        """Fly a climb or descent spiral at each of ``spirals``' waypoints (objects with ``at``,
+        ``entry``, ``turns``, ``radius``, ``clockwise``) as the
+        planner built them: the leg into the waypoint ends at ``entry``, then ``turns`` circles
+        of ``radius`` tangent to the path where the turn fillet begins (at the start: along the
+        first leg; at the goal: along the last), flown as quarter-circle arcs of the turn
+        machinery, the altitude linear in the angle turned up (down) to the waypoint's own; then
+        the fillet and the next leg as usual. Each spiral's end is a ``WaypointReached`` with
+        ``how="spiral"``. Set before the flight starts (a start spiral is flown first)."""
+        out: dict[int, tuple[float, int, float, bool]] = {}
+        for sp in spirals:
+            k = int(sp.at)
+            if not 0 <= k < len(self._wp):
+                raise InputError(
+                    f"spiral at waypoint {k}: no such waypoint (0..{len(self._wp) - 1})"
+                )
+            radius = float(sp.radius)
+            if radius < self.min_orbit_radius() - 1e-6:
+                raise OrbitRefused(
+                    f"spiral at waypoint {k}: radius {radius:.0f} m is tighter than "
+                    f"{self.params.name} can fly at {self.airspeed:g} m/s (at least "
+                    f"{self.min_orbit_radius():.0f} m)"
+                )
+            out[k] = (float(sp.entry), int(sp.turns), radius, bool(sp.clockwise))
+        self._spirals = out
+        if self._x_last is None and self._wp.shape[0] > 1 and self._next == 1:
+            self._start_leg(False)  # the first leg's end altitude may be an entry now
+            if 0 in out:
+                self._begin_spiral(0, "go", None)
+            self._apply_modes()
+
+    @property
+    def arrivals(self) -> FloatArray:
+        """The altitude each waypoint is arrived at (a spiral's entry, else its own)."""
+        z = self._wp[:, 2].copy()
+        for k, sp in self._spirals.items():
+            z[k] = sp[0]
+        return z
+
+    def _arrival(self, i: int) -> float:
+        sp = self._spirals.get(i)
+        return float(self._wp[i, 2]) if sp is None else sp[0]
+
+    def _rekey_spirals(self, w: FloatArray) -> None:
+        """A new waypoint list keeps the spirals of the waypoints it keeps (same place)."""
+        if not self._spirals:
+            return
+        out = {}
+        for k, sp in self._spirals.items():
+            hit = np.flatnonzero(np.abs(w - self._wp[k]).max(axis=1) < 1.0)
+            if hit.size:
+                out[int(hit[0])] = sp
+        self._spirals = out
+
+    def _begin_spiral(self, k: int, then: str, fillet: Fillets | None) -> None:
+        """Start the spiral at waypoint ``k`` (module docstring of planner.spiral): its quarter
+        arcs into the leg array and the queue; ``then`` "finish" or "go" (the fillet, or the
+        next leg, after it)."""
+        entry, turns, radius, clockwise = self._spirals[k]
+        w = self._wp
+        if k == 0:
+            anchor, q = w[0, :2], w[1, :2] - w[0, :2]
+            z0 = entry
+        elif fillet is not None:
+            anchor, q = fillet.t1[0, 0, :2], w[k, :2] - w[k - 1, :2]
+            z0 = self._spiral_z0.get(k, entry)
+        else:
+            anchor, q = w[k, :2], w[k, :2] - w[k - 1, :2]
+            z0 = entry
+        q = q / max(float(np.hypot(*q)), 1e-12)
+        z1 = z0 + float(w[k, 2]) - entry
+        self.spiral_exits[k] = z1
+        side = -1.0 if clockwise else 1.0  # + counter-clockwise (map)
+        cx = float(anchor[0]) - side * radius * float(q[1])
+        cy = float(anchor[1]) + side * radius * float(q[0])
+        lam = 1.0 if clockwise else -1.0  # NED: +1 clockwise
+        g = math.atan2(float(anchor[0]) - cx, float(anchor[1]) - cy)  # east over north
+        n = 4 * turns
+        arcs: list[tuple[float, ...]] = []
+        for j in range(n):
+            g0 = g + lam * j * 0.5 * math.pi
+            g1 = g0 + lam * 0.5 * math.pi
+            arcs.append(
+                (
+                    cy,
+                    cx,
+                    radius,
+                    lam,
+                    g0,
+                    0.5 * math.pi,
+                    z0 + (z1 - z0) * j / n,
+                    z0 + (z1 - z0) * (j + 1) / n,
+                    cy + radius * math.cos(g1),
+                    cx + radius * math.sin(g1),
+                    -lam * math.sin(g1),
+                    lam * math.cos(g1),
+                )
+            )
+        kern.set_arc(self._leg, *arcs[0])
+        self._arcs = arcs[1:]
+        self._after = (then, k, fillet)
+        self._fillet_at = None
 
     def _guard_final_plane(self) -> None:
         """While an avoider steers (a course, bank or orbit override) the final leg ends only
@@ -466,9 +581,19 @@ class Autopilot:
         fillet = None if last else self._fillet(i)
         if fillet is not None:
             radius = 0.0  # the leg ends at its fillet's first tangent point (a plane), not a radius
-        # the leg array holds north, east and altitude (up)
+        if fillet is None and i in self._spirals and not last:
+            radius = 0.0  # a spiral on a straight-through waypoint starts on it (its plane)
+        # the leg array holds north, east and altitude (up); it ends at the altitude the
+        # aircraft arrives with (a spiral's entry)
         kern.set_leg(
-            self._leg, start[0], start[1], -start[2], end[0], end[1], -end[2], float(radius)
+            self._leg,
+            start[0],
+            start[1],
+            -start[2],
+            end[0],
+            end[1],
+            self._arrival(i),
+            float(radius),
         )
         if fillet is not None:
             self._leg[kern.L_PLANE] = max(0.0, length - float(fillet.distance[0, 0]))
@@ -492,7 +617,26 @@ class Autopilot:
         f = fillets(path, radius)
         if k < 1 or f.angle[0, k - 1] < math.radians(1.0):
             return None
-        return f.at(k)
+        at = f.at(k)
+        if not self._spirals:
+            return at
+        # with spirals a leg runs from the altitude its start is left at to the one its end is
+        # arrived at (planner.spiral.flown_path); a spiral here starts at T1
+        d = float(at.distance[0, 0])
+        a, b, c = path[k - 1], path[k], path[k + 1]
+        l1 = math.hypot(b[0] - a[0], b[1] - a[1])
+        l2 = math.hypot(c[0] - b[0], c[1] - b[1])
+        before = float(
+            a[2] + (self._arrival(i) - a[2]) * (max(l1 - d, 0.0) / l1 if l1 > 0 else 1.0)
+        )
+        self._spiral_z0[i] = before
+        t1 = at.t1.copy()
+        t2 = at.t2.copy()
+        t1[0, 0, 2] = before + float(b[2]) - self._arrival(i)
+        t2[0, 0, 2] = float(
+            b[2] + (self._arrival(i + 1) - b[2]) * (min(d / l2, 1.0) if l2 > 0 else 0.0)
+        )
+        return dataclasses.replace(at, t1=t1, t2=t2)
 
     def _start_arc(self, f: Fillets) -> None:
         """Fly the turn fillet ``f`` (map coordinates) into the leg to waypoint ``_next``."""
@@ -663,6 +807,23 @@ class Autopilot:
 
     def _switch(self, ev: int, t: float, x: FloatArray) -> None:
         if self._leg[kern.L_ARC] > 0.5:
+            if self._arcs:  # the next quarter of a spiral
+                kern.set_arc(self._leg, *self._arcs.pop(0))
+                return
+            if self._after is not None:  # a spiral is done: what follows it
+                then, k, fillet = self._after
+                self._after = None
+                _, _, dist = kern.leg_geometry(x, self._leg)
+                self.reached.append(WaypointReached(k, float(t), float(dist), "spiral"))
+                if then == "finish":
+                    self._finish()
+                    return
+                if fillet is not None:
+                    self._start_arc(fillet)
+                else:
+                    self._start_leg(False)
+                self._apply_modes()
+                return
             # a turn fillet is done: fly the leg it turned into
             self._start_leg(False)
             self._apply_modes()
@@ -670,8 +831,16 @@ class Autopilot:
         _, _, dist = kern.leg_geometry(x, self._leg)
         fillet = self._fillet_at
         how = "fillet" if fillet is not None else ("radius" if ev == 1 else "plane")
-        self.reached.append(WaypointReached(self._next, float(t), float(dist), how))
-        if self._next + 1 >= len(self._wp):
+        k = self._next
+        self.reached.append(WaypointReached(k, float(t), float(dist), how))
+        last = k + 1 >= len(self._wp)
+        if k in self._spirals:
+            if not last:
+                self._next += 1
+            self._begin_spiral(k, "finish" if last else "go", fillet)
+            self._apply_modes()
+            return
+        if last:
             self._finish()
             return
         self._next += 1

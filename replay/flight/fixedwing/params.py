@@ -80,6 +80,9 @@ from replay.flight.base import G, TerrainHeight, check_numbers
 from terrain.errors import InputError
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from planner.spiral import Spiral
     from replay.flight.fixedwing.stack import FixedWingStack
 
 FloatArray = npt.NDArray[np.float64]
@@ -243,10 +246,12 @@ class VehicleParams:
         terrain_height: TerrainHeight | None = None,
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
+        spirals: Sequence[Spiral] = (),
     ) -> FixedWingStack:
         """The aircraft under its autopilot flying ``waypoints`` at ``speed``: turn fillets of
-        ``turn_radius`` (else the leg switch ``switch_distance`` before a waypoint), terrain
-        following when ``terrain_height`` is given."""
+        ``turn_radius`` (else the leg switch ``switch_distance`` before a waypoint), the climb
+        and descent ``spirals`` of the plan, terrain following when ``terrain_height`` is
+        given."""
         from replay.flight.fixedwing.stack import FixedWingStack
 
         return FixedWingStack(
@@ -258,6 +263,7 @@ class VehicleParams:
             terrain_height=terrain_height,
             terrain_clearance=terrain_clearance,
             temperature_offset=temperature_offset,
+            spirals=spirals,
         )
 
     def min_turn_radius(self, speed: float | None = None) -> float:

@@ -12,11 +12,13 @@ hold position, yaw-to, waypoints, hold course, orbits at the speed their radius 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from planner.spiral import Spiral
 from replay.flight.base import G, TerrainHeight
 from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig
 from replay.flight.fixedwing.params import VehicleParams
@@ -36,6 +38,7 @@ from replay.guidance import (
     Orbit,
     check_command,
 )
+from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 SEED000_SWITCH_M = 1000.0  # seed 000 §3.6: the next leg is taken 1 km before a waypoint
@@ -64,6 +67,7 @@ class FixedWingStack:
         terrain_height: TerrainHeight | None = None,
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
+        spirals: Sequence[Spiral] = (),
     ) -> None:
         self.params = params
         self.temperature_offset = float(temperature_offset)
@@ -87,6 +91,13 @@ class FixedWingStack:
             terrain_height=terrain_height if terrain_clearance > 0 else None,
             temperature_offset=self.temperature_offset,
         )
+        if spirals:
+            if turn_radius is None:
+                raise InputError(
+                    "a mission with spirals needs its turn radius (cruise.turn_radius): the "
+                    "spirals are tangent to its turn fillets"
+                )
+            self.autopilot.set_spirals(spirals)
         self.arrival_distance = float(arrival_distance)
         self.switch_distance = 0.0 if turn_radius is not None else float(switch_distance)
         # how far before a waypoint the flown path leaves the leg: the switch distance, or with
@@ -160,6 +171,16 @@ class FixedWingStack:
             ap.set_override(climb_rate=ap.airspeed * math.sin(cmd.gamma))
         elif isinstance(cmd, HoldAltitude):
             ap.set_override(altitude=cmd.altitude)
+
+    @property
+    def spiral_exits(self) -> dict[int, float]:
+        """The altitude the plan leaves each spiral flown so far at, by waypoint."""
+        return dict(self.autopilot.spiral_exits)
+
+    @property
+    def arrivals(self) -> FloatArray:
+        """The altitude each waypoint is arrived at (a climb or descent spiral's entry)."""
+        return self.autopilot.arrivals
 
     def commanded(self, t: float) -> Commanded:
         """What the autopilot flies at ``t`` beside its legs (:meth:`Autopilot.commanded`)."""

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -181,10 +181,16 @@ class MultirotorParams:
         terrain_height: TerrainHeight | None = None,
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
+        spirals: Sequence[Any] = (),
     ) -> MultirotorStack:
         """The multirotor under its controller flying ``waypoints`` at ``speed`` in the day's air
         (turn radius, leg switch and terrain following do not apply: it turns on the spot and
         flies the waypoints' altitudes)."""
+        if spirals:
+            raise InputError(
+                f"{self.name} is a multirotor: it climbs on the spot and flies no spirals "
+                "(a spiral is a fixed-wing plan's)"
+            )
         from replay.flight.multirotor.stack import MultirotorStack
 
         return MultirotorStack(self, waypoints, speed=speed, temperature_offset=temperature_offset)
