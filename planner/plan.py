@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -15,7 +16,7 @@ from planner.optim.termination import MaxIterations, SwarmRadius
 from planner.problem import PlanningProblem
 from planner.profile import sample_path
 from planner.result import PlanResult, find_violations, flown_checks, spiral_violation
-from planner.spiral import Spiral, only_too_steep, spiral_repair
+from planner.spiral import Spiral, climb_bound, only_too_steep, spiral_repair
 from terrain.errors import InputError
 
 ALGORITHMS = ("ampso", "pso", "apso", "ga")
@@ -186,6 +187,12 @@ def _plan_once(
         else:
             spiral_note = repaired.reason
     row["min_clearance_m"], row["over_unknown_share"] = flown_figures(problem, flown)
+    if problem.performance is not None:
+        # how much longer than the climb and descent need the path is (spirals lengthen it)
+        bound = climb_bound(path, problem.performance)
+        row["climb_bound_m"] = bound
+        flat = float(np.hypot(*np.diff(flown[:, :2], axis=0).T).sum())
+        row["length_over_bound"] = flat / bound if bound > 0 else math.inf
     if top is not None:
         row["max_above_ground_m"] = top
     violations = () if feasible else find_violations(problem, path, check)

@@ -346,6 +346,7 @@ def add_spirals(
     def push(point: npt.ArrayLike, arrive: float) -> None:
         out.append(np.array(point, dtype=np.float64))
         entry.append(float(arrive))
+
     a = float(w[0, 2])
     for k in range(n - 1):
         b = w[k + 1]
@@ -541,6 +542,17 @@ def spiral_repair(problem: Any, path: npt.ArrayLike) -> Repaired:
     return Repaired(rep.waypoints, flown.points, row, rep.spirals, ok, None)
 
 
+def climb_bound(waypoints: npt.ArrayLike, perf: Performance) -> float:
+    """A lower bound (m) on the horizontal length of any flyable path through ``waypoints``'
+    altitudes: up from the start to the highest at the climb gradient, and down from there to
+    the goal at the descent gradient (the two cannot overlap)."""
+    w = np.asarray(waypoints, dtype=np.float64)
+    top = float(w[:, 2].max())
+    return (top - float(w[0, 2])) / perf.climb_gradient + (top - float(w[-1, 2])) / (
+        perf.descent_gradient
+    )
+
+
 def only_too_steep(terms: Mapping[str, float]) -> bool:
     """Whether a plan's cost terms (a :meth:`planner.cost.CostTerms.row`) say its one fault is a
     leg too steep: a climb excess, and no terrain, zone, turn, unknown-terrain or band fault."""
@@ -562,6 +574,7 @@ __all__ = [
     "add_spirals",
     "anchor",
     "centre",
+    "climb_bound",
     "flown_path",
     "gradient_excess",
     "helix",

@@ -424,6 +424,15 @@ def _echo_summary(outcome: PlanOutcome, performance: Performance) -> None:
     # at the band's top, as the violations state it), with the ceiling at the cruise speed
     enforced = outcome.prepared.problem.performance or performance
     click.echo(f"  limits    {enforced.describe()}")
+    if result.spirals:
+        turns = sum(s.turns for s in result.spirals)
+        at = ", ".join(str(s.at) for s in result.spirals)
+        bound = t.get("climb_bound_m", 0.0)
+        click.echo(
+            f"  spirals   {len(result.spirals)} ({turns} turns of {result.spirals[0].radius:.0f} m, "
+            f"at waypoint {at}): the climb and descent need at least {bound / 1000:.2f} km of "
+            f"path at the gradients; the path is {t.get('length_over_bound', 0.0):.2f} x that"
+        )
     ex = result.params.get("exploration")
     if isinstance(ex, dict):
         found = f"{ex['routes']} routes" if ex["routes"] else "no route (start and goal unlinked)"
