@@ -56,6 +56,7 @@ MAV_CMD_NAV_WAYPOINT = 16
 MAV_CMD_NAV_TAKEOFF = 22
 MAV_CMD_NAV_LOITER_TO_ALT = 31
 MAV_TYPE_FIXED_WING = 1
+MAV_TYPE_QUADROTOR = 2
 MAV_AUTOPILOT_PX4 = 12
 QGC_ALT_MODE = {"relative": 1, "amsl": 2}
 
@@ -68,6 +69,12 @@ def _geo(mission: Mission, grid: HeightGrid) -> tuple[np.ndarray, np.ndarray, np
     w = mission.waypoints
     lon, lat = grid.to_lonlat(w[:, 0], w[:, 1])
     return np.asarray(lon), np.asarray(lat), w[:, 2].copy()
+
+
+def _hover(mission: Mission) -> bool:
+    """Whether the mission was planned for a multirotor (its plan's vehicle limits say so)."""
+    limits = (mission.plan or {}).get("vehicle_limits")
+    return isinstance(limits, dict) and bool(limits.get("hover"))
 
 
 def _frame(frame: str) -> AltFrame:
@@ -141,7 +148,7 @@ def _items(
         sp = spirals.get(i)
         arrive = float(alt[i]) if sp is None else sp.entry
         cmd = MAV_CMD_NAV_TAKEOFF if i == 0 else MAV_CMD_NAV_WAYPOINT
-        p1 = 15.0 if i == 0 else 0.0  # takeoff: minimum pitch (deg)
+        p1 = 15.0 if i == 0 and not _hover(mission) else 0.0  # takeoff: minimum pitch (deg)
         out.append((cmd, p1, 0.0, 0.0, float(lat[i]), float(lon[i]), round(arrive - base, 2)))
         if sp is not None:
             c = centre(mission.waypoints, sp, radius or sp.radius)
@@ -229,7 +236,7 @@ def to_qgc_plan(mission: Mission, grid: HeightGrid, frame: str = "amsl") -> dict
         "mission": {
             "version": 2,
             "firmwareType": MAV_AUTOPILOT_PX4,
-            "vehicleType": MAV_TYPE_FIXED_WING,
+            "vehicleType": MAV_TYPE_QUADROTOR if _hover(mission) else MAV_TYPE_FIXED_WING,
             "cruiseSpeed": mission.cruise_speed,
             "hoverSpeed": 5,
             "globalPlanAltitudeMode": QGC_ALT_MODE[frame_],

@@ -32,6 +32,9 @@ TURN_BANK_FRACTION = 0.8
 # without a vehicle model: the climb in the planned turn as a share of the straight climb (the
 # aerosonde's at 24 deg bank is 0.95-0.97 of it from 3,000 to 4,500 m)
 TURN_CLIMB_SHARE = 0.9
+# a multirotor's planned gradient: it climbs on the spot, so any (large and finite, so the
+# flown-path arithmetic stays finite)
+HOVER_GRADIENT = 1e6
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,9 @@ class Performance:
     # planner.spiral): less than in straight flight (the bank's induced drag); None: unknown,
     # taken as ``turn_climb_share`` of the straight climb
     turn_climb_rate: float | None = None
+    # a multirotor: it climbs and descends on the spot at its rates (any gradient), stops to
+    # turn (no fillets), and flies no spirals
+    hover: bool = False
 
     def __post_init__(self) -> None:
         for fld in ("speed", "climb_rate", "descent_rate", "bank_max_deg"):
@@ -71,12 +77,17 @@ class Performance:
 
     @property
     def climb_gradient(self) -> float:
-        """Steepest planned climb, metres up per metre of horizontal travel."""
+        """Steepest planned climb, metres up per metre of horizontal travel (a multirotor:
+        ``HOVER_GRADIENT``, any: it slows down and climbs on the spot)."""
+        if self.hover:
+            return HOVER_GRADIENT
         return self.climb_fraction * self.climb_rate / self.speed
 
     @property
     def descent_gradient(self) -> float:
         """Steepest planned descent, metres down per metre of horizontal travel."""
+        if self.hover:
+            return HOVER_GRADIENT
         return self.climb_fraction * self.descent_rate / self.speed
 
     @property
@@ -95,7 +106,9 @@ class Performance:
 
     @property
     def turn_radius(self) -> float:
-        """Radius of the planned turn fillets (m)."""
+        """Radius of the planned turn fillets (m); 0 for a multirotor (it stops to turn)."""
+        if self.hover:
+            return 0.0
         return self.speed**2 / (G * math.tan(math.radians(self.turn_bank_deg)))
 
     @property
@@ -107,6 +120,12 @@ class Performance:
         """One line for messages: the limits the plan is held to (the climb as the violation
         messages of ``planner.result`` state it), and the ceiling at this speed where known."""
         ceiling = f", ceiling {self.ceiling:,.0f} m" if math.isfinite(self.ceiling) else ""
+        if self.hover:
+            return (
+                f"{self.name} at {self.speed:g} m/s: climbs {self.climb_rate:g} m/s and descends "
+                f"{self.descent_rate:g} m/s on the spot (any gradient), stops to turn (no "
+                f"fillets){ceiling}"
+            )
         return (
             f"{self.name} at {self.speed:g} m/s: climb <= {100 * self.climb_gradient:.1f} % "
             f"({self.climb_fraction:g} x {self.climb_rate:g} m/s), descent <= "
@@ -129,6 +148,11 @@ class Performance:
         }
         if math.isfinite(self.ceiling):
             out["ceiling"] = self.ceiling
+        if self.hover:
+            out["hover"] = True
+            for k in ("climb_gradient", "descent_gradient", "turn_bank_deg"):
+                out.pop(k)
+            return out
         if self.turn_climb_rate is not None:
             out["turn_climb_rate"] = round(self.turn_climb_rate, 4)
         out["turn_climb_gradient"] = round(self.turn_climb_gradient, 5)

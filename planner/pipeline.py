@@ -354,7 +354,7 @@ def to_mission(
         vehicle=r.vehicle,
         cruise_speed=perf.speed,
         cruise_altitude=round(float(np.mean(result.waypoints[:, 2])), 1),
-        turn_radius=perf.turn_radius,
+        turn_radius=None if perf.hover else perf.turn_radius,  # a multirotor stops to turn
         danger_zones=prepared.zones,
         plan=provenance,
         spirals=result.spirals,

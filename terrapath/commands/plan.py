@@ -77,9 +77,12 @@ def _vehicle_limits(
     checked against its envelope): at sea level, and over an altitude band (low, high)."""
     from planner.performance import Performance
     from replay.flight.fixedwing.presets import load_vehicle
+    from replay.flight.multirotor.model import MULTIROTOR_PRESETS
 
     if speed is not None and not speed > 0:
         raise click.BadParameter(f"expected a speed > 0 m/s; got {speed:g}", param_hint="--speed")
+    if vehicle in MULTIROTOR_PRESETS:
+        return _multirotor_limits(MULTIROTOR_PRESETS[vehicle], speed)
     params = load_vehicle(vehicle, base_dir=Path.cwd())
     v = params.cruise_speed if speed is None else float(speed)
     if not v >= params.airspeed_min:
@@ -94,6 +97,33 @@ def _vehicle_limits(
         params.name, v, params.climb_rate_max, params.descent_rate_max, params.bank_max_deg
     )
     return performance, lambda low, high: params.performance(v, (low, high))
+
+
+def _multirotor_limits(
+    params: Any, speed: float | None
+) -> tuple[Performance, Callable[[float, float], Performance]]:
+    """A multirotor's limits: its horizontal speed (at most ``speed_max``), the climb and
+    descent rates of its controller, hovering (any gradient, no fillets); the ceiling where it
+    still climbs (replay.preflight.multirotor_ceiling)."""
+    from planner.performance import Performance
+    from replay.preflight import multirotor_ceiling
+
+    v = params.cruise_speed if speed is None else float(speed)
+    if v > params.speed_max:
+        raise click.BadParameter(
+            f"{v:g} m/s is above {params.name}'s {params.speed_max:g} m/s (speed_max)",
+            param_hint="--speed",
+        )
+    performance = Performance(
+        params.name,
+        v,
+        params.climb_rate_max,
+        params.descent_rate_max,
+        params.bank_max_deg,
+        ceiling=multirotor_ceiling(params),
+        hover=True,
+    )
+    return performance, lambda low, high: performance
 
 
 def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: bool) -> Any:
