@@ -143,12 +143,15 @@ def _items(
     base = 0.0 if frame == "amsl" else home
     spirals = {s.at: s for s in mission.spirals}
     radius = float(mission.turn_radius or 0.0)
+    # launched from the ground (planner.launch): waypoint 0 is the launch point, home; the
+    # take-off item climbs out to waypoint 1, the plan's start
+    first = 1 if "takeoff" in (mission.plan or {}) else 0
     out = []
-    for i in range(len(alt)):
+    for i in range(first, len(alt)):
         sp = spirals.get(i)
         arrive = float(alt[i]) if sp is None else sp.entry
-        cmd = MAV_CMD_NAV_TAKEOFF if i == 0 else MAV_CMD_NAV_WAYPOINT
-        p1 = 15.0 if i == 0 and not _hover(mission) else 0.0  # takeoff: minimum pitch (deg)
+        cmd = MAV_CMD_NAV_TAKEOFF if i == first else MAV_CMD_NAV_WAYPOINT
+        p1 = 15.0 if i == first and not _hover(mission) else 0.0  # take-off: minimum pitch
         out.append((cmd, p1, 0.0, 0.0, float(lat[i]), float(lon[i]), round(arrive - base, 2)))
         if sp is not None:
             c = centre(mission.waypoints, sp, radius or sp.radius)

@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.explore import ROUTES
+from planner.launch import Takeoff
 from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
 from planner.performance import Performance
 from planner.plan import DEFAULT_ALGORITHM, plan
@@ -87,6 +88,10 @@ class PlanRequest:
     agl_pref: float | None = None  # a preferred height above the ground
     smoothness: float = 0.0  # weight of the smoothness term
     name: str | None = None
+    # take off from the start, a launch point on the ground (planner.launch): the plan starts
+    # where the climb-out reaches the start height; ``takeoff_heading`` (deg) or the best one
+    start_on_ground: bool = False
+    takeoff_heading: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,6 +102,7 @@ class Prepared:
     zones: tuple[Zone, ...]
     problem: PlanningProblem
     warnings: tuple[str, ...]
+    takeoff: Takeoff | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,6 +209,10 @@ def build_problem(request: PlanRequest) -> Prepared:
         zlist = load_zones(r.zones, grid)
     else:
         zlist = zones_from_records(list(r.zones or ()), grid, source="the plan request")
+    takeoff = None
+    if r.start_on_ground:
+        takeoff = _takeoff(r, grid, s, g, zlist, cruise)
+        s = takeoff.start
     warnings: list[str] = []
     for label, p in (("start", s), ("goal", g)):
         for z in zlist:
@@ -240,7 +250,65 @@ def build_problem(request: PlanRequest) -> Prepared:
         problem = dataclasses.replace(problem, performance=r.performance_at(low, zmax))
     assert problem.performance is not None
     _check_reach(problem, problem.performance)
-    return Prepared(grid, tuple(zlist), problem, tuple(warnings))
+    return Prepared(grid, tuple(zlist), problem, tuple(warnings), takeoff)
+
+
+def _takeoff(
+    r: PlanRequest,
+    grid: HeightGrid,
+    launch: FloatArray,
+    goal: FloatArray,
+    zones: Sequence[Zone],
+    cruise: float,
+) -> Takeoff:
+    """The take-off from the launch point ``launch`` (planner.launch): refused over unknown
+    terrain or inside a zone; the climb-out at the climb the aircraft makes over the map's
+    altitudes, checked against the map, unknown terrain and (with ``avoid_zones``) the zones."""
+    from planner.launch import plan_takeoff
+    from planner.problem import unknown_mask_grid
+    from terrain.validity import ValidityChecker
+
+    if len(r.start) >= 3:
+        raise InputError(
+            "--start-on-ground: the start is a launch point on the ground; give it as lon,lat "
+            "(or x,y) without an altitude"
+        )
+    x, y = float(launch[0]), float(launch[1])
+    unknown = None if r.allow_unknown else unknown_mask_grid(grid)
+    if unknown is not None and float(unknown.heights[unknown.cell_of(x, y)]) > 0:
+        raise InputError(
+            f"the launch point ({x:.1f}, {y:.1f}) lies over terrain the DEM did not measure: "
+            "its ground height is not known (--allow-unknown-terrain accepts that)"
+        )
+    for z in zones:
+        if bool(np.asarray(z.contains(x, y, float(grid.safety().height_at(x, y)) + 1.0)).any()):
+            raise InputError(
+                f"the launch point ({x:.1f}, {y:.1f}) lies inside danger zone {z.id or ''}"
+            )
+    perf = r.performance
+    if r.performance_at is not None:
+        perf = r.performance_at(
+            grid.zmin, grid.zmax + r.clearance + max(50.0, 0.05 * (grid.zmax - grid.zmin))
+        )
+    checker = ValidityChecker(
+        grid=grid,
+        unknown=unknown,
+        allow_unknown=r.allow_unknown,
+        zones=tuple(zones) if r.avoid_zones else (),
+        zone_margin=r.zone_margin if r.avoid_zones else 0.0,
+    )
+    safety = grid.safety()
+    return plan_takeoff(
+        grid,
+        (x, y),
+        (float(goal[0]), float(goal[1])),
+        perf,
+        r.clearance,
+        cruise,
+        lambda px, py: terrain_top(safety, px, py),
+        lambda pts: bool(checker.path(pts).valid.all()),
+        r.takeoff_heading,
+    )
 
 
 def _explored(result: PlanResult) -> list[np.ndarray] | None:
@@ -342,9 +410,15 @@ def to_mission(
         "vehicle_limits": perf.as_dict(),
         "violations": [v.as_dict() for v in result.violations],
     }
+    waypoints, spirals = result.waypoints, result.spirals
+    if prepared.takeoff is not None:
+        # the launch point first: the take-off climbs from it to the plan's start
+        provenance["takeoff"] = prepared.takeoff.as_dict()
+        waypoints = np.vstack([prepared.takeoff.launch[None, :], waypoints])
+        spirals = tuple(dataclasses.replace(sp, at=sp.at + 1) for sp in spirals)
     return Mission(
         name=r.name or (out.stem if out is not None else "mission"),
-        waypoints=result.waypoints,
+        waypoints=waypoints,
         crs=grid_crs_label(prepared.grid),
         terrain=TerrainRef(
             tuple(str(Path(d).resolve()) for d in r.dem),
@@ -357,7 +431,7 @@ def to_mission(
         turn_radius=None if perf.hover else perf.turn_radius,  # a multirotor stops to turn
         danger_zones=prepared.zones,
         plan=provenance,
-        spirals=result.spirals,
+        spirals=spirals,
     )
 
 

