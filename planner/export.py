@@ -145,11 +145,16 @@ def _items(
     radius = float(mission.turn_radius or 0.0)
     # launched from the ground (planner.launch): waypoint 0 is the launch point, home; the
     # take-off item climbs out to waypoint 1, the plan's start
-    first = 1 if "takeoff" in (mission.plan or {}) else 0
+    launched = "takeoff" in (mission.plan or {})
+    first = 1 if launched and 0 not in spirals else 0
     out = []
     for i in range(first, len(alt)):
         sp = spirals.get(i)
         arrive = float(alt[i]) if sp is None else sp.entry
+        if launched and i == 0 and sp is not None:
+            # spiralling up over the launch: take off to the clearance, loiter up from there
+            clear = float((mission.plan or {}).get("clearance", 0.0) or 0.0)
+            arrive = min(sp.entry + clear, float(alt[0]))
         cmd = MAV_CMD_NAV_TAKEOFF if i == first else MAV_CMD_NAV_WAYPOINT
         p1 = 15.0 if i == first and not _hover(mission) else 0.0  # take-off: minimum pitch
         out.append((cmd, p1, 0.0, 0.0, float(lat[i]), float(lon[i]), round(arrive - base, 2)))

@@ -12,6 +12,13 @@ The climb-out ends at ``S``, the plan's airborne start, where the aircraft first
 ``--cruise-agl`` (or the given start altitude's height) above the planner's conservative terrain
 around it -- from there the planner plans as for an airborne start.
 
+Where no straight climb-out exists (a launch in a valley narrower than the climb needs), the
+fixed wing spirals over the launch: launched on a heading, it circles at once (the planned turn
+radius, the climb it makes in that banked turn) until it stands ``height`` above the terrain
+around, then flies on straight on that heading for one turn diameter to ``S``; the helix and
+the straight piece are checked as above. The mission then starts at the launch point with a
+spiral there (:class:`planner.spiral.Spiral`, entered at the launch height), and ``S`` follows.
+
 A multirotor climbs vertically from the launch point to the start straight above it.
 
 Heights are the safety heights the replay judges contact by (the highest source value in each
@@ -20,6 +27,7 @@ cell, bilinear between cells), sampled every half cell.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.performance import Performance
+from planner.spiral import GRADIENT_MARGIN, Spiral, helix
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 
@@ -45,14 +54,19 @@ class Takeoff:
     start: FloatArray
     heading_deg: float | None
     length_m: float
+    spiral: Spiral | None = None  # a climb spiral over the launch (at waypoint 0)
+    top: float | None = None  # with a spiral: the altitude it leaves the launch point at
 
     def as_dict(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "launch": [round(float(v), 2) for v in self.launch],
             "start": [round(float(v), 2) for v in self.start],
             "heading_deg": None if self.heading_deg is None else round(self.heading_deg, 1),
             "climb_out_m": round(self.length_m, 1),
         }
+        if self.spiral is not None:
+            out["spiral_turns"] = self.spiral.turns
+        return out
 
 
 def _climb_out(
@@ -135,6 +149,10 @@ def plan_takeoff(
         key = (round(got[0], -1), off)  # soonest safe (to 10 m), then towards the goal
         if best is None or key < (best[0], best[1]):
             best = (key[0], key[1], h, got[1])
+    if best is None and heading_deg is None:
+        spiral = _spiral_takeoff(safety, top, launch, perf, clearance, height, fits, toward)
+        if spiral is not None:
+            return spiral
     if best is None:
         what = (
             f"on heading {float(heading_deg):g} deg"
@@ -146,11 +164,76 @@ def plan_takeoff(
             f"climbing straight out {what} at {100 * perf.climb_gradient:.1f} % the "
             f"{perf.name} does not reach {height:g} m above the terrain within "
             f"{limit / 1000:.1f} km without the ground rising into its climb, the map's edge, "
-            "unknown terrain or a zone; launch elsewhere or give the start in the air"
+            "unknown terrain or a zone"
+            + ("" if heading_deg is not None else ", nor spiral up over the launch")
+            + "; launch elsewhere or give the start in the air"
         )
     _, _, h, start = best
     length = float(np.hypot(*(start[:2] - launch[:2])))
     return Takeoff(launch, start, math.degrees(h) % 360.0, length)
+
+
+def _spiral_takeoff(
+    safety: HeightGrid,
+    top: Any,
+    launch: FloatArray,
+    perf: Performance,
+    clearance: float,
+    height: float,
+    fits: Any,
+    toward: float,
+) -> Takeoff | None:
+    """The take-off spiralling over the launch (module docstring), or None where no helix of
+    the turn radius climbs clear on 16 headings (towards the goal first) and both sides."""
+    radius = perf.turn_radius
+    rate = GRADIENT_MARGIN * perf.turn_climb_gradient
+    run = 2.0 * radius  # then straight on for one turn diameter to the plan's start
+    for k in range(16):
+        # towards the goal, then 22.5 deg either side of it, 45 deg ... (the opposite last)
+        h = toward + ((k + 1) // 2) * (1.0 if k % 2 else -1.0) * math.pi / 8.0
+        q = np.array([math.sin(h), math.cos(h)])
+        s_xy = launch[:2] + run * q
+        if not bool(np.asarray(safety.contains(s_xy[0], s_xy[1])).all()):
+            continue
+        # the altitude it leaves the circle at: height above the terrain round the launch and
+        # round the start, less the straight piece's climb
+        z_top = max(top(launch[0], launch[1]), top(s_xy[0], s_xy[1]) - perf.climb_gradient * run)
+        z_top = max(z_top + height, launch[2] + clearance)
+        turns = max(1, math.ceil((z_top - launch[2]) / (2.0 * math.pi * radius * rate)))
+        for clockwise in (False, True):
+            sp = Spiral(0, float(launch[2]), turns, radius, clockwise)
+            pts = helix(launch[:2], q, sp, float(launch[2]), z_top)
+            start = np.array([s_xy[0], s_xy[1], z_top + perf.climb_gradient * run])
+            pts = np.vstack([pts, start[None, :]])
+            ground = np.asarray(safety.height_at(pts[:, 0], pts[:, 1]), dtype=np.float64)
+            if not (
+                pts[:, 2] - ground >= np.minimum(clearance, 0.5 * (pts[:, 2] - launch[2]))
+            ).all():
+                continue
+            if not _dense_ok(safety, pts, launch[2], clearance) or not fits(pts):
+                continue
+            return Takeoff(
+                launch,
+                start,
+                math.degrees(h) % 360.0,
+                2.0 * math.pi * radius * turns + run,
+                sp,
+                z_top,
+            )
+    return None
+
+
+def _dense_ok(safety: HeightGrid, pts: FloatArray, z0: float, clearance: float) -> bool:
+    """The obstacle-clearance surface between the points too (every half cell)."""
+    step = 0.5 * min(safety.cell_size)
+    for a, b in itertools.pairwise(pts):
+        n = max(2, int(math.ceil(float(np.hypot(*(b[:2] - a[:2]))) / step)) + 1)
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        p = a + t * (b - a)
+        ground = np.asarray(safety.height_at(p[:, 0], p[:, 1]), dtype=np.float64)
+        if not (p[:, 2] - ground >= np.minimum(clearance, 0.5 * (p[:, 2] - z0)) - 1e-9).all():
+            return False
+    return True
 
 
 __all__ = ["LAUNCH_HEIGHT", "Takeoff", "plan_takeoff"]

@@ -411,11 +411,16 @@ def to_mission(
         "violations": [v.as_dict() for v in result.violations],
     }
     waypoints, spirals = result.waypoints, result.spirals
-    if prepared.takeoff is not None:
-        # the launch point first: the take-off climbs from it to the plan's start
-        provenance["takeoff"] = prepared.takeoff.as_dict()
-        waypoints = np.vstack([prepared.takeoff.launch[None, :], waypoints])
+    to = prepared.takeoff
+    if to is not None:
+        # the launch point first: the take-off climbs from it to the plan's start (spiralling
+        # over it first where no straight climb-out exists)
+        provenance["takeoff"] = to.as_dict()
+        launch = to.launch if to.spiral is None else np.array([*to.launch[:2], to.top])
+        waypoints = np.vstack([launch[None, :], waypoints])
         spirals = tuple(dataclasses.replace(sp, at=sp.at + 1) for sp in spirals)
+        if to.spiral is not None:
+            spirals = (to.spiral, *spirals)
     return Mission(
         name=r.name or (out.stem if out is not None else "mission"),
         waypoints=waypoints,

@@ -60,6 +60,36 @@ def test_the_climb_out_follows_the_valley_and_keeps_clear_of_its_walls() -> None
         )  # fmt: skip
 
 
+def test_in_a_bowl_no_straight_climb_out_leaves_so_it_spirals_up_over_the_launch() -> None:
+    """A round valley 1 km across with 40 % walls: every straight climb-out meets a wall below
+    a safe height; the take-off circles over the launch (the turn radius, the climb in the
+    banked turn) to 150 m above the terrain around, then flies on one turn diameter."""
+    from affine import Affine
+
+    from planner.spiral import helix
+
+    xs = (np.arange(300) - 150) * 20.0
+    r = np.hypot(*np.meshgrid(xs, xs))
+    g = HeightGrid(
+        100.0 + 0.4 * np.maximum(r - 500.0, 0.0), Affine(20.0, 0, -3000.0, 0, -20.0, 3000.0), None
+    )
+    safety = g.safety()
+    perf = Performance("test", 25.0, 5.0, 3.0, 30.0, turn_climb_rate=4.5)
+    top = lambda x, y: terrain_top(safety, x, y)  # noqa: E731
+    t = plan_takeoff(g, (0.0, 0.0), (2500.0, 0.0), perf, 30.0, 150.0, top, lambda pts: True)
+    assert t.spiral is not None and t.top is not None and t.spiral.at == 0
+    assert t.spiral.entry == pytest.approx(t.launch[2])
+    assert t.top >= top(0.0, 0.0) + 150.0 - 1e-6
+    assert t.heading_deg == pytest.approx(90.0)  # towards the goal: the circle fits that way
+    q = np.array([1.0, 0.0])  # east
+    pts = helix(t.launch[:2], q, t.spiral, t.spiral.entry, t.top)
+    ground = safety.height_at(pts[:, 0], pts[:, 1])
+    assert (pts[:, 2] - ground >= np.minimum(30.0, 0.5 * (pts[:, 2] - t.launch[2])) - 1e-6).all()
+    climb = (t.top - t.spiral.entry) / (2 * math.pi * t.spiral.radius * t.spiral.turns)
+    assert climb <= perf.turn_climb_gradient
+    np.testing.assert_allclose(t.start[:2], t.launch[:2] + 2 * perf.turn_radius * q, atol=1e-6)
+
+
 def test_a_multirotor_takes_off_straight_up() -> None:
     g = _valley()
     safety = g.safety()
@@ -117,3 +147,34 @@ def test_a_valley_launch_takes_off_climbs_out_spirals_and_is_flown(
     assert main([*run, "--no-picture", "--no-terrain-mesh", "--json"]) == 0
     got = json.loads(capsys.readouterr().out)["metrics"]
     assert got["success"] and not got["terrain_contact"] and got["spirals"]
+
+
+def test_a_mission_that_spirals_up_from_its_first_waypoint_starts_at_the_entry() -> None:
+    """The aircraft starts at the spiral's entry (not at the waypoint's altitude, where it
+    leaves the spiral), circles up, and leaves within a few metres of the plan."""
+    from planner.mission import Mission
+    from planner.spiral import Spiral
+    from replay.avoidance import make_avoider
+    from replay.flight.fixedwing.presets import load_vehicle
+    from replay.sim import ReplayConfig, simulate
+    from replay.threats.kinds import ThreatSet
+
+    params = load_vehicle("aerosonde")
+    radius = params.performance(25.0).turn_radius
+    w = np.array([[0.0, 0.0, 300.0], [600.0, 0.0, 330.0], [3000.0, 500.0, 330.0]])
+    m = Mission(
+        "launch",
+        w,
+        vehicle="aerosonde",
+        cruise_speed=25.0,
+        turn_radius=radius,
+        spirals=(Spiral(0, 60.0, 3, radius, clockwise=True),),
+    )
+    stack = params.flight_stack(w, speed=25.0, turn_radius=radius, spirals=m.spirals)
+    assert stack.initial_state()[2] == pytest.approx(-60.0)  # NED down: 60 m up
+    r = simulate(m, ThreatSet(()), make_avoider("none"), params, config=ReplayConfig())
+    met = r.metrics
+    assert met.success, [f.text for f in met.failures]
+    (sp,) = met.spirals
+    assert sp["waypoint"] == 0 and abs(sp["altitude"] - 300.0) <= 5.0
+    assert float(r.positions[:, 2].min()) >= 55.0

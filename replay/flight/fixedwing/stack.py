@@ -81,6 +81,8 @@ class FixedWingStack:
         )
         wp = np.array(waypoints, dtype=np.float64)
         self._wp0 = wp
+        # a climb spiral at the first waypoint (a launch spiralling up) starts at its entry
+        self._z0 = next((float(sp.entry) for sp in spirals if sp.at == 0), float(wp[0, 2]))
         # trim first: "cannot trim" names the speeds the aircraft can fly, more than the envelope
         self._x0 = self._trimmed_start()
         self.autopilot = Autopilot(
@@ -124,7 +126,8 @@ class FixedWingStack:
         return float(self.config.dt)
 
     def initial_state(self) -> FloatArray:
-        """Trimmed level flight at the airspeed over the first waypoint, heading for the second."""
+        """Trimmed level flight at the airspeed over the first waypoint (at a spiral's entry
+        when one starts there), heading for the second."""
         return self._x0.copy()
 
     def _trimmed_start(self) -> FloatArray:
@@ -135,9 +138,9 @@ class FixedWingStack:
         top = float(self._wp0[:, 2].max())
         trim(self.params, self.airspeed, altitude=top, temperature_offset=dtemp)
         start, nxt = self._wp0[0], self._wp0[min(1, len(self._wp0) - 1)]
-        tr = trim(self.params, self.airspeed, altitude=float(start[2]), temperature_offset=dtemp)
+        tr = trim(self.params, self.airspeed, altitude=self._z0, temperature_offset=dtemp)
         x = np.array(tr.x, dtype=np.float64)
-        x[PN], x[PE], x[PD] = start[1], start[0], -start[2]
+        x[PN], x[PE], x[PD] = start[1], start[0], -self._z0
         x[PSI] = math.atan2(nxt[0] - start[0], nxt[1] - start[1])
         return x
 
