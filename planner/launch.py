@@ -68,6 +68,16 @@ class Takeoff:
             out["spiral_turns"] = self.spiral.turns
         return out
 
+    def path(self) -> FloatArray:
+        """The take-off as flown (K, 3): the straight climb-out, or the helix over the launch and
+        the straight piece on to the start."""
+        if self.spiral is None or self.heading_deg is None or self.top is None:
+            return np.vstack([self.launch, self.start])
+        h = math.radians(self.heading_deg)
+        q = np.array([math.sin(h), math.cos(h)])
+        pts = helix(self.launch[:2], q, self.spiral, self.spiral.entry, self.top)
+        return np.vstack([pts, self.start[None, :]])
+
 
 def _climb_out(
     safety: HeightGrid,

@@ -496,9 +496,12 @@ def _write_outputs(
                 stale.unlink()
                 removed.append(stale)
     t = result.terms
+    flown = result.path
+    if prepared.takeoff is not None:  # the take-off from the launch point, then the plan
+        flown = np.vstack([prepared.takeoff.path()[:-1], flown])
     written["picture"] = save_plan_picture(
         grid,
-        result.waypoints,
+        np.asarray(mission.waypoints),
         stem.with_suffix(".png"),
         prepared.zones,
         title=f"{mission.name}: {result.algorithm}, seed {result.seed} — "
@@ -506,7 +509,7 @@ def _write_outputs(
         f"cost {t['total']:.4f}",
         clearance=prepared.problem.clearance,
         feasible=result.feasible,
-        flown=result.path,
+        flown=flown,
         explored=_explored(result),
     )
     return tuple(removed)
