@@ -25,6 +25,12 @@ leaves the circle to the next waypoint), the altitude the spiral ends at; the wa
 has the altitude the spiral is entered at.  The autopilot circles until the altitude is reached
 (the plan's turn count is the one the climb needs at the planned gradient).
 
+Launched from the ground (``plan.takeoff``), home is the launch point and the take-off item
+climbs out to the plan's start (or, spiralling up over the launch, to the clearance, then
+loiters up).  Landing (``plan.landing``): a ``DO_LAND_START`` (189) item at the approach fix
+before the fix's own item, and a ``NAV_LAND`` (21) item at the touchdown point, param 1 the
+go-around height above it.
+
 Danger zones become exclusion geofences in the ``.plan``: cylinders as ``circles``, polygon zones as
 ``polygons`` (QGroundControl's ``{"inclusion": false, "polygon": [[lat, lon], ...], "version": 1}``,
 one per part; the geofence has no holes, so a hole is left out of the exclusion, the safe side).
@@ -55,6 +61,8 @@ MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
 MAV_CMD_NAV_WAYPOINT = 16
 MAV_CMD_NAV_TAKEOFF = 22
 MAV_CMD_NAV_LOITER_TO_ALT = 31
+MAV_CMD_NAV_LAND = 21
+MAV_CMD_DO_LAND_START = 189
 MAV_TYPE_FIXED_WING = 1
 MAV_TYPE_QUADROTOR = 2
 MAV_AUTOPILOT_PX4 = 12
@@ -146,6 +154,8 @@ def _items(
     # launched from the ground (planner.launch): waypoint 0 is the launch point, home; the
     # take-off item climbs out to waypoint 1, the plan's start
     launched = "takeoff" in (mission.plan or {})
+    landing = (mission.plan or {}).get("landing")
+    last = len(alt) - 1
     first = 1 if launched and 0 not in spirals else 0
     out = []
     for i in range(first, len(alt)):
@@ -157,6 +167,13 @@ def _items(
             arrive = min(sp.entry + clear, float(alt[0]))
         cmd = MAV_CMD_NAV_TAKEOFF if i == first else MAV_CMD_NAV_WAYPOINT
         p1 = 15.0 if i == first and not _hover(mission) else 0.0  # take-off: minimum pitch
+        if isinstance(landing, dict) and i == last - 1:
+            # the landing sequence starts at the approach fix
+            out.append((MAV_CMD_DO_LAND_START, 0.0, 0.0, 0.0, float(lat[i]), float(lon[i]), 0.0))
+        if isinstance(landing, dict) and i == last:
+            # touch down; param 1 the go-around (abort) height above the touchdown point
+            cmd = MAV_CMD_NAV_LAND
+            p1 = round(float(landing.get("go_around_altitude", arrive)) - arrive, 2)
         out.append((cmd, p1, 0.0, 0.0, float(lat[i]), float(lon[i]), round(arrive - base, 2)))
         if sp is not None:
             c = centre(mission.waypoints, sp, radius or sp.radius)

@@ -233,6 +233,117 @@ def _spiral_takeoff(
     return None
 
 
+MAX_LANDING_SLOPE = 0.10  # the steepest ground (rise over run) a landing point may have
+MAX_GLIDE = math.tan(math.radians(6.0))  # the steepest final approach planned
+
+
+@dataclass(frozen=True)
+class Landing:
+    """A landing: the touchdown point (1 m above the measured ground), the approach fix it is
+    approached from -- the plan's goal -- the approach heading (deg from north, the direction
+    of travel; None for a multirotor's vertical descent), the glide gradient, and the
+    go-around altitude (the fix's, m AMSL)."""
+
+    touchdown: FloatArray
+    fix: FloatArray
+    heading_deg: float | None
+    glide: float
+    go_around: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "touchdown": [round(float(v), 2) for v in self.touchdown],
+            "approach_fix": [round(float(v), 2) for v in self.fix],
+            "heading_deg": None if self.heading_deg is None else round(self.heading_deg, 1),
+            "glide_gradient": round(self.glide, 5),
+            "go_around_altitude": round(self.go_around, 2),
+        }
+
+    def path(self) -> FloatArray:
+        """The final approach as flown: the fix, then the touchdown point."""
+        return np.vstack([self.fix, self.touchdown])
+
+
+def ground_slope(safety: HeightGrid, x: float, y: float) -> float:
+    """The ground's slope (rise over run) at a map point: the largest of the height differences
+    to the eight neighbouring cells over their distance."""
+    r, c = (int(v) for v in safety.cell_of(x, y))
+    h = np.asarray(safety.heights, dtype=np.float64)
+    dx, dy = safety.cell_size
+    worst = 0.0
+    for i in (-1, 0, 1):
+        for j in (-1, 0, 1):
+            rr, cc = r + i, c + j
+            if (i or j) and 0 <= rr < h.shape[0] and 0 <= cc < h.shape[1]:
+                worst = max(worst, abs(h[rr, cc] - h[r, c]) / math.hypot(i * dy, j * dx))
+    return worst
+
+
+def plan_landing(
+    grid: HeightGrid,
+    touch_xy: tuple[float, float],
+    from_xy: tuple[float, float],
+    perf: Performance,
+    clearance: float,
+    height: float,
+    top: Any,
+    fits: Any,
+    heading_deg: float | None = None,
+) -> Landing:
+    """The landing at ``touch_xy`` (module docstring, mirrored: the final approach descends at
+    the glide gradient -- the planned descent gradient, at most 6 deg -- above the same
+    obstacle-clearance surface, now falling towards the touchdown); the fix is where, flying
+    back from the touchdown, the approach first stands ``height`` above the conservative
+    terrain ``top``. The heading: the one given, else the one closest to the arrival from
+    ``from_xy`` (then the shortest approach) that fits. One-line errors: a landing point on a
+    slope steeper than ``MAX_LANDING_SLOPE``, no approach."""
+    safety = grid.safety()
+    x, y = float(touch_xy[0]), float(touch_xy[1])
+    slope = ground_slope(safety, x, y)
+    if slope > MAX_LANDING_SLOPE:
+        raise InputError(
+            f"the landing point ({x:.0f}, {y:.0f}) lies on a {100 * slope:.0f} % slope: a "
+            f"landing needs ground of at most {100 * MAX_LANDING_SLOPE:.0f} %; choose a flatter "
+            "landing point"
+        )
+    ground = float(np.asarray(safety.height_at(x, y)).reshape(-1)[0])
+    touch = np.array([x, y, ground + LAUNCH_HEIGHT])
+    if perf.hover:
+        z = max(top(x, y) + height, touch[2] + clearance)
+        fix = np.array([x, y, z])
+        return Landing(touch, fix, None, math.inf, float(z))
+    glide = min(GRADIENT_MARGIN * perf.descent_gradient, MAX_GLIDE)
+    arrival = math.atan2(x - from_xy[0], y - from_xy[1])
+    if heading_deg is not None:
+        headings = [math.radians(float(heading_deg))]
+    else:
+        headings = [arrival + 2.0 * math.pi * k / HEADINGS for k in range(HEADINGS)]
+    best: tuple[float, float, float, FloatArray] | None = None
+    for h in headings:
+        # flown back from the touchdown: the approach is the climb-out of the reverse heading
+        got = _climb_out(safety, top, touch, h + math.pi, glide, clearance, height, fits, 20000.0)
+        if got is None:
+            continue
+        off = abs(math.remainder(h - arrival, 2.0 * math.pi))
+        key = (round(off, 1), got[0])
+        if best is None or key < (best[0], best[1]):
+            best = (key[0], key[1], h, got[1])
+    if best is None:
+        what = (
+            f"on heading {float(heading_deg):g} deg"
+            if heading_deg is not None
+            else "from any heading"
+        )
+        raise InputError(
+            f"no approach to the landing point ({x:.0f}, {y:.0f}, ground {ground:.0f} m) "
+            f"{what}: descending at {100 * glide:.1f} % the {perf.name} meets the terrain, the "
+            "map's edge, unknown terrain or a zone before it is clear of the terrain around; "
+            "choose another landing point or --land-heading"
+        )
+    _, _, h, fix = best
+    return Landing(touch, fix, math.degrees(h) % 360.0, glide, float(fix[2]))
+
+
 def _dense_ok(safety: HeightGrid, pts: FloatArray, z0: float, clearance: float) -> bool:
     """The obstacle-clearance surface between the points too (every half cell)."""
     step = 0.5 * min(safety.cell_size)
@@ -246,4 +357,4 @@ def _dense_ok(safety: HeightGrid, pts: FloatArray, z0: float, clearance: float) 
     return True
 
 
-__all__ = ["LAUNCH_HEIGHT", "Takeoff", "plan_takeoff"]
+__all__ = ["LAUNCH_HEIGHT", "Landing", "Takeoff", "ground_slope", "plan_landing", "plan_takeoff"]

@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.explore import ROUTES
-from planner.launch import Takeoff
+from planner.launch import Landing, Takeoff
 from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
 from planner.performance import Performance
 from planner.plan import DEFAULT_ALGORITHM, plan
@@ -92,6 +92,10 @@ class PlanRequest:
     # where the climb-out reaches the start height; ``takeoff_heading`` (deg) or the best one
     start_on_ground: bool = False
     takeoff_heading: float | None = None
+    # land at the goal, a landing point on the ground: the plan ends at the approach fix, the
+    # final approach descends from it (planner.launch); ``land_heading`` (deg) or the best one
+    land: bool = False
+    land_heading: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,6 +107,7 @@ class Prepared:
     problem: PlanningProblem
     warnings: tuple[str, ...]
     takeoff: Takeoff | None = None
+    landing: Landing | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,10 +214,13 @@ def build_problem(request: PlanRequest) -> Prepared:
         zlist = load_zones(r.zones, grid)
     else:
         zlist = zones_from_records(list(r.zones or ()), grid, source="the plan request")
-    takeoff = None
+    takeoff = landing = None
     if r.start_on_ground:
         takeoff = _takeoff(r, grid, s, g, zlist, cruise)
         s = takeoff.start
+    if r.land:
+        landing = _landing(r, grid, g, s, zlist, cruise)
+        g = landing.fix
     warnings: list[str] = []
     for label, p in (("start", s), ("goal", g)):
         for z in zlist:
@@ -250,7 +258,51 @@ def build_problem(request: PlanRequest) -> Prepared:
         problem = dataclasses.replace(problem, performance=r.performance_at(low, zmax))
     assert problem.performance is not None
     _check_reach(problem, problem.performance)
-    return Prepared(grid, tuple(zlist), problem, tuple(warnings), takeoff)
+    return Prepared(grid, tuple(zlist), problem, tuple(warnings), takeoff, landing)
+
+
+def _ground_point(
+    r: PlanRequest, grid: HeightGrid, point: FloatArray, zones: Sequence[Zone], what: str, flag: str
+) -> tuple[Performance, Any, Any]:
+    """Checks of a launch or landing point on the ground: given without an altitude, over
+    measured terrain, outside the zones; then the vehicle's limits over the map's altitudes,
+    the validity check of a climb-out or approach (map, unknown terrain, zones) and the
+    conservative terrain height ``top(x, y)``."""
+    from planner.problem import unknown_mask_grid
+    from terrain.validity import ValidityChecker
+
+    given = r.start if what == "launch point" else r.goal
+    if len(given) >= 3:
+        raise InputError(
+            f"{flag}: the {what} is on the ground; give it as lon,lat (or x,y) without an altitude"
+        )
+    x, y = float(point[0]), float(point[1])
+    unknown = None if r.allow_unknown else unknown_mask_grid(grid)
+    if unknown is not None and float(unknown.heights[unknown.cell_of(x, y)]) > 0:
+        raise InputError(
+            f"the {what} ({x:.1f}, {y:.1f}) lies over terrain the DEM did not measure: its "
+            "ground height is not known (--allow-unknown-terrain accepts that)"
+        )
+    safety = grid.safety()
+    for z in zones:
+        if bool(np.asarray(z.contains(x, y, float(safety.height_at(x, y)) + 1.0)).any()):
+            raise InputError(f"the {what} ({x:.1f}, {y:.1f}) lies inside danger zone {z.id or ''}")
+    perf = r.performance
+    if r.performance_at is not None:
+        margin = r.clearance + max(50.0, 0.05 * (grid.zmax - grid.zmin))
+        perf = r.performance_at(grid.zmin, grid.zmax + margin)
+    checker = ValidityChecker(
+        grid=grid,
+        unknown=unknown,
+        allow_unknown=r.allow_unknown,
+        zones=tuple(zones) if r.avoid_zones else (),
+        zone_margin=r.zone_margin if r.avoid_zones else 0.0,
+    )
+    return (
+        perf,
+        lambda pts: bool(checker.path(pts).valid.all()),
+        lambda px, py: terrain_top(safety, px, py),
+    )
 
 
 def _takeoff(
@@ -261,53 +313,45 @@ def _takeoff(
     zones: Sequence[Zone],
     cruise: float,
 ) -> Takeoff:
-    """The take-off from the launch point ``launch`` (planner.launch): refused over unknown
-    terrain or inside a zone; the climb-out at the climb the aircraft makes over the map's
-    altitudes, checked against the map, unknown terrain and (with ``avoid_zones``) the zones."""
+    """The take-off from the launch point ``launch`` (planner.launch)."""
     from planner.launch import plan_takeoff
-    from planner.problem import unknown_mask_grid
-    from terrain.validity import ValidityChecker
 
-    if len(r.start) >= 3:
-        raise InputError(
-            "--start-on-ground: the start is a launch point on the ground; give it as lon,lat "
-            "(or x,y) without an altitude"
-        )
-    x, y = float(launch[0]), float(launch[1])
-    unknown = None if r.allow_unknown else unknown_mask_grid(grid)
-    if unknown is not None and float(unknown.heights[unknown.cell_of(x, y)]) > 0:
-        raise InputError(
-            f"the launch point ({x:.1f}, {y:.1f}) lies over terrain the DEM did not measure: "
-            "its ground height is not known (--allow-unknown-terrain accepts that)"
-        )
-    for z in zones:
-        if bool(np.asarray(z.contains(x, y, float(grid.safety().height_at(x, y)) + 1.0)).any()):
-            raise InputError(
-                f"the launch point ({x:.1f}, {y:.1f}) lies inside danger zone {z.id or ''}"
-            )
-    perf = r.performance
-    if r.performance_at is not None:
-        perf = r.performance_at(
-            grid.zmin, grid.zmax + r.clearance + max(50.0, 0.05 * (grid.zmax - grid.zmin))
-        )
-    checker = ValidityChecker(
-        grid=grid,
-        unknown=unknown,
-        allow_unknown=r.allow_unknown,
-        zones=tuple(zones) if r.avoid_zones else (),
-        zone_margin=r.zone_margin if r.avoid_zones else 0.0,
-    )
-    safety = grid.safety()
+    perf, fits, top = _ground_point(r, grid, launch, zones, "launch point", "--start-on-ground")
     return plan_takeoff(
         grid,
-        (x, y),
+        (float(launch[0]), float(launch[1])),
         (float(goal[0]), float(goal[1])),
         perf,
         r.clearance,
         cruise,
-        lambda px, py: terrain_top(safety, px, py),
-        lambda pts: bool(checker.path(pts).valid.all()),
+        top,
+        fits,
         r.takeoff_heading,
+    )
+
+
+def _landing(
+    r: PlanRequest,
+    grid: HeightGrid,
+    touch: FloatArray,
+    start: FloatArray,
+    zones: Sequence[Zone],
+    cruise: float,
+) -> Landing:
+    """The landing at the goal ``touch`` (planner.launch)."""
+    from planner.launch import plan_landing
+
+    perf, fits, top = _ground_point(r, grid, touch, zones, "landing point", "--land")
+    return plan_landing(
+        grid,
+        (float(touch[0]), float(touch[1])),
+        (float(start[0]), float(start[1])),
+        perf,
+        r.clearance,
+        cruise,
+        top,
+        fits,
+        r.land_heading,
     )
 
 
@@ -421,6 +465,10 @@ def to_mission(
         spirals = tuple(dataclasses.replace(sp, at=sp.at + 1) for sp in spirals)
         if to.spiral is not None:
             spirals = (to.spiral, *spirals)
+    if prepared.landing is not None:
+        # the touchdown last: the final approach descends to it from the plan's goal, the fix
+        provenance["landing"] = prepared.landing.as_dict()
+        waypoints = np.vstack([waypoints, prepared.landing.touchdown[None, :]])
     return Mission(
         name=r.name or (out.stem if out is not None else "mission"),
         waypoints=waypoints,
@@ -499,6 +547,8 @@ def _write_outputs(
     flown = result.path
     if prepared.takeoff is not None:  # the take-off from the launch point, then the plan
         flown = np.vstack([prepared.takeoff.path()[:-1], flown])
+    if prepared.landing is not None:  # and the final approach
+        flown = np.vstack([flown, prepared.landing.touchdown[None, :]])
     written["picture"] = save_plan_picture(
         grid,
         np.asarray(mission.waypoints),

@@ -344,6 +344,7 @@ def _vehicle_stack(
         terrain_clearance=cfg.terrain_following or 0.0,
         temperature_offset=cfg.temperature_offset,
         spirals=mission.spirals,
+        land=isinstance(mission.plan, dict) and "landing" in mission.plan,
     )
 
 

@@ -178,3 +178,60 @@ def test_a_mission_that_spirals_up_from_its_first_waypoint_starts_at_the_entry()
     (sp,) = met.spirals
     assert sp["waypoint"] == 0 and abs(sp["altitude"] - 300.0) <= 5.0
     assert float(r.positions[:, 2].min()) >= 55.0
+
+
+# ---- landing -----------------------------------------------------------------------------------
+def test_a_landing_comes_down_the_valley_and_a_sloping_landing_point_is_refused() -> None:
+    from planner.launch import MAX_LANDING_SLOPE, ground_slope, plan_landing
+
+    g = _valley()
+    safety = g.safety()
+
+    def top(x: float, y: float) -> float:
+        return terrain_top(safety, x, y)
+
+    land = plan_landing(g, (0.0, 0.0), (1500.0, 0.0), PERF, 30.0, 100.0, top, lambda p: True)
+    assert land.heading_deg is not None and land.touchdown[2] == pytest.approx(101.0)
+    # down the valley's axis (the walls east and west leave no room for a straight-in from
+    # the east), descending at the glide gradient to the touchdown
+    assert min(abs(land.heading_deg - a) for a in (0.0, 180.0, 360.0)) <= 30.0
+    run = math.hypot(*(land.fix[:2] - land.touchdown[:2]))
+    assert (land.fix[2] - land.touchdown[2]) / run == pytest.approx(land.glide, rel=1e-6)
+    assert land.glide <= PERF.descent_gradient and land.go_around == land.fix[2]
+    assert land.fix[2] >= top(land.fix[0], land.fix[1]) + 100.0 - 1e-6
+    # on the wall, 40 % up: refused, naming the slope
+    assert ground_slope(safety, 500.0, 0.0) > MAX_LANDING_SLOPE
+    with pytest.raises(
+        InputError, match=r"lies on a 40 % slope: a landing needs ground of at most 10 %"
+    ):
+        plan_landing(g, (500.0, 0.0), (1500.0, 0.0), PERF, 30.0, 100.0, top, lambda p: True)
+
+
+@pytest.mark.slow
+def test_a_mission_from_launch_to_landing_is_planned_exported_and_flown(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """RMNP, launched from the valley floor, landing on the flat floor of the valley to the
+    east: the exports take off from home, begin the landing sequence at the approach fix
+    (DO_LAND_START) and land at the touchdown (NAV_LAND, the go-around height as its abort
+    altitude); the 6-DOF aircraft, terrain following on (not on the final approach), flies it
+    down to the flare over the touchdown point."""
+    out = tmp_path / "l.yaml"
+    args = ["plan", str(RMNP), "--start=-105.6911,40.3669", "--start-on-ground", "--land"]
+    args += ["--goal=-105.60,40.37", "--waypoints", "3", "--seed", "1", "-o", str(out)]
+    assert main(args) == 0
+    m = load_mission(out)
+    landing = m.plan["landing"]
+    np.testing.assert_allclose(m.waypoints[-1], landing["touchdown"], atol=0.01)
+    np.testing.assert_allclose(m.waypoints[-2], landing["approach_fix"], atol=0.01)
+    items = json.loads(out.with_suffix(".plan").read_text())["mission"]["items"]
+    cmds = [it["command"] for it in items]
+    assert cmds[0] == 22 and cmds[-3:] == [189, 16, 21]
+    assert items[-1]["params"][0] == pytest.approx(
+        landing["go_around_altitude"] - landing["touchdown"][2], abs=0.01
+    )
+    capsys.readouterr()
+    run = ["replay", str(out), "-o", str(tmp_path / "l.mcap"), "--no-picture"]
+    assert main([*run, "--no-terrain-mesh", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["metrics"]
+    assert got["success"] and got["end_reason"] == "goal" and not got["terrain_contact"]

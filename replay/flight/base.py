@@ -89,6 +89,7 @@ class Vehicle(Protocol):
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
         spirals: Sequence[Any] = (),
+        land: bool = False,
     ) -> FlightStack: ...
 
 

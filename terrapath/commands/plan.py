@@ -294,6 +294,21 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "the one that reaches a safe height soonest, towards the goal on a tie).",
 )
 @click.option(
+    "--land",
+    is_flag=True,
+    help="The goal is a landing point on the ground (give it without an altitude): the plan "
+    "ends at an approach fix and descends from it on a final approach at the glide gradient "
+    "(the planned descent gradient, at most 6 deg; a multirotor: straight down), checked "
+    "against the terrain; the landing point's ground may slope at most 10 %.",
+)
+@click.option(
+    "--land-heading",
+    type=click.FloatRange(min=0.0, max=360.0),
+    default=None,
+    help="With --land: the final approach's heading (deg from north, the direction flown; "
+    "default: the one closest to the arrival that fits, then the shortest).",
+)
+@click.option(
     "--cruise-agl",
     type=float,
     default=DEFAULT_CRUISE_AGL,
@@ -362,6 +377,8 @@ def plan_cmd(
     strict: bool,
     start_on_ground: bool,
     takeoff_heading: float | None,
+    land: bool,
+    land_heading: float | None,
     cruise_agl: float,
     speed: float | None,
     vehicle: str,
@@ -400,6 +417,8 @@ def plan_cmd(
         map_coords=map_coords,
         start_on_ground=start_on_ground,
         takeoff_heading=takeoff_heading,
+        land=land,
+        land_heading=land_heading,
         dem_options=opts,
         zones=zones,
         algorithm=algorithm,

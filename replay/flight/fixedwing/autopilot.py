@@ -362,6 +362,7 @@ class Autopilot:
         self._spiral_z0: dict[int, float] = {}  # the altitude a spiral starts at (its T1's)
         # the altitude the plan leaves each spiral flown so far at (where it touches the path)
         self.spiral_exits: dict[int, float] = {}
+        self.land = False  # the final leg is a landing's final approach (no terrain floor)
         self._hold_pending = waypoints is None
         if waypoints is not None:
             self.set_waypoints(waypoints, 1)
@@ -871,6 +872,11 @@ class Autopilot:
 
     def _update_terrain(self, x: FloatArray) -> None:
         if self.terrain_height is None:
+            return
+        if self.land and self._next == len(self._wp) - 1 and not self._done:
+            # the final approach of a landing descends to the ground: no terrain floor on it
+            # (the plan checked it against an obstacle-clearance surface)
+            self._cmd[kern.C_FLOOR] = -math.inf
             return
         vn, ve = _ground_velocity(x)
         vg = math.hypot(vn, ve)

@@ -247,11 +247,12 @@ class VehicleParams:
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
         spirals: Sequence[Spiral] = (),
+        land: bool = False,
     ) -> FixedWingStack:
         """The aircraft under its autopilot flying ``waypoints`` at ``speed``: turn fillets of
         ``turn_radius`` (else the leg switch ``switch_distance`` before a waypoint), the climb
         and descent ``spirals`` of the plan, terrain following when ``terrain_height`` is
-        given."""
+        given (not on a landing's final approach, ``land``)."""
         from replay.flight.fixedwing.stack import FixedWingStack
 
         return FixedWingStack(
@@ -264,6 +265,7 @@ class VehicleParams:
             terrain_clearance=terrain_clearance,
             temperature_offset=temperature_offset,
             spirals=spirals,
+            land=land,
         )
 
     def min_turn_radius(self, speed: float | None = None) -> float:

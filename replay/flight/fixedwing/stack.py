@@ -43,6 +43,7 @@ from terrain.errors import InputError
 FloatArray = npt.NDArray[np.float64]
 SEED000_SWITCH_M = 1000.0  # seed 000 §3.6: the next leg is taken 1 km before a waypoint
 ARRIVAL_M = 100.0
+LAND_ARRIVAL_M = 20.0  # a landing: the run ends this close to the touchdown point
 
 
 class FixedWingStack:
@@ -68,8 +69,11 @@ class FixedWingStack:
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
         spirals: Sequence[Spiral] = (),
+        land: bool = False,
     ) -> None:
         self.params = params
+        if land:  # a landing ends at the flare, over the touchdown point, not 100 m short
+            arrival_distance = min(arrival_distance, LAND_ARRIVAL_M)
         self.temperature_offset = float(temperature_offset)
         self.name = params.name
         self.airspeed = float(params.cruise_speed if airspeed is None else airspeed)
@@ -93,6 +97,7 @@ class FixedWingStack:
             terrain_height=terrain_height if terrain_clearance > 0 else None,
             temperature_offset=self.temperature_offset,
         )
+        self.autopilot.land = bool(land)
         if spirals:
             if turn_radius is None:
                 raise InputError(

@@ -182,6 +182,7 @@ class MultirotorParams:
         terrain_clearance: float = 0.0,
         temperature_offset: float = 0.0,
         spirals: Sequence[Any] = (),
+        land: bool = False,
     ) -> MultirotorStack:
         """The multirotor under its controller flying ``waypoints`` at ``speed`` in the day's air
         (turn radius, leg switch and terrain following do not apply: it turns on the spot and
