@@ -174,9 +174,8 @@ def plan_takeoff(
             f"climbing straight out {what} at {100 * perf.climb_gradient:.1f} % the "
             f"{perf.name} does not reach {height:g} m above the terrain within "
             f"{limit / 1000:.1f} km without the ground rising into its climb, the map's edge, "
-            "unknown terrain or a zone"
-            + ("" if heading_deg is not None else ", nor spiral up over the launch")
-            + "; launch elsewhere or give the start in the air"
+            "unknown terrain or a zone, nor spiral up over the launch; launch elsewhere or give "
+            "the start in the air"
         )
     _, _, h, start = best
     length = float(np.hypot(*(start[:2] - launch[:2])))
@@ -192,15 +191,21 @@ def _spiral_takeoff(
     height: float,
     fits: Any,
     toward: float,
+    heading: float | None = None,
 ) -> Takeoff | None:
     """The take-off spiralling over the launch (module docstring), or None where no helix of
-    the turn radius climbs clear on 16 headings (towards the goal first) and both sides."""
+    the turn radius climbs clear on ``heading`` (rad), else on 16 headings (towards the goal
+    first), on either side."""
     radius = perf.turn_radius
     rate = GRADIENT_MARGIN * perf.turn_climb_gradient
     run = 2.0 * radius  # then straight on for one turn diameter to the plan's start
-    for k in range(16):
-        # towards the goal, then 22.5 deg either side of it, 45 deg ... (the opposite last)
-        h = toward + ((k + 1) // 2) * (1.0 if k % 2 else -1.0) * math.pi / 8.0
+    # towards the goal, then 22.5 deg either side of it, 45 deg ... (the opposite last)
+    headings = (
+        [heading]
+        if heading is not None
+        else [toward + ((k + 1) // 2) * (1.0 if k % 2 else -1.0) * math.pi / 8.0 for k in range(16)]
+    )
+    for h in headings:
         q = np.array([math.sin(h), math.cos(h)])
         s_xy = launch[:2] + run * q
         if not bool(np.asarray(safety.contains(s_xy[0], s_xy[1])).all()):

@@ -35,13 +35,15 @@ from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
 from planner.performance import Performance
 from planner.plan import DEFAULT_ALGORITHM, plan
 from planner.problem import PlanningProblem, terrain_top
-from planner.result import PlanResult
+from planner.result import PlanResult, spiral_violation
+from planner.spiral import respiral
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.zones import DangerZone, Zone
 
 FloatArray = npt.NDArray[np.float64]
 DEFAULT_CRUISE_AGL = 150.0
+TAKEOFF_TRIES = 3  # re-plans from a climb-out along the plan's first leg when the two do not join
 GROUND_STATION_SUFFIXES = (".plan", ".waypoints")
 
 
@@ -355,6 +357,48 @@ def _landing(
     )
 
 
+def _joined(request: PlanRequest, prepared: Prepared, result: PlanResult) -> str | None:
+    """Why the take-off or landing does not join the plan (None: it does): the climb-out, the turn onto
+    the plan's first leg and the spirals as the mission flies them (planner.spiral.flown_path)
+    -- every turn fitting its legs, every piece within the gradients, and all but the climb-out
+    and a final approach (each checked against its obstacle-clearance surface) clear for the
+    validity layer."""
+    from planner.flown import fillets
+    from planner.spiral import flown_path, gradient_excess
+
+    problem = prepared.problem
+    perf = problem.performance
+    if perf is None or perf.hover:
+        return None
+    mission = to_mission(request, prepared, result)  # with the launch and the touchdown
+    w = np.asarray(mission.waypoints)
+    excess = float(fillets(w[None], perf.turn_radius).turn_excess[0])
+    if excess > 0:
+        return (
+            f"its climb-out and the plan's first leg turn more than a {perf.turn_radius:.0f} m "
+            f"fillet fits ({excess:.0f} m too short)"
+        )
+    fp = flown_path(w, mission.spirals, perf.turn_radius, problem.chords)
+    if float(gradient_excess(fp, perf).max(initial=0.0)) > 0:
+        return "the climb-out and the plan's start climb more steeply than the aircraft can"
+    climb_out = (
+        (fp.leg == 0) & (fp.spiral < 0) & np.array([lb.startswith("leg 0") for lb in fp.labels])
+    )
+    if prepared.takeoff is not None and prepared.takeoff.spiral is not None:
+        climb_out |= fp.spiral == 0  # the spiral over the launch: its own surface
+    if prepared.landing is not None:  # and the final approach: its own surface
+        last = len(w) - 2
+        climb_out |= (fp.leg == last) & np.array(
+            [lb.startswith(f"leg {last} ") for lb in fp.labels]
+        )
+    check = problem.validity.segments(fp.points[:-1], fp.points[1:])
+    bad = np.flatnonzero(~check.valid & ~climb_out)
+    if bad.size:
+        k = int(bad[0])
+        return f"{fp.labels[k]} is not clear of the terrain, the zones or the map"
+    return None
+
+
 def _explored(result: PlanResult) -> list[np.ndarray] | None:
     """The map search's seeds recorded in a result (None without one)."""
     ex = result.params.get("exploration")
@@ -381,17 +425,55 @@ def plan_mission(
             raise InputError(f"{str(out)!r}: output folder {str(out.parent)!r} does not exist")
     prepared = build_problem(request)
     r = request
-    result = plan(
-        prepared.problem,
-        r.algorithm,
-        seed=r.seed,
-        population=r.population,
-        iterations=r.iterations,
-        attempts=r.attempts,
-        init=r.init,
-        routes=r.routes,
-        callback=callback,
-    )
+
+    def run(prepared: Prepared) -> PlanResult:
+        return plan(
+            prepared.problem,
+            r.algorithm,
+            seed=r.seed,
+            population=r.population,
+            iterations=r.iterations,
+            attempts=r.attempts,
+            init=r.init,
+            routes=r.routes,
+            callback=callback,
+        )
+
+    result = run(prepared)
+    if (prepared.takeoff is not None or prepared.landing is not None) and result.feasible:
+        why = _joined(request, prepared, result)
+        tries = 0
+        while (
+            why is not None
+            and prepared.takeoff is not None
+            and r.takeoff_heading is None
+            and tries < TAKEOFF_TRIES
+        ):
+            # climb out the way the plan goes on (straight, or spiralling up over the launch
+            # first), and plan again from there
+            tries += 1
+            d = result.waypoints[1, :2] - result.waypoints[0, :2]
+            heading = math.degrees(math.atan2(float(d[0]), float(d[1]))) % 360.0
+            try:
+                again = build_problem(dataclasses.replace(r, takeoff_heading=heading))
+            except InputError as exc:
+                why = f"{why}; a climb-out along the plan's first leg: {exc}"
+                break
+            result_again = run(again)
+            if not result_again.feasible:
+                break
+            prepared, result = again, result_again
+            request = dataclasses.replace(r, takeoff_heading=heading)
+            why = _joined(request, prepared, result)
+        if why is not None:
+            result = dataclasses.replace(
+                result,
+                status="infeasible",
+                violations=(
+                    *result.violations,
+                    spiral_violation(why, "joining the take-off and landing to the plan: "),
+                ),
+            )
     mission = to_mission(request, prepared, result, out)
     written: dict[str, Path] = {}
     removed: tuple[Path, ...] = ()
@@ -465,6 +547,10 @@ def to_mission(
         spirals = tuple(dataclasses.replace(sp, at=sp.at + 1) for sp in spirals)
         if to.spiral is not None:
             spirals = (to.spiral, *spirals)
+        limits = prepared.problem.performance
+        if limits is not None and spirals:
+            # the plan's start is a turn now: its spiral's helix changes (planner.spiral)
+            spirals = respiral(waypoints, spirals, limits)
     if prepared.landing is not None:
         # the touchdown last: the final approach descends to it from the plan's goal, the fix
         provenance["landing"] = prepared.landing.as_dict()

@@ -85,12 +85,11 @@ class PlanResult:
         return s
 
 
-def spiral_violation(reason: str) -> Violation:
+def spiral_violation(reason: str, prefix: str = "spirals cannot help: ") -> Violation:
     """Why the climb and descent spirals that would have made a too-steep plan flyable could not
-    be placed (:func:`planner.spiral.spiral_repair`)."""
-    return Violation(
-        "spiral", -1, math.nan, math.nan, math.nan, 0.0, f"spirals cannot help: {reason}"
-    )
+    be placed (:func:`planner.spiral.spiral_repair`), or (``prefix``) why the take-off does not
+    join the plan; no place (NaN)."""
+    return Violation("spiral", -1, math.nan, math.nan, math.nan, 0.0, prefix + reason)
 
 
 def _at(kind: Any, leg: int, point: FloatArray, amount: float, detail: str) -> Violation:

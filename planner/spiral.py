@@ -16,8 +16,9 @@ the heading the aircraft already has, and the turn fillets of the path stay as t
 Altitudes (what :func:`flown_path` builds and the replay flies): leg ``k`` runs from the altitude
 the aircraft leaves waypoint ``k`` at (its ``z``) to the altitude it arrives at ``k + 1`` with (the
 next spiral's ``entry``, else that waypoint's ``z``), linear in the horizontal distance along the
-leg; a helix changes the altitude linearly in the angle turned; the fillet at a spiral's waypoint
-starts at the altitude the spiral left off.
+leg; a helix changes the altitude linearly in the angle turned; at an interior waypoint the helix
+runs from the incoming leg's altitude at ``T1`` to the outgoing leg's at the fillet's end ``T2``,
+and the fillet after it is flown level (:func:`spiral_ends`).
 
 :func:`add_spirals` is the repair the planner runs on a path whose only fault is a leg too steep
 for the aircraft: each such leg keeps its gradient limit and the rest of its climb (descent) goes
@@ -222,13 +223,15 @@ def flown_path(
                 labels.append(label)
             pts.append(p)
 
-    def loop(k: int, p: FloatArray, q: FloatArray, z0: float, leg: int) -> float:
+    def loop(
+        k: int, p: FloatArray, q: FloatArray, z0: float, leg: int, z1: float | None = None
+    ) -> float:
         s = by_at[k]
-        dz = z_out[k] - z_in[k]
-        way = "climb" if dz >= 0 else "descent"
-        h = helix(p, q, s, z0, z0 + dz, per_turn)
+        end = z0 + z_out[k] - z_in[k] if z1 is None else z1
+        way = "climb" if end >= z0 else "descent"
+        h = helix(p, q, s, z0, end, per_turn)
         add(h[1:], leg, k, f"the {way} spiral at waypoint {k}")
-        return z0 + dz
+        return end
 
     add(np.array([[w[0, 0], w[0, 1], z_in[0]]]), 0, -1, "")
     if 0 in by_at:
@@ -242,10 +245,12 @@ def flown_path(
             z1 = profile(k - 1, length[k - 1] - d)
             t1 = np.array([f.t1[0, k - 1, 0], f.t1[0, k - 1, 1], z1])
             add(t1[None], k - 1, -1, f"leg {k - 1} (waypoint {k - 1} -> {k})")
-            if k in by_at:
-                q = seg[k - 1] / max(float(length[k - 1]), 1e-12)
-                z1 = loop(k, t1[:2], q, z1, k - 1)
             z2 = profile(k, d)
+            if k in by_at:
+                # the helix climbs (descends) to where the next leg is at the turn's end: the
+                # turn is flown level (a fillet keeps no gradient of its own to spare here)
+                q = seg[k - 1] / max(float(length[k - 1]), 1e-12)
+                z1 = loop(k, t1[:2], q, z1, k - 1, z2)
             arc = arcs[k - 1].copy()
             arc[:, 2] = z1 + np.linspace(0.0, 1.0, chords + 1) * (z2 - z1)
             add(arc[1:], k - 1, -1, f"the turn at waypoint {k}")
@@ -262,6 +267,42 @@ def flown_path(
         np.asarray(spiral_of, dtype=np.int64),
         tuple(labels),
     )
+
+
+def spiral_ends(
+    waypoints: npt.ArrayLike, spirals: Sequence[Spiral], k: int, radius: float
+) -> tuple[float, float]:
+    """The altitudes the helix at waypoint ``k`` starts and ends at on the flown path (module
+    docstring): at the start or the goal its entry and the waypoint's altitude; at an interior
+    waypoint the incoming leg's altitude at the fillet's first tangent point and the outgoing
+    leg's at its second."""
+    w = np.asarray(waypoints, dtype=np.float64)
+    z_out = w[:, 2].copy()
+    z_in = z_out.copy()
+    for s in spirals:
+        z_in[s.at] = s.entry
+    if k == 0 or k == len(w) - 1:
+        return float(z_in[k]), float(z_out[k])
+    d = float(fillets(w[None], radius).distance[0, k - 1])
+    l1 = float(np.hypot(*(w[k, :2] - w[k - 1, :2])))
+    l2 = float(np.hypot(*(w[k + 1, :2] - w[k, :2])))
+    z0 = z_out[k - 1] + (z_in[k] - z_out[k - 1]) * (max(l1 - d, 0.0) / l1 if l1 > 0 else 1.0)
+    z1 = z_out[k] + (z_in[k + 1] - z_out[k]) * (min(d / l2, 1.0) if l2 > 0 else 0.0)
+    return float(z0), float(z1)
+
+
+def respiral(
+    waypoints: npt.ArrayLike, spirals: Sequence[Spiral], perf: Performance
+) -> tuple[Spiral, ...]:
+    """``spirals`` with the fewest turns their helices need on ``waypoints`` as flown (after the
+    path around them changed: a take-off joined before the plan's start)."""
+    out = []
+    for s in spirals:
+        z0, z1 = spiral_ends(waypoints, spirals, s.at, perf.turn_radius)
+        rate = GRADIENT_MARGIN * (perf.turn_climb_gradient if z1 > z0 else perf.descent_gradient)
+        turns = max(1, math.ceil(abs(z1 - z0) / (2.0 * math.pi * s.radius * rate)))
+        out.append(Spiral(s.at, s.entry, min(turns, MAX_TURNS), s.radius, s.clockwise))
+    return tuple(out)
 
 
 def gradient_excess(path: FlownPath, perf: Performance) -> FloatArray:
@@ -427,10 +468,11 @@ def add_spirals(
             a = float(b[2])
     path = np.asarray(out, dtype=np.float64)
     spirals: list[Spiral] = []
-    for i in range(len(path)):
-        z0, z1 = entry[i], float(path[i, 2])
-        if abs(z1 - z0) <= TOLERANCE:
-            continue
+    marks = [Spiral(i, entry[i], 1, radius, False) for i in range(len(path))
+             if abs(float(path[i, 2]) - entry[i]) > TOLERANCE]  # fmt: skip
+    for mark in marks:
+        i = mark.at
+        z0, z1 = spiral_ends(path, marks, i, radius)
         p, q = anchor(path, i, radius)
         sp, turns = _spiral(i, p, q, z0, z1, perf, fits)
         if sp is None:
@@ -441,7 +483,7 @@ def add_spirals(
                 f"no room for the {way} spiral at waypoint {i} ({turns} turns of radius "
                 f"{radius:.0f} m from {z0:,.0f} to {z1:,.0f} m at ({p[0]:.0f}, {p[1]:.0f}))",
             )
-        spirals.append(sp)
+        spirals.append(Spiral(i, mark.entry, sp.turns, sp.radius, sp.clockwise))
     return Repair(path, tuple(spirals), None)
 
 
@@ -579,5 +621,7 @@ __all__ = [
     "gradient_excess",
     "helix",
     "only_too_steep",
+    "respiral",
+    "spiral_ends",
     "spiral_repair",
 ]

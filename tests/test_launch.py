@@ -235,3 +235,29 @@ def test_a_mission_from_launch_to_landing_is_planned_exported_and_flown(
     assert main([*run, "--no-terrain-mesh", "--json"]) == 0
     got = json.loads(capsys.readouterr().out)["metrics"]
     assert got["success"] and got["end_reason"] == "goal" and not got["terrain_contact"]
+
+
+BIGTUJUNGA = ROOT.parent / "shared" / "maps" / "topotoolbox_bigtujunga" / "bigtujunga.tif"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not BIGTUJUNGA.is_file(), reason="../shared/maps/topotoolbox_bigtujunga")
+def test_a_take_off_that_does_not_join_the_plan_is_infeasible_not_flown_into_the_hill(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Found by a search of valley launches on Big Tujunga: the quickest climb-out heads
+    north-west, the plan's first leg south-east, and the reversal at the plan's start does not
+    fit a turn fillet -- the mission as first written flew into the hillside 43 s after the
+    launch with `success` unjudged by the plan. Now the joined path is checked (the turn, the
+    gradients, the clearance beyond the climb-out), a climb-out along the plan's first leg is
+    tried, and where none joins the plan is infeasible with the reason."""
+    out = tmp_path / "bt.yaml"
+    args = ["plan", str(BIGTUJUNGA), "--map-coords", "--start=387549,3794253"]
+    args += ["--start-on-ground", "--goal=391383,3790328", "--seed", "1", "-o", str(out)]
+    assert main(args) == 3
+    err = capsys.readouterr().err
+    assert (
+        "joining the take-off and landing to the plan: its climb-out and the plan's first leg"
+        in err
+    )
+    assert not out.with_suffix(".plan").exists()

@@ -360,6 +360,7 @@ class Autopilot:
         self._arcs: list[tuple[float, ...]] = []
         self._after: tuple[str, int, Fillets | None] | None = None
         self._spiral_z0: dict[int, float] = {}  # the altitude a spiral starts at (its T1's)
+        self._spiral_z1: dict[int, float] = {}  # and ends at (its fillet's T2's)
         # the altitude the plan leaves each spiral flown so far at (where it touches the path)
         self.spiral_exits: dict[int, float] = {}
         self.land = False  # the final leg is a landing's final approach (no terrain floor)
@@ -515,7 +516,11 @@ class Autopilot:
             anchor, q = w[k, :2], w[k, :2] - w[k - 1, :2]
             z0 = entry
         q = q / max(float(np.hypot(*q)), 1e-12)
-        z1 = z0 + float(w[k, 2]) - entry
+        z1 = (
+            self._spiral_z1.get(k, z0 + float(w[k, 2]) - entry)
+            if fillet is not None
+            else (z0 + float(w[k, 2]) - entry)
+        )
         self.spiral_exits[k] = z1
         side = -1.0 if clockwise else 1.0  # + counter-clockwise (map)
         cx = float(anchor[0]) - side * radius * float(q[1])
@@ -630,13 +635,18 @@ class Autopilot:
         before = float(
             a[2] + (self._arrival(i) - a[2]) * (max(l1 - d, 0.0) / l1 if l1 > 0 else 1.0)
         )
-        self._spiral_z0[i] = before
         t1 = at.t1.copy()
         t2 = at.t2.copy()
-        t1[0, 0, 2] = before + float(b[2]) - self._arrival(i)
         t2[0, 0, 2] = float(
             b[2] + (self._arrival(i + 1) - b[2]) * (min(d / l2, 1.0) if l2 > 0 else 0.0)
         )
+        t1[0, 0, 2] = before
+        if i in self._spirals:
+            # the spiral runs from T1's altitude to T2's, and the turn after it is level
+            # (planner.spiral.spiral_ends)
+            self._spiral_z0[i] = before
+            self._spiral_z1[i] = float(t2[0, 0, 2])
+            t1[0, 0, 2] = float(t2[0, 0, 2])
         return dataclasses.replace(at, t1=t1, t2=t2)
 
     def _start_arc(self, f: Fillets) -> None:
