@@ -114,8 +114,15 @@ def test_bad_launch_points_are_one_line_errors(
     for extra, msg in (
         (["--start=-105.6911,40.3669,3040"], "give it as lon,lat (or x,y) without an altitude"),
         (["--start=-105.6911,40.3669", "--zones", str(zones)], "inside danger zone sam"),
+        (
+            ["--map-coords", "--start=422407,4470814", "--goal=430000,4470000"],
+            "lies over terrain the DEM did not measure: its ground height is not known",
+        ),
     ):
-        assert main([*base, *extra, "-o", str(tmp_path / "m.yaml")]) == 1
+        args = [*base, *extra]
+        if "--map-coords" in extra:
+            args.remove("--goal=-105.75,40.30")
+        assert main([*args, "-o", str(tmp_path / "m.yaml")]) == 1
         err = capsys.readouterr().err
         assert msg in err and err.count("\n") == 1, err
 
