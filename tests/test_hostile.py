@@ -479,8 +479,11 @@ def test_a_killed_campaign_ends_its_workers(tmp_path: Path, sig: int) -> None:
         assert proc.returncode == 143
         assert _parts(mcaps) == []
         return
-    # SIGKILL: nothing ran in the campaign; the resumed campaign removes what it left
-    assert len(_parts(mcaps)) == 2
+    # SIGKILL: nothing ran in the campaign, and its workers died of SIGTERM without cleaning
+    # up: the recordings they were writing are left (one or both: a worker between two runs
+    # -- its last renamed, the next not yet opened -- has none; seen on a loaded machine);
+    # the resumed campaign removes them
+    assert 1 <= len(_parts(mcaps)) <= 2
     spec.write_text(SPEC.replace("runs: 1", "runs: 2"), "utf-8")  # short runs, same folder
     store = str(tmp_path / "t.sqlite")
     keep = ["--keep-mcap", "all", "--mcap-dir", str(mcaps)]
