@@ -13,7 +13,8 @@ For a polyline S, W_1 .. W_N, G (all points map metres, z AMSL):
 :mod:`terrain.segments`; ``L_inside_i`` the length inside zone i (a cylinder or a polygon prism, each
 with an optional floor and top) from :class:`terrain.zoneset.ZoneSet`. With no danger zones F_dangerzones is 0. Because F_length and
 F_altitude lie in [0, 1], F_dangerzones in [0, 1] and F_collision >= 3 whenever the path touches
-the ground, a path with F > 3.5 certainly hits the ground — seed 002's infeasibility threshold —
+the ground, a path with F > 3.5 certainly hits the ground — seed 002's infeasibility threshold
+(of its four terms; the terms below add to it) —
 and any colliding path costs more than any collision-free one of the same map when the
 altitude band is honoured.
 
@@ -33,6 +34,20 @@ limits, so the paper's cost is unchanged there), each shaped like F_collision:
 
 The caller passes E_climb and E_turn (computed on the flown path, see :mod:`planner.flown`) and the
 unknown-cell mask as a grid; the polyline given is the one evaluated (the flown path).
+
+**Spirals (issue 33).**  Where the plan may climb in spirals (``spiral_gradient`` given: the
+gradient the aircraft climbs at in its banked turn, :attr:`planner.performance.Performance.
+turn_climb_gradient`), a climb or descent a leg cannot make is not a fault but a helix to fly:
+the path is priced as if ``E_climb / spiral_gradient`` metres longer (the helix's horizontal
+length; at a few per cent of gradient its 3-D length to 0.1 %) in F_length, and F_climb is
+``SPIRAL_SURCHARGE`` (1) instead of P + E_climb / L_traj.  So a path that spirals costs more than
+any flyable one without a spiral (F_length + F_altitude < 2, and the planner should not spiral
+where a straight climb fits) and less than any with a fault (>= P = 3): among the spiralling
+ones the swarm weighs a helix against the detour that would make the climb.  A descent is priced
+at the same gradient (the climb in a turn is the smaller; the kernel gives one excess for both,
+so a descent spiral is priced up to ``climb / turn climb`` times its length -- the repair,
+:func:`planner.spiral.spiral_repair`, places and prices it exactly).  The swarm's result keeps
+its excess (``climb_excess_m``) and is repaired into spirals after the search.
 
 Three optional terms users ask for (issue 20; zero unless asked for, so seed 002's cost is
 unchanged by default), each reported like the others:
@@ -74,6 +89,7 @@ from terrain.zoneset import ZoneSet
 
 FloatArray = npt.NDArray[np.float64]
 COLLISION_PENALTY = 3.0
+SPIRAL_SURCHARGE = 1.0  # F_climb of a path that climbs in spirals (module docstring)
 
 
 @dataclass(frozen=True)
@@ -142,6 +158,7 @@ def path_costs(
     agl_max: float | None = None,
     agl_pref: float | None = None,
     smoothness: FloatArray | None = None,
+    spiral_gradient: float | None = None,
 ) -> CostTerms:
     """Cost terms of a (P, W, 3) stack of polylines (one call for a whole swarm).
 
@@ -149,7 +166,8 @@ def path_costs(
     no limits); ``unknown`` is a grid of the same lattice whose cells are > 0 where the terrain is
     unknown and < 0 where it was measured (None: all measured).  ``ground`` (the DEM) with
     ``agl_max`` or ``agl_pref`` adds the above-ground terms; ``smoothness`` (P,) is F_smooth,
-    computed by the caller on the waypoint polylines (:func:`smoothness_of`)."""
+    computed by the caller on the waypoint polylines (:func:`smoothness_of`).
+    ``spiral_gradient``: the climb excess is priced as a spiral's length (module docstring)."""
     p = np.asarray(paths, dtype=np.float64)
     seg = np.diff(p, axis=1)
     seg_len = np.sqrt((seg * seg).sum(axis=2))  # np.linalg.norm's arithmetic, without its checks
@@ -187,7 +205,14 @@ def path_costs(
         over = path_below_lengths(unknown, flat, 0.0)
     else:
         over = np.zeros(n)
-    f_climb = np.where(ce > 0, penalty + ce / safe_len, 0.0)
+    if spiral_gradient is not None:
+        # the climb the legs cannot make, flown in a helix: the path is that much longer
+        helix = ce / spiral_gradient
+        longer = length + helix
+        f_length = np.where(longer > 0, 1.0 - straight / np.where(longer > 0, longer, 1.0), 0.0)
+        f_climb = np.where(ce > 0, SPIRAL_SURCHARGE, 0.0)
+    else:
+        f_climb = np.where(ce > 0, penalty + ce / safe_len, 0.0)
     f_turn = np.where(te > 0, penalty + te / safe_len, 0.0)
     f_unknown = np.where(over > 0, penalty + over / safe_len, 0.0)
     f_above = np.zeros(n)

@@ -29,7 +29,10 @@ sum l_i a_i / L`` with ``a_i`` the segment's altitude normalised to the band, so
 length ``l`` at normalised mid altitude ``a`` weighs ``l (1 + a)`` (up to the constant 1 and the
 factor 1 / D, the same order).  With the aircraft's performance, ``l`` is at least ``|dz| / g``
 (``g`` the smaller of its climb and descent gradients): a climb steeper than it can fly costs
-the distance it needs to make it.  Soft danger zones (not ``avoid_zones``) add their cost term
+the distance it needs to make it; where the plan may spiral, the edge's length plus the helix
+that climbs the rest at the climb gradient in a turn, or ``g`` where that is less
+(``l + (|dz| - g l) / min(g_turn, g)``: never less than the distance it needs), as the cost
+prices it.  Soft danger zones (not ``avoid_zones``) add their cost term
 the same way: an edge ``l_k`` metres inside zone ``k`` of size ``d_k`` (of ``n``) adds
 ``D l_k / (n d_k)`` (``D`` the straight start-goal distance; the term's cap at 1 per zone is
 left out).
@@ -227,7 +230,11 @@ def explore(
     perf = problem.performance
     if perf is not None:  # a climb steeper than the aircraft's costs the distance it needs
         g = min(perf.climb_gradient, perf.descent_gradient)
-        length = np.maximum(length, np.abs(hv - hu) / g)
+        spiral = problem.spiral_gradient
+        if spiral is None:
+            length = np.maximum(length, np.abs(hv - hu) / g)
+        else:  # flown in a helix at the climb gradient in a turn, after the leg's own climb
+            length = length + np.maximum(0.0, np.abs(hv - hu) - g * length) / min(spiral, g)
     w = length * (1.0 + (e - zlo) / (zhi - zlo))
     if problem.zones and not problem.avoid_zones:  # soft zones: their cost term, in metres
         soft = problem.cost_zones  # the zones as the cost sees them (grown by the margin)
@@ -533,7 +540,7 @@ def explore_pool(
     if not cands:
         return replace(finest, elapsed_s=time.perf_counter() - t0)
     terms = problem.terms(np.array([r.x for r in cands]))
-    ok = problem.feasible(terms)
+    ok = problem.repairable(terms)
     scored = [(replace(r, f=float(terms.total[i])), bool(ok[i])) for i, r in enumerate(cands)]
     kept = _distinct(problem, scored, k)
     t1 = time.perf_counter()
@@ -547,7 +554,7 @@ def explore_pool(
             if not xs:
                 continue
             terms = problem.terms(np.array(xs))
-            ok = problem.feasible(terms)
+            ok = problem.repairable(terms)
             best = sorted((float(terms.total[i]), i) for i in range(len(xs)) if ok[i])
             new += [Route(r.xy, r.cost, xs[i], f, True) for f, i in best[:KEEP_PLACED]]
         new.sort(key=lambda r: r.f)

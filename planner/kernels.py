@@ -129,9 +129,12 @@ def chord_edges(
     pairs: np.ndarray,
     climb: float,
     descent: float,
+    spiral: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - jit
     """``planner.placement._chord_edges_py``: the clear, flyable chords between the altitude
-    levels of candidate pairs, as (from state, to state, 3-D length, mid altitude); a state is
+    levels of candidate pairs, as (from state, to state, 3-D length, mid altitude); with
+    ``spiral`` > 0 (the climb gradient in a turn) a chord steeper than the gradients is kept,
+    the climb it cannot make flown in a helix: its length grows by excess / ``spiral``; a state is
     ``candidate * K + level``; ``floor`` holds the blocks of ``block`` x ``block`` cells, ``rc``
     and ``step`` are in cells.  The lowest clear end of a chord from ``za`` is found on the upper
     convex hull of the floor samples (the steepest sight line from a point left of them all ends
@@ -198,11 +201,14 @@ def chord_edges(
                 if not np.isfinite(zb) or zb < need:
                     continue
                 dz = zb - za
-                if dz > climb * length or -dz > descent * length:
+                excess = max(dz - climb * length, -dz - descent * length, 0.0)
+                if excess > 0.0 and spiral <= 0.0:
                     continue
                 u[count] = a * n_k + ka
                 v[count] = b * n_k + kb
                 l3[count] = np.sqrt(length * length + dz * dz)
+                if excess > 0.0:
+                    l3[count] += excess / spiral
                 zm[count] = 0.5 * (za + zb)
                 count += 1
     return u[:count], v[:count], l3[:count], zm[:count]

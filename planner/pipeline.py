@@ -253,6 +253,11 @@ def build_problem(request: PlanRequest) -> Prepared:
         agl_max=r.agl_max,
         agl_pref=r.agl_pref,
         smoothness=r.smoothness,
+        # the turns from the climb-out onto the plan and from the plan onto the approach
+        lead_in=takeoff.launch if takeoff is not None and takeoff.heading_deg is not None else None,
+        lead_out=(
+            landing.touchdown if landing is not None and landing.heading_deg is not None else None
+        ),
     )
     if r.performance_at is not None:
         zmin, zmax = problem.band

@@ -25,7 +25,10 @@ swarm may still cut a corner through one).  From level ``za`` the chord's lowest
 ``max_i za + (f_i - za) / t_i`` over the floor ``f_i`` sampled every half block at ``t_i`` along
 it (on the upper convex hull of the samples: the same maximum, fewer terms); a level at least
 that high, with the climb or descent within ``GRADIENT_USE`` of the aircraft's gradients, makes
-an edge.  The floor is taken in blocks of ``b x b`` cells (their maximum, so conservative; ``b``
+an edge -- and where the plan may spiral (:attr:`planner.problem.PlanningProblem.spiral_gradient`)
+a steeper one too, its length grown by the helix that climbs the rest (excess / the climb
+gradient in a turn), as the cost prices it, and taken only where no chain without one reaches
+the goal (each weighs more than any chain's spread: the fewest spirals, then the cheapest).  The floor is taken in blocks of ``b x b`` cells (their maximum, so conservative; ``b``
 the whole number of cells nearest the start-goal distance / ``CELLS_ALONG`` (400): 3 on Big
 Tujunga's 30 m cells, 1 on jacksboro and rmnp) so a chord costs the same number of samples on
 any DEM.  Terrain the DEM did not measure is an infinite floor (unless allowed).
@@ -306,6 +309,8 @@ class Lattice:
         self.block = max(1, round(span / CELLS_ALONG / max(problem.grid.cell_size)))
         self.coarse = block_max(self.floor, self.block, -np.inf)
         self.climb, self.descent = _gradients(problem)
+        # a chord too steep may climb the rest in a spiral, its helix counted in its length
+        self.spiral = problem.spiral_gradient or 0.0
         self.zlo, zhi = problem.band
         self.dz = zhi - self.zlo
         self.d = float(np.linalg.norm(problem.goal - problem.start))
@@ -329,9 +334,18 @@ class Lattice:
         rc = np.ascontiguousarray(np.column_stack([row, col]), dtype=np.float64)
         u, v, l3, zm = kernels.chord_edges(
             rc, xy, levels, self.coarse, self.block, SAMPLE * self.block, pairs, self.climb,
-            self.descent,
+            self.descent, self.spiral,
         )  # fmt: skip
         k = levels.shape[1]
+        if self.spiral > 0.0:
+            # a chord that needs a spiral is taken only where no chain without one reaches the
+            # goal, and as few as can be: it weighs more than the spread of any chain's weights
+            # (each chord's weight is within +-2 x the band x its length, N + 1 chords a chain)
+            a, b = u // k, v // k
+            flat = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
+            plain = np.sqrt(flat**2 + (levels.flat[v] - levels.flat[u]) ** 2)
+            steep = l3 > plain + 1e-6
+            surcharge = 8.0 * self.dz * (problem.n_waypoints + 1) * float(l3.max(initial=1.0))
         n_states = len(xy) * k
         goal = (len(xy) - 1) * k
         inner = np.ones(n_states, dtype=np.bool_)
@@ -345,6 +359,8 @@ class Lattice:
         out: list[FloatArray] = []
         for _ in range(ITERATIONS):
             w = l3 * (zm + self.dz * self.d / length - mean_z)
+            if self.spiral > 0.0:
+                w = w + steep * surcharge
             chain = kernels.layered_dp(u, v, w, n_states, 0, goal, problem.n_waypoints, inner)
             if chain.size == 0 or tuple(chain.tolist()) in seen:
                 break
@@ -504,6 +520,7 @@ def _chord_edges_py(
     pairs: IntArray,
     climb: float,
     descent: float,
+    spiral: float = 0.0,
 ) -> tuple[IntArray, IntArray, FloatArray, FloatArray]:
     """Pure-numpy twin of ``planner.kernels.chord_edges`` (every sample, no hull)."""
     k = levels.shape[1]
@@ -527,8 +544,10 @@ def _chord_edges_py(
             for kb in range(k):
                 zb = levels[b, kb]
                 dz = zb - za
-                if np.isfinite(zb) and zb >= need and -descent * length <= dz <= climb * length:
-                    out.append((a * k + ka, b * k + kb, math.hypot(length, dz), 0.5 * (za + zb)))
+                excess = max(dz - climb * length, -dz - descent * length, 0.0)
+                if np.isfinite(zb) and zb >= need and (excess <= 0.0 or spiral > 0.0):
+                    l3 = math.hypot(length, dz) + (excess / spiral if excess > 0.0 else 0.0)
+                    out.append((a * k + ka, b * k + kb, l3, 0.5 * (za + zb)))
     arr = np.array(out, dtype=np.float64).reshape(-1, 4)
     return (
         arr[:, 0].astype(np.int64),

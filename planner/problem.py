@@ -38,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.cost import COLLISION_PENALTY, CostTerms, path_costs, smoothness_of
-from planner.flown import CHORDS, flown_paths, flown_with_excess
+from planner.flown import CHORDS, fillets, flown_paths, flown_with_excess
 from planner.performance import Performance
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
@@ -94,6 +94,33 @@ def terrain_top(grid: HeightGrid, x: float, y: float) -> float:
     return float(h.max())
 
 
+def lead_turn_excess(
+    paths: npt.ArrayLike,
+    radius: float,
+    lead_in: npt.ArrayLike | None = None,
+    lead_out: npt.ArrayLike | None = None,
+) -> FloatArray:
+    """(P,) metres by which the fillets of the turns from ``lead_in`` (a point the aircraft
+    comes from) onto the first leg of (P, W, 3) (or (W, 3)) paths, and from the last leg on to
+    ``lead_out``, overlap their legs -- the fillets' :attr:`planner.flown.Fillets.leg_excess`
+    with the leads added, less the paths' own."""
+    p = np.asarray(paths, dtype=np.float64)
+    if p.ndim == 2:
+        p = p[None]
+    parts = [p]
+    if lead_in is not None:
+        lead = p[:, :1].copy()
+        lead[:, 0, :2] = np.asarray(lead_in, dtype=np.float64)[:2]
+        parts.insert(0, lead)
+    if lead_out is not None:
+        lead = p[:, -1:].copy()
+        lead[:, 0, :2] = np.asarray(lead_out, dtype=np.float64)[:2]
+        parts.append(lead)
+    whole = fillets(np.concatenate(parts, axis=1), radius).leg_excess.sum(axis=1)
+    own = fillets(p, radius).leg_excess.sum(axis=1)
+    return np.asarray(np.maximum(0.0, whole - own), dtype=np.float64)
+
+
 @dataclass(frozen=True, eq=False)
 class PlanningProblem:
     """Start/goal (map metres, z AMSL), N free waypoints, zones, band and clearance."""
@@ -117,6 +144,11 @@ class PlanningProblem:
     agl_max: float | None = None  # its top: no length more than this above the ground
     agl_pref: float | None = None  # a preferred height above the ground (SPSO's J3)
     smoothness: float = 0.0  # weight of the turn / climb-change term (SPSO's J4)
+    spirals: bool = True  # a climb a leg cannot make may be flown in a helix (planner.spiral)
+    # where the aircraft comes from to the start (a take-off's climb-out) and goes on to after
+    # the goal (a landing's approach): the turns there must fit fillets (end_turn_excess)
+    lead_in: FloatArray | None = None
+    lead_out: FloatArray | None = None
     _zones: ZoneSet = field(init=False, repr=False)
     _check_grid: HeightGrid = field(init=False, repr=False)
     _unknown: HeightGrid | None = field(init=False, repr=False)
@@ -404,9 +436,12 @@ class PlanningProblem:
         ce = te = None
         perf = self.performance
         if perf is not None:
+            ends = self.end_turn_excess(paths)
             paths, te, ce = flown_with_excess(
                 paths, perf.turn_radius, perf.climb_gradient, perf.descent_gradient, self.chords
             )
+            if ends is not None:
+                te = te + ends
         return path_costs(
             self._check_grid,
             paths,
@@ -423,7 +458,37 @@ class PlanningProblem:
             agl_max=self.agl_max,
             agl_pref=self.agl_pref,
             smoothness=smooth,
+            spiral_gradient=self.spiral_gradient,
         )
+
+    def end_turn_excess(self, paths: npt.ArrayLike) -> FloatArray | None:
+        """(P,) metres by which the turns at the start (from :attr:`lead_in`, the take-off's
+        climb-out) and at the goal (onto :attr:`lead_out`, the landing's approach) overlap the
+        fillets of the first and last legs (:func:`lead_turn_excess`); None without leads or a
+        performance.  The flown path itself stays the plan's (start to goal): the take-off and
+        landing are joined to it and checked whole by the pipeline."""
+        perf = self.performance
+        if perf is None or (self.lead_in is None and self.lead_out is None):
+            return None
+        return lead_turn_excess(paths, perf.turn_radius, self.lead_in, self.lead_out)
+
+    @property
+    def spiral_gradient(self) -> float | None:
+        """The gradient a climb spiral climbs at (the climb in the banked turn) when the plan may
+        spiral -- a fixed wing with a performance and ``spirals`` on -- else None (the cost then
+        refuses a leg too steep, :mod:`planner.cost`)."""
+        perf = self.performance
+        if not self.spirals or perf is None or perf.hover:
+            return None
+        return float(perf.turn_climb_gradient)
+
+    def repairable(self, terms: CostTerms) -> npt.NDArray[np.bool_]:
+        """:meth:`feasible`, but a climb excess the plan may fly in spirals does not count (the
+        repair after the search places them and checks every helix): what the search's own
+        rankings of seeds use."""
+        if self.spiral_gradient is None:
+            return self.feasible(terms)
+        return self.feasible(replace(terms, climb_excess=np.zeros_like(terms.climb_excess)))
 
     def __call__(self, x: npt.ArrayLike) -> FloatArray:
         return self.terms(x).total

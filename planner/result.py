@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from planner.flown import TOLERANCE, fillets
 from planner.performance import Performance
-from planner.problem import PlanningProblem
+from planner.problem import PlanningProblem, lead_turn_excess
 from planner.profile import PathSamples, sample_path
 from planner.spiral import Spiral
 from terrain.validity import SegmentValidity
@@ -173,6 +173,7 @@ def find_violations(
     if perf is not None:
         out.extend(_climb_violations(perf, path, flown, labels, legs))
         out.extend(_turn_violations(perf, path))
+        out.extend(_end_turn_violations(problem, path))
     out.extend(_band_violations(problem, flown, labels, legs))
     if check is None:
         check = problem.validity.path(flown)
@@ -339,6 +340,35 @@ def _climb_violations(
                 f"{label} {verb} {abs(rise):.0f} m {where}; "
                 f"the {perf.name} at {perf.speed:g} m/s can {verb[:-1]} at most "
                 f"{100 * limit:.1f} % ({perf.climb_fraction:g} x {rate:g} m/s)",
+            )
+        )
+    return out
+
+
+def _end_turn_violations(problem: PlanningProblem, path: FloatArray) -> list[Violation]:
+    """The turn from the take-off's climb-out onto the first leg, or from the last leg onto the
+    landing's approach, where its fillet does not fit (:meth:`PlanningProblem.end_turn_excess`)."""
+    perf = problem.performance
+    out: list[Violation] = []
+    if perf is None:
+        return out
+    for lead, k, what in ((problem.lead_in, 0, "take-off's climb-out onto the first leg"),
+                          (problem.lead_out, len(path) - 1, "last leg onto the landing approach")):  # fmt: skip
+        if lead is None:
+            continue
+        ends = (lead, None) if k == 0 else (None, lead)
+        excess = lead_turn_excess(path, perf.turn_radius, *ends)
+        if float(excess[0]) <= 0.0:
+            continue
+        out.append(
+            _at(
+                "turn",
+                max(0, k - 1),
+                path[k],
+                float(excess[0]),
+                f"the turn from the {what} at waypoint {k} needs {float(excess[0]):.0f} m more "
+                f"leg than there is: the {perf.name} turns with a radius of "
+                f"{perf.turn_radius:.0f} m at {perf.speed:g} m/s",
             )
         )
     return out

@@ -100,11 +100,23 @@ def _flat_problem(**kw: object) -> PlanningProblem:
 
 
 def test_a_steep_leg_is_infeasible_and_reported_as_a_climb() -> None:
-    pr = _flat_problem()
+    """Without spirals a leg too steep pays the penalty; where the plan may spiral it pays the
+    spiral's surcharge (more than any flyable path's length and altitude terms, less than a
+    fault's penalty) and its helix's length -- and is still not feasible until the repair has
+    placed the spiral."""
     x = np.array([1000.0, 2000.0, 400.0, 2600.0, 2000.0, 400.0])  # +300 m in 800 m: 37.5 %
-    terms = pr.terms(x[None])
+    plain = _flat_problem(spirals=False)
+    terms = plain.terms(x[None])
     assert terms.climb_excess[0] > 0 and terms.climb[0] > 3.0
-    assert not pr.feasible(terms)[0]
+    assert not plain.feasible(terms)[0]
+    pr = _flat_problem()
+    spiralled = pr.terms(x[None])
+    assert spiralled.climb_excess[0] == pytest.approx(terms.climb_excess[0])
+    assert spiralled.climb[0] == pytest.approx(1.0)
+    helix = spiralled.climb_excess[0] / PERF.turn_climb_gradient
+    straight = float(np.linalg.norm(pr.goal - pr.start))
+    assert spiralled.length[0] == pytest.approx(1.0 - straight / (terms.path_length[0] + helix))
+    assert not pr.feasible(spiralled)[0] and pr.repairable(spiralled)[0]
     from planner.result import find_violations
 
     vs = find_violations(pr, pr.paths(x))

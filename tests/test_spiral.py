@@ -245,3 +245,85 @@ def test_a_valley_launch_the_straight_climb_cannot_leave_is_planned_with_spirals
     assert [sp["waypoint"] for sp in got["spirals"]] == [sp.at for sp in m.spirals]
     for sp in got["spirals"]:
         assert abs(sp["altitude"] - sp["planned"]) <= 15.0, sp
+
+
+# ---- the search places them --------------------------------------------------------------------
+def _bowl_problem(**kw: Any) -> Any:
+    """A 10 x 6 km map (50 m cells): a plateau at 600 m with a round bowl 3 km across and 0 m
+    deep at its floor (walls 500 m wide) round the start; the goal out on the plateau. At the
+    test aircraft's 12 % no straight climb from the floor leaves the bowl."""
+    from planner.problem import PlanningProblem
+    from tests.conftest import make_grid
+
+    yy, xx = np.mgrid[0:120, 0:200] * 50.0 + 25.0
+    r = np.hypot(xx - 2500.0, yy - 3000.0)
+    h = np.clip((r - 1500.0) / 500.0, 0.0, 1.0) * 600.0
+    grid = make_grid(h, cell=50.0, x0=0.0, y0=6000.0)
+    start = np.array([2500.0, 3000.0, 80.0])
+    goal = np.array([9000.0, 3000.0, 700.0])
+    perf = Performance("test", 25.0, 3.0, 3.0, 30.0, turn_climb_rate=2.7)
+    opts: dict[str, Any] = {"clearance": 50.0, "zmax": 1200.0, "performance": perf}
+    opts.update(kw)
+    return PlanningProblem(grid, start, goal, 4, **opts)
+
+
+def test_the_graph_and_the_placement_seed_the_swarm_with_spirals_where_they_must() -> None:
+    """Out of the bowl no chain of chords within the gradient exists: the map's search prices
+    the climb as the helix that makes it and hands the swarm seeds that are flyable with
+    spirals (repairable, cost below a fault's penalty), where without spirals every seed is a
+    fault; the plan is feasible with spirals, each helix clear and within the turn's climb."""
+    from planner.cost import COLLISION_PENALTY
+    from planner.explore import explore_pool
+    from planner.plan import plan
+
+    pr = _bowl_problem()
+    pool = explore_pool(pr, 3)
+    assert pool.routes and pool.routes[0].feasible  # repairable: the spiral is the only fault
+    assert pool.routes[0].f < COLLISION_PENALTY
+    terms = pr.terms(pool.routes[0].x[None])
+    assert terms.climb_excess[0] > 0 and not pr.feasible(terms)[0]
+    plain = explore_pool(_bowl_problem(spirals=False), 3)
+    assert all(r.f > COLLISION_PENALTY for r in plain.routes)
+    result = plan(pr, seed=3, population=40, iterations=100)
+    assert result.feasible and result.spirals
+    assert result.terms["climb_excess_m"] == 0.0 and result.terms["spirals"] >= 1
+    fp = flown_path(result.waypoints, result.spirals, PERF.turn_radius, pr.chords)
+    on = fp.points[1:][fp.spiral >= 0]
+    assert len(on) >= 24 * sum(sp.turns for sp in result.spirals)
+    check = pr.validity.path(on)  # every helix clear of the terrain + clearance, on the map
+    assert check.valid.all() and float(check.clearance.min()) >= 0.0
+    assert float(gradient_excess(fp, PERF).max()) == 0.0
+
+
+def test_no_spiral_where_a_straight_climb_fits() -> None:
+    """Three ridges with saddles the aircraft can climb over straight: the search spirals
+    nowhere (a spiral costs more than any flyable path without one), and the same map with the
+    ground lowered by half is flown without a spiral too."""
+    from planner.plan import plan
+    from tests.test_placement import _problem
+
+    for kw in ({}, {"zmax": 700.0}):
+        result = plan(_problem(**kw), seed=1, population=40, iterations=100)
+        assert result.feasible and result.spirals == ()
+        assert result.terms["climb_excess_m"] == 0.0
+
+
+def test_a_take_off_turns_onto_the_plan_within_a_fillet() -> None:
+    """The turn from the take-off's climb-out onto the first leg is part of the cost (the turn
+    term) and of the violations: straight on costs nothing, a reversal at the start overlaps
+    its legs by the fillet's length, and the search keeps the first leg where the turn fits."""
+    from planner.plan import plan
+    from planner.problem import lead_turn_excess
+    from planner.result import find_violations
+
+    pr = _bowl_problem(lead_in=np.array([2500.0, 1800.0]))  # the climb-out heads north
+    ahead = np.array([[2500.0, 3000.0, 80.0], [2500.0, 4000.0, 80.0], [2600.0, 5000.0, 80.0]])
+    assert lead_turn_excess(ahead, PERF.turn_radius, pr.lead_in)[0] == 0.0
+    back = ahead.copy()
+    back[1:, 1] = 3000.0 - (back[1:, 1] - 3000.0)  # the first leg heads south: a reversal
+    over = lead_turn_excess(back, PERF.turn_radius, pr.lead_in)[0]
+    assert over > 1000.0  # tan(D/2) of a reversal is capped at 2,000 R: no fillet fits
+    assert any("take-off's climb-out" in v.detail for v in find_violations(pr, back))
+    result = plan(pr, seed=3, population=40, iterations=100)
+    assert result.feasible
+    assert lead_turn_excess(result.waypoints, PERF.turn_radius, pr.lead_in)[0] == 0.0
