@@ -254,7 +254,7 @@ def build_problem(request: PlanRequest) -> Prepared:
         agl_pref=r.agl_pref,
         smoothness=r.smoothness,
         # the turns from the climb-out onto the plan and from the plan onto the approach
-        lead_in=takeoff.launch if takeoff is not None and takeoff.heading_deg is not None else None,
+        lead_in=_lead_in(takeoff),
         lead_out=(
             landing.touchdown if landing is not None and landing.heading_deg is not None else None
         ),
@@ -362,6 +362,16 @@ def _landing(
     )
 
 
+def _lead_in(takeoff: Takeoff | None) -> np.ndarray | None:
+    """Where the take-off's last straight piece to the plan's start begins: the launch point,
+    or above it where a spiral over the launch ends (None: a vertical take-off)."""
+    if takeoff is None or takeoff.heading_deg is None:
+        return None
+    if takeoff.spiral is not None and takeoff.top is not None:
+        return np.array([*takeoff.launch[:2], takeoff.top])
+    return np.asarray(takeoff.launch, dtype=np.float64)
+
+
 def _joined(request: PlanRequest, prepared: Prepared, result: PlanResult) -> str | None:
     """Why the take-off or landing does not join the plan (None: it does): the climb-out, the turn onto
     the plan's first leg and the spirals as the mission flies them (planner.spiral.flown_path)
@@ -384,8 +394,15 @@ def _joined(request: PlanRequest, prepared: Prepared, result: PlanResult) -> str
             f"fillet fits ({excess:.0f} m too short)"
         )
     fp = flown_path(w, mission.spirals, perf.turn_radius, problem.chords)
-    if float(gradient_excess(fp, perf).max(initial=0.0)) > 0:
-        return "the climb-out and the plan's start climb more steeply than the aircraft can"
+    steep = np.flatnonzero(gradient_excess(fp, perf) > 0)
+    if steep.size:
+        i = int(steep[0])
+        d = fp.points[i + 1] - fp.points[i]
+        return (
+            f"{fp.labels[i]} of the mission from the launch {'climbs' if d[2] > 0 else 'descends'} "
+            f"at {100 * abs(d[2]) / max(float(np.hypot(d[0], d[1])), 1e-9):.1f} %, more steeply "
+            "than the aircraft can"
+        )
     climb_out = (
         (fp.leg == 0) & (fp.spiral < 0) & np.array([lb.startswith("leg 0") for lb in fp.labels])
     )

@@ -145,8 +145,9 @@ class PlanningProblem:
     agl_pref: float | None = None  # a preferred height above the ground (SPSO's J3)
     smoothness: float = 0.0  # weight of the turn / climb-change term (SPSO's J4)
     spirals: bool = True  # a climb a leg cannot make may be flown in a helix (planner.spiral)
-    # where the aircraft comes from to the start (a take-off's climb-out) and goes on to after
-    # the goal (a landing's approach): the turns there must fit fillets (end_turn_excess)
+    # where the aircraft comes from to the start (a take-off's climb-out: the launch, or where
+    # its spiral ends) and goes on to after the goal (a landing's touchdown), (x, y, z): the
+    # turns there are flown as fillets in the cost (with_leads, end_turn_excess)
     lead_in: FloatArray | None = None
     lead_out: FloatArray | None = None
     _zones: ZoneSet = field(init=False, repr=False)
@@ -160,6 +161,9 @@ class PlanningProblem:
         set_ = object.__setattr__
         set_(self, "start", _point(self.start, "start"))
         set_(self, "goal", _point(self.goal, "goal"))
+        for lead in ("lead_in", "lead_out"):
+            if getattr(self, lead) is not None:
+                set_(self, lead, _point(getattr(self, lead), lead))
         if isinstance(self.n_waypoints, bool) or int(self.n_waypoints) != self.n_waypoints:
             raise InputError(f"number of waypoints must be an integer; got {self.n_waypoints!r}")
         if self.n_waypoints < 1:
@@ -436,12 +440,19 @@ class PlanningProblem:
         ce = te = None
         perf = self.performance
         if perf is not None:
-            ends = self.end_turn_excess(paths)
+            # with the take-off's and the landing's leads: the turns onto and off the plan are
+            # flown as fillets, their overlap and their climb on the arc counted; the flown
+            # path checked against the ground starts and ends at their tangent points
+            first = self.lead_in is not None
+            last = self.lead_out is not None
             paths, te, ce = flown_with_excess(
-                paths, perf.turn_radius, perf.climb_gradient, perf.descent_gradient, self.chords
+                self.with_leads(paths),
+                perf.turn_radius,
+                perf.climb_gradient,
+                perf.descent_gradient,
+                self.chords,
             )
-            if ends is not None:
-                te = te + ends
+            paths = paths[:, int(first) : paths.shape[1] - int(last)]
         return path_costs(
             self._check_grid,
             paths,
@@ -461,16 +472,20 @@ class PlanningProblem:
             spiral_gradient=self.spiral_gradient,
         )
 
-    def end_turn_excess(self, paths: npt.ArrayLike) -> FloatArray | None:
-        """(P,) metres by which the turns at the start (from :attr:`lead_in`, the take-off's
-        climb-out) and at the goal (onto :attr:`lead_out`, the landing's approach) overlap the
-        fillets of the first and last legs (:func:`lead_turn_excess`); None without leads or a
-        performance.  The flown path itself stays the plan's (start to goal): the take-off and
-        landing are joined to it and checked whole by the pipeline."""
-        perf = self.performance
-        if perf is None or (self.lead_in is None and self.lead_out is None):
-            return None
-        return lead_turn_excess(paths, perf.turn_radius, self.lead_in, self.lead_out)
+    def with_leads(self, paths: npt.ArrayLike) -> FloatArray:
+        """(P, W, 3) paths with :attr:`lead_in` before the start and :attr:`lead_out` after
+        the goal where given (the take-off's last straight piece climbs from it, the landing's
+        approach descends to it)."""
+        p = np.asarray(paths, dtype=np.float64)
+        if p.ndim == 2:
+            p = p[None]
+
+        def point(lead: npt.ArrayLike) -> FloatArray:
+            return np.broadcast_to(np.asarray(lead, dtype=np.float64), (len(p), 1, 3))
+
+        before = [] if self.lead_in is None else [point(self.lead_in)]
+        after = [] if self.lead_out is None else [point(self.lead_out)]
+        return np.concatenate([*before, p, *after], axis=1)
 
     @property
     def spiral_gradient(self) -> float | None:

@@ -355,6 +355,8 @@ def add_spirals(
     perf: Performance,
     fits: Any,
     chords: int = CHORDS,
+    lead_in: npt.ArrayLike | None = None,
+    lead_out: npt.ArrayLike | None = None,
 ) -> Repair:
     """Move the climb (descent) a leg cannot make into a spiral (module docstring).
 
@@ -365,7 +367,13 @@ def add_spirals(
     the aircraft now flies lower than the leg did (before a climb spiral, after a descent
     spiral) is checked too.  ``fits(points (K, 3)) -> (ok, clearance)`` checks points against the
     terrain, zones and map (the problem's validity layer) and says how far above the terrain they
-    stay; each spiral is tried on both sides and the one with more clearance kept."""
+    stay; each spiral is tried on both sides and the one with more clearance kept.
+
+    ``lead_in`` / ``lead_out``: where the aircraft comes from to the start (the take-off) and
+    goes on to after the goal (the landing's touchdown).  The turn there is a fillet whose arc
+    changes altitude by ``R tan(D / 2) (g_lead + g_leg)`` over ``R D``: the first (last) leg
+    keeps ``g_leg <= 2 s G - g_lead`` (``s = D / (2 tan(D / 2))``, ``G`` the limit, with the
+    margin), so the arc stays within the gradient too."""
     w = np.array(waypoints, dtype=np.float64)
     n = len(w)
     radius = perf.turn_radius
@@ -381,6 +389,24 @@ def add_spirals(
         ang = np.maximum(f.angle[0], 1e-9)
         arc_share[1:-1] = np.minimum(1.0, ang / (2.0 * np.tan(0.5 * np.minimum(ang, 3.1))))
     share = GRADIENT_MARGIN * np.minimum(arc_share[:-1], arc_share[1:])
+    up_cap = np.full(n - 1, np.inf)  # the first and last legs' gradients, turning onto a lead
+    down_cap = np.full(n - 1, np.inf)
+    for lead, k, a_, b_ in ((lead_in, 0, 0, 1), (lead_out, n - 2, n - 1, n - 2)):
+        if lead is None:
+            continue
+        p_lead = np.asarray(lead, dtype=np.float64)
+        into = w[a_, :2] - p_lead[:2]
+        span = float(np.hypot(*into))
+        out_of = w[b_, :2] - w[a_, :2]
+        if span < 1e-9 or float(np.hypot(*out_of)) < 1e-9:
+            continue
+        cos_d = float(np.dot(into, out_of) / (span * float(np.hypot(*out_of))))
+        ang = math.acos(max(-1.0, min(1.0, cos_d)))
+        s_arc = 1.0 if ang < 1e-9 else ang / (2.0 * math.tan(0.5 * min(ang, 3.1)))
+        # the lead's gradient in the direction of flight (up positive)
+        g_lead = (w[a_, 2] - p_lead[2]) / span if k == 0 else (p_lead[2] - w[a_, 2]) / span
+        up_cap[k] = GRADIENT_MARGIN * 2.0 * s_arc * perf.climb_gradient - max(g_lead, 0.0)
+        down_cap[k] = GRADIENT_MARGIN * 2.0 * s_arc * perf.descent_gradient - max(-g_lead, 0.0)
     out: list[FloatArray] = [w[0].copy()]  # z: the altitude each waypoint is left at
     entry: list[float] = [float(w[0, 2])]  # the altitude each is arrived at
 
@@ -393,8 +419,8 @@ def add_spirals(
         b = w[k + 1]
         big_l = float(length[k])
         q = seg[k] / max(big_l, 1e-12)
-        up = float(share[k] * perf.climb_gradient)
-        down = float(share[k] * perf.descent_gradient)
+        up = max(0.0, min(float(share[k] * perf.climb_gradient), float(up_cap[k])))
+        down = max(0.0, min(float(share[k] * perf.descent_gradient), float(down_cap[k])))
         margin = 0.1 * radius
         if b[2] - a > up * big_l + TOLERANCE:  # a climb it cannot make
             placed = False
@@ -525,7 +551,7 @@ def spiral_repair(problem: Any, path: npt.ArrayLike) -> Repaired:
         check = problem.validity.path(points)
         return bool(check.valid.all()), float(np.min(check.clearance))
 
-    rep = add_spirals(w, perf, fits, problem.chords)
+    rep = add_spirals(w, perf, fits, problem.chords, problem.lead_in, problem.lead_out)
     if rep.reason is not None:
         return Repaired(w, problem.flown(w), {}, (), False, rep.reason)
     flown = flown_path(rep.waypoints, rep.spirals, perf.turn_radius, problem.chords)

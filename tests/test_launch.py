@@ -249,21 +249,34 @@ BIGTUJUNGA = ROOT.parent / "shared" / "maps" / "topotoolbox_bigtujunga" / "bigtu
 
 @pytest.mark.slow
 @pytest.mark.skipif(not BIGTUJUNGA.is_file(), reason="../shared/maps/topotoolbox_bigtujunga")
-def test_a_take_off_that_does_not_join_the_plan_is_infeasible_not_flown_into_the_hill(
+def test_a_take_off_the_plan_must_turn_from_is_searched_with_its_turn_and_flown(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Found by a search of valley launches on Big Tujunga: the quickest climb-out heads
-    north-west, the plan's first leg south-east, and the reversal at the plan's start does not
-    fit a turn fillet -- the mission as first written flew into the hillside 43 s after the
-    launch with `success` unjudged by the plan. Now the joined path is checked (the turn, the
-    gradients, the clearance beyond the climb-out), a climb-out along the plan's first leg is
-    tried, and where none joins the plan is infeasible with the reason."""
+    north-west, the goal lies south-east. The mission as first written flew into the hillside
+    43 s after the launch (the reversal at the plan's start fitted no turn fillet), and once the
+    joined path was checked the plan was infeasible. Now the climb-out's turn onto the plan is
+    part of the search's cost (the launch as the path's lead-in), so the plan leaves the
+    climb-out where a fillet fits and climbs the rest in spirals: the joined mission (climb-out,
+    turn, legs, spirals) keeps every turn and gradient, and the 6-DOF aircraft flies it from
+    the launch to the goal without touching the ground."""
+    from planner.flown import fillets
+    from planner.spiral import flown_path, gradient_excess
+    from replay.flight.fixedwing.presets import preset
+
     out = tmp_path / "bt.yaml"
     args = ["plan", str(BIGTUJUNGA), "--map-coords", "--start=387549,3794253"]
     args += ["--start-on-ground", "--goal=391383,3790328", "--seed", "1", "-o", str(out)]
-    assert main(args) == 3
-    err = capsys.readouterr().err
-    # the reason names the join (the plan searched with the climb-out's turn onto it: the joint
-    # it still cannot make -- its turn, or the climb of the climb-out and the plan's start)
-    assert "infeasible: joining the take-off and landing to the plan: " in err
-    assert not out.with_suffix(".plan").exists()
+    assert main(args) == 0
+    m = load_mission(out)
+    assert m.plan["feasible"] and m.plan["takeoff"]["heading_deg"] is not None
+    r = float(m.turn_radius or 0.0)
+    assert float(fillets(m.waypoints[None], r).turn_excess[0]) == 0.0
+    perf = preset("aerosonde").performance(25.0, tuple(m.plan["altitude_band"]))
+    fp = flown_path(m.waypoints, m.spirals, r)
+    assert float(gradient_excess(fp, perf).max()) <= 0.01  # the mission file's rounding
+    capsys.readouterr()
+    run = ["replay", str(out), "-o", str(tmp_path / "bt.mcap"), "--no-picture"]
+    assert main([*run, "--no-terrain-mesh", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["metrics"]
+    assert got["success"] and got["end_reason"] == "goal" and not got["terrain_contact"]

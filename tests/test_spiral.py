@@ -316,7 +316,7 @@ def test_a_take_off_turns_onto_the_plan_within_a_fillet() -> None:
     from planner.problem import lead_turn_excess
     from planner.result import find_violations
 
-    pr = _bowl_problem(lead_in=np.array([2500.0, 1800.0]))  # the climb-out heads north
+    pr = _bowl_problem(lead_in=np.array([2500.0, 1800.0, 5.0]))  # the climb-out heads north
     ahead = np.array([[2500.0, 3000.0, 80.0], [2500.0, 4000.0, 80.0], [2600.0, 5000.0, 80.0]])
     assert lead_turn_excess(ahead, PERF.turn_radius, pr.lead_in)[0] == 0.0
     back = ahead.copy()
