@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -53,7 +54,7 @@ def _problem(**kw: object) -> PlanningProblem:
     return PlanningProblem(grid, start, goal, 6, **opts)  # type: ignore[arg-type]
 
 
-def _tables(pr: PlanningProblem, block: int) -> tuple[object, ...]:
+def _tables(pr: PlanningProblem, block: int) -> tuple[Any, ...]:
     route = np.array([pr.start[:2], pr.goal[:2]])
     xy, station = candidates(pr, route)
     lat = Lattice(pr, corridor_terrain(pr))
@@ -71,8 +72,8 @@ def test_the_compiled_chord_table_matches_its_twin(block: int) -> None:
     """The same edges (the hull finds the same lowest clear ends as every sample) with the same
     lengths and mid altitudes, on fine and on blocked floors."""
     args = _tables(_problem(), block)
-    got = kernels.chord_edges(*args)  # type: ignore[arg-type]
-    want = _chord_edges_py(*args)  # type: ignore[arg-type]
+    got = kernels.chord_edges(*args)
+    want = _chord_edges_py(*args)
     assert len(want[0]) > 1000
     order_g = np.lexsort((got[1], got[0]))
     order_w = np.lexsort((want[1], want[0]))
@@ -91,23 +92,23 @@ def test_chords_clear_the_floor_and_keep_the_gradients() -> None:
     assert spiral == pytest.approx(PERF.turn_climb_gradient)
     u, v, l3, zm = kernels.chord_edges(
         rc, xy, levels, coarse, block, step, pairs, climb, descent, spiral
-    )  # type: ignore[arg-type]
+    )
     steep = 0
-    k = levels.shape[1]  # type: ignore[union-attr]
+    k = levels.shape[1]
     pick = np.random.default_rng(1).choice(len(u), 400, replace=False)
     for e in pick.tolist():
         a, ka, b, kb = u[e] // k, u[e] % k, v[e] // k, v[e] % k
-        za, zb = levels[a, ka], levels[b, kb]  # type: ignore[index]
+        za, zb = levels[a, ka], levels[b, kb]
         t = np.linspace(0.0, 1.0, 400)
-        p = xy[a] + t[:, None] * (xy[b] - xy[a])  # type: ignore[index]
+        p = xy[a] + t[:, None] * (xy[b] - xy[a])
         r, c = pr.grid.cell_of(p[:, 0], p[:, 1])
-        m = max(2, math.ceil(float(np.hypot(*(rc[b] - rc[a]))) / step) + 1)  # type: ignore[index, operator]
+        m = max(2, math.ceil(float(np.hypot(*(rc[b] - rc[a]))) / step) + 1)
         slack = abs(zb - za) / (m - 1) + 1e-6
-        assert np.all(za + t * (zb - za) >= coarse[r, c] - slack)  # type: ignore[index]
-        h = float(np.hypot(*(xy[b] - xy[a])))  # type: ignore[index]
-        excess = max(zb - za - climb * h, za - zb - descent * h, 0.0)  # type: ignore[operator]
+        assert np.all(za + t * (zb - za) >= coarse[r, c] - slack)
+        h = float(np.hypot(*(xy[b] - xy[a])))
+        excess = max(zb - za - climb * h, za - zb - descent * h, 0.0)
         steep += excess > 0
-        assert l3[e] == pytest.approx(math.hypot(h, zb - za) + excess / spiral)  # type: ignore[operator]
+        assert l3[e] == pytest.approx(math.hypot(h, zb - za) + excess / spiral)
         assert zm[e] == pytest.approx(0.5 * (za + zb))
     assert steep > 0  # the ridges need chords steeper than the aircraft climbs
     # without spirals, every chord keeps the gradients
@@ -117,10 +118,10 @@ def test_chords_clear_the_floor_and_keep_the_gradients() -> None:
     assert spiral == 0.0
     u, v, l3, zm = kernels.chord_edges(
         rc, xy, levels, coarse, block, step, pairs, climb, descent, spiral
-    )  # type: ignore[arg-type]
-    dz = levels.flat[v] - levels.flat[u]  # type: ignore[union-attr]
-    h = np.hypot(*(xy[v // levels.shape[1]] - xy[u // levels.shape[1]]).T)  # type: ignore[index, union-attr]
-    assert np.all((-descent * h - 1e-9 <= dz) & (dz <= climb * h + 1e-9))  # type: ignore[operator]
+    )
+    dz = levels.flat[v] - levels.flat[u]
+    h = np.hypot(*(xy[v // levels.shape[1]] - xy[u // levels.shape[1]]).T)
+    assert np.all((-descent * h - 1e-9 <= dz) & (dz <= climb * h + 1e-9))
 
 
 def test_the_layered_search_matches_its_twin() -> None:
