@@ -7,7 +7,8 @@ Altitude frames are explicit and never mixed within one file:
 - ``relative``: every mission item in MAV_FRAME_GLOBAL_RELATIVE_ALT (3), altitudes relative to
   the home position, QGroundControl ``AltitudeMode`` 1.  PX4 and ArduPilot take home where the
   aircraft arms, on the ground, so home here is the launch point: the ground under the mission's
-  start (``grid.height_at`` under waypoint 0), not the airborne start itself.
+  start (``grid.height_at`` under waypoint 0), not the airborne start itself; launched from the
+  ground (``--start-on-ground``), the ground the plan launched from.
 
 Home is written as the ``.plan``'s ``plannedHomePosition`` and as WPL item 0, always AMSL as both
 formats require.  The mission items are the waypoints, one each, at their planned AMSL altitudes
@@ -92,7 +93,16 @@ def _frame(frame: str) -> AltFrame:
 
 
 def _ground_under_start(mission: Mission, grid: HeightGrid) -> float:
-    """The terrain height (m AMSL) under waypoint 0: the launch point, home for the autopilot."""
+    """The terrain height (m AMSL) under waypoint 0: the launch point, home for the autopilot.
+    Launched from the ground (``plan.takeoff``), the ground the plan launched from -- its launch
+    point less the launch height, on the planner's safety heights (on a coarse DEM the highest
+    measured value round the cell, up to 100 m above the bilinear surface on RMNP's 233 m
+    cells) -- so that home, the take-off and a relative frame agree with the plan."""
+    from planner.launch import LAUNCH_HEIGHT
+
+    takeoff = (mission.plan or {}).get("takeoff")
+    if isinstance(takeoff, dict) and isinstance(takeoff.get("launch"), list | tuple):
+        return float(takeoff["launch"][2]) - LAUNCH_HEIGHT
     w = mission.waypoints
     ground = float(np.asarray(grid.height_at(w[0, 0], w[0, 1])).reshape(-1)[0])
     if not math.isfinite(ground):

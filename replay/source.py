@@ -10,7 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from replay.flight.multirotor.model import MULTIROTOR_PRESETS
+from replay.flight.multirotor.model import MULTIROTOR_PRESETS, multirotor_from_dict
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError
 
@@ -93,13 +93,13 @@ def source_vehicle(
     vehicle that run flew (its ``vehicle.yaml`` attachment, or its preset).  A mission's
     ``vehicle:`` file is looked for beside the mission, then as given.  A multirotor preset
     (``quadrotor``) is taken by name."""
-    from replay.flight.fixedwing.presets import PRESETS, load_vehicle, vehicle_from_dict
+    from replay.flight.fixedwing.presets import PRESETS, load_any_vehicle, vehicle_from_dict
     from terrain.docfile import find_reference, reference_places
 
     if vehicle in MULTIROTOR_PRESETS:
         return MULTIROTOR_PRESETS[vehicle], None
     if vehicle:
-        params = load_vehicle(vehicle, base_dir=Path.cwd())
+        params = load_any_vehicle(vehicle, base_dir=Path.cwd())
         path = Path(vehicle)
         is_file = path.suffix.lower() in (".yaml", ".yml") and path.is_file()
         return params, path.read_bytes() if is_file else None
@@ -111,6 +111,8 @@ def source_vehicle(
                 data = parse_yaml(text.decode("utf-8"), repr(label))
             except (DataFileError, UnicodeDecodeError):
                 raise DataFileError(f"{label!r}: not a valid vehicle YAML") from None
+            if isinstance(data, dict) and data.get("base") in MULTIROTOR_PRESETS:
+                return multirotor_from_dict(data, label), text
             return vehicle_from_dict(data, label), text
         flown = run.metadata.get("vehicle", "")
         if flown in PRESETS:
@@ -139,8 +141,8 @@ def source_vehicle(
                 hint="; give it with --vehicle",
             )
         )
-        return load_vehicle(path), path.read_bytes()
-    return load_vehicle(name), None  # not a preset: says which presets exist
+        return load_any_vehicle(path), path.read_bytes()
+    return load_any_vehicle(name), None  # not a preset: says which presets exist
 
 
 def recorded_threats(text: str, source: str, grid: HeightGrid | None) -> ThreatSet:

@@ -280,3 +280,96 @@ def test_a_take_off_the_plan_must_turn_from_is_searched_with_its_turn_and_flown(
     assert main([*run, "--no-terrain-mesh", "--json"]) == 0
     got = json.loads(capsys.readouterr().out)["metrics"]
     assert got["success"] and got["end_reason"] == "goal" and not got["terrain_contact"]
+
+
+def _read_plan(plan: dict, grid: HeightGrid) -> tuple[np.ndarray, list[dict]]:  # type: ignore[type-arg]
+    """A reader of terrapath's QGroundControl ``.plan`` written from the MAVLink meaning of each
+    item alone (the test's stand-in for the importer of issue 35): home is the launch (the
+    ground, the launch 1 m above it), TAKEOFF / WAYPOINT / LAND items are waypoints at their
+    altitude (+ home's in the relative frame), a LOITER_TO_ALT after a waypoint is a spiral
+    there -- entered at the waypoint item's altitude, left at its own, radius |param 2|,
+    clockwise when param 2 > 0, centred at its position -- and DO_LAND_START is a marker."""
+    mission = plan["mission"]
+    home = mission["plannedHomePosition"]
+    hx, hy = grid.from_lonlat(home[1], home[0])
+    points = [[float(hx), float(hy), home[2] + LAUNCH_HEIGHT]]
+    spirals: list[dict] = []  # type: ignore[type-arg]
+    for item in mission["items"]:
+        cmd, p = item["command"], item["params"]
+        alt = item["Altitude"] + (home[2] if item["frame"] == 3 else 0.0)
+        x, y = (float(v) for v in grid.from_lonlat(p[5], p[4]))
+        if cmd in (22, 16, 21):
+            points.append([x, y, alt])
+        elif cmd == 31:
+            spirals.append(
+                {"at": len(points) - 1, "entry": points[-1][2], "exit": alt, "radius": abs(p[1]),
+                 "clockwise": p[1] > 0, "centre": (x, y), "heading_exit": p[0] == 1.0}
+            )  # fmt: skip
+            points[-1][2] = alt  # the waypoint is left at the spiral's end
+        else:
+            assert cmd == 189, cmd
+    return np.array(points), spirals
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("frame", ["amsl", "relative"])
+def test_a_launch_spiral_and_landing_mission_reads_back_as_the_same_path(
+    tmp_path: Path, frame: str
+) -> None:
+    """RMNP from the valley floor to a landing in the next valley: the `.plan` read back item by
+    item gives the mission's waypoints (to the exports' 2 decimals), its spirals (waypoint,
+    entry and exit altitudes, radius, direction, centre) and -- the turn count is not a field
+    of LOITER_TO_ALT, the autopilot circles until the altitude is reached -- the same turns
+    from the climb the vehicle makes in its turn; so the same flown path. pymavlink reads the
+    `.waypoints` with the same commands, frames and radii."""
+    import os
+
+    from planner.spiral import Spiral, centre, flown_path, respiral
+    from replay.flight.fixedwing.presets import preset
+    from terrain.load import load_dem
+
+    out = tmp_path / "v.yaml"
+    args = ["plan", str(RMNP), "--start=-105.6911,40.3669", "--start-on-ground", "--land"]
+    args += ["--goal=-105.8495,40.2712", "--seed", "1", "--alt-frame", frame, "-o", str(out)]
+    assert main(args) == 0
+    m = load_mission(out)
+    assert len(m.spirals) >= 3 and "takeoff" in m.plan and "landing" in m.plan
+    grid = load_dem(RMNP)
+    plan = json.loads(out.with_suffix(".plan").read_text())
+    w, got = _read_plan(plan, grid)
+    np.testing.assert_allclose(w[:, :2], m.waypoints[:, :2], atol=0.02)
+    np.testing.assert_allclose(w[1:, 2], m.waypoints[1:, 2], atol=0.011)
+    assert abs(w[0, 2] - m.waypoints[0, 2]) <= 0.5  # home: the ground under the launch
+    assert [s["at"] for s in got] == [s.at for s in m.spirals]
+    radius = float(m.turn_radius or 0.0)
+    for s, sp in zip(got, m.spirals, strict=True):
+        assert s["entry"] == pytest.approx(sp.entry, abs=0.011)
+        assert s["radius"] == pytest.approx(sp.radius, abs=0.006)
+        assert s["clockwise"] == sp.clockwise and s["heading_exit"]
+        np.testing.assert_allclose(s["centre"], centre(m.waypoints, sp, radius)[:2], atol=0.02)
+    perf = preset("aerosonde").performance(25.0, tuple(m.plan["altitude_band"]))
+    read = [Spiral(s["at"], s["entry"], 1, s["radius"], s["clockwise"]) for s in got]
+    turns = [s.turns for s in respiral(w, read, perf)]
+    assert turns == [sp.turns for sp in m.spirals]
+    mine = flown_path(m.waypoints, m.spirals, radius)
+    theirs = flown_path(w, respiral(w, read, perf), radius)
+    assert mine.points.shape == theirs.points.shape
+    assert float(np.abs(mine.points[1:] - theirs.points[1:]).max()) < 0.05
+    # pymavlink: home, then the same items with their frames
+    os.environ["MAVLINK20"] = "1"
+    from pymavlink import mavwp
+
+    loader = mavwp.MAVWPLoader()
+    n = loader.load(str(out.with_suffix(".waypoints")))
+    items = plan["mission"]["items"]
+    assert n == len(items) + 1 and loader.wp(0).command == 16 and loader.wp(0).frame == 0
+    for i, item in enumerate(items):
+        wp = loader.wp(i + 1)
+        assert wp.command == item["command"] and wp.frame == item["frame"]
+        assert wp.param2 == pytest.approx(item["params"][1]) and wp.z == pytest.approx(
+            item["Altitude"]
+        )
+    cmds = [it["command"] for it in items]
+    assert cmds[0] == 22 and cmds.count(31) == len(m.spirals) and cmds[-1] == 21
+    assert cmds[cmds.index(189) + 1] == 16  # the landing sequence starts at the approach fix
+    assert {it["frame"] for it in items} == {0 if frame == "amsl" else 3}

@@ -68,3 +68,45 @@ def test_a_quadrotor_plan_threads_the_city_block_below_its_roofs_and_is_flown(
     got = json.loads(capsys.readouterr().out)["metrics"]
     assert got["success"] and got["reached_goal"] and not got["violations"]
     assert min(v["value"] for v in got["min_separation"].values()) > 0.0
+
+
+def test_a_vehicle_file_based_on_the_quadrotor_is_planned_and_flown_as_itself(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A vehicle file with ``base: quadrotor`` (heavier, slower to climb, another cruise speed):
+    the plan's limits are its own (climb 2 m/s, 6 m/s, hovering), the exports say multirotor,
+    the replay flies it with the multirotor stack under its name; a bad field is one line naming
+    the file and the field."""
+    heavy = tmp_path / "heavy.yaml"
+    heavy.write_text(
+        "terrapath: 1\nname: heavy-quad\nbase: quadrotor\nmass: 0.9\ncruise_speed: 6.0\n"
+        "climb_rate_max: 2.0\n"
+    )
+    out = tmp_path / "h.yaml"
+    args = ["plan", str(BUBENEC), "--map-coords", "--start=-744100,-1041400,225"]
+    args += ["--goal=-743650,-1040900,225", "--clearance", "5"]
+    assert main([*args, "--vehicle", str(heavy), "-o", str(out)]) == 0
+    m = load_mission(out)
+    limits = m.plan["vehicle_limits"]
+    assert limits["vehicle"] == "heavy-quad" and limits["hover"] is True
+    assert limits["climb_rate"] == 2.0 and limits["speed"] == 6.0 and m.turn_radius is None
+    assert json.loads(out.with_suffix(".plan").read_text())["mission"]["vehicleType"] == 2
+    capsys.readouterr()
+    run = ["replay", str(out), "-o", str(tmp_path / "h.mcap"), "--no-picture"]
+    assert main([*run, "--no-terrain-mesh", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["metrics"]["success"] and got["metrics"]["reached_goal"]
+    assert main(["inspect", str(tmp_path / "h.mcap")]) == 0
+    shown = capsys.readouterr().out
+    assert any(ln.split() == ["vehicle", "heavy-quad"] for ln in shown.splitlines())
+    assert "vehicle.yaml" in shown  # the file flown travels with the recording
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("terrapath: 1\nname: bad\nbase: quadrotor\nmass: -1\n")
+    assert main([*args, "--vehicle", str(bad), "-o", str(tmp_path / "b.yaml")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(bad) in err and "'mass'" in err
+    unknown = tmp_path / "unknown.yaml"
+    unknown.write_text("terrapath: 1\nname: u\nbase: quadrotor\nwingspan: 2\n")
+    assert main([*args, "--vehicle", str(unknown), "-o", str(tmp_path / "u.yaml")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "'wingspan'" in err and "multirotor" in err

@@ -76,14 +76,14 @@ def _vehicle_limits(
     """The vehicle's limits at the cruise speed (``speed``, default the vehicle's cruise speed,
     checked against its envelope): at sea level, and over an altitude band (low, high)."""
     from planner.performance import Performance
-    from replay.flight.fixedwing.presets import load_vehicle
-    from replay.flight.multirotor.model import MULTIROTOR_PRESETS
+    from replay.flight.fixedwing.presets import load_any_vehicle
+    from replay.flight.multirotor.model import MultirotorParams
 
     if speed is not None and not speed > 0:
         raise click.BadParameter(f"expected a speed > 0 m/s; got {speed:g}", param_hint="--speed")
-    if vehicle in MULTIROTOR_PRESETS:
-        return _multirotor_limits(MULTIROTOR_PRESETS[vehicle], speed)
-    params = load_vehicle(vehicle, base_dir=Path.cwd())
+    params = load_any_vehicle(vehicle, base_dir=Path.cwd())
+    if isinstance(params, MultirotorParams):
+        return _multirotor_limits(params, speed)
     v = params.cruise_speed if speed is None else float(speed)
     if not v >= params.airspeed_min:
         raise click.BadParameter(

@@ -66,7 +66,11 @@ along-track fraction clamped to [0, 1] — the straight 3D segment the planner c
 terrain (``altitude_mode="direct"`` commands z[i] at once instead). With ``terrain_height`` and a
 clearance, ``h_c`` is raised to at least the highest terrain within ``terrain_lookahead`` metres
 ahead (along the ground track and along the leg; default 60 s of flight at cruise) plus the
-clearance, refreshed every ``terrain_update`` seconds.
+clearance, refreshed every ``terrain_update`` seconds.  In a turn the look-ahead follows the
+turn: the rest of its arc (a spiral: of the quarters it has still to fly, at most the whole
+circle) and in its last quarter the leg it turns into, not the ground track's tangent -- it
+leaves the circle, and 60 s along it looked into the walls of the valley a
+spiral climbs in (the aircraft left Big Tujunga's spirals up to 188 m above the plan).
 
 Inner loops (gains from the vehicle's transfer-function coefficients, Beard & McLain §5.4, at the
 commanded airspeed — cruise unless given — so the same code flies every preset; the numbers are the
@@ -893,13 +897,32 @@ class Autopilot:
         n_s = self.config.terrain_samples
         s = np.linspace(0.0, self.terrain_lookahead, n_s + 1)
         px, py = [np.array([x[1]])], [np.array([x[0]])]
-        if vg > 0.5:
+        in_arc = self._leg[kern.L_ACTIVE] > 0.5 and self._leg[kern.L_ARC] > 0.5
+        if vg > 0.5 and not in_arc:
+            # ahead on the ground track (not in a turn: the track curves away from its
+            # tangent, which would look into terrain the turn never reaches; the arc's own
+            # samples below start where the aircraft is)
             px.append(x[1] + s * ve / vg)
             py.append(x[0] + s * vn / vg)
-        if self._leg[kern.L_ACTIVE] > 0.5 and self._leg[kern.L_ARC] > 0.5:
-            leg = self._leg  # in a turn: look along the leg it turns into
-            px.append(leg[kern.L_EE] + s * leg[kern.L_EQE])
-            py.append(leg[kern.L_EN] + s * leg[kern.L_EQN])
+        if in_arc:
+            leg = self._leg
+            cn, ce, rho, lam = leg[kern.L_CN], leg[kern.L_CE], leg[kern.L_RHO], leg[kern.L_LAM]
+            gam = math.atan2(x[1] - ce, x[0] - cn)  # where the aircraft is on the circle
+            end = leg[kern.L_GAM0] + lam * leg[kern.L_SWEEP]
+            rest = min((lam * (end - gam)) % (2.0 * math.pi), leg[kern.L_SWEEP])
+            # the rest of this turn (and of a spiral's quarters queued after it: at most the
+            # whole circle); in a turn's last quarter, along the leg it turns into as well (the
+            # plan climbs that leg at its gradient: looking along it from the spiral's first
+            # turn held the aircraft up to 175 m above the planned spiral)
+            rest = min(rest + sum(a[5] for a in self._arcs), 2.0 * math.pi)
+            # (a spiral at the goal has no leg after it: the mission ends where it does)
+            finishing = self._after is not None and self._after[0] == "finish"
+            if not self._arcs and not finishing:
+                px.append(leg[kern.L_EE] + s * leg[kern.L_EQE])
+                py.append(leg[kern.L_EN] + s * leg[kern.L_EQN])
+            ang = gam + lam * np.linspace(0.0, rest, n_s + 1)
+            px.append(ce + rho * np.sin(ang))
+            py.append(cn + rho * np.cos(ang))
         elif self._leg[kern.L_ACTIVE] > 0.5:
             leg = self._leg
             _, along, _ = kern.leg_geometry(x, leg)

@@ -83,11 +83,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from replay.flight.fixedwing.params import ENGINE_PARAMETERS, ENGINES, FIELD_NAMES, VehicleParams
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError, where
+
+if TYPE_CHECKING:
+    from replay.flight.multirotor.model import MultirotorParams
 
 FORMAT_VERSION = 1
 DEFAULT_VEHICLE = "aerosonde"
@@ -364,6 +367,30 @@ def load_vehicle(
     if not looks_like_file:
         return preset(text)
     return vehicle_from_file(path)
+
+
+def load_any_vehicle(
+    name_or_path: str | Path, *, base_dir: Path | None = None
+) -> VehicleParams | MultirotorParams:
+    """:func:`load_vehicle`, and a multirotor: its preset by name (``quadrotor``) or a vehicle
+    file whose ``base`` is one (:func:`replay.flight.multirotor.model.multirotor_from_dict`)."""
+    from replay.flight.multirotor.model import MULTIROTOR_PRESETS, multirotor_from_dict
+
+    text = str(name_or_path)
+    if text in MULTIROTOR_PRESETS:
+        return MULTIROTOR_PRESETS[text]
+    path = Path(text)
+    if base_dir is not None and not path.is_absolute():
+        path = base_dir / path
+    if path.suffix.lower() in (".yaml", ".yml") and path.is_file():
+        try:
+            raw = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            raw = ""  # load_vehicle says why
+        data = parse_yaml(raw, repr(str(path))) if raw else None
+        if isinstance(data, dict) and data.get("base") in MULTIROTOR_PRESETS:
+            return multirotor_from_dict(data, str(path))
+    return load_vehicle(name_or_path, base_dir=base_dir)
 
 
 def vehicle_from_file(path: str | Path) -> VehicleParams:

@@ -343,6 +343,57 @@ QUADROTOR = MultirotorParams(
 )
 
 MULTIROTOR_PRESETS: dict[str, MultirotorParams] = {p.name: p for p in (QUADROTOR,)}
+MR_FILE_KEYS: tuple[str, ...] = (
+    "terrapath",
+    "base",
+    *(f.name for f in dataclasses.fields(MultirotorParams)),
+)
+_TEXT_FIELDS = ("name", "source", "configuration")
+
+
+def multirotor_from_dict(data: Any, path: str | None = None) -> MultirotorParams:
+    """A multirotor vehicle document: ``terrapath: 1``, ``base:`` a multirotor preset
+    (``quadrotor``), ``name:``, and any :class:`MultirotorParams` field to change (SI units);
+    one-line errors naming the file and the field (``path`` only names the source)."""
+    from terrain.errors import where
+
+    if not isinstance(data, dict):
+        raise InputError(f"{where(path)}expected a mapping (terrapath: 1, name: ..., base: ...)")
+    unknown = sorted(str(k) for k in data if k not in MR_FILE_KEYS)
+    if unknown:
+        raise InputError(
+            f"{where(path)}unknown key(s) {', '.join(map(repr, unknown))} for a multirotor "
+            f"(base {data.get('base')!r}); allowed: {', '.join(MR_FILE_KEYS)}"
+        )
+    if data.get("terrapath") != 1:
+        raise InputError(
+            f"{where(path, 'terrapath')}expected format version 1, found {data.get('terrapath')!r}"
+        )
+    base = data.get("base")
+    if base not in MULTIROTOR_PRESETS:
+        raise InputError(
+            f"{where(path, 'base')}expected a multirotor preset "
+            f"({', '.join(MULTIROTOR_PRESETS)}), found {base!r}"
+        )
+    if "name" not in data:
+        raise InputError(f"{where(path, 'name')}missing: a vehicle file needs a name")
+    overrides: dict[str, Any] = {}
+    for k, v in data.items():
+        if k in ("terrapath", "base"):
+            continue
+        if k in _TEXT_FIELDS:
+            if not isinstance(v, str) or not v:
+                raise InputError(f"{where(path, k)}expected a non-empty string, found {v!r}")
+            overrides[k] = v
+        elif isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise InputError(f"{where(path, k)}expected a number, found {v!r}")
+        else:
+            overrides[k] = float(v)
+    overrides.setdefault("source", f"{path or 'vehicle document'} (base {base})")
+    try:
+        return dataclasses.replace(MULTIROTOR_PRESETS[base], **overrides)
+    except InputError as exc:
+        raise InputError(f"{where(path)}{exc}") from None
 
 
 def multirotor_preset(name: str) -> MultirotorParams:
@@ -532,6 +583,7 @@ def level_speed(force_ned: Callable[[float, float], FloatArray], rotor_speed_max
 
 __all__ = [
     "CONFIGURATIONS",
+    "MR_FILE_KEYS",
     "MULTIROTOR_PRESETS",
     "N_MR_STATES",
     "N_ROTORS",
@@ -542,6 +594,7 @@ __all__ = [
     "hover_state",
     "level_speed",
     "mix",
+    "multirotor_from_dict",
     "multirotor_preset",
     "rk4_step",
     "top_speed",
