@@ -373,3 +373,47 @@ def test_a_launch_spiral_and_landing_mission_reads_back_as_the_same_path(
     assert cmds[0] == 22 and cmds.count(31) == len(m.spirals) and cmds[-1] == 21
     assert cmds[cmds.index(189) + 1] == 16  # the landing sequence starts at the approach fix
     assert {it["frame"] for it in items} == {0 if frame == "amsl" else 3}
+
+
+JACKSBORO = ROOT / "data" / "maps" / "mpl_jacksboro_fault" / "jacksboro_fault_dem.tif"
+# valley launches (and a landing) found by searching the shared maps, kept as golden scenarios
+# (benchmarks/RESULTS.md, issue 33): each needs spirals, none was plannable before the search
+# placed them or before the climb-out's turn was part of the cost
+VALLEYS = {
+    "rmnp-valley-to-valley": [
+        str(RMNP), "--start=-105.6911,40.3669", "--start-on-ground", "--land",
+        "--goal=-105.8495,40.2712",
+    ],
+    "jacksboro-valley-launch": [
+        str(JACKSBORO), "--map-coords", "--start=745076,4048674", "--start-on-ground",
+        "--goal=742846,4043912",
+    ],
+    "bigtujunga-valley-launch": [
+        str(BIGTUJUNGA), "--map-coords", "--start=387549,3794253", "--start-on-ground",
+        "--goal=391383,3790328",
+    ],
+}  # fmt: skip
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", sorted(VALLEYS))
+def test_valley_launches_are_planned_with_spirals_and_flown_as_planned(
+    tmp_path: Path, case: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Each golden valley case: feasible with spirals, no spiral where a straight climb would
+    do (the path is longer than the climb's lower bound), and the 6-DOF aircraft -- no terrain
+    following, the mission as planned -- flies from the launch to the goal without touching the
+    ground, leaving every spiral within 15 m of its planned altitude."""
+    out = tmp_path / "v.yaml"
+    assert main(["plan", *VALLEYS[case], "--seed", "1", "-o", str(out)]) == 0
+    m = load_mission(out)
+    assert m.plan["feasible"] and m.spirals
+    assert m.plan["cost"]["length_over_bound"] >= 1.0
+    capsys.readouterr()
+    run = ["replay", str(out), "-o", str(tmp_path / "v.mcap"), "--terrain-following", "0"]
+    assert main([*run, "--no-picture", "--no-terrain-mesh", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["metrics"]
+    assert got["success"] and got["reached_goal"] and not got["terrain_contact"]
+    assert [sp["waypoint"] for sp in got["spirals"]] == [sp.at for sp in m.spirals]
+    for sp in got["spirals"]:
+        assert abs(sp["altitude"] - sp["planned"]) <= 15.0, sp
