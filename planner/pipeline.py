@@ -403,16 +403,12 @@ def _joined(request: PlanRequest, prepared: Prepared, result: PlanResult) -> str
             f"at {100 * abs(d[2]) / max(float(np.hypot(d[0], d[1])), 1e-9):.1f} %, more steeply "
             "than the aircraft can"
         )
-    climb_out = (
-        (fp.leg == 0) & (fp.spiral < 0) & np.array([lb.startswith("leg 0") for lb in fp.labels])
-    )
+    climb_out = (fp.leg == 0) & fp.straight
     if prepared.takeoff is not None and prepared.takeoff.spiral is not None:
         climb_out |= fp.spiral == 0  # the spiral over the launch: its own surface
     if prepared.landing is not None:  # and the final approach: its own surface
         last = len(w) - 2
-        climb_out |= (fp.leg == last) & np.array(
-            [lb.startswith(f"leg {last} ") for lb in fp.labels]
-        )
+        climb_out |= (fp.leg == last) & fp.straight
     check = problem.validity.segments(fp.points[:-1], fp.points[1:])
     bad = np.flatnonzero(~check.valid & ~climb_out)
     if bad.size:

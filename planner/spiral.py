@@ -175,12 +175,14 @@ def centre(waypoints: FloatArray, spiral: Spiral, radius: float) -> FloatArray:
 class FlownPath:
     """The path flown through waypoints with spirals: ``points`` (M, 3), and for each of the
     M - 1 pieces the waypoint-list ``leg`` it belongs to, whether it is part of a ``spiral``
-    (its waypoint index, else -1) and a ``label`` for messages."""
+    (its waypoint index, else -1), whether it is a ``straight`` piece of its leg (not a turn's
+    arc nor a helix) and a ``label`` for messages."""
 
     points: FloatArray
     leg: npt.NDArray[np.int64]
     spiral: npt.NDArray[np.int64]
     labels: tuple[str, ...]
+    straight: npt.NDArray[np.bool_]
 
 
 def flown_path(
@@ -213,14 +215,17 @@ def flown_path(
     legs: list[int] = []
     spiral_of: list[int] = []
     labels: list[str] = []
+    straight: list[bool] = []
 
-    def add(block: FloatArray, leg: int, spiral: int, label: str) -> None:
-        """Append ``block``'s points; the pieces they end are of ``leg`` / ``spiral``."""
+    def add(block: FloatArray, leg: int, spiral: int, label: str, line: bool = False) -> None:
+        """Append ``block``'s points; the pieces they end are of ``leg`` / ``spiral`` (``line``:
+        straight pieces of the leg)."""
         for p in block:
             if pts:
                 legs.append(leg)
                 spiral_of.append(spiral)
                 labels.append(label)
+                straight.append(line)
             pts.append(p)
 
     def loop(
@@ -244,7 +249,7 @@ def flown_path(
             d = float(f.distance[0, k - 1])
             z1 = profile(k - 1, length[k - 1] - d)
             t1 = np.array([f.t1[0, k - 1, 0], f.t1[0, k - 1, 1], z1])
-            add(t1[None], k - 1, -1, f"leg {k - 1} (waypoint {k - 1} -> {k})")
+            add(t1[None], k - 1, -1, f"leg {k - 1} (waypoint {k - 1} -> {k})", True)
             z2 = profile(k, d)
             if k in by_at:
                 # the helix climbs (descends) to where the next leg is at the turn's end: the
@@ -256,7 +261,11 @@ def flown_path(
             add(arc[1:], k - 1, -1, f"the turn at waypoint {k}")
     g = n - 1
     add(
-        np.array([[w[g, 0], w[g, 1], z_in[g]]]), g - 1, -1, f"leg {g - 1} (waypoint {g - 1} -> {g})"
+        np.array([[w[g, 0], w[g, 1], z_in[g]]]),
+        g - 1,
+        -1,
+        f"leg {g - 1} (waypoint {g - 1} -> {g})",
+        True,
     )
     if g in by_at:
         p, q = anchor(w, g, radius)
@@ -266,6 +275,7 @@ def flown_path(
         np.asarray(legs, dtype=np.int64),
         np.asarray(spiral_of, dtype=np.int64),
         tuple(labels),
+        np.asarray(straight, dtype=np.bool_),
     )
 
 

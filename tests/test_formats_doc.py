@@ -40,6 +40,7 @@ def test_the_page_has_an_example_of_every_format() -> None:
         "zones.geojson",
         "threats.yaml",
         "vehicle.yaml",
+        "quadrotor-vehicle.yaml",
     }
 
 
@@ -87,6 +88,17 @@ def test_vehicle_example_loads(tmp_path: Path) -> None:
     p = v.performance()
     assert p.climb_gradient == pytest.approx(0.8 * 4.0 / v.cruise_speed)
     assert np.isfinite(p.turn_radius)
+
+
+def test_multirotor_vehicle_example_loads(tmp_path: Path) -> None:
+    from replay.flight.fixedwing.presets import load_any_vehicle
+    from replay.flight.multirotor.model import MR_FILE_KEYS, MultirotorParams
+
+    v = load_any_vehicle(_write(tmp_path, "quadrotor-vehicle.yaml"))
+    assert isinstance(v, MultirotorParams)
+    assert v.name == "heavy-quad" and v.mass == 0.9 and v.climb_rate_max == 2.0
+    text = DOC.read_text(encoding="utf-8")  # every field it accepts is documented
+    assert not [k for k in MR_FILE_KEYS if f"`{k}`" not in text and f"{k}:" not in text]
 
 
 @pytest.mark.parametrize(

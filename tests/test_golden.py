@@ -31,6 +31,9 @@ def test_plan_matches_golden(scenario, algorithm: str) -> None:  # type: ignore[
         assert r.terms["below_terrain_m"] == 0.0 and r.terms["collision"] == 0.0
         assert r.terms["inside_zones_m"] == 0.0  # zones are hard constraints here
         assert r.terms["min_clearance_m"] > 0.0  # clear of the real (bilinear) surface
+        # a straight climb fits every reference scenario: no spiral (issue 33), and the path
+        # is longer than the least its climb and descent need
+        assert r.spirals == () and r.terms["length_over_bound"] > 1.0
     else:
         assert r.violations and r.terms["total"] > 3.0
     assert r.terms["total"] == pytest.approx(gold["cost"], rel=0.03)
