@@ -93,6 +93,29 @@ class Vehicle(Protocol):
     ) -> FlightStack: ...
 
 
+def file_overrides(data: dict[Any, Any], path: str | None, text: tuple[str, ...]) -> dict[str, Any]:
+    """The fields a vehicle document changes on its base (every key but ``terrapath`` and
+    ``base``): the ``text`` ones non-empty strings, the others numbers (as floats); a ``name``
+    is required.  One-line errors naming ``path`` and the field."""
+    from terrain.errors import where
+
+    if "name" not in data:
+        raise InputError(f"{where(path, 'name')}missing: a vehicle file needs a name")
+    overrides: dict[str, Any] = {}
+    for k, v in data.items():
+        if k in ("terrapath", "base"):
+            continue
+        if k in text:
+            if not isinstance(v, str) or not v:
+                raise InputError(f"{where(path, k)}expected a non-empty string, found {v!r}")
+            overrides[k] = v
+        elif isinstance(v, bool) or not isinstance(v, int | float):
+            raise InputError(f"{where(path, k)}expected a number, found {v!r}")
+        else:
+            overrides[k] = float(v)
+    return overrides
+
+
 def check_numbers(
     p: Any,
     skip: tuple[str, ...],

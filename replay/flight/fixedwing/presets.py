@@ -85,6 +85,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from replay.flight.base import file_overrides
 from replay.flight.fixedwing.params import ENGINE_PARAMETERS, ENGINES, FIELD_NAMES, VehicleParams
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError, where
@@ -435,22 +436,12 @@ def vehicle_from_dict(data: Any, path: str | None = None) -> VehicleParams:
         raise InputError(
             f"{where(path, 'base')}expected a preset ({', '.join(PRESETS)}), found {base_name!r}"
         )
-    if "name" not in data:
-        raise InputError(f"{where(path, 'name')}missing: a vehicle file needs a name")
-    overrides: dict[str, Any] = {}
-    for k, v in data.items():
-        if k in ("terrapath", "base"):
-            continue
-        if k in ("name", "source", "engine"):
-            if not isinstance(v, str) or not v:
-                raise InputError(f"{where(path, k)}expected a non-empty string, found {v!r}")
-            if k == "engine" and v not in ENGINES:
-                raise InputError(
-                    f"{where(path, k)}expected one of {', '.join(ENGINES)}, found {v!r}"
-                )
-        elif isinstance(v, bool) or not isinstance(v, int | float):
-            raise InputError(f"{where(path, k)}expected a number, found {v!r}")
-        overrides[k] = float(v) if k not in ("name", "source", "engine") else v
+    overrides = file_overrides(data, path, ("name", "source", "engine"))
+    if overrides.get("engine", ENGINES[0]) not in ENGINES:
+        raise InputError(
+            f"{where(path, 'engine')}expected one of {', '.join(ENGINES)}, "
+            f"found {overrides['engine']!r}"
+        )
     engine = overrides.get("engine")
     if engine is not None and engine != PRESETS[base_name].engine:
         # a new engine takes nothing from the base's: every parameter must be in the file

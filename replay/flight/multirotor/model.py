@@ -62,7 +62,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.flight.atmosphere import RHO0, check_offset, density_at
-from replay.flight.base import G, check_numbers
+from replay.flight.base import G, check_numbers, file_overrides
 from replay.frames import rotation_body_to_ned, translational_rates
 from terrain.errors import InputError
 
@@ -375,20 +375,7 @@ def multirotor_from_dict(data: Any, path: str | None = None) -> MultirotorParams
             f"{where(path, 'base')}expected a multirotor preset "
             f"({', '.join(MULTIROTOR_PRESETS)}), found {base!r}"
         )
-    if "name" not in data:
-        raise InputError(f"{where(path, 'name')}missing: a vehicle file needs a name")
-    overrides: dict[str, Any] = {}
-    for k, v in data.items():
-        if k in ("terrapath", "base"):
-            continue
-        if k in _TEXT_FIELDS:
-            if not isinstance(v, str) or not v:
-                raise InputError(f"{where(path, k)}expected a non-empty string, found {v!r}")
-            overrides[k] = v
-        elif isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise InputError(f"{where(path, k)}expected a number, found {v!r}")
-        else:
-            overrides[k] = float(v)
+    overrides = file_overrides(data, path, _TEXT_FIELDS)
     overrides.setdefault("source", f"{path or 'vehicle document'} (base {base})")
     try:
         return dataclasses.replace(MULTIROTOR_PRESETS[base], **overrides)
