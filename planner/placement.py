@@ -25,11 +25,12 @@ swarm may still cut a corner through one).  From level ``za`` the chord's lowest
 ``max_i za + (f_i - za) / t_i`` over the floor ``f_i`` sampled every half block at ``t_i`` along
 it (on the upper convex hull of the samples: the same maximum, fewer terms); a level at least
 that high, with the climb or descent within ``GRADIENT_USE`` of the aircraft's gradients, makes
-an edge -- and where the plan may spiral (:attr:`planner.problem.PlanningProblem.spiral_gradient`)
-a steeper one too, its length grown by the helix that climbs the rest (excess / the climb
-gradient in a turn), as the cost prices it, and taken only where no chain without one reaches
-the goal (each weighs more than any chain's spread: the fewest spirals, then the cheapest).  The floor is taken in blocks of ``b x b`` cells (their maximum, so conservative; ``b``
-the whole number of cells nearest the start-goal distance / ``CELLS_ALONG`` (400): 3 on Big
+an edge -- and where the plan may spiral
+(:attr:`planner.problem.PlanningProblem.spiral_gradient`) a steeper one too, its length grown
+by the helix that climbs the rest (excess / the climb gradient in a turn), as the cost prices
+it, and taken only where no chain without one reaches the goal (each weighs more than any
+chain's spread: the fewest spirals, then the cheapest).  The floor is taken in blocks of
+``b x b`` cells (their maximum, so conservative; ``b`` the whole number of cells nearest the start-goal distance / ``CELLS_ALONG`` (400): 3 on Big
 Tujunga's 30 m cells, 1 on jacksboro and rmnp) so a chord costs the same number of samples on
 any DEM.  Terrain the DEM did not measure is an infinite floor (unless allowed).
 

@@ -94,6 +94,23 @@ def terrain_top(grid: HeightGrid, x: float, y: float) -> float:
     return float(h.max())
 
 
+def with_leads(
+    paths: npt.ArrayLike, lead_in: npt.ArrayLike | None, lead_out: npt.ArrayLike | None
+) -> FloatArray:
+    """(P, W, 3) (or (W, 3)) paths with the point ``lead_in`` (x, y, z) before the start and
+    ``lead_out`` after the goal where given."""
+    p = np.asarray(paths, dtype=np.float64)
+    if p.ndim == 2:
+        p = p[None]
+
+    def point(lead: npt.ArrayLike) -> FloatArray:
+        return np.broadcast_to(np.asarray(lead, dtype=np.float64), (len(p), 1, 3))
+
+    before = [] if lead_in is None else [point(lead_in)]
+    after = [] if lead_out is None else [point(lead_out)]
+    return np.concatenate([*before, p, *after], axis=1)
+
+
 def lead_turn_excess(
     paths: npt.ArrayLike,
     radius: float,
@@ -105,18 +122,7 @@ def lead_turn_excess(
     ``lead_out``, overlap their legs -- the fillets' :attr:`planner.flown.Fillets.leg_excess`
     with the leads added, less the paths' own."""
     p = np.asarray(paths, dtype=np.float64)
-    if p.ndim == 2:
-        p = p[None]
-    parts = [p]
-    if lead_in is not None:
-        lead = p[:, :1].copy()
-        lead[:, 0, :2] = np.asarray(lead_in, dtype=np.float64)[:2]
-        parts.insert(0, lead)
-    if lead_out is not None:
-        lead = p[:, -1:].copy()
-        lead[:, 0, :2] = np.asarray(lead_out, dtype=np.float64)[:2]
-        parts.append(lead)
-    whole = fillets(np.concatenate(parts, axis=1), radius).leg_excess.sum(axis=1)
+    whole = fillets(with_leads(p, lead_in, lead_out), radius).leg_excess.sum(axis=1)
     own = fillets(p, radius).leg_excess.sum(axis=1)
     return np.asarray(np.maximum(0.0, whole - own), dtype=np.float64)
 
@@ -147,7 +153,7 @@ class PlanningProblem:
     spirals: bool = True  # a climb a leg cannot make may be flown in a helix (planner.spiral)
     # where the aircraft comes from to the start (a take-off's climb-out: the launch, or where
     # its spiral ends) and goes on to after the goal (a landing's touchdown), (x, y, z): the
-    # turns there are flown as fillets in the cost (with_leads, end_turn_excess)
+    # turns there are flown as fillets in the cost (with_leads, lead_turn_excess)
     lead_in: FloatArray | None = None
     lead_out: FloatArray | None = None
     _zones: ZoneSet = field(init=False, repr=False)
@@ -446,7 +452,7 @@ class PlanningProblem:
             first = self.lead_in is not None
             last = self.lead_out is not None
             paths, te, ce = flown_with_excess(
-                self.with_leads(paths),
+                with_leads(paths, self.lead_in, self.lead_out),
                 perf.turn_radius,
                 perf.climb_gradient,
                 perf.descent_gradient,
@@ -471,21 +477,6 @@ class PlanningProblem:
             smoothness=smooth,
             spiral_gradient=self.spiral_gradient,
         )
-
-    def with_leads(self, paths: npt.ArrayLike) -> FloatArray:
-        """(P, W, 3) paths with :attr:`lead_in` before the start and :attr:`lead_out` after
-        the goal where given (the take-off's last straight piece climbs from it, the landing's
-        approach descends to it)."""
-        p = np.asarray(paths, dtype=np.float64)
-        if p.ndim == 2:
-            p = p[None]
-
-        def point(lead: npt.ArrayLike) -> FloatArray:
-            return np.broadcast_to(np.asarray(lead, dtype=np.float64), (len(p), 1, 3))
-
-        before = [] if self.lead_in is None else [point(self.lead_in)]
-        after = [] if self.lead_out is None else [point(self.lead_out)]
-        return np.concatenate([*before, p, *after], axis=1)
 
     @property
     def spiral_gradient(self) -> float | None:

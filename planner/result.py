@@ -347,7 +347,7 @@ def _climb_violations(
 
 def _end_turn_violations(problem: PlanningProblem, path: FloatArray) -> list[Violation]:
     """The turn from the take-off's climb-out onto the first leg, or from the last leg onto the
-    landing's approach, where its fillet does not fit (:meth:`PlanningProblem.end_turn_excess`)."""
+    landing's approach, where its fillet does not fit (:func:`planner.problem.lead_turn_excess`)."""
     perf = problem.performance
     out: list[Violation] = []
     if perf is None:

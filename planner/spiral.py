@@ -360,6 +360,14 @@ def _spiral(
     return (None if best is None else best[1]), turns
 
 
+def _arc_share(angle: npt.ArrayLike) -> FloatArray:
+    """The share of a leg's gradient a turn fillet of ``angle`` (rad) keeps: its arc (R D) is
+    shorter than the two tangent pieces (2 R tan(D / 2)) whose altitude change it flies,
+    ``D / (2 tan(D / 2))`` (1 for no turn)."""
+    ang = np.maximum(np.asarray(angle, dtype=np.float64), 1e-9)
+    return np.asarray(np.minimum(1.0, ang / (2.0 * np.tan(0.5 * np.minimum(ang, 3.1)))))
+
+
 def add_spirals(
     waypoints: npt.ArrayLike,
     perf: Performance,
@@ -396,25 +404,22 @@ def add_spirals(
         d_at[1:-1] = f.distance[0]
         # on a fillet the leg's altitude change is flown over the arc (R D), shorter than the
         # two tangent pieces (2 R tan(D / 2)) it replaces: a leg keeps a gradient its arcs keep
-        ang = np.maximum(f.angle[0], 1e-9)
-        arc_share[1:-1] = np.minimum(1.0, ang / (2.0 * np.tan(0.5 * np.minimum(ang, 3.1))))
+        arc_share[1:-1] = _arc_share(f.angle[0])
     share = GRADIENT_MARGIN * np.minimum(arc_share[:-1], arc_share[1:])
     up_cap = np.full(n - 1, np.inf)  # the first and last legs' gradients, turning onto a lead
     down_cap = np.full(n - 1, np.inf)
-    for lead, k, a_, b_ in ((lead_in, 0, 0, 1), (lead_out, n - 2, n - 1, n - 2)):
+    for lead, k in ((lead_in, 0), (lead_out, n - 2)):
         if lead is None:
             continue
         p_lead = np.asarray(lead, dtype=np.float64)
-        into = w[a_, :2] - p_lead[:2]
-        span = float(np.hypot(*into))
-        out_of = w[b_, :2] - w[a_, :2]
-        if span < 1e-9 or float(np.hypot(*out_of)) < 1e-9:
+        # the turn at the start (goal) with the lead before (after) it, in the order flown
+        turn = np.array([p_lead, w[0], w[1]] if k == 0 else [w[-2], w[-1], p_lead])
+        span = float(np.hypot(*(p_lead[:2] - w[0 if k == 0 else -1, :2])))
+        if span < 1e-9:
             continue
-        cos_d = float(np.dot(into, out_of) / (span * float(np.hypot(*out_of))))
-        ang = math.acos(max(-1.0, min(1.0, cos_d)))
-        s_arc = 1.0 if ang < 1e-9 else ang / (2.0 * math.tan(0.5 * min(ang, 3.1)))
+        s_arc = float(_arc_share(fillets(turn[None], radius).angle[0])[0])
         # the lead's gradient in the direction of flight (up positive)
-        g_lead = (w[a_, 2] - p_lead[2]) / span if k == 0 else (p_lead[2] - w[a_, 2]) / span
+        g_lead = (turn[1, 2] - turn[0, 2] if k == 0 else turn[2, 2] - turn[1, 2]) / span
         up_cap[k] = GRADIENT_MARGIN * 2.0 * s_arc * perf.climb_gradient - max(g_lead, 0.0)
         down_cap[k] = GRADIENT_MARGIN * 2.0 * s_arc * perf.descent_gradient - max(-g_lead, 0.0)
     out: list[FloatArray] = [w[0].copy()]  # z: the altitude each waypoint is left at
