@@ -9,6 +9,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import re
+import shlex
 import signal
 import sqlite3
 import subprocess
@@ -26,6 +27,7 @@ from replay.campaign.runner import run_campaign, wilson
 from replay.campaign.spec import derive_seed, load_spec
 from replay.campaign.store import Store
 from replay.metrics import WALL_CLOCK_METRICS
+from replay.record.reader import load_run
 from terrain.errors import InputError
 from terrapath.cli import main
 
@@ -483,8 +485,14 @@ def test_bench_seed001_scenarios_beside_the_paper(
         "--summary",
         str(summary),
     ]
-    assert main([*args, "--keep-mcap", "none"]) == 0
+    assert main([*args, "--keep-mcap", "all"]) == 0
     out = capsys.readouterr().out
+    # each recording names the command that flies it again (a bench has no --only: the campaign)
+    mcap = sorted((tmp_path / "b-mcap").glob("*ctga*.mcap"))[0]
+    command = shlex.split(load_run(str(mcap)).metadata["command"])
+    assert command[:2] == ["terrapath", "campaign"] and "--only" in command
+    assert main(command[1:]) == 0  # CTGA's runs succeed (below)
+    assert "flying 1 on" in capsys.readouterr().err
     # CTGA passes every obstacle of the three scenarios (the paper: at about R_safe = 100 m)
     for scenario in ("simple", "complex", "moving"):
         assert re.search(rf"^{scenario} +ctga +success +1/1", out, re.M)

@@ -302,6 +302,54 @@ def test_a_waypoint_no_leg_reaches_clear_of_the_obstacles_is_left_out() -> None:
     assert _separation(stuck, threats) < 0
 
 
+# Table 6, 100 obstacles, run 8 (seed000-table6.yaml): the 19 obstacles within 9 km of the
+# turning point (200000, 15000), relative to it.  The gaps between their safety circles are
+# 0.3-1 km wide: no leg reaches the turning point clear of them all.
+RING = {
+    "obs7": [-2044, -3347],
+    "obs12": [2488, 3418],
+    "obs19": [-970, -761],
+    "obs30": [5101, -1575],
+    "obs36": [-4347, -2203],
+    "obs42": [304, 1944],
+    "obs47": [-4511, 80],
+    "obs51": [656, 2560],
+    "obs62": [1752, 5161],
+    "obs63": [1668, -1794],
+    "obs66": [-2360, 2892],
+    "obs73": [84, 1644],
+    "obs77": [-4915, 7051],
+    "obs79": [594, -2419],
+    "obs87": [-3153, -2344],
+    "obs90": [-2088, -4095],
+    "obs91": [2853, 449],
+    "obs99": [2156, 1663],
+    "obs100": [3129, -2350],
+}
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_ringed_waypoint_does_not_lead_the_avoider_round_and_round(seed: int) -> None:
+    """Approached from the south (where the Table 6 run was when it began to cycle), the paper's
+    search leads east round the obstacles south of the ringed waypoint with a second leg 300 m
+    past one further east; flown there, the next decision leads back west, and so on: 22-34
+    decisions and the 2-h limit in four seeds, 94 waypoints and 656 km in the Table 6 run.  With
+    the last search's legs tested against every known point (one whose legs still pass a point
+    escalates: narrower g1, then the waypoint left out), the ringed waypoint is left out at the
+    first decision and the goal is reached clear of every circle."""
+    t = np.array([200000.0, 15000.0])
+    threats = [
+        {"id": k, "kind": "static", "position": [*(t + v).tolist(), 200], "radius": R}
+        for k, v in RING.items()
+    ]
+    legs = [[199900, 10300, 200], [*t.tolist(), 200], [215000, 15500, 200]]
+    r = _fly(legs, threats, seed=seed, config={"duration": 7200.0})
+    assert r.metrics.success and r.metrics.reached_goal
+    assert _separation(r, threats) >= 0
+    assert len(r.decisions) <= 3
+    assert all(d["feasible"] and d["clear_of_known"] for d in r.decisions)
+
+
 def test_reset_compiles_the_cost_before_the_flight(tmp_path: Path) -> None:
     """A fresh process with an empty numba cache: after ``reset`` the compiled cost exists, so
     the first decision in the air is not a JIT compilation (seconds on a fresh install)."""

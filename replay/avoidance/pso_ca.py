@@ -45,7 +45,10 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    one and the search is repeated (up to ``MERGE_ROUNDS`` = 3 searches): otherwise two
    obstacles just over 1 km apart -- not one group by Fig. 8's rule -- make the avoider
    alternate between them for ever (found by the Table 6 benchmark: 467 decisions, a 974 km
-   waypoint list, the goal never reached).
+   waypoint list, the goal never reached).  When the last search's legs still pass a point
+   closer than that (the record's ``clear_of_known`` false), the escalation of step 7 is tried
+   as if the search had failed, and its first waypoint whose legs clear every known point is
+   taken; only when none does is the first waypoint that meets g1-g7 kept.
 5. **Seeds and search** (Fig. 14, eq 27; Fig. 16).  Ten seed points on the circle of radius
    RS + tolerance: half round the left terminal point of the group (most counter-clockwise seen
    from the aircraft) and half round the right one, the first of each the exact tangent point.
@@ -196,6 +199,7 @@ class _Solution:
     target_i: int
     stage: str
     feasible: bool
+    clean: bool = True  # the new legs keep RS + leg margin from every stationary point known
 
 
 def zone_points(zones: tuple[Any, ...], altitude: float, spacing: float) -> FloatArray:
@@ -631,13 +635,21 @@ class PsoCaAvoider(AvoiderBase):
             stages.append((f"skip {extra}", params, extra))
             if use_narrow:
                 stages.append((f"skip {extra}, narrow", narrow, extra))
+        tried = [sol]
         for stage, stage_params, extra in stages:
             # escalation (our addition, module docstring): a narrower g1, then leaving out
             # the next waypoint(s) -- one that no waypoint leads to clear of the obstacles is
             # as unsafe as one next to it (Fig. 23)
-            if sol.feasible or ctx.next_index + extra >= len(ctx.waypoints):
+            if (sol.feasible and sol.clean) or ctx.next_index + extra >= len(ctx.waypoints):
                 break
             sol = self._solve(ctx, st, hit, keys, pts, stage_params, stage, ctx.next_index + extra)
+            tried.append(sol)
+        # the first search whose legs clear every known point, else the first that meets g1-g7
+        # (its legs pass a point the merges could not take in: the next scans avoid it)
+        sol = next(
+            (s for s in tried if s.feasible and s.clean),
+            next((s for s in tried if s.feasible), sol),
+        )
         if not sol.feasible:
             sol = replace(sol, stage="failed")
         res, xy, problem, hit, target_i = sol.res, sol.xy, sol.problem, sol.hit, sol.target_i
@@ -671,6 +683,7 @@ class PsoCaAvoider(AvoiderBase):
             "cs_iteration": int(met[0]) if met.size else None,
             "skipped_waypoints": target_i - ctx.next_index,
             "stage": sol.stage,
+            "clear_of_known": sol.clean,
             "inputs": {
                 "aircraft": pos.tolist(),
                 "target": target[:2].tolist(),
@@ -731,6 +744,7 @@ class PsoCaAvoider(AvoiderBase):
         # leg that crossed an outline would pass within RS / 2 of a sample
         moving_xy += list(zone_points(ctx.zones, float(ctx.position[2]), params.rs))
         mine = np.array([k in hit.ids for k in keys], dtype=bool)
+        near = np.zeros(len(keys), dtype=bool)
         world = leg_check(ctx, np.asarray(ctx.position, dtype=np.float64), target)
         for search in range(MERGE_ROUNDS):
             others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
@@ -740,13 +754,13 @@ class PsoCaAvoider(AvoiderBase):
                 pos, target[:2], hit.points, others, params, side=hit.side, after=after, world=world
             )
             res, xy = self._search(problem, pos, hit, params)
-            if hit.moving or not len(pts) or search == MERGE_ROUNDS - 1:
+            if hit.moving or not len(pts):
                 break
             # a stationary point that the two new legs pass closer than RS + margin would
             # trigger the next decision, whose waypoint leads back here: avoid them together
             a, b = np.vstack([pos, xy]), np.vstack([xy, target[:2]])
             near = (segment_clearance(a, b, pts).min(axis=0) < hit.rs + params.leg_margin) & ~mine
-            if not near.any():
+            if not near.any() or search == MERGE_ROUNDS - 1:
                 break
             mine |= near
             hit = replace(
@@ -758,7 +772,8 @@ class PsoCaAvoider(AvoiderBase):
             target_i = self._skip_unsafe(wps, target_i, hit, params)
             target = wps[target_i]
         feasible = bool(problem(xy[None, :])[0] < params.penalty_offset)
-        return _Solution(res, xy, problem, hit, target_i, stage, feasible)
+        clean = hit.moving or not len(pts) or not near.any()
+        return _Solution(res, xy, problem, hit, target_i, stage, feasible, clean)
 
     @staticmethod
     def _skip_unsafe(wps: FloatArray, target_i: int, hit: _Hit, params: PsoCaParams) -> int:

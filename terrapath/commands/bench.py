@@ -102,8 +102,13 @@ def bench_cmd(
                 known = sorted({optimizer_of(a.label) for a in spec.avoiders})
                 raise InputError(f"--optimizers {optimizers!r}: none of {', '.join(known)}")
         spec = spec.narrowed(runs=runs, avoiders=avoiders)
+        # each run records the command that flies it again (campaign --only KEY): a bench
+        # has no --only
+        refly = "terrapath campaign " + " ".join(
+            shlex.quote(a) for a in (str(path), "--store", str(store_path))
+        )
         got, fresh = fly(
-            spec, str(store_path), command, jobs, dask_local, scheduler, keep_mcap, mcap_dir
+            spec, str(store_path), refly, jobs, dask_local, scheduler, keep_mcap, mcap_dir
         )
         rows += got
         flown += len(fresh)
