@@ -30,9 +30,9 @@ an edge -- and where the plan may spiral
 by the helix that climbs the rest (excess / the climb gradient in a turn), as the cost prices
 it, and taken only where no chain without one reaches the goal (each weighs more than any
 chain's spread: the fewest spirals, then the cheapest).  The floor is taken in blocks of
-``b x b`` cells (their maximum, so conservative; ``b`` the whole number of cells nearest the start-goal distance / ``CELLS_ALONG`` (400): 3 on Big
-Tujunga's 30 m cells, 1 on jacksboro and rmnp) so a chord costs the same number of samples on
-any DEM.  Terrain the DEM did not measure is an infinite floor (unless allowed).
+``b x b`` cells (their maximum, so conservative; ``b`` the whole number of cells nearest the
+start-goal distance / ``CELLS_ALONG`` (400): 3 on Big Tujunga's 30 m cells, 1 on jacksboro and
+rmnp) so a chord costs the same number of samples on any DEM.  Terrain the DEM did not measure is an infinite floor (unless allowed).
 
 **The objective.**  Seed 002's length and altitude terms, ``F = 1 - D / L + (A - Zmin) / dZ``
 with ``A = (sum l_i z_i) / L``, do not add up along a path; to first order round a path of length

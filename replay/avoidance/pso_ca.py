@@ -744,7 +744,7 @@ class PsoCaAvoider(AvoiderBase):
         # leg that crossed an outline would pass within RS / 2 of a sample
         moving_xy += list(zone_points(ctx.zones, float(ctx.position[2]), params.rs))
         mine = np.array([k in hit.ids for k in keys], dtype=bool)
-        near = np.zeros(len(keys), dtype=bool)
+        near = np.zeros(len(keys), dtype=bool)  # stays empty for an intruder: always clean
         world = leg_check(ctx, np.asarray(ctx.position, dtype=np.float64), target)
         for search in range(MERGE_ROUNDS):
             others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
@@ -772,8 +772,7 @@ class PsoCaAvoider(AvoiderBase):
             target_i = self._skip_unsafe(wps, target_i, hit, params)
             target = wps[target_i]
         feasible = bool(problem(xy[None, :])[0] < params.penalty_offset)
-        clean = hit.moving or not len(pts) or not near.any()
-        return _Solution(res, xy, problem, hit, target_i, stage, feasible, clean)
+        return _Solution(res, xy, problem, hit, target_i, stage, feasible, not near.any())
 
     @staticmethod
     def _skip_unsafe(wps: FloatArray, target_i: int, hit: _Hit, params: PsoCaParams) -> int:
