@@ -168,7 +168,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     flown_anyway = tuple(f"flown anyway (--fly-anyway): {why}" for why in flight.refusals)
     flight = replace(flight, warnings=flight.warnings + flown_anyway) if flown_anyway else flight
     planned = estimated_flight_time(mission.waypoints, speed)
-    limit = time_limit(mission, config)
+    limit = time_limit(mission, config, avoider)
     warnings = tuple(threats.warn_after(planned)) + flight.warnings
     if following and not params.follows_terrain:
         warnings += (

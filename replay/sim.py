@@ -226,15 +226,18 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
     return float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum() / speed)
 
 
-def time_limit(mission: Mission, cfg: ReplayConfig) -> float:
+def time_limit(mission: Mission, cfg: ReplayConfig, avoider: Any = None) -> float:
     """How long a replay may fly (s): the configured duration, else 1.5 x the mission's flight
-    time at its airspeed (its spirals' circles counted) + 10 minutes."""
+    time at its airspeed (its spirals' circles counted) + 10 minutes, or longer where the
+    avoider bounds its own flight (``time_limit_s``: an explorer such as the priority loop, which
+    ends itself with its own outcome)."""
     if cfg.duration:
         return float(cfg.duration)
     speed = float(cfg.airspeed or mission.cruise_speed)
     loops = sum(2.0 * math.pi * sp.radius * sp.turns for sp in mission.spirals)  # climb spirals
     flight = estimated_flight_time(np.asarray(mission.waypoints, np.float64), speed)
-    return 1.5 * (flight + loops / speed) + 600.0
+    own = getattr(avoider, "time_limit_s", None)
+    return max(1.5 * (flight + loops / speed) + 600.0, float(own or 0.0))
 
 
 def check_mission(mission: Mission, grid: HeightGrid | None) -> None:
@@ -368,7 +371,7 @@ class _Loop:
         self.stack, self.sensor, self.grid, self.cfg = stack, sensor, grid, cfg
         self.terrain_model, self.recorder = terrain_model, recorder
         self.wp0 = np.array(mission.waypoints, dtype=np.float64)
-        self.duration = time_limit(mission, cfg)
+        self.duration = time_limit(mission, cfg, avoider)
         scan_period = float(sensor.period_s)
         self.avoid_period = float(cfg.avoid_period or avoider.period or scan_period)
         self.tick = min(scan_period, self.avoid_period)

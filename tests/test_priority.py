@@ -285,7 +285,7 @@ def _fly(
     """The avoider with an ideal hover vehicle: it turns at once, moves 0.5 m per 0.1 s tick
     (5 m/s), stops at once; pictures of four level beams of R = 20 m."""
     av = PriorityAvoider(**opts)
-    wp = np.array([[*start, 30.0], [*target, 30.0]])
+    wp = np.array([[*start, 10.0], [*target, 10.0]])
     av.reset(wp, np.random.default_rng(0))
     quad = MULTIROTOR_PRESETS["quadrotor"]
     pos = wp[0].copy()
@@ -401,6 +401,53 @@ def test_a_u_trap_facing_the_start_is_left_and_the_target_reached() -> None:
     assert len(av.setpoints) < 60
 
 
+def _u(width: float, depth: float, y0: float) -> Walls:
+    h = width / 2.0
+    return Walls(
+        [
+            ((-h, y0), (-h, y0 + depth)),
+            ((-h, y0 + depth), (h, y0 + depth)),
+            ((h, y0 + depth), (h, y0)),
+        ]
+    )
+
+
+def test_a_wide_u_is_left_by_returning_along_s_where_the_paper_s_steps_loop() -> None:
+    """Issue 34's U (80 m wide, 60 m deep, open towards the start, the target behind it): the
+    paper's 4c/4d choose visited points near the bottom and cycle there; the search returns
+    along S to the last place with an unvisited possible point and leaves the U."""
+    world = _u(80.0, 60.0, 50.0)
+    av, decisions, end, track = _fly(world, (0.0, 0.0), (0.0, 160.0))
+    assert end == "goal", decisions[-1].reason
+    assert len(av.setpoints) <= 50 and av.scans <= 45
+    assert _clearance(world, track) > 0.0  # line beams (this ideal picture) miss wall ends
+    assert any("back" in d.info for d in decisions)  # it did return along S
+    # every point chosen (forwards, or at a route's end) was unvisited: farther than visited_m
+    # from every earlier point of S
+    chosen = [d.info for d in decisions if "chosen" in d.info]
+    assert chosen and {c["level"] for c in chosen} <= {"4a", "4b", "back"}
+    for c in chosen:
+        s_then = np.array(c["setpoints"])[:, :2]
+        gap = np.hypot(*(s_then[:-1] - s_then[-1]).T).min()
+        assert gap > av.visited_m, c
+    paper = _fly(world, (0.0, 0.0), (0.0, 160.0), backtrack=False, max_scans=1000)
+    assert paper[2] == LOOP
+
+
+def test_a_pen_round_the_start_ends_unreachable_once_every_place_is_visited() -> None:
+    """A 100 m square pen round the start, the target outside: no lap round the target is
+    possible, so the circling rule cannot end it; the search ends "target unreachable" when no
+    place's scan has an unvisited possible point left (step 4d over the whole tree)."""
+    world = Walls(_box(-50.0, -50.0, 50.0, 50.0))
+    av, decisions, end, track = _fly(world, (0.0, -40.0), (0.0, 100.0), max_scans=1000)
+    assert end == UNREACHABLE, decisions[-1].reason
+    assert "at any of the" in decisions[-1].reason and av.scans <= 80
+    assert _clearance(world, track) > 0.0
+    # the paper's steps fill the pen with places and end by the revisit rule
+    paper = _fly(world, (0.0, -40.0), (0.0, 100.0), backtrack=False, max_scans=1000)
+    assert paper[2] == LOOP and paper[0].scans > av.scans
+
+
 def test_a_closed_box_round_the_target_ends_unreachable_in_bounded_time() -> None:
     world = Walls(_box(-20.0, 60.0, 20.0, 100.0))
     av, decisions, end, track = _fly(world, (0.0, 0.0), (0.0, 80.0))
@@ -408,10 +455,19 @@ def test_a_closed_box_round_the_target_ends_unreachable_in_bounded_time() -> Non
     assert decisions[-1].info["outcome"] == CIRCLED and decisions[-1].end == CIRCLED
     assert _clearance(world, track) >= TAU
     assert av.surround is not None and av.surround.round
-    assert av.scans <= 20 and len(av.setpoints) <= 20  # one lap
-    # without the circling rule the revisit rule ends it, once the places fill the ground
+    # a lap and the part of a second that closes the gap where the first began (the search
+    # takes the unvisited point nearest the target: from the box's last side it turns outwards)
+    assert av.scans <= 25 and len(av.setpoints) <= 27
+    # the paper's steps without the circling rule: the revisit rule ends it, once the places
+    # fill the ground (the search would widen its rings round the box until max_flight_s)
     av, decisions, end, track = _fly(
-        world, (0.0, 0.0), (0.0, 80.0), circled=False, max_scans=1000, max_setpoints=1000
+        world,
+        (0.0, 0.0),
+        (0.0, 80.0),
+        circled=False,
+        backtrack=False,
+        max_scans=1000,
+        max_setpoints=1000,
     )
     assert end == LOOP and decisions[-1].info["outcome"] == LOOP
     assert av.scans < 1000
@@ -612,7 +668,9 @@ def test_a_start_inside_an_obstacle_ends_the_flight_when_not_refused_before() ->
     assert r.metrics.flight_time_s < 1.0
 
 
-def test_over_terrain_it_flies_10_m_above_the_higher_of_start_and_target(tmp_path: Any) -> None:
+def test_over_terrain_it_holds_the_mission_altitude_or_above_m_over_the_ground(
+    tmp_path: Any,
+) -> None:
     from replay.run import ReplayRequest, run_replay
     from terrain.load import load_dem
 
@@ -629,20 +687,23 @@ def test_over_terrain_it_flies_10_m_above_the_higher_of_start_and_target(tmp_pat
         "cruise: {speed: 5.0, altitude: 420.0}\n"
         f"waypoints:\n- [{s[0]}, {s[1]}, 400.0]\n- [{t[0]}, {t[1]}, 400.0]\n"
     )
-    r = run_replay(
-        ReplayRequest.of(
-            source=str(mission),
-            avoid="priority",
-            sensor="rangefinder",
-            avoid_options={"max_flight_s": 30.0},
+    for options, want in (
+        ({}, 400.0),  # the mission's altitude
+        ({"above_m": 10.0}, float(ground.max()) + 10.0),  # §V: 10 m over the higher ground
+    ):
+        r = run_replay(
+            ReplayRequest.of(
+                source=str(mission),
+                avoid="priority",
+                sensor="rangefinder",
+                avoid_options={"max_flight_s": 30.0, **options},
+            )
         )
-    )
-    want = float(ground.max()) + 10.0
-    assert r.decisions[0]["altitude"] == pytest.approx(want, abs=1e-9)
-    assert r.decisions[0]["setpoints"][0][2] == pytest.approx(want, abs=1e-3)  # mm in records
-    late = r.times > 20.0
-    assert np.abs(r.positions[late, 2] - want).max() < 0.5
-    assert r.metrics.end_reason == "flight-time limit" and not r.metrics.success
+        assert r.decisions[0]["altitude"] == pytest.approx(want, abs=1e-9)
+        assert r.decisions[0]["setpoints"][0][2] == pytest.approx(want, abs=1e-3)  # mm
+        late = r.times > 20.0
+        assert np.abs(r.positions[late, 2] - want).max() < 0.5
+        assert r.metrics.end_reason == "flight-time limit" and not r.metrics.success
 
 
 def test_a_flight_is_identical_when_repeated() -> None:
@@ -681,3 +742,71 @@ def test_a_roof_just_below_the_flight_level_is_gone_round_not_skimmed() -> None:
     assert m.end_reason == "goal" and m.success
     assert m.min_separation["drum"]["value"] >= 2.0  # tau, in 3-D: beside the drum, not over it
     assert any(d.get("priority") == "scan" for d in cone.decisions)
+
+
+def _walls_file(path: Path, walls: dict[str, list[list[float]]]) -> str:
+    path.write_text(
+        "terrapath: 1\nthreats:\n"
+        + "".join(
+            f"- {{id: {i}, kind: prism, top: 40, footprint: {f}}}\n" for i, f in walls.items()
+        )
+    )
+    return str(path)
+
+
+def test_issue_34_s_u_is_escaped_at_the_mission_s_altitude_within_the_default_limit(
+    tmp_path: Any, capsys: Any
+) -> None:
+    """Issue 34's try-out: a quadrotor at 20 m, a U 80 m wide and 60 m deep open towards it,
+    the target behind: the paper's steps bounced in the U until the time limit, at 10 m."""
+    from terrapath.cli import main
+
+    mission = tmp_path / "m.yaml"
+    mission.write_text(
+        "terrapath: 1\nname: user-u\ncrs: local\nvehicle: quadrotor\n"
+        "cruise: {speed: 5.0, altitude: 20.0}\nwaypoints:\n- [0, 0, 20]\n- [0, 160, 20]\n"
+    )
+    u = _walls_file(
+        tmp_path / "u.yaml",
+        {
+            "u-west": [[-41, 50], [-40, 50], [-40, 110], [-41, 110], [-41, 50]],
+            "u-north": [[-41, 110], [41, 110], [41, 111], [-41, 111], [-41, 110]],
+            "u-east": [[40, 50], [41, 50], [41, 110], [40, 110], [40, 50]],
+        },
+    )
+    out = tmp_path / "u.mcap"
+    argv = ["replay", str(mission), "--threats", u, "--avoid", "priority"]
+    assert main([*argv, "--sensor", "rangefinder", "--no-picture", "-o", str(out)]) == 0
+    from replay.record.reader import load_run
+
+    run = load_run(out, with_states=True)
+    assert run.metrics["success"] is True and run.metrics["end_reason"] == "goal"
+    assert min(v["value"] for v in run.metrics["min_separation"].values()) >= TAU
+    z = -np.asarray(run.states)[:, 2]  # the states are north-east-down
+    assert np.abs(z[len(z) // 10 :] - 20.0).max() < 0.5  # at the mission's 20 m
+    assert any("back" in d.decision for d in run.decisions)
+
+
+def test_a_wide_box_round_the_target_ends_unreachable_within_the_default_limit(
+    tmp_path: Any,
+) -> None:
+    """A 100 m box round the target: a lap round it is longer than the straight flight's
+    default time limit allowed; the priority loop's own bound (max_flight_s) sets the limit and
+    the run ends "circled", not by the time limit."""
+    from replay.run import ReplayRequest, run_replay
+
+    box = _walls_file(
+        tmp_path / "box.yaml",
+        {
+            "s": [[-51, 99], [51, 99], [51, 100], [-51, 100], [-51, 99]],
+            "e": [[50, 100], [51, 100], [51, 200], [50, 200], [50, 100]],
+            "n": [[-51, 200], [51, 200], [51, 201], [-51, 201], [-51, 200]],
+            "w": [[-51, 100], [-50, 100], [-50, 200], [-51, 200], [-51, 100]],
+        },
+    )
+    r = run_replay(
+        ReplayRequest.of(source=MISSION, threats=box, avoid="priority", sensor="rangefinder")
+    )
+    m = r.metrics
+    assert m.end_reason == CIRCLED and not m.success and m.flight_time_s > 645.0
+    assert min(v["value"] for v in m.min_separation.values()) >= TAU

@@ -5,10 +5,12 @@ Map frame: x east, y north, z up (m); yaws and bearings clockwise from north (ra
 IMU yaw (§III-A 3).  The mission's first waypoint is the start ``S_0``, its last the target
 ``S_T``; the waypoints between are not flown (the environment is uncharted).
 
-**Altitude (§V).**  The paper climbs to 10 m above the higher of the start's and the target's
-ground elevation; that is the default (``above_m`` 10 m over the terrain under both points, flat
-ground 0 m), or ``altitude_m`` as given.  The aircraft flies level there: obstacles are what the
-rangefinders hit (threats, terrain).
+**Altitude.**  The mission's: the higher of its start's and target's altitudes (a mission
+flown at 20 m is flown at 20 m), or ``altitude_m`` as given.  §V climbs to 10 m above the higher
+of the start's and the target's ground elevation: option ``above_m`` (10 for the paper; the
+bench's mission, ``data/scenarios/priority-mission.yaml``, is at 10 m over flat ground, the
+same).  The aircraft flies level there: obstacles are what the rangefinders hit (threats,
+terrain).
 
 **tau round the beams.**  A beam that is a line sees only what crosses it: a roof or a ridge just
 below the flight level passes under the aircraft, a corner just beside the way of step 2 passes
@@ -62,7 +64,7 @@ whenever ``R >= 6.1 tau`` (refused otherwise: :func:`check_range`).  ``IP`` (bot
 the beam test alone (``IP_beam``) are recorded.
 
 **Step 4: the priority loop.**  ``theta_i = |I_i - S_T|`` sorted ascending; the first ``I_i``
-passing a level is chosen, the levels tried in turn (:func:`choose`):
+passing a level is chosen, the levels tried in turn (:func:`choose`, the paper's steps):
 
 - 4a ``IP_i``, both flanks possible, not visited;
 - 4b ``IP_i``, not visited;
@@ -81,10 +83,33 @@ and ``I_8`` have no side and keep the side as it was), clockwise before any choi
 (:func:`priority_order`).  Keeping the side keeps the aircraft going round an obstacle the way it
 started instead of swinging back and forth.
 
+**Step 4 as a search** (``backtrack``, the default; not in the paper).  4c and 4d send the
+aircraft to a visited point, and which one is the greedy order's: in a concave place (a U open
+towards the aircraft, the target behind it) every choice is again near the bottom and the steps
+cycle there (issue 34: an 80 x 60 m U held a quadrotor until the time limit).  The list ``S``
+is kept to leave such places, so it is searched depth first (Tremaux's rule for mazes): every
+scan makes a *place* of a tree, its parent the place the aircraft came from (the way between
+them was flown straight, so it is known clear).  A scan whose 4a/4b find a point goes on as the
+paper does; one where only 4c/4d would (every possible point visited) is a dead end: the
+aircraft returns along the tree, place by place, to the latest place whose scan still has a
+possible point not visited *now* (``S`` has grown since), and takes it (level ``back``).  The
+record of such a decision carries ``back`` (the place, the route, the point).  When no place of
+the tree has one, every set-point reachable from the start at this spacing has been visited:
+``target unreachable`` -- the paper's 4d (no point possible) over the whole tree instead of one
+scan.  Every point taken is unvisited, so the places are at least ``visited_m`` apart and their
+number in a bounded region is finite: a closed pen ends so (a 100 m one, in the tests, after 72
+scans).  In the open the search is not bounded (it would widen its rings round a box
+containing the target for ever): the circling rule below ends that.  ``backtrack=false`` flies
+the paper's 4c/4d.
+
 *Visited.*  The paper compares points exactly; here ``I_i`` is visited when it lies within
-``visited_m`` (horizontally) of a point of ``S``.  The default is ``(R - tau) sin 11.25 deg``
-(3.5 m for R = 20, tau = 2), half the distance between neighbouring ``I`` points: a set-point
-marks itself, never its neighbours on the next circle (:func:`visited`).
+``visited_m`` (horizontally) of a point of ``S`` (:func:`visited`).  The default with the
+search is ``(R - tau) / 2`` (9 m for R = 20, tau = 2): a set-point marks the points nearer to it
+than half a step, so the places cover the ground they explore at half the circle's radius (the
+80 x 60 m U: 45 set-points; with the paper's spacing below, 202).  For the paper's steps it is
+``(R - tau) sin 11.25 deg`` (3.5 m), half the distance between neighbouring ``I`` points: a
+set-point marks itself, never its neighbours on the next circle (larger, 4c/4d find visited
+points everywhere and loop sooner).
 
 **Step 5.**  The chosen point is appended to ``S``.  ``I_0``: turn back to face the target (the
 scan ended at 78.75 deg) and resume step 2.  Another: fly to it (:class:`~replay.guidance.GoTo`,
@@ -97,7 +122,7 @@ threat that popped up since the scan): a hit closer than ``R - tau`` and short o
 the aircraft never ends in 4d.  Two loop rules and four bounds end a run, each with a typed
 outcome (:data:`OUTCOMES`):
 
-- ``target unreachable``: step 4d found no point;
+- ``target unreachable``: step 4d found no point (with the search: at any place of the tree);
 - ``target unreachable: circled`` (:class:`Surround`, Bug1's test): the moves of ``S`` have swept
   every direction round the target (each move the bearings between its ends, seen from the
   target, the short way) without coming ``R - tau`` (one move) nearer to it than when the sweep
@@ -116,15 +141,19 @@ outcome (:data:`OUTCOMES`):
 A run never loops forever.  These end the run through :attr:`~replay.guidance.AvoidanceDecision.
 end`: the run's end reason, never a success, and ``terrapath replay`` exits 3.
 
+**Time limit.**  An explorer's flight is not 1.5 x the straight one: the avoider's
+``time_limit_s`` (``max_flight_s`` + 10 s) is the replay's default limit when longer (a 100 m
+box round the target ends ``circled`` after 13 min of flight, 14 s of wall time).
+
 **Limits.**  A beam's cone is five rays: a corner between two of the 32 directions that none of
 them hits can still come nearer than ``tau`` (:func:`keeps_clear` knows only the hits).  The
-greedy order (nearest the target first) fills a concave trap with visited places before it leaves
-it: the U trap of ``data/scenarios`` (50 x 35 m, R = 20 m) takes 1001 s, beyond a replay's
-default time limit (1.5 x the straight flight + 10 min): give ``--duration``.  Between two
-hollows of ``data/maps/lidar_1m_dem`` (379.8 and 380.3 m, a rise to 393.6 m between) the flight
-at 390.3 m ends ``loop: set-points revisited`` after 73 set-points and 944 s, never nearer the
-ground than 2.9 m (with lines for beams it reached the target after 170 set-points and 2246 s,
-0.3 m over the ground at its lowest).
+greedy order (nearest the target first) still explores the bottom of a concave trap before it
+leaves it (the 80 x 60 m U: 9.4 min of flight).  Between two hollows of
+``data/maps/lidar_1m_dem`` (379.8 and 380.3 m, a rise to 393.6 m between) the flight at 390.3 m
+(``above_m=10``) ends ``target unreachable`` after 70 set-points and 1288 s, never nearer the
+ground than 2.3 m (the paper's steps: ``loop: set-points revisited`` after 73 set-points and
+944 s; with lines for beams they reached the target after 170 set-points and 2246 s, 0.3 m over
+the ground at its lowest).
 
 **Records.**  Every decision carries ``priority`` (the step), ``setpoints`` (``S`` so far) and
 the point it appended, if any; a completed scan carries ``scan`` (``Ir``, ``Dr``, ``IP``, ``DP``,
@@ -144,7 +173,7 @@ target inside an obstacle is not refused: the flight finds it out (``circled``).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -468,6 +497,19 @@ class Surround:
 
 # -- the avoider -------------------------------------------------------------------------------------
 @dataclass
+class _Place:
+    """A scanned place of the search tree (module docstring, *Step 4 as a search*): where the
+    scan was made, its ``I`` points and what the scan found possible there."""
+
+    center: FloatArray
+    points: FloatArray  # (16, 2) the I points
+    ip: BoolArray
+    dp: BoolArray
+    theta: FloatArray
+    parent: int | None  # index of the place it was reached from (None: the first scan)
+
+
+@dataclass
 class _Scan:
     """A scan under way (step 3) at ``center``, directions relative to ``heading``."""
 
@@ -494,12 +536,16 @@ class PriorityAvoider(AvoiderBase):
         "tau": "tolerance tau: the least distance kept from an obstacle, m (set-points at R - tau)",
         "visited_m": "a point within this of a set-point is visited, m (default (R - tau) sin 11.25 deg)",
         "tie_m": "target distances within this are a tie (the previous choice's side wins), m",
-        "altitude_m": "flight altitude AMSL, m (default: above_m over the higher of start and target)",
-        "above_m": "§V: metres above the higher of the start's and target's ground elevation",
+        "altitude_m": "flight altitude AMSL, m (default: the higher of the mission's start and "
+        "target altitudes)",
+        "above_m": "§V: fly this many metres above the higher of the start's and target's "
+        "ground elevation (the paper: 10)",
         "max_setpoints": "end the run after this many set-points in S",
         "max_scans": "end the run after this many scans",
         "max_flight_s": "end the run after this many seconds",
         "circled": "end the run when S has gone all round the target without nearing it",
+        "backtrack": "step 4 as a search: return along S instead of choosing a visited point "
+        "(false: the paper's 4c/4d)",
     }
 
     def __init__(
@@ -509,11 +555,12 @@ class PriorityAvoider(AvoiderBase):
         visited_m: float | None = None,
         tie_m: float = TIE_M,
         altitude_m: float | None = None,
-        above_m: float = 10.0,
+        above_m: float | None = None,
         max_setpoints: int = 200,
         max_scans: int = 200,
         max_flight_s: float = 3600.0,
         circled: bool = True,
+        backtrack: bool = True,
     ) -> None:
         self.tau = require_real("priority option tau", tau, 0.0)
         self.visited_opt = (
@@ -525,7 +572,11 @@ class PriorityAvoider(AvoiderBase):
         self.altitude_opt = (
             None if altitude_m is None else require_real("priority option altitude_m", altitude_m)
         )
-        self.above_m = require_real("priority option above_m", above_m, 0.0, open_low=True)
+        self.above_m = (
+            None
+            if above_m is None
+            else require_real("priority option above_m", above_m, 0.0, open_low=True)
+        )
         self.max_setpoints = int(
             require_real("priority option max_setpoints", max_setpoints, 1.0, 1e6)
         )
@@ -533,9 +584,14 @@ class PriorityAvoider(AvoiderBase):
         self.max_flight_s = require_real(
             "priority option max_flight_s", max_flight_s, 0.0, open_low=True
         )
+        # the replay's default time limit: past max_flight_s, which ends the run with its outcome
+        self.time_limit_s = self.max_flight_s + 10.0
         if not isinstance(circled, bool):
             raise InputError(f"priority option circled must be true or false; got {circled!r}")
         self.circled = circled
+        if not isinstance(backtrack, bool):
+            raise InputError(f"priority option backtrack must be true or false; got {backtrack!r}")
+        self.backtrack = backtrack
         self.reset(np.zeros((2, 3)), np.random.default_rng(0))
 
     # -- set-up -----------------------------------------------------------------------------------
@@ -590,13 +646,13 @@ class PriorityAvoider(AvoiderBase):
         self.check_sensor(float(config.rangefinder_range), speed)
         w = np.asarray(mission.waypoints, dtype=np.float64)
         start = w[0]
-        if self.altitude_opt is not None:
-            altitude = self.altitude_opt
-        else:
-            ground = 0.0
-            if grid is not None:
-                ground = float(np.max(grid.height_at(w[[0, -1], 0], w[[0, -1], 1])))
-            altitude = ground + self.above_m
+
+        def ground(p: FloatArray) -> float:
+            if grid is None:
+                return 0.0
+            return float(np.asarray(grid.height_at(p[0:1], p[1:2])).reshape(-1)[0])
+
+        altitude = self.flight_altitude(w[0], w[-1], ground)
         climb = np.column_stack(
             [
                 np.full(21, start[0]),
@@ -616,6 +672,18 @@ class PriorityAvoider(AvoiderBase):
                     f"altitude {altitude:.1f} m) outside every obstacle"
                 )
 
+    def flight_altitude(
+        self, start: FloatArray, target: FloatArray, ground: Callable[[FloatArray], float]
+    ) -> float:
+        """The level flown (module docstring, *Altitude*): option ``altitude_m``; else with
+        ``above_m`` that much over the higher ground of start and target (§V); else the higher
+        of the mission's start and target altitudes."""
+        if self.altitude_opt is not None:
+            return self.altitude_opt
+        if self.above_m is not None:
+            return max(ground(start), ground(target)) + self.above_m
+        return float(max(start[2], target[2]))
+
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         w = np.asarray(waypoints, dtype=np.float64)
         self.start = w[0].copy()
@@ -630,6 +698,10 @@ class PriorityAvoider(AvoiderBase):
         self.loops: LoopDetector | None = None
         self.surround: Surround | None = None
         self._scan: _Scan | None = None
+        self.places: list[_Place] = []  # every scan's place (the search tree)
+        self.path: list[int] = []  # the places from the first scan's to the current one
+        self._route: list[int] = []  # places still to return to (phase "return")
+        self._next: int | None = None  # the I point to take at the route's end
         self._goal: FloatArray | None = None  # where a GoTo flies
         self._yaw = 0.0  # the yaw commanded last
 
@@ -661,14 +733,15 @@ class PriorityAvoider(AvoiderBase):
         if abs(wrap(float(bearings[self.front]))) > math.radians(SLOT_SNAP_DEG):
             raise InputError("priority: the rangefinders have no beam facing forward (step 2)")
         r = self.range_m - self.tau
-        self.visited_m = self.visited_opt if self.visited_opt is not None else r * math.sin(SLOT)
+        if self.visited_opt is not None:
+            self.visited_m = self.visited_opt
+        else:  # module docstring, *Visited*
+            self.visited_m = r / 2.0 if self.backtrack else r * math.sin(SLOT)
         self.loops = LoopDetector(self.visited_m)
         self.surround = Surround(self.target, r)
-        if self.altitude_opt is not None:
-            self.altitude = self.altitude_opt
-        else:
-            ground = max(self._ground(ctx, self.start), self._ground(ctx, self.target))
-            self.altitude = ground + self.above_m
+        self.altitude = self.flight_altitude(
+            self.start, self.target, lambda p: self._ground(ctx, p)
+        )
         self.target = np.array([self.target[0], self.target[1], self.altitude])
         s0 = np.array([self.start[0], self.start[1], self.altitude])
         self._append(s0)
@@ -729,6 +802,7 @@ class PriorityAvoider(AvoiderBase):
             "scan": self._on_scan,
             "face": self._on_face,
             "move": self._on_move,
+            "return": self._on_return,
         }
         return handlers[self.phase](ctx)
 
@@ -892,41 +966,114 @@ class PriorityAvoider(AvoiderBase):
             "courses_deg": [round(math.degrees(float(v)), 3) for v in sc.courses],
         }
         levels = {k: v for k, v in choice.levels.items()}
+        parent = self.path[-1] if self.path else None
+        self.places.append(_Place(sc.center.copy(), points, ip, dp, theta, parent))
+        self.path.append(len(self.places) - 1)
+        if self.backtrack and choice.level not in ("4a", "4b"):
+            return self._back(ctx, scan=table, levels=levels)
         if choice.index is None:
             return self._end(
                 UNREACHABLE, "step 4d: no I point is possible", scan=table, levels=levels
             )
-        i = choice.index
+        assert choice.index is not None
+        return self._forward(
+            points, sc.center, choice.index, str(choice.level), scan=table, levels=levels
+        )
+
+    def _forward(
+        self, points: FloatArray, center: FloatArray, i: int, level: str, **info: Any
+    ) -> AvoidanceDecision:
+        """Step 5: ``I_i`` of the scan at ``center`` joins ``S``; ``I_0`` resumes step 2, another
+        is flown to."""
         if side_of(i):
             self.side = side_of(i)
         point = np.array([points[i, 0], points[i, 1], self.altitude])
         self._append(point)
-        info: dict[str, Any] = {
-            "scan": table,
-            "levels": levels,
-            "chosen": i,
-            "level": choice.level,
-        }
+        info.update(chosen=i, level=level)
         if len(self.setpoints) >= self.max_setpoints:
             return self._end(
                 SETPOINT_LIMIT, f"{len(self.setpoints)} set-points (max_setpoints)", **info
             )
+        heading = bearing(center, self.target)
         if i == 0:  # step 5: I_0 -> step 2, facing the target again first
             self.phase = "face"
             return self._decision(
-                YawTo(sc.heading),
-                f"step {choice.level}: I_0, face the target and fly on",
+                YawTo(heading),
+                f"step {level}: I_0, face the target and fly on",
                 appended=point,
                 **info,
             )
         self.phase = "move"
         self._goal = point
         return self._decision(
-            GoTo((float(point[0]), float(point[1]), float(point[2])), bearing(sc.center, point)),
-            f"step {choice.level}: I_{i}, fly to it",
+            GoTo((float(point[0]), float(point[1]), float(point[2])), bearing(center, point)),
+            f"step {level}: I_{i}, fly to it",
             appended=point,
             **info,
         )
+
+    def _open(self, place: _Place) -> Choice:
+        """Steps 4a-4b on a place's scan with ``S`` as it is now."""
+        seen = visited(place.points, self.setpoints, self.visited_m)
+        return choose(place.ip & ~seen, place.dp, place.theta, seen, self.side, self.tie_m)
+
+    def _back(self, ctx: AvoidanceContext, **info: Any) -> AvoidanceDecision:
+        """Step 4 as a search (module docstring): nothing unvisited is possible here, so return
+        along the places of the path to the latest one whose scan still has an unvisited
+        possible ``I`` point; none left anywhere: the target is unreachable."""
+        route: list[int] = []
+        for k in reversed(self.path[:-1]):
+            route.append(k)
+            choice = self._open(self.places[k])
+            if choice.index is not None:
+                self._route = route
+                self._next = choice.index
+                self.phase = "return"
+                info["back"] = {
+                    "to": k,
+                    "route": [[round(float(v), 3) for v in self.places[j].center] for j in route],
+                    "next": choice.index,
+                }
+                return self._go_back(
+                    ctx,
+                    f"step 4: nothing new here; back {len(route)} place(s) along S to "
+                    f"I_{choice.index} of place {k}",
+                    **info,
+                )
+        return self._end(
+            UNREACHABLE,
+            f"step 4d: no unvisited I point is possible at any of the {len(self.places)} "
+            "places scanned",
+            **info,
+        )
+
+    def _go_back(self, ctx: AvoidanceContext, why: str, **info: Any) -> AvoidanceDecision:
+        center = self.places[self._route[0]].center
+        self._goal = center
+        return self._decision(
+            GoTo(
+                (float(center[0]), float(center[1]), float(center[2])),
+                bearing(ctx.position, center),
+            ),
+            why,
+            **info,
+        )
+
+    def _on_return(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        """Back along the path, place by place; at the route's end the chosen point."""
+        assert self._goal is not None and self.surround is not None
+        if not self._arrived(ctx):
+            return self._watch(ctx, beyond=0.0)
+        k = self._route.pop(0)
+        while self.path and self.path[-1] != k:
+            self.path.pop()
+        self.surround.add(self.places[k].center)
+        if self._route:
+            return self._go_back(ctx, f"step 4: back along S, place {self._route[0]}")
+        assert self._next is not None
+        place = self.places[k]
+        i, self._next = self._next, None
+        return self._forward(place.points, place.center, i, "back")
 
     def _on_face(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
         if not self._yawed(ctx):
@@ -939,11 +1086,22 @@ class PriorityAvoider(AvoiderBase):
         assert self._goal is not None
         if self._arrived(ctx):
             return self._begin_scan(ctx, self._here(ctx))
+        return self._watch(ctx)
+
+    def _watch(
+        self, ctx: AvoidanceContext, beyond: float | None = None
+    ) -> AvoidanceDecision | None:
+        """The front beam on the way to ``_goal``: a hit closer than ``R - tau`` and short of
+        ``beyond`` past the goal (``tau``, where the set-point is to be scanned; 0 on the way
+        back to a place already scanned, whose way was flown) stops the aircraft (a threat the
+        scans did not see)."""
+        assert self._goal is not None
+        margin = self.tau if beyond is None else beyond
         remaining = float(math.hypot(*(self._goal[:2] - ctx.position[:2])))
         course = bearing(ctx.position, self._goal)
         if remaining > ARRIVE_M and abs(wrap(self._yaw_of(ctx) - course)) <= math.radians(2.0):
             front = self._front(ctx)
-            if front < self.range_m - self.tau and front < remaining + self.tau - 0.1:
+            if front < self.range_m - self.tau and front < remaining + margin - 0.1:
                 return self._stop(front, f"step 5: obstacle {front:.1f} m ahead, stop")
         return None
 
