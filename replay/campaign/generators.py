@@ -20,6 +20,9 @@ count and a random generator, each returning threat records (the entries of a th
   ymax], map metres; default the waypoints' bounding box grown by ``sigma``) at the cruise
   altitude, kept ``keep_clear`` from the start and the goal.
 
+- ``own-scenarios`` (issue 34, :mod:`replay.campaign.own`): a *case* generator of a user's kind
+  of case on a real map -- a vehicle at its cruise speed, a straight mission over the terrain,
+  one or two threats on its path sized in turn radii; its rows are ``maps: [...]``.
 - ``seed004-table2`` (seed 004 §II-C, Table II): a *case* generator -- each case is the
   aircraft's leg and its 10-20 obstacles, static cylinders or moving aircraft, with the number of
   true hazards drawn from Tables III / IV (:mod:`replay.campaign.seed004`).  A spec that uses it
@@ -40,6 +43,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from replay.campaign.own import VERSION as OWN_VERSION
+from replay.campaign.own import own_case
 from replay.campaign.seed004 import GENERATOR_VERSION as SEED004_VERSION
 from replay.campaign.seed004 import seed004_case
 
@@ -166,7 +171,7 @@ def intruder_records(
 
 THREAT_KEYS = (
     *("id", "kind", "position", "velocity", "radius", "points"),
-    *("appears_at", "disappears_at", "center", "top", "bottom"),
+    *("appears_at", "disappears_at", "center", "top", "bottom", "axes", "exponents"),
 )
 
 
@@ -264,16 +269,29 @@ GENERATORS: Mapping[str, Generator] = {
 
 @dataclass(frozen=True)
 class CaseGenerator:
-    """A generator that makes the whole case -- the aircraft's leg too: ``make(rng, dynamic)``
-    returns (mission document, threat records, notes); ``version`` is part of every run's
-    identity (bumped when the cases change)."""
+    """A generator that makes the whole case -- the aircraft's leg too: ``make(rng, row)``
+    returns (mission document, threat records, notes) for the spec's row (``seed004-table2``:
+    its ``dynamic`` flag; ``own-scenarios``: its ``map``); ``version`` is part of every run's
+    identity (bumped when the cases change); ``rows`` names the spec key that lists the rows."""
 
-    make: Callable[[np.random.Generator, bool], tuple[dict[str, Any], list[dict[str, Any]], Any]]
+    make: Callable[[np.random.Generator, Any], tuple[dict[str, Any], list[dict[str, Any]], Any]]
     version: int
+    rows: str = "dynamic"
+
+
+def _seed004(
+    rng: np.random.Generator, row: Any
+) -> tuple[dict[str, Any], list[dict[str, Any]], Any]:
+    return seed004_case(rng, bool(row.dynamic))
+
+
+def _own(rng: np.random.Generator, row: Any) -> tuple[dict[str, Any], list[dict[str, Any]], Any]:
+    return own_case(rng, str(row.map))
 
 
 CASE_GENERATORS: Mapping[str, CaseGenerator] = {
-    "seed004-table2": CaseGenerator(seed004_case, SEED004_VERSION),
+    "seed004-table2": CaseGenerator(_seed004, SEED004_VERSION),
+    "own-scenarios": CaseGenerator(_own, OWN_VERSION, rows="maps"),
 }
 
 __all__ = [

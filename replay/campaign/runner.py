@@ -70,9 +70,9 @@ def case(run: Run) -> tuple[Any, Any, dict[str, Any]]:
     from replay.campaign.generators import CASE_GENERATORS, file_records
     from replay.threats.file import threats_from_records
 
-    assert run.generator is not None and run.row.dynamic is not None
+    assert run.generator is not None
     rng = np.random.default_rng(run.scenario_seed)
-    doc, records, notes = CASE_GENERATORS[run.generator].make(rng, run.row.dynamic)
+    doc, records, notes = CASE_GENERATORS[run.generator].make(rng, run.row)
     mission = mission_from_dict(doc, f"{run.key} ({run.generator})")
     threats = threats_from_records(file_records(records), name=f"{run.key} ({run.generator})")
     return mission, threats, notes

@@ -62,7 +62,7 @@ SPEC_KEYS = (
     *("sensor", "sensor_range", "runs", "seed", "margin", "duration"),
 )
 THREAT_KEYS = (
-    *("generator", "counts", "dynamic", "files"),
+    *("generator", "counts", "dynamic", "maps", "files"),
     *("sigma", "keep_clear", "radius", "altitude", "box"),
 )
 SENSORS = ("radar", "cooperative", "rangefinder")
@@ -78,6 +78,7 @@ class Row:
     count: int | None = None
     file: Path | None = None
     dynamic: bool | None = None  # a case generator's row: its static or its dynamic set
+    map: str | None = None  # own-scenarios' row: the map
 
 
 @dataclass(frozen=True)
@@ -157,6 +158,7 @@ class Spec:
                 if self.generator in CASE_GENERATORS
                 else {}
             ),
+            **({"maps": [r.map for r in self.rows]} if any(r.map for r in self.rows) else {}),
         }
         return hashlib.sha256(json.dumps(canonical, sort_keys=True).encode()).hexdigest()
 
@@ -198,6 +200,8 @@ class Spec:
         }
         if row.dynamic is not None:
             identity["dynamic"] = row.dynamic
+        if row.map is not None:
+            identity["map"] = row.map
         if self.sensor_range is not None:
             identity["sensor_range"] = self.sensor_range
         run_hash = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
@@ -416,6 +420,10 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
             "threats.generator",
             f"unknown generator {gen!r}{later}; valid: {', '.join([*GENERATORS, *CASE_GENERATORS])}",
         )
+    if gen in CASE_GENERATORS and CASE_GENERATORS[gen].rows == "maps":
+        return gen, Params(), _map_rows(src, gen, doc)
+    if "maps" in doc:
+        raise _fail(src, "threats.maps", f"only own-scenarios takes it, not {gen!r}")
     if gen in CASE_GENERATORS:
         if "counts" in doc:
             raise _fail(
@@ -459,6 +467,26 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
         box=box,
     )
     return gen, params, tuple(Row(str(c), c) for c in values)
+
+
+def _map_rows(src: Path, gen: str, doc: dict[str, Any]) -> tuple[Row, ...]:
+    """``own-scenarios``' rows: the maps (default every one), each present on this machine."""
+    from replay.campaign.own import MAPS, map_path
+
+    for key in ("counts", "dynamic"):
+        if key in doc:
+            raise _fail(src, f"threats.{key}", f"{gen!r} draws its own cases: give 'maps' instead")
+    names = doc.get("maps", list(MAPS))
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+        raise _fail(src, "threats.maps", f"expected a list of map names, found {names!r}")
+    if len(set(names)) != len(names):
+        raise _fail(src, "threats.maps", f"a map is repeated: {names}")
+    for i, n in enumerate(names):
+        try:
+            map_path(n)
+        except InputError as exc:
+            raise _fail(src, f"threats.maps[{i}]", str(exc)) from None
+    return tuple(Row(n, map=n) for n in names)
 
 
 def _check_files(missions: tuple[Path, ...], rows: tuple[Row, ...]) -> None:
