@@ -121,6 +121,30 @@ class PreparedReplay:
     preflight: Preflight
 
 
+def radar_pairing(sensor: str, avoider: Any, threats: Any) -> tuple[str, ...]:
+    """Start-up warnings where the radar cannot serve the avoider (issue 34): the radar sees a
+    static sphere by its centre and an intruder by its position (seed 000's points), never their
+    radii; an avoider that keeps less than a threat's radius from such a point will enter it."""
+    keep = getattr(avoider, "point_keep_m", lambda: None)()
+    if sensor != "radar" or keep is None:
+        return ()
+    out = []
+    for th in threats:
+        kind = getattr(th, "kind", "")
+        if kind not in ("static", "intruder"):
+            continue
+        kept = keep[0] if kind == "static" else keep[1]
+        radius = float(th.radius)
+        if radius > kept:
+            out.append(
+                f"the radar sees {kind} threat {th.id!r} as a point, not its {radius:.0f} m radius; "
+                f"{avoider.name} keeps {kept:.0f} m from such a point and may enter it: fly "
+                "--sensor cooperative (sizes reported) or widen the avoider's distance "
+                "(--help-avoider)"
+            )
+    return tuple(out)
+
+
 def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     """Read and check everything a replay needs (nothing is written)."""
     r = request
@@ -170,6 +194,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config, avoider)
     warnings = tuple(threats.warn_after(planned)) + flight.warnings
+    warnings += radar_pairing(config.sensor, avoider, threats)
     if following and not params.follows_terrain:
         warnings += (
             f"{params.name} flies the waypoints' altitudes and does not follow the terrain "

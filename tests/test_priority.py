@@ -280,7 +280,11 @@ def _box(x0: float, y0: float, x1: float, y1: float) -> list[Any]:
 
 
 def _fly(
-    world: Walls, start: tuple[float, float], target: tuple[float, float], **opts: Any
+    world: Walls,
+    start: tuple[float, float],
+    target: tuple[float, float],
+    validity: Any = None,
+    **opts: Any,
 ) -> tuple[PriorityAvoider, list[Any], str, np.ndarray]:
     """The avoider with an ideal hover vehicle: it turns at once, moves 0.5 m per 0.1 s tick
     (5 m/s), stops at once; pictures of four level beams of R = 20 m."""
@@ -327,6 +331,7 @@ def _fly(
             waypoints=wp,
             next_index=1,
             vehicle=quad,
+            validity=validity,
         )
         d = av.decide(ctx)
         if d is not None:
@@ -399,6 +404,27 @@ def test_a_u_trap_facing_the_start_is_left_and_the_target_reached() -> None:
     # the rays miss a wall's end between them: the path passed one 0.31 m off (documented)
     assert _clearance(world, track) > 0.0
     assert len(av.setpoints) < 60
+
+
+def test_set_points_keep_out_of_the_danger_zones_and_on_the_map() -> None:
+    """Issue 34: the way to a set-point stays out of the mission's danger zones and on the map.
+    A wall across the way; the tie goes right (clockwise) -- unless a zone lies there."""
+    from terrain.validity import ValidityChecker
+    from terrain.zones import DangerZone
+
+    world = Walls([((-15.0, 60.0), (25.0, 60.0))])
+    _, decisions, end, _ = _fly(world, (0.0, 0.0), (0.0, 120.0))
+    first = next(d.info for d in decisions if "chosen" in d.info)
+    assert end == "goal" and side_of(first["chosen"]) == 1  # right, as without a zone
+    zone = DangerZone(40.0, 60.0, 70.0, id="east")  # 5-75 m east of the way round the wall
+    validity = ValidityChecker(zones=[zone])
+    av, decisions, end, track = _fly(world, (0.0, 0.0), (0.0, 120.0), validity=validity)
+    assert end == "goal", decisions[-1].reason
+    assert np.hypot(track[:, 0] - 40.0, track[:, 1] - 60.0).min() >= 35.0  # never inside
+    first = next(d.info for d in decisions if "chosen" in d.info)
+    assert side_of(first["chosen"]) == -1  # left, round the wall's other end
+    assert 0 in first["scan"]["valid"]
+    assert all(p[0] < 5.0 for p in av.setpoints)
 
 
 def _u(width: float, depth: float, y0: float) -> Walls:

@@ -440,3 +440,106 @@ def test_tolerance_and_search_limit_are_options_checked_as_table_1() -> None:
     assert make_avoider("pso-ca", tolerance=500).params.search_limit == 4000.0  # the other kept
     with pytest.raises(InputError, match=r"search limit \(8 m\) must exceed .* \(2 \+ 6 m\)"):
         make_avoider("pso-ca", rs=2, tolerance=6, search_limit=8, moving_rs=1)
+
+
+def test_the_distances_follow_the_map_and_the_vehicle_and_reduce_to_seed_000s() -> None:
+    """Issue 34 (module docstring, *Scale*): seed 000's distances times min(1, W / 40 km), each
+    at least its floor in turn radii; no map: seed 000's exactly; a point whose size is not
+    reported keeps seed 000's 1 km (and 2 km moving) whatever the map."""
+    paper = (1000.0, 1000.0, 4000.0, 100.0, 2000.0, 8000.0, 3000.0)
+
+    def dists(av: PsoCaAvoider) -> tuple[float, ...]:
+        p = av.params
+        return (
+            p.rs,
+            p.tolerance,
+            p.search_limit,
+            p.leg_margin,
+            av.moving_rs,
+            av.act_range,
+            p.mxrsk,
+        )
+
+    av = PsoCaAvoider()
+    av.configure(39.7, None)  # seed 000: no map, its UAV's 40 m turn
+    assert dists(av) == paper and (av.point_rs, av.moving_point_rs) == (1000.0, 2000.0)
+    av.configure(441.4, 80_000.0)  # a Cessna over a big map: seed 000's, but for its wide turn
+    assert dists(av) == (*paper[:3], 441.4 / 4, *paper[4:])
+    av.configure(110.3, 4395.0)  # the aerosonde on Christmas Island (4.4 km): the floors
+    r = 110.3
+    assert dists(av) == pytest.approx((r, r, 2 * r + r + 2 * r, r / 4, 2 * r, 8 * r, 3 * r))
+    av.configure(29.4, 592.0)  # the seed004-uas over the Bubenec block (592 m)
+    r = 29.4
+    assert dists(av) == pytest.approx(
+        (r, r, 2 * r + r + 2 * r, r / 4, 2 * r, 8 * r, 3 * r), rel=1e-9
+    )
+    assert av.point_keep_m() == (1000.0, 2000.0)  # the radar's points: not scaled
+    # options given keep their values; scale false (--ca-paper) is seed 000's everywhere
+    av = PsoCaAvoider(rs=50.0, moving_rs=80.0)
+    av.configure(29.4, 592.0)
+    assert (av.params.rs, av.moving_rs) == (50.0, 80.0)
+    av = PsoCaAvoider.paper()
+    av.configure(29.4, 592.0)
+    assert dists(av) == paper
+
+
+def test_a_small_map_s_threat_is_avoided_with_the_cooperative_sensor(tmp_path: Any) -> None:
+    """Issue 34's small-map failure: own-scenarios' Bubenec case 6 (592 m map, the small-uas at
+    15 m/s, a 178 m sphere across the leg).  At seed 000's kilometres (--ca-paper) no waypoint
+    fits the map and the aircraft flies through the sphere; scaled, it goes round it."""
+    import yaml
+
+    from replay.campaign.generators import file_records
+    from replay.campaign.own import own_case
+    from replay.campaign.spec import derive_seed
+    from replay.run import ReplayRequest, run_replay
+
+    rng = np.random.default_rng(derive_seed(34, "scenario", "own-scenarios", "momepy_bubenec", 6))
+    doc, records, notes = own_case(rng, "momepy_bubenec")
+    assert notes["vehicle"] == "small-uas" and notes["excluded"] == []
+    mission = tmp_path / "m.yaml"
+    mission.write_text(yaml.safe_dump(doc))
+    threats = tmp_path / "t.yaml"
+    threats.write_text(yaml.safe_dump({"terrapath": 1, "threats": file_records(records)}))
+
+    def fly(**options: Any) -> Any:
+        return run_replay(
+            ReplayRequest.of(
+                str(mission),
+                threats=str(threats),
+                avoid="pso-ca",
+                avoid_options=options,
+                sensor="cooperative",
+            )
+        ).metrics
+
+    scaled = fly()
+    assert scaled.success and scaled.min_separation["t1"]["value"] > 0.0
+    assert scaled.waypoints_added >= 1 and scaled.off_map_s == 0.0
+    paper = fly(rescue=False, narrow=False, max_skip=0, corners=False, scale=False)
+    assert not paper.success and paper.min_separation["t1"]["value"] < 0.0
+
+
+def test_the_radar_pairing_warns_when_a_point_s_radius_exceeds_what_is_kept() -> None:
+    from replay.run import radar_pairing
+    from replay.threats.file import threats_from_records
+
+    threats = threats_from_records(
+        [
+            {"id": "small", "kind": "static", "position": [0, 5000, 200], "radius": 400},
+            {"id": "big", "kind": "static", "position": [0, 9000, 200], "radius": 1500},
+            {
+                "id": "fast",
+                "kind": "intruder",
+                "position": [0, 0, 200],
+                "velocity": [10, 0, 0],
+                "radius": 2500,
+            },
+        ]
+    )
+    av = PsoCaAvoider()
+    warned = radar_pairing("radar", av, threats)
+    assert len(warned) == 2
+    assert "'big' as a point, not its 1500 m radius; pso-ca keeps 1000 m" in warned[0]
+    assert "'fast'" in warned[1] and "keeps 2000 m" in warned[1]
+    assert radar_pairing("cooperative", av, threats) == ()

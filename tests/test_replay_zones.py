@@ -198,3 +198,36 @@ def test_pso_ca_keeps_its_new_waypoints_on_the_map() -> None:
     added = [d for d in r.decisions if d["feasible"]]
     assert added and all(d["new_waypoint"][1] < 2850.0 for d in added)  # passed south
     assert all(d["g"]["g7"] == 0.0 for d in added)
+
+
+def test_ctga_says_when_no_side_keeps_out_of_the_zones() -> None:
+    """Issue 34: zones either side of an obstacle on the leg; both of CTGA's half orbits enter
+    one.  The decision says there is no safe side (the metres of each) and the run, which then
+    enters a zone, is not a success."""
+    from replay.avoidance import make_avoider
+    from replay.threats.file import threats_from_records
+
+    line = np.array([[0.0, 0.0, 200.0], [20000.0, 0.0, 200.0]])
+    zones = (
+        DangerZone(10000.0, 700.0, 800.0, id="north"),
+        DangerZone(10000.0, -700.0, 800.0, id="south"),
+    )
+    mission = Mission("v", line, vehicle="solar-uav", cruise_speed=15.0, danger_zones=zones)
+    threats = threats_from_records(
+        [{"id": "o1", "kind": "static", "position": [10000, 0, 200], "radius": 300}]
+    )
+    params = load_vehicle("solar-uav")
+    r = simulate(
+        mission,
+        threats,
+        make_avoider("ctga"),
+        params,
+        config=ReplayConfig(seed=0, sensor="cooperative"),
+    )
+    unsafe = [d for d in r.decisions if "no_safe_side" in d.get("decision", d)]
+    assert unsafe, [d.get("reason") for d in r.decisions]
+    first = unsafe[0].get("decision", unsafe[0])
+    sides = first["no_safe_side"]
+    assert sides["clockwise_m"] > 0.0 and sides["counter_clockwise_m"] > 0.0
+    assert "no safe side" in unsafe[0]["reason"]
+    assert not r.metrics.success

@@ -115,6 +115,12 @@ class AvoiderBase:
     ) -> None:
         return None
 
+    def point_keep_m(self) -> tuple[float, float] | None:
+        """How far (m) the avoider keeps from the centre of a threat the radar sees as a point
+        -- a static sphere, an intruder -- whose size it cannot measure: (static, moving);
+        None when it does not say (``replay.run``'s start-up warning)."""
+        return None
+
     def rangefinder_spread_deg(self, range_m: float) -> float:
         return 0.0
 

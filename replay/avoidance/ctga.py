@@ -50,6 +50,8 @@ its first body (§3.3, Fig. 9).  Not in the paper: the mission's danger zones an
 (the context's ``validity``) -- when the half orbit on the side the rule gives, from the
 aircraft's bearing round to the far side of the obstacle, enters a zone or leaves the map and
 the other half does so less (in metres), the other side is taken (:meth:`CtgaAvoider._side`).
+When both halves do (a small map, zones either side), there is no safe manoeuvre: the decision
+says so (``no_safe_side``, the metres of each, in the reason too) and the lesser is flown.
 
 **Arc (§3.1).**  Radius ``R = max(R_min, R_obs + R_safe)`` (eq 7), ``R_min = V^2 / (g tan
 phi_max)`` (eq 8) with the larger of ground speed and airspeed, times 1.05: §3.1 itself advises
@@ -307,8 +309,13 @@ class CtgaAvoider(AvoiderBase):
         self._arc: _Arc | None = None
         self._done: set[str] = set()
         self._complex: tuple[bool, str, float] | None = None
+        self._no_safe_side: dict[str, float] | None = None
         self._bodies_of: PerceptionState | None = None
         self._bodies: list[tuple[CtgaObstacle, float]] = []
+
+    def point_keep_m(self) -> tuple[float, float]:
+        """A point return's circle (``point_radius``, ``moving_radius``) plus ``r_safe``."""
+        return self.point_radius + self.r_safe, self.moving_radius + self.r_safe
 
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         self._perception.reset()
@@ -418,6 +425,7 @@ class CtgaAvoider(AvoiderBase):
         if not hits:
             return None
         hit = min(hits, key=lambda t: t.distance - t.obstacle.radius)
+        self._no_safe_side = None
         clockwise = self._side(ctx, hit, pos, speed, bank, clockwise_for_threat(hit, course))
         first: str | None = None
         if self._complex is not None and ctx.t <= self._complex[2]:
@@ -454,7 +462,13 @@ class CtgaAvoider(AvoiderBase):
             return float(sv.zone_lengths.sum() + sv.off_map_lengths.sum())
 
         mine, other = bad(clockwise), bad(not clockwise)
-        return (not clockwise) if mine > 0.0 and other < mine else clockwise
+        chosen = (not clockwise) if mine > 0.0 and other < mine else clockwise
+        if mine > 0.0 and other > 0.0:  # neither half orbit keeps to the map and out of zones
+            self._no_safe_side = {
+                "clockwise_m": round(mine if clockwise else other, 1),
+                "counter_clockwise_m": round(other if clockwise else mine, 1),
+            }
+        return chosen
 
     def _start(
         self,
@@ -504,11 +518,18 @@ class CtgaAvoider(AvoiderBase):
                 f"{'next body' if first_key else 'avoid'} {obs.key}: arc of {radius:.0f} m "
                 f"{side} (Delta {math.degrees(hit.delta):+.1f} deg)"
             )
-        return AvoidanceDecision(
-            self._orbit(self._arc),
-            reason=reason,
-            info=self._info(ctx, hit, self._arc, violated=violated, feasible=feasible),
-        )
+        info = self._info(ctx, hit, self._arc, violated=violated, feasible=feasible)
+        unsafe = self._no_safe_side
+        if unsafe is not None:
+            # both half orbits leave the map or enter a zone: no safe manoeuvre -- said, and the
+            # side that does so least is flown (the run's metrics judge what follows)
+            reason += (
+                f"; no safe side: both half orbits leave the map or enter a zone "
+                f"({unsafe['clockwise_m']:.0f} m clockwise, "
+                f"{unsafe['counter_clockwise_m']:.0f} m counter-clockwise), the lesser flown"
+            )
+            info["no_safe_side"] = unsafe
+        return AvoidanceDecision(self._orbit(self._arc), reason=reason, info=info)
 
     def _on_arc(
         self,

@@ -285,6 +285,10 @@ class FgaAvoider(AvoiderBase):
                 "leave it to the default, which follows the vehicle"
             )
 
+    def point_keep_m(self) -> tuple[float, float]:
+        """A point return's size (``point_radius``, ``moving_radius``) plus ``d_m``."""
+        return self.point_radius + self.d_m, self.moving_radius + self.d_m
+
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         self._perception.reset()
         self._state = None

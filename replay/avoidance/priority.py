@@ -57,7 +57,9 @@ beyond it on that line -- the paper's ``Ir_i >= R - tau`` admits an obstacle *at
 (an aircraft sent there would stop touching it) -- *and* the way there keeps ``tau`` (§III-C 2's
 definition of ``tau``) from every point the scan's 32 beams hit (:func:`keeps_clear`; not in
 the paper: without it a corner beside the way, between the beam and its flanks, was passed 0.3
-to 1.5 m off in the flights of ``tests/test_priority.py``).  ``DP_i = Dr_i >= R - tau`` as
+to 1.5 m off in the flights of ``tests/test_priority.py``), *and* the way stays on the map, over
+measured terrain and out of the mission's danger zones (the replay's validity layer, sampled
+every 2 m; issue 34: an uncharted world still has a map edge and airspace).  ``DP_i = Dr_i >= R - tau`` as
 printed: the flanking line is clear as far as the circle, and an obstacle just beyond ``D_i`` is
 ``2 (R - tau) sin 5.625 deg`` (3.5 m for the defaults) from the set-point, more than ``tau``
 whenever ``R >= 6.1 tau`` (refused otherwise: :func:`check_range`).  ``IP`` (both tests) and
@@ -202,6 +204,7 @@ BRAKE_MPS2 = ControllerDesign().brake  # the multirotor stack's braking decelera
 REACTION_S = 0.3  # a scan period, a decision period and the controller's lag, rounded up
 FLANK_CLEARANCE = 2.0 * math.sin(math.radians(SLOT_DEG / 2.0))  # x (R - tau): I_i to past D_i
 TIE_M = 0.01
+WAY_STEP_M = 2.0  # the way to a set-point is checked against the map and the zones this often
 
 UNREACHABLE = "target unreachable"  # step 4d: no I point is possible
 LOOP = "loop: set-points revisited"  # a scan where one was made, nothing new visited since
@@ -949,7 +952,8 @@ class PriorityAvoider(AvoiderBase):
         readings = np.empty(N_DIRECTIONS)
         readings[0::2], readings[1::2] = sc.ir, sc.dr
         hits = hit_points(sc.center, readings, sc.courses, self.range_m)
-        ip = beam_ip & keeps_clear(sc.center, points, hits, self.tau)
+        valid = self._valid_ways(ctx, sc.center, points)
+        ip = beam_ip & keeps_clear(sc.center, points, hits, self.tau) & valid
         seen = visited(points, self.setpoints, self.visited_m)
         choice = choose(ip, dp, theta, seen, self.side, self.tie_m)
         table = {
@@ -959,6 +963,7 @@ class PriorityAvoider(AvoiderBase):
             "Dr": [round(float(v), 3) for v in sc.dr],
             "IP": [int(v) for v in ip],
             "IP_beam": [int(v) for v in beam_ip],
+            "valid": [int(v) for v in valid],
             "DP": [int(v) for v in dp],
             "theta": [round(float(v), 3) for v in theta],
             "visited": [int(v) for v in seen],
@@ -979,6 +984,26 @@ class PriorityAvoider(AvoiderBase):
         return self._forward(
             points, sc.center, choice.index, str(choice.level), scan=table, levels=levels
         )
+
+    def _valid_ways(
+        self, ctx: AvoidanceContext, center: FloatArray, points: FloatArray
+    ) -> BoolArray:
+        """For each ``I`` point, whether the way there stays on the map, over measured terrain
+        (unless the replay allows unknown terrain) and out of the mission's danger zones (module
+        docstring, *Possible points*), sampled every ``WAY_STEP_M``; all True without a
+        validity layer."""
+        v = ctx.validity
+        if v is None:
+            return np.ones(len(points), dtype=bool)
+        n = max(2, int(math.ceil((self.range_m - self.tau) / WAY_STEP_M)) + 1)
+        s = np.linspace(0.0, 1.0, n)[:, None, None]
+        c = np.asarray(center, dtype=np.float64)[:2]
+        way = (c + s * (points - c)).reshape(-1, 2)
+        pv = v.points(np.column_stack([way, np.full(len(way), self.altitude)]))
+        ok = pv.on_map & (pv.known | pv.allow_unknown)
+        if pv.zones.shape[1]:
+            ok &= pv.zones.min(axis=1) >= 0.0
+        return np.asarray(ok.reshape(n, len(points)).all(axis=0))
 
     def _forward(
         self, points: FloatArray, center: FloatArray, i: int, level: str, **info: Any

@@ -112,6 +112,26 @@ entry into that circle less a quarter turn), so the
 new waypoints are planned nearer the threat -- fewer of them, and a shorter detour, where the
 threat's geometry allows it.
 
+**Scale** (issue 34; :meth:`PsoCaAvoider.configure`, option ``scale``).  Seed 000's distances
+(RS 1 km, tolerance 1 km, search limit 4 km, leg margin 100 m, moving RS 2 km) are sized for a
+430-km mission in open air: on a 600 m map no waypoint 2 km from an obstacle lies on the map,
+and the avoider flew through both threats (the issue's try-out).  Each distance not given as an
+option is seed 000's times ``k = min(1, W / 40 km)``, ``W`` the map's shorter side (no map: k =
+1), and at least a floor in turn radii ``r`` of the vehicle at the flight's speed (bank limit):
+RS and the tolerance ``r`` (a waypoint is never closer to an obstacle than a turn), the moving RS
+``2 r``, the leg margin ``r / 4``, the search limit ``max(RS, moving RS) + tolerance + 2 r`` (room
+for a waypoint beyond g1); MXRSK is ``3 RS`` and the act range ``4`` moving RS (seed 000's 3 km
+and 8 km).  Seed 000's scenarios (no map, the 40 m turn of its UAV) keep its values exactly;
+the Christmas Island map (4.4 km) gets RS 110 m, the Bubenec block (592 m) with the seed004-uas
+RS 29.4 m.  A size the cooperative sensor reports wider than RS widens the circle (step 3) and
+the search ring with it.  A point whose size the sensor does not report -- the radar sees a
+static sphere by its centre and an intruder by its position (seed 000's point obstacles) -- is
+not scaled: it keeps ``point_rs`` (1 km) and ``moving_point_rs`` (2 km), seed 000's, the
+conservative choice for a size nobody measured (scaled, the golden Christmas Island flight
+entered a 319 m sphere by 144 m); the replay warns at start when a threat's radius exceeds them.
+Surfaces the radar sees (solid bodies, terrain) and sizes the cooperative sensor reports use the
+scaled RS.  ``--ca-paper`` (``scale`` false) keeps seed 000's distances everywhere.
+
 **Leg margin.**  The constraints on the two new legs (g3, g5) keep RS + ``leg_margin`` (100 m)
 instead of RS, while the collision test of the next scans uses RS.  Why: a leg built to graze
 the circle at exactly RS is re-tested one second later from where the aircraft really is
@@ -138,6 +158,10 @@ from planner.optim.termination import MaxIterations, Stall
 from replay.avoidance.base import AvoidanceContext, AvoiderBase
 from replay.avoidance.perception import Perception, PerceptionConfig, PerceptionState
 from replay.avoidance.pso_ca_geometry import (
+    MXRSK_M,
+    RS_M,
+    SEARCH_LIMIT_M,
+    TOLERANCE_M,
     G,
     PsoCaParams,
     WaypointProblem,
@@ -153,6 +177,7 @@ from replay.threats.clusters import cluster_terminals
 from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
 STALL_ITERATIONS = 5
 STALL_TOLERANCE = 200.0  # §5.5: fitness change below 200 for 5 consecutive iterations
 MAX_ITERATIONS = 30  # Table 2
@@ -160,6 +185,10 @@ MERGE_ROUNDS = 3  # obstacles merged into the avoided one when the new legs pass
 N_SEEDS = 10  # Table 2: N = 10 particles, all seeded round the safety circle (Fig. 14)
 CA_OPTIMIZERS = ("pso", "ga", "sa", "mafoa", "gcpso", "mpso")
 BODY_CELL_M = 100.0  # solid-body returns are remembered per cell of this size
+LEG_MARGIN_M = 100.0  # the new legs' extra clearance (module docstring, *Leg margin*)
+MOVING_RS_M = 2000.0  # §5.7: the sphere kept from an intruder
+ACT_PER_MOVING_RS = 4.0  # §5.7: act below 8 km = 4 x the 2 km moving RS
+SCALE_ROOM_M = 40_000.0  # the map side at which seed 000's distances are kept (*Scale*)
 RESCUE_STEP_M = 100.0  # finest grid of the rescue scan (coarser for large zones: <= 20k points)
 
 
@@ -188,6 +217,7 @@ class _Hit:
     rs: float
     moving: bool
     side: int = 0
+    point: bool = False  # kept at a point prior: flown at seed 000's distances (*Scale*)
 
 
 @dataclass(frozen=True)
@@ -281,14 +311,20 @@ class PsoCaAvoider(AvoiderBase):
     OPTION_HELP: ClassVar[dict[str, str]] = {
         "optimizer": "optimiser of the new waypoint: pso (Table 2), ga, sa, mafoa, gcpso, mpso",
         "params": "a full PsoCaParams (Python only; None: seed 000's)",
-        "rs": "safety radius RS kept from stationary obstacles, m (None: 1000, seed 000)",
-        "mxrsk": "risk distance of the f2 term, m (None: 3000; the paper gives none)",
-        "tolerance": "extra distance of g1 beyond RS, m (None: 1000, seed 000 Table 1)",
+        "rs": "safety radius RS kept from stationary obstacles, m (default 1000, seed 000's, "
+        "scaled: module docstring, *Scale*)",
+        "mxrsk": "risk distance of the f2 term, m (default 3 RS; the paper gives none)",
+        "tolerance": "extra distance of g1 beyond RS, m (default 1000, Table 1, scaled)",
         "search_limit": "searchspaceLimit: how far from the obstacle waypoints are sought, m "
-        "(None: 4000, Table 1)",
-        "leg_margin": "extra clearance of the two new legs beyond RS, m",
-        "moving_rs": "radius kept from intruders, m (seed 000 §5.7)",
-        "act_range": "intruders are acted on below this range, m (seed 000 §5.7)",
+        "(default 4000, Table 1, scaled)",
+        "leg_margin": "extra clearance of the two new legs beyond RS, m (default 100, scaled)",
+        "moving_rs": "radius kept from intruders, m (default 2000, seed 000 §5.7, scaled)",
+        "act_range": "intruders are acted on below this range, m (default 4 moving_rs: §5.7's "
+        "8 km)",
+        "point_rs": "circle kept from a stationary point whose size the sensor does not report "
+        "(the radar's static threats), m (default 1000, seed 000's RS, not scaled)",
+        "moving_point_rs": "sphere kept from an intruder whose size the sensor does not report, m "
+        "(default 2000, seed 000's, not scaled)",
         "moving_hold_s": "no new decision for the same intruder within this time, s",
         "head_on_ratio": "lateral / total intruder speed below which it counts as head-on",
         "retry_s": "a failed decision is retried after this time, s",
@@ -302,6 +338,8 @@ class PsoCaAvoider(AvoiderBase):
         "corners": "test the corners the autopilot cuts before each waypoint (true/false)",
         "start": "re-plan when the threat is found (detection, the paper) or at seed 004's "
         "critical time t_c - t_res (critical)",
+        "scale": "derive the distances not given from the vehicle's turn and the map's size "
+        "(true; false: seed 000's)",
         "t_res": "with start=critical: the aircraft's response time t_res of seed 004 eq 8, s",
     }
 
@@ -314,9 +352,9 @@ class PsoCaAvoider(AvoiderBase):
         mxrsk: float | None = None,
         tolerance: float | None = None,
         search_limit: float | None = None,
-        leg_margin: float = 100.0,
-        moving_rs: float = 2000.0,
-        act_range: float = 8000.0,
+        leg_margin: float | None = None,
+        moving_rs: float | None = None,
+        act_range: float | None = None,
         moving_hold_s: float = 10.0,
         head_on_ratio: float = 0.2,
         retry_s: float = 5.0,
@@ -330,6 +368,9 @@ class PsoCaAvoider(AvoiderBase):
         corners: bool = True,
         start: str = "detection",
         t_res: float = 0.5,
+        scale: bool = True,
+        point_rs: float | None = None,
+        moving_point_rs: float | None = None,
     ) -> None:
         if start not in START_MODES:
             raise InputError(
@@ -347,26 +388,25 @@ class PsoCaAvoider(AvoiderBase):
                 f"PSO-CA params must be a PsoCaParams (set rs, mxrsk ... as options instead); "
                 f"got {params!r}"
             )
-        base = params or PsoCaParams(leg_margin=leg_margin)
-        if rs is not None:
-            base = replace(base, rs=rs)  # re-checked by PsoCaParams
-        if mxrsk is not None:
-            base = replace(base, mxrsk=mxrsk)
-        if tolerance is not None or search_limit is not None:
-            base = replace(
-                base,
-                tolerance=base.tolerance if tolerance is None else tolerance,
-                search_limit=base.search_limit if search_limit is None else search_limit,
-            )
-        self.params = base
-        self.moving_rs = require_real("PSO-CA moving safety radius", moving_rs, 0.0, open_low=True)
-        if self.moving_rs + self.params.tolerance >= self.params.search_limit:
-            raise InputError(
-                f"PSO-CA search limit ({self.params.search_limit:g} m) must exceed the moving "
-                f"safety radius plus the tolerance ({self.moving_rs:g} + "
-                f"{self.params.tolerance:g} m)"
-            )
-        self.act_range = require_real("PSO-CA act range", act_range, 0.0, open_low=True)
+        if not isinstance(scale, bool):
+            raise InputError(f"PSO-CA option scale must be true or false; got {scale!r}")
+        self.scale = scale
+        # the options given (None: from the case, else seed 000's; :meth:`configure`)
+        self._given = {
+            "rs": rs,
+            "tolerance": tolerance,
+            "search_limit": search_limit,
+            "mxrsk": mxrsk,
+            "leg_margin": leg_margin,
+            "moving_rs": moving_rs,
+            "act_range": act_range,
+        }
+        self._base = params
+        self.point_opt = point_rs
+        self.moving_point_opt = moving_point_rs
+        self.configured = False
+        self.configure(None, None)  # seed 000's distances (and every option checked) until then
+        self.configured = False
         self.moving_hold_s = require_real("PSO-CA moving hold", moving_hold_s, 0.0, open_low=True)
         self.head_on_ratio = require_real("PSO-CA head-on ratio", head_on_ratio, 0.0, open_low=True)
         self.retry_s = require_real("PSO-CA retry time", retry_s, 0.0, open_low=True)
@@ -388,6 +428,96 @@ class PsoCaAvoider(AvoiderBase):
         self._sides: dict[str, int] = {}
         self._retry_stationary = -math.inf
 
+    # ----------------------------------------------------------------------------- set-up
+    def configure(self, turn_radius: float | None, room: float | None) -> None:
+        """The distances (module docstring, *Scale*): seed 000's times ``k = min(1, room / 40
+        km)`` (``room`` the map's shorter side; None: no map, k = 1), each at least its floor in
+        turn radii ``r`` (None: no floor); the options given keep their values; ``scale`` false:
+        seed 000's."""
+        g = self._given
+        k, r = 1.0, 0.0
+        if self.scale and room is not None and math.isfinite(room):
+            k = min(1.0, float(room) / SCALE_ROOM_M)
+        if self.scale and turn_radius is not None:
+            r = float(turn_radius)
+
+        def pick(name: str, paper: float, floor: float) -> float:
+            given = g[name]
+            return float(given) if given is not None else max(k * paper, floor)
+
+        moving_rs = pick("moving_rs", MOVING_RS_M, 2.0 * r)
+        if self._base is not None:  # the caller's constants, with the options given on top
+            b = self._base
+
+            def given(name: str, value: float) -> float:
+                v = g[name]
+                return value if v is None else float(v)
+
+            base = replace(
+                b,
+                rs=given("rs", b.rs),
+                tolerance=given("tolerance", b.tolerance),
+                search_limit=given("search_limit", b.search_limit),
+                mxrsk=given("mxrsk", b.mxrsk),
+            )
+        else:
+            rs = pick("rs", RS_M, r)
+            tolerance = pick("tolerance", TOLERANCE_M, r)
+            floor = max(rs, moving_rs) + tolerance + 2.0 * r if r else 0.0
+            base = PsoCaParams(
+                rs=rs,
+                tolerance=tolerance,
+                search_limit=pick("search_limit", SEARCH_LIMIT_M, floor),
+                mxrsk=pick("mxrsk", MXRSK_M, 3.0 * rs),
+                leg_margin=pick("leg_margin", LEG_MARGIN_M, 0.25 * r),
+            )
+        self.params = base  # PsoCaParams checks g1 against the search limit
+        self.moving_rs = require_real("PSO-CA moving safety radius", moving_rs, 0.0, open_low=True)
+        if self.moving_rs + self.params.tolerance >= self.params.search_limit:
+            raise InputError(
+                f"PSO-CA search limit ({self.params.search_limit:g} m) must exceed the moving "
+                f"safety radius plus the tolerance ({self.moving_rs:g} + "
+                f"{self.params.tolerance:g} m)"
+            )
+        self.point_rs = require_real(
+            "PSO-CA point_rs",
+            self.params.rs
+            if self.point_opt is None and not self.scale
+            else (RS_M if self.point_opt is None else self.point_opt),
+            0.0,
+        )
+        self.moving_point_rs = require_real(
+            "PSO-CA moving_point_rs",
+            self.moving_rs
+            if self.moving_point_opt is None and not self.scale
+            else (MOVING_RS_M if self.moving_point_opt is None else self.moving_point_opt),
+            0.0,
+        )
+        act = g["act_range"]
+        self.act_range = require_real(
+            "PSO-CA act range",
+            act if act is not None else ACT_PER_MOVING_RS * self.moving_rs,
+            0.0,
+            open_low=True,
+        )
+        self.configured = True
+
+    def check_vehicle(self, params: Any, speed: float) -> None:
+        """The turn radius at the flight's speed (the distances' floors, :meth:`configure`)."""
+        self._turn = float(params.min_turn_radius(speed))
+
+    def check_setup(self, config: Any, mission: Any, threats: Any, grid: Any, speed: float) -> None:
+        """The map's room and the vehicle's turn give the distances (:meth:`configure`)."""
+        room = None
+        if grid is not None:
+            xmin, ymin, xmax, ymax = grid.bounds
+            room = min(xmax - xmin, ymax - ymin)
+        self.configure(getattr(self, "_turn", None), room)
+
+    def point_keep_m(self) -> tuple[float, float]:
+        """The point priors: from a static point, from an intruder (step 3, *Scale*)."""
+        return max(self.params.rs, self.point_rs), max(self.moving_rs, self.moving_point_rs)
+
     # ----------------------------------------------------------------------------- life cycle
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
         compile_cost()
@@ -401,8 +531,11 @@ class PsoCaAvoider(AvoiderBase):
     @classmethod
     def paper(cls, optimizer: str = "pso", **kwargs: Any) -> PsoCaAvoider:
         """Seed 000's decision logic only: straight legs (no cut corners), and no rescue grid,
-        narrower g1 or waypoint left out when the search fails (module docstring, step 7)."""
-        return cls(optimizer, rescue=False, narrow=False, max_skip=0, corners=False, **kwargs)
+        narrower g1 or waypoint left out when the search fails (module docstring, step 7), at
+        seed 000's distances (no *Scale*)."""
+        return cls(
+            optimizer, rescue=False, narrow=False, max_skip=0, corners=False, scale=False, **kwargs
+        )
 
     def _switch(self, ctx: AvoidanceContext) -> float:
         """The autopilot's switch distance when cut corners are tested, else 0 (straight legs)."""
@@ -461,6 +594,7 @@ class PsoCaAvoider(AvoiderBase):
         pts: FloatArray,
         t: float,
         rs: FloatArray,
+        point: BoolArray,
     ) -> list[_Hit]:
         if not len(pts) or self._retry_stationary > t:
             return []
@@ -490,7 +624,11 @@ class PsoCaAvoider(AvoiderBase):
             members = tuple(sorted(keys[i] for i in g))
             key = "s:" + members[0]
             dist = float(np.hypot(*(pts[g] - pos).T).min())
-            out.append(_Hit(key, dist, pts[g], members, float(rs[g].max()), moving=False))
+            wide = float(rs[g].max())
+            prior = (
+                bool(point[g].any()) and self.point_rs > self.params.rs and wide <= self.point_rs
+            )
+            out.append(_Hit(key, dist, pts[g], members, wide, moving=False, point=prior))
         return out
 
     @staticmethod
@@ -521,7 +659,11 @@ class PsoCaAvoider(AvoiderBase):
             vel = tr.velocity[:2]
             # a reported size (the cooperative sensor) widens the sphere kept from it
             size = float(st.radii[st.index[ident]])
-            rs_m = max(self.moving_rs, size) if math.isfinite(size) else self.moving_rs
+            rs_m = (
+                max(self.moving_rs, size)
+                if math.isfinite(size)
+                else max(self.moving_rs, self.moving_point_rs)
+            )
             side = self._sides.get(ident, 0)
             if side:
                 # re-test on the predicted closest approach along the current leg
@@ -543,10 +685,20 @@ class PsoCaAvoider(AvoiderBase):
                     left_of_leg = leg[0] * rel[1] - leg[1] * rel[0] > 0
                     side = -1 if left_of_leg else 1  # head-on: pass on the other side
             dist = float(np.hypot(*(xy - pos)))
-            out.append(_Hit(key, dist, xy[None, :], (ident,), rs_m, True, side))
+            prior = not math.isfinite(size) and self.moving_point_rs > self.moving_rs
+            out.append(_Hit(key, dist, xy[None, :], (ident,), rs_m, True, side, prior))
         return out
 
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
+        if not self.configured:  # flown without prepare_replay's checks: from the context
+            grid = getattr(ctx.validity, "grid", None)
+            room = None
+            if grid is not None:
+                xmin, ymin, xmax, ymax = grid.bounds
+                room = min(xmax - xmin, ymax - ymin)
+            vehicle = ctx.vehicle
+            turn = vehicle.min_turn_radius(max(ctx.airspeed, 1.0)) if vehicle is not None else None
+            self.configure(turn, room)
         st = self._observe(ctx)
         wps = ctx.waypoints
         if st is None or ctx.next_index >= len(wps) or not (len(st.stationary) or st.tracks):
@@ -558,10 +710,15 @@ class PsoCaAvoider(AvoiderBase):
         pts = np.array(st.positions[rows, :2], dtype=np.float64)
         # the circle kept from each point: RS, or the size the sensor reported if larger (the
         # cooperative sensor reports a body by its centre and radius, the radar by points)
-        rs = np.maximum(self.params.rs, np.nan_to_num(st.radii[rows], nan=0.0))
+        radii = st.radii[rows]
+        rs = np.maximum(self.params.rs, np.nan_to_num(radii, nan=0.0))
+        # a point whose size the sensor does not measure (the radar's static threats: seed 000's
+        # point obstacles) keeps the point prior, not the scaled RS (module docstring, *Scale*)
+        point = ~st.terrain[rows] & ~st.extended[rows] & np.isnan(radii)
+        rs = np.where(point, np.maximum(rs, self.point_rs), rs)
         after = wps[ctx.next_index + 1, :2] if ctx.next_index + 1 < len(wps) else None
         hits = self._stationary_hits(
-            pos, target, after, self._switch(ctx), keys, pts, ctx.t, rs
+            pos, target, after, self._switch(ctx), keys, pts, ctx.t, rs, point
         ) + self._moving_hits(ctx, st, target)
         if not hits:
             return None
@@ -619,9 +776,21 @@ class PsoCaAvoider(AvoiderBase):
     ) -> AvoidanceDecision:
         wps = ctx.waypoints
         pos = np.asarray(ctx.position[:2], dtype=np.float64)
+        base = self.params
+        if hit.point:  # a size nobody measured: seed 000's distances, as wide as the prior
+            f = hit.rs / RS_M
+            base = replace(
+                base,
+                rs=hit.rs,
+                tolerance=max(base.tolerance, f * TOLERANCE_M),
+                search_limit=max(base.search_limit, f * SEARCH_LIMIT_M),
+                leg_margin=max(base.leg_margin, f * LEG_MARGIN_M),
+            )
         params = replace(
-            self.params,
+            base,
             rs=hit.rs,
+            # a reported size wider than RS keeps the search ring as wide beyond it
+            search_limit=base.search_limit + max(0.0, hit.rs - base.rs),
             speed=max(ctx.airspeed, 1.0),
             check_outbound=not hit.moving,
             switch_distance=self._switch(ctx),

@@ -112,26 +112,30 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "--ca-safety-radius",
     type=float,
     default=None,
-    help="pso-ca: safety radius RS kept from stationary obstacles (m; default 1000, seed 000). "
-    "Set it to at least the radius of your threats.",
+    help="pso-ca: safety radius RS kept from stationary obstacles (m; default seed 000's 1000 "
+    "scaled to the map, at least the turn radius: --help-avoider pso-ca). The radar sees a static "
+    "sphere as its centre: set it to at least the radius of your threats.",
 )
 @click.option(
     "--ca-moving-radius",
     type=float,
     default=None,
-    help="pso-ca: safety radius around a moving intruder (m; default 2000, seed 000 §5.7).",
+    help="pso-ca: safety radius around a moving intruder (m; default seed 000's 2000 scaled to the "
+    "map, at least two turn radii).",
 )
 @click.option(
     "--ca-mxrsk",
     type=float,
     default=None,
-    help="pso-ca: maximal risk distance MXRSK of the f2 term (m; default 3000, our choice: the paper gives none).",
+    help="pso-ca: maximal risk distance MXRSK of the f2 term (m; default 3 RS, our choice: the "
+    "paper gives none).",
 )
 @click.option(
     "--ca-paper",
     is_flag=True,
-    help="pso-ca: seed 000's decision logic only -- straight legs (no cut corners) and no rescue "
-    "grid, narrower gap or skipped waypoint when the paper's search fails (to reproduce the paper).",
+    help="pso-ca: seed 000's decision logic only -- straight legs (no cut corners), no rescue "
+    "grid, narrower gap or skipped waypoint when the paper's search fails, and seed 000's distances "
+    "whatever the map and vehicle (to reproduce the paper).",
 )
 @vehicle_option(
     "Vehicle preset or file (default: the mission's; for an .mcap source, the vehicle that run flew)."
@@ -387,7 +391,7 @@ def _ca_options(avoid: str, settings: dict[str, Any]) -> dict[str, Any]:
     }
     ca = {k: v for k, v in ca.items() if v is not None}
     if settings.pop("ca_paper"):
-        ca.update(rescue=False, narrow=False, max_skip=0, corners=False)
+        ca.update(rescue=False, narrow=False, max_skip=0, corners=False, scale=False)
     if ca and avoid != "pso-ca":
         raise click.UsageError("the --ca-* options apply to --avoid pso-ca only")
     return ca
