@@ -220,6 +220,14 @@ class _Hit:
     point: bool = False  # kept at a point prior: flown at seed 000's distances (*Scale*)
 
 
+def _room(grid: Any) -> float | None:
+    """The map's shorter side (m), the room *Scale* measures; None without a map."""
+    if grid is None:
+        return None
+    xmin, ymin, xmax, ymax = grid.bounds
+    return float(min(xmax - xmin, ymax - ymin))
+
+
 @dataclass(frozen=True)
 class _Solution:
     res: Any
@@ -479,20 +487,14 @@ class PsoCaAvoider(AvoiderBase):
                 f"safety radius plus the tolerance ({self.moving_rs:g} + "
                 f"{self.params.tolerance:g} m)"
             )
-        self.point_rs = require_real(
-            "PSO-CA point_rs",
-            self.params.rs
-            if self.point_opt is None and not self.scale
-            else (RS_M if self.point_opt is None else self.point_opt),
-            0.0,
-        )
-        self.moving_point_rs = require_real(
-            "PSO-CA moving_point_rs",
-            self.moving_rs
-            if self.moving_point_opt is None and not self.scale
-            else (MOVING_RS_M if self.moving_point_opt is None else self.moving_point_opt),
-            0.0,
-        )
+        # the point priors: seed 000's (unscaled: *Scale*); without scale, RS and moving RS
+        point, moving_point = (RS_M, MOVING_RS_M) if self.scale else (base.rs, self.moving_rs)
+        if self.point_opt is not None:
+            point = self.point_opt
+        if self.moving_point_opt is not None:
+            moving_point = self.moving_point_opt
+        self.point_rs = require_real("PSO-CA point_rs", point, 0.0)
+        self.moving_point_rs = require_real("PSO-CA moving_point_rs", moving_point, 0.0)
         act = g["act_range"]
         self.act_range = require_real(
             "PSO-CA act range",
@@ -508,11 +510,7 @@ class PsoCaAvoider(AvoiderBase):
 
     def check_setup(self, config: Any, mission: Any, threats: Any, grid: Any, speed: float) -> None:
         """The map's room and the vehicle's turn give the distances (:meth:`configure`)."""
-        room = None
-        if grid is not None:
-            xmin, ymin, xmax, ymax = grid.bounds
-            room = min(xmax - xmin, ymax - ymin)
-        self.configure(getattr(self, "_turn", None), room)
+        self.configure(getattr(self, "_turn", None), _room(grid))
 
     def point_keep_m(self) -> tuple[float, float]:
         """The point priors: from a static point, from an intruder (step 3, *Scale*)."""
@@ -691,14 +689,9 @@ class PsoCaAvoider(AvoiderBase):
 
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
         if not self.configured:  # flown without prepare_replay's checks: from the context
-            grid = getattr(ctx.validity, "grid", None)
-            room = None
-            if grid is not None:
-                xmin, ymin, xmax, ymax = grid.bounds
-                room = min(xmax - xmin, ymax - ymin)
             vehicle = ctx.vehicle
             turn = vehicle.min_turn_radius(max(ctx.airspeed, 1.0)) if vehicle is not None else None
-            self.configure(turn, room)
+            self.configure(turn, _room(getattr(ctx.validity, "grid", None)))
         st = self._observe(ctx)
         wps = ctx.waypoints
         if st is None or ctx.next_index >= len(wps) or not (len(st.stationary) or st.tracks):
