@@ -124,23 +124,23 @@ class PreparedReplay:
 def radar_pairing(sensor: str, avoider: Any, threats: Any) -> tuple[str, ...]:
     """Start-up warnings where the radar cannot serve the avoider (issue 34): the radar sees a
     static sphere by its centre and an intruder by its position (seed 000's points), never their
-    radii; an avoider that keeps less than a threat's radius from such a point will enter it."""
+    radii, unless they are ``solid`` (then it measures them); an avoider that keeps less than a threat's radius from such a point will enter it."""
     keep = getattr(avoider, "point_keep_m", lambda: None)()
     if sensor != "radar" or keep is None:
         return ()
     out = []
     for th in threats:
         kind = getattr(th, "kind", "")
-        if kind not in ("static", "intruder"):
-            continue
+        if kind not in ("static", "intruder") or getattr(th, "solid", False):
+            continue  # a solid sphere's radius is measured
         kept = keep[0] if kind == "static" else keep[1]
         radius = float(th.radius)
         if radius > kept:
             out.append(
                 f"the radar sees {kind} threat {th.id!r} as a point, not its {radius:.0f} m radius; "
                 f"{avoider.name} keeps {kept:.0f} m from such a point and may enter it: fly "
-                "--sensor cooperative (sizes reported) or widen the avoider's distance "
-                "(--help-avoider)"
+                "--sensor cooperative (sizes reported), mark the threat 'solid: true' if the "
+                "radar can see its sphere, or widen the avoider's distance (--help-avoider)"
             )
     return tuple(out)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -47,8 +48,8 @@ def flat() -> TerrainModel:
     return TerrainModel.from_grid(FLAT)
 
 
-def static(ident: str, x: float, y: float, z: float, **kw: float) -> StaticThreat:
-    return StaticThreat(id=ident, center=(x, y, z), radius=100.0, **kw)
+def static(ident: str, x: float, y: float, z: float, **kw: Any) -> StaticThreat:
+    return StaticThreat(id=ident, center=(x, y, z), **{"radius": 100.0, **kw})
 
 
 # -- range, occlusion, activity -------------------------------------------------------------------
@@ -396,3 +397,44 @@ def test_static_threats_in_one_array_keep_order_windows_and_range() -> None:
     pic = radar.scan(61.0, own, threats)
     np.testing.assert_allclose(pic.positions[0], [5000.0, 0.0, 200.0])
     np.testing.assert_allclose(pic.positions[2], [0.0, -4000.0, 200.0])
+
+
+def test_a_solid_sphere_is_measured_whole_a_point_threat_is_not() -> None:
+    """Issue 34: a ``solid`` static sphere or intruder gives its centre and radius (the radius
+    with the cross-range error only); seed 000's point threats give no radius."""
+    solid = StaticThreat(id="s", center=(3000.0, 0.0, 100.0), radius=250.0, solid=True)
+    point = StaticThreat(id="p", center=(0.0, 3000.0, 100.0), radius=250.0)
+    plane = IntruderThreat(
+        id="i", radius=80.0, start=(0.0, -2000.0, 100.0), velocity_mps=(20.0, 0.0, 0.0), solid=True
+    )
+    own = np.array([0.0, 0.0, 100.0])
+    exact = Radar()
+    pic = exact.scan(0.0, own, (solid, point, plane))
+    assert pic.radii is not None
+    assert pic.radii[pic.index["s"]] == 250.0 and pic.radii[pic.index["i"]] == 80.0
+    assert math.isnan(pic.radii[pic.index["p"]])
+    np.testing.assert_allclose(pic.get("s").position, solid.center)  # the centre, not the surface
+    pic = exact.scan(1.0, own, (solid, point, plane))
+    assert pic.get("i").moving is True and pic.get("s").moving is False
+    assert Radar().scan(0.0, own, (point,)).radii is None  # nothing measured: no array
+    sigma = 0.002
+    noisy = Radar(noise_bearing_rad=sigma, seed=3)
+    errs = []
+    for k in range(400):
+        radii = noisy.scan(float(k), own, (solid,)).radii
+        assert radii is not None
+        errs.append(float(radii[0]) - 250.0)
+    assert abs(float(np.mean(errs))) < 4.0 * 3000.0 * sigma / math.sqrt(400)
+    assert float(np.std(errs)) == pytest.approx(3000.0 * sigma, rel=0.15)
+
+
+def test_a_solid_sphere_behind_a_ridge_is_seen_by_its_top(ridge: TerrainModel) -> None:
+    """The centre is hidden by the 600 m crest, the top of a 700 m sphere is not: seen (whole);
+    the same sphere as seed 000's point stays hidden."""
+    own = [XR - 4000.0, YC, 300.0]
+    for solid in (True, False):
+        sphere = static("cloud", XR + 4000.0, YC, 300.0, radius=700.0, solid=solid)
+        pic = Radar().scan(0.0, own, [sphere], ridge)
+        assert pic.threat_ids == (("cloud",) if solid else ())
+        if solid:
+            assert pic.radii is not None and pic.radii[0] == 700.0

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rasterio.crs import CRS
@@ -615,3 +616,33 @@ def test_an_exponent_within_rounding_of_one_half_is_an_edge() -> None:
     p = np.array(b.center) + np.array([0.5, 0.0, 2.0]) * 5.0
     dist = float(np.linalg.norm(p - b.nearest_point(p)))
     assert abs(dist - float(b.separation(p))) <= 1e-6 * (1.0 + dist)
+
+
+def test_solid_spheres_are_read_written_and_refused_when_not_boolean(tmp_path: Path) -> None:
+    doc = {
+        "terrapath": 1,
+        "threats": [
+            {"id": "a", "kind": "static", "position": [0, 0, 100], "radius": 50, "solid": True},
+            {"id": "b", "kind": "static", "position": [0, 0, 100], "radius": 50},
+            {
+                "id": "c",
+                "kind": "intruder",
+                "position": [0, 0, 100],
+                "velocity": [5, 0, 0],
+                "radius": 20,
+                "solid": True,
+            },
+        ],
+    }
+    path = tmp_path / "t.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    a, b, c = load_threats(str(path)).threats
+    assert isinstance(a, StaticThreat) and isinstance(b, StaticThreat)
+    assert isinstance(c, IntruderThreat)
+    assert a.solid and not b.solid and c.solid
+    assert a.to_record()["solid"] is True and "solid" not in b.to_record()
+    assert threats_from_records([c.to_record()]).threats[0] == c
+    doc["threats"] = [{**doc["threats"][0], "solid": "yes"}]  # type: ignore[index, dict-item]
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    with pytest.raises(InputError, match=r"field 'threats\[0\]\.solid': expected true or false"):
+        load_threats(str(path))

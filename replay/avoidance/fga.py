@@ -13,7 +13,8 @@ sensor (the paper's "perfect sensor", §II-C (3)) the size is the reported one: 
 (reported at its top-face centre, ``top`` = its z) stands on the ground (``bottom = -inf``); a
 sphere, an intruder or a convex body (``top`` above its centre) reaches as far below its centre
 as above.  With the radar: a stationary body is the circle of its returns plus ``point_radius``
-for point returns, its top unknown (never flown over); a track has ``moving_radius``.  The paper
+for point returns, its top unknown (never flown over); a track has ``moving_radius``; a sphere
+the radar measures (a ``solid`` threat) has its measured centre and radius, as reported.  The paper
 protects a sphere of radius ``d_m`` and manoeuvres in two planes with separate horizontal and
 vertical separations ``d_m,h`` and ``d_m,v`` (§III-B1): the protected volume here is their
 product, the vertical cylinder of radius ``a + d_m`` from ``bottom - d_m`` to ``top + d_m`` -- for
@@ -341,22 +342,30 @@ class FgaAvoider(AvoiderBase):
             return out
         for body in st.bodies:  # the radar: a circle per body, its top unknown
             idx = body.index
-            points = not bool(st.extended[idx].all())
             c = body.center
             zc = float(np.mean(st.positions[idx, 2]))
+            sized = st.radii[idx]
+            if np.isfinite(sized).all():  # a sphere the radar measures (a solid threat)
+                radius, top = float(body.outer_radius), float(body.top)
+                bottom = float(np.min(st.positions[idx, 2] - sized))
+            else:
+                points = not bool(st.extended[idx].all())
+                radius = float(body.radius) + (self.point_radius if points else 0.0)
+                bottom, top = -math.inf, math.inf
             out.append(
                 FgaObstacle(
                     st.sources[int(idx[0])],
                     (float(c[0]), float(c[1]), zc),
                     (0.0, 0.0, 0.0),
-                    float(body.radius) + (self.point_radius if points else 0.0),
-                    -math.inf,
-                    math.inf,
+                    radius,
+                    bottom,
+                    top,
                 )
             )
         for tr in st.tracks:
             pos = tr.predict(st.t)
-            r = self.moving_radius
+            size = float(st.radii[st.index[tr.id]])
+            r = size if math.isfinite(size) else self.moving_radius
             out.append(
                 FgaObstacle(
                     tr.id,

@@ -176,6 +176,10 @@ class Scan:
         nan3 = np.full((n, 3), np.nan)
         nan1 = np.full(n, np.nan)
         if isinstance(picture, RadarPicture):
+            radii, tops = nan1, nan1
+            if picture.radii is not None:  # spheres the radar measures (solid threats)
+                radii = picture.radii
+                tops = picture.positions[:, 2] + radii
             return cls._of_sensor(
                 t=picture.t,
                 own_position=picture.own_position,
@@ -189,8 +193,8 @@ class Scan:
                 extended=picture.extended,
                 moving_code=picture.moving_code,
                 velocities=nan3,
-                radii=nan1,
-                tops=nan1,
+                radii=radii,
+                tops=tops,
             )
         if isinstance(picture, CooperativePicture):
             return cls._of_sensor(

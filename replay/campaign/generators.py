@@ -47,6 +47,7 @@ from replay.campaign.own import VERSION as OWN_VERSION
 from replay.campaign.own import own_case
 from replay.campaign.seed004 import GENERATOR_VERSION as SEED004_VERSION
 from replay.campaign.seed004 import seed004_case
+from replay.threats.file import COMMON_KEYS, KIND_KEYS
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -169,10 +170,7 @@ def intruder_records(
     return out
 
 
-THREAT_KEYS = (
-    *("id", "kind", "position", "velocity", "radius", "points"),
-    *("appears_at", "disappears_at", "center", "top", "bottom", "axes", "exponents"),
-)
+THREAT_KEYS = tuple(dict.fromkeys([*COMMON_KEYS, *(k for ks in KIND_KEYS.values() for k in ks)]))
 
 
 def file_records(records: list[dict[str, Any]]) -> list[dict[str, Any]]:

@@ -33,14 +33,22 @@ map).
 from it by ``U(-0.8, 0.8) R`` (so the leg meets it), its size ``R = U(0.5, 5) r``, and of a kind
 drawn with :data:`KIND_WEIGHTS`:
 
-- ``static``: a sphere of radius ``R`` centred at the flight level ``+ U(-0.3, 0.3) R``;
+- ``static``: a sphere of radius ``R`` centred at the flight level ``+ U(-0.3, 0.3) R``,
+  ``solid`` (a body the radar sees whole, :mod:`replay.sensors.radar`);
 - ``cylinder``: a column of radius ``R`` from the ground to the flight level ``+ U(0.5, 2) R``;
 - ``body``: seed 001's superquadric, axes ``(R, U(0.6, 1.4) R, U(0.4, 1) R)``, exponents
   ``(e, e, 2)`` with ``e`` 2 or 4, centred at the flight level (axes along x, y, z);
 - ``intruder``: a sphere of radius ``R`` crossing the leg at ``90 +- 30`` deg from a random side,
   at ``U(0.3, 1) V`` (slower where its start would lie off the map; a ``static`` sphere instead
   when that would be under ``0.2 V``), timed to reach the leg's point when the undisturbed aircraft
-  does.
+  does, ``solid`` as the static sphere.
+
+Version 2 marks the spheres ``solid``; the draws are version 1's.  Version 1's spheres were
+seed 000's points with an unseen safety distance: with the radar they tested the avoiders'
+prior for an unsized point (1 km, or the ``point_*`` options), not their avoidance of a threat
+the sensor can see, which is what the issue asks; that case keeps its start-up warning
+(:func:`replay.run.radar_pairing`).  The change was made after a sample of version 1 had been
+flown (4 maps x 8 scenarios, session 21's note).
 
 **Exclusion rules** (geometric, independent of every avoider; a scenario they flag is still
 flown, and the report drops it and counts it per rule): ``start or goal in a threat`` (the
@@ -70,7 +78,7 @@ from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 
-VERSION = 1
+VERSION = 2
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "maps"
 # name: (folder under data/maps or ../shared/maps, file, shared)
@@ -228,12 +236,14 @@ def _threat(
                 "position": [float(start[0]), float(start[1]), z],
                 "velocity": [float(course[0] * v), float(course[1] * v), 0.0],
                 "radius": radius,
+                "solid": True,
             }
             return rec, kind
         kind = "static"
     if kind == "static":
         zc = z + rng.uniform(-0.3, 0.3) * radius
-        return {"id": ident, "kind": "static", "position": [x, y, zc], "radius": radius}, kind
+        rec = {"id": ident, "kind": "static", "position": [x, y, zc], "radius": radius}
+        return {**rec, "solid": True}, kind
     if kind == "cylinder":
         top = z + rng.uniform(0.5, 2.0) * radius
         return {

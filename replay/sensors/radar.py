@@ -29,6 +29,15 @@ scan, with ``los_tolerance_m`` (1 m) so a point resting on the ground is still s
 are asked all at once, as arrays by kind (:class:`replay.threats.table.ThreatTable`, kept while
 the same threats are scanned), with the same results, in the same order, as one by one.
 
+**Sized returns.**  A ``static`` or ``intruder`` threat marked ``solid`` is a sphere the radar
+sees whole (a balloon, a cloud, a declared volume), not seed 000's point with a safety distance
+round it: its one return is the sphere's centre (range to the near surface plus the radius,
+along the bearing of the centre), and :attr:`RadarPicture.radii` carries the radius it measures
+from the sphere's angular width (``R = D sin(alpha)``, alpha the half-width seen at centre range
+D).  It is in line of sight when its centre, its point nearest to the aircraft or its top is
+(a sphere half sunk behind a ridge shows its top).  Every other return's radius is NaN (not measured);
+a picture without a sized return has ``radii`` None.
+
 **Terrain returns.**  With a terrain model, a fan of rays is cast in one
 :meth:`~terrain.model.TerrainModel.raycast` call: ``terrain_azimuths`` azimuths (360: one degree,
 175 m apart at 10 km) at each of ``terrain_elevations_deg`` (-0.5, 0, 0.5, 1.5, 3 degrees) from
@@ -49,7 +58,8 @@ maps, Doppler): terrain returns are always ``moving=False``.
 rebuilt from the noisy range, bearing and true elevation (and is the exact point when both sigmas
 are 0).  Terrain cell ids come from the true hit (they stand for the tracker's association).  All
 noise comes from one ``numpy.random.default_rng(seed)``, drawn in a fixed order (ranges, then
-bearings, threat returns first, then terrain), so the same seed and the same calls give the same
+bearings, threat returns first, then terrain, then the radii of sized returns, whose error is
+the cross-range one, ``r * noise_bearing_rad``, clipped at 0), so the same seed and the same calls give the same
 pictures.
 
 **Classification** (seed 000 Fig. 7, §3.7).  A threat return whose id was in the previous picture
@@ -73,9 +83,10 @@ previous picture is kept inside the radar (:attr:`Radar.previous`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Literal
 
@@ -131,6 +142,8 @@ class RadarPicture:
     elevations: FloatArray
     moving_code: npt.NDArray[np.int8]  # -1 unknown, 0 stationary, 1 moving
     extended: BoolArray  # returns of solid bodies (cylinder, prism, body)
+    # measured radius of sized returns (NaN others); None: no sized return
+    radii: FloatArray | None = field(default=None, kw_only=True)
 
     def __len__(self) -> int:
         return len(self.ranges)
@@ -196,6 +209,16 @@ class RadarPicture:
 
     def terrain(self) -> tuple[Detection, ...]:
         return self.detections[self.n_threat :]
+
+
+def _sphere_marks(own: FloatArray, centres: FloatArray, radii: FloatArray) -> FloatArray:
+    """Two points of each sphere besides its centre that the radar may see: the point nearest
+    to ``own`` and the top, (2 K, 3) in that order per sphere."""
+    d = own - centres
+    dist = np.linalg.norm(d, axis=-1, keepdims=True)
+    near = centres + d * (radii[:, None] / np.maximum(dist, 1e-9))
+    top = centres + np.column_stack([np.zeros((len(radii), 2)), radii])
+    return np.stack([near, top], axis=1).reshape(-1, 3)
 
 
 def _number(name: str, value: float, minimum: float, strict: bool) -> float:
@@ -301,8 +324,20 @@ class Radar:
             else _number("min_clearance", min_clearance, 0.0, False)
         )
         ids, sources, pts, ext = self._threat_points(t, own, threats)
+        sized = self._table(threats).sized
         if len(pts) and terrain_model is not None:
-            seen = terrain_model.line_of_sight(own, pts, tolerance=self.los_tolerance_m)
+            targets, owner = pts, np.arange(len(pts))
+            if sized:  # a sphere is seen when its centre, near point or top is
+                rows = [i for i, src in enumerate(sources) if src in sized]
+                if rows:
+                    more = _sphere_marks(
+                        own, pts[rows], np.array([sized[sources[i]] for i in rows])
+                    )
+                    targets = np.vstack([pts, more])
+                    owner = np.concatenate([owner, np.repeat(rows, 2)])
+            hit = terrain_model.line_of_sight(own, targets, tolerance=self.los_tolerance_m)
+            seen = np.zeros(len(pts), dtype=bool)
+            seen[owner[np.asarray(hit, dtype=bool)]] = True
             keep = np.flatnonzero(seen)
             ids = [ids[i] for i in keep]
             sources = [sources[i] for i in keep]
@@ -313,6 +348,8 @@ class Radar:
             pts = np.vstack([pts, t_pts])
             ext = np.concatenate([ext, np.zeros(len(cells), dtype=bool)])
         picture = self._measure(t, own, tuple(ids), tuple(sources), cells, pts, ext)
+        if sized:
+            picture = self._sized(picture, sized)
         self.previous = picture
         self.last_scan_t = t
         return picture
@@ -433,3 +470,16 @@ class Radar:
             moving_code=moving,
             extended=ext,
         )
+
+    def _sized(self, picture: RadarPicture, sized: dict[str, float]) -> RadarPicture:
+        """The picture with the radii of the spheres it sees whole (``sized``: radius by
+        threat id), measured with the cross-range error (module docstring)."""
+        radii = np.full(len(picture), np.nan)
+        radii[: picture.n_threat] = [sized.get(src, math.nan) for src in picture.threat_sources]
+        on = np.flatnonzero(np.isfinite(radii))
+        if not len(on):
+            return picture
+        if self.noise_bearing_rad > 0:
+            err = self.rng.normal(0.0, 1.0, len(on)) * picture.ranges[on] * self.noise_bearing_rad
+            radii[on] = np.maximum(radii[on] + err, 0.0)
+        return dataclasses.replace(picture, radii=radii)

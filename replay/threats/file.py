@@ -7,7 +7,8 @@ optional ``disappears_at`` (> ``appears_at``) (``COMMON_KEYS``), and the keys of
 (``KIND_KEYS``; what each kind means: :mod:`replay.threats.kinds`, :mod:`replay.threats.body`).
 Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`):
 
-``static`` -- ``position: [x, y, z]`` and a safety ``radius`` R > 0.
+``static`` -- ``position: [x, y, z]`` and a safety ``radius`` R > 0; optional ``solid: true`` (a
+    body the radar sees whole, centre and radius, instead of seed 000's point; default false).
 ``hill`` -- ``points: [[x, y, z], ...]`` and ``radius`` (one number for all points, or one per
     point).
 ``body`` -- ``center: [x0, y0, z0]``, ``axes: [a, b, c]``, ``exponents: [p, q, r]`` (seed 001 eq 3,
@@ -24,7 +25,7 @@ Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`):
     -inf, as for a cylinder.
 ``intruder`` -- a safety ``radius`` and either ``position: [x, y, z]`` and ``velocity: [east, north,
     up]`` (m/s), optional ``stops_at``; or ``waypoints: [[x, y, z], ...]`` (>= 2) flown at ``speed``
-    (m/s, > 0), optional ``loop: true``.
+    (m/s, > 0), optional ``loop: true``; optional ``solid`` as for ``static``.
 
 ``static``, ``body`` and ``intruder`` may give ``lon``, ``lat`` (WGS84 degrees) and ``alt`` (metres
 AMSL) instead of ``position`` / ``center``, ``cylinder`` ``lon``, ``lat`` instead of ``center``, and
@@ -88,14 +89,14 @@ DOCUMENT_KEYS = ("terrapath", "name", "threats")
 KINDS = ("static", "hill", "body", "cylinder", "prism", "intruder")
 COMMON_KEYS = ("id", "kind", "appears_at", "disappears_at")
 KIND_KEYS: dict[str, tuple[str, ...]] = {
-    "static": ("position", "lon", "lat", "alt", "radius"),
+    "static": ("position", "lon", "lat", "alt", "radius", "solid"),
     "hill": ("points", "radius"),
     "body": ("center", "lon", "lat", "alt", "axes", "exponents"),
     "cylinder": ("center", "lon", "lat", "radius", "top", "bottom"),
     "prism": ("footprint", "footprint_lonlat", "top", "bottom"),
     "intruder": (
         *("position", "lon", "lat", "alt", "velocity", "stops_at"),
-        *("waypoints", "speed", "loop", "radius"),
+        *("waypoints", "speed", "loop", "radius", "solid"),
     ),
 }
 
@@ -324,9 +325,20 @@ class _Parser:
         r = self._require(entry, field, "radius", "safety radius in metres, > 0")
         return self.positive(r, f"{field}.radius", "a radius in metres > 0")
 
+    def _solid(self, entry: dict[str, Any], field: str) -> bool:
+        solid = entry.get("solid", False)
+        if not isinstance(solid, bool):
+            raise self.fail(f"{field}.solid", f"expected true or false, found {_found(solid)}")
+        return solid
+
     def _static(self, entry: dict[str, Any], field: str, common: dict[str, Any]) -> Threat:
         c = self.located(entry, field, "position", 3)
-        return StaticThreat(**common, center=(c[0], c[1], c[2]), radius=self._radius(entry, field))
+        return StaticThreat(
+            **common,
+            center=(c[0], c[1], c[2]),
+            radius=self._radius(entry, field),
+            solid=self._solid(entry, field),
+        )
 
     def _hill(self, entry: dict[str, Any], field: str, common: dict[str, Any]) -> Threat:
         pts = self.point_list(
@@ -502,6 +514,7 @@ class _Parser:
                 f"exactly one; found {found}",
             )
         radius = self._radius(entry, field)
+        common = {**common, "solid": self._solid(entry, field)}
         if has_v:
             for key in ("speed", "loop"):
                 if key in entry:

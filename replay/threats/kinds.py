@@ -7,7 +7,10 @@ threat has an ``id``, ``appears_at`` (seconds after the start, >= 0) and an opti
 Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`).  The kinds:
 
 ``static`` (:class:`StaticThreat`, seed 000 §2.1.2) -- a centre and a safety radius R > 0: the
-    safety sphere.  ``separation(p) = |p - c| - R`` (exact).
+    safety sphere.  ``separation(p) = |p - c| - R`` (exact).  By default (seed 000) the sphere
+    is a safety distance round a point: the radar sees the point, never the radius.  With
+    ``solid`` (true) the sphere is a body the radar sees whole -- a balloon, a cloud, a declared
+    volume -- and it measures the centre and the radius (:mod:`replay.sensors.radar`).
 ``hill`` (:class:`HillThreat`, seed 000 §2.1.2, §5.3) -- points and one radius for all points or
     one per point: a mountain modelled as a group of point obstacles, each with its safety sphere.
     ``separation(p) = min_k (|p - c_k| - R_k)`` (exact for the union of spheres).  Points closer
@@ -38,7 +41,8 @@ Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`).
       piecewise-linear at constant speed, holding at the last one; with ``loop`` it flies back to
       the first and repeats.  ``p(t)`` is vectorised over t.
 
-    Separation is ``|p - p(t)| - R``.  (Flying an intruder with its own 6-DOF model is left to the
+    Separation is ``|p - p(t)| - R``.  ``solid`` as for ``static``: by default the radar sees
+    the intruder's position only (seed 000); with ``solid`` it measures its sphere.  (Flying an intruder with its own 6-DOF model is left to the
     simulation; here its path is kinematic.)
 
 Every threat has ``active(t)``, ``position(t)`` (centre or reference point: a static centre, the
@@ -174,6 +178,18 @@ class Threat:
         return rec
 
 
+def _check_solid(threat: StaticThreat | IntruderThreat) -> None:
+    if not isinstance(threat.solid, bool):
+        raise InputError(f"threat {threat.id!r} solid must be true or false; got {threat.solid!r}")
+
+
+def sized_radius(threat: Threat) -> float | None:
+    """The radius the radar measures of a threat it sees as a sphere (``solid``), else None."""
+    if isinstance(threat, StaticThreat | IntruderThreat) and threat.solid:
+        return threat.radius
+    return None
+
+
 def _sphere(ident: str, c: Sequence[float], r: float) -> dict[str, Any]:
     cz = float(c[2])
     return {
@@ -192,6 +208,7 @@ class StaticThreat(Threat):
 
     center: Vec3
     radius: float
+    solid: bool = False  # True: the radar sees the sphere (centre and radius), not a point
 
     kind: ClassVar[str] = "static"
 
@@ -199,6 +216,7 @@ class StaticThreat(Threat):
         super().__post_init__()
         object.__setattr__(self, "center", finite_vec3(self.center, f"threat {self.id!r} position"))
         object.__setattr__(self, "radius", _positive(self.radius, f"threat {self.id!r} radius"))
+        _check_solid(self)
 
     def position(self, t: npt.ArrayLike = 0.0) -> FloatArray:
         return np.broadcast_to(np.array(self.center), (*np.shape(t), 3)).copy()
@@ -211,7 +229,8 @@ class StaticThreat(Threat):
         return _sphere(self.id, self.center, self.radius)
 
     def to_record(self) -> dict[str, Any]:
-        return {**super().to_record(), "position": list(self.center), "radius": self.radius}
+        rec = {**super().to_record(), "position": list(self.center), "radius": self.radius}
+        return {**rec, "solid": True} if self.solid else rec
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -608,6 +627,7 @@ class IntruderThreat(Threat):
     waypoints: tuple[Vec3, ...] | None = None
     speed: float | None = None
     loop: bool = False
+    solid: bool = False  # True: the radar sees the sphere (centre and radius), not a point
 
     kind: ClassVar[str] = "intruder"
 
@@ -615,6 +635,7 @@ class IntruderThreat(Threat):
         super().__post_init__()
         what = f"threat {self.id!r}"
         object.__setattr__(self, "radius", _positive(self.radius, f"{what} radius"))
+        _check_solid(self)
         if (self.velocity_mps is None) == (self.waypoints is None):
             raise InputError(f"{what} needs either a velocity or waypoints (exactly one)")
         if self.velocity_mps is not None:
@@ -718,6 +739,8 @@ class IntruderThreat(Threat):
             if self.loop:
                 rec["loop"] = True
         rec["radius"] = self.radius
+        if self.solid:
+            rec["solid"] = True
         return rec
 
 

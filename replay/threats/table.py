@@ -45,6 +45,7 @@ from replay.threats.kinds import (
     StaticThreat,
     Threat,
     circle_edges,
+    sized_radius,
     solid_separation,
 )
 
@@ -138,6 +139,8 @@ class ThreatTable:
         )
         self.moving = np.array([bool(getattr(th, "moving", False)) for th in ths], dtype=bool)
         self.extended = np.array([th.extended for th in ths], dtype=bool)
+        # the radius the radar measures of each threat it sees as a sphere (``solid``)
+        self.sized = {th.id: r for th in ths if (r := sized_radius(th)) is not None}
 
         st, stat = _of_kind(ths, StaticThreat)
         self._static = _Points(
