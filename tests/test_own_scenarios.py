@@ -166,3 +166,20 @@ def test_the_suites_small_map_sphere_is_avoided_with_the_radar(avoider: str) -> 
     assert min(v["value"] for v in seps.values()) >= 0.0
     bare = run_replay(ReplayRequest.of(mission, threats=threats, sensor="radar"))
     assert not bare.metrics.success  # the case is a test: without an avoider it fails
+
+
+@pytest.mark.parametrize("sensor", ["cooperative", "radar"])
+def test_ctga_keeps_its_orbit_round_a_moving_intruder_on_a_small_map(sensor: str) -> None:
+    """Bubenec case 3: a 151 m intruder at 12 m/s crossing a 15 m/s aircraft's 510 m leg near
+    the map's edge.  CTGA's side check carries the half orbit with the intruder; judged round its
+    centre at the decision, CTGA followed it off the map for two minutes."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _flight(sensor, "own-scenarios/momepy_bubenec/ctga/3")
+    assert [t["kind"] for t in notes["threats"]] == ["intruder"]
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="ctga", seed=flight.seed, sensor=sensor)
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0

@@ -49,7 +49,9 @@ A complex obstacle (the next body found while still on an arc) keeps the directi
 its first body (§3.3, Fig. 9).  Not in the paper: the mission's danger zones and the map's edge
 (the context's ``validity``) -- when the half orbit on the side the rule gives, from the
 aircraft's bearing round to the far side of the obstacle, enters a zone or leaves the map and
-the other half does so less (in metres), the other side is taken (:meth:`CtgaAvoider._side`).
+the other half does so less (in metres), the other side is taken (:meth:`CtgaAvoider._side`);
+round a moving obstacle the half orbit is carried with it (the centre moves ``v t``, t the time
+to fly the arc to each point at the aircraft's speed).
 When both halves do (a small map, zones either side), there is no safe manoeuvre: the decision
 says so (``no_safe_side``, the metres of each, in the reason too) and the lesser is flown.
 
@@ -453,10 +455,19 @@ class CtgaAvoider(AvoiderBase):
         start = math.atan2(pos[0] - c[0], pos[1] - c[1])  # bearing of the aircraft from c
         altitude = self._altitude(ctx)
 
+        swept = np.linspace(0.0, math.pi, SIDE_SAMPLES)
+        # a moving obstacle carries its orbit: the point at angle a is reached after flying
+        # the arc a R at the aircraft's speed, and the centre has moved v t by then
+        drift = np.outer(swept * radius / max(speed, 1e-6), np.asarray(obs.velocity))
+
         def bad(cw: bool) -> float:
-            a = start + np.linspace(0.0, math.pi, SIDE_SAMPLES) * (1.0 if cw else -1.0)
+            a = start + swept * (1.0 if cw else -1.0)
             pts = np.column_stack(
-                [c[0] + radius * np.sin(a), c[1] + radius * np.cos(a), np.full(len(a), altitude)]
+                [
+                    c[0] + drift[:, 0] + radius * np.sin(a),
+                    c[1] + drift[:, 1] + radius * np.cos(a),
+                    np.full(len(a), altitude),
+                ]
             )
             sv = chk.segments(pts[:-1], pts[1:], clearance=False)
             return float(sv.zone_lengths.sum() + sv.off_map_lengths.sum())
