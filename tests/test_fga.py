@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -512,3 +513,29 @@ def test_pitch_latest_start_leaves_time_to_climb_or_descend(side: int) -> None:
     goal = (o.top if side > 0 else o.bottom) + side * (D_M + 2 * fga.buffer_m)
     assert 0.0 <= plan.t_c < entry[0]
     assert reach == pytest.approx(goal, abs=0.05)
+
+
+def test_a_course_off_the_map_is_taken_only_when_every_free_course_leaves_it() -> None:
+    """Issue 34: an obstacle a little left of the course makes the smallest free change a right
+    turn; where the map says that course leaves it (``bad``: metres off the map), the left one
+    is taken; where every course does, the least is flown and the plan says so."""
+    from replay.avoidance.fga_plan import FgaPlanner
+
+    planner = FgaPlanner(30.0, 3.0, 60.0, 0.5, 20.0, 0.1)
+    pos, vel = np.array([0.0, 0.0, 100.0]), np.array([0.0, 20.0, 0.0])
+    o = FgaObstacle("o", (-15.0, 250.0, 100.0), (0.0, 0.0, 0.0), 40.0, -math.inf, math.inf)
+    targets = [planner.encounter(pos, vel, o, 30.0)]
+    free = planner.heading_plan(pos, vel, 0.0, targets, [o], 30.0, 0.5)
+    assert free is not None and free.course > 0.0 and "unsafe_m" not in free.costs  # right
+
+    def east_off(courses: Any) -> Any:  # the map ends just east of the aircraft
+        return np.where(np.sin(courses) > 0.0, 100.0 * np.sin(courses), 0.0)
+
+    left = planner.heading_plan(pos, vel, 0.0, targets, [o], 30.0, 0.5, bad=east_off)
+    assert left is not None and left.course < 0.0 and "unsafe_m" not in left.costs
+    assert abs(left.course) > abs(free.course)  # the larger change, but on the map
+    every = planner.heading_plan(
+        pos, vel, 0.0, targets, [o], 30.0, 0.5, bad=lambda c: np.full(len(c), 50.0) + c**2
+    )
+    assert every is not None and every.costs["unsafe_m"] >= 50.0
+    assert "no safe course" in every.why

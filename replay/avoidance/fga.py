@@ -88,6 +88,13 @@ must not enter the volume of any obstacle within ``R`` (``M2`` included): a cour
 union of all cones; only when none exists is ``M1`` resolved alone (``M2`` is met again on the
 next decisions: steps 1-5 repeat at every decision).
 
+**Map and zones** (not in the paper; issue 34).  A heading manoeuvre's course is held until the
+obstacle passes: with a map or danger zones (the context's validity), each free course is
+followed for ``R`` and the metres of it off the map or in a zone counted; a course with none is
+taken before any with some (still the smallest change among them).  When every free course has
+some, there is no safe manoeuvre: the least is flown and the decision says so (``no safe
+course`` in its reason, ``costs.unsafe_m``).
+
 **Steering and holding (steps 6-9).**  Heading: the course on the chosen side's cone edge is
 re-computed every decision (the edge moves while the aircraft turns) until the aircraft flies it
 (``|theta_t - theta_dm| < 0.01`` rad, step 8, checked as the course error); it is then *held*:
@@ -126,6 +133,7 @@ that would do (:meth:`FgaAvoider.check_vehicle`, called before the flight).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -428,7 +436,16 @@ class FgaAvoider(AvoiderBase):
         plane: str | None = None,
     ) -> Plan:
         heading = self.planner.heading_plan(
-            pos, vel, course, targets, near, rho, turn_rate, keep_side, float(ctx.course)
+            pos,
+            vel,
+            course,
+            targets,
+            near,
+            rho,
+            turn_rate,
+            keep_side,
+            float(ctx.course),
+            self._unsafe(ctx, pos),
         )
         pitch = self.planner.pitch_plan(ctx, pos, vel, course, targets, near, rho)
         plans = [p for p in (heading, pitch) if p is not None]
@@ -438,6 +455,26 @@ class FgaAvoider(AvoiderBase):
         plan = min(plans, key=lambda p: (p.plane != plane, p.cost, p.plane != "heading"))
         plan.costs = {**(heading.costs if heading else {}), **(pitch.costs if pitch else {})}
         return plan
+
+    def _unsafe(
+        self, ctx: AvoidanceContext, pos: FloatArray
+    ) -> Callable[[FloatArray], FloatArray] | None:
+        """Courses -> metres of the course held for the surveillance radius ``R`` that lie off
+        the map or in a danger zone (the context's validity; None without a map and zones)."""
+        chk = ctx.validity
+        if chk is None or (chk.grid is None and not chk.zones):
+            return None
+        reach = self.surveillance_m
+
+        def unsafe(courses: FloatArray) -> FloatArray:
+            a = np.broadcast_to(pos, (len(courses), 3))
+            b = a + reach * np.column_stack(
+                [np.sin(courses), np.cos(courses), np.zeros(len(courses))]
+            )
+            sv = chk.segments(a, b, clearance=False)
+            return np.asarray(sv.zone_lengths.sum(axis=1) + sv.off_map_lengths, dtype=np.float64)
+
+        return unsafe
 
     def _start(
         self,

@@ -10,7 +10,7 @@ escape when no course is free. :class:`replay.avoidance.fga.FgaAvoider` decides 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -43,6 +43,7 @@ FAN_DEG = 5.0  # the course fan searched when no cone edge is free
 CLIMB_MARGIN = 0.9  # the fraction of the climb / descent limit the plan counts on
 FORMATION_MPS = 3.0  # a course this slow relative to a moving obstacle flies alongside it
 TURN_CHECKS = 12  # the cheapest free courses whose turns are flown kinematically
+UNSAFE_PENALTY = 1000.0  # rad: a course off the map or into a zone after every one that is not
 
 
 @dataclass
@@ -204,6 +205,7 @@ class FgaPlanner:
         turn_rate: float,
         keep_side: tuple[FgaObstacle, int] | None = None,
         flown_from: float | None = None,
+        bad: Callable[[FloatArray], FloatArray] | None = None,
     ) -> Plan | None:
         """The smallest course change outside the union of the cones of ``near`` (module
         docstring); None when no course is free.  ``keep_side`` (an obstacle and a side): a
@@ -211,7 +213,10 @@ class FgaPlanner:
         that flips to the other side crosses its cone).  ``flown_from`` (the aircraft's course
         now): the turn onto the course is flown kinematically (:meth:`FgaPlanner.turn_separation`) and
         the cheapest course whose turn keeps ``d_m + buffer_m / 2`` is taken -- else the one
-        whose turn keeps the most."""
+        whose turn keeps the most.  ``bad`` (courses -> metres): how far the course held leaves
+        the map or runs through danger zones; a course with none is taken before any with some,
+        and when every free course has some the least is flown and the plan says so (``why``,
+        ``costs["unsafe_m"]``)."""
         horizontal = float(math.hypot(vel[0], vel[1]))
         keep = self.d_m + 2.0 * self.buffer_m
         candidates: list[tuple[float, int, str]] = []
@@ -267,6 +272,11 @@ class FgaPlanner:
                 free.append((abs(wrap(c - course)) + penalty, c, side, key))
         if not free:
             return None
+        unsafe = dict.fromkeys([f[1] for f in free], 0.0)
+        if bad is not None:
+            metres = bad(np.array(list(unsafe), dtype=np.float64))
+            unsafe = dict(zip(unsafe, metres.tolist(), strict=True))
+            free = [(f[0] + (UNSAFE_PENALTY if unsafe[f[1]] > 0 else 0.0), *f[1:]) for f in free]
         free.sort()
         if flown_from is None:
             _, c, side, key = free[0]
@@ -290,18 +300,15 @@ class FgaPlanner:
         turn = wrap(c - course)
         cost = self.t_res + abs(turn) / turn_rate
         t_c = min((e.t_c for e in targets), default=math.inf)
-        return Plan(
-            "heading",
-            side,
-            c,
-            None,
-            cost,
-            t_c,
-            key,
-            f"steer {'right' if turn > 0 else 'left'} {abs(math.degrees(turn)):.0f} deg",
-            True,
-            {"heading_s": cost},
-        )
+        why = f"steer {'right' if turn > 0 else 'left'} {abs(math.degrees(turn)):.0f} deg"
+        costs = {"heading_s": cost}
+        if unsafe[c] > 0:  # no free course keeps to the map and out of the zones
+            why += (
+                f"; no safe course: every free course leaves the map or enters a zone "
+                f"(this one {unsafe[c]:.0f} m), the least flown"
+            )
+            costs["unsafe_m"] = unsafe[c]
+        return Plan("heading", side, c, None, cost, t_c, key, why, True, costs)
 
     def pitch_plan(
         self,
