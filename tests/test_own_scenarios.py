@@ -183,3 +183,21 @@ def test_ctga_keeps_its_orbit_round_a_moving_intruder_on_a_small_map(sensor: str
     assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
     seps = r.metrics.as_dict()["min_separation"]
     assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+@pytest.mark.parametrize("sensor", ["cooperative", "radar"])
+def test_ctga_comes_back_to_an_intruder_left_for_the_next_body(sensor: str) -> None:
+    """Christmas Island case 1: a 57 m intruder crossing, then a 135 m sphere just beyond.
+    CTGA took up the sphere's arc as the next body and never looked at the intruder again --
+    it had been avoided once -- until it flew into it; a moving obstacle is now avoided again
+    whenever it threatens."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _flight(sensor, "own-scenarios/spso_christmas_island/ctga/1")
+    assert [t["kind"] for t in notes["threats"]] == ["intruder", "static"]
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="ctga", seed=flight.seed, sensor=sensor)
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0

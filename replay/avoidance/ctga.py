@@ -423,7 +423,7 @@ class CtgaAvoider(AvoiderBase):
         arc = self._arc
         if arc is not None:
             return self._on_arc(ctx, arc, obstacles, tests, pos, speed, bank)
-        hits = [t for t in tests if t.threatened and t.obstacle.key not in self._done]
+        hits = [t for t in tests if t.threatened and self._open(t.obstacle)]
         if not hits:
             return None
         hit = min(hits, key=lambda t: t.distance - t.obstacle.radius)
@@ -434,6 +434,12 @@ class CtgaAvoider(AvoiderBase):
             clockwise, first = self._complex[0], self._complex[1]  # the same complex obstacle
         self._complex = None
         return self._start(ctx, hit, pos, course, speed, bank, clockwise, first)
+
+    def _open(self, obs: CtgaObstacle) -> bool:
+        """Whether an obstacle may be avoided (again): a stationary one once, a moving one
+        whenever it threatens -- one left for the next body of a complex obstacle may turn
+        back into the path (its threat test needs a closest approach still ahead)."""
+        return obs.moving or obs.key not in self._done
 
     def _side(
         self,
@@ -564,9 +570,7 @@ class CtgaAvoider(AvoiderBase):
         others = [
             t
             for t in tests
-            if t.threatened
-            and t.obstacle.key != arc.obstacle.key
-            and t.obstacle.key not in self._done
+            if t.threatened and t.obstacle.key != arc.obstacle.key and self._open(t.obstacle)
         ]
         if others:
             nxt = min(others, key=lambda t: t.distance - t.obstacle.radius)
