@@ -353,3 +353,47 @@ def test_a_solid_met_by_one_beam_is_gone_round_at_r_safe() -> None:
     )
     assert r.decisions and all(d["obstacle"].startswith("tower") for d in r.decisions)
     assert r.metrics.success and r.metrics.min_separation["tower"]["value"] > 2.0
+
+
+def test_a_solids_pieces_cover_the_hull_of_its_returns() -> None:
+    """Issue 34: a wide solid seen at a few surface points (its nearest point and outline edges
+    over a few scans) is cut into pieces that cover the gaps between the points: every point
+    of the hull lies inside a piece's circle (returns 1.5 km apart left a gap the path ran
+    through on the Jacksboro case)."""
+    from replay.avoidance.ctga import CtgaAvoider
+
+    ctga = CtgaAvoider()
+    rng = np.random.default_rng(7)
+    ang = rng.uniform(-1.2, 1.2, 9)
+    xy = np.column_stack([5000.0 + 1100.0 * np.cos(ang), 3000.0 + 1100.0 * np.sin(ang)])
+    parts = ctga._hull_parts(xy)
+    assert len(parts) >= 2
+    from replay.avoidance.circles import min_enclosing_circle
+
+    circles = [min_enclosing_circle(p) for _, p in parts]
+    # points of the hull: convex combinations of the returns
+    w = rng.dirichlet(np.ones(len(xy)), 2000)
+    inside = w @ xy
+    covered = np.zeros(len(inside), dtype=bool)
+    for c in circles:
+        covered |= np.hypot(*(inside - c.center).T) <= c.radius + 1e-6
+    assert covered.all()
+
+
+def test_detection_reaches_far_enough_to_join_the_arc() -> None:
+    """R_det (700 m) grows where a wide turn round a wide obstacle could not be joined from
+    outside once found: a Cessna at 55 m/s (a 534 m turn) round a 200 m circle; a small UAS
+    keeps 700 m."""
+    from replay.avoidance.ctga import CtgaAvoider, CtgaObstacle, arc_radius, turn_radius
+
+    ctga = CtgaAvoider()
+    big = CtgaObstacle("o", (0.0, 0.0), 200.0)
+    turn = turn_radius(55.0, 30.0)
+    arc = arc_radius(200.0, ctga.r_safe, 55.0, 30.0)
+    r_det = ctga._detection(big, 55.0, 30.0, turn)
+    assert r_det > 700.0
+    # found at R_det + R_obs on a head-on course, the turn away still meets the arc outside
+    d = r_det + 200.0 - 55.0 * (2.0 + ctga.period)
+    assert math.hypot(d, turn) >= turn + arc
+    small = CtgaObstacle("s", (0.0, 0.0), 50.0)
+    assert ctga._detection(small, 15.0, 30.0, turn_radius(15.0, 30.0)) == 700.0

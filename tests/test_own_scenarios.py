@@ -201,3 +201,19 @@ def test_ctga_comes_back_to_an_intruder_left_for_the_next_body(sensor: str) -> N
     assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
     seps = r.metrics.as_dict()["min_separation"]
     assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+def test_ctga_goes_round_a_wide_body_seen_by_the_radar() -> None:
+    """Jacksboro case 1: a Cessna at its cruise speed and a 1.1 km convex body.  The radar's
+    returns on it, cut into 1 km pieces, left a gap between pieces that the path ran through
+    (80 m deep); the pieces now cover the hull of the returns."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _flight("radar", "own-scenarios/mpl_jacksboro_fault/ctga/1")
+    assert [t["kind"] for t in notes["threats"]] == ["body"] and notes["vehicle"] == "cessna172"
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="ctga", seed=flight.seed, sensor="radar")
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0

@@ -65,6 +65,13 @@ projection (``d cos(lambda)`` is the along-track distance from the leg's start `
 orbit's altitude is re-issued when it has moved 5 m (or the radius 2 %).  A moving obstacle's arc
 moves with it (the orbit's centre velocity).
 
+**Detection** (issue 34).  An obstacle threatens within ``R_det`` of its circle (the option,
+700 m; the paper sets none).  A fast aircraft with a wide turn would find a wide obstacle too
+late to join its arc from outside (the turn away needs its centre ``R_turn + R`` from the
+obstacle's, so the aircraft, heading at the obstacle, must be ``sqrt((R_turn + R)^2 -
+R_turn^2)`` from its centre): ``R_det`` is at least that, less ``R_obs``, plus the distance flown
+in ``DETECT_SCANS_S`` (a sensor scan and a margin, 2 s) and one decision period.
+
 **Leaving the arc (§3.4).**  At T3, when ``Lambda = |wrap(bearing to the next waypoint - bearing
 to the obstacle)| > 90 deg``, the aircraft flies direct to the next waypoint (a path-following law
 that re-intercepts the old leg at an angle can swing back towards the obstacle).  On an arc, a
@@ -182,6 +189,7 @@ def clockwise_for(delta: float) -> bool:
 HEAD_ON_DEG = 5.0  # a moving obstacle this close to dead ahead (relative frame): pass behind it
 
 
+DETECT_SCANS_S = 2.0  # s flown between the threat's first sight and the decision, at most
 SIDE_SAMPLES = 37  # points of a half orbit checked for zones and the map's edge (5 deg apart)
 
 
@@ -394,13 +402,23 @@ class CtgaAvoider(AvoiderBase):
     ) -> list[CtgaObstacle]:
         """A large obstacle's returns as several circles (§2.1, Figs 2, 3, 5): one per square of
         ``piece_m`` of the map grid they fall in (named ``"<id>@<i>/<j>"``, so a piece keeps its
-        name from scan to scan), each the smallest circle round its returns (+ ``pad``)."""
+        name from scan to scan), each the smallest circle round its returns (+ ``pad``).  A
+        solid's returns (a convex body, a cylinder) sample its surface, the gaps between them
+        solid too: its pieces cover the convex hull of its returns, each the smallest circle
+        round the hull's part in its square."""
         xy = st.positions[idx, :2]
-        tiles = np.floor(xy / self.piece_m).astype(np.int64)
         source = st.sources[int(idx[0])]
+        parts: list[tuple[tuple[int, int], FloatArray]] = []
+        if bool(st.extended[idx].all()) and len(xy) >= 3:
+            parts = self._hull_parts(xy)
+        if not parts:
+            tiles = np.floor(xy / self.piece_m).astype(np.int64)
+            parts = [
+                ((int(t[0]), int(t[1])), xy[(tiles == t).all(axis=1)])
+                for t in np.unique(tiles, axis=0)
+            ]
         out = []
-        for tile in np.unique(tiles, axis=0):
-            mine = xy[(tiles == tile).all(axis=1)]
+        for tile, mine in parts:
             c = min_enclosing_circle(mine)
             out.append(
                 CtgaObstacle(
@@ -411,6 +429,25 @@ class CtgaAvoider(AvoiderBase):
             )
         return out
 
+    def _hull_parts(self, xy: FloatArray) -> list[tuple[tuple[int, int], FloatArray]]:
+        """The convex hull of ``xy`` cut by the ``piece_m`` squares: (square, the vertices of
+        the hull's part in it) for every square it reaches ([] for a degenerate hull)."""
+        import shapely
+        from shapely.geometry import MultiPoint, box
+
+        hull = MultiPoint([tuple(p) for p in xy.tolist()]).convex_hull
+        if hull.geom_type != "Polygon":
+            return []
+        x0, y0, x1, y1 = hull.bounds
+        size = self.piece_m
+        out = []
+        for i in range(math.floor(x0 / size), math.floor(x1 / size) + 1):
+            for j in range(math.floor(y0 / size), math.floor(y1 / size) + 1):
+                part = hull.intersection(box(i * size, j * size, (i + 1) * size, (j + 1) * size))
+                if not part.is_empty:
+                    out.append(((i, j), np.asarray(shapely.get_coordinates(part))))
+        return out
+
     # -- decisions -------------------------------------------------------------------------------
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
         obstacles = self.obstacles(ctx)
@@ -419,7 +456,11 @@ class CtgaAvoider(AvoiderBase):
         speed = max(float(np.hypot(vel[0], vel[1])), float(ctx.airspeed))
         course = float(ctx.course)
         bank = float(getattr(ctx.vehicle, "bank_max_deg", 30.0))
-        tests = [threat_test(pos, course, vel, o, self.r_det, self.r_safe) for o in obstacles]
+        turn = turn_radius(speed, bank)
+        tests = [
+            threat_test(pos, course, vel, o, self._detection(o, speed, bank, turn), self.r_safe)
+            for o in obstacles
+        ]
         arc = self._arc
         if arc is not None:
             return self._on_arc(ctx, arc, obstacles, tests, pos, speed, bank)
@@ -434,6 +475,13 @@ class CtgaAvoider(AvoiderBase):
             clockwise, first = self._complex[0], self._complex[1]  # the same complex obstacle
         self._complex = None
         return self._start(ctx, hit, pos, course, speed, bank, clockwise, first)
+
+    def _detection(self, obs: CtgaObstacle, speed: float, bank: float, turn: float) -> float:
+        """``R_det`` for this obstacle: the option, or more where the arc could no longer be
+        joined from outside by the time the threat is found (module docstring, *Detection*)."""
+        arc = arc_radius(obs.radius, self.r_safe, speed, bank)
+        join = math.sqrt((turn + arc) ** 2 - turn**2)
+        return max(self.r_det, join - obs.radius + speed * (DETECT_SCANS_S + self.period))
 
     def _open(self, obs: CtgaObstacle) -> bool:
         """Whether an obstacle may be avoided (again): a stationary one once, a moving one
