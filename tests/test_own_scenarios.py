@@ -217,3 +217,21 @@ def test_ctga_goes_round_a_wide_body_seen_by_the_radar() -> None:
     assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
     seps = r.metrics.as_dict()["min_separation"]
     assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+def test_pso_ca_keeps_its_new_legs_above_the_terrain(shared_maps: Path) -> None:
+    """Big Tujunga case 2 (a small UAS 60 m above the highest ground near its leg, a body of
+    1.6 turn radii): PSO-CA's new waypoint, 1 km off the leg at the mission's altitude, led over
+    a higher ridge into the ground (this case's seed); g7 now counts the metres of the new legs
+    lower above the measured ground than the leg they replace."""
+    from replay.run import ReplayRequest, run_replay
+
+    key = "own-scenarios/topotoolbox_bigtujunga/pso-ca/2"
+    flight, mission, threats, _notes = _flight("cooperative", key)
+    r = run_replay(
+        ReplayRequest.of(
+            mission, threats=threats, avoid="pso-ca", seed=flight.seed, sensor="cooperative"
+        )
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    assert r.metrics.min_terrain_clearance_m > 0.0

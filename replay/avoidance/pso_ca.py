@@ -55,7 +55,9 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    The chosen optimiser of planner.optim (``pso`` = Table 2: N = 10, I = 30, w 0.09 -> 0.02,
    C1 = C2 = 2, vmax 0.1 of the zone; or ``ga``, ``sa``, ``mafoa``, ``gcpso``, ``mpso`` with
    seed 000 §6's parameters) minimises f = Wt f1 + Wo f2 under g1-g5 (and g6 for intruders),
-   and g7 (our addition): the two new legs stay on the map, over measured terrain and out of
+   and g7 (our addition): the two new legs stay on the map, over measured terrain, above the
+   ground by as much as the leg they replace (at most 50 m; not asked when the autopilot follows
+   the terrain) and out of
    the mission's danger zones (the context's ``validity``, :mod:`terrain.validity`; off the map
    the terrain is unknown), and the new waypoint lies at least a turn radius (at the bank limit)
    inside the map's edge (the turn there swings out by about that much) (:class:`~replay.avoidance.pso_ca_geometry.WaypointProblem`), stopping at 30 iterations or
@@ -274,19 +276,60 @@ def waypoint_altitude(position: FloatArray, xy: FloatArray, target: FloatArray) 
     return np.asarray(pos[2] + share * (tgt[2] - pos[2]))
 
 
+LEG_SAMPLES = 64  # points of a new leg checked against the terrain
+TERRAIN_KEEP_M = 50.0  # clearance a new leg keeps above the measured ground, at most
+
+
+def _low_legs(
+    grid: Any, position: FloatArray, target: FloatArray
+) -> Callable[[FloatArray, FloatArray], FloatArray]:
+    """Legs a -> b (M, 3) -> the metres of each that fly less than ``keep`` above the
+    measured ground (the grid's safety heights, those the flight is judged on), ``keep`` the
+    smaller of ``TERRAIN_KEEP_M`` and the least clearance of the leg replaced (position ->
+    target): a new waypoint must not lead the aircraft into terrain its mission cleared."""
+    ground = grid.safety()
+    f = np.linspace(0.0, 1.0, LEG_SAMPLES)
+
+    def heights(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
+        p = a[:, None, :] + f[None, :, None] * (b - a)[:, None, :]
+        inside = np.asarray(grid.contains(p[..., 0].ravel(), p[..., 1].ravel())).reshape(
+            p.shape[:2]
+        )
+        x = np.where(inside, p[..., 0], a[:, None, 0])
+        y = np.where(inside, p[..., 1], a[:, None, 1])
+        g = np.asarray(ground.height_at(x.ravel(), y.ravel()), dtype=np.float64)
+        clear = p[..., 2] - g.reshape(p.shape[:2])
+        return np.where(inside & np.isfinite(clear), clear, np.inf), p
+
+    now, _ = heights(position[None, :], target[None, :])
+    keep = min(TERRAIN_KEEP_M, float(np.min(now)))
+
+    def low(a: FloatArray, b: FloatArray) -> FloatArray:
+        clear, _ = heights(a, b)
+        step = np.linalg.norm(b[:, :2] - a[:, :2], axis=1) / (LEG_SAMPLES - 1)
+        return np.asarray((clear < keep).sum(axis=1) * step, dtype=np.float64)
+
+    return low
+
+
 def leg_check(
     ctx: AvoidanceContext, position: FloatArray, target: FloatArray
 ) -> Callable[[FloatArray], FloatArray] | None:
     """g7 of the waypoint search (:class:`~replay.avoidance.pso_ca_geometry.ConstraintReport`):
     for candidates (P, 2), the metres of their two new legs -- aircraft -> candidate (at
     :func:`waypoint_altitude`) -> target -- that ``ctx.validity`` refuses: off the map, over unknown terrain
-    or inside one of the mission's danger zones.  None when there is nothing to check."""
+    or inside one of the mission's danger zones -- and, without terrain following, that fly lower
+    above the measured ground than the leg they replace, or than ``TERRAIN_KEEP_M``
+    (:func:`_low_legs`).  None when there is nothing to check."""
     chk = ctx.validity
     if chk is None or (chk.grid is None and not chk.zones):
         return None
     pos, tgt = np.asarray(position, dtype=np.float64), np.asarray(target, dtype=np.float64)
     bank = math.radians(float(getattr(ctx.vehicle, "bank_max_deg", 30.0)))
     edge = float(ctx.airspeed) ** 2 / (G * math.tan(bank)) if chk.grid is not None else 0.0
+    # with terrain following the autopilot climbs over what the legs meet: no terrain term
+    following = float(getattr(ctx, "terrain_clearance", 0.0) or 0.0) > 0.0
+    low = _low_legs(chk.grid, pos, tgt) if chk.grid is not None and not following else None
 
     def violation(X: FloatArray) -> FloatArray:
         n = len(X)
@@ -295,6 +338,8 @@ def leg_check(
         b = np.vstack([wp, np.broadcast_to(tgt, (n, 3))])
         sv = chk.segments(a, b, clearance=False)
         v = sv.zone_lengths.sum(axis=1) + sv.off_map_lengths + sv.unknown_lengths
+        if low is not None:
+            v = v + low(a, b)
         out = v[:n] + v[n:]
         if edge > 0.0 and chk.grid is not None:  # the turn must not swing off the map
             xmin, ymin, xmax, ymax = chk.grid.bounds
