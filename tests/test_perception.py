@@ -368,3 +368,21 @@ def test_bad_scans_are_refused() -> None:
         Scan(**{**good.__dict__, "own_position": [0, 0]})
     with pytest.raises(InputError, match="reads a RadarPicture, a CooperativePicture or a Scan"):
         Perception().update({"ids": ()})  # type: ignore[arg-type]
+
+
+def test_a_noisy_radar_size_is_kept_with_two_standard_errors() -> None:
+    """Issue 34: the radius the radar measures of a solid sphere is inflated by its uncertainty
+    in what the avoiders read: with noise the kept radius covers the true one in at least 95 %
+    of the scans (two standard errors); noise-free it is the radius itself."""
+    from replay.sensors.radar import Radar
+    from replay.threats.kinds import StaticThreat
+
+    sphere = StaticThreat(id="s", center=(4000.0, 0.0, 100.0), radius=200.0, solid=True)
+    own = np.array([0.0, 0.0, 100.0])
+    exact = Scan.of(Radar().scan(0.0, own, (sphere,)))
+    assert exact.radii[0] == 200.0
+    radar = Radar(noise_range_m=10.0, noise_bearing_rad=0.003, seed=5)
+    kept = np.array([Scan.of(radar.scan(float(k), own, (sphere,))).radii[0] for k in range(500)])
+    sigma = math.sqrt(2.0 * (4000.0 * 0.003) ** 2 + 10.0**2)
+    assert np.mean(kept >= 200.0) >= 0.95
+    assert float(np.median(kept)) == pytest.approx(200.0 + 2.0 * sigma, abs=0.3 * sigma)

@@ -21,6 +21,11 @@ memory_s``).  ``keep`` (a mask over the scan's returns) lets the caller leave re
 memory altogether -- e.g. terrain the aircraft can climb over; a left-out return neither adds
 nor refreshes anything.
 
+**Sizes.**  What the sensor reports: the cooperative sensor's radii and tops; the radar's
+measured radius of a sphere it sees whole (a ``solid`` threat) plus two standard errors of the
+measurement (:attr:`~replay.sensors.radar.RadarPicture.radii_sigma`: an uncertain size inflates
+the distance kept), NaN for everything else.
+
 **Moving or stationary.**  As the sensor classified it (radar: seed 000 Fig. 7 on two scans;
 cooperative: the reported speed).  A return the sensor cannot classify (the radar's -1: the id
 was not in its previous picture, e.g. after an occlusion) keeps the classification its entry
@@ -178,7 +183,9 @@ class Scan:
         if isinstance(picture, RadarPicture):
             radii, tops = nan1, nan1
             if picture.radii is not None:  # spheres the radar measures (solid threats)
-                radii = picture.radii
+                # kept with two standard errors of the measurement (0 for a noise-free radar)
+                sigma = picture.radii_sigma
+                radii = picture.radii + (0.0 if sigma is None else 2.0 * sigma)
                 tops = picture.positions[:, 2] + radii
             return cls._of_sensor(
                 t=picture.t,

@@ -36,7 +36,10 @@ along the bearing of the centre), and :attr:`RadarPicture.radii` carries the rad
 from the sphere's angular width (``R = D sin(alpha)``, alpha the half-width seen at centre range
 D).  It is in line of sight when its centre, its point nearest to the aircraft or its top is
 (a sphere half sunk behind a ridge shows its top).  Every other return's radius is NaN (not measured);
-a picture without a sized return has ``radii`` None.
+a picture without a sized return has ``radii`` None.  :attr:`RadarPicture.radii_sigma` gives the
+standard error of each sized return's radius and centre together (``sqrt(2 (r sigma_b)^2 +
+sigma_r^2)``: the radius's cross-range error, the centre's cross-range and range errors); the
+avoiders' perception keeps the radius plus two of them (:mod:`replay.avoidance.perception`).
 
 **Terrain returns.**  With a terrain model, a fan of rays is cast in one
 :meth:`~terrain.model.TerrainModel.raycast` call: ``terrain_azimuths`` azimuths (360: one degree,
@@ -144,6 +147,8 @@ class RadarPicture:
     extended: BoolArray  # returns of solid bodies (cylinder, prism, body)
     # measured radius of sized returns (NaN others); None: no sized return
     radii: FloatArray | None = field(default=None, kw_only=True)
+    # the standard error of each sized return's radius plus centre (0 noise-free; NaN others)
+    radii_sigma: FloatArray | None = field(default=None, kw_only=True)
 
     def __len__(self) -> int:
         return len(self.ranges)
@@ -479,7 +484,11 @@ class Radar:
         on = np.flatnonzero(np.isfinite(radii))
         if not len(on):
             return picture
+        cross = picture.ranges[on] * self.noise_bearing_rad
         if self.noise_bearing_rad > 0:
-            err = self.rng.normal(0.0, 1.0, len(on)) * picture.ranges[on] * self.noise_bearing_rad
+            err = self.rng.normal(0.0, 1.0, len(on)) * cross
             radii[on] = np.maximum(radii[on] + err, 0.0)
-        return dataclasses.replace(picture, radii=radii)
+        sigma = np.full(len(picture), np.nan)
+        # the radius's error and the centre's (range and cross-range), independent
+        sigma[on] = np.sqrt(2.0 * cross**2 + self.noise_range_m**2)
+        return dataclasses.replace(picture, radii=radii, radii_sigma=sigma)
