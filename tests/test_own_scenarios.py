@@ -235,3 +235,22 @@ def test_pso_ca_keeps_its_new_legs_above_the_terrain(shared_maps: Path) -> None:
     )
     assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
     assert r.metrics.min_terrain_clearance_m > 0.0
+
+
+def test_ctga_goes_back_to_the_body_it_left_for_a_returning_intruder() -> None:
+    """Olinda case 3: an intruder, then a body behind it.  CTGA passed from the intruder's arc to
+    the body's, the intruder came back and took over, and the body -- "done" -- was never gone
+    round again (-93 m); the body left for a returning intruder is open again."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, _notes = _flight(
+        "cooperative", "own-scenarios/stars_olinda_utm25s/ctga/3"
+    )
+    r = run_replay(
+        ReplayRequest.of(
+            mission, threats=threats, avoid="ctga", seed=flight.seed, sensor="cooperative"
+        )
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0

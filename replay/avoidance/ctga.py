@@ -486,7 +486,8 @@ class CtgaAvoider(AvoiderBase):
     def _open(self, obs: CtgaObstacle) -> bool:
         """Whether an obstacle may be avoided (again): a stationary one once, a moving one
         whenever it threatens -- one left for the next body of a complex obstacle may turn
-        back into the path (its threat test needs a closest approach still ahead)."""
+        back into the path (its threat test needs a closest approach still ahead); the body
+        left for it is then open again too (it is not passed)."""
         return obs.moving or obs.key not in self._done
 
     def _side(
@@ -622,6 +623,9 @@ class CtgaAvoider(AvoiderBase):
         ]
         if others:
             nxt = min(others, key=lambda t: t.distance - t.obstacle.radius)
+            if nxt.obstacle.key in self._done:
+                # a moving obstacle come back: the body left for it is not passed yet
+                self._done.discard(arc.obstacle.key)
             r_next = arc_radius(nxt.obstacle.radius, self.r_safe, speed, bank)
             gap = math.hypot(
                 nxt.obstacle.center[0] - current.center[0],
