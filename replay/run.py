@@ -124,7 +124,8 @@ class PreparedReplay:
 def radar_pairing(sensor: str, avoider: Any, threats: Any) -> tuple[str, ...]:
     """Start-up warnings where the radar cannot serve the avoider (issue 34): the radar sees a
     static sphere by its centre and an intruder by its position (seed 000's points), never their
-    radii, unless they are ``solid`` (then it measures them); an avoider that keeps less than a threat's radius from such a point will enter it."""
+    radii, unless they are ``solid`` (then it measures them); an avoider that keeps less than a
+    threat's radius from such a point will enter it."""
     keep = getattr(avoider, "point_keep_m", lambda: None)()
     if sensor != "radar" or keep is None:
         return ()

@@ -104,6 +104,11 @@ class SegmentValidity:
     unknown_lengths: FloatArray  # (M,) metres of each leg over unknown terrain (sampled)
     off_map_lengths: FloatArray  # (M,) metres of each leg off the map
 
+    @property
+    def outside_lengths(self) -> FloatArray:
+        """(M,) metres of each leg off the map or inside a zone (each zone counted)."""
+        return np.asarray(self.zone_lengths.sum(axis=1) + self.off_map_lengths)
+
 
 class ValidityChecker:
     """The world's validity for points and legs (module docstring).  Positions are map metres
@@ -144,6 +149,11 @@ class ValidityChecker:
         if step is None:
             step = 0.5 * min(grid.cell_size) if grid is not None else DEFAULT_STEP_M
         self.step = float(step)
+
+    @property
+    def bounded(self) -> bool:
+        """True when a leg can leave something here: a map, or danger zones."""
+        return self.grid is not None or bool(self.zones)
 
     # -- components ---------------------------------------------------------------------------------
     def on_map(self, x: npt.ArrayLike, y: npt.ArrayLike) -> BoolArray:

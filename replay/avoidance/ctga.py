@@ -502,7 +502,7 @@ class CtgaAvoider(AvoiderBase):
         """The rule's side, unless its half orbit enters a danger zone or leaves the map and the
         other half does so less (module docstring, "Direction")."""
         chk = ctx.validity
-        if chk is None or (chk.grid is None and not chk.zones):
+        if chk is None or not chk.bounded:
             return clockwise
         obs = hit.obstacle
         radius = arc_radius(obs.radius, self.r_safe, speed, bank)
@@ -524,8 +524,7 @@ class CtgaAvoider(AvoiderBase):
                     np.full(len(a), altitude),
                 ]
             )
-            sv = chk.segments(pts[:-1], pts[1:], clearance=False)
-            return float(sv.zone_lengths.sum() + sv.off_map_lengths.sum())
+            return float(chk.segments(pts[:-1], pts[1:], clearance=False).outside_lengths.sum())
 
         mine, other = bad(clockwise), bad(not clockwise)
         chosen = (not clockwise) if mine > 0.0 and other < mine else clockwise

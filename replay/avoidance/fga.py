@@ -462,7 +462,7 @@ class FgaAvoider(AvoiderBase):
         """Courses -> metres of the course held for the surveillance radius ``R`` that lie off
         the map or in a danger zone (the context's validity; None without a map and zones)."""
         chk = ctx.validity
-        if chk is None or (chk.grid is None and not chk.zones):
+        if chk is None or not chk.bounded:
             return None
         reach = self.surveillance_m
 
@@ -471,8 +471,7 @@ class FgaAvoider(AvoiderBase):
             b = a + reach * np.column_stack(
                 [np.sin(courses), np.cos(courses), np.zeros(len(courses))]
             )
-            sv = chk.segments(a, b, clearance=False)
-            return np.asarray(sv.zone_lengths.sum(axis=1) + sv.off_map_lengths, dtype=np.float64)
+            return chk.segments(a, b, clearance=False).outside_lengths
 
         return unsafe
 

@@ -290,7 +290,8 @@ def _low_legs(
     ground = grid.safety()
     f = np.linspace(0.0, 1.0, LEG_SAMPLES)
 
-    def heights(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def clearance(a: FloatArray, b: FloatArray) -> FloatArray:
+        """(M, LEG_SAMPLES) height above the ground along each leg (inf off the map)."""
         p = a[:, None, :] + f[None, :, None] * (b - a)[:, None, :]
         inside = np.asarray(grid.contains(p[..., 0].ravel(), p[..., 1].ravel())).reshape(
             p.shape[:2]
@@ -299,13 +300,12 @@ def _low_legs(
         y = np.where(inside, p[..., 1], a[:, None, 1])
         g = np.asarray(ground.height_at(x.ravel(), y.ravel()), dtype=np.float64)
         clear = p[..., 2] - g.reshape(p.shape[:2])
-        return np.where(inside & np.isfinite(clear), clear, np.inf), p
+        return np.asarray(np.where(inside & np.isfinite(clear), clear, np.inf))
 
-    now, _ = heights(position[None, :], target[None, :])
-    keep = min(TERRAIN_KEEP_M, float(np.min(now)))
+    keep = min(TERRAIN_KEEP_M, float(np.min(clearance(position[None, :], target[None, :]))))
 
     def low(a: FloatArray, b: FloatArray) -> FloatArray:
-        clear, _ = heights(a, b)
+        clear = clearance(a, b)
         step = np.linalg.norm(b[:, :2] - a[:, :2], axis=1) / (LEG_SAMPLES - 1)
         return np.asarray((clear < keep).sum(axis=1) * step, dtype=np.float64)
 
@@ -322,7 +322,7 @@ def leg_check(
     above the measured ground than the leg they replace, or than ``TERRAIN_KEEP_M``
     (:func:`_low_legs`).  None when there is nothing to check."""
     chk = ctx.validity
-    if chk is None or (chk.grid is None and not chk.zones):
+    if chk is None or not chk.bounded:
         return None
     pos, tgt = np.asarray(position, dtype=np.float64), np.asarray(target, dtype=np.float64)
     bank = math.radians(float(getattr(ctx.vehicle, "bank_max_deg", 30.0)))
@@ -337,7 +337,7 @@ def leg_check(
         a = np.vstack([np.broadcast_to(pos, (n, 3)), wp])
         b = np.vstack([wp, np.broadcast_to(tgt, (n, 3))])
         sv = chk.segments(a, b, clearance=False)
-        v = sv.zone_lengths.sum(axis=1) + sv.off_map_lengths + sv.unknown_lengths
+        v = sv.outside_lengths + sv.unknown_lengths
         if low is not None:
             v = v + low(a, b)
         out = v[:n] + v[n:]

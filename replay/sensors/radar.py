@@ -35,8 +35,8 @@ round it: its one return is the sphere's centre (range to the near surface plus 
 along the bearing of the centre), and :attr:`RadarPicture.radii` carries the radius it measures
 from the sphere's angular width (``R = D sin(alpha)``, alpha the half-width seen at centre range
 D).  It is in line of sight when its centre, its point nearest to the aircraft or its top is
-(a sphere half sunk behind a ridge shows its top).  Every other return's radius is NaN (not measured);
-a picture without a sized return has ``radii`` None.  :attr:`RadarPicture.radii_sigma` gives the
+(a sphere half sunk behind a ridge shows its top).  Every other return's radius is NaN (not
+measured); a picture without a sized return has ``radii`` None.  :attr:`RadarPicture.radii_sigma` gives the
 standard error of each sized return's radius and centre together (``sqrt(2 (r sigma_b)^2 +
 sigma_r^2)``: the radius's cross-range error, the centre's cross-range and range errors); the
 avoiders' perception keeps the radius plus two of them (:mod:`replay.avoidance.perception`).
@@ -62,8 +62,8 @@ rebuilt from the noisy range, bearing and true elevation (and is the exact point
 are 0).  Terrain cell ids come from the true hit (they stand for the tracker's association).  All
 noise comes from one ``numpy.random.default_rng(seed)``, drawn in a fixed order (ranges, then
 bearings, threat returns first, then terrain, then the radii of sized returns, whose error is
-the cross-range one, ``r * noise_bearing_rad``, clipped at 0), so the same seed and the same calls give the same
-pictures.
+the cross-range one, ``r * noise_bearing_rad``, clipped at 0), so the same seed and the same
+calls give the same pictures.
 
 **Classification** (seed 000 Fig. 7, §3.7).  A threat return whose id was in the previous picture
 is *moving* when its position changed by more than
@@ -328,8 +328,9 @@ class Radar:
             if min_clearance is None
             else _number("min_clearance", min_clearance, 0.0, False)
         )
-        ids, sources, pts, ext = self._threat_points(t, own, threats)
-        sized = self._table(threats).sized
+        table = self._table(threats)  # once: ``threats`` may be a one-pass iterable
+        ids, sources, pts, ext = self._threat_points(t, own, table.threats)
+        sized = table.sized
         if len(pts) and terrain_model is not None:
             targets, owner = pts, np.arange(len(pts))
             if sized:  # a sphere is seen when its centre, near point or top is

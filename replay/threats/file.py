@@ -325,11 +325,12 @@ class _Parser:
         r = self._require(entry, field, "radius", "safety radius in metres, > 0")
         return self.positive(r, f"{field}.radius", "a radius in metres > 0")
 
-    def _solid(self, entry: dict[str, Any], field: str) -> bool:
-        solid = entry.get("solid", False)
-        if not isinstance(solid, bool):
-            raise self.fail(f"{field}.solid", f"expected true or false, found {_found(solid)}")
-        return solid
+    def _flag(self, entry: dict[str, Any], field: str, key: str) -> bool:
+        """An optional true/false key (default false)."""
+        value = entry.get(key, False)
+        if not isinstance(value, bool):
+            raise self.fail(f"{field}.{key}", f"expected true or false, found {_found(value)}")
+        return value
 
     def _static(self, entry: dict[str, Any], field: str, common: dict[str, Any]) -> Threat:
         c = self.located(entry, field, "position", 3)
@@ -337,7 +338,7 @@ class _Parser:
             **common,
             center=(c[0], c[1], c[2]),
             radius=self._radius(entry, field),
-            solid=self._solid(entry, field),
+            solid=self._flag(entry, field, "solid"),
         )
 
     def _hill(self, entry: dict[str, Any], field: str, common: dict[str, Any]) -> Threat:
@@ -514,7 +515,7 @@ class _Parser:
                 f"exactly one; found {found}",
             )
         radius = self._radius(entry, field)
-        common = {**common, "solid": self._solid(entry, field)}
+        common = {**common, "solid": self._flag(entry, field, "solid")}
         if has_v:
             for key in ("speed", "loop"):
                 if key in entry:
@@ -547,9 +548,7 @@ class _Parser:
             f"{field}.speed",
             "a speed in m/s > 0",
         )
-        loop = entry.get("loop", False)
-        if not isinstance(loop, bool):
-            raise self.fail(f"{field}.loop", f"expected true or false, found {_found(loop)}")
+        loop = self._flag(entry, field, "loop")
         return IntruderThreat(**common, radius=radius, waypoints=wps, speed=speed, loop=loop)
 
 

@@ -178,9 +178,11 @@ class Threat:
         return rec
 
 
-def _check_solid(threat: StaticThreat | IntruderThreat) -> None:
-    if not isinstance(threat.solid, bool):
-        raise InputError(f"threat {threat.id!r} solid must be true or false; got {threat.solid!r}")
+def _check_flag(threat: Threat, name: str) -> None:
+    """A true/false field of ``threat`` (``solid``, ``loop``), refused otherwise."""
+    value = getattr(threat, name)
+    if not isinstance(value, bool):
+        raise InputError(f"threat {threat.id!r} {name} must be true or false; got {value!r}")
 
 
 def sized_radius(threat: Threat) -> float | None:
@@ -216,7 +218,7 @@ class StaticThreat(Threat):
         super().__post_init__()
         object.__setattr__(self, "center", finite_vec3(self.center, f"threat {self.id!r} position"))
         object.__setattr__(self, "radius", _positive(self.radius, f"threat {self.id!r} radius"))
-        _check_solid(self)
+        _check_flag(self, "solid")
 
     def position(self, t: npt.ArrayLike = 0.0) -> FloatArray:
         return np.broadcast_to(np.array(self.center), (*np.shape(t), 3)).copy()
@@ -635,7 +637,7 @@ class IntruderThreat(Threat):
         super().__post_init__()
         what = f"threat {self.id!r}"
         object.__setattr__(self, "radius", _positive(self.radius, f"{what} radius"))
-        _check_solid(self)
+        _check_flag(self, "solid")
         if (self.velocity_mps is None) == (self.waypoints is None):
             raise InputError(f"{what} needs either a velocity or waypoints (exactly one)")
         if self.velocity_mps is not None:
@@ -661,8 +663,7 @@ class IntruderThreat(Threat):
             raise InputError(f"{what} waypoints: a route needs at least 2 waypoints")
         object.__setattr__(self, "waypoints", wps)
         object.__setattr__(self, "speed", _positive(self.speed, f"{what} speed"))
-        if not isinstance(self.loop, bool):
-            raise InputError(f"{what} loop must be true or false; got {self.loop!r}")
+        _check_flag(self, "loop")
         w = np.array(wps + ((wps[0],) if self.loop else ()), dtype=np.float64)
         seg = np.linalg.norm(np.diff(w, axis=0), axis=1)
         object.__setattr__(self, "_w", w)
