@@ -31,7 +31,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import emit  # noqa: E402
-from replay.campaign.own import EXCLUSIONS  # noqa: E402
+from replay.campaign.buildings import EXCLUSIONS as BUILDING_EXCLUSIONS  # noqa: E402
+from replay.campaign.own import EXCLUSIONS as OWN_EXCLUSIONS  # noqa: E402
 from replay.campaign.runner import wilson  # noqa: E402
 from terrapath.runtext import failure_summary  # noqa: E402
 
@@ -43,7 +44,11 @@ PAPER_SCENARIO_MS = {
     "ctga": "paper scenario: 0.12-0.27 ms a decision (seed 001's three, bench_ctga compare)",
     "fga": "paper scenario: 0.16-0.26 ms mean a decision (seed004-table3/4, 2026-11-24)",
 }
-TARGETS = {"cooperative": 0.95, "radar": 0.90}  # issue 34, every fixed-wing avoider
+# issue 34: every fixed-wing avoider (cooperative, radar); the priority loop on its buildings
+TARGETS = {"cooperative": 0.95, "radar": 0.90, "rangefinder": 0.95}
+EXCLUSIONS = tuple(dict.fromkeys([*OWN_EXCLUSIONS, *BUILDING_EXCLUSIONS]))
+NONE_SURVIVES = "none survives"
+NO_WAY = "no way round"  # own-buildings: no wide way at the flight level
 
 
 def load(store: str) -> tuple[str, list[dict[str, Any]]]:
@@ -55,7 +60,9 @@ def load(store: str) -> tuple[str, list[dict[str, Any]]]:
     for r in rows:
         r["metrics"] = json.loads(r["metrics"]) if r["metrics"] else None
     names = {str(r["spec_name"]) for r in rows}
-    sensor = next((s for s in ("cooperative", "radar") if any(s in n for n in names)), "?")
+    sensor = next(
+        (s for s in ("cooperative", "radar", "rangefinder") if any(s in n for n in names)), "?"
+    )
     return sensor, rows
 
 
@@ -70,6 +77,7 @@ def analyse(sensor: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
         by_scenario[scenario_of(r)][r["avoider"]] = r
     dropped: Counter[str] = Counter()
     kept: set[str] = set()
+    no_way: set[str] = set()
     for sc, runs in by_scenario.items():
         notes = next(
             (
@@ -80,9 +88,11 @@ def analyse(sensor: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
             None,
         )
         rules = list(notes.get("excluded", [])) if notes else []
+        if NO_WAY in rules:
+            no_way.add(sc)
         none = runs.get("none")
         if none is not None and none["status"] == "ok" and none["success"]:
-            rules.append(EXCLUSIONS[3])
+            rules.append(NONE_SURVIVES)
         for rule in rules:
             dropped[rule] += 1
         if rules:
@@ -92,9 +102,22 @@ def analyse(sensor: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
     table: dict[tuple[str, str], list[int]] = defaultdict(lambda: [0, 0])
     failures: list[str] = []
     times: dict[str, list[float]] = defaultdict(list)
+    no_way_outcomes: dict[str, Counter[str]] = defaultdict(Counter)
     for r in rows:
         av = r["avoider"]
-        if av == "none" or scenario_of(r) not in kept:
+        if av == "none":
+            continue
+        if scenario_of(r) in no_way:
+            # no wide way at the flight level: dropped, its outcomes counted apart
+            outcome = (
+                "error"
+                if r["status"] != "ok"
+                else "goal"
+                if r["success"]
+                else str(r["end_reason"] or "?").removeprefix("ended the run: ")
+            )
+            no_way_outcomes[av][outcome] += 1
+        if scenario_of(r) not in kept:
             continue
         ok = r["status"] == "ok" and bool(r["success"])
         for key in ((av, r["row"]), (av, "all maps")):
@@ -109,10 +132,11 @@ def analyse(sensor: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
                 if r["status"] != "ok"
                 else "; ".join(failure_summary(m)) or str(r["end_reason"])
             )
+            drawn = ", ".join(
+                t["kind"] + " " + str(t["size_turns"]) + " r" for t in case.get("threats", [])
+            ) or ", ".join(f"{n} {k}" for k, n in case.get("buildings", {}).items())
             failures.append(
-                f"| {sensor} | {r['key']} | {case.get('vehicle', '?')} | "
-                f"{', '.join(t['kind'] + ' ' + str(t['size_turns']) + ' r' for t in case.get('threats', []))} | "
-                f"{why} |"
+                f"| {sensor} | {r['key']} | {case.get('vehicle', '?')} | {drawn} | {why} |"
             )
     return {
         "sensor": sensor,
@@ -122,6 +146,7 @@ def analyse(sensor: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
         "table": table,
         "failures": failures,
         "times": times,
+        "no_way": no_way_outcomes,
     }
 
 
@@ -139,9 +164,13 @@ def main() -> None:
             (
                 f"{sensor}: scenarios kept / drawn",
                 f"{a['kept']} / {a['scenarios']} (dropped: "
-                + ", ".join(f"{k} {a['dropped'][k]}" for k in (*EXCLUSIONS, "any rule"))
+                + ", ".join(
+                    f"{k} {a['dropped'][k]}"
+                    for k in (*EXCLUSIONS, "any rule")
+                    if k in a["dropped"] or k in (NONE_SURVIVES, "any rule")
+                )
                 + ")",
-                ">= 300 drawn",
+                ">= 300 drawn" if sensor in ("cooperative", "radar") else "",
             )
         )
         for (av, row), (ok, n) in sorted(
@@ -158,6 +187,14 @@ def main() -> None:
                     f"{sensor}: {av} on {row}",
                     f"{ok}/{n} ({100 * ok / max(n, 1):.1f} %, 95 % CI {100 * lo:.0f}-{100 * hi:.0f} %)",
                     target,
+                )
+            )
+        for av, outcomes in sorted(a["no_way"].items()):
+            figures.append(
+                (
+                    f"{sensor}: {av}'s outcomes where no way round (dropped)",
+                    ", ".join(f"{k} {n}" for k, n in outcomes.most_common()),
+                    "",
                 )
             )
         for av, t in sorted(a["times"].items()):

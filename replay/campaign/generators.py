@@ -23,6 +23,9 @@ count and a random generator, each returning threat records (the entries of a th
 - ``own-scenarios`` (issue 34, :mod:`replay.campaign.own`): a *case* generator of a user's kind
   of case on a real map -- a vehicle at its cruise speed, a straight mission over the terrain,
   one or two threats on its path sized in turn radii; its rows are ``maps: [...]``.
+- ``own-buildings`` (issue 34, :mod:`replay.campaign.buildings`): a *case* generator for the
+  priority loop -- a quadrotor among real (Bubenec) or drawn buildings on real terrain, start and
+  target in the open with something in the way; its rows are layouts, ``maps: [...]``.
 - ``seed004-table2`` (seed 004 §II-C, Table II): a *case* generator -- each case is the
   aircraft's leg and its 10-20 obstacles, static cylinders or moving aircraft, with the number of
   true hazards drawn from Tables III / IV (:mod:`replay.campaign.seed004`).  A spec that uses it
@@ -43,8 +46,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from replay.campaign.buildings import LAYOUTS, buildings_case, check_layout
+from replay.campaign.buildings import VERSION as BUILDINGS_VERSION
+from replay.campaign.own import MAPS as OWN_MAPS
 from replay.campaign.own import VERSION as OWN_VERSION
-from replay.campaign.own import own_case
+from replay.campaign.own import map_path, own_case
 from replay.campaign.seed004 import GENERATOR_VERSION as SEED004_VERSION
 from replay.campaign.seed004 import seed004_case
 from replay.threats.file import COMMON_KEYS, KIND_KEYS
@@ -275,6 +281,10 @@ class CaseGenerator:
     make: Callable[[np.random.Generator, Any], tuple[dict[str, Any], list[dict[str, Any]], Any]]
     version: int
     rows: str = "dynamic"
+    # rows="maps": the row names a spec may give (default every one) and the check of one on
+    # this machine (an InputError naming what is missing)
+    maps: tuple[str, ...] = ()
+    check: Callable[[str], Any] | None = None
 
 
 def _seed004(
@@ -287,9 +297,20 @@ def _own(rng: np.random.Generator, row: Any) -> tuple[dict[str, Any], list[dict[
     return own_case(rng, str(row.map))
 
 
+def _buildings(
+    rng: np.random.Generator, row: Any
+) -> tuple[dict[str, Any], list[dict[str, Any]], Any]:
+    return buildings_case(rng, str(row.map))
+
+
 CASE_GENERATORS: Mapping[str, CaseGenerator] = {
     "seed004-table2": CaseGenerator(_seed004, SEED004_VERSION),
-    "own-scenarios": CaseGenerator(_own, OWN_VERSION, rows="maps"),
+    "own-scenarios": CaseGenerator(
+        _own, OWN_VERSION, rows="maps", maps=tuple(OWN_MAPS), check=map_path
+    ),
+    "own-buildings": CaseGenerator(
+        _buildings, BUILDINGS_VERSION, rows="maps", maps=tuple(LAYOUTS), check=check_layout
+    ),
 }
 
 __all__ = [

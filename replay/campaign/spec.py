@@ -78,7 +78,7 @@ class Row:
     count: int | None = None
     file: Path | None = None
     dynamic: bool | None = None  # a case generator's row: its static or its dynamic set
-    map: str | None = None  # own-scenarios' row: the map
+    map: str | None = None  # own-scenarios' row: the map (own-buildings': the layout)
 
 
 @dataclass(frozen=True)
@@ -423,7 +423,8 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
     if gen in CASE_GENERATORS and CASE_GENERATORS[gen].rows == "maps":
         return gen, Params(), _map_rows(src, gen, doc)
     if "maps" in doc:
-        raise _fail(src, "threats.maps", f"only own-scenarios takes it, not {gen!r}")
+        takes = " and ".join(k for k, g in CASE_GENERATORS.items() if g.rows == "maps")
+        raise _fail(src, "threats.maps", f"only {takes} take it, not {gen!r}")
     if gen in CASE_GENERATORS:
         if "counts" in doc:
             raise _fail(
@@ -470,20 +471,21 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
 
 
 def _map_rows(src: Path, gen: str, doc: dict[str, Any]) -> tuple[Row, ...]:
-    """``own-scenarios``' rows: the maps (default every one), each present on this machine."""
-    from replay.campaign.own import MAPS, map_path
-
+    """A map-row generator's rows (``own-scenarios``: the maps; ``own-buildings``: the
+    layouts), default every one, each present on this machine."""
+    g = CASE_GENERATORS[gen]
     for key in ("counts", "dynamic"):
         if key in doc:
             raise _fail(src, f"threats.{key}", f"{gen!r} draws its own cases: give 'maps' instead")
-    names = doc.get("maps", list(MAPS))
+    names = doc.get("maps", list(g.maps))
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         raise _fail(src, "threats.maps", f"expected a list of map names, found {names!r}")
     if len(set(names)) != len(names):
         raise _fail(src, "threats.maps", f"a map is repeated: {names}")
     for i, n in enumerate(names):
         try:
-            map_path(n)
+            if g.check is not None:
+                g.check(n)
         except InputError as exc:
             raise _fail(src, f"threats.maps[{i}]", str(exc)) from None
     return tuple(Row(n, map=n) for n in names)
