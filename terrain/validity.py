@@ -248,7 +248,11 @@ class ValidityChecker:
             length = np.linalg.norm(p1 - p0, axis=1)
             n = np.maximum(1, np.ceil(length / self.step).astype(np.int64))
             seg = np.repeat(np.arange(m), n + 1)
-            frac = np.concatenate([np.linspace(0.0, 1.0, k + 1) for k in n.tolist()])
+            # np.linspace(0, 1, k + 1) of every leg at once, bit for bit: i * (1 / k), the last 1
+            first = np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)
+            i = np.arange(len(seg)) - first
+            frac = i * (1.0 / n)[seg]
+            frac[i == n[seg]] = 1.0
             pts = p0[seg] + (p1 - p0)[seg] * frac[:, None]
             times = None if t is None else np.full(len(pts), float(t))
             pv = self.points(pts, times, zones=clearance)

@@ -694,9 +694,14 @@ def search_grid(problem: WaypointProblem, step: float) -> FloatArray:
     ys = np.arange(lo[1], hi[1] + 0.5 * step, step)
     gx, gy = np.meshgrid(xs, ys, indexing="xy")
     pts = np.column_stack([gx.ravel(), gy.ravel()])
+    from scipy.spatial import cKDTree
+
+    limit = problem.params.search_limit
     c = problem.search_centres()
-    d = np.sqrt(((pts[:, None, :] - c[None]) ** 2).sum(-1)).min(axis=1)
-    return np.asarray(pts[d <= problem.params.search_limit])
+    # the nearest centre of each point (a k-d tree: many centres, e.g. terrain returns); the
+    # bound is only a pruning hint, the test is the exact distance
+    d, _ = cKDTree(c).query(pts, k=1, distance_upper_bound=limit * (1.0 + 1e-9) + 1e-9)
+    return np.asarray(pts[d <= limit])
 
 
 def brute_force_waypoint(
