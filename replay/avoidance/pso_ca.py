@@ -86,6 +86,20 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    waypoint would otherwise make every candidate infeasible.  No waypoint is skipped for an
    intruder (Fig. 5 applies near_end_waypoint to stationary obstacles).  A decision for an
    intruder is not repeated for ``moving_hold_s`` (10 s).
+
+   *Measured intruders* (issue 34; ``scale`` on and a size the sensor measures: the cooperative
+   sensor's, or the radar's solid sphere).  Such a body can be as large as the map is small (a
+   151 m sphere crossing a 510 m leg on the 592 m Bubenec map at 12 m/s): the sphere round its
+   current position says nothing of where it will be when the new legs are flown, and the
+   paper's waypoint, clear of it now, led the aircraft into its path (the own suite's
+   ``momepy_bubenec/pso-ca/3`` and ``/4``: 52 m and 34 m inside).  So (a) it is a hit also when
+   its predicted closest approach along the current leg comes within its sphere (not only when
+   the leg meets the sphere where it is now), and (b) g7 adds, for each candidate, the metres by
+   which the two new legs -- flown at the airspeed, straight, the intruder at its track's
+   constant velocity -- come closer than its sphere plus a turn radius (at least the leg
+   margin) to it, each leg judged in the intruder's frame (:func:`moving_check`; the first leg
+   as g5 when the aircraft is already that close).  The paper's point intruders (the radar's
+   unsized ones, seed 000's benches) keep the paper's test.
 7. **When the paper's search fails** (our addition; measured on the Table 6 protocol, where
    failed decisions -- up to 1138 in ten 100-obstacle runs -- left the aircraft on a leg through
    a safety sphere in every failed run):
@@ -316,6 +330,51 @@ def _low_legs(
         return np.asarray((clear < keep).sum(axis=1) * step, dtype=np.float64)
 
     return low
+
+
+def moving_check(
+    position: FloatArray,
+    target: FloatArray,
+    centre: FloatArray,
+    velocity: FloatArray,
+    keep: float,
+    speed: float,
+) -> Callable[[FloatArray], FloatArray]:
+    """For candidates (P, 2), the metres by which the two new legs -- flown at ``speed`` from
+    ``position`` to the candidate, then on to ``target`` -- come closer than ``keep`` to an
+    intruder at ``centre`` moving at ``velocity`` (constant), each leg in the intruder's frame
+    (the aircraft's relative track: a straight segment per leg), summed over the two legs
+    (step 6, measured intruders).  An aircraft already closer than ``keep`` may not get any
+    closer on the first leg (1 m slack), as g5."""
+    pos = np.asarray(position, dtype=np.float64)[:2]
+    tgt = np.asarray(target, dtype=np.float64)[:2]
+    c = np.asarray(centre, dtype=np.float64)[:2]
+    v = np.asarray(velocity, dtype=np.float64)[:2]
+    v_own = max(float(speed), 1e-3)
+    need_in = min(keep, float(np.hypot(*(pos - c))) - 1.0)
+    origin = np.zeros((1, 2))
+
+    def violation(X: FloatArray) -> FloatArray:
+        p = np.asarray(X, dtype=np.float64).reshape(-1, 2)
+        t1 = np.hypot(*(p - pos).T) / v_own
+        t2 = t1 + np.hypot(*(tgt - p).T) / v_own
+        r0 = np.broadcast_to(pos - c, p.shape)
+        r1 = p - c - t1[:, None] * v
+        r2 = tgt - c - t2[:, None] * v
+        d_in = segment_clearance(r0, r1, origin)[:, 0]
+        d_out = segment_clearance(r1, r2, origin)[:, 0]
+        return np.asarray(
+            np.clip(need_in - d_in, 0.0, None) + np.clip(keep - d_out, 0.0, None),
+            dtype=np.float64,
+        )
+
+    return violation
+
+
+def _both(
+    f: Callable[[FloatArray], FloatArray], g: Callable[[FloatArray], FloatArray]
+) -> Callable[[FloatArray], FloatArray]:
+    return lambda X: np.asarray(f(X) + g(X), dtype=np.float64)
 
 
 def leg_check(
@@ -734,16 +793,19 @@ class PsoCaAvoider(AvoiderBase):
                 else max(self.moving_rs, self.moving_point_rs)
             )
             side = self._sides.get(ident, 0)
+            # the predicted closest approach along the current leg
+            rel_p, rel_v = xy - pos, vel - leg / leg_len * speed_own
+            vv = float(rel_v @ rel_v)
+            t_cpa = -float(rel_p @ rel_v) / vv if vv > 0 else 0.0
+            t_cpa = min(t_cpa, leg_len / speed_own)
+            meets = t_cpa > 0.0 and float(np.hypot(*(rel_p + rel_v * t_cpa))) < rs_m
             if side:
-                # re-test on the predicted closest approach along the current leg
-                rel_p, rel_v = xy - pos, vel - leg / leg_len * speed_own
-                vv = float(rel_v @ rel_v)
-                t_cpa = -float(rel_p @ rel_v) / vv if vv > 0 else 0.0
-                t_cpa = min(t_cpa, leg_len / speed_own)
-                if t_cpa <= 0.0 or float(np.hypot(*(rel_p + rel_v * t_cpa))) >= rs_m:
+                if not meets:  # re-tested on the predicted closest approach
                     continue
             else:
-                if segment_clearance(pos[None, :], target[None, :], xy[None, :])[0, 0] >= rs_m:
+                now = segment_clearance(pos[None, :], target[None, :], xy[None, :])[0, 0] < rs_m
+                # a measured intruder (scale on) is also caught by where it is going
+                if not (now or (meets and math.isfinite(size) and self.scale)):
                     continue
                 speed = float(np.hypot(*vel))
                 lateral = (leg[0] * vel[1] - leg[1] * vel[0]) / leg_len  # > 0: moving left
@@ -986,6 +1048,19 @@ class PsoCaAvoider(AvoiderBase):
         mine = np.array([k in hit.ids for k in keys], dtype=bool)
         near = np.zeros(len(keys), dtype=bool)  # stays empty for an intruder: always clean
         world = leg_check(ctx, np.asarray(ctx.position, dtype=np.float64), target)
+        track = st.track(hit.ids[0]) if hit.moving else None
+        if track is not None and self.scale and math.isfinite(float(st.radii[st.index[track.id]])):
+            # a measured intruder (scale on): the legs judged where it will be when they are
+            # flown, not only round where it is (step 6); g7 carries it beside the world's
+            moved = moving_check(
+                pos,
+                target[:2],
+                track.positions[-1, :2],
+                track.velocity[:2],
+                hit.rs + max(params.leg_margin, params.turn_radius),
+                params.speed,
+            )
+            world = moved if world is None else _both(world, moved)
         for search in range(MERGE_ROUNDS):
             others_list = [*pts[~mine], *moving_xy] if len(pts) else list(moving_xy)
             others = np.array(others_list) if others_list else np.zeros((0, 2))

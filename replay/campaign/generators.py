@@ -23,6 +23,7 @@ count and a random generator, each returning threat records (the entries of a th
 - ``own-scenarios`` (issue 34, :mod:`replay.campaign.own`): a *case* generator of a user's kind
   of case on a real map -- a vehicle at its cruise speed, a straight mission over the terrain,
   one or two threats on its path sized in turn radii; its rows are ``maps: [...]``.
+  ``own-planned``: the same, the mission the path ``terrapath plan`` gives between the leg's ends.
 - ``own-buildings`` (issue 34, :mod:`replay.campaign.buildings`): a *case* generator for the
   priority loop -- a quadrotor among real (Bubenec) or drawn buildings on real terrain, start and
   target in the open with something in the way; its rows are layouts, ``maps: [...]``.
@@ -297,6 +298,12 @@ def _own(rng: np.random.Generator, row: Any) -> tuple[dict[str, Any], list[dict[
     return own_case(rng, str(row.map))
 
 
+def _own_planned(
+    rng: np.random.Generator, row: Any
+) -> tuple[dict[str, Any], list[dict[str, Any]], Any]:
+    return own_case(rng, str(row.map), planned=True)
+
+
 def _buildings(
     rng: np.random.Generator, row: Any
 ) -> tuple[dict[str, Any], list[dict[str, Any]], Any]:
@@ -307,6 +314,9 @@ CASE_GENERATORS: Mapping[str, CaseGenerator] = {
     "seed004-table2": CaseGenerator(_seed004, SEED004_VERSION),
     "own-scenarios": CaseGenerator(
         _own, OWN_VERSION, rows="maps", maps=tuple(OWN_MAPS), check=map_path
+    ),
+    "own-planned": CaseGenerator(
+        _own_planned, OWN_VERSION, rows="maps", maps=tuple(OWN_MAPS), check=map_path
     ),
     "own-buildings": CaseGenerator(
         _buildings, BUILDINGS_VERSION, rows="maps", maps=tuple(LAYOUTS), check=check_layout

@@ -28,6 +28,15 @@ altitude: the highest ground within ``CORRIDOR_TURNS`` (8) turn radii of the leg
 ``clamp(1.5 r, 60, 150)`` m (the issue's 150 m over mountains, 60 m for a small UAS on a small
 map).
 
+**Planned missions** (``own-planned``, the same rows): the vehicle and the leg are drawn as
+above; the mission is then the path ``terrapath plan`` gives between the leg's ends (AMPSO from
+a seed drawn next, the planner's own altitudes -- 150 m over the terrain round each end -- and
+clearance, 6 free waypoints or fewer when the planner refuses legs that short for the vehicle's
+turns), redrawn (next vehicle) when the plan is not feasible or its top is within
+``CEILING_MARGIN_M`` of the vehicle's ceiling.  The threats below are drawn on that path: "the
+leg" is the planned polyline (a fraction of its length, the offset square to its leg there, at
+its altitude there).
+
 **Threats**: one or two (equally likely), each placed at a fraction ``U(0.35, 0.75)`` of the leg
 (the second at least ``2 (R1 + R2)`` further on when it fits, else one threat), laterally offset
 from it by ``U(-0.8, 0.8) R`` (so the leg meets it), its size ``R = U(0.5, 5) r``, and of a kind
@@ -271,11 +280,64 @@ def _extent(rec: dict[str, Any]) -> float:
     return float(rec["radius"])
 
 
+def _planned(
+    map_name: str, name: str, a: FloatArray, b: FloatArray, seed: int
+) -> tuple[FloatArray, dict[str, Any]] | None:
+    """``own-planned``'s mission: the path ``terrapath plan`` gives from ``a`` to ``b`` (map
+    metres, the altitudes its own: ``cruise_agl`` over the terrain round each end) for the
+    vehicle at its cruise speed, AMPSO from ``seed`` with 6 free waypoints (fewer when the
+    planner refuses legs that short for the vehicle's turns); (waypoints (K, 3), the mission
+    document) or None when the plan is not feasible or refused."""
+    from planner.mission import mission_to_dict
+    from planner.pipeline import PlanRequest, plan_mission
+    from replay.flight.fixedwing.presets import load_vehicle
+
+    params = load_vehicle(name)
+    v = float(params.cruise_speed)
+    outcome = None
+    for n in range(6, 0, -1):  # the planner refuses legs shorter than two of its turns: fewer
+        request = PlanRequest(
+            dem=(str(map_path(map_name)),),
+            start=(float(a[0]), float(a[1])),
+            goal=(float(b[0]), float(b[1])),
+            performance=params.performance(v, (0.0, 0.0)),
+            performance_at=lambda low, high: params.performance(v, (low, high)),
+            vehicle=name,
+            map_coords=True,
+            n_waypoints=n,
+            seed=seed,
+            name=f"own-planned-{map_name}",
+        )
+        try:
+            outcome = plan_mission(request)
+            break
+        except InputError as exc:
+            if "--waypoints" not in str(exc):
+                return None
+    if outcome is None or not outcome.result.feasible:
+        return None
+    doc = mission_to_dict(outcome.mission)
+    doc.pop("plan", None)
+    return np.asarray(outcome.mission.waypoints, dtype=np.float64), doc
+
+
+def _along_path(w: FloatArray, s: float) -> tuple[FloatArray, FloatArray, float]:
+    """The point of the polyline ``w`` (K, 3) at horizontal arc length ``s``: (x, y), the unit
+    direction of its leg there, its altitude."""
+    seg = np.hypot(*np.diff(w[:, :2], axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    i = int(np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1))
+    u = (s - cum[i]) / max(seg[i], 1e-9)
+    p = w[i] + u * (w[i + 1] - w[i])
+    d = (w[i + 1, :2] - w[i, :2]) / max(seg[i], 1e-9)
+    return p[:2], d, float(p[2])
+
+
 def own_case(
-    rng: np.random.Generator, map_name: str
+    rng: np.random.Generator, map_name: str, planned: bool = False
 ) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any]]:
     """One scenario on ``map_name`` (module docstring): (mission document, threat records,
-    notes)."""
+    notes); ``planned``: ``own-planned``'s (the mission a plan, the threats on its path)."""
     grid = _grid(map_name)
     xmin, ymin, xmax, ymax = grid.bounds
     side = min(xmax - xmin, ymax - ymin)
@@ -297,12 +359,19 @@ def own_case(
         z = float(ground + clearance)
         if _ceiling(name) < z + CEILING_MARGIN_M:
             continue
+        if planned:
+            made = _planned(map_name, name, a, b, int(rng.integers(2**31)))
+            if made is None:
+                continue
+            path, planned_doc = made
+            if _ceiling(name) < float(path[:, 2].max()) + CEILING_MARGIN_M:
+                continue
         break
     else:
         raise InputError(f"own-scenarios: no vehicle and leg fit map {map_name!r}")
-    length = float(np.linalg.norm(b - a))
-    direction = (b - a) / length
-    normal = np.array([-direction[1], direction[0]])
+    if not planned:
+        path = np.array([[a[0], a[1], z], [b[0], b[1], z]])
+    length = float(np.hypot(*np.diff(path[:, :2], axis=0).T).sum())
     n = 1 if rng.random() < 0.5 else 2
     kinds = list(KIND_WEIGHTS)
     weights = np.array([KIND_WEIGHTS[k] for k in kinds])
@@ -320,8 +389,12 @@ def own_case(
             if along > PLACE_SPAN[1] * length:
                 break
         offset = float(rng.uniform(-OFFSET_SHARE, OFFSET_SHARE) * radius)
-        centre = a + direction * along + normal * offset
-        rec, kind = _threat(k, kind, centre, radius, z, direction, along / speed, speed, grid, rng)
+        on, direction, z_at = _along_path(path, along)
+        normal = np.array([-direction[1], direction[0]])
+        centre = on + normal * offset
+        rec, kind = _threat(
+            k, kind, centre, radius, z_at, direction, along / speed, speed, grid, rng
+        )
         records.append(rec)
         drawn.append(
             {
@@ -331,13 +404,14 @@ def own_case(
                 "along_m": round(along, 1),
                 "offset_m": round(offset, 1),
                 "_centre": centre,
+                "_normal": normal,
                 "_extent": _extent(rec),
             }
         )
         along_prev, radius_prev = along, radius
     excluded = _exclusions(grid, a, b, drawn, r, speed)
     for d in drawn:
-        d.pop("_centre"), d.pop("_extent")
+        d.pop("_centre"), d.pop("_normal"), d.pop("_extent")
     doc = {
         "terrapath": 1,
         "name": f"own-{map_name}",
@@ -347,13 +421,17 @@ def own_case(
         "cruise": {"speed": speed, "altitude": z},
         "waypoints": [[float(a[0]), float(a[1]), z], [float(b[0]), float(b[1]), z]],
     }
+    if planned:
+        doc = {**planned_doc, "name": f"own-planned-{map_name}"}
+        z = float(path[:, 2].max())
     notes = {
-        "generator": f"own-scenarios v{VERSION}",
+        "generator": f"own-{'planned' if planned else 'scenarios'} v{VERSION}",
         "map": map_name,
         "vehicle": name,
         "speed_mps": speed,
         "turn_radius_m": round(r, 2),
         "leg_m": round(length, 1),
+        **({"waypoints": len(path)} if planned else {}),
         "altitude_m": round(z, 1),
         "clearance_m": round(clearance, 1),
         "threats": drawn,
@@ -367,9 +445,6 @@ def _exclusions(
 ) -> list[str]:
     """The geometric exclusion rules a scenario meets (module docstring)."""
     out: list[str] = []
-    length = float(np.linalg.norm(b - a))
-    direction = (b - a) / length
-    normal = np.array([-direction[1], direction[0]])
     late_m = speed * (math.pi * r / (2.0 * speed) + 2.0 * SCAN_S)
     for d in drawn:
         c, e = d["_centre"], d["_extent"]
@@ -381,7 +456,7 @@ def _exclusions(
             out.append(EXCLUSIONS[1])
         room = False
         for sgn in (1.0, -1.0):
-            p = c + sgn * normal * (e + 2.0 * r)
+            p = c + sgn * d["_normal"] * (e + 2.0 * r)
             xmin, ymin, xmax, ymax = grid.bounds
             inside = xmin + r <= p[0] <= xmax - r and ymin + r <= p[1] <= ymax - r
             if inside and bool(_known(grid, p[0:1], p[1:2])[0]):

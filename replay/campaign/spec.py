@@ -423,7 +423,8 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
     if gen in CASE_GENERATORS and CASE_GENERATORS[gen].rows == "maps":
         return gen, Params(), _map_rows(src, gen, doc)
     if "maps" in doc:
-        takes = " and ".join(k for k, g in CASE_GENERATORS.items() if g.rows == "maps")
+        names = [k for k, g in CASE_GENERATORS.items() if g.rows == "maps"]
+        takes = ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
         raise _fail(src, "threats.maps", f"only {takes} take it, not {gen!r}")
     if gen in CASE_GENERATORS:
         if "counts" in doc:
