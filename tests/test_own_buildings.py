@@ -82,6 +82,18 @@ def _rect(x0: float, y0: float, x1: float, y1: float) -> list[tuple[float, float
     return [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
 
 
+def _pen(gap: float) -> list[list[tuple[float, float]]]:
+    """The box round the target with a gap of ``gap`` metres in its south wall, at x = 60."""
+    h = gap / 2.0
+    return [
+        _rect(35, 55, 37, 95),
+        _rect(35, 55, 60 - h, 57),
+        _rect(60 + h, 55, 85, 57),
+        _rect(83, 55, 85, 95),
+        _rect(35, 93, 85, 95),
+    ]
+
+
 def test_no_way_round_a_closed_box_and_the_way_out_of_a_u() -> None:
     grid = _flat()
     a, b = np.array([60.0, 15.0]), np.array([60.0, 75.0])
@@ -95,22 +107,9 @@ def test_no_way_round_a_closed_box_and_the_way_out_of_a_u() -> None:
     box = [*u, _rect(35, 93, 85, 95)]
     assert free_path_m(grid, blocked(grid, _walls(box), 10.0), a, b) is None
     # a gap narrower than the passage (6 m < 8 m) is no way; a 12 m one is
-    gap6 = [
-        _rect(35, 55, 37, 95),
-        _rect(35, 55, 57, 57),
-        _rect(63, 55, 85, 57),
-        _rect(83, 55, 85, 95),
-        _rect(35, 93, 85, 95),
-    ]
-    assert free_path_m(grid, blocked(grid, _walls(gap6), 10.0), a, b) is None
-    gap12 = [
-        _rect(35, 55, 37, 95),
-        _rect(35, 55, 54, 57),
-        _rect(66, 55, 85, 57),
-        _rect(83, 55, 85, 95),
-        _rect(35, 93, 85, 95),
-    ]
-    assert free_path_m(grid, blocked(grid, _walls(gap12), 10.0), a, b) == pytest.approx(60.0, abs=3)
+    assert free_path_m(grid, blocked(grid, _walls(_pen(6.0)), 10.0), a, b) is None
+    way = free_path_m(grid, blocked(grid, _walls(_pen(12.0)), 10.0), a, b)
+    assert way == pytest.approx(60.0, abs=3)
     # a wall whose top is BAND_M (3 m) or more below the flight level does not block
     assert not blocked(grid, _walls([_rect(35, 55, 85, 57)]), 33.5)[60, 60]
     assert blocked(grid, _walls([_rect(35, 55, 85, 57)]), 32.5)[120 - 56, 60]
