@@ -335,3 +335,23 @@ def test_a_planned_case_is_a_feasible_plan_with_its_threats_on_the_path(name: st
                 for a, b in itertools.pairwise(w)
             )
             assert near <= 0.8 * size + 1.0
+
+
+@pytest.mark.parametrize("index", [7, 21])
+def test_pso_ca_sees_a_bodys_outline_between_its_radar_points(index: int) -> None:
+    """The suite's Bubenec cases 7 and 21 (radar): a superquadric body of 3.9 (3.4) turn radii
+    on the leg.  The radar shows it by its nearest point and two tangent edges; the leg ran
+    through the body between them, farther than RS from each, and PSO-CA made no decision until
+    it was inside (55 m deep).  With the outline of the points it goes round."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _flight(
+        "radar", f"own-scenarios/momepy_bubenec/pso-ca/{index}"
+    )
+    assert [t["kind"] for t in notes["threats"]] == ["body"] and notes["excluded"] == []
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="pso-ca", seed=flight.seed, sensor="radar")
+    )
+    seps = r.metrics.as_dict()["min_separation"]
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    assert min(v["value"] for v in seps.values()) >= 0.0

@@ -9,7 +9,9 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    aircraft can fly over (below; the others are left out of the memory with ``keep``) -- so a
    piece of a hill or of a solid body that the radar saw a few scans ago still counts when it
    drops out of view behind another, and the surface of a solid body seen over time builds up
-   as a group of points.  The tracks of obstacles called moving are *intruders*; returns seen
+   as a group of points -- and, because a leg can pass between those points through the body,
+   the convex hull of a body's points joins them, sampled every RS / 2 along its boundary
+   (:func:`_outlines`; issue 34).  The tracks of obstacles called moving are *intruders*; returns seen
    for the first time (not yet classified) wait one scan.  A track's velocity is its two-fix
    fit, ``(p_now - p_prev) / (t_now - t_prev)``.  Perception is updated once per scan: asked
    again before the next scan, the avoider reasons on the same picture.
@@ -240,6 +242,56 @@ class _Hit:
     moving: bool
     side: int = 0
     point: bool = False  # kept at a point prior: flown at seed 000's distances (*Scale*)
+
+
+def _outlines(
+    keys: list[str],
+    pts: FloatArray,
+    rs: FloatArray,
+    point: BoolArray,
+    ground: BoolArray,
+    extended: BoolArray,
+) -> tuple[list[str], FloatArray, FloatArray, BoolArray, BoolArray]:
+    """The stationary points with each solid body's outline added (step 1, issue 34): the
+    radar sees a body by a few points of its surface (the nearest, the two tangent edges,
+    remembered per 100 m cell), and a leg through the body between them -- farther than RS
+    from each -- was no hit (the own suite's Bubenec bodies of 3-4 turn radii were entered by
+    up to 55 m with no decision).  The convex hull of a body's remembered points (ids
+    ``<body>@<cell>``), sampled every RS / 2 along its boundary, joins the points as
+    ``<body>~<k>`` with the body's RS: a leg that crosses the hull's outline passes within RS / 4
+    of a sample."""
+    from shapely.geometry import MultiPoint
+
+    bodies: dict[str, list[int]] = {}
+    for i in np.flatnonzero(extended).tolist():
+        bodies.setdefault(keys[i].split("@")[0], []).append(i)
+    new_keys: list[str] = []
+    new_pts: list[FloatArray] = []
+    new_rs: list[float] = []
+    for body, idx in bodies.items():
+        if len(idx) < 2:
+            continue
+        hull = MultiPoint([tuple(p) for p in pts[idx]]).convex_hull
+        line = hull.exterior if hull.geom_type == "Polygon" else hull
+        if line.length <= 0.0:
+            continue
+        r = float(rs[idx].max())
+        n = max(2, math.ceil(line.length / (0.5 * r)))
+        for k, d in enumerate(np.linspace(0.0, line.length, n, endpoint=False)):
+            q = line.interpolate(float(d))
+            new_keys.append(f"{body}~{k}")
+            new_pts.append(np.array([q.x, q.y]))
+            new_rs.append(r)
+    if not new_keys:
+        return keys, pts, rs, point, ground
+    m = len(new_keys)
+    return (
+        [*keys, *new_keys],
+        np.vstack([pts, np.array(new_pts)]),
+        np.concatenate([rs, np.array(new_rs)]),
+        np.concatenate([point, np.zeros(m, dtype=bool)]),
+        np.concatenate([ground, np.zeros(m, dtype=bool)]),
+    )
 
 
 def _room(grid: Any) -> float | None:
@@ -844,6 +896,9 @@ class PsoCaAvoider(AvoiderBase):
         rs = np.where(point, np.maximum(rs, self.point_rs), rs)
         ground = np.asarray(st.terrain[rows], dtype=bool)
         rs = np.where(ground, self.terrain_rs, rs)
+        keys, pts, rs, point, ground = _outlines(
+            keys, pts, rs, point, ground, np.asarray(st.extended[rows], dtype=bool)
+        )
         after = wps[ctx.next_index + 1, :2] if ctx.next_index + 1 < len(wps) else None
         hits = self._stationary_hits(
             pos, target, after, self._switch(ctx), keys, pts, ctx.t, rs, point, ground
