@@ -242,6 +242,7 @@ class _Hit:
     moving: bool
     side: int = 0
     point: bool = False  # kept at a point prior: flown at seed 000's distances (*Scale*)
+    measured: bool = False  # an intruder whose size the sensor measures, scale on (step 6)
 
 
 def _outlines(
@@ -845,6 +846,7 @@ class PsoCaAvoider(AvoiderBase):
                 else max(self.moving_rs, self.moving_point_rs)
             )
             side = self._sides.get(ident, 0)
+            measured = math.isfinite(size) and self.scale
             # the predicted closest approach along the current leg
             rel_p, rel_v = xy - pos, vel - leg / leg_len * speed_own
             vv = float(rel_v @ rel_v)
@@ -857,7 +859,7 @@ class PsoCaAvoider(AvoiderBase):
             else:
                 now = segment_clearance(pos[None, :], target[None, :], xy[None, :])[0, 0] < rs_m
                 # a measured intruder (scale on) is also caught by where it is going
-                if not (now or (meets and math.isfinite(size) and self.scale)):
+                if not (now or (meets and measured)):
                     continue
                 speed = float(np.hypot(*vel))
                 lateral = (leg[0] * vel[1] - leg[1] * vel[0]) / leg_len  # > 0: moving left
@@ -869,7 +871,7 @@ class PsoCaAvoider(AvoiderBase):
                     side = -1 if left_of_leg else 1  # head-on: pass on the other side
             dist = float(np.hypot(*(xy - pos)))
             prior = not math.isfinite(size) and self.moving_point_rs > self.moving_rs
-            out.append(_Hit(key, dist, xy[None, :], (ident,), rs_m, True, side, prior))
+            out.append(_Hit(key, dist, xy[None, :], (ident,), rs_m, True, side, prior, measured))
         return out
 
     def decide(self, ctx: AvoidanceContext) -> AvoidanceDecision | None:
@@ -910,8 +912,7 @@ class PsoCaAvoider(AvoiderBase):
             t_k = self._critical_start(ctx, st, hit)
             if t_k > CRITICAL_PERIOD_S:
                 return None  # seed 004 §III-B4: not yet; the radar's next scan looks again
-        # a terrain return's own circle, for the merges of step 4 (inf: a threat's, the hit's)
-        return self._avoid(ctx, st, hit, keys, pts, np.where(ground, self.terrain_rs, np.inf))
+        return self._avoid(ctx, st, hit, keys, pts, ground)
 
     def _critical_start(self, ctx: AvoidanceContext, st: PerceptionState, hit: _Hit) -> float:
         """Seconds until seed 004's critical start ``t_k = t_c - t_res`` (eqs 7-8, as FGA
@@ -957,7 +958,7 @@ class PsoCaAvoider(AvoiderBase):
         hit: _Hit,
         keys: list[str],
         pts: FloatArray,
-        ground_rs: FloatArray,
+        ground: BoolArray,
     ) -> AvoidanceDecision:
         wps = ctx.waypoints
         pos = np.asarray(ctx.position[:2], dtype=np.float64)
@@ -981,7 +982,7 @@ class PsoCaAvoider(AvoiderBase):
             switch_distance=self._switch(ctx),
         )
         self._grid_evaluations = 0
-        sol = self._solve(ctx, st, hit, keys, pts, ground_rs, params, "paper", ctx.next_index)
+        sol = self._solve(ctx, st, hit, keys, pts, ground, params, "paper", ctx.next_index)
         narrow = replace(params, tolerance=params.leg_margin)
         use_narrow = self.narrow and params.tolerance > params.leg_margin
         stages = [("narrow", narrow, 0)] if use_narrow else []
@@ -997,7 +998,7 @@ class PsoCaAvoider(AvoiderBase):
             if (sol.feasible and sol.clean) or ctx.next_index + extra >= len(ctx.waypoints):
                 break
             sol = self._solve(
-                ctx, st, hit, keys, pts, ground_rs, stage_params, stage, ctx.next_index + extra
+                ctx, st, hit, keys, pts, ground, stage_params, stage, ctx.next_index + extra
             )
             tried.append(sol)
         # the first search whose legs clear every known point, else the first that meets g1-g7
@@ -1084,7 +1085,7 @@ class PsoCaAvoider(AvoiderBase):
         hit: _Hit,
         keys: list[str],
         pts: FloatArray,
-        ground_rs: FloatArray,
+        ground: BoolArray,
         params: PsoCaParams,
         stage: str,
         first: int,
@@ -1103,10 +1104,10 @@ class PsoCaAvoider(AvoiderBase):
         mine = np.array([k in hit.ids for k in keys], dtype=bool)
         near = np.zeros(len(keys), dtype=bool)  # stays empty for an intruder: always clean
         world = leg_check(ctx, np.asarray(ctx.position, dtype=np.float64), target)
-        track = st.track(hit.ids[0]) if hit.moving else None
-        if track is not None and self.scale and math.isfinite(float(st.radii[st.index[track.id]])):
+        if hit.measured:
             # a measured intruder (scale on): the legs judged where it will be when they are
             # flown, not only round where it is (step 6); g7 carries it beside the world's
+            track = st.track(hit.ids[0])
             moved = moving_check(
                 pos,
                 target[:2],
@@ -1130,7 +1131,7 @@ class PsoCaAvoider(AvoiderBase):
             # trigger the next decision, whose waypoint leads back here: avoid them together
             a, b = np.vstack([pos, xy]), np.vstack([xy, target[:2]])
             # each point by its own circle (a terrain return's is a turn radius, step 2)
-            keep = np.minimum(ground_rs, hit.rs) + params.leg_margin
+            keep = np.where(ground, min(self.terrain_rs, hit.rs), hit.rs) + params.leg_margin
             near = (segment_clearance(a, b, pts).min(axis=0) < keep) & ~mine
             if not near.any() or search == MERGE_ROUNDS - 1:
                 break

@@ -209,14 +209,24 @@ def _crosses(grid: Any, blk: BoolArray, a: FloatArray, b: FloatArray) -> bool:
     return bool(blk[r, c].any())
 
 
-def free_path_m(grid: Any, blk: BoolArray, a: FloatArray, b: FloatArray) -> float | None:
-    """The shortest 8-connected path (m) from ``a`` to ``b`` through cells farther than
-    ``PASSAGE_M / 2`` from every blocked cell; None when there is none (``no way round``)."""
+def clearance_m(grid: Any, blk: BoolArray) -> FloatArray:
+    """Each cell's distance (m) to the nearest blocked cell of ``blk``."""
     from scipy.ndimage import distance_transform_edt
+
+    dx, dy = grid.cell_size
+    return np.asarray(distance_transform_edt(~blk, sampling=(dy, dx)), dtype=np.float64)
+
+
+def free_path_m(
+    grid: Any, blk: BoolArray, a: FloatArray, b: FloatArray, clear: FloatArray | None = None
+) -> float | None:
+    """The shortest 8-connected path (m) from ``a`` to ``b`` through cells farther than
+    ``PASSAGE_M / 2`` from every blocked cell; None when there is none (``no way round``).
+    ``clear``: :func:`clearance_m` of ``blk`` when the caller has it."""
     from scipy.sparse import csgraph, csr_matrix
 
     dx, dy = grid.cell_size
-    free = distance_transform_edt(~blk, sampling=(dy, dx)) > PASSAGE_M / 2.0
+    free = (clearance_m(grid, blk) if clear is None else clear) > PASSAGE_M / 2.0
     ra, rb = _cell(grid, a), _cell(grid, b)
     if not (free[ra] and free[rb]):
         return None
@@ -249,10 +259,7 @@ def buildings_case(
     grid = _grid(layout)
     fixed = LAYOUTS[layout][1] is not None
     buildings = list(_fixed(layout)) if fixed else _blocks(grid, rng)
-    from scipy.ndimage import distance_transform_edt
-
     xmin, ymin, xmax, ymax = grid.bounds
-    dx, dy = grid.cell_size
     for _ in range(TRIES):
         a = rng.uniform([xmin + EDGE_M, ymin + EDGE_M], [xmax - EDGE_M, ymax - EDGE_M])
         heading = rng.uniform(0.0, 2.0 * math.pi)
@@ -262,14 +269,14 @@ def buildings_case(
         ground = grid.height_at(np.array([a[0], b[0]]), np.array([a[1], b[1]]))
         z = float(np.max(ground) + rng.uniform(*ABOVE_M))
         blk = blocked(grid, buildings, z)
-        clear = distance_transform_edt(~blk, sampling=(dy, dx))
+        clear = clearance_m(grid, blk)
         if clear[_cell(grid, a)] < CLEAR_M or clear[_cell(grid, b)] < CLEAR_M:
             continue
         if _crosses(grid, blk, a, b):
             break
     else:
         raise InputError(f"own-buildings: no start and target fit layout {layout!r}")
-    way = free_path_m(grid, blk, a, b)
+    way = free_path_m(grid, blk, a, b, clear)
     excluded = [EXCLUSIONS[0]] if way is None else []
     z = round(z, 2)
     doc = {
@@ -294,7 +301,6 @@ def buildings_case(
         "straight_m": round(float(np.linalg.norm(b - a)), 1),
         "free_path_m": None if way is None else round(way, 1),
         "buildings": kinds,
-        "threats": [],
         "excluded": excluded,
     }
     return doc, buildings, notes

@@ -412,17 +412,20 @@ def own_case(
     excluded = _exclusions(grid, a, b, drawn, r, speed)
     for d in drawn:
         d.pop("_centre"), d.pop("_normal"), d.pop("_extent")
-    doc = {
-        "terrapath": 1,
-        "name": f"own-{map_name}",
-        "crs": str(grid.crs) if getattr(grid, "crs", None) else "local",
-        "terrain": {"dem": [str(map_path(map_name))]},
-        "vehicle": name,
-        "cruise": {"speed": speed, "altitude": z},
-        "waypoints": [[float(a[0]), float(a[1]), z], [float(b[0]), float(b[1]), z]],
-    }
+    doc = (
+        {**planned_doc, "name": f"own-planned-{map_name}"}
+        if planned
+        else {
+            "terrapath": 1,
+            "name": f"own-{map_name}",
+            "crs": str(grid.crs) if getattr(grid, "crs", None) else "local",
+            "terrain": {"dem": [str(map_path(map_name))]},
+            "vehicle": name,
+            "cruise": {"speed": speed, "altitude": z},
+            "waypoints": [[float(a[0]), float(a[1]), z], [float(b[0]), float(b[1]), z]],
+        }
+    )
     if planned:
-        doc = {**planned_doc, "name": f"own-planned-{map_name}"}
         z = float(path[:, 2].max())
     notes = {
         "generator": f"own-{'planned' if planned else 'scenarios'} v{VERSION}",
