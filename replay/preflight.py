@@ -22,9 +22,11 @@ vehicle model:
   1 / rate from the rates at the ends and the middle). The top alone would refuse climbs the
   aircraft makes: the golden RMNP plan's leg 1 needs 3.30 m/s from 2,670 to 3,542 m, the
   aerosonde makes 3.19 m/s at the top and 3.4 m/s on average. It descends at most
-  ``descent_rate_max``. (Not the steepest idle descent at V: the autopilot's descent limit is
-  what the planner plans with -- for the solar UAV it is steeper than the idle glide at cruise,
-  which the aircraft flies a little faster than V -- and what it commands.)
+  ``descent_rate_max``, and at most its steepest idle descent at V
+  (:func:`replay.flight.fixedwing.trim.best_descent`), asked the same way (the leg's top is the
+  conservative end: the same true airspeed sinks less in thinner air): the solar UAV's 1.5 m/s
+  limit is a 1.17 m/s glide at sea level, and a mission asking for the limit was flown 50-94 m
+  above its profile (the planner plans with the same rate, VehicleParams.performance).
 - ``cruise.turn_radius`` against the tightest turn at V, ``V^2 / (g tan(bank_max))`` (fixed
   wing only: a multirotor's legs meet at points).
 
@@ -62,6 +64,7 @@ from replay.flight.fixedwing.trim import (
     CEILING_RESOLUTION,
     CEILING_TOP,
     best_climb,
+    best_descent,
     holds_climb,
     trim,
 )
@@ -73,6 +76,7 @@ FloatArray = npt.NDArray[np.float64]
 
 _best_climb = lru_cache(maxsize=512)(best_climb)
 _holds_climb = lru_cache(maxsize=2048)(holds_climb)
+_best_descent = lru_cache(maxsize=512)(best_descent)
 
 
 @dataclass(frozen=True)
@@ -196,9 +200,19 @@ def preflight(
             )
         elif dz < 0:
             need = -v * math.sin(math.atan2(-dz, length))
-            if -need <= params.descent_rate_max and not above:
+            cap = params.descent_rate_max
+            if -need <= cap and not above and _holds_climb(params, v, high, need, dt):
+                continue  # it sinks that fast even at the leg's top: one trim solve
+            rates = [min(cap, _best_descent(params, v, h, dt)) for h in (z0, 0.5 * (z0 + z1), z1)]
+            available = _average_climb(rates)
+            if -need <= available and not above:
                 continue
-            available, limit = params.descent_rate_max, "its autopilot's descent limit"
+            limit = (
+                "its autopilot's descent limit"
+                if min(rates) >= cap
+                else f"its steepest idle descent over the leg, {_rate(rates[0])} m/s at "
+                f"{z0:,.0f} m"
+            )
         else:
             if not above:
                 continue
@@ -359,7 +373,8 @@ def _legs(
 
 def _spirals(mission: Mission, params: VehicleParams, v: float, dt: float) -> list[str]:
     """Each climb spiral the aircraft cannot climb in its banked turn (the trim in a helix of
-    its radius at the spiral's top), and each descent spiral steeper than its descent limit."""
+    its radius at the spiral's top), and each descent spiral steeper than its descent limit or
+    its idle glide at the spiral's top."""
     from replay.flight.fixedwing.trim import best_climb
 
     out = []
@@ -382,11 +397,19 @@ def _spirals(mission: Mission, params: VehicleParams, v: float, dt: float) -> li
                     f"{what} needs {_rate(need)} m/s of climb; {params.name} climbs "
                     f"{_rate(have)} m/s in that turn at its top"
                 )
-        elif need > params.descent_rate_max:
-            out.append(
-                f"{what} needs {_rate(need)} m/s of descent; {params.name} has "
-                f"{_rate(params.descent_rate_max)} m/s (descent_rate_max)"
-            )
+        else:  # the straight idle glide at the top: a banked turn sinks faster, so it is safe
+            glide = _best_descent(params, v, sp.entry, dt)
+            have = min(params.descent_rate_max, glide)
+            if need > have:
+                why = (
+                    "descent_rate_max"
+                    if glide >= params.descent_rate_max
+                    else f"its idle glide at {sp.entry:,.0f} m"
+                )
+                out.append(
+                    f"{what} needs {_rate(need)} m/s of descent; {params.name} has "
+                    f"{_rate(have)} m/s ({why})"
+                )
     return out
 
 

@@ -289,7 +289,12 @@ class VehicleParams:
         fastest), and the climb rate is the smaller of the autopilot's limit and the best
         steady climb the aircraft makes at that speed at the highest altitude (thinner air, less
         power: the Cessna's 3 m/s limit is 1.3 m/s at 3,000 m); the ceiling at that speed
-        (:meth:`ceiling`) goes with it."""
+        (:meth:`ceiling`) goes with it. The descent rate likewise is the smaller of the
+        autopilot's limit and the steepest idle descent at that speed at the highest altitude
+        (:func:`~replay.flight.fixedwing.trim.best_descent`: the same true airspeed sinks less in
+        thinner air, so the top is the conservative end): the solar UAV's 1.5 m/s limit is a
+        1.0 m/s glide at 3,000 m, and a plan made with the limit was flown 50-94 m above its
+        profile."""
         v = self.cruise_speed if speed is None else float(speed)
         if altitudes is None:
             if not (math.isfinite(v) and self.airspeed_min <= v <= self.airspeed_max):
@@ -302,9 +307,12 @@ class VehicleParams:
         else:
             climb = self._climb_over(v, altitudes, temperature_offset)
             ceiling = self.ceiling(v, temperature_offset)
-        perf = Performance(
-            self.name, v, climb, self.descent_rate_max, self.bank_max_deg, ceiling=ceiling
-        )
+        descent = self.descent_rate_max
+        if altitudes is not None:
+            from replay.flight.fixedwing.trim import best_descent
+
+            descent = min(descent, best_descent(self, v, float(altitudes[1]), temperature_offset))
+        perf = Performance(self.name, v, climb, descent, self.bank_max_deg, ceiling=ceiling)
         if altitudes is None:
             return perf
         from replay.flight.fixedwing.trim import best_climb

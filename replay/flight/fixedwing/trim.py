@@ -308,6 +308,36 @@ def best_climb(
     return va * math.sin(lo)
 
 
+def best_descent(
+    params: VehicleParams,
+    airspeed: float,
+    altitude: float = 0.0,
+    temperature_offset: float = 0.0,
+) -> float:
+    """The steepest steady straight descent rate (m/s, a positive number) at true ``airspeed``
+    and ``altitude``: the most negative flight-path angle that still trims with the throttle at
+    0 at least (the idle glide at that speed; elevator travel may bind first), to 1 mm/s; 0 when
+    not even level flight trims there. A clean airframe glides shallow: the solar UAV sinks
+    1.17 m/s at 15 m/s at sea level and 1.01 m/s at 3,000 m (the same true airspeed is a lower
+    dynamic pressure up there, so less drag), less than its autopilot's 1.5 m/s limit -- a
+    plan that asks for that limit is flown above its profile."""
+    packed = params.pack(temperature_offset=temperature_offset)
+    va = float(airspeed)
+
+    def ok(gamma: float) -> bool:
+        return _solve(params, packed, va, altitude, gamma, math.inf, None)[1] < TOLERANCE
+
+    if not ok(0.0):
+        return 0.0
+    lo, hi = 0.0, math.radians(-60.0)  # lo trims, hi (steeper) may not
+    if ok(hi):
+        return -va * math.sin(hi)
+    while va * (math.sin(lo) - math.sin(hi)) > 1e-3:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return -va * math.sin(lo)
+
+
 def holds_climb(
     params: VehicleParams,
     airspeed: float,
