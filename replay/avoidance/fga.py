@@ -146,6 +146,7 @@ from replay.avoidance.fga_geometry import (
     Encounter,
     FgaObstacle,
     cone_half_angle,
+    conflict_matrix,
     pass_side,
     tangent_courses,
 )
@@ -167,6 +168,7 @@ SLOW_CPA_S = 20.0  # an encounter whose closest approach is further off than thi
 STEER_STEP_DEG = 20.0  # the edge moves less than this between decisions, or it is another edge
 LATE_WINDOW_S = 10.0  # the late-start check runs from this long before eq 8's t_k
 RETURN_STEP_DEG = 10.0  # a blocked way back: the held course moves towards it in steps this big
+EDGE_STEP_DEG = 5.0  # the courses tried when the course held leaves the map
 
 
 @dataclass
@@ -769,7 +771,9 @@ class FgaAvoider(AvoiderBase):
         horizontal = float(math.hypot(vel[0], vel[1]))
         back = self._return(ctx, pos, vel, course, near, rho)
         if back is None:
-            return self._toward_return(ctx, man, pos, vel, near, rho, turn_rate)
+            return self._toward_return(ctx, man, pos, vel, near, rho, turn_rate) or (
+                self._off_edge(ctx, man, pos, vel, near, rho, turn_rate)
+            )
         index, info = back
         ahead = float(info["climb"])
         going = velocity(math.radians(info["course_deg"]), horizontal, ahead)
@@ -788,7 +792,7 @@ class FgaAvoider(AvoiderBase):
             # only puts it off -- the clear way back (checked above) is taken
             if held.closing > 1e-9 and held.along / held.closing > SLOW_CPA_S:
                 continue
-            return None
+            return self._off_edge(ctx, man, pos, vel, near, rho, turn_rate)
         self._man = None
         return AvoidanceDecision(
             FollowWaypoints(ctx.waypoints, index, direct=True),
@@ -840,6 +844,77 @@ class FgaAvoider(AvoiderBase):
             reason=f"way back blocked by {', '.join(e.obstacle.key for e in blocking)}: "
             f"{math.degrees(gain):.0f} deg nearer to it",
             info={"fga": "toward return", "course_deg": math.degrees(plan.course)},
+        )
+
+    def _off_edge(
+        self,
+        ctx: AvoidanceContext,
+        man: _Manoeuvre,
+        pos: FloatArray,
+        vel: FloatArray,
+        near: list[FgaObstacle],
+        rho: float,
+        turn_rate: float,
+    ) -> AvoidanceDecision | None:
+        """A held course about to leave the map or enter a danger zone (within a half turn's run
+        and ``2 d_m``, ``pi rho + 2 d_m``: what the aircraft needs to turn away) while the way
+        back is not yet open: hold instead the free course (outside every cone, its turn clear
+        by the steering margin) that leaves the map least over ``R``, the nearest to the way
+        back among equals; None when the course held is not leaving or no course is better.
+        (A small map: the own suite's ``own-planned/momepy_bubenec/fga/3`` held its cone edge
+        40 s off a 600 m map waiting for the way back to open.)"""
+        chk = ctx.validity
+        if man.plane != "heading" or not man.held or chk is None or not chk.bounded:
+            return None
+        horizontal = float(math.hypot(vel[0], vel[1]))
+
+        def off(courses: FloatArray, reach: float) -> FloatArray:
+            a = np.broadcast_to(pos, (len(courses), 3))
+            b = a + reach * np.column_stack(
+                [np.sin(courses), np.cos(courses), np.zeros(len(courses))]
+            )
+            return np.asarray(chk.segments(a, b, clearance=False).outside_lengths)
+
+        edge = math.pi * rho + 2.0 * self.d_m
+        if off(np.array([man.course]), edge)[0] <= 0.0:
+            return None
+        w = np.asarray(ctx.waypoints, dtype=np.float64)
+        home = bearing(pos, w[min(ctx.next_index, len(w) - 1)])
+        courses = wrap(man.course + np.radians(np.arange(-180.0, 180.0, EDGE_STEP_DEG)))
+        velocities = np.column_stack(
+            [
+                horizontal * np.sin(courses),
+                horizontal * np.cos(courses),
+                np.full(len(courses), float(vel[2])),
+            ]
+        )
+        keep_clear = self.d_m + 1.5 * self.buffer_m
+        free = ~np.any(conflict_matrix(pos, velocities, near, keep_clear, self.horizon_s), axis=1)
+        if not free.any():
+            return None
+        held_off = off(np.array([man.course]), self.surveillance_m)[0]
+        best: tuple[float, float, float] | None = None
+        for c, leaves in zip(
+            courses[free], off(courses[free], self.surveillance_m), strict=True
+        ):
+            if leaves >= held_off:
+                continue
+            sep, _key = self.planner.turn_separation(
+                pos, vel, man.course, float(c), self.t_res, near, turn_rate
+            )
+            if sep < self.d_m + 2.0 * self.buffer_m:
+                continue
+            key = (float(leaves), abs(wrap(float(c) - home)), float(c))
+            if best is None or key[:2] < best[:2]:
+                best = key
+        if best is None:
+            return None
+        man.course = best[2]
+        return AvoidanceDecision(
+            self._command(man, ctx),
+            reason=f"the course held leaves the map or enters a zone within {edge:.0f} m: "
+            f"course {math.degrees(best[2]) % 360:.0f} deg ({best[0]:.0f} m off over R)",
+            info={"fga": "off edge", "course_deg": math.degrees(best[2]), "unsafe_m": best[0]},
         )
 
     def _return(

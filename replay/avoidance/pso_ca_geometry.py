@@ -177,6 +177,28 @@ def segment_clearance(p0: npt.ArrayLike, p1: npt.ArrayLike, centers: npt.ArrayLi
 
 
 # -- 2. grouping and classification (Figs 8-10, §5.3) ---------------------------------------------
+def route_altitude(route: npt.ArrayLike, points: npt.ArrayLike) -> FloatArray:
+    """The altitude (m) the polyline ``route`` (R, 3; R >= 1) has at the point nearest each of
+    ``points`` (N, 2 or 3) horizontally: the altitude, linear along each leg, at the foot of the
+    horizontal perpendicular (clamped to the leg; the nearest leg wins). How high the aircraft
+    will be when it passes a terrain return, where it flies the route as planned."""
+    r = _points(route, "route", (3,))
+    p = _points(points, "points")[:, :2]
+    if len(r) == 1:
+        return np.full(len(p), float(r[0, 2]))
+    a, b = r[:-1], r[1:]
+    ab = b[:, :2] - a[:, :2]  # (S, 2)
+    l2 = np.einsum("ij,ij->i", ab, ab)
+    ap = p[:, None, :] - a[None, :, :2]  # (N, S, 2)
+    u = np.clip(np.einsum("nsk,sk->ns", ap, ab) / np.maximum(l2, 1e-12), 0.0, 1.0)
+    foot = a[None, :, :2] + u[..., None] * ab[None]
+    d2 = np.sum((p[:, None, :] - foot) ** 2, axis=2)
+    k = np.argmin(d2, axis=1)
+    rows = np.arange(len(p))
+    uk = u[rows, k]
+    return np.asarray(a[k, 2] + uk * (b[k, 2] - a[k, 2]), dtype=np.float64)
+
+
 def group_obstacles(points: npt.ArrayLike, link: float = HILL_LINK_M) -> tuple[IntArray, ...]:
     """Continuous obstacles (Fig. 8, §5.3): index arrays of points (N, 2 or 3) whose chains of
     distances are < ``link`` (1 km), via :func:`replay.threats.clusters.cluster_hill_points`.  2D points

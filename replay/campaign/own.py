@@ -64,7 +64,11 @@ flown, and the report drops it and counts it per rule): ``start or goal in a thr
 start or goal within a threat's extent plus ``r``); ``seen late`` (the undisturbed aircraft
 would reach a threat's extent sooner than a 90 deg turn, ``pi r / (2 V)``, plus two sensor scans
 of ``SCAN_S`` after the start: the issue's "seen in time" with the threat in range from the
-start; terrain masking the line of sight is not judged); ``no room beside`` (neither side of a
+start; terrain masking the line of sight is not judged; "reach" is the distance along the path
+to the threat's point less its extent, or the first time the path comes within the extent
+when sooner -- a planned path that winds back past a threat drawn further along it; the rule
+as written, its first implementation took only the former, and 3 planned Bubenec scenarios
+entered their threat 3-14 s after the start unflagged); ``no room beside`` (neither side of a
 threat has a point ``R + 2 r`` from its centre, square to the leg, inside the map by ``r`` and
 over measured terrain).  The report's other rule, ``none survives`` (the run without an
 avoider succeeds: the scenario tests nothing), needs the ``none`` runs of the spec.
@@ -317,7 +321,9 @@ def _planned(
     if outcome is None or not outcome.result.feasible:
         return None
     doc = mission_to_dict(outcome.mission)
-    doc.pop("plan", None)
+    # the plan's clearance only (its provenance holds wall times): the replay follows the
+    # terrain at it, as `terrapath replay` flies a planned mission
+    doc["plan"] = {"clearance": outcome.mission.plan.get("clearance")}
     return np.asarray(outcome.mission.waypoints, dtype=np.float64), doc
 
 
@@ -409,7 +415,7 @@ def own_case(
             }
         )
         along_prev, radius_prev = along, radius
-    excluded = _exclusions(grid, a, b, drawn, r, speed)
+    excluded = _exclusions(grid, a, b, drawn, r, speed, path)
     for d in drawn:
         d.pop("_centre"), d.pop("_normal"), d.pop("_extent")
     doc = (
@@ -443,8 +449,29 @@ def own_case(
     return doc, records, notes
 
 
+def _first_entry(path: FloatArray, centre: FloatArray, extent: float) -> float:
+    """The horizontal arc length (m) at which the polyline ``path`` first comes within
+    ``extent`` of ``centre`` (inf: never); sampled every metre or finer."""
+    seg = np.hypot(*np.diff(path[:, :2], axis=0).T)
+    s0 = 0.0
+    for k, length in enumerate(seg):
+        u = np.linspace(0.0, 1.0, max(2, int(math.ceil(length)) + 1))
+        p = path[k, :2] + u[:, None] * (path[k + 1, :2] - path[k, :2])
+        inside = np.flatnonzero(np.hypot(*(p - centre[:2]).T) <= extent)
+        if len(inside):
+            return s0 + float(u[inside[0]]) * float(length)
+        s0 += float(length)
+    return math.inf
+
+
 def _exclusions(
-    grid: Any, a: FloatArray, b: FloatArray, drawn: list[dict[str, Any]], r: float, speed: float
+    grid: Any,
+    a: FloatArray,
+    b: FloatArray,
+    drawn: list[dict[str, Any]],
+    r: float,
+    speed: float,
+    path: FloatArray,
 ) -> list[str]:
     """The geometric exclusion rules a scenario meets (module docstring)."""
     out: list[str] = []
@@ -454,8 +481,10 @@ def _exclusions(
         if min(np.linalg.norm(a - c), np.linalg.norm(b - c)) < e + r:
             out.append(EXCLUSIONS[0])
         # the intruder meets the leg's point when the aircraft does; its extent is entered
-        # about e before it along the leg
-        if d["along_m"] - e < late_m:
+        # about e before it along the leg -- or sooner where a planned path winds back past it
+        # (the first time the path comes within e of the centre; on a straight leg never
+        # sooner than along - e, so straight scenarios are judged as before)
+        if min(d["along_m"] - e, _first_entry(path, c, e)) < late_m:
             out.append(EXCLUSIONS[1])
         room = False
         for sgn in (1.0, -1.0):
