@@ -210,8 +210,7 @@ def preflight(
             limit = (
                 "its autopilot's descent limit"
                 if min(rates) >= cap
-                else f"its steepest idle descent over the leg, {_rate(rates[0])} m/s at "
-                f"{z0:,.0f} m"
+                else f"its steepest idle descent over the leg, {_rate(rates[0])} m/s at {z0:,.0f} m"
             )
         else:
             if not above:

@@ -436,7 +436,7 @@ def test_seen_late_takes_the_first_time_a_winding_path_comes_near() -> None:
     (its first approach is never sooner than along - extent)."""
     from replay.campaign.own import _first_entry
 
-    _flight_, _mission, _threats, notes = _planned("own-planned/momepy_bubenec/none/13")
+    *_, notes = _planned("own-planned/momepy_bubenec/none/13")
     assert notes["excluded"] == ["seen late"]
     path = np.array([[0.0, 0.0], [1000.0, 0.0]])
     assert _first_entry(path, np.array([500.0, 30.0]), 50.0) == pytest.approx(460.0, abs=1.0)

@@ -880,7 +880,9 @@ class FgaAvoider(AvoiderBase):
             return None
         w = np.asarray(ctx.waypoints, dtype=np.float64)
         home = bearing(pos, w[min(ctx.next_index, len(w) - 1)])
-        courses = wrap(man.course + np.radians(np.arange(-180.0, 180.0, EDGE_STEP_DEG)))
+        courses = np.asarray(
+            wrap(man.course + np.radians(np.arange(-180.0, 180.0, EDGE_STEP_DEG))), dtype=np.float64
+        )
         velocities = np.column_stack(
             [
                 horizontal * np.sin(courses),
@@ -894,9 +896,7 @@ class FgaAvoider(AvoiderBase):
             return None
         held_off = off(np.array([man.course]), self.surveillance_m)[0]
         best: tuple[float, float, float] | None = None
-        for c, leaves in zip(
-            courses[free], off(courses[free], self.surveillance_m), strict=True
-        ):
+        for c, leaves in zip(courses[free], off(courses[free], self.surveillance_m), strict=True):
             if leaves >= held_off:
                 continue
             sep, _key = self.planner.turn_separation(
