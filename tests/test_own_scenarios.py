@@ -465,3 +465,22 @@ def test_ctga_does_not_leave_a_body_it_approaches_for_one_beyond_it(index: int) 
     seps = r.metrics.as_dict()["min_separation"]
     assert min(v["value"] for v in seps.values()) >= 0.0
     assert [d["reason"].split(":")[0] for d in r.decisions][:2] == ["avoid t1", "next body t2"]
+
+
+def test_pso_ca_meets_the_ground_under_its_leg_not_a_wall_beside_it() -> None:
+    """Planned Jacksboro case 2 (a Cessna, 441 m turn radius, an intruder crossing): the
+    valley walls within a turn radius of a planned leg were terrain hits, PSO-CA skipped a
+    waypoint of the plan for them and was still 202 m off the plan a minute after its last
+    command. The current leg now meets only the ground under it; one decision, for the
+    intruder, and the plan is flown."""
+    from replay.run import ReplayRequest, run_replay
+
+    flight, mission, threats, notes = _planned("own-planned/mpl_jacksboro_fault/pso-ca/2")
+    assert notes["vehicle"] == "cessna172" and notes["excluded"] == []
+    r = run_replay(
+        ReplayRequest.of(mission, threats=threats, avoid="pso-ca", seed=flight.seed, sensor="radar")
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    assert r.metrics.decisions == 1 and "intruder" in r.decisions[0]["reason"]
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0

