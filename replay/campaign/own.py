@@ -35,7 +35,10 @@ clearance, 6 free waypoints or fewer when the planner refuses legs that short fo
 turns), redrawn (next vehicle) when the plan is not feasible or its top is within
 ``CEILING_MARGIN_M`` of the vehicle's ceiling.  The threats below are drawn on that path: "the
 leg" is the planned polyline (a fraction of its length, the offset square to its leg there, at
-its altitude there).
+its altitude there).  The mission document keeps the plan's clearance (not the rest of its
+provenance, which holds wall times), so the replay follows the terrain at it, as ``terrapath
+replay`` flies a planned mission (session 24; before, the planned missions were flown at their
+waypoint altitudes, and an avoider's turn off the plan could meet a valley's side).
 
 **Threats**: one or two (equally likely), each placed at a fraction ``U(0.35, 0.75)`` of the leg
 (the second at least ``2 (R1 + R2)`` further on when it fits, else one threat), laterally offset
