@@ -184,34 +184,27 @@ def preflight(
     for k, (z0, z1, length, dz) in enumerate(_legs(w, arrive)):
         high = max(z0, z1)
         above = high > ceiling
-        if dz > 0:
-            need = v * math.sin(math.atan2(dz, length))
-            cap = params.climb_rate_max
-            if need <= cap and not above and _holds_climb(params, v, high, need, dt):
-                continue  # it climbs that fast even at the leg's top: one trim solve
-            rates = [min(cap, _best_climb(params, v, h, dt)) for h in (z0, 0.5 * (z0 + z1), z1)]
+        if dz != 0:
+            # the rate the leg needs (negative: a descent) against the best the aircraft makes
+            # at the leg's top (the conservative end both ways), else over the whole leg
+            up = dz > 0
+            need = math.copysign(v * math.sin(math.atan2(abs(dz), length)), dz)
+            cap = params.climb_rate_max if up else params.descent_rate_max
+            if abs(need) <= cap and not above and _holds_climb(params, v, high, need, dt):
+                continue  # it climbs (sinks) that fast even at the leg's top: one trim solve
+            best = _best_climb if up else _best_descent
+            rates = [min(cap, best(params, v, h, dt)) for h in (z0, 0.5 * (z0 + z1), z1)]
             available = _average_climb(rates)
-            if need <= available and not above:
+            if abs(need) <= available and not above:
                 continue
-            limit = (
-                "its autopilot's climb limit"
-                if min(rates) >= cap
-                else f"its best steady climb over the leg, {_rate(rates[-1])} m/s at {z1:,.0f} m"
-            )
-        elif dz < 0:
-            need = -v * math.sin(math.atan2(-dz, length))
-            cap = params.descent_rate_max
-            if -need <= cap and not above and _holds_climb(params, v, high, need, dt):
-                continue  # it sinks that fast even at the leg's top: one trim solve
-            rates = [min(cap, _best_descent(params, v, h, dt)) for h in (z0, 0.5 * (z0 + z1), z1)]
-            available = _average_climb(rates)
-            if -need <= available and not above:
-                continue
-            limit = (
-                "its autopilot's descent limit"
-                if min(rates) >= cap
-                else f"its steepest idle descent over the leg, {_rate(rates[0])} m/s at {z0:,.0f} m"
-            )
+            if min(rates) >= cap:
+                limit = f"its autopilot's {'climb' if up else 'descent'} limit"
+            elif up:
+                limit = f"its best steady climb over the leg, {_rate(rates[-1])} m/s at {z1:,.0f} m"
+            else:
+                limit = (
+                    f"its steepest idle descent over the leg, {_rate(rates[0])} m/s at {z0:,.0f} m"
+                )
         else:
             if not above:
                 continue

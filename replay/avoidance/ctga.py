@@ -657,27 +657,26 @@ class CtgaAvoider(AvoiderBase):
             for t in tests
             if t.threatened and t.obstacle.key != arc.obstacle.key and self._open(t.obstacle)
         ]
-        if others:
-            nxt = min(others, key=lambda t: t.distance - t.obstacle.radius)
+        nxt = min(others, key=lambda t: t.distance - t.obstacle.radius) if others else None
+        d = float(np.hypot(*(pos[:2] - np.asarray(current.center))))
+        if (
+            nxt is not None
+            and arc.t2 is None
+            and abs(d - arc.radius) > JOIN_TOLERANCE * arc.radius
+            and nxt.distance - nxt.obstacle.radius > d - current.radius
+            and _join_cuts(
+                pos[:2],
+                nxt.obstacle.center,
+                arc_radius(nxt.obstacle.radius, self.r_safe, speed, bank),
+                arc.clockwise,
+                current.center,
+                current.radius + self.r_safe * (1.0 - SWITCH_SLACK),
+            )
+        ):
             # not before the arc is joined while the body being approached is the nearer: the
             # way to the next body's arc would cut through it (closest first)
-            d_now = float(np.hypot(*(pos[:2] - np.asarray(current.center))))
-            if (
-                arc.t2 is None
-                and abs(d_now - arc.radius) > JOIN_TOLERANCE * arc.radius
-                and nxt.distance - nxt.obstacle.radius > d_now - current.radius
-                and _join_cuts(
-                    pos[:2],
-                    nxt.obstacle.center,
-                    arc_radius(nxt.obstacle.radius, self.r_safe, speed, bank),
-                    arc.clockwise,
-                    current.center,
-                    current.radius + self.r_safe * (1.0 - SWITCH_SLACK),
-                )
-            ):
-                others = []
-        if others:
-            nxt = min(others, key=lambda t: t.distance - t.obstacle.radius)
+            nxt = None
+        if nxt is not None:
             if nxt.obstacle.key in self._done:
                 # a moving obstacle come back: the body left for it is not passed yet
                 self._done.discard(arc.obstacle.key)
@@ -694,7 +693,6 @@ class CtgaAvoider(AvoiderBase):
             return self._start(
                 ctx, nxt, pos, float(ctx.course), speed, bank, arc.clockwise, arc.first_key, wide
             )
-        d = float(np.hypot(*(pos[:2] - np.asarray(current.center))))
         if arc.t2 is None and abs(d - arc.radius) <= JOIN_TOLERANCE * arc.radius:
             arc.t2 = ctx.t
         nxt_wp = ctx.waypoints[min(ctx.next_index, len(ctx.waypoints) - 1)]

@@ -459,14 +459,15 @@ class FgaAvoider(AvoiderBase):
         return plan
 
     def _unsafe(
-        self, ctx: AvoidanceContext, pos: FloatArray
+        self, ctx: AvoidanceContext, pos: FloatArray, reach: float | None = None
     ) -> Callable[[FloatArray], FloatArray] | None:
-        """Courses -> metres of the course held for the surveillance radius ``R`` that lie off
-        the map or in a danger zone (the context's validity; None without a map and zones)."""
+        """Courses -> metres of the course held for ``reach`` (default the surveillance radius
+        ``R``) that lie off the map or in a danger zone (the context's validity; None without a
+        map and zones)."""
         chk = ctx.validity
         if chk is None or not chk.bounded:
             return None
-        reach = self.surveillance_m
+        reach = self.surveillance_m if reach is None else reach
 
         def unsafe(courses: FloatArray) -> FloatArray:
             a = np.broadcast_to(pos, (len(courses), 3))
@@ -863,21 +864,13 @@ class FgaAvoider(AvoiderBase):
         back among equals; None when the course held is not leaving or no course is better.
         (A small map: the own suite's ``own-planned/momepy_bubenec/fga/3`` held its cone edge
         40 s off a 600 m map waiting for the way back to open.)"""
-        chk = ctx.validity
-        if man.plane != "heading" or not man.held or chk is None or not chk.bounded:
+        edge = math.pi * rho + 2.0 * self.d_m
+        soon, over_r = self._unsafe(ctx, pos, edge), self._unsafe(ctx, pos)
+        if man.plane != "heading" or not man.held or soon is None or over_r is None:
+            return None
+        if soon(np.array([man.course]))[0] <= 0.0:
             return None
         horizontal = float(math.hypot(vel[0], vel[1]))
-
-        def off(courses: FloatArray, reach: float) -> FloatArray:
-            a = np.broadcast_to(pos, (len(courses), 3))
-            b = a + reach * np.column_stack(
-                [np.sin(courses), np.cos(courses), np.zeros(len(courses))]
-            )
-            return np.asarray(chk.segments(a, b, clearance=False).outside_lengths)
-
-        edge = math.pi * rho + 2.0 * self.d_m
-        if off(np.array([man.course]), edge)[0] <= 0.0:
-            return None
         w = np.asarray(ctx.waypoints, dtype=np.float64)
         home = bearing(pos, w[min(ctx.next_index, len(w) - 1)])
         courses = np.asarray(
@@ -894,9 +887,9 @@ class FgaAvoider(AvoiderBase):
         free = ~np.any(conflict_matrix(pos, velocities, near, keep_clear, self.horizon_s), axis=1)
         if not free.any():
             return None
-        held_off = off(np.array([man.course]), self.surveillance_m)[0]
+        held_off = over_r(np.array([man.course]))[0]
         best: tuple[float, float, float] | None = None
-        for c, leaves in zip(courses[free], off(courses[free], self.surveillance_m), strict=True):
+        for c, leaves in zip(courses[free], over_r(courses[free]), strict=True):
             if leaves >= held_off:
                 continue
             sep, _key = self.planner.turn_separation(

@@ -302,23 +302,17 @@ class VehicleParams:
                     f"speed {v:g} m/s is outside {self.name}'s airspeed envelope "
                     f"{self.airspeed_min:g}–{self.airspeed_max:g} m/s"
                 )
-            climb = self.climb_rate_max
-            ceiling = math.inf
-        else:
-            climb = self._climb_over(v, altitudes, temperature_offset)
-            ceiling = self.ceiling(v, temperature_offset)
-        descent = self.descent_rate_max
-        if altitudes is not None:
-            from replay.flight.fixedwing.trim import best_descent
+            climb, descent = self.climb_rate_max, self.descent_rate_max
+            return Performance(self.name, v, climb, descent, self.bank_max_deg)
+        from replay.flight.fixedwing.trim import best_climb, best_descent
 
-            descent = min(descent, best_descent(self, v, float(altitudes[1]), temperature_offset))
+        climb = self._climb_over(v, altitudes, temperature_offset)
+        ceiling = self.ceiling(v, temperature_offset)
+        top = float(altitudes[1])
+        descent = min(self.descent_rate_max, best_descent(self, v, top, temperature_offset))
         perf = Performance(self.name, v, climb, descent, self.bank_max_deg, ceiling=ceiling)
-        if altitudes is None:
-            return perf
-        from replay.flight.fixedwing.trim import best_climb
-
         # the climb in a spiral of the planned turn radius, at the highest altitude
-        turn = best_climb(self, v, float(altitudes[1]), temperature_offset, perf.turn_radius)
+        turn = best_climb(self, v, top, temperature_offset, perf.turn_radius)
         return replace(perf, turn_climb_rate=min(self.climb_rate_max, turn))
 
     def _climb_over(

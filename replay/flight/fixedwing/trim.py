@@ -291,15 +291,30 @@ def best_climb(
     flight-path angle that still trims (full throttle at most), to 1 mm/s; 0 when not even level
     flight trims there. With a finite ``turn_radius`` (m), in a coordinated helix of that radius:
     the bank's load factor adds induced drag, so the climb in a turn is less."""
+    return _steepest(params, airspeed, altitude, temperature_offset, turn_radius, 1.0)
+
+
+def _steepest(
+    params: VehicleParams,
+    airspeed: float,
+    altitude: float,
+    temperature_offset: float,
+    turn_radius: float,
+    sign: float,
+) -> float:
+    """The largest vertical speed (m/s, >= 0) up (``sign`` 1) or down (-1) that still trims at
+    true ``airspeed`` and ``altitude``: a bisection of the flight-path angle up to 60 deg, to
+    1 mm/s; 0 when not even level flight trims there."""
     packed = params.pack(temperature_offset=temperature_offset)
     va = float(airspeed)
 
-    def ok(gamma: float) -> bool:
+    def ok(angle: float) -> bool:
+        gamma = sign * angle
         return _solve(params, packed, va, altitude, gamma, turn_radius, None)[1] < TOLERANCE
 
     if not ok(0.0):
         return 0.0
-    lo, hi = 0.0, math.radians(60.0)
+    lo, hi = 0.0, math.radians(60.0)  # lo trims, hi (steeper) may not
     if ok(hi):
         return va * math.sin(hi)
     while va * (math.sin(hi) - math.sin(lo)) > 1e-3:
@@ -321,21 +336,7 @@ def best_descent(
     1.17 m/s at 15 m/s at sea level and 1.01 m/s at 3,000 m (the same true airspeed is a lower
     dynamic pressure up there, so less drag), less than its autopilot's 1.5 m/s limit -- a
     plan that asks for that limit is flown above its profile."""
-    packed = params.pack(temperature_offset=temperature_offset)
-    va = float(airspeed)
-
-    def ok(gamma: float) -> bool:
-        return _solve(params, packed, va, altitude, gamma, math.inf, None)[1] < TOLERANCE
-
-    if not ok(0.0):
-        return 0.0
-    lo, hi = 0.0, math.radians(-60.0)  # lo trims, hi (steeper) may not
-    if ok(hi):
-        return -va * math.sin(hi)
-    while va * (math.sin(lo) - math.sin(hi)) > 1e-3:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
-    return -va * math.sin(lo)
+    return _steepest(params, airspeed, altitude, temperature_offset, math.inf, -1.0)
 
 
 def holds_climb(
