@@ -13,6 +13,10 @@ waypoints: [[x, y, z], ...]  # map metres, z metres AMSL (where a spiral is: the
 spirals: [{waypoint, entry_altitude, turns, radius, direction}, ...]   # climb / descent spirals
                              # (planner.spiral): at waypoint i the aircraft arrives at
                              # entry_altitude and circles `turns` times to the waypoint's altitude
+terrain_heights: [{waypoint, height}, ...]   # terrain-frame legs (an imported mission's
+                             # MAV_FRAME_GLOBAL_TERRAIN_ALT items): the leg into waypoint i is
+                             # flown `height` metres above the ground all along (its z is the
+                             # ground under it plus height)
 danger_zones: [{x, y, diameter, floor?, top?, id?} or {vertices: [[x, y], ...], floor?, top?, id?}, ...]
 plan: {...}                  # provenance written by `terrapath plan`
 waypoints_geo: [{lon, lat, alt_amsl, alt_agl}, ...]   # written for people and other tools; ignored on read
@@ -66,6 +70,7 @@ MISSION_KEYS = (
     "cruise",
     "waypoints",
     "spirals",
+    "terrain_heights",
     "danger_zones",
     "plan",
     "waypoints_geo",
@@ -172,6 +177,8 @@ class Mission:
     plan: dict[str, Any] = field(default_factory=dict)
     source: str | None = None
     spirals: tuple[Spiral, ...] = ()
+    # waypoint index -> metres above the ground the leg into it is flown at (terrain frame)
+    terrain_heights: dict[int, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         w = np.array(self.waypoints, dtype=np.float64, copy=True)
@@ -185,6 +192,11 @@ class Mission:
         if len(set(at)) != len(at) or any(a >= len(w) for a in at):
             raise InputError(
                 f"mission spirals must be at distinct waypoints 0..{len(w) - 1}; got {at}"
+            )
+        if any(not 0 <= k < len(w) for k in self.terrain_heights):
+            raise InputError(
+                f"mission terrain heights must be at waypoints 0..{len(w) - 1}; "
+                f"got {sorted(self.terrain_heights)}"
             )
 
 
@@ -320,6 +332,7 @@ def mission_from_dict(
             )
     if len({sp.at for sp in spirals}) != len(spirals):
         raise _fail(path, "spirals", "expected at most one spiral per waypoint")
+    heights = _terrain_heights(doc.get("terrain_heights") or [], len(pts), path)
     return Mission(
         name=str(name),
         waypoints=np.array(pts),
@@ -333,7 +346,27 @@ def mission_from_dict(
         plan=plan,
         source=path,
         spirals=spirals,
+        terrain_heights=heights,
     )
+
+
+def _terrain_heights(raw: Any, n: int, path: str | None) -> dict[int, float]:
+    """``terrain_heights: [{waypoint, height}, ...]`` (module docstring) as {index: metres}."""
+    if not isinstance(raw, list):
+        raise _fail(path, "terrain_heights", f"expected a list, found {found(raw)}")
+    out: dict[int, float] = {}
+    for i, rec in enumerate(raw):
+        fld = f"terrain_heights[{i}]"
+        rec = _mapping(rec, path, fld, ("waypoint", "height"))
+        k = rec.get("waypoint")
+        if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < n or k in out:
+            raise _fail(
+                path,
+                f"{fld}.waypoint",
+                f"expected a waypoint index 0..{n - 1} named once, found {k!r}",
+            )
+        out[k] = _num(rec.get("height"), path, f"{fld}.height")
+    return out
 
 
 def load_mission(path: str | os.PathLike[str]) -> Mission:
@@ -378,6 +411,10 @@ def mission_to_dict(
     doc["waypoints"] = [[_r(v) for v in w] for w in mission.waypoints]
     if mission.spirals:
         doc["spirals"] = [s.as_dict() for s in mission.spirals]
+    if mission.terrain_heights:
+        doc["terrain_heights"] = [
+            {"waypoint": k, "height": _r(h)} for k, h in sorted(mission.terrain_heights.items())
+        ]
     doc["danger_zones"] = zones_to_records(mission.danger_zones)
     doc["plan"] = mission.plan
     if grid is not None:

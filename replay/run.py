@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from planner.imports import is_foreign
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
 from replay.flight.fixedwing.params import VehicleParams
@@ -38,7 +39,13 @@ from replay.sim import (
     simulate,
     time_limit,
 )
-from replay.source import find_terrain, load_source, recorded_threats, source_vehicle
+from replay.source import (
+    find_terrain,
+    import_mission,
+    load_source,
+    recorded_threats,
+    source_vehicle,
+)
 from replay.threats.file import load_threats, recorded_text, threats_to_records
 from replay.threats.kinds import ThreatSet
 from terrain.errors import InputError
@@ -149,14 +156,22 @@ def radar_pairing(sensor: str, avoider: Any, threats: Any) -> tuple[str, ...]:
 def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     """Read and check everything a replay needs (nothing is written)."""
     r = request
-    if isinstance(r.source, Mission):
-        mission, old_run, source = r.source, None, f"mission {r.source.name!r}"
+    grid: HeightGrid | None
+    if isinstance(r.source, str) and is_foreign(r.source):
+        # QGroundControl, Mission Planner, GeoJSON, KML: lon/lat on the DEM given
+        mission, grid, params, vehicle_file = import_mission(
+            r.source, r.dem, r.vehicle, r.config.airspeed
+        )
+        old_run, source = None, r.source
     else:
-        mission, old_run = load_source(r.source)
-        source = r.source
-    mission = find_terrain(mission, r.dem)
-    grid = mission.terrain.load() if mission.terrain is not None else None
-    params, vehicle_file = source_vehicle(r.vehicle, mission, source, old_run)
+        if isinstance(r.source, Mission):
+            mission, old_run, source = r.source, None, f"mission {r.source.name!r}"
+        else:
+            mission, old_run = load_source(r.source)
+            source = r.source
+        mission = find_terrain(mission, r.dem)
+        grid = mission.terrain.load() if mission.terrain is not None else None
+        params, vehicle_file = source_vehicle(r.vehicle, mission, source, old_run)
     avoider = make_avoider(r.avoid, **r.avoid_options)
     threat_text: str | None = None
     old_threats = old_run.attachments.get("threats.yaml") if old_run is not None else None
@@ -174,8 +189,12 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         threats = ThreatSet(())
     following = r.terrain_following
     if following is None and grid is not None:
-        # keep the clearance the mission was planned with (0 turns it off)
+        # keep the clearance the mission was planned with (0 turns it off); an imported
+        # mission's terrain-frame legs: their lowest height above the ground, everywhere (the
+        # autopilot's terrain floor is one clearance for the whole flight)
         following = float(mission.plan.get("clearance", 0.0) or 0.0) or None
+        if following is None and mission.terrain_heights:
+            following = min(mission.terrain_heights.values())
     elif following == 0:
         following = None
     config = replace(r.config, terrain_following=following)

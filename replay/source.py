@@ -16,6 +16,7 @@ from terrain.errors import DataFileError, InputError
 
 if TYPE_CHECKING:
     from planner.mission import Mission
+    from planner.performance import Performance
     from replay.flight.fixedwing.params import VehicleParams
     from replay.flight.multirotor.model import MultirotorParams
     from replay.record.reader import RunRecord
@@ -37,6 +38,64 @@ def load_source(source: str) -> tuple[Mission, RunRecord | None]:
 
     run = load_run(source, with_states=False)
     return mission_of_run(run, source), run
+
+
+def performance_of(params: VehicleParams | MultirotorParams, speed: float) -> Performance:
+    """What the planner and the importer need of a vehicle at ``speed``: a fixed wing's limits
+    (:meth:`VehicleParams.performance`, its envelope at sea level), a multirotor's rates, hover
+    and ceiling."""
+    from planner.performance import Performance
+    from replay.flight.multirotor.model import MultirotorParams
+    from replay.preflight import multirotor_ceiling
+
+    if not isinstance(params, MultirotorParams):
+        return params.performance(speed)
+    return Performance(
+        params.name,
+        float(speed),
+        params.climb_rate_max,
+        params.descent_rate_max,
+        params.bank_max_deg,
+        ceiling=multirotor_ceiling(params),
+        hover=True,
+    )
+
+
+def import_mission(
+    source: str, dem_tiles: tuple[str, ...], vehicle: str | None, speed: float | None
+) -> tuple[Mission, HeightGrid, VehicleParams | MultirotorParams, bytes | None]:
+    """A mission of another tool (QGroundControl ``.plan``, WPL ``.waypoints``, GeoJSON, KML:
+    :mod:`planner.imports`) on the DEM ``dem_tiles`` (required: these files hold lon/lat and
+    name no terrain), flown by ``vehicle`` (default: the file's kind of vehicle -- a multirotor
+    preset for a multirotor, else the default fixed wing) at ``speed`` (default: the vehicle's
+    cruise speed; a file's own cruise speed is QGroundControl's planning estimate, recorded,
+    not flown)."""
+    from planner.imports import FORMAT_NAMES, read_foreign, to_mission
+    from planner.mission import DEFAULT_VEHICLE, TerrainRef
+
+    fm = read_foreign(source)
+    if not dem_tiles:
+        raise InputError(
+            f"{source!r}: a {FORMAT_NAMES[fm.format]} mission holds lon/lat and names no terrain: give the DEM "
+            "it flies over with --dem"
+        )
+    ref = TerrainRef(tuple(str(Path(t).absolute()) for t in dem_tiles))
+    ref = TerrainRef(tuple(str(Path(t).resolve()) for t in ref.paths()))
+    grid = ref.load()
+    name = vehicle or (
+        next(iter(MULTIROTOR_PRESETS)) if fm.vehicle_type == "multirotor" else DEFAULT_VEHICLE
+    )
+    from replay.flight.fixedwing.presets import load_any_vehicle
+
+    params = MULTIROTOR_PRESETS.get(name) or load_any_vehicle(name, base_dir=Path.cwd())
+    path = Path(name)
+    vehicle_file = (
+        path.read_bytes() if path.suffix.lower() in (".yaml", ".yml") and path.is_file() else None
+    )
+    v = float(speed) if speed is not None else float(params.cruise_speed)
+    params.check_speed(v, "speed")
+    mission = to_mission(fm, grid, ref, vehicle=name, perf=performance_of(params, v))
+    return mission, grid, params, vehicle_file
 
 
 def mission_of_run(run: RunRecord, source: str) -> Mission:

