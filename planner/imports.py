@@ -751,6 +751,7 @@ def to_mission_parts(
     agl: dict[int, float] = {}
     source_of: dict[int, str] = {}
     spirals: list[Any] = []
+    attach: list[tuple[int, tuple[float, float]]] = []  # loiter-to-alt spirals, their centres
     landing = False
     ended = False
     for it in items:
@@ -824,6 +825,8 @@ def to_mission_parts(
             if h_agl is not None:
                 agl[k] = h_agl
             spirals.append(Spiral(k, float(entry), int(turns), float(radius), clockwise))
+            if it.command == LOITER_TO_ALT and k >= 1:
+                attach.append((len(spirals) - 1, (float(p[0]), float(p[1]))))
             continue
         pts.append([float(p[0]), float(p[1]), float(z)])
         k = len(pts) - 1
@@ -833,6 +836,8 @@ def to_mission_parts(
         if it.command == LAND:
             landing = True
             ended = True
+    for j, c in reversed(attach):
+        _attach(pts, spirals, agl, source_of, j, np.array(c), turn_radius)
     if len(pts) < 2:
         raise fm.fail("", f"expected at least two positions to fly, found {len(pts)}")
     if not landing and not ended and len(fm.rally):
@@ -849,6 +854,50 @@ def to_mission_parts(
         tuple(notes),
         source_of,
     )
+
+
+def _attach(
+    pts: list[list[float]],
+    spirals: list[Any],
+    agl: dict[int, float],
+    source_of: dict[int, str],
+    j: int,
+    centre: FloatArray,
+    turn_radius: float,
+) -> None:
+    """Fly loiter-to-altitude spiral ``j`` at the waypoint before it when its circle touches the
+    path there as a terrapath spiral would (:func:`planner.spiral.anchor`: tangent to the leg
+    into the waypoint at its fillet's T1) -- how terrapath writes a spiral into a ``.plan``
+    (:mod:`planner.export`), so that the round trip gives the same path -- instead of at a
+    waypoint of its own where the leg meets the circle."""
+    from dataclasses import replace
+
+    from planner.spiral import centre as spiral_centre
+
+    sp = spirals[j]
+    k = sp.at - 1
+    if any(s.at == k for s in spirals):
+        return
+    rest = [q for i, q in enumerate(pts) if i != sp.at]
+    w = np.array(rest, dtype=np.float64)
+    if len(w) < 2:
+        return
+    c = spiral_centre(w, replace(sp, at=k), turn_radius)
+    if float(np.hypot(*(c - centre))) > max(2.0, 0.01 * sp.radius):
+        return
+    entry = pts[k][2]
+    pts[k][2] = pts[sp.at][2]
+    del pts[sp.at]
+    spirals[j] = replace(sp, at=k, entry=entry)
+    for i, s in enumerate(spirals):
+        if i != j and s.at > sp.at:
+            spirals[i] = replace(s, at=s.at - 1)
+    heights = {(i - 1 if i > sp.at else i): h for i, h in agl.items() if i != sp.at}
+    fields = {(i - 1 if i > sp.at else i): f for i, f in source_of.items() if i != sp.at}
+    agl.clear()
+    agl.update(heights)
+    source_of.clear()
+    source_of.update(fields)
 
 
 def _positioned(it: Item) -> bool:

@@ -363,3 +363,36 @@ def test_replay_flies_a_plan_and_a_wpl_as_the_yaml(
     err = capsys.readouterr().err
     assert "a QGroundControl .plan mission holds lon/lat and names no terrain" in err
     assert err.count("\n") == 1 and not (tmp_path / "x.mcap").exists()
+
+
+def test_spiral_round_trips_through_plan_and_wpl(tmp_path: Path, grid) -> None:
+    """A terrapath spiral written as a loiter-to-altitude after its waypoint reads back as the
+    same spiral at the same waypoint (not a waypoint of its own on its circle)."""
+    from planner.spiral import Spiral, centre
+
+    m = _mission(grid)
+    w = m.waypoints.copy()
+    sp = Spiral(2, float(w[2, 2]) - 400.0, 3, 143.1, True)
+    m = Mission(
+        name="spiral",
+        waypoints=w,
+        crs=m.crs,
+        terrain=m.terrain,
+        vehicle="aerosonde",
+        cruise_speed=25.0,
+        cruise_altitude=3500.0,
+        turn_radius=143.1,
+        spirals=(sp,),
+    )
+    for path in (
+        write_json(to_qgc_plan(m, grid, "amsl"), tmp_path / "s.plan"),
+        write_text(to_wpl(m, grid, "relative"), tmp_path / "s.waypoints"),
+    ):
+        back = _imported(path, grid)
+        np.testing.assert_allclose(back.waypoints, m.waypoints, atol=0.05)
+        (b,) = back.spirals
+        assert (b.at, b.radius, b.clockwise) == (2, pytest.approx(143.1), True)
+        assert b.entry == pytest.approx(sp.entry, abs=0.05)
+        np.testing.assert_allclose(
+            centre(back.waypoints, b, 143.1), centre(m.waypoints, sp, 143.1), atol=0.05
+        )
