@@ -185,3 +185,56 @@ def _draw_profile(ax2: Any, samples: PathSamples, clearance: float) -> None:
     ax2.set_ylabel("altitude (m AMSL)")
     ax2.set_xlim(0, d[-1] / 1000.0 if d[-1] > 0 else 1)
     ax2.grid(alpha=0.3)
+
+
+def save_check_picture(
+    grid: HeightGrid,
+    check: Any,
+    waypoints: npt.NDArray[np.float64],
+    findings: Any,
+    out: str | Path,
+    title: str,
+    clearance: float,
+    zones: tuple[Zone, ...] = (),
+) -> Path:
+    """The picture of ``terrapath check`` (:mod:`planner.check`): the path as flown over the
+    hillshade (red where it is not feasible) with the danger zones, and its altitude profile
+    over the terrain beneath it (terrain-frame legs at their height above the ground), each
+    violation marked and numbered as the report ranks it on both."""
+    ok = not findings
+    track = check.flown.points
+    xmin, ymin, xmax, ymax = grid.bounds
+    aspect = (ymax - ymin) / (xmax - xmin)
+    width = 9.0
+    map_h = max(3.5, min(width * aspect, 12.0))
+    fig = new_figure(width, map_h + 3.4)
+    gs = fig.add_gridspec(2, 1, height_ratios=[map_h, 2.6])
+    ax = fig.add_subplot(gs[0])
+    draw_hillshade(fig, ax, grid, title or None)
+    if zones:
+        draw_zones(ax, zones)
+    _draw_path(ax, np.asarray(waypoints, dtype=np.float64), track, ok)
+    ax2 = fig.add_subplot(gs[1])
+    s = check.samples
+    shown = PathSamples(
+        s.segment,
+        s.distance,
+        s.points,
+        np.asarray(grid.height_at(s.points[:, 0], s.points[:, 1]), dtype=np.float64),
+    )
+    _draw_ground(ax2, grid, shown)
+    _draw_profile(ax2, PathSamples(s.segment, s.distance, s.points, s.ground), clearance)
+    marked = [f for f in findings if np.isfinite(f.x) and np.isfinite(f.y)]
+    for n, f in enumerate(marked):
+        label = "violation (as ranked)" if n == 0 else None
+        ax.plot(f.x, f.y, "X", color="#d62728", mec="black", ms=10, zorder=6, label=label)
+        ax.annotate(str(findings.index(f) + 1), (f.x, f.y), xytext=(6, 6),
+                    textcoords="offset points", fontsize=9, weight="bold", zorder=7)  # fmt: skip
+        k = int(np.argmin(np.hypot(s.points[:, 0] - f.x, s.points[:, 1] - f.y)))
+        ax2.plot(s.distance[k] / 1000.0, f.z if np.isfinite(f.z) else s.points[k, 2], "X",
+                 color="#d62728", mec="black", ms=9, zorder=6)  # fmt: skip
+        ax2.annotate(str(findings.index(f) + 1), (s.distance[k] / 1000.0, s.points[k, 2]),
+                     xytext=(5, 5), textcoords="offset points", fontsize=8)  # fmt: skip
+    legend_below(ax)
+    legend_below(ax2)
+    return save_figure(fig, out)

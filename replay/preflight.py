@@ -132,6 +132,10 @@ class Preflight:
             tail = f" (and {more} more problem{'s' if more > 1 else ''})" if more else ""
             raise InputError(self.refusals[0] + tail)
 
+    def leg_message(self, p: LegProblem) -> str:
+        """The line :meth:`check` would give for leg problem ``p`` (without the file)."""
+        return _leg_text(p, self.vehicle, self.speed, self.ceiling, self.ceiling_by)
+
     def describe(self) -> str:
         """One line for the replay's header, before take-off."""
         day = f" (ISA{self.temperature_offset:+g} K)" if self.temperature_offset else ""

@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 import yaml
 
-from planner.imports import is_foreign
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
 from replay.flight.fixedwing.params import VehicleParams
@@ -39,13 +38,7 @@ from replay.sim import (
     simulate,
     time_limit,
 )
-from replay.source import (
-    find_terrain,
-    import_mission,
-    load_source,
-    recorded_threats,
-    source_vehicle,
-)
+from replay.source import find_terrain, mission_on_terrain, recorded_threats, source_vehicle
 from replay.threats.file import load_threats, recorded_text, threats_to_records
 from replay.threats.kinds import ThreatSet
 from terrain.errors import InputError
@@ -157,21 +150,17 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     """Read and check everything a replay needs (nothing is written)."""
     r = request
     grid: HeightGrid | None
-    if isinstance(r.source, str) and is_foreign(r.source):
-        # QGroundControl, Mission Planner, GeoJSON, KML: lon/lat on the DEM given
-        mission, grid, params, vehicle_file = import_mission(
-            r.source, r.dem, r.vehicle, r.config.airspeed
-        )
-        old_run, source = None, r.source
-    else:
-        if isinstance(r.source, Mission):
-            mission, old_run, source = r.source, None, f"mission {r.source.name!r}"
-        else:
-            mission, old_run = load_source(r.source)
-            source = r.source
+    if isinstance(r.source, Mission):
+        mission, old_run, source = r.source, None, f"mission {r.source.name!r}"
         mission = find_terrain(mission, r.dem)
         grid = mission.terrain.load() if mission.terrain is not None else None
         params, vehicle_file = source_vehicle(r.vehicle, mission, source, old_run)
+    else:
+        # a mission file (terrapath's, or another tool's on --dem) or an earlier run
+        source = r.source
+        mission, grid, params, vehicle_file, old_run = mission_on_terrain(
+            source, r.dem, r.vehicle, r.config.airspeed
+        )
     avoider = make_avoider(r.avoid, **r.avoid_options)
     threat_text: str | None = None
     old_threats = old_run.attachments.get("threats.yaml") if old_run is not None else None

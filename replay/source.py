@@ -98,6 +98,28 @@ def import_mission(
     return mission, grid, params, vehicle_file
 
 
+def mission_on_terrain(
+    source: str, dem_tiles: tuple[str, ...], vehicle: str | None, speed: float | None
+) -> tuple[
+    Mission, HeightGrid | None, VehicleParams | MultirotorParams, bytes | None, RunRecord | None
+]:
+    """(mission, its grid or None, vehicle parameters, the vehicle file to attach, the earlier
+    run when SOURCE is an .mcap) of a mission
+    file of any format (terrapath YAML, or another tool's with ``--dem``: :func:`import_mission`)
+    or of an earlier run's ``.mcap``; the DEM tiles found (or replaced by ``dem_tiles``) before
+    anything is written."""
+    from planner.imports import is_foreign
+
+    if is_foreign(source):
+        mission, grid, params, vehicle_file = import_mission(source, dem_tiles, vehicle, speed)
+        return mission, grid, params, vehicle_file, None
+    mission, old_run = load_source(source)
+    mission = find_terrain(mission, dem_tiles)
+    loaded = mission.terrain.load() if mission.terrain is not None else None
+    params, vehicle_file = source_vehicle(vehicle, mission, source, old_run)
+    return mission, loaded, params, vehicle_file, old_run
+
+
 def mission_of_run(run: RunRecord, source: str) -> Mission:
     """The mission a recorded run flew (its ``mission.yaml`` attachment), with its DEM tiles
     looked for where :func:`load_source` says."""

@@ -25,6 +25,7 @@ from terrain.errors import TerrapathError
 from terrapath import __version__
 from terrapath.commands.bench import bench_cmd
 from terrapath.commands.campaign import campaign_cmd
+from terrapath.commands.check import check_cmd
 from terrapath.commands.hillshade import hillshade
 from terrapath.commands.info import info
 from terrapath.commands.inspect import inspect_cmd
@@ -85,6 +86,7 @@ cli.add_command(info)
 cli.add_command(hillshade)
 cli.add_command(plan_cmd)
 cli.add_command(replay_cmd)
+cli.add_command(check_cmd)
 cli.add_command(inspect_cmd)
 cli.add_command(layout_cmd)
 cli.add_command(view_cmd)
