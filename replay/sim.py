@@ -348,6 +348,7 @@ def _vehicle_stack(
         temperature_offset=cfg.temperature_offset,
         spirals=mission.spirals,
         land=isinstance(mission.plan, dict) and "landing" in mission.plan,
+        leg_heights=mission.terrain_heights if cfg.terrain_following else None,
     )
 
 
@@ -541,6 +542,7 @@ class _Loop:
         if following and len(ts):
             wps = np.asarray(self.stack.waypoints, dtype=np.float64)
             arrivals = getattr(self.stack, "arrivals", wps[:, 2])
+            heights = getattr(self.stack, "leg_heights", {})
             for r in log.reached:
                 if not (1 <= r.index < len(wps) or (r.how == "spiral" and r.index == 0)):
                     continue
@@ -557,6 +559,11 @@ class _Loop:
                             "planned": round(float(planned), 2),
                         }
                     )
+                elif r.index in heights and self.safety is not None:
+                    # a terrain-frame leg: its height above the ground the autopilot follows
+                    ground = float(np.asarray(self.safety.height_at(pos[k, 0], pos[k, 1])))
+                    planned = ground + heights[r.index]
+                    leg = np.array([[*pos[k, :2], planned], [*pos[k, :2], planned]])
                 else:
                     leg = wps[r.index - 1 : r.index + 1].copy()
                     leg[1, 2] = arrivals[r.index]

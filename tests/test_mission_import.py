@@ -396,3 +396,44 @@ def test_spiral_round_trips_through_plan_and_wpl(tmp_path: Path, grid) -> None:
         np.testing.assert_allclose(
             centre(back.waypoints, b, 143.1), centre(m.waypoints, sp, 143.1), atol=0.05
         )
+
+
+def test_a_terrain_frame_leg_is_flown_down_into_a_valley(grid) -> None:
+    """Across a 690 m deep RMNP valley, a terrain-frame leg 200 m above the ground is flown
+    lower than the line between its waypoints (as an autopilot following terrain flies it),
+    and arrives at its waypoint at its height above the ground: a success; the same leg as
+    AMSL waypoints holds the line."""
+    from replay.run import ReplayRequest, run_replay
+
+    xmin, ymin, *_ = grid.bounds
+    a = np.array([xmin + 15954.9, ymin + 22068.7])
+    b = np.array([xmin + 18117.7, ymin + 26576.7])
+    c = b + 0.3 * np.array([-(b - a)[1], (b - a)[0]])
+    w = np.array([[*a, 0.0], [*b, 0.0], [*c, 0.0]])
+    w[:, 2] = grid.height_at(w[:, 0], w[:, 1]) + 200.0
+    w[2, 2] = w[1, 2]
+    lowest = []
+    for heights in ({1: 200.0}, {}):
+        m = Mission(
+            name="valley",
+            waypoints=w,
+            crs="EPSG:32613",
+            terrain=TerrainRef((str(RMNP),)),
+            vehicle="aerosonde",
+            cruise_speed=25.0,
+            cruise_altitude=float(w[0, 2]),
+            turn_radius=143.1,
+            terrain_heights=heights,
+        )
+        res = run_replay(ReplayRequest.of(m, seed=1, terrain_following=None if heights else 200.0))
+        assert res.metrics.success, res.metrics.failures
+        p = res.positions
+        t = (p[:, :2] - a) @ (b - a) / float((b - a) @ (b - a))
+        mid = (t > 0.3) & (t < 0.7)
+        lowest.append(float(p[mid, 2].min()))
+        clear = p[mid, 2] - grid.safety().height_at(p[mid, 0], p[mid, 1])
+        assert clear.min() > 150.0
+    # followed: lower over the valley than the line between the waypoints (40 m: no lower than
+    # it can climb out of by the far ridge at half its planning gradient, the 690 m deep valley
+    # being 2.5 km across)
+    assert lowest[0] < lowest[1] - 30.0

@@ -10,7 +10,7 @@ when to turn for the next leg) belong to the stack. The stacks:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import fields
 from typing import Any, Protocol
 
@@ -90,6 +90,7 @@ class Vehicle(Protocol):
         temperature_offset: float = 0.0,
         spirals: Sequence[Any] = (),
         land: bool = False,
+        leg_heights: Mapping[int, float] | None = None,
     ) -> FlightStack: ...
 
 

@@ -193,7 +193,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -212,6 +212,11 @@ from replay.flight.log import FlightLog, FlightRecorder, WaypointReached
 from replay.frames import N_CONTROLS, N_STATES, map_to_ned
 from replay.guidance import Commanded, GuidanceRefused
 from terrain.errors import InputError
+
+# a terrain-frame leg keeps this share of the planning climb gradient in reserve-free use: the
+# altitude command meets rising ground ahead as if the aircraft climbed only this share of it
+# (the altitude loop lags; at the full gradient it arrived 80 m low on a 700 m deep RMNP valley)
+FOLLOW_CLIMB_SHARE = 0.5
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -368,6 +373,8 @@ class Autopilot:
         # the altitude the plan leaves each spiral flown so far at (where it touches the path)
         self.spiral_exits: dict[int, float] = {}
         self.land = False  # the final leg is a landing's final approach (no terrain floor)
+        self._leg_heights: dict[int, float] = {}  # terrain-frame legs: waypoint index -> metres
+        self._follow_gradient = 0.0
         self._hold_pending = waypoints is None
         if waypoints is not None:
             self.set_waypoints(waypoints, 1)
@@ -493,16 +500,42 @@ class Autopilot:
         sp = self._spirals.get(i)
         return float(self._wp[i, 2]) if sp is None else sp[0]
 
+    @property
+    def leg_heights(self) -> dict[int, float]:
+        """The terrain-frame legs of the waypoints flown now (:meth:`set_leg_heights`)."""
+        return dict(self._leg_heights)
+
+    def set_leg_heights(self, heights: Mapping[int, float]) -> None:
+        """Terrain-frame legs (an imported mission's MAV_FRAME_GLOBAL_TERRAIN_ALT items): on the
+        leg into waypoint ``k`` the altitude command is ``heights[k]`` metres above the highest
+        ground within the terrain look-ahead (down into a valley as well as up), not the line
+        between the waypoints' altitudes; needs ``terrain_height``. Kept across a new waypoint
+        list for the waypoints it keeps (same place), as the spirals."""
+        if heights and self.terrain_height is None:
+            raise InputError("terrain-frame legs need the terrain (terrain following on)")
+        self._leg_heights = {int(k): float(h) for k, h in heights.items()}
+        # the climb gradient the planner plans with at this speed (a share of the limit, and
+        # of the best climb at the highest waypoint: thinner air, less climb)
+        zs = self._wp[:, 2] if len(self._wp) else np.zeros(1)
+        try:
+            perf = self.params.performance(self.airspeed, (float(zs.min()), float(zs.max())))
+        except InputError:
+            perf = self.params.performance(self.airspeed)
+        self._follow_gradient = FOLLOW_CLIMB_SHARE * perf.climb_gradient
+
     def _rekey_spirals(self, w: FloatArray) -> None:
-        """A new waypoint list keeps the spirals of the waypoints it keeps (same place)."""
-        if not self._spirals:
-            return
-        out = {}
-        for k, sp in self._spirals.items():
-            hit = np.flatnonzero(np.abs(w - self._wp[k]).max(axis=1) < 1.0)
-            if hit.size:
-                out[int(hit[0])] = sp
-        self._spirals = out
+        """A new waypoint list keeps the spirals (and terrain-frame legs) of the waypoints it
+        keeps (same place)."""
+        for book in ("_spirals", "_leg_heights"):
+            old = getattr(self, book)
+            if not old:
+                continue
+            out = {}
+            for k, v in old.items():
+                hit = np.flatnonzero(np.abs(w - self._wp[k]).max(axis=1) < 1.0)
+                if hit.size:
+                    out[int(hit[0])] = v
+            setattr(self, book, out)
 
     def _begin_spiral(self, k: int, then: str, fillet: Fillets | None) -> None:
         """Start the spiral at waypoint ``k`` (module docstring of planner.spiral): its quarter
@@ -933,6 +966,33 @@ class Autopilot:
         hy = np.concatenate(py)
         heights = np.asarray(self.terrain_height(hx, hy), dtype=np.float64)
         top = float(np.nanmax(heights)) if heights.size else -math.inf
+        agl = self._leg_heights.get(self._next) if not self._done else None
+        if agl is not None and not in_arc and not self._arcs:
+            # a terrain-frame leg: ``agl`` above the ground under the aircraft, raised where
+            # ground ahead rises faster than the aircraft climbs (the lowest altitude from which
+            # it still clears every sample ahead at its planning climb gradient): down into a
+            # valley as well as up, as an autopilot following terrain flies it
+            if self._leg[kern.L_ACTIVE] > 0.5:
+                # every 50 m to the leg's end: a valley deeper than the look-ahead is long
+                # must not be entered further than the aircraft can climb out of by the end
+                leg = self._leg
+                _, along, _ = kern.leg_geometry(x, leg)
+                rest = max(float(leg[kern.L_LEN]) - along, 0.0)
+                a = along + np.linspace(0.0, rest, max(2, int(rest / 50.0) + 1))
+                # and the waypoint itself (a turn fillet ends the leg before it)
+                end = self._wp[self._next]  # map x (east), y (north)
+                ex = np.append(leg[kern.L_E0] + a * leg[kern.L_QE], end[0])
+                ny = np.append(leg[kern.L_N0] + a * leg[kern.L_QN], end[1])
+                hx, hy = np.concatenate([hx, ex]), np.concatenate([hy, ny])
+                heights = np.concatenate(
+                    [heights, np.asarray(self.terrain_height(ex, ny), dtype=np.float64)]
+                )
+            dist = np.hypot(hx - x[1], hy - x[0])
+            need = heights + agl - dist * self._follow_gradient
+            self._cmd[kern.C_FOLLOW] = 1.0
+            self._cmd[kern.C_FLOOR] = float(np.nanmax(need)) if need.size else -math.inf
+            return
+        self._cmd[kern.C_FOLLOW] = 0.0
         self._cmd[kern.C_FLOOR] = top + self.config.terrain_clearance
 
     # ---- running ------------------------------------------------------------------------------

@@ -145,7 +145,8 @@ C_ALT_DIRECT = 7  # 1: on a leg, command the next waypoint's altitude at once (e
 C_CLIMB = 8  # m/s: the climb rate of altitude mode 2 (+ up)
 C_ORB_N, C_ORB_E, C_ORB_R, C_ORB_LAM = 9, 10, 11, 12  # orbit centre (N, E), radius, +1 clockwise
 C_ORB_VN, C_ORB_VE = 13, 14  # m/s: velocity of a moving orbit centre (integrated each step)
-N_CMD = 15
+C_FOLLOW = 15  # 1: on this leg the altitude command is the terrain floor (a terrain-frame leg)
+N_CMD = 16
 
 # ---- the current leg (NED horizontal, altitude up) --------------------------------------------
 L_N0, L_E0, L_H0, L_N1, L_E1, L_H1 = 0, 1, 2, 3, 4, 5
@@ -806,7 +807,11 @@ def altitude_command(x, cmd, leg, on_arc, along, h, vn, ve):  # pragma: no cover
         hdot_ff = cmd[C_CLIMB]
     else:
         h_c = cmd[C_ALT]
-    if cmd[C_FLOOR] > h_c:
+    if cmd[C_FLOOR] > h_c or (
+        cmd[C_FOLLOW] > 0.5 and int(cmd[C_ALT_MODE] + 0.5) == 0 and cmd[C_FLOOR] > -1e300
+    ):
+        # at least the floor; on a terrain-frame leg followed, the floor itself (its height
+        # above the highest ground ahead), down into a valley as well as up
         h_c = cmd[C_FLOOR]
         hdot_ff = 0.0
     return h_c, hdot_ff

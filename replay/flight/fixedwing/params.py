@@ -68,6 +68,7 @@ parameters into the float64 array the numba kernels take (layout: the ``I_*`` in
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields, replace
 from typing import TYPE_CHECKING, Any
 
@@ -248,11 +249,14 @@ class VehicleParams:
         temperature_offset: float = 0.0,
         spirals: Sequence[Spiral] = (),
         land: bool = False,
+        leg_heights: Mapping[int, float] | None = None,
     ) -> FixedWingStack:
         """The aircraft under its autopilot flying ``waypoints`` at ``speed``: turn fillets of
         ``turn_radius`` (else the leg switch ``switch_distance`` before a waypoint), the climb
         and descent ``spirals`` of the plan, terrain following when ``terrain_height`` is
-        given (not on a landing's final approach, ``land``)."""
+        given (not on a landing's final approach, ``land``); on the terrain-frame legs
+        ``leg_heights`` (waypoint index -> metres: the leg into it) the altitude flown is that
+        height above the highest ground ahead (:meth:`Autopilot.set_leg_heights`)."""
         from replay.flight.fixedwing.stack import FixedWingStack
 
         return FixedWingStack(
@@ -266,6 +270,7 @@ class VehicleParams:
             temperature_offset=temperature_offset,
             spirals=spirals,
             land=land,
+            leg_heights=leg_heights,
         )
 
     def min_turn_radius(self, speed: float | None = None) -> float:

@@ -12,7 +12,7 @@ hold position, yaw-to, waypoints, hold course, orbits at the speed their radius 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -70,6 +70,7 @@ class FixedWingStack:
         temperature_offset: float = 0.0,
         spirals: Sequence[Spiral] = (),
         land: bool = False,
+        leg_heights: Mapping[int, float] | None = None,
     ) -> None:
         self.params = params
         if land:  # a landing ends at the flare, over the touchdown point, not 100 m short
@@ -98,6 +99,8 @@ class FixedWingStack:
             temperature_offset=self.temperature_offset,
         )
         self.autopilot.land = bool(land)
+        if leg_heights:
+            self.autopilot.set_leg_heights(leg_heights)
         if spirals:
             if turn_radius is None:
                 raise InputError(
@@ -114,6 +117,12 @@ class FixedWingStack:
         )
 
     # -- state ----------------------------------------------------------------------------------
+    @property
+    def leg_heights(self) -> dict[int, float]:
+        """The terrain-frame legs of the waypoints flown now (index of the waypoint a leg goes
+        to -> metres above the ground): :meth:`Autopilot.set_leg_heights`."""
+        return self.autopilot.leg_heights
+
     @property
     def waypoints(self) -> FloatArray:
         return self.autopilot.waypoints

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -183,10 +183,11 @@ class MultirotorParams:
         temperature_offset: float = 0.0,
         spirals: Sequence[Any] = (),
         land: bool = False,
+        leg_heights: Mapping[int, float] | None = None,
     ) -> MultirotorStack:
         """The multirotor under its controller flying ``waypoints`` at ``speed`` in the day's air
         (turn radius, leg switch and terrain following do not apply: it turns on the spot and
-        flies the waypoints' altitudes)."""
+        flies the waypoints' altitudes, terrain-frame legs ``leg_heights`` included)."""
         if spirals:
             raise InputError(
                 f"{self.name} is a multirotor: it climbs on the spot and flies no spirals "
