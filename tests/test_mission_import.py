@@ -437,3 +437,45 @@ def test_a_terrain_frame_leg_is_flown_down_into_a_valley(grid) -> None:
     # it can climb out of by the far ridge at half its planning gradient, the 690 m deep valley
     # being 2.5 km across)
     assert lowest[0] < lowest[1] - 30.0
+
+
+def test_a_campaign_flies_a_plan_on_its_dem(
+    tmp_path: Path, grid, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A campaign's mission may be a .plan: the spec's ``dem:`` carries its terrain (and
+    without it, a one-line error naming the field)."""
+    from replay.campaign.store import Store
+    from terrapath.cli import main
+
+    hx, hy = _home_xy(grid)
+    w = np.array([[hx, hy, 0.0], [hx + 3000.0, hy + 1000.0, 0.0]])
+    w[:, 2] = float(grid.height_at(w[:, 0], w[:, 1]).max()) + 400.0
+    m = Mission(
+        name="short",
+        waypoints=w,
+        crs="EPSG:32613",
+        terrain=TerrainRef((str(RMNP),)),
+        vehicle="aerosonde",
+        cruise_speed=25.0,
+        cruise_altitude=float(w[0, 2]),
+        turn_radius=143.1,
+    )
+    write_json(to_qgc_plan(m, grid, "relative"), tmp_path / "short.plan")
+    text = (
+        "terrapath: 1\nname: plan-campaign\nmission: short.plan\n"
+        "threats: {generator: uniform, counts: [0], radius: 100, keep_clear: 500, sigma: 400}\n"
+        "avoiders: [{name: none}]\nsensor: cooperative\nruns: 1\nseed: 1\n"
+    )
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(text + f"dem: [{RMNP}]\n")
+    store = tmp_path / "s.sqlite"
+    assert main(["campaign", str(spec), "--store", str(store), "--jobs", "1"]) == 0
+    with Store(store, "t") as s:
+        (row,) = s.rows()
+    assert row["status"] == "ok" and row["success"] and row["key"] == "short/0/none/0"
+    spec.write_text(text)
+    capsys.readouterr()
+    assert main(["campaign", str(spec), "--store", str(store)]) == 1
+    err = capsys.readouterr().err
+    assert "field 'mission'" in err and "give the spec 'dem: [tile, ...]'" in err
+    assert err.count("\n") == 1

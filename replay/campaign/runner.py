@@ -28,6 +28,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from planner.imports import is_foreign
 from replay.campaign.spec import Run, Spec
 from replay.campaign.store import Store
 from replay.campaign.workers import bind_to_parent, end_workers
@@ -54,7 +55,13 @@ def scenario(run: Run) -> Any:
         return str(run.row.file)  # read by the replay, with the mission's map
     mission = _MISSIONS.get(str(run.mission))
     if mission is None:
-        mission = _MISSIONS[str(run.mission)] = load_mission(run.mission)
+        if run.dem and is_foreign(run.mission):
+            from replay.source import mission_on_terrain
+
+            mission = mission_on_terrain(str(run.mission), run.dem, None, None)[0]
+        else:
+            mission = load_mission(run.mission)
+        _MISSIONS[str(run.mission)] = mission
     assert run.generator is not None and run.row.count is not None
     rng = np.random.default_rng(run.scenario_seed)
     records = GENERATORS[run.generator](mission, run.row.count, rng, run.params)
@@ -143,6 +150,8 @@ def execute(
             software_version=version,
             radar_range=_sensor_range(run, "radar_range"),
             rangefinder_range=_sensor_range(run, "rangefinder_range"),
+            # the spec's DEM carries the missions of other tools (lon/lat, no terrain named)
+            dem=run.dem if not run.makes_cases and is_foreign(run.mission) else (),
         )
         out = None if keep != "all" or mcap_dir is None else str(Path(mcap_dir) / mcap_name(run))
         result = run_replay(request, out)

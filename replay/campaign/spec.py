@@ -6,6 +6,8 @@ and the field.
 terrapath: 1
 name: pso-ca-fields
 mission: data/missions/seed000-table4.yaml      # or several: missions: [...]
+dem: null                                        # DEM tiles of missions of other tools
+                                                 # (.plan, .waypoints, GeoJSON, KML): [a.tif]
 threats:                                         # a generator, or files: [a.yaml, b.yaml]
   generator: seed000-normal                      # see GENERATORS
   counts: [10, 40, 70]                           # one row of the study per count
@@ -58,7 +60,7 @@ from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError
 
 SPEC_KEYS = (
-    *("terrapath", "name", "mission", "missions", "threats", "avoiders"),
+    *("terrapath", "name", "mission", "missions", "dem", "threats", "avoiders"),
     *("sensor", "sensor_range", "runs", "seed", "margin", "duration"),
 )
 THREAT_KEYS = (
@@ -111,6 +113,7 @@ class Run:
     margin: float
     duration: float | None
     sensor_range: float | None = None  # None: the replay's default
+    dem: tuple[str, ...] = ()  # the DEM tiles of a mission of another tool
 
     @property
     def makes_cases(self) -> bool:
@@ -135,6 +138,7 @@ class Spec:
     spec_hash: str = ""
     digests: dict[str, str] = field(default_factory=dict)  # file -> SHA-256 of its bytes
     sensor_range: float | None = None
+    dem: tuple[str, ...] = ()  # DEM tiles for missions of other tools (absolute paths)
 
     def content_hash(self) -> str:
         """SHA-256 of what the spec asks for (files by their bytes' digests)."""
@@ -153,6 +157,7 @@ class Spec:
             "margin": self.margin,
             "duration": self.duration,
             **({"sensor_range": self.sensor_range} if self.sensor_range is not None else {}),
+            **({"dem": list(self.dem)} if self.dem else {}),
             **(
                 {"dynamic": [r.dynamic for r in self.rows]}
                 if self.generator in CASE_GENERATORS
@@ -187,7 +192,7 @@ class Spec:
         key = f"{mission.stem}/{row.label}/{avoider.label}/{index}"
         scenario = derive_seed(self.seed, "scenario", mission.stem, row.label, index)
         seed = derive_seed(self.seed, key)
-        identity = {
+        identity: dict[str, Any] = {
             "mission": self.digests[str(mission)],
             "threats": self.digests[str(row.file)]
             if row.file is not None
@@ -204,6 +209,8 @@ class Spec:
             identity["map"] = row.map
         if self.sensor_range is not None:
             identity["sensor_range"] = self.sensor_range
+        if self.dem:
+            identity["dem"] = list(self.dem)
         run_hash = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
         return Run(
             key,
@@ -220,6 +227,7 @@ class Spec:
             self.margin,
             self.duration,
             self.sensor_range,
+            self.dem,
         )
 
     def find(self, key: str) -> Run:
@@ -337,8 +345,9 @@ def load_spec(path: str | Path) -> Spec:
     stems = [m.stem for m in missions]
     if len(set(stems)) != len(stems):
         raise _fail(src, "missions", f"two missions share a file name ({stems}): keys name them so")
+    dem = _dem(src, doc.get("dem"), missions if not cases else ())
     generator, params, rows = _threats(src, doc.get("threats"))
-    _check_files(missions, rows)
+    _check_files(missions if not cases else (), rows, dem)
     avoiders = _avoiders(src, doc.get("avoiders"), AVOIDERS)
     sensor = doc.get("sensor", "radar")
     if sensor not in SENSORS:
@@ -385,8 +394,32 @@ def load_spec(path: str | Path) -> Spec:
         "",
         digests,
         sensor_range,
+        dem,
     )
     return replace(spec, spec_hash=spec.content_hash())
+
+
+def _dem(src: Path, value: Any, missions: tuple[Path, ...]) -> tuple[str, ...]:
+    """The spec's ``dem:`` (absolute paths), required when a mission is another tool's."""
+    from planner.imports import FORMAT_NAMES, is_foreign, read_foreign
+
+    tiles: tuple[str, ...] = ()
+    if value is not None:
+        items = [value] if isinstance(value, str) else value
+        if not isinstance(items, list) or not items:
+            raise _fail(src, "dem", f"expected a list of DEM files, found {value!r}")
+        tiles = tuple(str(_file(src, f"dem[{i}]", v).resolve()) for i, v in enumerate(items))
+    for i, m in enumerate(missions):
+        if is_foreign(m) and not tiles:
+            kind = FORMAT_NAMES[read_foreign(m).format]
+            fld = "mission" if len(missions) == 1 else f"missions[{i}]"
+            raise _fail(
+                src,
+                fld,
+                f"a {kind} mission holds lon/lat and names no terrain: give the spec "
+                "'dem: [tile, ...]'",
+            )
+    return tiles
 
 
 def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
@@ -492,18 +525,24 @@ def _map_rows(src: Path, gen: str, doc: dict[str, Any]) -> tuple[Row, ...]:
     return tuple(Row(n, map=n) for n in names)
 
 
-def _check_files(missions: tuple[Path, ...], rows: tuple[Row, ...]) -> None:
-    """Read every threat file over every mission's map now: a bad file is an error before the
-    first run, not in it (lon/lat positions need the map)."""
+def _check_files(
+    missions: tuple[Path, ...], rows: tuple[Row, ...], dem: tuple[str, ...] = ()
+) -> None:
+    """Read every mission of another tool on the spec's DEM, and every threat file over every
+    mission's map, now: a bad file is an error before the first run, not in it (lon/lat
+    positions need the map)."""
+    from planner.imports import is_foreign
+    from replay.source import mission_on_terrain
+
     files = [r.file for r in rows if r.file is not None]
-    if not files:
+    if not files and not any(is_foreign(m) for m in missions):
         return
-    from planner.mission import load_mission
     from replay.threats.file import load_threats
 
     for m in missions:
-        mission = load_mission(m)
-        grid = mission.terrain.load() if mission.terrain is not None else None
+        if not files and not is_foreign(m):
+            continue
+        _, grid, *_ = mission_on_terrain(str(m), dem if is_foreign(m) else (), None, None)
         for f in files:
             load_threats(f, grid)
 

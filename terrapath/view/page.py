@@ -122,8 +122,10 @@ def write_view(
     *,
     exaggeration: float = 2.0,
     color_by: str | None = None,
+    dem: tuple[str, ...] = (),
 ) -> Path:
-    """Read the SOURCEs, build the page, write it to ``out`` through a temporary name."""
+    """Read the SOURCEs (``dem``: the DEM of missions of other tools), build the page, write it
+    to ``out`` through a temporary name."""
     from terrain.atomic import atomic_output
 
     target = Path(out)
@@ -132,7 +134,7 @@ def write_view(
         raise InputError(f"{target}: cannot write the view there: no folder {parent}")
     if target.is_dir():
         raise InputError(f"{target}: is a folder; give a file name ending in .html")
-    sources = read_sources(paths)
+    sources = read_sources(paths, dem)
     text = page_html(sources, exaggeration, color_by)
     try:
         with atomic_output(target) as tmp:

@@ -64,15 +64,22 @@ class Source:
         return f"{self.path.name} ({self.run.avoid or 'no avoidance'}, {outcome})"
 
 
-def read_source(path: str | Path) -> Source:
-    """A SOURCE: a replay MCAP (by its magic bytes) or a mission YAML; a one-line error for
-    anything else, a missing file, or a run without a trajectory."""
+def read_source(path: str | Path, dem: tuple[str, ...] = ()) -> Source:
+    """A SOURCE: a replay MCAP (by its magic bytes), a mission YAML, or a mission of another
+    tool (QGroundControl .plan, .waypoints, GeoJSON, KML) on the DEM ``dem``; a one-line error
+    for anything else, a missing file, or a run without a trajectory."""
+    from planner.imports import is_foreign
     from planner.mission import load_mission
     from replay.record.picture import load_grid, recorded_view
 
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{p}: no such file")
+    if is_foreign(p):
+        from replay.source import import_mission
+
+        mission, grid, _, _ = import_mission(str(p), dem, None, None)
+        return Source(p, mission, grid, "")
     with p.open("rb") as f:
         head = f.read(len(MCAP_MAGIC))
     if head == MCAP_MAGIC:
@@ -101,11 +108,12 @@ def _looks_like_a_mission(p: Path) -> bool:
     return isinstance(doc, dict) and "waypoints" in doc
 
 
-def read_sources(paths: list[str]) -> list[Source]:
-    """Every SOURCE, checked to lie on one map (same DEM tiles, or all on flat ground)."""
+def read_sources(paths: list[str], dem: tuple[str, ...] = ()) -> list[Source]:
+    """Every SOURCE, checked to lie on one map (same DEM tiles, or all on flat ground); ``dem``
+    for the missions of other tools."""
     if not paths:
         raise InputError("give at least one SOURCE: a mission YAML or a replay MCAP")
-    sources = [read_source(p) for p in paths]
+    sources = [read_source(p, dem) for p in paths]
     first = sources[0]
     for s in sources[1:]:
         if _map_key(s) != _map_key(first):
