@@ -466,6 +466,19 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def on_terrain(mission: Mission, grid: HeightGrid | None) -> Mission:
+    """``mission`` whose danger zones limited above the ground (``floor_agl``, ``top_agl``)
+    follow ``grid``'s surface (:func:`terrain.zones.with_ground`); unchanged without a grid."""
+    if grid is None or not any(
+        z.floor_agl is not None or z.top_agl is not None for z in mission.danger_zones
+    ):
+        return mission
+    from terrain.zones import with_ground
+
+    zones = tuple(with_ground(z, grid.height_at) for z in mission.danger_zones)
+    return replace(mission, danger_zones=zones)
+
+
 def grid_crs_label(grid: HeightGrid) -> str:
     """What a mission records as its CRS for a grid."""
     return crs_label(grid.crs) if grid.crs is not None else "local"

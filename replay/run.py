@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from planner.mission import Mission
+from planner.mission import Mission, on_terrain
 from replay.avoidance import Avoider, make_avoider
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.multirotor.model import MultirotorParams
@@ -154,6 +154,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         mission, old_run, source = r.source, None, f"mission {r.source.name!r}"
         mission = find_terrain(mission, r.dem)
         grid = mission.terrain.load() if mission.terrain is not None else None
+        mission = on_terrain(mission, grid)
         params, vehicle_file = source_vehicle(r.vehicle, mission, source, old_run)
     else:
         # a mission file (terrapath's, or another tool's on --dem) or an earlier run

@@ -113,11 +113,13 @@ def mission_on_terrain(
     if is_foreign(source):
         mission, grid, params, vehicle_file = import_mission(source, dem_tiles, vehicle, speed)
         return mission, grid, params, vehicle_file, None
+    from planner.mission import on_terrain
+
     mission, old_run = load_source(source)
     mission = find_terrain(mission, dem_tiles)
     loaded = mission.terrain.load() if mission.terrain is not None else None
     params, vehicle_file = source_vehicle(vehicle, mission, source, old_run)
-    return mission, loaded, params, vehicle_file, old_run
+    return on_terrain(mission, loaded), loaded, params, vehicle_file, old_run
 
 
 def mission_of_run(run: RunRecord, source: str) -> Mission:

@@ -71,7 +71,10 @@ from terrain.zones import (
     shapely_geometry,
 )
 
-ZONE_KEYS = ("x", "y", "lon", "lat", "diameter", "radius", "margin", "floor", "top", "id")
+ZONE_KEYS = (
+    *("x", "y", "lon", "lat", "diameter", "radius", "margin", "floor", "top"),
+    *("floor_agl", "top_agl", "id"),
+)
 POLYGON_KEYS = (
     "vertices",
     "vertices_lonlat",
@@ -81,6 +84,8 @@ POLYGON_KEYS = (
     "margin",
     "floor",
     "top",
+    "floor_agl",
+    "top_agl",
     "id",
 )
 PART_KEYS = ("vertices", "vertices_lonlat", "holes", "holes_lonlat")
@@ -104,6 +109,7 @@ class _Entry(NamedTuple):
     id: str | None
     floor: float | None = None
     margin: float = 0.0  # the zone is grown by this much all round (inflated)
+    agl: tuple[float | None, float | None] = (None, None)  # floor_agl, top_agl
 
 
 class _PolyEntry(NamedTuple):
@@ -114,6 +120,7 @@ class _PolyEntry(NamedTuple):
     top: float | None
     id: str | None
     margin: float = 0.0
+    agl: tuple[float | None, float | None] = (None, None)  # floor_agl, top_agl
 
 
 _AnyEntry = _Entry | _PolyEntry
@@ -154,6 +161,29 @@ def _floor(value: Any, top: float | None, path: Source, field: str) -> float | N
             f"{where(path, field)}expected a floor below the top ({top:g} m), found {_found(value)}"
         )
     return floor
+
+
+def _agl(props: dict[str, Any], path: Source, field: str) -> tuple[float | None, float | None]:
+    """``floor_agl`` and ``top_agl`` (metres above the ground; each or its AMSL twin)."""
+    out: list[float | None] = []
+    for name in ("floor_agl", "top_agl"):
+        value = props.get(name)
+        if value is not None and props.get(name.removesuffix("_agl")) is not None:
+            raise InputError(
+                f"{where(path, field)}give {name.removesuffix('_agl')} (m AMSL) or {name} "
+                "(m above the ground), not both"
+            )
+        out.append(
+            None
+            if value is None
+            else _number(value, path, f"{field}.{name}", "metres above the ground")
+        )
+    lo, hi = out
+    if lo is not None and hi is not None and not lo < hi:
+        raise InputError(
+            f"{where(path, field)}floor_agl ({lo:g} m) must be below top_agl ({hi:g} m)"
+        )
+    return lo, hi
 
 
 def _diameter(value: Any, path: Source, field: str, expected: str) -> float:
@@ -319,7 +349,7 @@ def _yaml_polygon(entry: dict[str, Any], path: Source, field: str) -> _PolyEntry
     top = _top(entry.get("top"), path, f"{field}.top")
     floor = _floor(entry.get("floor"), top, path, f"{field}.floor")
     margin = _margin(entry.get("margin"), path, f"{field}.margin")
-    return _PolyEntry(field, lonlat, parts, floor, top, ident, margin)
+    return _PolyEntry(field, lonlat, parts, floor, top, ident, margin, _agl(entry, path, field))
 
 
 def _yaml_entry(entry: Any, path: Source, field: str) -> _AnyEntry:
@@ -366,7 +396,8 @@ def _yaml_entry(entry: Any, path: Source, field: str) -> _AnyEntry:
     floor = _floor(entry.get("floor"), top, path, f"{field}.floor")
     ident = _ident(entry.get("id"), path, f"{field}.id")
     margin = _margin(entry.get("margin"), path, f"{field}.margin")
-    return _Entry(field, bool(has_ll), a, b, diameter, top, ident, floor, margin)
+    agl = _agl(entry, path, field)
+    return _Entry(field, bool(has_ll), a, b, diameter, top, ident, floor, margin, agl)
 
 
 def _size(entry: dict[str, Any], path: Source, field: str) -> float:
@@ -426,7 +457,7 @@ def _geojson_polygon(
     top = _top(props.get("top"), path, f"{pfield}.top")
     floor = _floor(props.get("floor"), top, path, f"{pfield}.floor")
     margin = _margin(props.get("margin"), path, f"{pfield}.margin")
-    return _PolyEntry(field, True, parts, floor, top, ident, margin)
+    return _PolyEntry(field, True, parts, floor, top, ident, margin, _agl(props, path, pfield))
 
 
 def _geojson_entry(feature: Any, path: Source, field: str) -> _AnyEntry:
@@ -459,7 +490,8 @@ def _geojson_entry(feature: Any, path: Source, field: str) -> _AnyEntry:
     floor = _floor(props.get("floor"), top, path, f"{pfield}.floor")
     ident = _feature_ident(feature, props, path, field)
     margin = _margin(props.get("margin"), path, f"{pfield}.margin")
-    return _Entry(field, True, lon, lat, diameter, top, ident, floor, margin)
+    agl = _agl(props, path, pfield)
+    return _Entry(field, True, lon, lat, diameter, top, ident, floor, margin, agl)
 
 
 def _to_map(
@@ -545,13 +577,26 @@ def _finish(entries: list[_AnyEntry], grid: HeightGrid | None, path: Source) -> 
                 )
             seen[e.id] = e.field
     zones: list[Zone] = []
+    # a limit above the ground follows the DEM's surface (bilinear) on a map
+    ground = grid.height_at if grid is not None else None
     for i, e in enumerate(entries):
         zone: Zone
+        fa, ta = e.agl
         if isinstance(e, _Entry):
-            zone = DangerZone(float(xs[i]), float(ys[i]), e.diameter, e.top, e.id, e.floor)
+            zone = DangerZone(
+                float(xs[i]), float(ys[i]), e.diameter, e.top, e.id, e.floor, fa, ta, ground
+            )
         else:
             try:
-                zone = PolygonZone(tuple(tuple(p) for p in rings[i]), e.floor, e.top, e.id)  # type: ignore[arg-type]
+                zone = PolygonZone(
+                    tuple(tuple(p) for p in rings[i]),  # type: ignore[arg-type]
+                    e.floor,
+                    e.top,
+                    e.id,
+                    fa,
+                    ta,
+                    ground,
+                )
             except InputError as exc:  # valid in lon/lat, not once converted (a sliver): say so
                 raise InputError(f"{where(path, e.field)}in map metres: {exc}") from exc
         zones.append(inflated(zone, e.margin))
@@ -616,10 +661,9 @@ def zones_to_records(zones: Iterable[Zone]) -> list[dict[str, Any]]:
                     p["holes"] = [_ring_record(h) for h in part[1:]]
                 parts.append(p)
             rec = parts[0] if len(parts) == 1 else {"parts": parts}
-        if z.floor is not None:
-            rec["floor"] = z.floor
-        if z.top is not None:
-            rec["top"] = z.top
+        for name in ("floor", "top", "floor_agl", "top_agl"):
+            if getattr(z, name) is not None:
+                rec[name] = getattr(z, name)
         if z.id is not None:
             rec["id"] = z.id
         out.append(rec)
@@ -655,6 +699,9 @@ def zone_feature(
     shapes).  ``digits`` rounds the degrees (8 digits is about a millimetre).
     """
     props: dict[str, Any] = {"id": zone.id, "kind": zone.kind, "floor": zone.floor, "top": zone.top}
+    for name in ("floor_agl", "top_agl"):
+        if getattr(zone, name) is not None:
+            props[name] = getattr(zone, name)
     geometry: dict[str, Any]
     if isinstance(zone, DangerZone):
         props["diameter"] = zone.diameter

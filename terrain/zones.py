@@ -8,6 +8,16 @@ means unbounded below / above; a floor or top at or below the terrain is allowed
 - :class:`PolygonZone`, a vertical prism over a polygon: one or several parts (a GeoJSON
   MultiPolygon), each an exterior ring and optional holes.
 
+A floor or a top may instead be given **above the ground** (``floor_agl``, ``top_agl``, metres;
+issue 35: the UAS geozones of ED-269 and the OpenAir airspace limited "AGL"): a surface that
+follows the terrain, evaluated under each point (a 120 m AGL ceiling over 2-4 km mountains is not
+a 4,120 m flat top). Such a zone needs the terrain's surface, ``ground(x, y)`` (map metres ->
+metres AMSL: the DEM's bilinear surface, :func:`with_ground`; the zone files bind it when they
+are read on a map): :meth:`contains` and :meth:`separation` evaluate its limits under each point,
+and :class:`terrain.zoneset.ZoneSet` measures the length inside it on segments sampled every
+:data:`AGL_STEP_M`. Code that reads only ``floor`` and ``top`` (AMSL) sees such a zone unbounded
+on that side -- the conservative reading (a ceiling above the ground read as no ceiling).
+
 The files that hold them (YAML and GeoJSON, DESIGN §5) are read and written by
 :mod:`terrain.zone_file`.
 
@@ -22,8 +32,8 @@ an equal zone.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any, ClassVar, Literal, TypeAlias
 
@@ -38,6 +48,8 @@ BoolArray = npt.NDArray[np.bool_]
 Vertex = tuple[float, float]
 Ring = tuple[Vertex, ...]
 Part = tuple[Ring, ...]  # exterior ring, then holes
+Ground = Callable[[npt.ArrayLike, npt.ArrayLike], FloatArray]
+AGL_STEP_M = 25.0  # segments are sampled this often against a zone limited above the ground
 
 
 def _altitudes(zone: Any, what: str) -> None:
@@ -54,13 +66,24 @@ def _altitudes(zone: Any, what: str) -> None:
             object.__setattr__(zone, name, value)
     if zone.floor is not None and zone.top is not None and not zone.floor < zone.top:
         raise InputError(f"{what} floor ({zone.floor:g} m) must be below its top ({zone.top:g} m)")
+    for name in ("floor_agl", "top_agl"):
+        given = getattr(zone, name)
+        if given is not None:
+            value = _finite(given, f"{what} {name}")
+            object.__setattr__(zone, name, value)
+            if getattr(zone, name.removesuffix("_agl")) is not None:
+                raise InputError(
+                    f"{what}: give {name.removesuffix('_agl')} (m AMSL) or {name} (m above the "
+                    "ground), not both"
+                )
+    fa, ta = zone.floor_agl, zone.top_agl
+    if fa is not None and ta is not None and not fa < ta:
+        raise InputError(f"{what} floor_agl ({fa:g} m) must be below its top_agl ({ta:g} m)")
     if zone.id is not None and not isinstance(zone.id, str):
         raise InputError(f"{what} id must be text or None; got {zone.id!r}")
 
 
-def _prism_separation(
-    horizontal: FloatArray, z: FloatArray, floor: float | None, top: float | None
-) -> FloatArray:
+def _prism_separation(horizontal: FloatArray, z: FloatArray, floor: Any, top: Any) -> FloatArray:
     """Signed distance to a vertical prism from the signed horizontal distance to its outline
     (negative inside) and the altitude: outside both ways the Euclidean combination, otherwise
     the larger of the two (negative inside: minus the depth)."""
@@ -71,7 +94,34 @@ def _prism_separation(
     return np.asarray(np.where(both, np.hypot(horizontal, dz), np.maximum(horizontal, dz)))
 
 
-def _vertical(z: npt.ArrayLike, floor: float | None, top: float | None) -> BoolArray:
+def limits(zone: Any, x: npt.ArrayLike, y: npt.ArrayLike) -> tuple[Any, Any]:
+    """(floor, top) of ``zone`` under map points (x, y), metres AMSL: its own altitudes, or its
+    heights above the ground on its ``ground`` surface; None where unbounded."""
+    lo, hi = zone.floor, zone.top
+    if zone.floor_agl is None and zone.top_agl is None:
+        return lo, hi
+    if zone.ground is None:
+        raise InputError(
+            f"zone {zone.id or '(no id)'} has a limit above the ground: it needs the terrain "
+            "(read it on a map, or terrain.zones.with_ground)"
+        )
+    g = np.asarray(zone.ground(x, y), dtype=np.float64)
+    if zone.floor_agl is not None:
+        lo = g + zone.floor_agl
+    if zone.top_agl is not None:
+        hi = g + zone.top_agl
+    return lo, hi
+
+
+def with_ground(zone: Zone, ground: Ground | None) -> Zone:
+    """``zone`` whose limits above the ground are evaluated on ``ground`` (unchanged if it has
+    none)."""
+    if zone.floor_agl is None and zone.top_agl is None:
+        return zone
+    return replace(zone, ground=ground)
+
+
+def _vertical(z: npt.ArrayLike, floor: Any, top: Any) -> BoolArray:
     za = np.asarray(z, dtype=np.float64)
     ok = np.ones(za.shape, dtype=np.bool_)
     if top is not None:
@@ -93,6 +143,9 @@ class DangerZone:
     top: float | None = None
     id: str | None = None
     floor: float | None = None
+    floor_agl: float | None = None
+    top_agl: float | None = None
+    ground: Ground | None = field(default=None, compare=False, repr=False)
 
     kind: ClassVar[Literal["cylinder"]] = "cylinder"
 
@@ -137,13 +190,16 @@ class DangerZone:
         )
         wx, wy = xa - self.x, ya - self.y
         r = self.radius
-        return np.asarray((wx * wx + wy * wy <= r * r) & _vertical(za, self.floor, self.top))
+        lo, hi = limits(self, xa, ya)
+        return np.asarray((wx * wx + wy * wy <= r * r) & _vertical(za, lo, hi))
 
     def separation(self, points: npt.ArrayLike) -> FloatArray:
-        """Signed distance (m) from map points (..., 3) to the zone's surface: negative inside."""
+        """Signed distance (m) from map points (..., 3) to the zone's surface: negative inside
+        (a limit above the ground: the vertical distance to it under the point)."""
         q = np.asarray(points, dtype=np.float64)
         horizontal = np.hypot(q[..., 0] - self.x, q[..., 1] - self.y) - self.radius
-        return _prism_separation(horizontal, q[..., 2], self.floor, self.top)
+        lo, hi = limits(self, q[..., 0], q[..., 1])
+        return _prism_separation(horizontal, q[..., 2], lo, hi)
 
 
 def _ring_area(ring: FloatArray) -> float:
@@ -242,6 +298,9 @@ class PolygonZone:
     floor: float | None = None
     top: float | None = None
     id: str | None = None
+    floor_agl: float | None = None
+    top_agl: float | None = None
+    ground: Ground | None = field(default=None, compare=False, repr=False)
 
     kind: ClassVar[Literal["polygon"]] = "polygon"
 
@@ -320,7 +379,8 @@ class PolygonZone:
             np.asarray(y, dtype=np.float64),
             np.asarray(z, dtype=np.float64),
         )
-        vertical = _vertical(za, self.floor, self.top)
+        lo, hi = limits(self, xa, ya)
+        vertical = _vertical(za, lo, hi)
         out = np.zeros(xa.shape, dtype=np.bool_)
         if vertical.any():
             out[vertical] = points_in_edges(xa[vertical], ya[vertical], self.edges)
@@ -337,7 +397,8 @@ class PolygonZone:
         d = shapely.distance(shapely.points(flat[:, 0], flat[:, 1]), boundary)
         inside = points_in_polygon_xy(self, flat[:, 0], flat[:, 1])
         horizontal = np.where(inside, -d, d).reshape(q.shape[:-1])
-        return _prism_separation(horizontal, q[..., 2], self.floor, self.top)
+        lo, hi = limits(self, q[..., 0], q[..., 1])
+        return _prism_separation(horizontal, q[..., 2], lo, hi)
 
 
 def inflated(zone: Zone, margin: float) -> Zone:
@@ -348,8 +409,20 @@ def inflated(zone: Zone, margin: float) -> Zone:
         return zone
     top = None if zone.top is None else zone.top + margin
     floor = None if zone.floor is None else zone.floor - margin
+    floor_agl = None if zone.floor_agl is None else zone.floor_agl - margin
+    top_agl = None if zone.top_agl is None else zone.top_agl + margin
     if isinstance(zone, DangerZone):
-        return DangerZone(zone.x, zone.y, zone.diameter + 2 * margin, top, zone.id, floor)
+        return DangerZone(
+            zone.x,
+            zone.y,
+            zone.diameter + 2 * margin,
+            top,
+            zone.id,
+            floor,
+            floor_agl,
+            top_agl,
+            zone.ground,
+        )
     grown = zone.geometry.buffer(margin, quad_segs=16)
     polys = list(getattr(grown, "geoms", [grown]))
     parts = tuple(
@@ -359,7 +432,7 @@ def inflated(zone: Zone, margin: float) -> Zone:
         )
         for poly in polys
     )
-    return PolygonZone(parts, floor, top, zone.id)
+    return PolygonZone(parts, floor, top, zone.id, floor_agl, top_agl, zone.ground)
 
 
 def points_in_polygon_xy(zone: PolygonZone, x: npt.ArrayLike, y: npt.ArrayLike) -> BoolArray:

@@ -2,7 +2,9 @@
 
 ``ZoneSet.of(zones)`` keeps the zones in the order given: column k of every (M, K) / (P, K) /
 (N, K) result is zone k.  Cylinders go through :mod:`terrain.cylinders` (analytic), polygon prisms
-through :mod:`terrain.prisms` (the numba kernel); both honour ``floor`` and ``top``.
+through :mod:`terrain.prisms` (the numba kernel); both honour ``floor`` and ``top``. A zone with
+a limit above the ground (``floor_agl`` / ``top_agl``, :mod:`terrain.zones`) is measured on its
+segments sampled every :data:`terrain.zones.AGL_STEP_M` (each piece inside when its middle is).
 
 ```python
 zs = ZoneSet.of(zones)                       # zones: DangerZone / PolygonZone, any mix
@@ -32,7 +34,7 @@ from terrain.prisms import (
     polygon_arrays,
     segment_polygon_lengths,
 )
-from terrain.zones import DangerZone, PolygonZone, Zone
+from terrain.zones import AGL_STEP_M, DangerZone, PolygonZone, Zone
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -58,6 +60,7 @@ class ZoneSet:
     polygon_columns: IntArray
     polygons: PolygonArrays
     sizes: FloatArray
+    agl_columns: IntArray  # zones with a limit above the ground: sampled, not packed
 
     @classmethod
     def of(cls, zones: Iterable[Zone]) -> ZoneSet:
@@ -67,10 +70,11 @@ class ZoneSet:
                 raise InputError(
                     f"zone {i} must be a DangerZone or a PolygonZone; got {type(z).__name__}"
                 )
-        cyl = [i for i, z in enumerate(zs) if isinstance(z, DangerZone)]
-        poly = [i for i, z in enumerate(zs) if isinstance(z, PolygonZone)]
-        cylinders = zones_arrays([z for z in zs if isinstance(z, DangerZone)])
-        polygons = polygon_arrays([z for z in zs if isinstance(z, PolygonZone)])
+        agl = [i for i, z in enumerate(zs) if z.floor_agl is not None or z.top_agl is not None]
+        cyl = [i for i, z in enumerate(zs) if isinstance(z, DangerZone) and i not in agl]
+        poly = [i for i, z in enumerate(zs) if isinstance(z, PolygonZone) and i not in agl]
+        cylinders = zones_arrays([zs[i] for i in cyl])  # type: ignore[misc]
+        polygons = polygon_arrays([zs[i] for i in poly])  # type: ignore[misc]
         for arrays in (cylinders, polygons):
             for a in arrays:
                 _frozen(a)
@@ -81,6 +85,7 @@ class ZoneSet:
             polygon_columns=_frozen(np.array(poly, dtype=np.int64)),  # type: ignore[arg-type]
             polygons=polygons,
             sizes=_frozen(np.array([z.size for z in zs], dtype=np.float64)),  # type: ignore[arg-type]
+            agl_columns=_frozen(np.array(agl, dtype=np.int64)),  # type: ignore[arg-type]
         )
 
     def __len__(self) -> int:
@@ -103,6 +108,8 @@ class ZoneSet:
             )
         if self.polygon_columns.size:
             out[:, self.polygon_columns] = segment_polygon_lengths(a, b, self.polygons)
+        for k in self.agl_columns.tolist():
+            out[:, k] = _sampled_lengths(a, b, self.zones[k])
         return out
 
     def path_lengths(self, paths: npt.ArrayLike) -> FloatArray:
@@ -129,4 +136,25 @@ class ZoneSet:
             )
         if self.polygon_columns.size:
             out[:, self.polygon_columns] = points_in_polygons(q, self.polygons)
+        for k in self.agl_columns.tolist():
+            out[:, k] = self.zones[k].contains(q[:, 0], q[:, 1], q[:, 2])
         return out
+
+
+def _sampled_lengths(a: FloatArray, b: FloatArray, zone: Zone) -> FloatArray:
+    """Length (m) of each segment a[m] -> b[m] inside ``zone`` (one limited above the ground):
+    the segment cut into pieces of at most :data:`AGL_STEP_M` horizontally, a piece inside when
+    its middle is."""
+    m = a.shape[0]
+    if m == 0:
+        return np.zeros(0)
+    d = b - a
+    length = np.linalg.norm(d, axis=1)
+    n = np.maximum(1, np.ceil(np.hypot(d[:, 0], d[:, 1]) / AGL_STEP_M)).astype(np.int64)
+    seg = np.repeat(np.arange(m), n)
+    first = np.cumsum(n) - n
+    t = (np.arange(seg.size) - first[seg] + 0.5) / n[seg]
+    mid = a[seg] + t[:, None] * d[seg]
+    inside = zone.contains(mid[:, 0], mid[:, 1], mid[:, 2])
+    out = np.bincount(seg, weights=inside * (length / n)[seg], minlength=m)
+    return np.asarray(out, dtype=np.float64)
