@@ -64,7 +64,7 @@ def test_without_the_terrain_a_limit_above_the_ground_is_an_error(grid) -> None:
     zone = DangerZone(0.0, 0.0, 1000.0, top_agl=120.0, id="z")
     with pytest.raises(InputError, match="zone z has a limit above the ground: it needs"):
         zone.contains(0.0, 0.0, 10.0)
-    with pytest.raises(InputError, match="give top .m AMSL. or top_agl"):
+    with pytest.raises(InputError, match=r"give top \(m AMSL\) or top_agl"):
         DangerZone(0.0, 0.0, 1000.0, top=500.0, top_agl=120.0)
 
 
