@@ -47,7 +47,15 @@ from replay.guidance import (
     GuidanceRefused,
     command_record,
 )
-from replay.judge import ORBIT_GAIN, RETURN_TIME_S, Conformance, StallJudge, Tolerances, stall_eas
+from replay.judge import (
+    ORBIT_GAIN,
+    RETURN_TIME_S,
+    SETTLE_S,
+    Conformance,
+    StallJudge,
+    Tolerances,
+    stall_eas,
+)
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.record.base import Recorder
 from replay.sensors.base import Sensor
@@ -716,15 +724,20 @@ def climb_rate(params: Any, speed: float, altitude: float, temperature_offset: f
 def tolerances(mission: Mission, stack: FlightStack, cfg: ReplayConfig) -> Tolerances:
     """The conformance tolerances of a run: the configured ones, else the defaults from the
     mission's planned clearance and turn radius (else the vehicle's tightest turn at the
-    airspeed), and a return time of 60 s or two corner distances of flight (seed 000's switch
-    1 km before a waypoint leaves a slow aircraft up to 1 km off its next leg), the longer."""
+    airspeed), and a return time of 60 s, two corner distances of flight (seed 000's switch
+    1 km before a waypoint leaves a slow aircraft up to 1 km off its next leg) or one full turn
+    of that radius and the settling after it (an avoider's new route may need the aircraft to
+    turn round: the Cessna at 50 m/s, turning 441 m at its bank limit, takes 55 s for the circle),
+    the longest."""
     speed = float(cfg.airspeed or mission.cruise_speed)
-    back = cfg.return_time
-    if back is None:
-        back = max(RETURN_TIME_S, 2.0 * float(stack.corner_distance) / speed)
     radius = mission.turn_radius
     if radius is None and hasattr(stack.params, "min_turn_radius"):
         radius = stack.params.min_turn_radius(speed)
+    back = cfg.return_time
+    if back is None:
+        back = max(RETURN_TIME_S, 2.0 * float(stack.corner_distance) / speed)
+        if radius:
+            back = max(back, 2.0 * math.pi * float(radius) / speed + SETTLE_S)
     clearance = mission.plan.get("clearance") if isinstance(mission.plan, dict) else None
     return Tolerances.of(
         cfg.vertical_tolerance,
