@@ -915,6 +915,15 @@ def _zones(fm: ForeignMission, grid: HeightGrid) -> tuple[Any, ...]:
     return zones_from_fields(fm.fences, grid, source=fm.source)
 
 
+def estimated_duration(mission: Any, factor: float = 1.5) -> float:
+    """Seconds a mission's flight may take: its horizontal length at its cruise speed, times
+    ``factor`` for the turns, spirals and detours (the time window airspace is active in)."""
+    w = np.asarray(mission.waypoints, dtype=np.float64)
+    length = float(np.hypot(*np.diff(w[:, :2], axis=0).T).sum())
+    turns = sum(2 * math.pi * s.radius * s.turns for s in mission.spirals)
+    return factor * (length + turns) / max(float(mission.cruise_speed), 0.1)
+
+
 def describe_items(fm: ForeignMission) -> Sequence[str]:
     """One line per item, for messages and the report."""
     return [f"{it.field}: {it.name} frame {it.frame}" for it in fm.items]

@@ -69,6 +69,10 @@ class PlanRequest:
     performance_at: Callable[[float, float], Performance] | None = None
     dem_options: dict[str, Any] = field(default_factory=dict)
     zones: str | Sequence[dict[str, Any]] | None = None
+    # airspace files (OpenAir, ED-269 JSON: terrain.airspace) whose zones join ``zones``, those
+    # active during a flight from ``start_time`` (None: all of them)
+    airspace: tuple[str, ...] = ()
+    start_time: Any = None
     algorithm: str = DEFAULT_ALGORITHM
     n_waypoints: int = 6
     population: int = 60
@@ -216,6 +220,13 @@ def build_problem(request: PlanRequest) -> Prepared:
         zlist = load_zones(r.zones, grid)
     else:
         zlist = zones_from_records(list(r.zones or ()), grid, source="the plan request")
+    airspace_notes: tuple[str, ...] = ()
+    if r.airspace:
+        from terrain.airspace import load_airspace
+
+        air = load_airspace(r.airspace, grid, start=r.start_time)
+        zlist = (*zlist, *air.zones)
+        airspace_notes = air.notes
     takeoff = landing = None
     if r.start_on_ground:
         takeoff = _takeoff(r, grid, s, g, zlist, cruise)
@@ -223,7 +234,7 @@ def build_problem(request: PlanRequest) -> Prepared:
     if r.land:
         landing = _landing(r, grid, g, s, zlist, cruise)
         g = landing.fix
-    warnings: list[str] = []
+    warnings: list[str] = list(airspace_notes)
     for label, p in (("start", s), ("goal", g)):
         for z in zlist:
             if bool(np.asarray(z.contains(p[0], p[1], p[2])).any()):

@@ -64,6 +64,10 @@ class ReplayRequest:
     avoid_options: dict[str, Any] = field(default_factory=dict)
     vehicle: str | None = None
     dem: tuple[str, ...] = ()
+    # airspace files (OpenAir, ED-269 JSON) whose zones join the mission's danger zones, those
+    # active during the flight from ``start_time`` (None: all of them)
+    airspace: tuple[str, ...] = ()
+    start_time: Any = None
     config: ReplayConfig = field(default_factory=ReplayConfig)
     terrain_following: float | None = None  # None: the mission's planned clearance; 0: off
     log_rate: float = 10.0
@@ -162,6 +166,18 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
         mission, grid, params, vehicle_file, old_run = mission_on_terrain(
             source, r.dem, r.vehicle, r.config.airspeed
         )
+    airspace_notes: tuple[str, ...] = ()
+    if r.airspace:
+        if grid is None:
+            raise InputError("--airspace needs the mission's terrain (a DEM): give --dem")
+        from planner.imports import estimated_duration
+        from terrain.airspace import load_airspace
+
+        air = load_airspace(
+            r.airspace, grid, start=r.start_time, duration_s=estimated_duration(mission)
+        )
+        mission = replace(mission, danger_zones=(*mission.danger_zones, *air.zones))
+        airspace_notes = air.notes
     avoider = make_avoider(r.avoid, **r.avoid_options)
     threat_text: str | None = None
     old_threats = old_run.attachments.get("threats.yaml") if old_run is not None else None
@@ -203,7 +219,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     flight = replace(flight, warnings=flight.warnings + flown_anyway) if flown_anyway else flight
     planned = estimated_flight_time(mission.waypoints, speed)
     limit = time_limit(mission, config, avoider)
-    warnings = tuple(threats.warn_after(planned)) + flight.warnings
+    warnings = airspace_notes + tuple(threats.warn_after(planned)) + flight.warnings
     warnings += radar_pairing(config.sensor, avoider, threats)
     if following and not params.follows_terrain:
         warnings += (

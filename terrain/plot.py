@@ -104,14 +104,24 @@ def new_map_figure(
 
 
 def _zone_label(zone: Any) -> str:
-    """``id`` and the altitudes that bound the zone, e.g. ``sam 1200–4500 m``, ``top 800 m``."""
-    floor, top = getattr(zone, "floor", None), getattr(zone, "top", None)
+    """``id`` and the altitudes that bound the zone, e.g. ``sam 1200–4500 m``, ``top 800 m``,
+    ``uas top 120 m AGL`` (a limit above the ground)."""
+
+    def limit(name: str) -> str | None:
+        v = getattr(zone, name, None)
+        if v is not None:
+            return f"{v:.0f} m"
+        v = getattr(zone, f"{name}_agl", None)
+        return None if v is None else f"{v:.0f} m AGL"
+
+    floor, top = limit("floor"), limit("top")
     if floor is not None and top is not None:
-        alt = f"{floor:.0f}–{top:.0f} m"
+        # one unit when both share it: "3000–4500 m"
+        alt = f"{floor.removesuffix(' m')}–{top}" if floor.endswith(" m") else f"{floor}–{top}"
     elif top is not None:
-        alt = f"top {top:.0f} m"
+        alt = f"top {top}"
     elif floor is not None:
-        alt = f"floor {floor:.0f} m"
+        alt = f"floor {floor}"
     else:
         alt = ""
     return " ".join(p for p in (getattr(zone, "id", None) or "", alt) if p)

@@ -146,8 +146,34 @@ def _sampled_lengths(a: FloatArray, b: FloatArray, zone: Zone) -> FloatArray:
     the segment cut into pieces of at most :data:`AGL_STEP_M` horizontally, a piece inside when
     its middle is."""
     m = a.shape[0]
+    out = np.zeros(m)
     if m == 0:
-        return np.zeros(0)
+        return out
+    # only the segments whose box meets the zone's outline box are sampled
+    if isinstance(zone, DangerZone):
+        box = (
+            zone.x - zone.radius,
+            zone.y - zone.radius,
+            zone.x + zone.radius,
+            zone.y + zone.radius,
+        )
+    else:
+        e = zone.edges
+        box = (e[:, 0].min(), e[:, 1].min(), e[:, 0].max(), e[:, 1].max())
+    near = (
+        (np.minimum(a[:, 0], b[:, 0]) <= box[2])
+        & (np.maximum(a[:, 0], b[:, 0]) >= box[0])
+        & (np.minimum(a[:, 1], b[:, 1]) <= box[3])
+        & (np.maximum(a[:, 1], b[:, 1]) >= box[1])
+    )
+    if not near.any():
+        return out
+    out[near] = _sampled_near(a[near], b[near], zone)
+    return out
+
+
+def _sampled_near(a: FloatArray, b: FloatArray, zone: Zone) -> FloatArray:
+    m = a.shape[0]
     d = b - a
     length = np.linalg.norm(d, axis=1)
     n = np.maximum(1, np.ceil(np.hypot(d[:, 0], d[:, 1]) / AGL_STEP_M)).astype(np.int64)

@@ -155,3 +155,28 @@ def refuse_overwriting(outputs: Iterable[str | Path], inputs: dict[str, Iterable
 def vehicle_option(help: str, default: str | None = None) -> Callable[[F], F]:
     """``--vehicle``: a preset name or a vehicle file."""
     return click.option("--vehicle", default=default, show_default=default is not None, help=help)
+
+
+def airspace_options(f: F) -> F:
+    """``--airspace FILE`` (repeatable: OpenAir or ED-269 JSON, :mod:`terrain.airspace`) and
+    ``--start-time`` (ISO 8601: the zones active during the flight)."""
+    decorators = [
+        click.option(
+            "--airspace",
+            "airspace",
+            multiple=True,
+            type=click.Path(exists=True, dir_okay=False),
+            help="Airspace or UAS geozones to keep out of: an OpenAir file or ED-269 JSON "
+            "(repeat for several). Limits above the ground follow the terrain.",
+        ),
+        click.option(
+            "--start-time",
+            default=None,
+            metavar="ISO-8601",
+            help="When the mission starts (e.g. 2026-06-01T09:30Z): time-limited zones apply "
+            "when active during the flight. Default: every zone applies.",
+        ),
+    ]
+    for decorator in reversed(decorators):
+        f = decorator(f)
+    return f

@@ -373,7 +373,7 @@ def test_unknown_top_level_key(tmp_path):
     [
         ({"x": 1, "y": 2, "diameter": 3, "colour": "red"}, "danger_zones[1]",
          "unknown key(s) 'colour'; allowed: x, y, lon, lat, diameter, radius, margin, floor, "
-         "top, id (a polygon zone has vertices instead of a centre)"),
+         "top, floor_agl, top_agl, id (a polygon zone has vertices instead of a centre)"),
         ({"x": 1, "y": 2, "diameter": 3, "radius": 1}, "danger_zones[1]",
          "give 'diameter' or 'radius', not both"),
         ({"x": 1, "diameter": 3}, "danger_zones[1]",

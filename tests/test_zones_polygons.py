@@ -243,7 +243,7 @@ def test_yaml_lonlat_polygon(tmp_path, utm_grid):
          "expected a list of rings, found 3"),
         ({"vertices": [[0, 0], [10, 0], [10, 10]], "colour": 1}, "danger_zones[1]",
          "unknown key(s) 'colour'; allowed for a polygon zone: vertices, vertices_lonlat, holes, "
-         "holes_lonlat, parts, margin, floor, top, id"),
+         "holes_lonlat, parts, margin, floor, top, floor_agl, top_agl, id"),
         ({"parts": [{"vertices": [[0, 0], [10, 0], [10, 10]]}], "vertices": [[0, 0], [1, 0], [1, 1]]},
          "danger_zones[1]", "give the rings in 'parts' or at the top of the zone, not both; found parts and vertices"),
         ({"parts": [{"vertices": [[0, 0], [10, 0], [10, 10]]}, {"vertices_lonlat": [[0, 0], [1, 0], [1, 1]]}]},

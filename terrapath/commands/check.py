@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from terrapath.options import vehicle_option
+from terrapath.options import airspace_options, vehicle_option
 
 EXIT_INFEASIBLE = 3  # as `plan` and `replay`: the answer is "no", with the reasons
 
@@ -43,6 +43,7 @@ EXIT_INFEASIBLE = 3  # as `plan` and `replay`: the answer is "no", with the reas
     help="Height above the measured terrain every leg and turn must keep (m; default: the "
     "clearance the mission was planned with, else 0: contact only, the margins reported).",
 )
+@airspace_options
 @click.option(
     "--allow-unknown-terrain",
     is_flag=True,
@@ -70,6 +71,8 @@ def check_cmd(
     vehicle: str | None,
     speed: float | None,
     clearance: float | None,
+    airspace: tuple[str, ...],
+    start_time: str | None,
     allow_unknown_terrain: bool,
     temperature_offset: float,
     picture: str | None,
@@ -80,7 +83,8 @@ def check_cmd(
     file, a GeoJSON or KML path) against the terrain and the vehicle before flying it: each leg
     and turn as the aircraft flies it (fillets, loiters, terrain-frame legs at their height
     above the ground) against the measured terrain with the clearance asked, the map edge,
-    unknown terrain and the danger zones (a .plan's geofence too); each leg's climb or descent
+    unknown terrain and the danger zones (a .plan's geofence too, and --airspace: OpenAir or
+    ED-269 geozones, their AGL limits following the terrain); each leg's climb or descent
     against what the vehicle makes at that altitude (both gradients), the ceiling, the turn
     radius. Prints each leg's lowest clearance and the violations ranked, worst first; writes
     a picture.
@@ -99,11 +103,23 @@ def check_cmd(
     v = float(speed if speed is not None else m.cruise_speed)
     params.check_speed(v, "speed")
     asked = clearance if clearance is not None else float(m.plan.get("clearance", 0.0) or 0.0)
+    extra: tuple[Any, ...] = ()
+    notes: tuple[str, ...] = ()
+    if airspace:
+        from planner.imports import estimated_duration
+        from terrain.airspace import load_airspace, parse_start
+
+        start = parse_start(start_time) if start_time else None
+        air = load_airspace(airspace, grid, start=start, duration_s=estimated_duration(m))
+        extra, notes = air.zones, air.notes
+    for note in notes:
+        click.echo(f"terrapath: note: {note}", err=True)
     report = feasibility(
         m,
         grid,
         params,
         v,
+        zones=extra,
         clearance=asked,
         allow_unknown=allow_unknown_terrain,
         temperature_offset=temperature_offset,
@@ -115,7 +131,7 @@ def check_cmd(
         out = Path(picture) if picture else Path(Path(mission).stem + "-check.png")
         title = f"{Path(mission).name}: {'feasible' if report.ok else 'NOT feasible'}"
         save_check_picture(grid, report.geometry, m.waypoints, report.findings, out, title,
-                           asked, m.danger_zones)  # fmt: skip
+                           asked, (*m.danger_zones, *extra))  # fmt: skip
     if as_json:
         doc: dict[str, Any] = report.as_dict()
         doc["picture"] = str(out) if out else None

@@ -10,6 +10,7 @@ import click
 import numpy as np
 
 from terrapath.options import (
+    airspace_options,
     dem_options,
     output_option,
     refuse_overwriting,
@@ -166,6 +167,7 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
 @click.option(
     "--zones", type=click.Path(dir_okay=False), default=None, help="Danger zones: YAML or GeoJSON."
 )
+@airspace_options
 @click.option(
     "--algorithm",
     type=click.Choice(["ampso", "pso", "apso", "ga"]),
@@ -357,6 +359,8 @@ def plan_cmd(
     goal: tuple[float, ...],
     map_coords: bool,
     zones: str | None,
+    airspace: tuple[str, ...],
+    start_time: str | None,
     algorithm: str,
     n_waypoints: int,
     population: int,
@@ -399,6 +403,7 @@ def plan_cmd(
     marked infeasible; no ground-station files unless --force-export), 1 error.
     """
     from planner.pipeline import PlanRequest
+    from terrain.airspace import parse_start
 
     _check_output(output)
     stem = Path(output).with_suffix("")
@@ -421,6 +426,8 @@ def plan_cmd(
         land_heading=land_heading,
         dem_options=opts,
         zones=zones,
+        airspace=tuple(airspace),
+        start_time=parse_start(start_time) if start_time else None,
         algorithm=algorithm,
         n_waypoints=n_waypoints,
         population=population,

@@ -11,7 +11,7 @@ import click
 
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError
-from terrapath.options import output_option, seed_option, vehicle_option
+from terrapath.options import airspace_options, output_option, seed_option, vehicle_option
 from terrapath.progress import progress_bar
 from terrapath.runtext import duration, failure_summary, metrics_rows, report_lines
 
@@ -283,6 +283,7 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "thinner air, less lift and thrust). The air's density at the aircraft's altitude comes "
     "from the standard atmosphere.",
 )
+@airspace_options
 @click.option(
     "--speed",
     "airspeed",
@@ -318,6 +319,8 @@ def replay_cmd(
     avoid: str,
     avoid_opts: tuple[str, ...],
     dem_tiles: tuple[str, ...],
+    airspace: tuple[str, ...],
+    start_time: str | None,
     coop_noise: tuple[float, float],
     no_terrain_mesh: bool,
     no_picture: bool,
@@ -340,6 +343,7 @@ def replay_cmd(
     track within the tolerances of the plan), 3 the flight failed (still recorded; each failure
     named), 1 error (a refused mission among them)."""
     from replay.run import ReplayRequest, prepare_replay, run_replay
+    from terrain.airspace import parse_start
 
     _check_output(source, output)
     options = {**_ca_options(avoid, settings), **_options(avoid_opts)}
@@ -349,6 +353,8 @@ def replay_cmd(
         avoid=avoid,
         avoid_options=options,
         dem=tuple(dem_tiles),
+        airspace=tuple(airspace),
+        start_time=parse_start(start_time) if start_time else None,
         coop_noise_position=coop_noise[0],
         coop_noise_velocity=coop_noise[1],
         terrain_mesh=not no_terrain_mesh,
