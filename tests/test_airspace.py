@@ -43,7 +43,7 @@ def test_openair_and_ed269_zones_with_their_references(grid) -> None:
     )
     ed = load_airspace([ED269], grid).zones
     assert [z.id for z in ed] == ["GEO-AGL", "GEO-AMSL", "GEO-LATER"]  # NO_RESTRICTION skipped
-    agl, amsl, later = ed
+    agl, amsl, _later = ed
     assert agl.top_agl == 120.0 and agl.top is None and agl.floor is None
     assert (amsl.floor, amsl.top) == pytest.approx((9000 * 0.3048, 14000 * 0.3048))
     # a zone active in 2027 does not apply to a flight in June 2026
