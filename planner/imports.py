@@ -18,8 +18,9 @@ item (``'m.plan', field 'mission.items[3]': ...``; a WPL line by its number and 
   (``TransectStyleComplexItem.Items``); other complex items are refused by number.
   ``plannedHomePosition`` is home ([lat, lon, alt AMSL]); the geofence's exclusion polygons and
   circles become danger zones from the ground up (a geofence is 2D); inclusion fences are kept
-  in :attr:`ForeignMission.keep_in` (reported, not enforced: terrapath keeps out of zones, it
-  has no keep-in zone yet); rally points are kept and reported.
+  in :attr:`ForeignMission.keep_in` and the mission's ``plan.imported.keep_in`` (map metres):
+  ``terrapath check`` flags the path where it leaves them (their union, as PX4 reads several);
+  the replay does not enforce them yet; rally points are kept and reported.
 - WPL: a header ``QGC WPL 110``, then one item per line: sequence, current, frame, command,
   params 1-4, latitude, longitude, altitude, autocontinue (tabs or spaces). Item 0 is home, in
   MAV_FRAME_GLOBAL (AMSL), as Mission Planner and ArduPilot write it.
@@ -203,7 +204,7 @@ class ForeignMission:
     items: tuple[Item, ...]
     home: tuple[float, float, float] | None = None
     fences: tuple[tuple[str, dict[str, Any]], ...] = ()
-    keep_in: tuple[str, ...] = ()
+    keep_in: tuple[tuple[str, dict[str, Any]], ...] = ()
     rally: tuple[tuple[float, float, float], ...] = ()
     vehicle_type: str | None = None  # "fixed-wing" | "multirotor" | None (the file does not say)
     cruise_speed: float | None = None  # the file's planning speed (not a command)
@@ -409,43 +410,43 @@ def _read_plan(src: Path, data: dict[str, Any]) -> ForeignMission:
 
 def _plan_fences(
     src: Path, fence: Any
-) -> tuple[tuple[tuple[str, dict[str, Any]], ...], tuple[str, ...]]:
-    """Exclusion polygons and circles as zone records (lon/lat), and the inclusion fences."""
+) -> tuple[tuple[tuple[str, dict[str, Any]], ...], tuple[tuple[str, dict[str, Any]], ...]]:
+    """(exclusion fences, inclusion fences), each polygon or circle a zone record (lon/lat)
+    with the field it came from."""
     if fence is None:
         return (), ()
     if not isinstance(fence, dict):
         raise InputError(f"{where(src, 'geoFence')}expected a mapping, found {fence!r}")
     out: list[tuple[str, dict[str, Any]]] = []
-    keep_in: list[str] = []
+    keep_in: list[tuple[str, dict[str, Any]]] = []
     for k, poly in enumerate(fence.get("polygons") or []):
         fld = f"geoFence.polygons[{k}]"
         if not isinstance(poly, dict) or not isinstance(poly.get("polygon"), list):
             raise InputError(f"{where(src, fld)}expected a mapping with a 'polygon' list")
-        if poly.get("inclusion", True):
-            keep_in.append(fld)
-            continue
         ring = []
         for j, v in enumerate(poly["polygon"]):
             if not isinstance(v, list) or len(v) != 2:
                 raise InputError(f"{where(src, f'{fld}.polygon[{j}]')}expected [lat, lon]")
             la, lo = (_number(c, src, f"{fld}.polygon[{j}]", null_nan=False) for c in v)
             ring.append([lo, la])
-        out.append((fld, {"vertices_lonlat": ring, "id": f"geofence-polygon-{k}"}))
+        inclusion = bool(poly.get("inclusion", True))
+        name = f"{'keep-in' if inclusion else 'geofence'}-polygon-{k}"
+        (keep_in if inclusion else out).append((fld, {"vertices_lonlat": ring, "id": name}))
     for k, circ in enumerate(fence.get("circles") or []):
         fld = f"geoFence.circles[{k}]"
         c = circ.get("circle") if isinstance(circ, dict) else None
         if not isinstance(c, dict) or not isinstance(c.get("center"), list):
             raise InputError(f"{where(src, fld)}expected a mapping with circle.center and radius")
-        if circ.get("inclusion", True):
-            keep_in.append(fld)
-            continue
         if len(c["center"]) != 2:
             raise InputError(f"{where(src, fld + '.circle.center')}expected [lat, lon]")
         la, lo = (_number(v, src, f"{fld}.circle.center", null_nan=False) for v in c["center"])
         r = _number(c.get("radius"), src, f"{fld}.circle.radius", null_nan=False)
         if r <= 0:
             raise InputError(f"{where(src, fld + '.circle.radius')}expected metres > 0, found {r}")
-        out.append((fld, {"lon": lo, "lat": la, "radius": r, "id": f"geofence-circle-{k}"}))
+        inclusion = bool(circ.get("inclusion", True))
+        name = f"{'keep-in' if inclusion else 'geofence'}-circle-{k}"
+        rec = {"lon": lo, "lat": la, "radius": r, "id": name}
+        (keep_in if inclusion else out).append((fld, rec))
     return tuple(out), tuple(keep_in)
 
 
@@ -964,7 +965,11 @@ def to_mission(
     if parts.notes:
         imported["notes"] = list(parts.notes)
     if fm.keep_in:
-        imported["keep_in_fences"] = list(fm.keep_in)
+        from terrain.zone_file import zones_from_fields, zones_to_records
+
+        # inclusion fences (map metres): checked by `terrapath check`, not enforced in flight
+        fences = zones_from_fields(fm.keep_in, grid, source=fm.source)
+        imported["keep_in"] = zones_to_records(fences)
     if fm.cruise_speed is not None:
         imported["file_cruise_speed"] = fm.cruise_speed
     plan: dict[str, Any] = {"imported": imported}

@@ -212,7 +212,13 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     avoider.check_setup(config, mission, threats, grid, float(speed))
     # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)
     check_mission(mission, grid)
-    flight = preflight(mission, params, float(speed), config.temperature_offset)
+    try:
+        flight = preflight(mission, params, float(speed), config.temperature_offset)
+    except InputError as exc:
+        if not str(exc).startswith(f"{params.name} cannot trim"):
+            raise
+        # the speed the mission was planned for is not one this vehicle flies up there
+        raise InputError(f"{exc}; fly it at one of those with --speed") from None
     if not r.fly_anyway:
         flight.check()
     flown_anyway = tuple(f"flown anyway (--fly-anyway): {why}" for why in flight.refusals)

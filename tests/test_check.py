@@ -139,3 +139,29 @@ def test_a_terrain_frame_leg_is_checked_on_the_ground_it_follows(grid) -> None:
     assert "terrain_following" in kinds
     straight = feasibility(m, grid, AEROSONDE, 25.0, clearance=50.0)
     assert straight.findings[0].kind == "contact"
+
+
+def test_a_plan_s_inclusion_geofence_is_checked(tmp_path: Path, grid, capsys) -> None:
+    """A QGroundControl plan's inclusion fence (keep-in): `check` flags the leg that leaves it
+    and passes the plan whose fence holds the whole path."""
+    w = _ridge(grid)
+    w[:, 2] = float(grid.safety().heights.max()) + 400.0
+    m = _mission(w)
+    doc = to_qgc_plan(m, grid, "amsl")
+    lon, lat = grid.to_lonlat(w[:, 0], w[:, 1])
+    lo0, lo1 = float(min(lon)) - 0.01, float(max(lon)) + 0.01
+    la0, la1 = float(min(lat)) - 0.01, float(max(lat)) + 0.01
+    box = [[la0, lo0], [la0, lo1], [la1, lo1], [la1, lo0]]
+    doc["geoFence"]["polygons"] = [{"inclusion": True, "polygon": box, "version": 1}]
+    inside = write_json(doc, tmp_path / "inside.plan")
+    args = ["--dem", str(RMNP), "--json", "--no-picture"]
+    assert main(["check", str(inside), *args]) == 0
+    capsys.readouterr()
+    mid = 0.5 * (lo0 + lo1)  # the fence's east half only: the leg leaves it half way
+    doc["geoFence"]["polygons"][0]["polygon"] = [[la0, mid], [la0, lo1], [la1, lo1], [la1, mid]]
+    half = write_json(doc, tmp_path / "half.plan")
+    assert main(["check", str(half), *args]) == 3
+    report = json.loads(capsys.readouterr().out)
+    (v,) = [v for v in report["violations"] if v["kind"] == "keep_in"]
+    assert v["leg"] == 0 and v["amount"] == pytest.approx(2500.0, rel=0.05)
+    assert "leaves the inclusion geofence (keep-in-polygon-0)" in v["message"]

@@ -479,3 +479,39 @@ def test_a_campaign_flies_a_plan_on_its_dem(
     err = capsys.readouterr().err
     assert "field 'mission'" in err and "give the spec 'dem: [tile, ...]'" in err
     assert err.count("\n") == 1
+
+
+def test_kml_and_geojson_paths(tmp_path: Path, grid) -> None:
+    """A KML LineString (absolute: AMSL; relativeToGround: above the terrain, followed) and a
+    plain GeoJSON LineString read as the path they draw; a path on the ground is refused."""
+    a, b, c = _ll(grid, 0, 0), _ll(grid, 3000, 0), _ll(grid, 3000, 3000)
+    coords = " ".join(
+        f"{lo},{la},{alt}" for (la, lo), alt in zip((a, b, c), (3500, 3600, 3700), strict=True)
+    )
+    kml = (
+        '<?xml version="1.0" encoding="UTF-8"?><kml xmlns="http://www.opengis.net/kml/2.2">'
+        "<Document><Placemark><LineString><altitudeMode>{mode}</altitudeMode>"
+        f"<coordinates>{coords}</coordinates></LineString></Placemark></Document></kml>"
+    )
+    p = tmp_path / "path.kml"
+    p.write_text(kml.format(mode="absolute"))
+    m = _imported(p, grid)
+    assert m.waypoints[:, 2].tolist() == [3500.0, 3600.0, 3700.0] and m.terrain_heights == {}
+    hx, hy = _home_xy(grid)
+    np.testing.assert_allclose(m.waypoints[1, :2], [hx + 3000.0, hy], atol=0.05)
+    p.write_text(kml.format(mode="relativeToGround"))
+    m = _imported(p, grid)
+    g = grid.height_at(m.waypoints[:, 0], m.waypoints[:, 1])
+    np.testing.assert_allclose(m.waypoints[:, 2] - g, [3500.0, 3600.0, 3700.0], atol=1e-6)
+    assert m.terrain_heights == {1: 3600.0, 2: 3700.0, 0: 3500.0}
+    p.write_text(kml.format(mode="clampToGround"))
+    with pytest.raises(InputError, match="puts the path on the ground"):
+        _imported(p, grid)
+    gj = tmp_path / "path.geojson"
+    line = [[lo, la, alt] for (la, lo), alt in zip((a, b, c), (3500, 3600, 3700), strict=True)]
+    gj.write_text(json.dumps({"type": "LineString", "coordinates": line}))
+    m = _imported(gj, grid)
+    assert m.waypoints[:, 2].tolist() == [3500.0, 3600.0, 3700.0]
+    gj.write_text(json.dumps({"type": "LineString", "coordinates": [c[:2] for c in line]}))
+    with pytest.raises(InputError, match=r"expected \[lon, lat, altitude\]"):
+        _imported(gj, grid)
