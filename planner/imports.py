@@ -54,7 +54,9 @@ up); 177 DO_JUMP (the items from the target to the jump repeated the count given
 into waypoints; an endless jump is refused). The commands that do not move the aircraft
 (camera, gimbal, servo, relay, region of interest, conditions, land-start marker) are skipped
 and listed in :attr:`Resolved.skipped`; any other command is refused with its item number.
-A speed change (178) is refused for now: the replay flies one airspeed.
+DO_CHANGE_SPEED (178): from the waypoint before it on, the speed of param 2 (m/s; -1 or 0: no
+change); a ground speed is flown as that true airspeed (noted), a climb or descent speed
+(types 2, 3: a multicopter's) is skipped and listed.
 """
 
 from __future__ import annotations
@@ -83,6 +85,7 @@ DO_CHANGE_SPEED = 178
 DO_LAND_START = 189
 LOITERS = (LOITER_TURNS, LOITER_TIME, LOITER_TO_ALT)
 NAV_FLOWN = (WAYPOINT, TAKEOFF, LAND, RTL, *LOITERS)
+SPEED_TYPES = {0: "airspeed", 1: "groundspeed", 2: "climb speed", 3: "descent speed"}
 # commands that change nothing of the path flown: skipped, and listed
 PASSIVE = {
     80: "ROI",
@@ -119,7 +122,6 @@ PASSIVE = {
 # known commands terrapath does not fly, with the reason given
 REFUSED = {
     LOITER_UNLIM: "an unlimited loiter never ends: the mission would not go on",
-    DO_CHANGE_SPEED: "speed changes are not flown yet (the replay flies one airspeed; use --speed)",
     30: "CONTINUE_AND_CHANGE_ALT is not flown",
     82: "spline waypoints are not flown (give plain waypoints)",
     84: "VTOL take-off is not flown",
@@ -610,6 +612,7 @@ class Resolved:
     waypoints: FloatArray
     spirals: tuple[Any, ...]
     terrain_heights: dict[int, float]
+    speeds: dict[int, float]
     zones: tuple[Any, ...]
     home: tuple[float, float, float]  # map x, y, m AMSL
     landing: bool
@@ -750,6 +753,7 @@ def to_mission_parts(
 
     pts: list[list[float]] = []
     agl: dict[int, float] = {}
+    speeds: dict[int, float] = {}
     source_of: dict[int, str] = {}
     spirals: list[Any] = []
     attach: list[tuple[int, tuple[float, float]]] = []  # loiter-to-alt spirals, their centres
@@ -771,6 +775,17 @@ def to_mission_parts(
             continue
         if it.command in REFUSED:
             raise fm.fail(it.field, f"{it.name}: {REFUSED[it.command]}")
+        if it.command == DO_CHANGE_SPEED:
+            kind = int(it.params[0]) if math.isfinite(it.params[0]) else 0
+            v = it.params[1]
+            if kind in (2, 3) or not (math.isfinite(v) and v > 0):
+                what = SPEED_TYPES.get(kind, f"speed type {kind}") if v > 0 else "no change"
+                skipped.append(f"{it.field} ({it.name}: {what})")
+                continue
+            if kind == 1:
+                notes.append(f"{it.field}: a ground speed of {v:g} m/s flown as that airspeed")
+            speeds[max(len(pts) - 1, 0)] = float(v)
+            continue
         if it.command not in NAV_FLOWN:
             raise fm.fail(it.field, f"unknown command {it.command}: not a command terrapath flies")
         prev = np.array(pts[-1][:2]) if pts else home_xy
@@ -838,7 +853,7 @@ def to_mission_parts(
             landing = True
             ended = True
     for j, c in reversed(attach):
-        _attach(pts, spirals, agl, source_of, j, np.array(c), turn_radius)
+        _attach(pts, spirals, (agl, source_of, speeds), j, np.array(c), turn_radius)
     if len(pts) < 2:
         raise fm.fail("", f"expected at least two positions to fly, found {len(pts)}")
     if not landing and not ended and len(fm.rally):
@@ -848,6 +863,7 @@ def to_mission_parts(
         np.array(pts, dtype=np.float64),
         tuple(spirals),
         agl,
+        speeds,
         zones,
         (float(home_xy[0]), float(home_xy[1]), float(home_alt)),
         landing,
@@ -860,8 +876,7 @@ def to_mission_parts(
 def _attach(
     pts: list[list[float]],
     spirals: list[Any],
-    agl: dict[int, float],
-    source_of: dict[int, str],
+    books: tuple[dict[int, Any], ...],
     j: int,
     centre: FloatArray,
     turn_radius: float,
@@ -893,12 +908,10 @@ def _attach(
     for i, s in enumerate(spirals):
         if i != j and s.at > sp.at:
             spirals[i] = replace(s, at=s.at - 1)
-    heights = {(i - 1 if i > sp.at else i): h for i, h in agl.items() if i != sp.at}
-    fields = {(i - 1 if i > sp.at else i): f for i, f in source_of.items() if i != sp.at}
-    agl.clear()
-    agl.update(heights)
-    source_of.clear()
-    source_of.update(fields)
+    for book in books:  # what is kept by waypoint index moves with the waypoints after
+        moved = {(i - 1 if i > sp.at else i): v for i, v in book.items() if i != sp.at}
+        book.clear()
+        book.update(moved)
 
 
 def _positioned(it: Item) -> bool:
@@ -975,6 +988,10 @@ def to_mission(
     plan: dict[str, Any] = {"imported": imported}
     if parts.landing:
         imported["lands"] = True
+    # corners are flown as fillets of the turn radius at the fastest speed flown (the same
+    # bank: the radius grows with the square of the speed)
+    fastest = max([float(perf.speed), *parts.speeds.values()])
+    turn = float(perf.turn_radius) * (fastest / float(perf.speed)) ** 2
     return Mission(
         name=Path(fm.source).stem,
         waypoints=parts.waypoints,
@@ -983,10 +1000,11 @@ def to_mission(
         vehicle=vehicle,
         cruise_speed=float(perf.speed),
         cruise_altitude=float(parts.waypoints[0, 2]),
-        turn_radius=None if getattr(perf, "hover", False) else float(perf.turn_radius),
+        turn_radius=None if getattr(perf, "hover", False) else turn,
         danger_zones=parts.zones,
         plan=plan,
         source=fm.source,
         spirals=parts.spirals,
         terrain_heights=parts.terrain_heights,
+        speeds=parts.speeds,
     )

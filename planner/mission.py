@@ -13,6 +13,8 @@ waypoints: [[x, y, z], ...]  # map metres, z metres AMSL (where a spiral is: the
 spirals: [{waypoint, entry_altitude, turns, radius, direction}, ...]   # climb / descent spirals
                              # (planner.spiral): at waypoint i the aircraft arrives at
                              # entry_altitude and circles `turns` times to the waypoint's altitude
+speeds: [{waypoint, speed}, ...]   # speed changes (an imported mission's DO_CHANGE_SPEED): from
+                             # waypoint i on, the true airspeed is speed (m/s)
 terrain_heights: [{waypoint, height}, ...]   # terrain-frame legs (an imported mission's
                              # MAV_FRAME_GLOBAL_TERRAIN_ALT items): the leg into waypoint i is
                              # flown `height` metres above the ground all along (its z is the
@@ -71,6 +73,7 @@ MISSION_KEYS = (
     "waypoints",
     "spirals",
     "terrain_heights",
+    "speeds",
     "danger_zones",
     "plan",
     "waypoints_geo",
@@ -179,6 +182,8 @@ class Mission:
     spirals: tuple[Spiral, ...] = ()
     # waypoint index -> metres above the ground the leg into it is flown at (terrain frame)
     terrain_heights: dict[int, float] = field(default_factory=dict)
+    # waypoint index -> the true airspeed (m/s) flown from it on (a speed change)
+    speeds: dict[int, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         w = np.array(self.waypoints, dtype=np.float64, copy=True)
@@ -192,6 +197,12 @@ class Mission:
         if len(set(at)) != len(at) or any(a >= len(w) for a in at):
             raise InputError(
                 f"mission spirals must be at distinct waypoints 0..{len(w) - 1}; got {at}"
+            )
+        if any(not 0 <= k < len(w) for k in self.speeds) or any(
+            not (math.isfinite(v) and v > 0) for v in self.speeds.values()
+        ):
+            raise InputError(
+                f"mission speeds must be > 0 m/s at waypoints 0..{len(w) - 1}; got {self.speeds}"
             )
         if any(not 0 <= k < len(w) for k in self.terrain_heights):
             raise InputError(
@@ -333,6 +344,9 @@ def mission_from_dict(
     if len({sp.at for sp in spirals}) != len(spirals):
         raise _fail(path, "spirals", "expected at most one spiral per waypoint")
     heights = _terrain_heights(doc.get("terrain_heights") or [], len(pts), path)
+    speeds = _terrain_heights(
+        doc.get("speeds") or [], len(pts), path, key="speeds", value="speed", positive=True
+    )
     return Mission(
         name=str(name),
         waypoints=np.array(pts),
@@ -347,17 +361,27 @@ def mission_from_dict(
         source=path,
         spirals=spirals,
         terrain_heights=heights,
+        speeds=speeds,
     )
 
 
-def _terrain_heights(raw: Any, n: int, path: str | None) -> dict[int, float]:
-    """``terrain_heights: [{waypoint, height}, ...]`` (module docstring) as {index: metres}."""
+def _terrain_heights(
+    raw: Any,
+    n: int,
+    path: str | None,
+    *,
+    key: str = "terrain_heights",
+    value: str = "height",
+    positive: bool = False,
+) -> dict[int, float]:
+    """``terrain_heights: [{waypoint, height}, ...]`` (or ``speeds: [{waypoint, speed}, ...]``,
+    module docstring) as {index: value}."""
     if not isinstance(raw, list):
-        raise _fail(path, "terrain_heights", f"expected a list, found {found(raw)}")
+        raise _fail(path, key, f"expected a list, found {found(raw)}")
     out: dict[int, float] = {}
     for i, rec in enumerate(raw):
-        fld = f"terrain_heights[{i}]"
-        rec = _mapping(rec, path, fld, ("waypoint", "height"))
+        fld = f"{key}[{i}]"
+        rec = _mapping(rec, path, fld, ("waypoint", value))
         k = rec.get("waypoint")
         if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < n or k in out:
             raise _fail(
@@ -365,7 +389,7 @@ def _terrain_heights(raw: Any, n: int, path: str | None) -> dict[int, float]:
                 f"{fld}.waypoint",
                 f"expected a waypoint index 0..{n - 1} named once, found {k!r}",
             )
-        out[k] = _num(rec.get("height"), path, f"{fld}.height")
+        out[k] = _num(rec.get(value), path, f"{fld}.{value}", positive=positive)
     return out
 
 
@@ -415,6 +439,8 @@ def mission_to_dict(
         doc["terrain_heights"] = [
             {"waypoint": k, "height": _r(h)} for k, h in sorted(mission.terrain_heights.items())
         ]
+    if mission.speeds:
+        doc["speeds"] = [{"waypoint": k, "speed": _r(v)} for k, v in sorted(mission.speeds.items())]
     doc["danger_zones"] = zones_to_records(mission.danger_zones)
     doc["plan"] = mission.plan
     if grid is not None:

@@ -140,11 +140,12 @@ def feasibility(
     zones: Sequence[Zone] = (),
     allow_unknown: bool = False,
     temperature_offset: float = 0.0,
+    changes: bool = True,
 ) -> Feasibility:
     """Check ``mission`` flown by ``params`` at ``speed`` on ``grid`` (module docstring)."""
     from replay.source import performance_of
 
-    flight = preflight(mission, params, speed, temperature_offset)
+    flight = preflight(mission, params, speed, temperature_offset, changes=changes)
     cache: dict[tuple[int, int], Performance] = {}
 
     def perf_at(low: float, high: float) -> Performance:

@@ -96,6 +96,7 @@ class LegProblem:
     limit: str
     above_ceiling: bool
     refused: bool
+    speed: float | None = None  # the leg's own speed where the mission changes it
 
 
 @dataclass(frozen=True)
@@ -134,7 +135,7 @@ class Preflight:
 
     def leg_message(self, p: LegProblem) -> str:
         """The line :meth:`check` would give for leg problem ``p`` (without the file)."""
-        return _leg_text(p, self.vehicle, self.speed, self.ceiling, self.ceiling_by)
+        return _leg_text(p, self.vehicle, p.speed or self.speed, self.ceiling, self.ceiling_by)
 
     def describe(self) -> str:
         """One line for the replay's header, before take-off."""
@@ -157,37 +158,62 @@ class Preflight:
         )
 
 
+def _ceiling(params: VehicleParams, v: float, dt: float) -> tuple[float, str]:
+    """(the ceiling at true airspeed ``v``, what sets it) (module docstring)."""
+    aero = trim_ceiling(params, v, dt)  # cached
+    envelope = params.envelope_ceiling(v, dt)
+    by = (
+        f"{v:g} m/s true is its slowest airspeed there, {params.airspeed_min:g} m/s equivalent"
+        if envelope < aero
+        else f"best climb {CEILING_CLIMB:g} m/s"
+    )
+    return min(aero, envelope), by
+
+
+def leg_speeds(mission: Mission, speed: float) -> list[float]:
+    """The speed each leg is flown at: ``speed``, changed from a waypoint on where the mission
+    says so (``Mission.speeds``)."""
+    out, v = [], float(speed)
+    for k in range(len(mission.waypoints) - 1):
+        v = float(mission.speeds.get(k, v))
+        out.append(v)
+    return out
+
+
 def preflight(
     mission: Mission,
     params: VehicleParams | MultirotorParams,
     speed: float,
     temperature_offset: float = 0.0,
+    *,
+    changes: bool = True,
 ) -> Preflight:
-    """The mission's legs checked against the vehicle at ``speed`` (module docstring). Raises
-    only the level trim's refusal (a speed the fixed wing cannot fly at the highest waypoint);
-    everything else is in the result (:meth:`Preflight.check` raises it)."""
+    """The mission's legs checked against the vehicle at ``speed`` (module docstring), or with
+    ``changes`` at the mission's own speed changes from where they are made (``Mission.speeds``:
+    each leg's climb, descent and ceiling at its speed). Raises only the level trim's refusal (a
+    speed the fixed wing cannot fly at the highest waypoint it is flown to); everything else is
+    in the result (:meth:`Preflight.check` raises it)."""
     v, dt = float(speed), check_offset(temperature_offset)
     w = np.asarray(mission.waypoints, dtype=np.float64)
     where = f"{mission.source}: " if mission.source else f"mission {mission.name!r}: "
     top = float(w[:, 2].max())
     if isinstance(params, MultirotorParams):
         return _multirotor(mission, params, v, dt, w, where, top)
-    trim(params, v, altitude=top, temperature_offset=dt)  # the trim's own message if not
-    aero = trim_ceiling(params, v, dt)  # cached
-    envelope = params.envelope_ceiling(v, dt)
-    ceiling = min(aero, envelope)
-    by = (
-        f"{v:g} m/s true is its slowest airspeed there, {params.airspeed_min:g} m/s equivalent"
-        if envelope < aero
-        else f"best climb {CEILING_CLIMB:g} m/s"
-    )
+    speeds = leg_speeds(mission, v) if changes and mission.speeds else [v] * (len(w) - 1)
+    for s in sorted(set(speeds)):  # the trim's own message at the highest point flown at s
+        high_s = max(max(w[k, 2], w[k + 1, 2]) for k, vk in enumerate(speeds) if vk == s)
+        trim(params, s, altitude=float(high_s if s != v else top), temperature_offset=dt)
+    ceiling, by = _ceiling(params, v, dt)
     arrive = w[:, 2].copy()  # a leg ends at the altitude its end is arrived at: a spiral's entry
     for sp in mission.spirals:
         arrive[sp.at] = sp.entry
     legs: list[LegProblem] = []
+    cruise = v
     for k, (z0, z1, length, dz) in enumerate(_legs(w, arrive)):
+        v = speeds[k]
+        leg_ceiling = ceiling if v == cruise else _ceiling(params, v, dt)[0]
         high = max(z0, z1)
-        above = high > ceiling
+        above = high > leg_ceiling
         if dz != 0:
             # the rate the leg needs (negative: a descent) against the best the aircraft makes
             # at the leg's top (the conservative end both ways), else over the whole leg
@@ -213,16 +239,18 @@ def preflight(
             if not above:
                 continue
             need, available, limit = 0.0, 0.0, ""
-        legs.append(LegProblem(k, z0, z1, length, need, available, limit, above, True))
-    refusals = [where + _leg_text(p, params.name, v, ceiling, by) for p in legs]
+        legs.append(LegProblem(k, z0, z1, length, need, available, limit, above, True, v))
+    v = cruise
+    refusals = [where + _leg_text(p, params.name, p.speed or v, ceiling, by) for p in legs]
     refusals += [where + text for text in _spirals(mission, params, v, dt)]
     if mission.turn_radius is not None:
-        r_min = params.min_turn_radius(v)
+        fastest = max(speeds) if speeds else v  # a speed change's fastest leg turns widest
+        r_min = params.min_turn_radius(fastest)
         if mission.turn_radius < r_min:
             refusals.insert(
                 0,
                 f"{where}cruise.turn_radius {mission.turn_radius:g} m is tighter than "
-                f"{params.name} turns at {v:g} m/s: at least {r_min:.0f} m "
+                f"{params.name} turns at {fastest:g} m/s: at least {r_min:.0f} m "
                 f"(V^2 / (g tan {params.bank_max_deg:g} deg), its bank limit)",
             )
     if ceiling == -math.inf:

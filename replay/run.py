@@ -213,7 +213,13 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)
     check_mission(mission, grid)
     try:
-        flight = preflight(mission, params, float(speed), config.temperature_offset)
+        flight = preflight(
+            mission,
+            params,
+            float(speed),
+            config.temperature_offset,
+            changes=not config.airspeed,  # --speed flies one speed
+        )
     except InputError as exc:
         if not str(exc).startswith(f"{params.name} cannot trim"):
             raise

@@ -357,6 +357,8 @@ def _vehicle_stack(
         spirals=mission.spirals,
         land=isinstance(mission.plan, dict) and "landing" in mission.plan,
         leg_heights=mission.terrain_heights if cfg.terrain_following else None,
+        # the mission's speed changes, unless the run names its own speed
+        leg_speeds=mission.speeds if not cfg.airspeed else None,
     )
 
 

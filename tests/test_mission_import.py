@@ -214,6 +214,9 @@ def test_qgc_calculated_above_terrain_reads_the_amsl_param(tmp_path: Path, grid)
 
 
 def test_wpl_written_by_pymavlink(tmp_path: Path, grid) -> None:
+    import os
+
+    os.environ["MAVLINK20"] = "1"  # as test_mission_export: one dialect for the whole run
     from pymavlink import mavutil, mavwp
 
     loader = mavwp.MAVWPLoader()
@@ -231,7 +234,7 @@ def test_wpl_written_by_pymavlink(tmp_path: Path, grid) -> None:
     for seq, (frame, cmd, p1, p2, lat, lon, alt) in enumerate(rows):
         loader.add(
             mav.MAVLink_mission_item_message(
-                0, 0, seq, frame, cmd, 0, 1, p1, p2, 0, 0, lat, lon, alt
+                0, 0, seq, frame, cmd, 0, 1, p1, p2, 0, 0, lat, lon, alt, 0
             )
         )
     path = tmp_path / "pymavlink.waypoints"
@@ -515,3 +518,43 @@ def test_kml_and_geojson_paths(tmp_path: Path, grid) -> None:
     gj.write_text(json.dumps({"type": "LineString", "coordinates": [c[:2] for c in line]}))
     with pytest.raises(InputError, match=r"expected \[lon, lat, altitude\]"):
         _imported(gj, grid)
+
+
+def test_a_speed_change_is_flown_from_its_waypoint(tmp_path: Path, grid) -> None:
+    """DO_CHANGE_SPEED after waypoint 1: the legs from it are flown at the new airspeed (the
+    aerosonde from 25 to 29 m/s, its fillets those of 29 m/s), checked by the preflight at that
+    speed; --speed flies one."""
+    from replay.run import ReplayRequest, run_replay
+
+    a, b, c = _ll(grid, 2000, 0), _ll(grid, 6000, 0), _ll(grid, 10000, 0)
+    hx, hy = _home_xy(grid)
+    xs = np.linspace(hx, hx + 10000.0, 100)
+    top = float(grid.safety().height_at(xs, np.full(100, hy)).max())
+    rel = top + 300.0 - 2500.0  # above home's 2,500 m
+    items = [
+        _item(22, 3, [15, 0, 0, None, 0, 0, rel], 1),
+        _item(16, 3, [0, 0, 0, None, a[0], a[1], rel], 2),
+        _item(178, 2, [0, 29, -1, 0, 0, 0, 0], 3),  # airspeed 29 m/s, throttle unchanged
+        _item(16, 3, [0, 0, 0, None, b[0], b[1], rel], 4),
+        _item(16, 3, [0, 0, 0, None, c[0], c[1], rel], 5),
+    ]
+    path = tmp_path / "speed.plan"
+    path.write_text(json.dumps(_qgc_plan(grid, items)))
+    fm = read_foreign(path)
+    perf = performance_of(AEROSONDE, 25.0)
+    m = to_mission(fm, grid, TerrainRef((str(RMNP),)), vehicle="aerosonde", perf=perf)
+    assert m.speeds == {1: 29.0} and len(m.waypoints) == 4
+    assert m.turn_radius == pytest.approx(perf.turn_radius * (29 / 25) ** 2)
+    res = run_replay(ReplayRequest.of(m, seed=1))
+    assert res.metrics.success, res.metrics.failures
+    v = np.linalg.norm(res.states[:, 3:6], axis=1)  # body velocity: the airspeed, no wind
+    x = res.positions[:, 0]
+    first = (x > hx + 300) & (x < hx + 1500)  # on leg 0 -> 1
+    later = (x > hx + 4000) & (x < hx + 9000)  # on the legs after the change
+    assert np.median(v[first]) == pytest.approx(25.0, abs=1.0)
+    assert np.median(v[later]) == pytest.approx(29.0, abs=1.0)
+    one = run_replay(ReplayRequest.of(m, seed=1, airspeed=25.0))
+    v1 = np.linalg.norm(one.states[:, 3:6], axis=1)
+    assert np.median(v1[(one.positions[:, 0] > hx + 4000) & (one.positions[:, 0] < hx + 9000)]) == (
+        pytest.approx(25.0, abs=1.0)
+    )

@@ -91,6 +91,7 @@ class Vehicle(Protocol):
         spirals: Sequence[Any] = (),
         land: bool = False,
         leg_heights: Mapping[int, float] | None = None,
+        leg_speeds: Mapping[int, float] | None = None,
     ) -> FlightStack: ...
 
 

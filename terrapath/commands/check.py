@@ -121,6 +121,7 @@ def check_cmd(
         v,
         zones=extra,
         clearance=asked,
+        changes=speed is None,  # --speed: one speed, the mission's changes set aside
         allow_unknown=allow_unknown_terrain,
         temperature_offset=temperature_offset,
     )

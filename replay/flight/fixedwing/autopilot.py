@@ -374,6 +374,7 @@ class Autopilot:
         self.spiral_exits: dict[int, float] = {}
         self.land = False  # the final leg is a landing's final approach (no terrain floor)
         self._leg_heights: dict[int, float] = {}  # terrain-frame legs: waypoint index -> metres
+        self._leg_speeds: dict[int, float] = {}  # speed changes: from waypoint index on, m/s
         self._follow_gradient = 0.0
         self._hold_pending = waypoints is None
         if waypoints is not None:
@@ -505,6 +506,15 @@ class Autopilot:
         """The terrain-frame legs of the waypoints flown now (:meth:`set_leg_heights`)."""
         return dict(self._leg_heights)
 
+    def set_leg_speeds(self, speeds: Mapping[int, float]) -> None:
+        """Speed changes (an imported mission's DO_CHANGE_SPEED): from waypoint ``k`` on the
+        true airspeed commanded is ``speeds[k]`` (each checked against the envelope), unless an
+        avoider commands one. Kept across a new waypoint list for the waypoints it keeps."""
+        self._leg_speeds = {int(k): self._check_airspeed(float(v)) for k, v in speeds.items()}
+        if 0 in self._leg_speeds:
+            self.airspeed = self._leg_speeds[0]
+            self._apply_modes()
+
     def set_leg_heights(self, heights: Mapping[int, float]) -> None:
         """Terrain-frame legs (an imported mission's MAV_FRAME_GLOBAL_TERRAIN_ALT items): on the
         leg into waypoint ``k`` the altitude command is ``heights[k]`` metres above the highest
@@ -526,7 +536,7 @@ class Autopilot:
     def _rekey_spirals(self, w: FloatArray) -> None:
         """A new waypoint list keeps the spirals (and terrain-frame legs) of the waypoints it
         keeps (same place)."""
-        for book in ("_spirals", "_leg_heights"):
+        for book in ("_spirals", "_leg_heights", "_leg_speeds"):
             old = getattr(self, book)
             if not old:
                 continue
@@ -610,6 +620,11 @@ class Autopilot:
     def _start_leg(self, direct: bool) -> None:
         self._plane_saved = None
         i = self._next
+        if not direct and (i - 1) in self._leg_speeds:
+            # a speed change at the waypoint this leg leaves (DO_CHANGE_SPEED)
+            self.airspeed = self._leg_speeds[i - 1]
+            if not self._override_speed:
+                self._cmd[kern.C_AIRSPEED] = self.airspeed
         end = map_to_ned(self._wp[i])
         if direct:
             assert self._x_last is not None

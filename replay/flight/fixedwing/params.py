@@ -250,6 +250,7 @@ class VehicleParams:
         spirals: Sequence[Spiral] = (),
         land: bool = False,
         leg_heights: Mapping[int, float] | None = None,
+        leg_speeds: Mapping[int, float] | None = None,
     ) -> FixedWingStack:
         """The aircraft under its autopilot flying ``waypoints`` at ``speed``: turn fillets of
         ``turn_radius`` (else the leg switch ``switch_distance`` before a waypoint), the climb
@@ -271,6 +272,7 @@ class VehicleParams:
             spirals=spirals,
             land=land,
             leg_heights=leg_heights,
+            leg_speeds=leg_speeds,
         )
 
     def min_turn_radius(self, speed: float | None = None) -> float:

@@ -71,6 +71,7 @@ class FixedWingStack:
         spirals: Sequence[Spiral] = (),
         land: bool = False,
         leg_heights: Mapping[int, float] | None = None,
+        leg_speeds: Mapping[int, float] | None = None,
     ) -> None:
         self.params = params
         if land:  # a landing ends at the flare, over the touchdown point, not 100 m short
@@ -101,6 +102,8 @@ class FixedWingStack:
         self.autopilot.land = bool(land)
         if leg_heights:
             self.autopilot.set_leg_heights(leg_heights)
+        if leg_speeds:
+            self.autopilot.set_leg_speeds(leg_speeds)
         if spirals:
             if turn_radius is None:
                 raise InputError(

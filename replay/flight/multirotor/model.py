@@ -184,6 +184,7 @@ class MultirotorParams:
         spirals: Sequence[Any] = (),
         land: bool = False,
         leg_heights: Mapping[int, float] | None = None,
+        leg_speeds: Mapping[int, float] | None = None,
     ) -> MultirotorStack:
         """The multirotor under its controller flying ``waypoints`` at ``speed`` in the day's air
         (turn radius, leg switch and terrain following do not apply: it turns on the spot and
@@ -192,6 +193,11 @@ class MultirotorParams:
             raise InputError(
                 f"{self.name} is a multirotor: it climbs on the spot and flies no spirals "
                 "(a spiral is a fixed-wing plan's)"
+            )
+        if leg_speeds and any(v != speed for v in leg_speeds.values()):
+            raise InputError(
+                f"{self.name}: a multirotor flies one speed for now; the mission changes it "
+                f"({sorted(set(leg_speeds.values()))} m/s): fly one with --speed"
             )
         from replay.flight.multirotor.stack import MultirotorStack
 
