@@ -236,16 +236,9 @@ def is_foreign(path: str | Path) -> bool:
 
 
 def _text(path: Path) -> str:
-    try:
-        return path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise DataFileError(f"{where(path)}no such file (expected a mission)") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{where(path)}is a folder, expected a mission") from None
-    except UnicodeDecodeError as exc:
-        raise DataFileError(f"{where(path)}not UTF-8 text ({exc.reason})") from None
-    except OSError as exc:
-        raise DataFileError(f"{where(path)}cannot be read: {exc.strerror or exc}") from None
+    from terrain.docfile import read_text
+
+    return read_text(path, "a mission", encoding="utf-8-sig")
 
 
 def _json(path: Path, text: str) -> Any:

@@ -42,6 +42,20 @@ def save_plan_picture(
     which the profile follows; ``explored``: the seeds the map search gave the swarm, each the
     free waypoints of a route (drawn thin and dashed, start and goal joined on)."""
     track = path if flown is None else np.asarray(flown, dtype=np.float64)
+    fig, ax, ax2 = _map_and_profile(grid, title, zones)
+    _draw_explored(ax, path, explored)
+    _draw_path(ax, path, track, feasible)
+    legend_below(ax)
+
+    samples = sample_path(grid, track)
+    _draw_ground(ax2, grid, samples)
+    _draw_profile(ax2, samples, clearance)
+    legend_below(ax2)
+    return save_figure(fig, out)
+
+
+def _map_and_profile(grid: HeightGrid, title: str, zones: tuple[Zone, ...]) -> Any:
+    """(figure, map axes with the hillshade and zones, profile axes below it)."""
     xmin, ymin, xmax, ymax = grid.bounds
     aspect = (ymax - ymin) / (xmax - xmin)
     width = 9.0
@@ -52,16 +66,7 @@ def save_plan_picture(
     draw_hillshade(fig, ax, grid, title or None)
     if zones:
         draw_zones(ax, zones)
-    _draw_explored(ax, path, explored)
-    _draw_path(ax, path, track, feasible)
-    legend_below(ax)
-
-    ax2 = fig.add_subplot(gs[1])
-    samples = sample_path(grid, track)
-    _draw_ground(ax2, grid, samples)
-    _draw_profile(ax2, samples, clearance)
-    legend_below(ax2)
-    return save_figure(fig, out)
+    return fig, ax, fig.add_subplot(gs[1])
 
 
 def _draw_explored(
@@ -203,18 +208,8 @@ def save_check_picture(
     violation marked and numbered as the report ranks it on both."""
     ok = not findings
     track = check.flown.points
-    xmin, ymin, xmax, ymax = grid.bounds
-    aspect = (ymax - ymin) / (xmax - xmin)
-    width = 9.0
-    map_h = max(3.5, min(width * aspect, 12.0))
-    fig = new_figure(width, map_h + 3.4)
-    gs = fig.add_gridspec(2, 1, height_ratios=[map_h, 2.6])
-    ax = fig.add_subplot(gs[0])
-    draw_hillshade(fig, ax, grid, title or None)
-    if zones:
-        draw_zones(ax, zones)
+    fig, ax, ax2 = _map_and_profile(grid, title, zones)
     _draw_path(ax, np.asarray(waypoints, dtype=np.float64), track, ok)
-    ax2 = fig.add_subplot(gs[1])
     s = check.samples
     shown = PathSamples(
         s.segment,

@@ -110,12 +110,11 @@ def found(value: Any) -> str:
     return f"{text} ({kind})"
 
 
-def read_document(path: Path, what: str, json_suffixes: Iterable[str] = ()) -> Any:
-    """Parse a file: JSON for ``json_suffixes``, else YAML with the safe loader only.
-
-    ``what`` names the expected file in messages ("a threat file")."""
+def read_text(path: Path, what: str, encoding: str = "utf-8") -> str:
+    """The text of ``path``; a one-line DataFileError naming it and ``what`` was expected
+    when it is missing, a folder, not UTF-8 or unreadable."""
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding=encoding)
     except FileNotFoundError:
         raise DataFileError(f"{where(path)}no such file (expected {what})") from None
     except IsADirectoryError:
@@ -124,6 +123,13 @@ def read_document(path: Path, what: str, json_suffixes: Iterable[str] = ()) -> A
         raise DataFileError(f"{where(path)}not UTF-8 text ({exc.reason})") from None
     except OSError as exc:
         raise DataFileError(f"{where(path)}cannot be read: {exc.strerror or exc}") from None
+
+
+def read_document(path: Path, what: str, json_suffixes: Iterable[str] = ()) -> Any:
+    """Parse a file: JSON for ``json_suffixes``, else YAML with the safe loader only.
+
+    ``what`` names the expected file in messages ("a threat file")."""
+    text = read_text(path, what)
     if path.suffix.lower() in tuple(json_suffixes):
         try:
             return json.loads(text)

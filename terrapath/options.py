@@ -180,3 +180,25 @@ def airspace_options(f: F) -> F:
     for decorator in reversed(decorators):
         f = decorator(f)
     return f
+
+
+def dem_tiles_option(help: str) -> Callable[[F], F]:
+    """``--dem TILE`` (repeatable, existing files): the DEM a mission flies over."""
+    return click.option(
+        "--dem",
+        "dem_tiles",
+        multiple=True,
+        type=click.Path(exists=True, dir_okay=False),
+        help=help,
+    )
+
+
+def speed_option(help: str, dest: str = "speed") -> Callable[[F], F]:
+    """``--speed`` (m/s, > 0): the true airspeed a mission is flown at."""
+    return click.option(
+        "--speed",
+        dest,
+        type=click.FloatRange(min=0.0, min_open=True),
+        default=None,
+        help=help,
+    )

@@ -10,31 +10,24 @@ from typing import Any
 
 import click
 
-from terrapath.options import airspace_options, vehicle_option
+from terrapath.options import airspace_options, dem_tiles_option, speed_option, vehicle_option
 
 EXIT_INFEASIBLE = 3  # as `plan` and `replay`: the answer is "no", with the reasons
 
 
 @click.command("check")
 @click.argument("mission", type=click.Path(dir_okay=False))
-@click.option(
-    "--dem",
-    "dem_tiles",
-    multiple=True,
-    type=click.Path(exists=True, dir_okay=False),
-    help="DEM tile the mission flies over (repeat for several; required for a .plan, "
-    ".waypoints, GeoJSON or KML mission; default for a terrapath mission: its own tiles).",
+@dem_tiles_option(
+    "DEM tile the mission flies over (repeat for several; required for a .plan, .waypoints, "
+    "GeoJSON or KML mission; default for a terrapath mission: its own tiles)."
 )
 @vehicle_option(
     "Vehicle preset or file (default: the mission's; for a mission of another tool, its kind "
     "of vehicle: quadrotor for a multirotor, else aerosonde)."
 )
-@click.option(
-    "--speed",
-    type=click.FloatRange(min=0.0, min_open=True),
-    default=None,
-    help="True airspeed (m/s) the mission is flown at (default: the mission's cruise speed; "
-    "for a mission of another tool, the vehicle's own).",
+@speed_option(
+    "True airspeed (m/s) the mission is flown at, all of it (default: the mission's cruise "
+    "speed and its speed changes; for a mission of another tool, the vehicle's own)."
 )
 @click.option(
     "--clearance",

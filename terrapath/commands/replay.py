@@ -11,7 +11,14 @@ import click
 
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError
-from terrapath.options import airspace_options, output_option, seed_option, vehicle_option
+from terrapath.options import (
+    airspace_options,
+    dem_tiles_option,
+    output_option,
+    seed_option,
+    speed_option,
+    vehicle_option,
+)
 from terrapath.progress import progress_bar
 from terrapath.runtext import duration, failure_summary, metrics_rows, report_lines
 
@@ -140,14 +147,11 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 @vehicle_option(
     "Vehicle preset or file (default: the mission's; for an .mcap source, the vehicle that run flew)."
 )
-@click.option(
-    "--dem",
-    "dem_tiles",
-    multiple=True,
-    type=click.Path(exists=True, dir_okay=False),
-    help="DEM tile to fly over instead of the mission's (repeat for several tiles; the "
-    "mission's cell size is kept). Default: the mission's tiles, looked for beside the mission "
-    "(or the .mcap), then as written.",
+@dem_tiles_option(
+    "DEM tile to fly over instead of the mission's (repeat for several tiles; the "
+    "mission's cell size is kept; required for a .plan, .waypoints, GeoJSON or KML mission). "
+    "Default: the mission's tiles, looked for beside the mission (or the .mcap), then as "
+    "written."
 )
 @seed_option("Random seed (radar noise, avoiders); recorded in the MCAP.")
 @click.option(
@@ -284,13 +288,11 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "from the standard atmosphere.",
 )
 @airspace_options
-@click.option(
-    "--speed",
-    "airspeed",
-    type=click.FloatRange(min=0.0, min_open=True),
-    default=None,
-    help="True airspeed to fly at (m/s; a multirotor's horizontal speed). Default: the "
-    "mission's cruise speed; for a mission of another tool, the vehicle's own.",
+@speed_option(
+    "True airspeed to fly at, all the way (m/s; a multirotor's horizontal speed). Default: the "
+    "mission's cruise speed and its speed changes; for a mission of another tool, the "
+    "vehicle's own.",
+    dest="airspeed",
 )
 @click.option(
     "--terrain-following",

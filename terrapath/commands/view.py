@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from terrapath.options import output_option
+from terrapath.options import dem_tiles_option, output_option
 from terrapath.view.figures import COLOR_BY
 
 
@@ -25,13 +25,9 @@ from terrapath.view.figures import COLOR_BY
     help="Colour the flown trajectory by time, by height above the terrain, or by run "
     "(default: time for one run, run for several).",
 )
-@click.option(
-    "--dem",
-    "dem_tiles",
-    multiple=True,
-    type=click.Path(exists=True, dir_okay=False),
-    help="DEM tile of a mission of another tool (.plan, .waypoints, GeoJSON, KML; repeat for "
-    "several tiles).",
+@dem_tiles_option(
+    "DEM tile of a mission of another tool (.plan, .waypoints, GeoJSON, KML; repeat for "
+    "several tiles)."
 )
 def view_cmd(
     sources: tuple[str, ...],
