@@ -42,7 +42,9 @@ for commands without a position. Any other frame is refused by item.
 
 Commands flown (MAV_CMD): 16 WAYPOINT; 22 TAKEOFF (a fixed wing's climb-out is its take-off
 mode's: the mission starts at the take-off item, above home when the item has no position);
-21 LAND (the last waypoint; the items after it are never flown); 20 RETURN_TO_LAUNCH (home at
+21 LAND (the touchdown, 1 m above the measured ground at the point whatever the item's altitude,
+as the autopilots land; the last leg flown as a landing's final approach, no terrain floor, held
+to the glide by the preflight; the items after it are never flown); 20 RETURN_TO_LAUNCH (home at
 the altitude of the item before it, as ArduPlane's ``RTL_ALTITUDE`` -1 and PX4 over its return
 altitude; the mission ends there); 31 LOITER_TO_ALT, 18 LOITER_TURNS and 19 LOITER_TIME: a
 circle of the item's radius (0: the vehicle's turn radius; negative: counter-clockwise),
@@ -837,20 +839,26 @@ def to_mission_parts(
             if it.command == LOITER_TO_ALT and k >= 1:
                 attach.append((len(spirals) - 1, (float(p[0]), float(p[1]))))
             continue
+        if it.command == LAND:
+            # the autopilots land at the point whatever the item's altitude (ArduPlane, PX4):
+            # touchdown 1 m above the measured ground there, as terrapath's own landings
+            safety = grid.safety()
+            g = float(np.asarray(safety.height_at(p[0], p[1])).reshape(-1)[0])
+            if not math.isfinite(g):
+                raise fm.fail(it.field, "no measured terrain under the landing point")
+            z, h_agl = g + 1.0, None
+            landing, ended = True, True
         pts.append([float(p[0]), float(p[1]), float(z)])
         k = len(pts) - 1
         source_of[k] = it.field
         if h_agl is not None:
             agl[k] = h_agl
-        if it.command == LAND:
-            landing = True
-            ended = True
     for j, c in reversed(attach):
         _attach(pts, spirals, (agl, source_of, speeds), j, np.array(c), turn_radius)
     if len(pts) < 2:
         raise fm.fail("", f"expected at least two positions to fly, found {len(pts)}")
-    if not landing and not ended and len(fm.rally):
-        notes.append(f"{len(fm.rally)} rally point(s): not flown")
+    if fm.rally:
+        notes.append(f"{len(fm.rally)} rally point(s): kept in the file, not flown")
     zones = _zones(fm, grid)
     return Resolved(
         np.array(pts, dtype=np.float64),
@@ -979,8 +987,16 @@ def to_mission(
     if fm.cruise_speed is not None:
         imported["file_cruise_speed"] = fm.cruise_speed
     plan: dict[str, Any] = {"imported": imported}
-    if parts.landing:
-        imported["lands"] = True
+    if parts.landing and len(parts.waypoints) >= 2:
+        # the last leg is a landing's final approach (the replay flies it without a terrain
+        # floor, down to the touchdown; the preflight holds it to the glide)
+        w = parts.waypoints
+        plan["landing"] = {
+            "touchdown": [round(float(v), 3) for v in w[-1]],
+            "approach_fix": [round(float(v), 3) for v in w[-2]],
+            "go_around_altitude": round(float(w[-2, 2]), 2),
+            "from": "NAV_LAND",
+        }
     # corners are flown as fillets of the turn radius at the fastest speed flown (the same
     # bank: the radius grows with the square of the speed)
     fastest = max([float(perf.speed), *parts.speeds.values()])

@@ -558,3 +558,25 @@ def test_a_speed_change_is_flown_from_its_waypoint(tmp_path: Path, grid) -> None
     assert np.median(v1[(one.positions[:, 0] > hx + 4000) & (one.positions[:, 0] < hx + 9000)]) == (
         pytest.approx(25.0, abs=1.0)
     )
+
+
+def test_land_touches_down_on_the_ground_whatever_its_altitude(tmp_path: Path, grid) -> None:
+    """NAV_LAND: the autopilots land at the point whatever the item's altitude -- the touchdown
+    is 1 m above the measured ground there (a relative 0 over ground higher than home would be
+    underground), the last leg a landing's final approach; items after it are not flown."""
+    a, b, c = _ll(grid, 3000, 0), _ll(grid, 9000, 2000), _ll(grid, 12000, 0)
+    items = [
+        _item(22, 3, [15, 0, 0, None, 0, 0, 400], 1),
+        _item(16, 3, [0, 0, 0, None, a[0], a[1], 400], 2),
+        _item(21, 3, [0, 0, 0, None, b[0], b[1], 0], 3),
+        _item(16, 3, [0, 0, 0, None, c[0], c[1], 400], 4),
+    ]
+    path = tmp_path / "land.plan"
+    path.write_text(json.dumps(_qgc_plan(grid, items)))
+    m = _imported(path, grid)
+    assert len(m.waypoints) == 3  # the waypoint after the landing is not flown
+    x, y, z = m.waypoints[-1]
+    assert z == pytest.approx(float(grid.safety().height_at(x, y)) + 1.0)
+    assert m.plan["landing"]["from"] == "NAV_LAND"
+    assert m.plan["landing"]["touchdown"] == pytest.approx([x, y, z], abs=1e-3)
+    assert any("after the mission's end" in n for n in m.plan["imported"]["notes"])
