@@ -2,7 +2,7 @@
 N57E011, 64 x 113 km at 50 m), timed without the DEM load and the picture (target: under a
 second). The mission is a seeded random walk of 100 waypoints, legs of 0.5-1.5 km turning at
 most 90 degrees, each waypoint 150 m above its measured ground, flown by the aerosonde at
-25 m/s with its fillets; the check is the command's (:func:`replay.feasibility.feasibility`:
+25 m/s with its fillets; the check is the command's (:func:`replay.preflight.feasibility`:
 the flown path against the measured terrain, unknown terrain, the map and the vehicle's
 preflight). The first call pays the vehicle's trim caches (its ceiling at the speed); the best
 of the repeats is the figure.
@@ -24,8 +24,8 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._record import emit  # noqa: E402
 from planner.mission import Mission, TerrainRef  # noqa: E402
-from replay.feasibility import feasibility  # noqa: E402
 from replay.flight.fixedwing.presets import PRESETS  # noqa: E402
+from replay.preflight import feasibility  # noqa: E402
 from terrain.load import load_dem  # noqa: E402
 
 DEFAULT_DEM = ROOT.parent / "shared" / "maps" / "srtm3_N57E011" / "N57E011.hgt"

@@ -12,8 +12,8 @@ import pytest
 
 from planner.export import to_qgc_plan, write_json
 from planner.mission import Mission, TerrainRef, save_mission
-from replay.feasibility import feasibility
 from replay.flight.fixedwing.presets import PRESETS
+from replay.preflight import feasibility
 from terrain.load import load_dem
 from terrapath.cli import main
 from tests.conftest import DATA_MAPS

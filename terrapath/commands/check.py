@@ -83,7 +83,7 @@ def check_cmd(
     a picture.
 
     Exit status: 0 feasible, 3 not feasible (each violation named), 1 error."""
-    from replay.feasibility import feasibility
+    from replay.preflight import feasibility
     from replay.source import mission_on_terrain
     from terrain.errors import InputError
 
