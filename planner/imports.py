@@ -63,10 +63,8 @@ change); a ground speed is flown as that true airspeed (noted), a climb or desce
 
 from __future__ import annotations
 
-import json
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -74,6 +72,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from terrain.docfile import parse_json
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid
 
@@ -164,7 +163,6 @@ FORMAT_NAMES = {
     "geojson": "GeoJSON",
     "kml": "KML",
 }
-FOREIGN_SUFFIXES = (".plan", ".waypoints", ".wpl", ".txt", ".mission", ".geojson", ".json", ".kml")
 
 
 @dataclass(frozen=True)
@@ -243,17 +241,6 @@ def _text(path: Path) -> str:
     return read_text(path, "a mission", encoding="utf-8-sig")
 
 
-def _json(path: Path, text: str) -> Any:
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise DataFileError(
-            f"{where(path)}not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
-        ) from None
-    except RecursionError:
-        raise DataFileError(f"{where(path)}not valid JSON: nested too deeply") from None
-
-
 def read_foreign(path: str | Path) -> ForeignMission:
     """Read a ``.plan``, WPL, GeoJSON or KML mission (module docstring)."""
     p = Path(path)
@@ -268,7 +255,7 @@ def read_foreign(path: str | Path) -> ForeignMission:
             f"{where(p)}expected a MAVLink mission starting 'QGC WPL 110', found "
             f"{(text.strip().splitlines() or [''])[0][:40]!r}"
         )
-    data = _json(p, text)
+    data = parse_json(text, p)
     if isinstance(data, dict) and data.get("fileType") == "Plan":
         return _read_plan(p, data)
     if isinstance(data, dict) and isinstance(data.get("type"), str):
@@ -859,7 +846,9 @@ def to_mission_parts(
         raise fm.fail("", f"expected at least two positions to fly, found {len(pts)}")
     if fm.rally:
         notes.append(f"{len(fm.rally)} rally point(s): kept in the file, not flown")
-    zones = _zones(fm, grid)
+    from terrain.zone_file import zones_from_fields
+
+    zones = zones_from_fields(fm.fences, grid, source=fm.source)
     return Resolved(
         np.array(pts, dtype=np.float64),
         tuple(spirals),
@@ -922,26 +911,6 @@ def _positioned(it: Item) -> bool:
         and not (it.lat == 0 and it.lon == 0)
         and it.frame != MISSION_FRAME
     )
-
-
-def _zones(fm: ForeignMission, grid: HeightGrid) -> tuple[Any, ...]:
-    from terrain.zone_file import zones_from_fields
-
-    return zones_from_fields(fm.fences, grid, source=fm.source)
-
-
-def estimated_duration(mission: Any, factor: float = 1.5) -> float:
-    """Seconds a mission's flight may take: its horizontal length at its cruise speed, times
-    ``factor`` for the turns, spirals and detours (the time window airspace is active in)."""
-    w = np.asarray(mission.waypoints, dtype=np.float64)
-    length = float(np.hypot(*np.diff(w[:, :2], axis=0).T).sum())
-    turns = sum(2 * math.pi * s.radius * s.turns for s in mission.spirals)
-    return factor * (length + turns) / max(float(mission.cruise_speed), 0.1)
-
-
-def describe_items(fm: ForeignMission) -> Sequence[str]:
-    """One line per item, for messages and the report."""
-    return [f"{it.field}: {it.name} frame {it.frame}" for it in fm.items]
 
 
 def to_mission(

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from planner.mission import Mission, on_terrain
+from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.multirotor.model import MultirotorParams
@@ -38,7 +38,7 @@ from replay.sim import (
     simulate,
     time_limit,
 )
-from replay.source import find_terrain, mission_on_terrain, recorded_threats, source_vehicle
+from replay.source import mission_on_terrain, on_its_terrain, recorded_threats
 from replay.threats.file import load_threats, recorded_text, threats_to_records
 from replay.threats.kinds import ThreatSet
 from terrain.errors import InputError
@@ -155,11 +155,10 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     r = request
     grid: HeightGrid | None
     if isinstance(r.source, Mission):
-        mission, old_run, source = r.source, None, f"mission {r.source.name!r}"
-        mission = find_terrain(mission, r.dem)
-        grid = mission.terrain.load() if mission.terrain is not None else None
-        mission = on_terrain(mission, grid)
-        params, vehicle_file = source_vehicle(r.vehicle, mission, source, old_run)
+        old_run, source = None, f"mission {r.source.name!r}"
+        mission, grid, params, vehicle_file = on_its_terrain(
+            r.source, r.dem, r.vehicle, source, None
+        )
     else:
         # a mission file (terrapath's, or another tool's on --dem) or an earlier run
         source = r.source
@@ -170,11 +169,11 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     if r.airspace:
         if grid is None:
             raise InputError("--airspace needs the mission's terrain (a DEM): give --dem")
-        from planner.imports import estimated_duration
         from terrain.airspace import load_airspace
 
+        # the zones active while the replay may fly (its time limit)
         air = load_airspace(
-            r.airspace, grid, start=r.start_time, duration_s=estimated_duration(mission)
+            r.airspace, grid, start=r.start_time, duration_s=time_limit(mission, r.config)
         )
         mission = replace(mission, danger_zones=(*mission.danger_zones, *air.zones))
         airspace_notes = air.notes

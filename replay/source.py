@@ -15,7 +15,7 @@ from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError
 
 if TYPE_CHECKING:
-    from planner.mission import Mission
+    from planner.mission import Mission, TerrainRef
     from planner.performance import Performance
     from replay.flight.fixedwing.params import VehicleParams
     from replay.flight.multirotor.model import MultirotorParams
@@ -79,19 +79,12 @@ def import_mission(
             f"{source!r}: a {FORMAT_NAMES[fm.format]} mission holds lon/lat and names no terrain: give the DEM "
             "it flies over with --dem"
         )
-    ref = TerrainRef(tuple(str(Path(t).absolute()) for t in dem_tiles))
-    ref = TerrainRef(tuple(str(Path(t).resolve()) for t in ref.paths()))
+    ref = _found(TerrainRef(tuple(str(Path(t).absolute()) for t in dem_tiles)))
     grid = ref.load()
     name = vehicle or (
         next(iter(MULTIROTOR_PRESETS)) if fm.vehicle_type == "multirotor" else DEFAULT_VEHICLE
     )
-    from replay.flight.fixedwing.presets import load_any_vehicle
-
-    params = MULTIROTOR_PRESETS.get(name) or load_any_vehicle(name, base_dir=Path.cwd())
-    path = Path(name)
-    vehicle_file = (
-        path.read_bytes() if path.suffix.lower() in (".yaml", ".yml") and path.is_file() else None
-    )
+    params, vehicle_file = named_vehicle(name)
     v = float(speed) if speed is not None else float(params.cruise_speed)
     params.check_speed(v, "speed")
     mission = to_mission(fm, grid, ref, vehicle=name, perf=performance_of(params, v))
@@ -113,13 +106,26 @@ def mission_on_terrain(
     if is_foreign(source):
         mission, grid, params, vehicle_file = import_mission(source, dem_tiles, vehicle, speed)
         return mission, grid, params, vehicle_file, None
+    mission, old_run = load_source(source)
+    return (*on_its_terrain(mission, dem_tiles, vehicle, source, old_run), old_run)
+
+
+def on_its_terrain(
+    mission: Mission,
+    dem_tiles: tuple[str, ...],
+    vehicle: str | None,
+    source: str,
+    run: RunRecord | None,
+) -> tuple[Mission, HeightGrid | None, VehicleParams | MultirotorParams, bytes | None]:
+    """(mission, grid, vehicle parameters, vehicle file) of a terrapath mission: its DEM tiles
+    found (or replaced by ``dem_tiles``) and loaded, its zones limited above the ground on that
+    terrain, its vehicle (:func:`source_vehicle`)."""
     from planner.mission import on_terrain
 
-    mission, old_run = load_source(source)
     mission = find_terrain(mission, dem_tiles)
-    loaded = mission.terrain.load() if mission.terrain is not None else None
-    params, vehicle_file = source_vehicle(vehicle, mission, source, old_run)
-    return on_terrain(mission, loaded), loaded, params, vehicle_file, old_run
+    grid = mission.terrain.load() if mission.terrain is not None else None
+    params, vehicle_file = source_vehicle(vehicle, mission, source, run)
+    return on_terrain(mission, grid), grid, params, vehicle_file
 
 
 def mission_of_run(run: RunRecord, source: str) -> Mission:
@@ -161,10 +167,30 @@ def find_terrain(mission: Mission, dem_tiles: tuple[str, ...]) -> Mission:
         )
     if ref is None:
         return mission
+    return replace(mission, terrain=_found(ref))
+
+
+def _found(ref: TerrainRef) -> TerrainRef:
+    """``ref`` with every tile where it was found (absolute; an error naming the places looked
+    for a tile found nowhere)."""
+    from planner.mission import TerrainRef
+
     found = tuple(str(Path(t).resolve()) for t in ref.paths())
-    return replace(
-        mission, terrain=TerrainRef(found, ref.cell_size, local_cell_size=ref.local_cell_size)
-    )
+    return TerrainRef(found, ref.cell_size, local_cell_size=ref.local_cell_size)
+
+
+def named_vehicle(vehicle: str) -> tuple[VehicleParams | MultirotorParams, bytes | None]:
+    """(parameters, the file to attach or None) of a vehicle named on the command line: a
+    multirotor preset by name, a fixed-wing preset, or a vehicle file (relative to the working
+    directory)."""
+    from replay.flight.fixedwing.presets import load_any_vehicle
+
+    if vehicle in MULTIROTOR_PRESETS:
+        return MULTIROTOR_PRESETS[vehicle], None
+    params = load_any_vehicle(vehicle, base_dir=Path.cwd())
+    path = Path(vehicle)
+    is_file = path.suffix.lower() in (".yaml", ".yml") and path.is_file()
+    return params, path.read_bytes() if is_file else None
 
 
 def source_vehicle(
@@ -179,13 +205,8 @@ def source_vehicle(
     from replay.flight.fixedwing.presets import PRESETS, load_any_vehicle, vehicle_from_dict
     from terrain.docfile import find_reference, reference_places
 
-    if vehicle in MULTIROTOR_PRESETS:
-        return MULTIROTOR_PRESETS[vehicle], None
     if vehicle:
-        params = load_any_vehicle(vehicle, base_dir=Path.cwd())
-        path = Path(vehicle)
-        is_file = path.suffix.lower() in (".yaml", ".yml") and path.is_file()
-        return params, path.read_bytes() if is_file else None
+        return named_vehicle(vehicle)
     if run is not None:
         text = run.attachments.get("vehicle.yaml")
         if text is not None:

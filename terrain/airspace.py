@@ -36,7 +36,7 @@ and field).
 from __future__ import annotations
 
 import datetime as dt
-import json
+import io
 import math
 import re
 from collections.abc import Sequence
@@ -44,6 +44,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from terrain.docfile import parse_json, read_text
 from terrain.errors import DataFileError, InputError, where
 from terrain.grid import HeightGrid
 from terrain.zones import Zone
@@ -51,7 +52,6 @@ from terrain.zones import Zone
 FT = 0.3048
 NM = 1852.0
 ARC_STEP_DEG = 2.0  # an OpenAir arc is drawn with a vertex every this many degrees
-OPENAIR_SUFFIXES = (".txt", ".air", ".openair")
 DEFAULT_FLIGHT_S = 6 * 3600.0  # the flight a start time covers when its duration is not known
 
 
@@ -168,7 +168,7 @@ def _bearing_nm(center: Sequence[float], point: Sequence[float]) -> tuple[float,
     return math.degrees(math.atan2(de, dn)) % 360.0, math.hypot(dn, de)
 
 
-def _openair_zone(rec: dict[str, Any], label: str) -> dict[str, Any]:
+def _openair_zone(rec: dict[str, Any]) -> dict[str, Any]:
     elements = rec.get("elements") or []
     if not elements:
         raise ValueError("no outline (DP, DA, DB or DC)")
@@ -205,45 +205,39 @@ def _openair_zone(rec: dict[str, Any], label: str) -> dict[str, Any]:
     return {"vertices_lonlat": out}
 
 
-def _read_openair(path: Path, start: dt.datetime | None, duration_s: float) -> list[Any]:
+def _read_openair(path: Path, text: str, start: dt.datetime | None, duration_s: float) -> list[Any]:
     from aerofiles.openair import Reader
 
     records: list[tuple[str, dict[str, Any]]] = []
-    try:
-        with path.open(encoding="utf-8", errors="replace") as fp:
-            for n, (rec, err) in enumerate(Reader(fp)):
-                if err is not None:
-                    line = getattr(err, "lineno", "?")
-                    what = str(err)
-                    if "center" in what:
-                        what = f"{what}: an arc or circle with no centre (no 'V X=' before it)"
-                    raise InputError(f"{where(path)}line {line}: {what}")
-                if rec.get("type") != "airspace":
-                    continue
-                name = rec.get("name") or f"#{n}"
-                label = f"airspace {name!r} (class {rec.get('class')})"
+    for n, (rec, err) in enumerate(Reader(io.StringIO(text))):
+        if err is not None:
+            line = getattr(err, "lineno", "?")
+            what = str(err)
+            if "center" in what:
+                what = f"{what}: an arc or circle with no centre (no 'V X=' before it)"
+            raise InputError(f"{where(path)}line {line}: {what}")
+        if rec.get("type") != "airspace":
+            continue
+        name = rec.get("name") or f"#{n}"
+        label = f"airspace {name!r} (class {rec.get('class')})"
+        try:
+            zone = _openair_zone(rec)
+            floor = openair_limit(rec.get("floor") or "SFC")
+            top = openair_limit(rec.get("ceiling") or "UNL")
+        except (ValueError, KeyError, TypeError) as exc:
+            raise InputError(f"{where(path)}{label}: {exc}") from None
+        windows = []
+        for act in rec.get("activation") or rec.get("activations") or []:
+            if isinstance(act, dict) and ("start" in act or "end" in act):
                 try:
-                    zone = _openair_zone(rec, label)
-                    floor = openair_limit(rec.get("floor") or "SFC")
-                    top = openair_limit(rec.get("ceiling") or "UNL")
-                except (ValueError, KeyError, TypeError) as exc:
+                    windows.append((_time(act.get("start"), "start"), _time(act.get("end"), "end")))
+                except ValueError as exc:
                     raise InputError(f"{where(path)}{label}: {exc}") from None
-                windows = []
-                for act in rec.get("activation") or rec.get("activations") or []:
-                    if isinstance(act, dict) and ("start" in act or "end" in act):
-                        try:
-                            windows.append(
-                                (_time(act.get("start"), "start"), _time(act.get("end"), "end"))
-                            )
-                        except ValueError as exc:
-                            raise InputError(f"{where(path)}{label}: {exc}") from None
-                if not _applies(windows, start, duration_s):
-                    continue
-                zone.update(_record(floor, top))
-                zone["id"] = str(name)
-                records.append((label, zone))
-    except UnicodeDecodeError as exc:  # pragma: no cover - errors="replace"
-        raise DataFileError(f"{where(path)}not text ({exc.reason})") from None
+        if not _applies(windows, start, duration_s):
+            continue
+        zone.update(_record(floor, top))
+        zone["id"] = str(name)
+        records.append((label, zone))
     return records
 
 
@@ -367,23 +361,12 @@ def load_airspace(
     seen: set[str] = set()
     for raw in paths:
         path = Path(raw)
-        if not path.is_file():
-            raise DataFileError(f"{where(path)}no such file (expected an airspace file)")
-        try:
-            text = path.read_text(encoding="utf-8-sig")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise DataFileError(f"{where(path)}cannot be read: {exc}") from None
+        text = read_text(path, "an airspace file", encoding="utf-8-sig")
         if text.lstrip().startswith(("{", "[")):
-            try:
-                data = json.loads(text)
-            except json.JSONDecodeError as exc:
-                raise DataFileError(
-                    f"{where(path)}not valid JSON at line {exc.lineno}, column {exc.colno}: "
-                    f"{exc.msg}"
-                ) from None
+            data = parse_json(text, path)
             records = _read_ed269(path, data, start, duration_s, notes)
         else:
-            records = _read_openair(path, start, duration_s)
+            records = _read_openair(path, text, start, duration_s)
         near = []
         lon0, lat0, lon1, lat1 = grid.lonlat_bounds() or (-180.0, -90.0, 180.0, 90.0)
         area = box(lon0, lat0, lon1, lat1)

@@ -131,15 +131,21 @@ def read_document(path: Path, what: str, json_suffixes: Iterable[str] = ()) -> A
     ``what`` names the expected file in messages ("a threat file")."""
     text = read_text(path, what)
     if path.suffix.lower() in tuple(json_suffixes):
-        try:
-            return json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise DataFileError(
-                f"{where(path)}not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
-            ) from None
-        except RecursionError:
-            raise DataFileError(f"{where(path)}not valid JSON: nested too deeply") from None
+        return parse_json(text, path)
     return parse_yaml(text, repr(str(path)))
+
+
+def parse_json(text: str, path: str | PathLike[str]) -> Any:
+    """``text`` parsed as JSON; a one-line DataFileError naming ``path``, the line and the
+    column when it is not."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DataFileError(
+            f"{where(path)}not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
+        ) from None
+    except RecursionError:
+        raise DataFileError(f"{where(path)}not valid JSON: nested too deeply") from None
 
 
 def check_header(

@@ -29,6 +29,19 @@ def grid():
     return load_dem(RMNP)
 
 
+def _level(w: np.ndarray, name: str) -> Mission:
+    """A mission over RMNP through waypoints ``w`` at 25 m/s with the aerosonde's fillets."""
+    return Mission(
+        name=name,
+        waypoints=w,
+        crs="EPSG:32613",
+        terrain=TerrainRef((str(RMNP),)),
+        cruise_speed=25.0,
+        cruise_altitude=float(w[0, 2]),
+        turn_radius=143.1,
+    )
+
+
 def test_openair_and_ed269_zones_with_their_references(grid) -> None:
     oa = load_airspace([OPENAIR], grid).zones
     assert [(z.id, z.kind) for z in oa] == [("R-TEST", "polygon"), ("UAS-CIRCLE", "cylinder")]
@@ -89,16 +102,7 @@ def test_plan_keeps_out_and_check_flags_a_crossing(tmp_path: Path, grid, capsys)
     w = np.array([[float(cx) - 1000, float(cy), 0.0], [float(cx) + 1000, float(cy), 0.0]])
     xs = np.linspace(w[0, 0], w[1, 0], 200)
     w[:, 2] = float(np.max(grid.height_at(xs, np.full(200, float(cy))))) + 30.0
-    mission = Mission(
-        name="through",
-        waypoints=w,
-        crs="EPSG:32613",
-        terrain=TerrainRef((str(RMNP),)),
-        cruise_speed=25.0,
-        cruise_altitude=float(w[0, 2]),
-        turn_radius=143.1,
-    )
-    path = save_mission(mission, tmp_path / "through.yaml", grid)
+    path = save_mission(_level(w, "through"), tmp_path / "through.yaml", grid)
     code = main(["check", str(path), *air, "--json", "--no-picture"])
     doc = json.loads(capsys.readouterr().out)
     assert code == 3
@@ -106,19 +110,7 @@ def test_plan_keeps_out_and_check_flags_a_crossing(tmp_path: Path, grid, capsys)
     assert [v["message"].split(" enters zone ")[1].split(" ")[0] for v in zones] == ["UAS-CIRCLE"]
     # the same leg 400 m higher flies over the ceiling: no zone
     w[:, 2] += 400.0
-    high = save_mission(
-        Mission(
-            name="over",
-            waypoints=w,
-            crs="EPSG:32613",
-            terrain=TerrainRef((str(RMNP),)),
-            cruise_speed=25.0,
-            cruise_altitude=float(w[0, 2]),
-            turn_radius=143.1,
-        ),
-        tmp_path / "over.yaml",
-        grid,
-    )
+    high = save_mission(_level(w, "over"), tmp_path / "over.yaml", grid)
     assert main(["check", str(high), *air, "--no-picture"]) == 0
 
 

@@ -48,6 +48,21 @@ def _mission(grid) -> Mission:
     )
 
 
+def _on_rmnp(w: np.ndarray, name: str, **fields: Any) -> Mission:
+    """A mission over RMNP through waypoints ``w``: the aerosonde at 25 m/s, 143.1 m fillets."""
+    return Mission(
+        name=name,
+        waypoints=w,
+        crs="EPSG:32613",
+        terrain=TerrainRef((str(RMNP),)),
+        vehicle="aerosonde",
+        cruise_speed=25.0,
+        cruise_altitude=float(w[0, 2]),
+        turn_radius=143.1,
+        **fields,
+    )
+
+
 def _imported(path: Path, grid) -> Mission:
     fm = read_foreign(path)
     ref = TerrainRef((str(RMNP),))
@@ -376,17 +391,7 @@ def test_spiral_round_trips_through_plan_and_wpl(tmp_path: Path, grid) -> None:
     m = _mission(grid)
     w = m.waypoints.copy()
     sp = Spiral(2, float(w[2, 2]) - 400.0, 3, 143.1, True)
-    m = Mission(
-        name="spiral",
-        waypoints=w,
-        crs=m.crs,
-        terrain=m.terrain,
-        vehicle="aerosonde",
-        cruise_speed=25.0,
-        cruise_altitude=3500.0,
-        turn_radius=143.1,
-        spirals=(sp,),
-    )
+    m = _on_rmnp(w, "spiral", spirals=(sp,))
     for path in (
         write_json(to_qgc_plan(m, grid, "amsl"), tmp_path / "s.plan"),
         write_text(to_wpl(m, grid, "relative"), tmp_path / "s.waypoints"),
@@ -417,17 +422,7 @@ def test_a_terrain_frame_leg_is_flown_down_into_a_valley(grid) -> None:
     w[2, 2] = w[1, 2]
     lowest = []
     for heights in ({1: 200.0}, {}):
-        m = Mission(
-            name="valley",
-            waypoints=w,
-            crs="EPSG:32613",
-            terrain=TerrainRef((str(RMNP),)),
-            vehicle="aerosonde",
-            cruise_speed=25.0,
-            cruise_altitude=float(w[0, 2]),
-            turn_radius=143.1,
-            terrain_heights=heights,
-        )
+        m = _on_rmnp(w, "valley", terrain_heights=heights)
         res = run_replay(ReplayRequest.of(m, seed=1, terrain_following=None if heights else 200.0))
         assert res.metrics.success, res.metrics.failures
         p = res.positions
@@ -453,16 +448,7 @@ def test_a_campaign_flies_a_plan_on_its_dem(
     hx, hy = _home_xy(grid)
     w = np.array([[hx, hy, 0.0], [hx + 3000.0, hy + 1000.0, 0.0]])
     w[:, 2] = float(grid.height_at(w[:, 0], w[:, 1]).max()) + 400.0
-    m = Mission(
-        name="short",
-        waypoints=w,
-        crs="EPSG:32613",
-        terrain=TerrainRef((str(RMNP),)),
-        vehicle="aerosonde",
-        cruise_speed=25.0,
-        cruise_altitude=float(w[0, 2]),
-        turn_radius=143.1,
-    )
+    m = _on_rmnp(w, "short")
     write_json(to_qgc_plan(m, grid, "relative"), tmp_path / "short.plan")
     text = (
         "terrapath: 1\nname: plan-campaign\nmission: short.plan\n"

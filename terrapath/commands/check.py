@@ -99,11 +99,13 @@ def check_cmd(
     extra: tuple[Any, ...] = ()
     notes: tuple[str, ...] = ()
     if airspace:
-        from planner.imports import estimated_duration
+        from replay.sim import ReplayConfig, time_limit
         from terrain.airspace import load_airspace, parse_start
 
         start = parse_start(start_time) if start_time else None
-        air = load_airspace(airspace, grid, start=start, duration_s=estimated_duration(m))
+        # the zones active while a replay of it may fly (its time limit)
+        window = time_limit(m, ReplayConfig(airspeed=speed))
+        air = load_airspace(airspace, grid, start=start, duration_s=window)
         extra, notes = air.zones, air.notes
     for note in notes:
         click.echo(f"terrapath: note: {note}", err=True)

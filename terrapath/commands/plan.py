@@ -106,8 +106,7 @@ def _multirotor_limits(
     """A multirotor's limits: its horizontal speed (at most ``speed_max``), the climb and
     descent rates of its controller, hovering (any gradient, no fillets); the ceiling where it
     still climbs (replay.preflight.multirotor_ceiling)."""
-    from planner.performance import Performance
-    from replay.preflight import multirotor_ceiling
+    from replay.source import performance_of
 
     v = params.cruise_speed if speed is None else float(speed)
     if v > params.speed_max:
@@ -115,15 +114,7 @@ def _multirotor_limits(
             f"{v:g} m/s is above {params.name}'s {params.speed_max:g} m/s (speed_max)",
             param_hint="--speed",
         )
-    performance = Performance(
-        params.name,
-        v,
-        params.climb_rate_max,
-        params.descent_rate_max,
-        params.bank_max_deg,
-        ceiling=multirotor_ceiling(params),
-        hover=True,
-    )
+    performance = performance_of(params, v)
     return performance, lambda low, high: performance
 
 
