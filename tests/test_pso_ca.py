@@ -256,16 +256,19 @@ def test_a_feasible_region_the_seeded_swarm_misses_is_found_by_the_rescue_grid()
     """The only waypoints that meet g1-g5 lie near the edge of the 4 km search zone, which the
     swarm seeded round the tangent points does not reach: the grid scan of the same objective
     finds them and the optimiser, re-seeded there, returns a feasible waypoint.  Without the
-    rescue the narrower g1 stage finds one; without both (and without leaving the waypoint out)
-    the decision fails."""
+    rescue the escalation still gives a safe waypoint: the narrower g1 stage (its swarm finds the
+    region for 2-3 seeds of 12, e.g. seed 3) or else leaving the next waypoint out; without all
+    three the decision fails."""
     r = _fly(RESCUE_LEGS, RESCUE_THREATS)
     first = r.decisions[0]
     assert first["feasible"] and first["stage"] == "paper" and first["grid_evaluations"] > 0
     assert all(d["feasible"] for d in r.decisions)
     assert _separation(r, RESCUE_THREATS) >= 0 and r.metrics.reached_goal
-    narrow = _fly(RESCUE_LEGS, RESCUE_THREATS, options={"rescue": False})
-    assert narrow.decisions[0]["stage"] == "narrow" and narrow.decisions[0]["feasible"]
-    assert narrow.decisions[0]["grid_evaluations"] == 0
+    for seed, stage in ((3, "narrow"), (0, "skip 1")):
+        esc = _fly(RESCUE_LEGS, RESCUE_THREATS, seed=seed, options={"rescue": False})
+        assert esc.decisions[0]["stage"] == stage and esc.decisions[0]["feasible"]
+        assert esc.decisions[0]["grid_evaluations"] == 0
+        assert _separation(esc, RESCUE_THREATS) >= 0 and esc.metrics.reached_goal
     bare = _fly(
         RESCUE_LEGS, RESCUE_THREATS, options={"rescue": False, "narrow": False, "max_skip": 0}
     )

@@ -270,6 +270,27 @@ def test_g3_and_g5_count_the_cut_corners():
     )
 
 
+def test_g4_asks_that_the_cut_corner_fits_in_the_leg_onto_the_target():
+    """Seed 000 Table 6 (100 obstacles, run 3): a waypoint 611 m from the goal after a 99 deg
+    turn.  The autopilot leaves the 26.6 km leg 1 km before it and meets the goal leg's line
+    722 m along it -- beyond the goal, which the aircraft passed 373 m off the track (missed).
+    With the autopilot's switch distance g4 is that overrun; with fillets (no switch distance)
+    the fly-by lead alone; a waypoint whose corner fits is feasible."""
+    pos, goal = [296367.4, 13464.7], [270000.0, 10500.0]
+    p = np.array([[269853.5, 11093.9]])
+    o = [[272000.0, 8500.0]]  # 3.4 km south-east of p: g1, g2, g3 and g5 hold
+    cut = WaypointProblem(pos, goal, o, params=PsoCaParams(switch_distance=1000.0))
+    rep = cut.constraint_report(p)
+    assert math.degrees(rep.turn_angle[0]) == pytest.approx(98.7, abs=0.3)
+    assert rep.g4[0] == pytest.approx(611.7 - 722.0, abs=15.0) and not rep.feasible[0]
+    assert cut(p)[0] >= cut.params.penalty_offset  # the compiled cost agrees
+    flat = WaypointProblem(pos, goal, o, params=PsoCaParams())
+    assert flat.constraint_report(p).g4[0] > 0 and flat.constraint_report(p).feasible[0]
+    far = np.array([[270500.0, 12000.0]])  # 1.6 km before the goal
+    assert cut.constraint_report(far).g4[0] > 0 and cut.constraint_report(far).feasible[0]
+    assert cut(far)[0] < cut.params.penalty_offset
+
+
 def test_objective_terms_eqs_2_to_6():
     prob = WaypointProblem([0, 0], [20000, 0], [[10000, 0]], others=[[10000, 4000], [0, 9000]])
     X = np.array([[10000, 2500], [10000, -2500]])
@@ -375,7 +396,8 @@ def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:
             others,
             params=PsoCaParams(**options),
             side=side,
-            after=after if options.get("switch_distance") else None,
+            # cut corners onto an intermediate waypoint and onto the goal (no waypoint after)
+            after=after if options.get("switch_distance") and rng.random() < 0.6 else None,
         )
         lo, hi = pr.bounds()
         X = rng.uniform(lo, hi, (200, 2))

@@ -41,6 +41,12 @@ Choices where the paper is silent or inconsistent (see each docstring):
   replay autopilot's 1 km), g5 also covers the path flown round the new waypoint and g3 the
   path round the target towards the waypoint ``after`` it (:func:`corner_cut`): the autopilot
   leaves a leg before its end and heads for the next leg's line at up to ``approach_deg``.
+  g4 then also asks that the corner at the new waypoint fits in the leg onto the target: the
+  aircraft meets that leg's line (:func:`corner_reach`) before the target's plane -- a waypoint
+  600 m from the goal after a 99 deg turn had the aircraft still converging when it passed the
+  goal's plane, 373 m off (seed 000 Table 6).  Asking more (back on the line before the target's
+  own 1 km corner begins) left the narrow stage without a waypoint in Table 6's two-obstacle
+  decision (tests/test_pso_ca.py); that corner starting off the line is left to the leg margin.
 - **f1 in metres** (eq 2 as printed; the paper does not normalise it).  ``normalise=True`` divides
   f1 by the straight distance aircraft -> next waypoint (the PLR of §6) and the risk sum by MXRSK.
 """
@@ -335,6 +341,25 @@ def tangent_seed_points(
 
 
 # -- corner cutting ---------------------------------------------------------------------------
+def corner_reach(
+    w: FloatArray, u_in: FloatArray, u_next: FloatArray, switch: float, approach_deg: float
+) -> tuple[FloatArray, FloatArray]:
+    """Where the autopilot leaves the leg into waypoints ``w`` (P, 2) -- ``c1``, ``switch``
+    metres before them, at most half the leg -- and how far along the next leg (metres from
+    ``w``, P) it meets that leg's line at ``approach_deg`` (negative: before ``w``, on the line's
+    extension; more than the next leg's length: it does not meet the leg before its end).
+    :func:`corner_cut` draws the path; g4 asks that the corner fits in the next leg."""
+    l_in = np.hypot(*np.asarray(u_in).T)
+    l_nx = np.hypot(*np.asarray(u_next).T)
+    e_in = u_in / np.where(l_in > 0, l_in, 1.0)[:, None]
+    e_nx = u_next / np.where(l_nx > 0, l_nx, 1.0)[:, None]
+    c1 = w - np.minimum(switch, 0.5 * l_in)[:, None] * e_in
+    rel = c1 - w
+    along = np.einsum("pd,pd->p", rel, e_nx)
+    dd = np.abs(e_nx[:, 0] * rel[:, 1] - e_nx[:, 1] * rel[:, 0])
+    return c1, along + dd / math.tan(math.radians(approach_deg))
+
+
 def corner_cut(
     w: FloatArray, u_in: FloatArray, u_next: FloatArray, switch: float, approach_deg: float
 ) -> tuple[tuple[FloatArray, FloatArray], tuple[FloatArray, FloatArray]]:
@@ -351,15 +376,10 @@ def corner_cut(
     safety sphere behind a waypoint 1.3 km from it).  The second segment ``m -> w`` is the part
     of the line flown before ``w`` (zero length, ``m -> m``, when ``m`` lies beyond ``w``).  The slower
     convergence of the last ~100 m of cross-track (the atan) is left to the leg margin."""
-    l_in = np.hypot(*np.asarray(u_in).T)
+    c1, reach = corner_reach(w, u_in, u_next, switch, approach_deg)
     l_nx = np.hypot(*np.asarray(u_next).T)
-    e_in = u_in / np.where(l_in > 0, l_in, 1.0)[:, None]
     e_nx = u_next / np.where(l_nx > 0, l_nx, 1.0)[:, None]
-    c1 = w - np.minimum(switch, 0.5 * l_in)[:, None] * e_in
-    rel = c1 - w
-    along = np.einsum("pd,pd->p", rel, e_nx)
-    dd = np.abs(e_nx[:, 0] * rel[:, 1] - e_nx[:, 1] * rel[:, 0])
-    reach = np.minimum(along + dd / math.tan(math.radians(approach_deg)), l_nx)
+    reach = np.minimum(reach, l_nx)
     m = w + reach[:, None] * e_nx
     back = np.where((reach < 0.0)[:, None], w, m)
     return (c1, m), (m, back)
@@ -433,7 +453,8 @@ class ConstraintReport:
     - ``g3 = clearance(segment p -> X_fin, o_k) - (RS + leg_margin)`` (eqs 9-10 on the segment,
       min over k; ``leg_margin`` = 0 is the paper);
     - ``g4 = min(|p - pos|, |X_fin - p|) - R tan(theta / 2)`` (our reading of eq 11; ``theta`` is
-      the heading change at p in radians, ``turn_angle``);
+      the heading change at p in radians, ``turn_angle``); with cut corners also at most
+      ``|X_fin - p| - reach`` (:func:`corner_reach`);
     - ``g5 = clearance(segment pos -> p, o_k) - min(RS + leg_margin, |pos - o_k| - 1 m)`` (not in
       the paper; see the module docstring): an aircraft already inside the margin of a point
       (e.g. the nearest point of a large body) must fly a leg that does not get closer to it;
@@ -593,6 +614,12 @@ class WaypointProblem:
         with np.errstate(over="ignore"):
             lead = pr.turn_radius * np.tan(np.minimum(theta, math.pi * (1 - 1e-12)) / 2.0)
         g4 = np.minimum(l_in, l_out) - lead
+        if sw > 0:
+            # the cut corner at p fits in the leg onto the target: the aircraft is back on that
+            # leg before the target's plane (a corner still converging there passes the goal's
+            # plane off the track and misses it; an intermediate target's leg ends off it)
+            _, reach = corner_reach(p, u_in, u_out, sw, pr.approach_deg)
+            g4 = np.minimum(g4, l_out - reach)
         g7 = -self._world(p)
         checked = (
             [g1, g2, g4, g6, g7]

@@ -35,8 +35,9 @@ def _seg_clearance(ax: float, ay: float, bx: float, by: float, ox: float, oy: fl
 @nb.njit(cache=True, nogil=True, inline="always")
 def _corner(
     wx: float, wy: float, ux: float, uy: float, vx: float, vy: float, sw: float, tan_app: float
-) -> tuple[float, float, float, float, float, float]:
-    """pso_ca_geometry.corner_cut for one waypoint: c1, m and the end of the second segment."""
+) -> tuple[float, float, float, float, float, float, float]:
+    """pso_ca_geometry.corner_cut for one waypoint: c1, m and the end of the second segment,
+    and corner_reach's reach along the next leg (not capped at its length)."""
     lu = math.hypot(ux, uy)
     lv = math.hypot(vx, vy)
     eux, euy = (ux / lu, uy / lu) if lu > 0.0 else (ux, uy)
@@ -48,12 +49,13 @@ def _corner(
     ry = cy - wy
     along = rx * evx + ry * evy
     dd = abs(evx * ry - evy * rx)
-    reach = min(along + dd / tan_app, lv)
+    free = along + dd / tan_app
+    reach = min(free, lv)
     mx = wx + reach * evx
     my = wy + reach * evy
     if reach < 0.0:
-        return cx, cy, mx, my, wx, wy
-    return cx, cy, mx, my, mx, my
+        return cx, cy, mx, my, wx, wy, free
+    return cx, cy, mx, my, mx, my, free
 
 
 @nb.njit(cache=True, nogil=True)
@@ -106,8 +108,8 @@ def penalised_costs(
         g3 = math.inf
         g5 = math.inf
         # corners cut by the autopilot (pso_ca_geometry.corner_cut): at p and at the target
-        c1x, c1y, mx, my, bx, by = _corner(px, py, ix, iy, ox, oy, sw, tan_app)
-        d1x, d1y, nx, ny, ex, ey = _corner(
+        c1x, c1y, mx, my, bx, by, reach = _corner(px, py, ix, iy, ox, oy, sw, tan_app)
+        d1x, d1y, nx, ny, ex, ey, _ = _corner(
             target[0], target[1], ox, oy, after[0] - target[0], after[1] - target[1], sw, tan_app
         )
         for k in range(k_av):
@@ -130,6 +132,8 @@ def penalised_costs(
         theta = math.acos(min(max(cos_t, -1.0), 1.0))
         lead = radius * math.tan(min(theta, math.pi * (1.0 - 1e-12)) / 2.0)
         g4 = min(l_in, l_out) - lead
+        if sw > 0.0:  # the cut corner fits in the leg onto the target (constraint_report)
+            g4 = min(g4, l_out - reach)
         viol = 0.0
         ok = True
         for g in (g1, g2, g4):
