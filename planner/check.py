@@ -49,7 +49,6 @@ FOLLOW_WINDOW_S = 10.0  # s of flight over which terrain following must make the
 RANK = (
     "contact",
     "zone",
-    "keep_in",
     "terrain",
     "off_map",
     "unknown_terrain",
@@ -258,7 +257,6 @@ def check_geometry(
         if height is not None and perf_at is not None and len(idx) > 2:
             findings.extend(_following(k, label, pts[idx], d[idx], float(height), perf_at, where))
     findings.extend(_zones(mission, zones, pts, s_leg, s_spiral, where))
-    findings.extend(_keep_in(mission, pts, step, s_leg, s_spiral, where))
     order = {k: i for i, k in enumerate(RANK)}
     findings.sort(key=lambda f: (order.get(f.kind, len(RANK)), -f.amount))
     return GeometryCheck(flown, samples, s_leg, tuple(legs), tuple(findings))
@@ -303,46 +301,6 @@ def _following(
             f"{perf.name} climbs {100 * limit:.1f} % at {perf.speed:g} m/s there",
         )
     ]
-
-
-def _keep_in(
-    mission: Mission,
-    pts: FloatArray,
-    step: FloatArray,
-    s_leg: npt.NDArray[np.int64],
-    s_spiral: npt.NDArray[np.int64],
-    where: Callable[[float, float], str],
-) -> list[Finding]:
-    """Each leg's length outside the inclusion geofences of an imported ``.plan`` (their union:
-    inside one of them is inside), from ``plan.imported.keep_in``."""
-    records = ((mission.plan or {}).get("imported") or {}).get("keep_in") or []
-    if not records:
-        return []
-    from terrain.zone_file import zones_from_records
-
-    fences = zones_from_records(records, None, field="plan.imported.keep_in")
-    inside = np.zeros(len(pts), dtype=bool)
-    for f in fences:  # 2D: no floor, no top
-        inside |= np.asarray(f.contains(pts[:, 0], pts[:, 1], pts[:, 2]), dtype=bool)
-    out = []
-    for k in sorted(set(s_leg[~inside].tolist())):
-        on = (s_leg == k) & ~inside
-        amount = float(step[on].sum())
-        j = int(np.flatnonzero(on)[0])
-        sp = int(s_spiral[j])
-        label = leg_name(sp if sp >= 0 else k, sp >= 0)
-        names = ", ".join(f.id or "?" for f in fences)
-        out.append(
-            Finding(
-                "keep_in",
-                k,
-                amount,
-                *_xyz(pts[j]),
-                f"{label} leaves the inclusion geofence ({names}) for {amount:,.0f} m from "
-                f"{where(pts[j, 0], pts[j, 1])}",
-            )
-        )
-    return out
 
 
 def _zones(

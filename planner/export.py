@@ -54,7 +54,7 @@ from terrain.atomic import atomic_output
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.zone_file import zone_feature
-from terrain.zones import DangerZone
+from terrain.zones import OUTSIDE_FENCE_ID, DangerZone
 
 AltFrame = Literal["amsl", "relative"]
 MAV_FRAME_GLOBAL = 0
@@ -205,7 +205,8 @@ def _items(
 
 def _geofence(mission: Mission, grid: HeightGrid) -> dict[str, Any]:
     """QGroundControl's geoFence: cylinders as exclusion circles, polygon parts as exclusion
-    polygons (exterior rings, [lat, lon] vertices, not closed)."""
+    polygons (exterior rings, [lat, lon] vertices, not closed); the zone outside an imported
+    plan's inclusion fences (:data:`~terrain.zones.OUTSIDE_FENCE_ID`) as inclusion polygons."""
     circles: list[dict[str, Any]] = []
     polygons: list[dict[str, Any]] = []
     for z in mission.danger_zones:
@@ -222,13 +223,17 @@ def _geofence(mission: Mission, grid: HeightGrid) -> dict[str, Any]:
                 }
             )
             continue
-        for ring in z.outline():
+        # the zone outside an imported plan's inclusion fences goes back as those fences
+        keep_in = z.id == OUTSIDE_FENCE_ID
+        rings = [r for part in z.parts for r in part[1:]] if keep_in else z.outline()
+        for ring in rings:
+            ring = np.asarray(ring, dtype=np.float64)
             rlon, rlat = grid.to_lonlat(ring[:, 0], ring[:, 1])
             polygon = [
                 [round(float(b), 8), round(float(a), 8)]
                 for a, b in zip(np.atleast_1d(rlon), np.atleast_1d(rlat), strict=True)
             ]
-            polygons.append({"inclusion": False, "polygon": polygon, "version": 1})
+            polygons.append({"inclusion": keep_in, "polygon": polygon, "version": 1})
     return {"circles": circles, "polygons": polygons, "version": 2}
 
 

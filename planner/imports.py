@@ -18,9 +18,10 @@ item (``'m.plan', field 'mission.items[3]': ...``; a WPL line by its number and 
   (``TransectStyleComplexItem.Items``); other complex items are refused by number.
   ``plannedHomePosition`` is home ([lat, lon, alt AMSL]); the geofence's exclusion polygons and
   circles become danger zones from the ground up (a geofence is 2D); inclusion fences are kept
-  in :attr:`ForeignMission.keep_in` and the mission's ``plan.imported.keep_in`` (map metres):
-  ``terrapath check`` flags the path where it leaves them (their union, as PX4 reads several);
-  the replay does not enforce them yet; rally points are kept and reported.
+  in :attr:`ForeignMission.keep_in` and the mission's ``plan.imported.keep_in`` (map metres),
+  and outside their union (as PX4 reads several) is a danger zone, ``outside-geofence``
+  (:func:`terrain.zones.outside_of`): the plan, ``terrapath check``, the replay's judge and the
+  avoiders keep inside the fences; rally points are kept and reported.
 - WPL: a header ``QGC WPL 110``, then one item per line: sequence, current, frame, command,
   params 1-4, latitude, longitude, altitude, autocontinue (tabs or spaces). Item 0 is home, in
   MAV_FRAME_GLOBAL (AMSL), as Mission Planner and ArduPilot write it.
@@ -947,12 +948,16 @@ def to_mission(
         imported["skipped"] = list(parts.skipped)
     if parts.notes:
         imported["notes"] = list(parts.notes)
+    zones = parts.zones
     if fm.keep_in:
         from terrain.zone_file import zones_from_fields, zones_to_records
+        from terrain.zones import outside_of
 
-        # inclusion fences (map metres): checked by `terrapath check`, not enforced in flight
+        # inclusion fences (map metres): outside their union is a no-fly zone for the plan,
+        # check, the replay's judge and the avoiders alike
         fences = zones_from_fields(fm.keep_in, grid, source=fm.source)
         imported["keep_in"] = zones_to_records(fences)
+        zones = (*zones, outside_of(fences, grid.bounds))
     if fm.cruise_speed is not None:
         imported["file_cruise_speed"] = fm.cruise_speed
     plan: dict[str, Any] = {"imported": imported}
@@ -979,7 +984,7 @@ def to_mission(
         cruise_speed=float(perf.speed),
         cruise_altitude=float(parts.waypoints[0, 2]),
         turn_radius=None if getattr(perf, "hover", False) else turn,
-        danger_zones=parts.zones,
+        danger_zones=zones,
         plan=plan,
         source=fm.source,
         spirals=parts.spirals,

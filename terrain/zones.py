@@ -401,6 +401,65 @@ class PolygonZone:
         return _prism_separation(horizontal, q[..., 2], lo, hi)
 
 
+def keep_in_separation(fences: Sequence[Zone], points: npt.ArrayLike) -> FloatArray:
+    """Signed distance (m) from map points (..., 3) to the boundary of the union of ``fences``
+    (inclusion geofences): positive inside one of them, negative outside all -- the opposite
+    sign of a danger zone's :meth:`separation`, so that leaving the fence reads as entering a
+    no-fly volume."""
+    q = np.asarray(points, dtype=np.float64)
+    if not fences:
+        return np.full(q.shape[:-1], np.inf)
+    return np.asarray(np.max([-f.separation(q) for f in fences], axis=0))
+
+
+OUTSIDE_FENCE_ID = "outside-geofence"  # the zone a mission's inclusion geofences leave open
+
+
+def outside_of(
+    fences: Sequence[Zone],
+    bounds: tuple[float, float, float, float],
+    *,
+    id: str = OUTSIDE_FENCE_ID,
+    n: int = 72,
+) -> PolygonZone:
+    """The no-fly zone that keeps a flight inside the union of the inclusion geofences
+    ``fences`` (2-D, as a ``.plan`` gives them): the rectangle ``bounds`` (xmin, ymin, xmax,
+    ymax; the map's, widened so that its edges lie off it) with the fences as holes.  Every
+    consumer of danger zones -- the plan's cost, ``check``, the replay's judge and the avoiders'
+    candidate legs -- then keeps inside the fences, and a message reads "enters zone
+    outside-geofence".  A circular fence is the regular ``n``-gon inscribed in it (the allowed
+    area never larger than the fence's)."""
+    from shapely.geometry import Polygon, box
+    from shapely.ops import unary_union
+
+    if not fences:
+        raise InputError("outside_of needs at least one inclusion geofence")
+    shapes = []
+    for f in fences:
+        if isinstance(f, DangerZone):
+            a = 2.0 * math.pi * np.arange(n) / n
+            shapes.append(
+                Polygon(np.stack([f.x + f.radius * np.cos(a), f.y + f.radius * np.sin(a)], 1))
+            )
+        else:
+            shapes.append(f.geometry)
+    allowed = unary_union(shapes)
+    xmin, ymin, xmax, ymax = bounds
+    fx0, fy0, fx1, fy1 = allowed.bounds
+    pad = 0.05 * max(xmax - xmin, ymax - ymin, fx1 - fx0, fy1 - fy0, 1.0)
+    outer = box(
+        min(xmin, fx0) - pad, min(ymin, fy0) - pad, max(xmax, fx1) + pad, max(ymax, fy1) + pad
+    )
+    rest = outer.difference(allowed)
+    polys = list(getattr(rest, "geoms", [rest]))
+    parts = [
+        [np.asarray(q.exterior.coords), *(np.asarray(h.coords) for h in q.interiors)]
+        for q in polys
+        if not q.is_empty
+    ]
+    return PolygonZone(tuple(parts), id=id)  # type: ignore[arg-type]
+
+
 def inflated(zone: Zone, margin: float) -> Zone:
     """``zone`` grown by ``margin`` metres all round: wider, its top higher and its floor lower
     (a polygon is buffered with round joins, 16 segments a quarter circle). The planner keeps its

@@ -162,6 +162,7 @@ def test_a_plan_s_inclusion_geofence_is_checked(tmp_path: Path, grid, capsys) ->
     half = write_json(doc, tmp_path / "half.plan")
     assert main(["check", str(half), *args]) == 3
     report = json.loads(capsys.readouterr().out)
-    (v,) = [v for v in report["violations"] if v["kind"] == "keep_in"]
-    assert v["leg"] == 0 and v["amount"] == pytest.approx(2500.0, rel=0.05)
-    assert "leaves the inclusion geofence (keep-in-polygon-0)" in v["message"]
+    (v,) = report["violations"]
+    assert v["kind"] == "zone" and v["leg"] == 0
+    assert v["amount"] == pytest.approx(2500.0, rel=0.05)
+    assert "enters zone outside-geofence" in v["message"]

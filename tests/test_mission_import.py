@@ -566,3 +566,97 @@ def test_land_touches_down_on_the_ground_whatever_its_altitude(tmp_path: Path, g
     assert m.plan["landing"]["from"] == "NAV_LAND"
     assert m.plan["landing"]["touchdown"] == pytest.approx([x, y, z], abs=1e-3)
     assert any("after the mission's end" in n for n in m.plan["imported"]["notes"])
+
+
+def test_an_inclusion_geofence_is_judged_in_the_replay(tmp_path: Path, grid) -> None:
+    """A .plan's inclusion fences (keep-in): outside their union is the danger zone
+    ``outside-geofence``, so the replay fails the flight that leaves them as it fails a no-fly
+    incursion -- the metres outside and where -- and passes the flight a circle fence holds."""
+    from replay.run import ReplayRequest, run_replay
+
+    a, b, c = _ll(grid, 2000, 0), _ll(grid, 6000, 0), _ll(grid, 10000, 0)
+    hx, hy = _home_xy(grid)
+    xs = np.linspace(hx, hx + 10000.0, 100)
+    rel = float(grid.safety().height_at(xs, np.full(100, hy)).max()) + 300.0 - 2500.0
+    items = [
+        _item(22, 3, [15, 0, 0, None, 0, 0, rel], 1),
+        _item(16, 3, [0, 0, 0, None, a[0], a[1], rel], 2),
+        _item(16, 3, [0, 0, 0, None, b[0], b[1], rel], 3),
+        _item(16, 3, [0, 0, 0, None, c[0], c[1], rel], 4),
+    ]
+    doc = _qgc_plan(grid, items)
+    centre = _ll(grid, 5000, 0)
+    doc["geoFence"]["circles"] = [
+        {"circle": {"center": list(centre), "radius": 7000.0}, "inclusion": True, "version": 1}
+    ]
+    path = tmp_path / "fenced.plan"
+    path.write_text(json.dumps(doc))
+    held = run_replay(ReplayRequest.of(_imported(path, grid), seed=1))
+    assert held.metrics.success, held.metrics.failures
+    # a polygon fence that ends 7 km east of home: the last 3 km are flown outside it
+    ring = [_ll(grid, -2000, -2000), _ll(grid, 7000, -2000), _ll(grid, 7000, 2000)]
+    doc["geoFence"]["circles"] = []
+    doc["geoFence"]["polygons"] = [
+        {"inclusion": True, "polygon": [list(v) for v in [*ring, _ll(grid, -2000, 2000)]]}
+    ]
+    path.write_text(json.dumps(doc))
+    m = _imported(path, grid)
+    assert m.danger_zones[-1].id == "outside-geofence"
+    left = run_replay(ReplayRequest.of(m, seed=1))
+    assert not left.metrics.success
+    (v,) = [v for v in left.metrics.violations if v.threat == "zone:outside-geofence"]
+    x_enter = left.positions[np.searchsorted(left.times, v.t_enter), 0]
+    assert x_enter == pytest.approx(hx + 7000.0, abs=150.0)
+    assert v.min_separation == pytest.approx(-3000.0, abs=150.0)  # 3 km beyond the fence
+    # exported again, the fence is an inclusion polygon, not the zone's outer box
+    again = write_json(to_qgc_plan(m, grid, "amsl"), tmp_path / "again.plan")
+    (fence,) = json.loads(again.read_text())["geoFence"]["polygons"]
+    assert fence["inclusion"] and len(fence["polygon"]) == 4
+    back = _imported(again, grid).danger_zones[-1]
+    assert back.id == "outside-geofence"
+    # the same fence within the .plan's 1e-8 degrees (~1 mm): a mean offset under 1 mm
+    moved = back.geometry.symmetric_difference(m.danger_zones[-1].geometry).area
+    assert moved < 1e-3 * m.danger_zones[-1].geometry.interiors[0].length
+
+
+def test_a_multirotor_changes_speed_where_the_plan_says(tmp_path: Path, grid) -> None:
+    """DO_CHANGE_SPEED on a multirotor plan (vehicleType 2, the quadrotor): 5 m/s to the first
+    waypoint, 9 m/s from it on -- each leg flown at its speed, and a speed beyond the
+    quadrotor's 12 m/s refused naming the waypoint."""
+    from replay.flight.multirotor.model import MULTIROTOR_PRESETS
+    from replay.run import ReplayRequest, run_replay
+
+    quad = MULTIROTOR_PRESETS["quadrotor"]
+    hx, hy = _home_xy(grid)
+    a, b = _ll(grid, 300, 0), _ll(grid, 900, 0)
+    xs = np.linspace(hx, hx + 900.0, 50)
+    rel = float(grid.safety().height_at(xs, np.full(50, hy)).max()) + 60.0 - 2500.0
+    items = [
+        _item(22, 3, [0, 0, 0, None, 0, 0, rel], 1),
+        _item(16, 3, [0, 0, 0, None, a[0], a[1], rel], 2),
+        _item(178, 2, [1, 9, -1, 0, 0, 0, 0], 3),  # ground speed 9 m/s
+        _item(16, 3, [0, 0, 0, None, b[0], b[1], rel], 4),
+    ]
+    doc = _qgc_plan(grid, items)
+    doc["mission"]["vehicleType"] = 2
+    path = tmp_path / "quad.plan"
+    path.write_text(json.dumps(doc))
+    fm = read_foreign(path)
+    ref = TerrainRef((str(RMNP),))
+    m = to_mission(fm, grid, ref, vehicle="quadrotor", perf=performance_of(quad, 5.0))
+    assert m.speeds == {1: 9.0}
+    res = run_replay(ReplayRequest.of(m, seed=1))
+    assert res.metrics.success, res.metrics.failures
+    x = res.positions[:, 0]
+    v = np.hypot(*np.gradient(res.positions[:, :2], res.times, axis=0).T)
+    assert np.median(v[(x > hx + 80) & (x < hx + 220)]) == pytest.approx(5.0, abs=0.3)
+    assert np.median(v[(x > hx + 450) & (x < hx + 800)]) == pytest.approx(9.0, abs=0.4)
+    items[2]["params"][1] = 15
+    path.write_text(json.dumps(doc))
+    fast = to_mission(
+        read_foreign(path), grid, ref, vehicle="quadrotor", perf=performance_of(quad, 5.0)
+    )
+    with pytest.raises(
+        TerrapathError, match=r"speed from waypoint 1 15\.0 m/s is beyond quadrotor"
+    ):
+        run_replay(ReplayRequest.of(fast, seed=1))

@@ -188,20 +188,19 @@ class MultirotorParams:
     ) -> MultirotorStack:
         """The multirotor under its controller flying ``waypoints`` at ``speed`` in the day's air
         (turn radius, leg switch and terrain following do not apply: it turns on the spot and
-        flies the waypoints' altitudes, terrain-frame legs ``leg_heights`` included)."""
+        flies the waypoints' altitudes, terrain-frame legs ``leg_heights`` included), changing
+        speed from the waypoints ``leg_speeds`` names."""
         if spirals:
             raise InputError(
                 f"{self.name} is a multirotor: it climbs on the spot and flies no spirals "
                 "(a spiral is a fixed-wing plan's)"
             )
-        if leg_speeds and any(v != speed for v in leg_speeds.values()):
-            raise InputError(
-                f"{self.name}: a multirotor flies one speed for now; the mission changes it "
-                f"({sorted(set(leg_speeds.values()))} m/s): fly one with --speed"
-            )
         from replay.flight.multirotor.stack import MultirotorStack
 
-        return MultirotorStack(self, waypoints, speed=speed, temperature_offset=temperature_offset)
+        stack = MultirotorStack(self, waypoints, speed=speed, temperature_offset=temperature_offset)
+        if leg_speeds:
+            stack.set_leg_speeds(leg_speeds)
+        return stack
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -78,6 +78,7 @@ target point (m, 3D).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -206,6 +207,7 @@ class MultirotorStack:
         self._wp = wp
         self._next = 0
         self._done = False
+        self._leg_speeds: dict[int, float] = {}  # speed changes: from waypoint index on, m/s
         if len(wp) > 1:
             self._next = 1
             self._start_leg(direct=False)
@@ -279,7 +281,9 @@ class MultirotorStack:
         elif isinstance(cmd, HoldAltitude):
             c[kern.C_VERT], c[kern.C_ALT] = 1.0, cmd.altitude
         elif isinstance(cmd, FollowWaypoints):
-            self._wp = np.array(cmd.waypoints, dtype=np.float64)
+            new = np.array(cmd.waypoints, dtype=np.float64)
+            self._rekey_speeds(new)
+            self._wp = new
             self._next = cmd.next_index
             self._done = False
             self._start_leg(direct=cmd.direct or cmd.next_index == 0)
@@ -307,6 +311,31 @@ class MultirotorStack:
             else:
                 c[kern.C_VERT] = 1.0
                 c[kern.C_ALT] = self.position[2] if cmd.altitude is None else cmd.altitude
+
+    def set_leg_speeds(self, speeds: Mapping[int, float]) -> None:
+        """Speed changes (an imported mission's DO_CHANGE_SPEED): from waypoint ``k`` on the
+        speed flown is ``speeds[k]`` (each within the vehicle's limits), as the fixed wing's
+        :meth:`~replay.flight.fixedwing.autopilot.Autopilot.set_leg_speeds`; kept across a new
+        waypoint list for the waypoints it keeps (same place)."""
+        p = self.params
+        self._leg_speeds = {
+            int(k): p.check_speed(float(v), f"speed from waypoint {k}") for k, v in speeds.items()
+        }
+        first = self._leg_speeds.get(0)
+        if first is not None:
+            self.speed = first
+        if not self._done and len(self._wp) > 1 and self._next >= 1:
+            self._start_leg(direct=False)  # the leg flown now at its speed
+
+    def _rekey_speeds(self, w: FloatArray) -> None:
+        if not self._leg_speeds:
+            return
+        out = {}
+        for k, v in self._leg_speeds.items():
+            hit = np.flatnonzero(np.abs(w - self._wp[k]).max(axis=1) < 1.0)
+            if hit.size:
+                out[int(hit[0])] = v
+        self._leg_speeds = out
 
     def orbit_speed(self, radius: float) -> float:
         """The speed flown on an orbit of ``radius`` m: the cruise speed, or less where its
@@ -373,6 +402,10 @@ class MultirotorStack:
     def _start_leg(self, *, direct: bool) -> None:
         i = self._next
         wp = self._wp
+        if not direct:  # the speed set at the waypoint this leg leaves, or the last one before
+            at = [k for k in self._leg_speeds if k <= i - 1]
+            if at:
+                self.speed = self._leg_speeds[max(at)]
         start = self.position if direct else wp[i - 1]
         end = wp[i]
         final = i == len(wp) - 1
