@@ -26,8 +26,13 @@
 
 **Time**: with a mission start (``start``, timezone-aware) and its duration, a zone applies
 when one of its activations (OpenAir AA, ED-269 applicability) overlaps the flight; a permanent
-zone always does; without a start every zone applies (the conservative reading). ED-269
-schedules (days and hours inside the window) are not read: the whole window applies.
+zone always does; without a start every zone applies (the conservative reading). An ED-269
+applicability's ``schedule`` (daily periods, as ED-318's ``DailyPeriod``: ``day`` a list of
+``MON``..``SUN`` or ``ANY``, ``startTime`` / ``endTime`` times of day in UTC unless they carry an
+offset, a period ending before it starts running past midnight) narrows its window to those
+hours; a period bounded by a daylight event (``startEvent`` / ``endEvent``: sunrise, sunset,
+civil twilight) is read as the whole of its day -- no solar ephemeris here -- and the report
+says so.
 
 Every problem is one line naming the file and the record (OpenAir: its line; ED-269: the feature
 and field).
@@ -136,6 +141,78 @@ def _applies(
         if (a is None or a < end) and (b is None or b > start):
             return True
     return False
+
+
+WEEKDAYS = ("MON", "TUE", "WED", "THU", "FRI", "SAT", "SUN")
+
+
+def _time_of_day(text: Any, label: str) -> dt.timedelta:
+    """A schedule's time of day as the offset from midnight UTC (``08:00``, ``08:00:00Z``,
+    ``08:00:00.00+02:00``; ``24:00`` is the end of the day)."""
+    raw = str(text).strip()
+    if raw.startswith("24:00"):
+        return dt.timedelta(hours=24)
+    try:
+        t = dt.time.fromisoformat(raw.replace("Z", "+00:00"))
+    except ValueError:
+        raise ValueError(f"{label} {text!r}: expected a time of day (HH:MM[:SS][Z])") from None
+    off = t.utcoffset() or dt.timedelta(0)
+    return dt.timedelta(hours=t.hour, minutes=t.minute, seconds=t.second) - off
+
+
+def _scheduled(
+    window: tuple[dt.datetime | None, dt.datetime | None],
+    schedule: Any,
+    start: dt.datetime,
+    end: dt.datetime,
+    notes: list[str],
+    label: str,
+) -> list[tuple[dt.datetime | None, dt.datetime | None]]:
+    """The activations of one applicability with a daily ``schedule`` that fall in its window,
+    over the days the flight ``start`` -> ``end`` spans (the day before too: a period past
+    midnight)."""
+    if not isinstance(schedule, list) or not schedule:
+        raise ValueError(f"schedule: expected a list of daily periods, found {schedule!r:.60}")
+    out: list[tuple[dt.datetime | None, dt.datetime | None]] = []
+    first = start.astimezone(dt.UTC).date() - dt.timedelta(days=1)
+    n_days = (end.astimezone(dt.UTC).date() - first).days + 1
+    for k, period in enumerate(schedule):
+        where_ = f"schedule[{k}]"
+        if not isinstance(period, dict):
+            raise ValueError(f"{where_}: expected a daily period (a mapping)")
+        days = period.get("day", "ANY")
+        days = [days] if isinstance(days, str) else days
+        if not isinstance(days, list) or not all(
+            str(d).upper() in (*WEEKDAYS, "ANY") for d in days
+        ):
+            raise ValueError(f"{where_}.day {days!r}: expected MON..SUN or ANY")
+        wanted = {str(d).upper() for d in days}
+        event = period.get("startEvent") or period.get("endEvent")
+        if event:
+            if not any("daylight event" in n for n in notes):
+                notes.append(
+                    f"{label}: a schedule bounded by a daylight event ({event}) is read as the "
+                    "whole day (no sunrise/sunset computed)"
+                )
+            t0, t1 = dt.timedelta(0), dt.timedelta(hours=24)
+        else:
+            t0 = _time_of_day(period.get("startTime", "00:00"), f"{where_}.startTime")
+            t1 = _time_of_day(period.get("endTime", "24:00"), f"{where_}.endTime")
+            if t1 <= t0:
+                t1 += dt.timedelta(hours=24)  # past midnight
+        for d in range(n_days):
+            day = first + dt.timedelta(days=d)
+            if "ANY" not in wanted and WEEKDAYS[day.weekday()] not in wanted:
+                continue
+            midnight = dt.datetime.combine(day, dt.time(0), tzinfo=dt.UTC)
+            a, b = midnight + t0, midnight + t1
+            if window[0] is not None:
+                a = max(a, window[0])
+            if window[1] is not None:
+                b = min(b, window[1])
+            if a < b:
+                out.append((a, b))
+    return out
 
 
 # -- OpenAir -------------------------------------------------------------------------------------
@@ -286,12 +363,17 @@ def _read_ed269(
                 windows = []
                 break
             try:
-                windows.append(
-                    (
-                        _time(app.get("startDateTime"), "startDateTime"),
-                        _time(app.get("endDateTime"), "endDateTime"),
-                    )
+                window = (
+                    _time(app.get("startDateTime"), "startDateTime"),
+                    _time(app.get("endDateTime"), "endDateTime"),
                 )
+                if app.get("schedule") is None:
+                    windows.append(window)
+                elif start is not None:
+                    end = start + dt.timedelta(seconds=duration_s)
+                    active = _scheduled(window, app["schedule"], start, end, notes, ident)
+                    # no activation in the flight's days: a window that cannot overlap
+                    windows.extend(active or [(start - dt.timedelta(days=2), start)])
             except ValueError as exc:
                 raise InputError(f"{where(path, f'{fld}.applicability[{j}]')}{exc}") from None
         if not _applies(windows, start, duration_s):

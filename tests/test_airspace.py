@@ -135,3 +135,52 @@ def test_bad_airspace_is_one_line_naming_file_and_record(
     with pytest.raises(InputError, match=message) as err:
         load_airspace([name], grid)
     assert "\n" not in str(err.value)
+
+
+def test_ed269_schedules_narrow_the_window(tmp_path: Path, grid) -> None:
+    """ED-269 applicability with daily schedules (ED-318's DailyPeriod): a zone active on
+    weekdays 08:00-17:00 UTC applies to a Monday flight at 09:00 and not at 18:00 or on a
+    Saturday; a period past midnight (Saturday 22:00 to 02:00) applies on Sunday at 01:00; a
+    period bounded by sunset is read as the whole day, and the report says so; a bad time of
+    day is one line naming the feature."""
+    doc = json.loads(ED269.read_text())
+    base = doc["features"][0]
+
+    def zone(ident: str, schedule: list[dict[str, object]]) -> dict[str, object]:
+        app = {
+            "permanent": "NO",
+            "startDateTime": "2026-01-01T00:00:00Z",
+            "endDateTime": "2027-01-01T00:00:00Z",
+            "schedule": schedule,
+        }
+        return {**base, "identifier": ident, "applicability": [app]}
+
+    week = ["MON", "TUE", "WED", "THU", "FRI"]
+    doc["features"] = [
+        zone("OFFICE", [{"day": week, "startTime": "08:00:00Z", "endTime": "17:00:00Z"}]),
+        zone("NIGHT", [{"day": ["SAT"], "startTime": "22:00", "endTime": "02:00"}]),
+        zone("DUSK", [{"day": ["ANY"], "startTime": "12:00", "endEvent": "SS"}]),
+    ]
+    path = tmp_path / "sched.json"
+    path.write_text(json.dumps(doc))
+
+    def ids(when: str, hours: float = 1.0) -> list[str | None]:
+        air = load_airspace([path], grid, start=parse_start(when), duration_s=3600 * hours)
+        return [z.id for z in air.zones]
+
+    assert ids("2026-06-01T09:00Z") == ["OFFICE", "DUSK"]  # a Monday
+    assert ids("2026-06-01T18:00Z") == ["DUSK"]
+    assert ids("2026-06-01T16:30Z") == ["OFFICE", "DUSK"]  # the flight overlaps 16:30-17:00
+    assert ids("2026-06-06T09:00Z") == ["DUSK"]  # a Saturday
+    assert ids("2026-06-07T01:00Z") == ["NIGHT", "DUSK"]  # Sunday 01:00: Saturday's night
+    assert ids("2027-03-01T09:00Z") == []  # a Monday after the window
+    assert ids("2026-06-01T07:30+02:00") == ["DUSK"]  # 05:30 UTC: before the office opens
+    air = load_airspace([path], grid, start=parse_start("2026-06-01T09:00Z"))
+    assert any("daylight event (SS)" in n and "whole day" in n for n in air.notes)
+    doc["features"][0]["applicability"][0]["schedule"][0]["startTime"] = "8h"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as err:
+        load_airspace([path], grid, start=parse_start("2026-06-01T09:00Z"))
+    msg = str(err.value)
+    assert "features[0].applicability[0]" in msg and "schedule[0].startTime '8h'" in msg
+    assert "\n" not in msg

@@ -660,3 +660,42 @@ def test_a_multirotor_changes_speed_where_the_plan_says(tmp_path: Path, grid) ->
         TerrapathError, match=r"speed from waypoint 1 15\.0 m/s is beyond quadrotor"
     ):
         run_replay(ReplayRequest.of(fast, seed=1))
+
+
+@pytest.mark.parametrize(("dx", "ok"), [(6500.0, True), (9000.0, False)])
+def test_a_nav_land_is_flown_to_its_touchdown(
+    tmp_path: Path, grid, capsys: pytest.CaptureFixture[str], dx: float, ok: bool
+) -> None:
+    """An imported NAV_LAND flown by the replay: 3.5 km of final approach down a 5.6 % glide
+    to a touchdown 1 m above the measured ground, reached within 20 m at its altitude.  A
+    touchdown 6 km on, behind a rise the straight glide cuts: `check` names the leg 37 m into
+    the terrain and the replay ends in terrain contact -- never a success."""
+    from replay.run import ReplayRequest, run_replay
+    from terrapath.cli import main
+
+    hx, hy = _home_xy(grid)
+    xs = np.linspace(hx, hx + 3000.0, 200)
+    rel = float(grid.safety().height_at(xs, np.full(200, hy)).max()) + 300.0 - 2500.0
+    a, b = _ll(grid, 3000, 0), _ll(grid, dx, 0)
+    items = [
+        _item(22, 3, [15, 0, 0, None, 0, 0, rel], 1),
+        _item(16, 3, [0, 0, 0, None, a[0], a[1], rel], 2),
+        _item(21, 3, [0, 0, 0, None, b[0], b[1], 0], 3),
+    ]
+    path = tmp_path / "land.plan"
+    path.write_text(json.dumps(_qgc_plan(grid, items)))
+    m = _imported(path, grid)
+    touchdown = m.waypoints[-1]
+    res = run_replay(ReplayRequest.of(m, seed=1))
+    code = main(["check", str(path), "--dem", str(RMNP), "--no-picture"])
+    out = capsys.readouterr().out
+    if ok:
+        assert res.metrics.success, res.metrics.failures
+        end = res.positions[-1]
+        assert np.hypot(*(end[:2] - touchdown[:2])) < 20.0
+        assert end[2] - touchdown[2] == pytest.approx(0.0, abs=5.0)
+        assert code == 0
+    else:
+        assert not res.metrics.success and res.metrics.end_reason == "terrain contact"
+        assert code == 3
+        assert "leg 1 (waypoint 1 -> 2) runs into the terrain: 37 m below" in out
