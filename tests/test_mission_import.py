@@ -699,3 +699,46 @@ def test_a_nav_land_is_flown_to_its_touchdown(
         assert not res.metrics.success and res.metrics.end_reason == "terrain contact"
         assert code == 3
         assert "leg 1 (waypoint 1 -> 2) runs into the terrain: 37 m below" in out
+
+
+@pytest.mark.parametrize("avoid", ["ctga", "fga", "pso-ca"])
+def test_avoiders_keep_inside_an_inclusion_geofence(tmp_path: Path, grid, avoid: str) -> None:
+    """A threat popping up 150 m north of the track: without a fence every avoider passes it on
+    the south, the short way (about 1-1.7 km out); with the .plan's inclusion fence 700 m south
+    of the track it passes on the north, inside the fence, and the flight succeeds."""
+    from replay.run import ReplayRequest, run_replay
+    from replay.threats.file import threats_from_records
+
+    hx, hy = _home_xy(grid)
+    a, b, c = _ll(grid, 2000, 0), _ll(grid, 8000, 0), _ll(grid, 14000, 0)
+    xs = np.linspace(hx - 3000.0, hx + 16000.0, 300)
+    top = max(
+        float(grid.safety().height_at(xs, np.full(300, hy + d)).max()) for d in (-2000, 0, 2000)
+    )
+    rel = top + 300.0 - 2500.0
+    items = [
+        _item(22, 3, [15, 0, 0, None, 0, 0, rel], 1),
+        *(_item(16, 3, [0, 0, 0, None, p[0], p[1], rel], k + 2) for k, p in enumerate((a, b, c))),
+    ]
+    doc = _qgc_plan(grid, items)
+    path = tmp_path / "open.plan"
+    path.write_text(json.dumps(doc))
+    ring = [_ll(grid, -3000, -700), _ll(grid, 16000, -700), _ll(grid, 16000, 3500)]
+    doc["geoFence"]["polygons"] = [
+        {"inclusion": True, "polygon": [list(v) for v in [*ring, _ll(grid, -3000, 3500)]]}
+    ]
+    fenced = tmp_path / "fenced.plan"
+    fenced.write_text(json.dumps(doc))
+    for src, south in ((path, True), (fenced, False)):
+        m = _imported(src, grid)
+        threat = {"id": "t", "kind": "static", "radius": 400.0, "appears_at": 60.0}
+        threat["position"] = [hx + 7000.0, hy + 150.0, float(m.waypoints[1, 2])]
+        res = run_replay(
+            ReplayRequest.of(m, threats=threats_from_records([threat]), avoid=avoid, seed=1)
+        )
+        assert res.metrics.success, res.metrics.failures
+        y = res.positions[:, 1] - hy
+        if south:
+            assert y.min() < -700.0 and y.max() < 50.0
+        else:
+            assert y.min() > -700.0 and y.max() > 500.0
