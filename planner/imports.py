@@ -21,7 +21,8 @@ item (``'m.plan', field 'mission.items[3]': ...``; a WPL line by its number and 
   in :attr:`ForeignMission.keep_in` and the mission's ``plan.imported.keep_in`` (map metres),
   and outside their union (as PX4 reads several) is a danger zone, ``outside-geofence``
   (:func:`terrain.zones.outside_of`): the plan, ``terrapath check``, the replay's judge and the
-  avoiders keep inside the fences; rally points are kept and reported.
+  avoiders keep inside the fences; a return to launch goes to the closest of home and the
+  rally points.
 - WPL: a header ``QGC WPL 110``, then one item per line: sequence, current, frame, command,
   params 1-4, latitude, longitude, altitude, autocontinue (tabs or spaces). Item 0 is home, in
   MAV_FRAME_GLOBAL (AMSL), as Mission Planner and ArduPilot write it.
@@ -47,7 +48,8 @@ mode's: the mission starts at the take-off item, above home when the item has no
 as the autopilots land; the last leg flown as a landing's final approach, no terrain floor, held
 to the glide by the preflight; the items after it are never flown); 20 RETURN_TO_LAUNCH (home at
 the altitude of the item before it, as ArduPlane's ``RTL_ALTITUDE`` -1 and PX4 over its return
-altitude; the mission ends there); 31 LOITER_TO_ALT, 18 LOITER_TURNS and 19 LOITER_TIME: a
+altitude -- or the rally point closer than home, as both return by default; the mission ends
+there); 31 LOITER_TO_ALT, 18 LOITER_TURNS and 19 LOITER_TIME: a
 circle of the item's radius (0: the vehicle's turn radius; negative: counter-clockwise),
 entered where the path from the previous waypoint meets it tangentially -- a waypoint is placed
 there and a :class:`~planner.spiral.Spiral` flown at it (loiter-to-altitude: the turns the
@@ -734,6 +736,9 @@ def to_mission_parts(
             "to home, 10/11 above terrain)",
         )
 
+    rally_xy = [
+        to_map(la, lo, f"rallyPoints.points[{k}]") for k, (la, lo, _) in enumerate(fm.rally)
+    ]
     pts: list[list[float]] = []
     agl: dict[int, float] = {}
     speeds: dict[int, float] = {}
@@ -774,12 +779,15 @@ def to_mission_parts(
         prev = np.array(pts[-1][:2]) if pts else home_xy
         prev_z = pts[-1][2] if pts else None
         if it.command == RTL:
-            pts.append(
-                [float(home_xy[0]), float(home_xy[1]), prev_z if prev_z is not None else home_alt]
-            )
+            # the closest of home and the rally points, as ArduPilot and PX4 return by default
+            safe = [home_xy, *rally_xy]
+            k_safe = int(np.argmin([float(np.hypot(*(q - prev))) for q in safe]))
+            back = safe[k_safe]
+            pts.append([float(back[0]), float(back[1]), prev_z if prev_z is not None else home_alt])
             source_of[len(pts) - 1] = it.field
+            to = "launch" if k_safe == 0 else f"rally point {k_safe - 1} (closer than home)"
             notes.append(
-                f"{it.field}: returns to launch at {pts[-1][2]:.0f} m AMSL; the mission ends there"
+                f"{it.field}: returns to {to} at {pts[-1][2]:.0f} m AMSL; the mission ends there"
             )
             ended = True
             continue
@@ -845,8 +853,8 @@ def to_mission_parts(
         _attach(pts, spirals, (agl, source_of, speeds), j, np.array(c), turn_radius)
     if len(pts) < 2:
         raise fm.fail("", f"expected at least two positions to fly, found {len(pts)}")
-    if fm.rally:
-        notes.append(f"{len(fm.rally)} rally point(s): kept in the file, not flown")
+    if fm.rally and not any("rally point" in n for n in notes):
+        notes.append(f"{len(fm.rally)} rally point(s): no return to launch flies to them")
     from terrain.zone_file import zones_from_fields
 
     zones = zones_from_fields(fm.fences, grid, source=fm.source)

@@ -189,6 +189,20 @@ def test_qgc_plan_frames_loiter_jump_and_rtl(tmp_path: Path, grid) -> None:
         "mission.items[3] (DO_SET_CAM_TRIGG_DIST)",
         "mission.items[3] (DO_SET_CAM_TRIGG_DIST)",
     ]
+    # rally points: the return goes to the closest of home and them (as ArduPilot and PX4)
+    doc = json.loads(path.read_text())
+    near, far = _ll(grid, 3500, 1500), _ll(grid, -4000, -4000)
+    doc["rallyPoints"]["points"] = [[*far, 50.0], [*near, 50.0]]
+    path.write_text(json.dumps(doc))
+    r = _imported(path, grid)
+    rx, ry = grid.from_lonlat(near[1], near[0])
+    assert r.waypoints[-1].tolist() == pytest.approx([float(rx), float(ry), w[-2, 2]], abs=0.01)
+    assert any(
+        "returns to rally point 1 (closer than home)" in n for n in r.plan["imported"]["notes"]
+    )
+    doc["rallyPoints"]["points"] = [[*far, 50.0]]  # farther than home: home it is
+    path.write_text(json.dumps(doc))
+    assert _imported(path, grid).waypoints[-1].tolist() == pytest.approx(w[-1].tolist(), abs=0.01)
 
 
 def test_qgc_calculated_above_terrain_reads_the_amsl_param(tmp_path: Path, grid) -> None:
