@@ -75,6 +75,20 @@ def rotation_body_to_ned(phi: float, theta: float, psi: float) -> FloatArray:
     )
 
 
+def velocities_ned(states: npt.ArrayLike) -> FloatArray:
+    """The ground velocities (K, 3) NED of states (K, >= 12): each body velocity ``[u, v, w]``
+    rotated by its attitude (:func:`rotation_body_to_ned`, all at once)."""
+    x = np.asarray(states, dtype=np.float64).reshape(-1, np.shape(states)[-1])
+    sf, cf = np.sin(x[:, PHI]), np.cos(x[:, PHI])
+    st, ct = np.sin(x[:, THETA]), np.cos(x[:, THETA])
+    sp, cp = np.sin(x[:, PSI]), np.cos(x[:, PSI])
+    u, v, w = x[:, U], x[:, V], x[:, W]
+    n = ct * cp * u + (sf * st * cp - cf * sp) * v + (cf * st * cp + sf * sp) * w
+    e = ct * sp * u + (sf * st * sp + cf * cp) * v + (cf * st * sp - sf * cp) * w
+    d = -st * u + sf * ct * v + cf * ct * w
+    return np.stack([n, e, d], axis=1)
+
+
 def translational_rates(x: FloatArray, force: npt.ArrayLike, mass: float) -> FloatArray:
     """d/dt of the first six states (NED position, body velocity) of a rigid body in the state
     ``x`` (12 or more floats) with the body-axes ``force`` (N) on its ``mass`` (kg): the rotated

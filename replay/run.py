@@ -205,8 +205,11 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     config = replace(r.config, terrain_following=following)
     speed = config.airspeed or mission.cruise_speed
     params.check_speed(speed, "cruise speed")
-    # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes
-    avoider.check_vehicle(params, float(speed))
+    # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes -- at the fastest ground
+    # speed of a turn in the run's wind (the airspeed plus the strongest wind on the way)
+    z = np.asarray(mission.waypoints, dtype=np.float64)[:, 2]
+    gusty = config.wind.strongest(float(z.min()), float(z.max())) if config.wind else 0.0
+    avoider.check_vehicle(params, float(speed) + gusty)
     # e.g. the priority loop: its sensor, a start outside the obstacles
     avoider.check_setup(config, mission, threats, grid, float(speed))
     # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)
@@ -292,6 +295,10 @@ def run_replay(
         "sensor": prep.config.sensor,
         "atmosphere": f"ISA{prep.config.temperature_offset:+g} K",
     }
+    if prep.config.wind is not None and not prep.config.wind.calm:
+        extra["wind"] = json.dumps(
+            {**prep.config.wind.to_dict(), "text": prep.config.wind.describe()}
+        )
     if prep.config.sensor == "rangefinder":
         c = prep.config
         extra["rangefinder"] = json.dumps(

@@ -39,7 +39,8 @@ from replay.avoidance.base import AvoidanceContext, Avoider
 from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
 from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
-from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned
+from replay.flight.wind import Wind
+from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned, velocities_ned
 from replay.guidance import (
     AvoidanceDecision,
     Commanded,
@@ -104,6 +105,7 @@ class ReplayConfig:
     # each beam a cone of this half-angle (deg; None: the avoider's choice, else a line)
     rangefinder_spread: float | None = None
     temperature_offset: float = 0.0  # K off the ISA standard day (hot day > 0), within +-50
+    wind: Wind | None = None  # the air mass (replay.flight.wind); None: still air
     # success: time over terrain the DEM did not measure is accepted (else a failure)
     allow_unknown_terrain: bool = False
     # conformance (replay.judge): the track within these of the plan (m; None: the larger of
@@ -124,6 +126,10 @@ class ReplayConfig:
                 f"replay setting 'avoid_period' must be a positive number; got {self.avoid_period!r}"
             )
         check_offset(self.temperature_offset, "replay setting 'temperature_offset'")
+        if self.wind is not None and not isinstance(self.wind, Wind):
+            raise InputError(
+                f"replay setting 'wind' must be a Wind (replay.flight.wind); got {self.wind!r}"
+            )
         if self.sensor not in SENSORS:
             raise InputError(f"unknown sensor {self.sensor!r}; choose one of {', '.join(SENSORS)}")
         beams = self.rangefinder_beams
@@ -236,12 +242,17 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
 
 def time_limit(mission: Mission, cfg: ReplayConfig, avoider: Any = None) -> float:
     """How long a replay may fly (s): the configured duration, else 1.5 x the mission's flight
-    time at its airspeed (its spirals' circles counted) + 10 minutes, or longer where the
+    time at its airspeed (into the strongest wind on the way: less its speed; its spirals'
+    circles counted) + 10 minutes, or longer where the
     avoider bounds its own flight (``time_limit_s``: an explorer such as the priority loop, which
     ends itself with its own outcome)."""
     if cfg.duration:
         return float(cfg.duration)
     speed = float(cfg.airspeed or mission.cruise_speed)
+    if cfg.wind is not None and not cfg.wind.calm:
+        # the ground speed into the strongest wind on the way (at least a fifth of the airspeed)
+        z = np.asarray(mission.waypoints, dtype=np.float64)[:, 2]
+        speed = max(speed - cfg.wind.strongest(float(z.min()), float(z.max())), 0.2 * speed)
     loops = sum(2.0 * math.pi * sp.radius * sp.turns for sp in mission.spirals)  # climb spirals
     flight = estimated_flight_time(np.asarray(mission.waypoints, np.float64), speed)
     own = getattr(avoider, "time_limit_s", None)
@@ -313,6 +324,9 @@ def simulate(
     rng = np.random.default_rng(cfg.seed)
     if stack is None:
         stack = _vehicle_stack(mission, vehicle, grid, cfg)
+    wind = _check_wind(cfg, mission, stack)
+    if wind is not None:  # the start crabbed into the wind where it starts
+        stack.set_wind(_wind_at(wind, mission.waypoints[0], grid))
     x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
     if sensor is None:
         sensor = cfg.make_sensor(rng, rangefinder_spread(cfg, avoider))
@@ -362,6 +376,32 @@ def _vehicle_stack(
     )
 
 
+def _check_wind(cfg: ReplayConfig, mission: Mission, stack: FlightStack) -> Wind | None:
+    """The run's wind (None in still air); a wind as fast as the airspeed anywhere between the
+    mission's lowest and highest waypoints is refused: the aircraft could not make headway."""
+    wind = cfg.wind
+    if wind is None or wind.calm:
+        return None
+    z = np.asarray(mission.waypoints, dtype=np.float64)[:, 2]
+    speed = float(cfg.airspeed or mission.cruise_speed)
+    fastest = wind.strongest(float(z.min()), float(z.max()))
+    if fastest >= speed:
+        raise InputError(
+            f"wind {fastest:.1f} m/s ({wind.describe()}) is not slower than {stack.name}'s "
+            f"{speed:g} m/s airspeed: it could not make headway; fly faster (--speed) or in "
+            "less wind"
+        )
+    return wind
+
+
+def _wind_at(wind: Wind, position: npt.ArrayLike, grid: HeightGrid | None) -> FloatArray:
+    """The air's velocity (3,) NED at a map ``position`` (its height over the measured ground
+    for a profile)."""
+    p = np.asarray(position, dtype=np.float64)
+    ground = float(grid.height_at(p[0], p[1])) if grid is not None else 0.0
+    return np.asarray(wind.velocity(float(p[2]), float(p[2]) - ground), dtype=np.float64)
+
+
 class _Loop:
     """One replay while it flies: the stack, sensor and avoider, what is judged (threats, zones,
     terrain, map) and what is kept (samples, decisions, the end)."""
@@ -380,6 +420,15 @@ class _Loop:
     ) -> None:
         self.mission, self.threats, self.avoider = mission, threats, avoider
         self.stack, self.sensor, self.grid, self.cfg = stack, sensor, grid, cfg
+        self.wind = None if cfg.wind is None or cfg.wind.calm else cfg.wind
+        self.wind_varies = self.wind is not None and (
+            bool(self.wind.layers) or self.wind.profile != "uniform"
+        )
+        self.wind_now = (
+            _wind_at(self.wind, mission.waypoints[0], grid)
+            if self.wind is not None
+            else np.zeros(3)
+        )
         self.terrain_model, self.recorder = terrain_model, recorder
         self.wp0 = np.array(mission.waypoints, dtype=np.float64)
         self.duration = time_limit(mission, cfg, avoider)
@@ -468,6 +517,10 @@ class _Loop:
             period = min(self.tick, self.duration - t)
             if period < 0.5 * stack.dt:
                 break  # the limit falls between two steps of the integrator: nothing left to fly
+            if self.wind is not None and self.wind_varies:
+                # the wind where the aircraft is, held for the tick (a profile or layers)
+                self.wind_now = _wind_at(self.wind, ned_to_map(x[:3]), self.grid)
+                stack.set_wind(self.wind_now)
             following = follows_plan(stack)
             commanded = None if following else stack.commanded(t)
             log = stack.fly(x, t, period, record_every=self.record_every)
@@ -508,7 +561,7 @@ class _Loop:
         self._judge(log, pos, keep, following, commanded)
         rec = self.recorder
         if rec is not None:
-            _record_samples(rec, log, pos)
+            _record_samples(rec, log, pos, self.wind_now if self.wind is not None else None)
         if ts[keep - 1] - self.pending[0][0][0] >= _METRICS_BATCH_S:
             _flush(self.pending, self.validity, self.tracker, self.zones, rec)
         if not hit.size:
@@ -533,7 +586,8 @@ class _Loop:
         """Stall and conformance of the first ``keep`` samples of the tick."""
         ts, g = log.times[:keep], log.guidance[:keep]
         if self.stall is not None:
-            airspeed = np.linalg.norm(log.states[:keep][:, [U, V, W]], axis=1)
+            # the speed through the air: the ground velocity less the wind's
+            airspeed = np.linalg.norm(velocities_ned(log.states[:keep]) - self.wind_now, axis=1)
             self.stall.update(ts, pos[:keep], airspeed)
         # a leg change that is not a fillet turns the aircraft onto a leg it is not yet on
         turns = [r.t for r in log.reached if r.how not in ("fillet", "spiral")]
@@ -627,6 +681,7 @@ class _Loop:
             self.cfg,
             self.mission.danger_zones,
             self.candidates,
+            self.wind_now,
         )
         t0 = time.perf_counter()
         decision = avoider.decide(ctx)
@@ -798,12 +853,18 @@ def _flush(
         recorder.write_separations(ts, ids, seps, margin_m=tracker.margin)
 
 
-def _record_samples(recorder: Recorder, log: FlightLog, pos: FloatArray) -> None:
+def _record_samples(
+    recorder: Recorder, log: FlightLog, pos: FloatArray, wind: FloatArray | None = None
+) -> None:
+    """The tick's states at the recording rate, with the guidance and the wind of the tick
+    (``wind_n``, ``wind_e``, ``wind_d`` m/s NED, when there is one)."""
     for i, tk in enumerate(log.times):
         if not recorder.state_due(float(tk)):
             continue
         extras = {name: float(log.guidance[i, j]) for j, name in enumerate(GUIDANCE_COLUMNS)}
         extras["next_index"] = float(log.next_index[i])
+        if wind is not None:
+            extras["wind_n"], extras["wind_e"], extras["wind_d"] = (float(v) for v in wind)
         recorder.write_state(float(tk), log.states[i], log.controls[i], extras)
 
 
@@ -852,16 +913,19 @@ def _context(
     cfg: ReplayConfig,
     zones: tuple[Zone, ...] = (),
     validity: ValidityChecker | None = None,
+    wind: FloatArray | None = None,
 ) -> AvoidanceContext:
     rot = rotation_body_to_ned(x[6], x[7], x[8])
     v_ned = rot @ x[[U, V, W]]
     vel = np.array([v_ned[1], v_ned[0], -v_ned[2]])
+    w_ned = np.zeros(3) if wind is None else np.asarray(wind, dtype=np.float64)
     return AvoidanceContext(
         t=t,
         state=x.copy(),
         position=ned_to_map(x[:3]),
         velocity=vel,
-        airspeed=float(np.linalg.norm(x[[U, V, W]])),
+        airspeed=float(np.linalg.norm(v_ned - w_ned)),  # through the air
+        wind=np.array([w_ned[1], w_ned[0], -w_ned[2]]),
         course=math.atan2(vel[0], vel[1]),
         picture=picture,
         waypoints=stack.waypoints,

@@ -9,6 +9,8 @@ from typing import Any, TypeVar
 
 import click
 
+from terrain.errors import InputError
+
 F = TypeVar("F", bound=Callable[..., Any])
 
 
@@ -180,6 +182,56 @@ def airspace_options(f: F) -> F:
     for decorator in reversed(decorators):
         f = decorator(f)
     return f
+
+
+def wind_options(f: F) -> F:
+    """``--wind SPEED,FROM_DEG[,UP]``, ``--wind-profile`` and ``--wind-file`` (winds aloft):
+    the air mass of :mod:`replay.flight.wind`, read by :func:`wind_from_options`."""
+    decorators = [
+        click.option(
+            "--wind",
+            "wind_text",
+            default=None,
+            metavar="SPEED,FROM_DEG[,UP]",
+            help="A steady wind: its speed (m/s) and the direction it blows from (degrees "
+            "clockwise from north, as pilots say it), optionally a vertical air speed (m/s, up > "
+            "0), e.g. --wind 10,270. Default: still air.",
+        ),
+        click.option(
+            "--wind-profile",
+            type=click.Choice(["uniform", "power", "log"]),
+            default="uniform",
+            show_default=True,
+            help="How --wind changes with the height over the ground: uniform (the same at "
+            "every height), or --wind is the surface wind at 10 m growing to 300 m by a power "
+            "law (exponent 1/7) or a logarithmic profile (roughness 0.03 m).",
+        ),
+        click.option(
+            "--wind-file",
+            type=click.Path(exists=True, dir_okay=False),
+            default=None,
+            help="Winds aloft: a wind file of layers by altitude (speed and direction each, "
+            "as forecasts give them; docs/formats.md), instead of --wind.",
+        ),
+    ]
+    for decorator in reversed(decorators):
+        f = decorator(f)
+    return f
+
+
+def wind_from_options(text: str | None, profile: str, path: str | None) -> Any:
+    """The :class:`replay.flight.wind.Wind` of the wind options, or None (still air)."""
+    from replay.flight.wind import load_wind_file, parse_wind
+
+    if text is not None and path is not None:
+        raise InputError("give --wind or --wind-file, not both")
+    if path is not None:
+        return load_wind_file(path)
+    if text is None:
+        if profile != "uniform":
+            raise InputError("--wind-profile shapes --wind: give --wind too")
+        return None
+    return parse_wind(text, profile)
 
 
 def dem_tiles_option(help: str) -> Callable[[F], F]:

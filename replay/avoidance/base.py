@@ -13,7 +13,7 @@ circles), each with the settings it needs, updated once per scan.  ``none``
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -56,6 +56,8 @@ class AvoidanceContext:
     zones: tuple[Zone, ...] = ()  # the mission's danger zones: no-fly volumes
     # what a new waypoint or leg must pass: the map, its measured terrain and the danger zones
     validity: ValidityChecker | None = None  # None: nothing to check
+    # the air's velocity where the aircraft is (3,) map m/s (x east, y north, z up); still air 0
+    wind: FloatArray = field(default_factory=lambda: np.zeros(3))
 
 
 class Avoider(Protocol):

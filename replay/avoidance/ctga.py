@@ -490,7 +490,9 @@ class CtgaAvoider(AvoiderBase):
         obstacles = self.obstacles(ctx)
         pos = np.asarray(ctx.position, dtype=np.float64)
         vel = np.asarray(ctx.velocity, dtype=np.float64)
-        speed = max(float(np.hypot(vel[0], vel[1])), float(ctx.airspeed))
+        # the turns at the fastest ground speed round an orbit: the airspeed plus the wind
+        wind = float(np.hypot(*np.asarray(ctx.wind, dtype=np.float64)[:2]))
+        speed = max(float(np.hypot(vel[0], vel[1])), float(ctx.airspeed) + wind)
         course = float(ctx.course)
         bank = float(getattr(ctx.vehicle, "bank_max_deg", 30.0))
         turn = turn_radius(speed, bank)

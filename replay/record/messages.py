@@ -72,9 +72,10 @@ STATE_DOCS = {
     "p": "roll rate, rad/s",
     "q": "pitch rate, rad/s",
     "r": "yaw rate, rad/s",
-    "airspeed": "|(u, v, w)|, m/s (no wind)",
-    "alpha": "angle of attack atan2(w, u), rad",
-    "beta": "sideslip asin(v / airspeed), rad",
+    "airspeed": "speed through the air |(u, v, w) - wind in body axes|, m/s (extras wind_n, "
+    "wind_e, wind_d: the air's velocity NED, m/s, when the run has wind)",
+    "alpha": "angle of attack atan2(w_air, u_air), rad",
+    "beta": "sideslip asin(v_air / airspeed), rad",
     "delta_e": "elevator, rad",
     "delta_a": "aileron, rad",
     "delta_r": "rudder, rad",

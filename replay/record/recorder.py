@@ -114,6 +114,7 @@ from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrim
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
 from replay.avoidance.circles import cone_outline
+from replay.frames import rotation_body_to_ned
 from replay.record import topics as T
 from replay.record.encoding import (
     ENTITY_LINES,
@@ -413,9 +414,16 @@ class RunRecorder:
         tr.x, tr.y, tr.z = x, y, z
         ro.x, ro.y, ro.z, ro.w = qx, qy, qz, qw
 
-        va = math.sqrt(u * u + v * v + w * w)
-        alpha = math.atan2(w, u)
-        beta = math.asin(max(-1.0, min(1.0, v / va))) if va > 0 else 0.0
+        ur, vr, wr = u, v, w
+        if extras and ("wind_n" in extras or "wind_e" in extras or "wind_d" in extras):
+            # the velocity through the air: the body velocity less the wind in body axes
+            wb = rotation_body_to_ned(phi, theta, psi).T @ np.array(
+                [extras.get("wind_n", 0.0), extras.get("wind_e", 0.0), extras.get("wind_d", 0.0)]
+            )
+            ur, vr, wr = u - float(wb[0]), v - float(wb[1]), w - float(wb[2])
+        va = math.sqrt(ur * ur + vr * vr + wr * wr)
+        alpha = math.atan2(wr, ur)
+        beta = math.asin(max(-1.0, min(1.0, vr / va))) if va > 0 else 0.0
         values = (*s[:3], -pd, *s[3:], va, alpha, beta, *c)
         try:
             text = self._state_text.text(values, extras)

@@ -18,6 +18,8 @@ from terrapath.options import (
     seed_option,
     speed_option,
     vehicle_option,
+    wind_from_options,
+    wind_options,
 )
 from terrapath.progress import progress_bar
 from terrapath.runtext import duration, failure_summary, metrics_rows, report_lines
@@ -288,6 +290,7 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "from the standard atmosphere.",
 )
 @airspace_options
+@wind_options
 @speed_option(
     "True airspeed to fly at, all the way (m/s; a multirotor's horizontal speed). Default: the "
     "mission's cruise speed and its speed changes; for a mission of another tool, the "
@@ -323,6 +326,9 @@ def replay_cmd(
     dem_tiles: tuple[str, ...],
     airspace: tuple[str, ...],
     start_time: str | None,
+    wind_text: str | None,
+    wind_profile: str,
+    wind_file: str | None,
     coop_noise: tuple[float, float],
     no_terrain_mesh: bool,
     no_picture: bool,
@@ -359,6 +365,7 @@ def replay_cmd(
         start_time=parse_start(start_time) if start_time else None,
         coop_noise_position=coop_noise[0],
         coop_noise_velocity=coop_noise[1],
+        wind=wind_from_options(wind_text, wind_profile, wind_file),
         terrain_mesh=not no_terrain_mesh,
         command="terrapath " + " ".join(sys.argv[1:]) if sys.argv else "terrapath replay",
         software_version=_software_version(),

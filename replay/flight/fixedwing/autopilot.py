@@ -207,7 +207,7 @@ from replay.flight.base import TerrainHeight
 from replay.flight.fixedwing import kernels as kern
 from replay.flight.fixedwing.dynamics import DT
 from replay.flight.fixedwing.gains import Gains, LoopDesign, design_gains
-from replay.flight.fixedwing.params import VehicleParams
+from replay.flight.fixedwing.params import I_WD, I_WE, I_WN, VehicleParams
 from replay.flight.log import FlightLog, FlightRecorder, WaypointReached
 from replay.frames import N_CONTROLS, N_STATES, map_to_ned
 from replay.guidance import Commanded, GuidanceRefused
@@ -506,6 +506,16 @@ class Autopilot:
         """The terrain-frame legs of the waypoints flown now (:meth:`set_leg_heights`)."""
         return dict(self._leg_heights)
 
+    def set_wind(self, wind: npt.ArrayLike) -> None:
+        """The air's velocity (NED, m/s) from now on: the dynamics' air mass and what the
+        control law subtracts for the airspeed (:mod:`replay.flight.wind`; the replay sets it
+        every tick where the wind changes with height)."""
+        w = np.asarray(wind, dtype=np.float64).reshape(-1)
+        if w.shape != (3,) or not np.isfinite(w).all():
+            raise InputError(f"wind must be three finite numbers (north, east, down); got {wind!r}")
+        self.wind = w
+        self.packed[I_WN], self.packed[I_WE], self.packed[I_WD] = w
+
     def set_leg_speeds(self, speeds: Mapping[int, float]) -> None:
         """Speed changes (an imported mission's DO_CHANGE_SPEED): from waypoint ``k`` on the
         true airspeed commanded is ``speeds[k]`` (each checked against the envelope), unless an
@@ -775,8 +785,10 @@ class Autopilot:
         self._apply_modes()
 
     def min_orbit_radius(self) -> float:
-        """The tightest orbit at the commanded airspeed: V^2 / (g tan(bank_max))."""
-        return self.params.min_turn_radius(self.airspeed)
+        """The tightest orbit at the commanded airspeed in the wind flown now: the bank limit at
+        the fastest ground speed round it, (V + w)^2 / (g tan(bank_max)) (the downwind side of
+        an orbit flown tighter drifts out)."""
+        return self.params.min_turn_radius(self.airspeed + math.hypot(self.wind[0], self.wind[1]))
 
     def set_orbit(
         self,
@@ -802,9 +814,11 @@ class Autopilot:
             raise InputError(f"orbit radius must be a number of metres > 0; got {radius!r}")
         tightest = self.min_orbit_radius()
         if radius < tightest:
+            w = math.hypot(self.wind[0], self.wind[1])
+            formula = f"(V + w)^2, w = {w:.1f} m/s of wind" if w > 0 else "V^2"
             raise OrbitRefused(
                 f"orbit radius {radius:.0f} m is tighter than {self.params.name} can fly at "
-                f"{self.airspeed:g} m/s: at least {tightest:.0f} m (V^2 / (g tan "
+                f"{self.airspeed:g} m/s: at least {tightest:.0f} m ({formula} / (g tan "
                 f"{self.params.bank_max_deg:g} deg))"
             )
         cmd = self._cmd

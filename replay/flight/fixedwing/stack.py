@@ -24,7 +24,7 @@ from replay.flight.fixedwing.autopilot import Autopilot, AutopilotConfig
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.fixedwing.trim import trim
 from replay.flight.log import FlightLog
-from replay.frames import PD, PE, PN, PSI
+from replay.frames import PD, PE, PHI, PN, PSI, THETA, U, W, rotation_body_to_ned
 from replay.guidance import (
     HOVER_COMMANDS,
     ClimbRate,
@@ -144,8 +144,23 @@ class FixedWingStack:
 
     def initial_state(self) -> FloatArray:
         """Trimmed level flight at the airspeed over the first waypoint (at a spiral's entry
-        when one starts there), heading for the second."""
-        return self._x0.copy()
+        when one starts there), its course for the second: in a wind (:meth:`set_wind`) crabbed
+        into it, the trim's velocity through the air plus the wind's."""
+        x = self._x0.copy()
+        w = self.autopilot.wind
+        if not w.any():
+            return x
+        start, nxt = self._wp0[0], self._wp0[min(1, len(self._wp0) - 1)]
+        chi = math.atan2(nxt[0] - start[0], nxt[1] - start[1])
+        across = -w[0] * math.sin(chi) + w[1] * math.cos(chi)  # the wind across the course
+        va = float(np.linalg.norm(x[U : W + 1]))
+        x[PSI] = chi - math.asin(max(-1.0, min(1.0, across / va)))
+        x[U : W + 1] += rotation_body_to_ned(x[PHI], x[THETA], x[PSI]).T @ w
+        return x
+
+    def set_wind(self, wind: npt.ArrayLike) -> None:
+        """The air's velocity (NED, m/s) from now on (:meth:`Autopilot.set_wind`)."""
+        self.autopilot.set_wind(wind)
 
     def _trimmed_start(self) -> FloatArray:
         """The start state; first the level trim at the mission's highest waypoint, where the

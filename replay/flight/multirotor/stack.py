@@ -87,7 +87,15 @@ import numpy.typing as npt
 from replay.flight.base import G
 from replay.flight.log import FlightLog, FlightRecorder, WaypointReached
 from replay.flight.multirotor import kernels as kern
-from replay.flight.multirotor.model import DT, N_MR_STATES, MultirotorParams, hover_state
+from replay.flight.multirotor.model import (
+    DT,
+    I_WD,
+    I_WE,
+    I_WN,
+    N_MR_STATES,
+    MultirotorParams,
+    hover_state,
+)
 from replay.frames import N_STATES, map_to_ned, ned_to_map, rotation_body_to_ned
 from replay.guidance import (
     ClimbRate,
@@ -311,6 +319,14 @@ class MultirotorStack:
             else:
                 c[kern.C_VERT] = 1.0
                 c[kern.C_ALT] = self.position[2] if cmd.altitude is None else cmd.altitude
+
+    def set_wind(self, wind: npt.ArrayLike) -> None:
+        """The air's velocity (NED, m/s) from now on: the rotor and body drag act on the
+        velocity through the air; the controller holds position and track over the ground."""
+        w = np.asarray(wind, dtype=np.float64).reshape(-1)
+        if w.shape != (3,) or not np.isfinite(w).all():
+            raise InputError(f"wind must be three finite numbers (north, east, down); got {wind!r}")
+        self.packed[I_WN], self.packed[I_WE], self.packed[I_WD] = w
 
     def set_leg_speeds(self, speeds: Mapping[int, float]) -> None:
         """Speed changes (an imported mission's DO_CHANGE_SPEED): from waypoint ``k`` on the
