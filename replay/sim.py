@@ -39,7 +39,7 @@ from replay.avoidance.base import AvoidanceContext, Avoider
 from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
 from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
-from replay.flight.wind import Wind
+from replay.flight.wind import Dryden, Wind
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned, velocities_ned
 from replay.guidance import (
     AvoidanceDecision,
@@ -429,6 +429,18 @@ class _Loop:
             if self.wind is not None
             else np.zeros(3)
         )
+        # Dryden turbulence on its own seeded stream (the same gusts for the same seed, whatever
+        # the sensor and the avoider draw); the tick's gusts, step by step
+        self.dryden = None
+        if self.wind is not None and self.wind.turbulence is not None:
+            # the span of the rotational gusts: a fixed wing's; a multirotor's rotor disc
+            # (its rotational gusts are not flown: replay.flight.multirotor.kernels.fly)
+            span = getattr(stack.params, "b", None) or 2.0 * float(
+                getattr(stack.params, "arm", 0.25)
+            )
+            self.dryden = Dryden(self.wind.turbulence, float(span), [cfg.seed, 36])
+        self.gust_now = np.zeros((0, 6))
+        self.tick_t0 = 0.0
         self.terrain_model, self.recorder = terrain_model, recorder
         self.wp0 = np.array(mission.waypoints, dtype=np.float64)
         self.duration = time_limit(mission, cfg, avoider)
@@ -521,6 +533,8 @@ class _Loop:
                 # the wind where the aircraft is, held for the tick (a profile or layers)
                 self.wind_now = _wind_at(self.wind, ned_to_map(x[:3]), self.grid)
                 stack.set_wind(self.wind_now)
+            if self.dryden is not None:
+                self._gusts(x, t, period)
             following = follows_plan(stack)
             commanded = None if following else stack.commanded(t)
             log = stack.fly(x, t, period, record_every=self.record_every)
@@ -540,6 +554,29 @@ class _Loop:
             if self._decide(t, x):
                 break
         self.t = t
+
+    def _gusts(self, x: FloatArray, t: float, period: float) -> None:
+        """The turbulence of the tick, step by step, handed to the stack (and kept for the
+        judge and the recording): at the airspeed flown and the height over the ground here."""
+        assert self.dryden is not None
+        stack = self.stack
+        pos = ned_to_map(x[:3])
+        height = float(pos[2] - self.ground(np.array([pos[0]]), np.array([pos[1]]))[0])
+        speed = getattr(stack, "airspeed", None) or self.cfg.airspeed or self.mission.cruise_speed
+        n = int(round(period / stack.dt)) + 1
+        self.gust_now = self.dryden.gusts(n, stack.dt, float(speed), height, float(x[8]))
+        self.tick_t0 = t
+        stack.set_gusts(self.gust_now)
+
+    def winds(self, ts: FloatArray) -> FloatArray:
+        """The air's velocity (K, 3) NED at the tick's sample times: the wind, and the gusts of
+        the steps they fall on."""
+        out = np.broadcast_to(self.wind_now, (len(ts), 3)).copy()
+        g = self.gust_now
+        if len(g):
+            k = np.round((np.asarray(ts) - self.tick_t0) / self.stack.dt).astype(np.int64)
+            out += g[np.clip(k, 0, len(g) - 1), :3]
+        return out
 
     def _samples(
         self, log: FlightLog, following: bool = True, commanded: Commanded | None = None
@@ -561,7 +598,7 @@ class _Loop:
         self._judge(log, pos, keep, following, commanded)
         rec = self.recorder
         if rec is not None:
-            _record_samples(rec, log, pos, self.wind_now if self.wind is not None else None)
+            _record_samples(rec, log, pos, self.winds(log.times) if self.wind is not None else None)
         if ts[keep - 1] - self.pending[0][0][0] >= _METRICS_BATCH_S:
             _flush(self.pending, self.validity, self.tracker, self.zones, rec)
         if not hit.size:
@@ -587,7 +624,8 @@ class _Loop:
         ts, g = log.times[:keep], log.guidance[:keep]
         if self.stall is not None:
             # the speed through the air: the ground velocity less the wind's
-            airspeed = np.linalg.norm(velocities_ned(log.states[:keep]) - self.wind_now, axis=1)
+            air = velocities_ned(log.states[:keep]) - self.winds(ts)
+            airspeed = np.linalg.norm(air, axis=1)
             self.stall.update(ts, pos[:keep], airspeed)
         # a leg change that is not a fillet turns the aircraft onto a leg it is not yet on
         turns = [r.t for r in log.reached if r.how not in ("fillet", "spiral")]
@@ -856,15 +894,16 @@ def _flush(
 def _record_samples(
     recorder: Recorder, log: FlightLog, pos: FloatArray, wind: FloatArray | None = None
 ) -> None:
-    """The tick's states at the recording rate, with the guidance and the wind of the tick
-    (``wind_n``, ``wind_e``, ``wind_d`` m/s NED, when there is one)."""
+    """The tick's states at the recording rate, with the guidance and the air's velocity at
+    each (``wind`` (K, 3): ``wind_n``, ``wind_e``, ``wind_d`` m/s NED, gusts included, when the
+    run has wind)."""
     for i, tk in enumerate(log.times):
         if not recorder.state_due(float(tk)):
             continue
         extras = {name: float(log.guidance[i, j]) for j, name in enumerate(GUIDANCE_COLUMNS)}
         extras["next_index"] = float(log.next_index[i])
         if wind is not None:
-            extras["wind_n"], extras["wind_e"], extras["wind_d"] = (float(v) for v in wind)
+            extras["wind_n"], extras["wind_e"], extras["wind_d"] = (float(v) for v in wind[i])
         recorder.write_state(float(tk), log.states[i], log.controls[i], extras)
 
 
@@ -934,6 +973,7 @@ def _context(
         terrain=terrain,
         terrain_clearance=float(cfg.terrain_following or 0.0),
         switch_distance=float(stack.corner_distance),
+        fillets=getattr(stack, "switch_distance", 1.0) == 0.0,
         zones=tuple(zones),
         validity=validity,
     )

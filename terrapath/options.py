@@ -207,6 +207,13 @@ def wind_options(f: F) -> F:
             "law (exponent 1/7) or a logarithmic profile (roughness 0.03 m).",
         ),
         click.option(
+            "--turbulence",
+            type=click.Choice(["light", "moderate", "severe"]),
+            default=None,
+            help="Dryden turbulence (MIL-F-8785C) on top of the wind: gusts in the 6-DOF "
+            "equations, seeded by --seed. Default: none.",
+        ),
+        click.option(
             "--wind-file",
             type=click.Path(exists=True, dir_okay=False),
             default=None,
@@ -219,19 +226,24 @@ def wind_options(f: F) -> F:
     return f
 
 
-def wind_from_options(text: str | None, profile: str, path: str | None) -> Any:
+def wind_from_options(
+    text: str | None, profile: str, path: str | None, turbulence: str | None = None
+) -> Any:
     """The :class:`replay.flight.wind.Wind` of the wind options, or None (still air)."""
-    from replay.flight.wind import load_wind_file, parse_wind
+    from dataclasses import replace
+
+    from replay.flight.wind import Wind, load_wind_file, parse_wind
 
     if text is not None and path is not None:
         raise InputError("give --wind or --wind-file, not both")
     if path is not None:
-        return load_wind_file(path)
+        wind = load_wind_file(path)
+        return replace(wind, turbulence=turbulence) if turbulence else wind
     if text is None:
         if profile != "uniform":
             raise InputError("--wind-profile shapes --wind: give --wind too")
-        return None
-    return parse_wind(text, profile)
+        return Wind(turbulence=turbulence) if turbulence else None
+    return parse_wind(text, profile, turbulence)
 
 
 def dem_tiles_option(help: str) -> Callable[[F], F]:

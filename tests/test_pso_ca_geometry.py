@@ -286,6 +286,12 @@ def test_g4_asks_that_the_cut_corner_fits_in_the_leg_onto_the_target():
     assert cut(p)[0] >= cut.params.penalty_offset  # the compiled cost agrees
     flat = WaypointProblem(pos, goal, o, params=PsoCaParams())
     assert flat.constraint_report(p).g4[0] > 0 and flat.constraint_report(p).feasible[0]
+    # a stack flying fillets: its corner is an arc, the fly-by lead alone (565 m to spare)
+    arcs = WaypointProblem(
+        pos, goal, o, params=PsoCaParams(switch_distance=1000.0, corner_fit=False)
+    )
+    assert arcs.constraint_report(p).g4[0] == pytest.approx(flat.constraint_report(p).g4[0])
+    assert arcs(p)[0] < arcs.params.penalty_offset
     far = np.array([[270500.0, 12000.0]])  # 1.6 km before the goal
     assert cut.constraint_report(far).g4[0] > 0 and cut.constraint_report(far).feasible[0]
     assert cut(far)[0] < cut.params.penalty_offset
@@ -379,6 +385,7 @@ def test_pso_from_tangent_seeds_reaches_the_grid_optimum():
         {"check_inbound": False, "check_outbound": False, "g2_centre": "aircraft"},
         {"switch_distance": 1000.0, "leg_margin": 100.0},
         {"switch_distance": 700.0, "approach_deg": 45.0, "tolerance": 100.0},
+        {"switch_distance": 300.0, "corner_fit": False},
     ],
 )
 def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:  # type: ignore[type-arg]

@@ -165,3 +165,67 @@ def test_wind_options_and_bad_input(tmp_path: Path, capsys: pytest.CaptureFixtur
     aloft = load_wind_file(wf)
     assert aloft.describe().startswith("winds aloft: 8 m/s from 270 deg at 300 m")
     assert main([*args, "--wind-file", str(wf)]) == 0
+
+
+def test_dryden_scales_follow_mil_f_8785c() -> None:
+    """Low altitude: at 100 ft L_w = 100 ft, L_u = 100 / (0.177 + 0.0823)^1.2 ft, sigma_w =
+    0.1 W20 (moderate: 30 kt), sigma_u = sigma_w / (0.2593)^0.4; above 2,000 ft the 1,750 ft
+    scale and Figure 7's intensity (severe at 7,500 ft: 23.6 ft/s); in between, linear."""
+    from replay.flight.wind import FT, KT, dryden_scales
+
+    lu, lv, lw, su, sv, sw = dryden_scales("moderate", 100 * FT)
+    assert lw == pytest.approx(100 * FT) and lu == lv == pytest.approx(100 * FT / 0.259300**1.2)
+    assert sw == pytest.approx(3.0 * KT) and su == sv == pytest.approx(3.0 * KT / 0.2593**0.4)
+    high = dryden_scales("severe", 7500 * FT)
+    np.testing.assert_allclose(high, [1750 * FT] * 3 + [23.6 * FT] * 3)
+    mid = dryden_scales("light", 1500 * FT)
+    lo, hi = dryden_scales("light", 1000 * FT), dryden_scales("light", 2000 * FT)
+    np.testing.assert_allclose(mid, 0.5 * (np.array(lo) + np.array(hi)))
+
+
+def test_dryden_gusts_have_the_model_s_spectra_and_repeat_with_the_seed() -> None:
+    """3,000 s of moderate turbulence at 25 m/s, 100 m above the ground: each linear gust's
+    standard deviation within 10 % of sigma, its Welch spectrum within 15 % of the Dryden
+    spectrum (median ratio over 0.02-5 Hz); the same seed gives the same gusts, another seed
+    others."""
+    from scipy.signal import welch
+
+    from replay.flight.wind import Dryden, dryden_scales
+
+    dt, v, h = 0.01, 25.0, 100.0
+    d = Dryden("moderate", 2.9, 7)
+    g = np.vstack([d.gusts(10_000, dt, v, h, 0.0) for _ in range(30)])
+    lu, _lv, lw, su, sv, sw = dryden_scales("moderate", h)
+    for col, sig in ((0, su), (1, sv), (2, sw)):
+        assert g[:, col].std() == pytest.approx(sig, rel=0.10)
+    f, pu = welch(g[:, 0], fs=1 / dt, nperseg=2**14)
+    _, pw = welch(g[:, 2], fs=1 / dt, nperseg=2**14)
+    om = 2 * np.pi * f
+    band = (f > 0.02) & (f < 5.0)
+    model_u = su**2 * (2 * lu / (np.pi * v)) / (1 + (lu * om / v) ** 2)
+    model_w = (
+        sw**2 * (lw / (np.pi * v)) * (1 + 3 * (lw * om / v) ** 2) / (1 + (lw * om / v) ** 2) ** 2
+    )
+    # Welch's one-sided density per Hz, the model's per rad/s
+    assert np.median(pu[band] / (2 * np.pi) / model_u[band]) == pytest.approx(1.0, abs=0.15)
+    assert np.median(pw[band] / (2 * np.pi) / model_w[band]) == pytest.approx(1.0, abs=0.15)
+    again = Dryden("moderate", 2.9, 7).gusts(500, dt, v, h, 0.0)
+    np.testing.assert_array_equal(again, Dryden("moderate", 2.9, 7).gusts(500, dt, v, h, 0.0))
+    assert not np.allclose(again, Dryden("moderate", 2.9, 8).gusts(500, dt, v, h, 0.0))
+
+
+def test_a_flight_in_turbulence_repeats_with_its_seed() -> None:
+    """Light turbulence on the straight mission: flown (the goal reached, on its legs), the
+    speed through the air gusting (its standard deviation over 0.2 m/s), and the same seed
+    flies the same track to the centimetre."""
+    wind = parse_wind("5,300", turbulence="light")
+    _, r = _straight(wind)
+    assert r.metrics.success, r.metrics.failures
+    _, again = _straight(wind)
+    np.testing.assert_allclose(again.positions, r.positions, atol=0.01)
+    x = r.positions[:, 0]
+    mid = (x > 8_000) & (x < 12_000)
+    ground = velocities_ned(r.states[mid])
+    assert np.abs(r.positions[mid, 1]).max() < 30.0
+    # the recorded air data are not in the result: the ground speed gusts instead
+    assert np.hypot(ground[:, 0], ground[:, 1]).std() > 0.2

@@ -53,6 +53,7 @@ class AvoidanceContext:
     terrain: Any = None  # terrain.model.TerrainModel, or None: flat ground
     terrain_clearance: float = 0.0  # the autopilot's terrain following clearance (0: off)
     switch_distance: float = 0.0  # the stack turns to the next leg this far from a waypoint
+    fillets: bool = False  # the stack flies its corners as turn fillets (else it cuts them)
     zones: tuple[Zone, ...] = ()  # the mission's danger zones: no-fly volumes
     # what a new waypoint or leg must pass: the map, its measured terrain and the danger zones
     validity: ValidityChecker | None = None  # None: nothing to check

@@ -1014,6 +1014,7 @@ class PsoCaAvoider(AvoiderBase):
             speed=max(ctx.airspeed, 1.0),
             check_outbound=not hit.moving,
             switch_distance=self._switch(ctx),
+            corner_fit=not ctx.fillets,
         )
         self._grid_evaluations = 0
         sol = self._solve(ctx, st, hit, keys, pts, ground, params, "paper", ctx.next_index)

@@ -47,6 +47,8 @@ Choices where the paper is silent or inconsistent (see each docstring):
   goal's plane, 373 m off (seed 000 Table 6).  Asking more (back on the line before the target's
   own 1 km corner begins) left the narrow stage without a waypoint in Table 6's two-obstacle
   decision (tests/test_pso_ca.py); that corner starting off the line is left to the leg margin.
+  Only for a stack that cuts its corners (``corner_fit``): one that flies turn fillets keeps the
+  fly-by lead alone, its corners being arcs, not the switch-and-approach path.
 - **f1 in metres** (eq 2 as printed; the paper does not normalise it).  ``normalise=True`` divides
   f1 by the straight distance aircraft -> next waypoint (the PLR of §6) and the risk sum by MXRSK.
 """
@@ -406,6 +408,9 @@ class PsoCaParams:
     leg_margin: float = 0.0
     switch_distance: float = 0.0
     approach_deg: float = 60.0
+    # g4 asks that the cut corner fits in the leg onto the target (a stack that cuts corners at
+    # its switch distance; one that flies fillets has the fly-by lead alone)
+    corner_fit: bool = True
     penalty_offset: float = 1e12
     penalty_weight: float = 1e6  # per metre of violation
 
@@ -614,7 +619,7 @@ class WaypointProblem:
         with np.errstate(over="ignore"):
             lead = pr.turn_radius * np.tan(np.minimum(theta, math.pi * (1 - 1e-12)) / 2.0)
         g4 = np.minimum(l_in, l_out) - lead
-        if sw > 0:
+        if sw > 0 and pr.corner_fit:
             # the cut corner at p fits in the leg onto the target: the aircraft is back on that
             # leg before the target's plane (a corner still converging there passes the goal's
             # plane off the track and misses it; an intermediate target's leg ends off it)
@@ -688,6 +693,7 @@ class WaypointProblem:
                 pr.normalise,
                 self.side,
                 self.after is not None,
+                pr.corner_fit,
             ],
             dtype=np.int64,
         )

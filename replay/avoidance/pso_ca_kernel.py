@@ -73,10 +73,10 @@ def penalised_costs(
 
     ``consts`` = [rs, tolerance, search_limit, mxrsk, wt, wo, turn_radius, leg_margin,
     switch_distance, tan(approach angle), penalty_offset, penalty_weight, big]; ``flags`` = [g2 centred on the
-    obstacle, check_inbound, check_outbound, normalise, side, has_after]; ``after`` is the
+    obstacle, check_inbound, check_outbound, normalise, side, has_after, corner_fit]; ``after`` is the
     waypoint after the target (ignored without has_after)."""
     rs, tol, lim, mxrsk, wt, wo, radius, margin, sw, tan_app, pen_off, pen_w, big = consts
-    g2_obstacle, inbound, outbound, normalise, side, has_after = flags
+    g2_obstacle, inbound, outbound, normalise, side, has_after, corner_fit = flags
     n = X.shape[0]
     k_av = avoided.shape[0]
     k_ot = others.shape[0]
@@ -132,7 +132,7 @@ def penalised_costs(
         theta = math.acos(min(max(cos_t, -1.0), 1.0))
         lead = radius * math.tan(min(theta, math.pi * (1.0 - 1e-12)) / 2.0)
         g4 = min(l_in, l_out) - lead
-        if sw > 0.0:  # the cut corner fits in the leg onto the target (constraint_report)
+        if sw > 0.0 and corner_fit:  # the cut corner fits in the leg (constraint_report)
             g4 = min(g4, l_out - reach)
         viol = 0.0
         ok = True

@@ -100,8 +100,13 @@ class Wind:
     profile: str = "uniform"
     layers: tuple[WindLayer, ...] = ()
     source: str | None = None
+    turbulence: str | None = None  # "light", "moderate", "severe" (Dryden) or None
 
     def __post_init__(self) -> None:
+        if self.turbulence is not None and self.turbulence not in SEVERITIES:
+            raise InputError(
+                f"unknown turbulence {self.turbulence!r}; choose one of {', '.join(SEVERITIES)}"
+            )
         _check(self.speed, "wind speed (m/s)", 0.0, 200.0)
         _check(self.from_deg, "wind direction (degrees it blows from)", 0.0, 360.0)
         _check(self.up, "vertical wind (m/s)", -50.0, 50.0)
@@ -116,6 +121,8 @@ class Wind:
     @property
     def calm(self) -> bool:
         """No air motion anywhere."""
+        if self.turbulence is not None:
+            return False
         if self.layers:
             return self.up == 0.0 and all(la.speed == 0.0 for la in self.layers)
         return self.speed == 0.0 and self.up == 0.0
@@ -159,6 +166,8 @@ class Wind:
     def describe(self) -> str:
         """One line for reports: ``10 m/s from 270 deg (power profile, surface wind)``."""
         up = f", {self.up:+g} m/s vertical" if self.up else ""
+        if self.turbulence:
+            up += f", {self.turbulence} turbulence (Dryden)"
         if self.layers:
             parts = ", ".join(
                 f"{la.speed:g} m/s from {la.from_deg:g} deg at {la.altitude:,.0f} m"
@@ -184,13 +193,160 @@ class Wind:
             d.update(speed=self.speed, **{"from": self.from_deg}, profile=self.profile)
         if self.up:
             d["up"] = self.up
+        if self.turbulence:
+            d["turbulence"] = self.turbulence
         return d
 
 
 CALM = Wind()
 
+# -- Dryden turbulence (MIL-F-8785C) ----------------------------------------------------------
+SEVERITIES = ("light", "moderate", "severe")
+FT = 0.3048
+KT = 1852.0 / 3600.0
+# the wind 20 ft above the ground that sets the low-altitude intensity (MIL-F-8785C 3.7.2.3)
+W20_KT = {"light": 15.0, "moderate": 30.0, "severe": 45.0}
+# medium and high altitude: the intensity (ft/s) exceeded with probability 1e-2 (light), 1e-3
+# (moderate), 1e-5 (severe), MIL-F-8785C Figure 7, at these altitudes (ft)
+POE_ALTITUDES_FT = (500, 1750, 3750, 7500, 15000, 25000, 35000, 45000, 55000, 65000, 75000, 80000)
+POE_SIGMA_FTPS = {
+    "light": (6.6, 6.9, 7.4, 6.7, 4.6, 2.7, 0.4, 0.0, 0.0, 0.0, 0.0, 0.0),
+    "moderate": (8.6, 9.6, 10.6, 10.1, 8.0, 6.6, 5.0, 4.2, 2.7, 0.0, 0.0, 0.0),
+    "severe": (15.6, 17.6, 23.0, 23.6, 22.1, 20.0, 16.0, 15.1, 12.1, 7.9, 6.2, 5.1),
+}
 
-def parse_wind(text: str, profile: str = "uniform") -> Wind:
+
+def dryden_scales(severity: str, height: float) -> tuple[float, float, float, float, float, float]:
+    """``(L_u, L_v, L_w, sigma_u, sigma_v, sigma_w)`` (m, m/s) of MIL-F-8785C's Dryden form at
+    ``height`` m above the ground (at least 10 ft): below 1,000 ft the low-altitude model
+    (``L_w = h``, ``L_u = L_v = h / (0.177 + 0.000823 h)^1.2``, ``sigma_w = 0.1 W20``,
+    ``sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4``, h in ft), above 2,000 ft the
+    medium/high-altitude one (every scale 1,750 ft, every intensity Figure 7's at the
+    severity's probability of exceedance), linear in between."""
+    h = max(float(height) / FT, 10.0)
+
+    def low(hf: float) -> tuple[float, ...]:
+        k = 0.177 + 0.000823 * hf
+        sw = 0.1 * W20_KT[severity] * KT / FT  # ft/s
+        return hf / k**1.2, hf / k**1.2, hf, sw / k**0.4, sw / k**0.4, sw
+
+    def high(hf: float) -> tuple[float, ...]:
+        sig = float(np.interp(hf, POE_ALTITUDES_FT, POE_SIGMA_FTPS[severity]))
+        return 1750.0, 1750.0, 1750.0, sig, sig, sig
+
+    if h <= 1000.0:
+        out = low(h)
+    elif h >= 2000.0:
+        out = high(h)
+    else:
+        f = (h - 1000.0) / 1000.0
+        out = tuple(a + f * (b - a) for a, b in zip(low(1000.0), high(2000.0), strict=True))
+    return tuple(v * FT for v in out)  # type: ignore[return-value]
+
+
+class Dryden:
+    """Dryden turbulence (MIL-F-8785C, continuous forms, as MATLAB's Aerospace Blockset and
+    Beard & McLain ch. 4 give them) for an aircraft of wingspan ``span`` m, seeded: the gusts
+    of a run are the same for the same seed.
+
+    Linear gusts, white noise of unit one-sided spectral density through
+    ``H_u = sigma_u sqrt(2 L_u / (pi V)) / (1 + L_u s / V)``,
+    ``H_v = sigma_v sqrt(L_v / (pi V)) (1 + sqrt(3) L_v s / V) / (1 + L_v s / V)^2`` (``H_w``
+    alike), so that each has the Dryden spectrum ``Phi(omega)`` of variance ``sigma^2``;
+    rotational gusts ``H_p = sigma_w sqrt(0.8 / V) (pi / 4b)^(1/6) / (L_w^(1/3) (1 + 4 b s /
+    (pi V)))`` on its own noise, ``q_g = (s / V) / (1 + 4 b s / (pi V)) w_g`` and
+    ``r_g = -(s / V) / (1 + 3 b s / (pi V)) v_g`` (the upper signs of the specification).
+    Discretised by Tustin's rule at the integrator's step; the filters' states carry over from
+    call to call (their coefficients follow the airspeed and the height)."""
+
+    def __init__(self, severity: str, span: float, seed: Any) -> None:
+        if severity not in SEVERITIES:
+            raise InputError(
+                f"unknown turbulence {severity!r}; choose one of {', '.join(SEVERITIES)}"
+            )
+        if not (math.isfinite(span) and span > 0):
+            raise InputError(f"a wingspan must be > 0 m; got {span!r}")
+        self.severity = severity
+        self.span = float(span)
+        self.rng = np.random.default_rng(seed)
+        self._state: dict[str, FloatArray] = {}
+        self._warm = False
+
+    def _filters(self, v: float, h: float, dt: float) -> dict[str, tuple[FloatArray, FloatArray]]:
+        from scipy.signal import bilinear
+
+        lu, lv, lw, su, sv, sw = dryden_scales(self.severity, h)
+        b = self.span
+        fs = 1.0 / dt
+        tv, tw = lv / v, lw / v
+        cont = {
+            "u": ([su * math.sqrt(2.0 * lu / (math.pi * v))], [lu / v, 1.0]),
+            "v": (
+                [
+                    sv * math.sqrt(lv / (math.pi * v)) * math.sqrt(3.0) * tv,
+                    sv * math.sqrt(lv / (math.pi * v)),
+                ],
+                [tv * tv, 2.0 * tv, 1.0],
+            ),
+            "w": (
+                [
+                    sw * math.sqrt(lw / (math.pi * v)) * math.sqrt(3.0) * tw,
+                    sw * math.sqrt(lw / (math.pi * v)),
+                ],
+                [tw * tw, 2.0 * tw, 1.0],
+            ),
+            "p": (
+                [
+                    sw
+                    * math.sqrt(0.8 / v)
+                    * (math.pi / (4.0 * b)) ** (1.0 / 6.0)
+                    / lw ** (1.0 / 3.0)
+                ],
+                [4.0 * b / (math.pi * v), 1.0],
+            ),
+            "q": ([1.0 / v, 0.0], [4.0 * b / (math.pi * v), 1.0]),
+            "r": ([-1.0 / v, 0.0], [3.0 * b / (math.pi * v), 1.0]),
+        }
+        return {k: bilinear(num, den, fs) for k, (num, den) in cont.items()}
+
+    def _run(self, filt: dict[str, tuple[FloatArray, FloatArray]], n: int, dt: float) -> FloatArray:
+        from scipy.signal import lfilter
+
+        noise = self.rng.standard_normal((4, n)) * math.sqrt(math.pi / dt)
+        out = np.empty((6, n))
+        for j, (key, src) in enumerate((("u", 0), ("v", 1), ("w", 2), ("p", 3))):
+            b, a = filt[key]
+            zi = self._state.get(key, np.zeros(max(len(a), len(b)) - 1))
+            out[j], self._state[key] = lfilter(b, a, noise[src], zi=zi)
+        for j, (key, src) in ((4, ("q", 2)), (5, ("r", 1))):
+            b, a = filt[key]
+            zi = self._state.get(key, np.zeros(max(len(a), len(b)) - 1))
+            out[j], self._state[key] = lfilter(b, a, out[src], zi=zi)
+        return out
+
+    def gusts(
+        self, n: int, dt: float, airspeed: float, height: float, heading: float
+    ) -> FloatArray:
+        """The next ``n`` steps of ``dt`` s of turbulence, (n, 6): gust velocity NED (m/s; u
+        along the ``heading``, v to its right, w down) and rotational gusts p, q, r (rad/s), at
+        ``airspeed`` m/s ``height`` m above the ground."""
+        v = max(float(airspeed), 1.0)
+        filt = self._filters(v, float(height), dt)
+        if not self._warm:  # start in the filters' steady state: ten of their longest times
+            lu, lv, lw, *_ = dryden_scales(self.severity, float(height))
+            self._run(filt, int(10.0 * max(lu, lv, lw) / v / dt), dt)
+            self._warm = True
+        g = self._run(filt, int(n), dt)
+        c, s_ = math.cos(heading), math.sin(heading)
+        out = np.empty((int(n), 6))
+        out[:, 0] = c * g[0] - s_ * g[1]
+        out[:, 1] = s_ * g[0] + c * g[1]
+        out[:, 2] = g[2]
+        out[:, 3:] = g[3:].T
+        return out
+
+
+def parse_wind(text: str, profile: str = "uniform", turbulence: str | None = None) -> Wind:
     """``--wind SPEED,FROM_DEG[,UP]`` (m/s, degrees it blows from, m/s up): a :class:`Wind`."""
     parts = [p.strip() for p in str(text).split(",")]
     if len(parts) not in (2, 3):
@@ -204,7 +360,9 @@ def parse_wind(text: str, profile: str = "uniform") -> Wind:
         raise InputError(f"--wind {text!r}: expected numbers, e.g. --wind 10,270") from None
     speed, from_deg = values[0], values[1] % 360.0 if math.isfinite(values[1]) else values[1]
     try:
-        return Wind(speed, from_deg, values[2] if len(values) == 3 else 0.0, profile)
+        return Wind(
+            speed, from_deg, values[2] if len(values) == 3 else 0.0, profile, turbulence=turbulence
+        )
     except InputError as exc:
         raise InputError(f"--wind {text!r}: {exc}") from None
 
@@ -232,7 +390,14 @@ def load_wind_file(path: str | Path) -> Wind:
     """A wind file (module docstring): winds aloft by layers, or one wind with a profile."""
     p = Path(path)
     doc = check_header(read_document(p, "a wind file"), p, "wind", ("terrapath", "wind"), "wind")
-    body = _fields(doc["wind"], p, "wind", ("layers", "speed", "from", "profile", "up"))
+    body = _fields(
+        doc["wind"], p, "wind", ("layers", "speed", "from", "profile", "up", "turbulence")
+    )
+    turb = body.get("turbulence")
+    if turb is not None and turb not in SEVERITIES:
+        raise InputError(
+            f"{where(p, 'wind.turbulence')}expected one of {', '.join(SEVERITIES)}, found {found(turb)}"
+        )
     up = _number(body.get("up", 0.0), p, "wind.up")
     raw = body.get("layers")
     try:
@@ -243,6 +408,7 @@ def load_wind_file(path: str | Path) -> Wind:
                 up,
                 str(body.get("profile", "uniform")),
                 source=str(p),
+                turbulence=turb,
             )
         if not isinstance(raw, list) or not raw:
             raise InputError(
@@ -264,7 +430,7 @@ def load_wind_file(path: str | Path) -> Wind:
                     _number(m.get("from"), p, f"{fld}.from") % 360.0,
                 )
             )
-        return Wind(up=up, layers=tuple(layers), source=str(p))
+        return Wind(up=up, layers=tuple(layers), source=str(p), turbulence=turb)
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(where(p)) else f"{where(p, 'wind')}{msg}") from None

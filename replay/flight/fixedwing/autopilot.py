@@ -264,6 +264,9 @@ class AutopilotConfig:
                 )
 
 
+_NO_GUST = np.zeros((0, 6))  # still air beyond the wind
+
+
 class OrbitRefused(GuidanceRefused):
     """An orbit the aircraft cannot fly (tighter than its minimum turn radius)."""
 
@@ -325,6 +328,7 @@ class Autopilot:
         self.gains = gains or self._design()
         self.packed = params.pack(wind, self.temperature_offset)
         self.wind = np.asarray(wind, dtype=np.float64)
+        self._gust = _NO_GUST
         cfg = self.config
         self.path_gain = (
             cfg.path_gain
@@ -505,6 +509,15 @@ class Autopilot:
     def leg_heights(self) -> dict[int, float]:
         """The terrain-frame legs of the waypoints flown now (:meth:`set_leg_heights`)."""
         return dict(self._leg_heights)
+
+    def set_gusts(self, gusts: npt.ArrayLike) -> None:
+        """The turbulence of the next :meth:`fly` call, step by step: (G, 6) rows of gust
+        velocity (NED, m/s, on top of the wind) and rotational gusts (body p, q, r, rad/s) for
+        its first G steps (:class:`replay.flight.wind.Dryden`); used by that call only."""
+        g = np.ascontiguousarray(gusts, dtype=np.float64)
+        if g.ndim != 2 or g.shape[1] != 6 or not np.isfinite(g).all():
+            raise InputError(f"gusts must be (steps, 6) finite numbers; got shape {g.shape}")
+        self._gust = g
 
     def set_wind(self, wind: npt.ArrayLike) -> None:
         """The air's velocity (NED, m/s) from now on: the dynamics' air mass and what the
@@ -1068,6 +1081,7 @@ class Autopilot:
         first_reached = len(self.reached)
         terrain_steps = max(1, int(round(cfg.terrain_update / dt)))
         decim = cfg.control_every
+        gust, self._gust = self._gust, _NO_GUST  # this call's turbulence (set_gusts), used once
         done = 0
         while done < n_total:
             k = k_start + done
@@ -1096,6 +1110,7 @@ class Autopilot:
                 rec.x[rec.n :],
                 rec.u[rec.n :],
                 rec.g[rec.n :],
+                gust[done:],
             )
             rec.add(k, steps, nr, self._next)
             done += steps

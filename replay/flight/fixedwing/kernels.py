@@ -86,6 +86,9 @@ from replay.flight.fixedwing.params import (
     I_G6,
     I_G7,
     I_G8,
+    I_GP,
+    I_GQ,
+    I_GR,
     I_GRAV,
     I_I0,
     I_JY,
@@ -326,6 +329,11 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
     qr = x[10]
     rr = x[11]
     sf, cf, st, ct, _, _, r = attitude(phi, theta, psi)
+    # the body's rates through the air: the turbulence's rotational gusts taken off (the
+    # damping derivatives act on them; the kinematics keep the body's own rates)
+    pa = pr - p[I_GP]
+    qa = qr - p[I_GQ]
+    ra = rr - p[I_GR]
     m = p[I_MASS]
     mg = m * p[I_GRAV]
     fx = -mg * st
@@ -373,12 +381,12 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
         cl_att = (1.0 - sig) * (p[I_CL0] + p[I_CLA] * alpha)  # the attached flow's lift
         cl = cl_att + sig * plate
         cd = p[I_CDP] + cl_att * cl_att * p[I_KIND] + sig * 2.0 * abs(sa) * sa * sa
-        lift = qs * (cl + p[I_CLQ] * cq * qr + p[I_CLDE] * de)
-        drag = qs * (cd + p[I_CDQ] * cq * qr + p[I_CDDE] * abs(de))
+        lift = qs * (cl + p[I_CLQ] * cq * qa + p[I_CLDE] * de)
+        drag = qs * (cd + p[I_CDQ] * cq * qa + p[I_CDDE] * abs(de))
         fx += -ca * drag + sa * lift
         fz += -sa * drag - ca * lift
-        bp = bv * pr
-        br = bv * rr
+        bp = bv * pa
+        br = bv * ra
         fy += qs * (
             p[I_CY0]
             + p[I_CYB] * beta
@@ -396,7 +404,7 @@ def derivs(x, u, p, out):  # pragma: no cover - jit
             + p[I_CL_DA] * da
             + p[I_CL_DR] * dr
         )
-        mm = qs * p[I_C] * (p[I_CM0] + p[I_CMA] * alpha + p[I_CMQ] * cq * qr + p[I_CMDE] * de)
+        mm = qs * p[I_C] * (p[I_CM0] + p[I_CMA] * alpha + p[I_CMQ] * cq * qa + p[I_CMDE] * de)
         if h2 > 0.0:
             kad = qs * p[I_CLAD] * cq
             mad = qs * p[I_C] * p[I_CMAD] * cq
@@ -977,15 +985,79 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
 
 @nb.njit(cache=True, nogil=True)
 def fly(
-    x, n, k0, dt, decim, p, gk, cmd, leg, ap, u, rec_every, rec_x, rec_u, rec_g
+    x, n, k0, dt, decim, p, gk, cmd, leg, ap, u, rec_every, rec_x, rec_u, rec_g, gust
 ):  # pragma: no cover - jit
     """Closed-loop flight: up to ``n`` steps of ``dt`` from global step ``k0``; the control law
     runs every ``decim`` steps (global index), states are recorded every ``rec_every`` steps
     (global index, before the step; 0 = never) into ``rec_x``/``rec_u``/``rec_g``.
 
+    ``gust`` (G, 6): the turbulence of the steps of this call, row ``i`` for step ``i`` --
+    velocity NED (added to the wind ``p[I_WN:I_WD + 1]`` for the step) and rotational gusts
+    (body p, q, r); none (G = 0) or past its end: still air beyond the wind.  ``p``'s wind is
+    the same after the call.
+
     ``x``, ``ap`` and ``u`` are updated in place. Stops early, before the step, when the current
     leg is done (``leg_done``). Returns (steps done, leg_done code, records written).
     """
+    wn = p[I_WN]
+    we = p[I_WE]
+    wd = p[I_WD]
+    ng = gust.shape[0]
+    steps, ev, nrec = _fly(
+        x,
+        n,
+        k0,
+        dt,
+        decim,
+        p,
+        gk,
+        cmd,
+        leg,
+        ap,
+        u,
+        rec_every,
+        rec_x,
+        rec_u,
+        rec_g,
+        gust,
+        ng,
+        wn,
+        we,
+        wd,
+    )
+    p[I_WN] = wn
+    p[I_WE] = we
+    p[I_WD] = wd
+    p[I_GP] = 0.0
+    p[I_GQ] = 0.0
+    p[I_GR] = 0.0
+    return steps, ev, nrec
+
+
+@nb.njit(cache=True, nogil=True)
+def _fly(
+    x,
+    n,
+    k0,
+    dt,
+    decim,
+    p,
+    gk,
+    cmd,
+    leg,
+    ap,
+    u,
+    rec_every,
+    rec_x,
+    rec_u,
+    rec_g,
+    gust,
+    ng,
+    wn,
+    we,
+    wd,
+):  # pragma: no cover - jit
+    """:func:`fly`'s loop."""
     k1 = np.empty(12)
     k2 = np.empty(12)
     k3 = np.empty(12)
@@ -997,6 +1069,20 @@ def fly(
     to_ctrl = (decim - k0 % decim) % decim
     to_rec = (rec_every - k0 % rec_every) % rec_every if rec_every > 0 else -1
     for i in range(n):
+        if i < ng:  # this step's turbulence on top of the wind
+            p[I_WN] = wn + gust[i, 0]
+            p[I_WE] = we + gust[i, 1]
+            p[I_WD] = wd + gust[i, 2]
+            p[I_GP] = gust[i, 3]
+            p[I_GQ] = gust[i, 4]
+            p[I_GR] = gust[i, 5]
+        elif i == ng and ng > 0:
+            p[I_WN] = wn
+            p[I_WE] = we
+            p[I_WD] = wd
+            p[I_GP] = 0.0
+            p[I_GQ] = 0.0
+            p[I_GR] = 0.0
         if to_ctrl == 0:
             ev = leg_done(x, leg)
             if ev != 0:

@@ -435,7 +435,10 @@ I_ENGINE, I_DPROP, I_VBAT, I_KV, I_KQ, I_RMOT, I_I0 = range(56, 63)
 I_CT0, I_CT1, I_CT2, I_CQ0, I_CQ1, I_CQ2 = range(63, 69)
 I_PMAX, I_RPM, I_CP0, I_CP1, I_CP2 = range(69, 74)
 I_CLAD, I_CMAD = 74, 75
-N_PACKED = 76
+# the turbulence's rotational gusts (body axes, rad/s) of the step flown: the kernel's ``fly``
+# sets them with the gusts' velocities (added to the wind above) and clears them after
+I_GP, I_GQ, I_GR = 76, 77, 78
+N_PACKED = 79
 ENGINES = ("electric", "piston")
 
 _PACKED_DERIVS: tuple[tuple[int, str], ...] = (

@@ -162,6 +162,10 @@ class FixedWingStack:
         """The air's velocity (NED, m/s) from now on (:meth:`Autopilot.set_wind`)."""
         self.autopilot.set_wind(wind)
 
+    def set_gusts(self, gusts: npt.ArrayLike) -> None:
+        """The turbulence of the next :meth:`fly` (:meth:`Autopilot.set_gusts`)."""
+        self.autopilot.set_gusts(gusts)
+
     def _trimmed_start(self) -> FloatArray:
         """The start state; first the level trim at the mission's highest waypoint, where the
         air is thinnest: a mission the aircraft cannot fly up there is refused before take-off,

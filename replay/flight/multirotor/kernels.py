@@ -474,12 +474,34 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
 
 
 @nb.njit(cache=True, nogil=True)
-def fly(x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g):  # pragma: no cover - jit
+def fly(
+    x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust
+):  # pragma: no cover - jit
     """Closed loop: up to ``n`` steps of ``dt`` from global step ``k0``, the control law at every
     step; the 12 rigid-body states, the rotor commands and the logged guidance are recorded every
     ``rec_every`` steps (global index, before the step; 0 = never). ``x`` (16 states), ``cs`` and
     ``wc`` are updated in place. Stops before a step when the leg reports its end
-    (:func:`leg_event`). Returns (steps done, event, records written)."""
+    (:func:`leg_event`). Returns (steps done, event, records written).
+
+    ``gust`` (G, >= 3): the turbulence's velocity (NED) of the steps of this call, added to the
+    wind ``p[I_WN:I_WD + 1]`` for its step (the rotational gusts of a fixed wing's span are not
+    modelled for a multirotor); ``p``'s wind is the same after the call."""
+    wn = p[I_WN]
+    we = p[I_WE]
+    wd = p[I_WD]
+    out = _fly(x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust, wn, we, wd)
+    p[I_WN] = wn
+    p[I_WE] = we
+    p[I_WD] = wd
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _fly(
+    x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust, wn, we, wd
+):  # pragma: no cover - jit
+    """:func:`fly`'s loop."""
+    ng = gust.shape[0]
     k1 = np.empty(N_X)
     k2 = np.empty(N_X)
     k3 = np.empty(N_X)
@@ -488,6 +510,14 @@ def fly(x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g):  # pr
     nrec = 0
     to_rec = (rec_every - k0 % rec_every) % rec_every if rec_every > 0 else -1
     for i in range(n):
+        if i < ng:
+            p[I_WN] = wn + gust[i, 0]
+            p[I_WE] = we + gust[i, 1]
+            p[I_WD] = wd + gust[i, 2]
+        elif i == ng and ng > 0:
+            p[I_WN] = wn
+            p[I_WE] = we
+            p[I_WD] = wd
         ev = leg_event(x, cmd)
         if ev != 0:
             return i, ev, nrec

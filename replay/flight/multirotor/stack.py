@@ -216,6 +216,7 @@ class MultirotorStack:
         self._next = 0
         self._done = False
         self._leg_speeds: dict[int, float] = {}  # speed changes: from waypoint index on, m/s
+        self._gust = np.zeros((0, 6))
         if len(wp) > 1:
             self._next = 1
             self._start_leg(direct=False)
@@ -327,6 +328,15 @@ class MultirotorStack:
         if w.shape != (3,) or not np.isfinite(w).all():
             raise InputError(f"wind must be three finite numbers (north, east, down); got {wind!r}")
         self.packed[I_WN], self.packed[I_WE], self.packed[I_WD] = w
+
+    def set_gusts(self, gusts: npt.ArrayLike) -> None:
+        """The turbulence of the next :meth:`fly` call, step by step: (G, 6) rows of gust
+        velocity (NED, m/s, on top of the wind) and rotational gusts (unused: a multirotor's
+        response to them is not modelled); used by that call only."""
+        g = np.ascontiguousarray(gusts, dtype=np.float64)
+        if g.ndim != 2 or g.shape[1] != 6 or not np.isfinite(g).all():
+            raise InputError(f"gusts must be (steps, 6) finite numbers; got shape {g.shape}")
+        self._gust = g
 
     def set_leg_speeds(self, speeds: Mapping[int, float]) -> None:
         """Speed changes (an imported mission's DO_CHANGE_SPEED): from waypoint ``k`` on the
@@ -469,6 +479,7 @@ class MultirotorStack:
         t0_grid = t - k_start * DT
         rec = FlightRecorder(n_total, record_every, t0_grid, DT, kern.N_GUIDANCE_LOG)
         first = len(self.reached)
+        gust, self._gust = self._gust, np.zeros((0, 6))  # this call's turbulence, used once
         done = 0
         while done < n_total:
             k = k_start + done
@@ -486,6 +497,7 @@ class MultirotorStack:
                 rec.x[rec.n :],
                 rec.u[rec.n :],
                 rec.g[rec.n :],
+                gust[done:],
             )
             rec.add(k, steps, nr, self._next)
             done += steps
