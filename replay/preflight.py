@@ -80,6 +80,7 @@ from replay.flight.fixedwing.trim import (
 )
 from replay.flight.fixedwing.trim import ceiling as trim_ceiling
 from replay.flight.multirotor.model import MultirotorParams
+from replay.flight.wind import Wind
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.zones import Zone
@@ -109,6 +110,7 @@ class LegProblem:
     above_ceiling: bool
     refused: bool
     speed: float | None = None  # the leg's own speed where the mission changes it
+    windy: bool = False  # the wind makes it need more than in still air (over the ground)
 
 
 @dataclass(frozen=True)
@@ -199,12 +201,19 @@ def preflight(
     temperature_offset: float = 0.0,
     *,
     changes: bool = True,
+    wind: Wind | None = None,
 ) -> Preflight:
     """The mission's legs checked against the vehicle at ``speed`` (module docstring), or with
     ``changes`` at the mission's own speed changes from where they are made (``Mission.speeds``:
     each leg's climb, descent and ceiling at its speed). Raises only the level trim's refusal (a
     speed the fixed wing cannot fly at the highest waypoint it is flown to); everything else is
-    in the result (:meth:`Preflight.check` raises it)."""
+    in the result (:meth:`Preflight.check` raises it).
+
+    In a ``wind`` a leg's climb or descent is flown over the ground: the rate it needs is its
+    gradient times the ground speed along it (the air's horizontal speed crabbed into the
+    wind's cross component, plus its along component) -- a descent downwind needs more than in
+    still air, a climb into the wind less; a profile's wind is taken at its weakest and its
+    strongest (the worse)."""
     v, dt = float(speed), check_offset(temperature_offset)
     w = np.asarray(mission.waypoints, dtype=np.float64)
     where = f"{mission.source}: " if mission.source else f"mission {mission.name!r}: "
@@ -231,6 +240,9 @@ def preflight(
             # at the leg's top (the conservative end both ways), else over the whole leg
             up = dz > 0
             need = math.copysign(v * math.sin(math.atan2(abs(dz), length)), dz)
+            calm = need
+            if wind is not None and length > 0:
+                need = _need_in_wind(wind, w[k], w[k + 1], z0, z1, v, need, dz / length)
             cap = params.climb_rate_max if up else params.descent_rate_max
             if abs(need) <= cap and not above and _holds_climb(params, v, high, need, dt):
                 continue  # it climbs (sinks) that fast even at the leg's top: one trim solve
@@ -250,8 +262,9 @@ def preflight(
         else:
             if not above:
                 continue
-            need, available, limit = 0.0, 0.0, ""
-        legs.append(LegProblem(k, z0, z1, length, need, available, limit, above, True, v))
+            need, available, limit, calm = 0.0, 0.0, "", 0.0
+        windy = dz != 0 and abs(need) > abs(calm) + 1e-9
+        legs.append(LegProblem(k, z0, z1, length, need, available, limit, above, True, v, windy))
     v = cruise
     refusals = [where + _leg_text(p, params.name, p.speed or v, ceiling, by) for p in legs]
     refusals += [where + text for text in _spirals(mission, params, v, dt)]
@@ -391,6 +404,36 @@ def _average_climb(rates: list[float]) -> float:
     return 6.0 / (1.0 / r0 + 4.0 / rm + 1.0 / r1)
 
 
+def _need_in_wind(
+    wind: Wind,
+    a: FloatArray,
+    b: FloatArray,
+    z0: float,
+    z1: float,
+    v: float,
+    need: float,
+    gradient: float,
+) -> float:
+    """The climb (descent < 0) rate a leg from ``a`` to ``b`` (map) of ``gradient`` over the
+    ground needs at airspeed ``v`` in ``wind``: the gradient times the ground speed along it,
+    the worse of the wind's samples (mid-leg; a profile at its weakest and strongest);
+    ``need``, the still air's, when the wind helps everywhere."""
+    from replay.flight.wind import GRADIENT_HEIGHT_M, MIN_HEIGHT_M
+
+    d = np.asarray(b[:2], dtype=np.float64) - np.asarray(a[:2], dtype=np.float64)
+    e = d / max(float(np.hypot(*d)), 1e-9)
+    horizontal = v * math.cos(math.atan(abs(gradient)))  # the air's horizontal speed
+    worst = need
+    for height in (MIN_HEIGHT_M, GRADIENT_HEIGHT_M):
+        wn, we, _ = wind.velocity(0.5 * (z0 + z1), height)
+        along = we * e[0] + wn * e[1]
+        across = -we * e[1] + wn * e[0]
+        ground = math.sqrt(max(horizontal * horizontal - across * across, 0.0)) + along
+        rate = gradient * ground
+        worst = max(worst, rate) if gradient > 0 else min(worst, rate)
+    return worst
+
+
 def _legs(
     w: FloatArray, arrive: FloatArray | None = None
 ) -> list[tuple[float, float, float, float]]:
@@ -471,7 +514,8 @@ def _leg_text(p: LegProblem, name: str, v: float, ceiling: float, by: str) -> st
             else f"{_rate(abs(p.need))} m/s of {what}"
         )
         text = (
-            f"{leg} {verb} {span} {over}: at {v:g} m/s that needs {need}; {name} has "
+            f"{leg} {verb} {span} {over}: at {v:g} m/s"
+            f"{' in the wind (over the ground)' if p.windy else ''} that needs {need}; {name} has "
             f"{_rate(p.available)} m/s ({p.limit})"
         )
     if p.above_ceiling:

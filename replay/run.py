@@ -221,6 +221,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
             float(speed),
             config.temperature_offset,
             changes=not config.airspeed,  # --speed flies one speed
+            wind=config.wind,
         )
     except InputError as exc:
         if not str(exc).startswith(f"{params.name} cannot trim"):

@@ -229,3 +229,32 @@ def test_a_flight_in_turbulence_repeats_with_its_seed() -> None:
     assert np.abs(r.positions[mid, 1]).max() < 30.0
     # the recorded air data are not in the result: the ground speed gusts instead
     assert np.hypot(ground[:, 0], ground[:, 1]).std() > 0.2
+
+
+def test_the_preflight_judges_climbs_and_descents_over_the_ground() -> None:
+    """A 10 % descent east at 25 m/s needs 2.5 m/s of descent in still air (the aerosonde's
+    idle descent is 2.9): flown into a 10 m/s east wind it needs less (the still air's is
+    kept), with the wind behind it 3.49 m/s -- refused, saying it is the wind's doing."""
+    from replay.preflight import preflight
+
+    m = Mission(
+        name="down",
+        waypoints=np.array([[0.0, 0.0, 800.0], [3000.0, 0.0, 500.0], [6000.0, 0.0, 500.0]]),
+        vehicle="aerosonde",
+        cruise_speed=V,
+        turn_radius=AEROSONDE.performance(V).turn_radius,
+    )
+    assert preflight(m, AEROSONDE, V).ok
+    assert preflight(m, AEROSONDE, V, wind=parse_wind("10,90")).ok  # a headwind
+    tail = preflight(m, AEROSONDE, V, wind=parse_wind("10,270"))
+    (leg,) = tail.legs
+    assert (
+        leg.index == 0
+        and leg.windy
+        and leg.need == pytest.approx(-0.1 * (V * math.cos(math.atan(0.1)) + 10.0))
+    )
+    assert (
+        not tail.ok
+        and "at 25 m/s in the wind (over the ground) that needs 3.49 m/s of descent"
+        in tail.refusals[0]
+    )
