@@ -41,7 +41,20 @@ def test_the_page_has_an_example_of_every_format() -> None:
         "threats.yaml",
         "vehicle.yaml",
         "quadrotor-vehicle.yaml",
+        "wind.yaml",
     }
+
+
+def test_wind_example_loads_its_layers(tmp_path: Path) -> None:
+    from replay.flight.wind import load_wind_file
+
+    w = load_wind_file(_write(tmp_path, "wind.yaml"))
+    assert [(la.altitude, la.speed, la.from_deg) for la in w.layers] == [
+        (3000.0, 8.0, 250.0),
+        (4500.0, 15.0, 270.0),
+    ]
+    assert w.turbulence == "light" and w.up == 0.0
+    np.testing.assert_allclose(w.velocity(4500.0), [0.0, 15.0, 0.0], atol=1e-9)
 
 
 def test_mission_example_loads_and_lies_over_its_map(
