@@ -648,3 +648,33 @@ def test_bad_case_specs_get_one_line(
     assert main(["campaign", str(spec), "--store", str(tmp_path / "r.sqlite")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and expect in err
+
+
+def test_rows_per_wind_share_their_scenarios(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``winds:`` flies every threat row in each wind (rows ``3@calm``, ``3@8-90``...): the same
+    scenarios in every wind (still air keeps the seeds of a spec without winds), each run with
+    its own identity; a run in a wind is flown and stored; a bad wind is a one-line error naming
+    the field."""
+    text = SPEC.replace("counts: [0, 3]", "counts: [3]").replace("runs: 3", "runs: 1")
+    text += 'winds: [calm, "8,90", {speed: 12, from: 0, turbulence: light}]\n'
+    spec = load_spec(_spec(tmp_path, text))
+    assert [r.label for r in spec.rows] == ["3@calm", "3@8-90", "3@12-0-light"]
+    runs = [r for r in spec.all_runs() if r.avoider.name == "ctga"]
+    assert len({r.scenario_seed for r in runs}) == 1 and len({r.run_hash for r in runs}) == 3
+    # still air keeps the scenario seed of a spec without winds
+    plain = load_spec(_spec(tmp_path, SPEC, "plain.yaml"))
+    base = next(r for r in plain.all_runs() if r.key == "seed001-mission/3/ctga/0")
+    assert runs[0].scenario_seed == base.scenario_seed
+    store = tmp_path / "w.sqlite"
+    key = "seed001-mission/3@8-90/none/0"
+    assert main(["campaign", str(_spec(tmp_path, text)), "--store", str(store), "--only", key]) in (
+        0,
+        3,
+    )
+    (row,) = [r for r in _rows(store) if r["key"] == key]
+    assert row["status"] == "ok" and row["metrics"]["flight_time_s"] > 0
+    bad = text.replace('"8,90"', '"8"')
+    with pytest.raises(InputError, match=r"winds\[1\].*expected SPEED,FROM_DEG"):
+        load_spec(_spec(tmp_path, bad, "bad.yaml"))

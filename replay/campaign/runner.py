@@ -150,6 +150,7 @@ def execute(
             software_version=version,
             radar_range=_sensor_range(run, "radar_range"),
             rangefinder_range=_sensor_range(run, "rangefinder_range"),
+            wind=run.row.wind,
             # the spec's DEM carries the missions of other tools (lon/lat, no terrain named)
             dem=run.dem if not run.makes_cases and is_foreign(run.mission) else (),
         )

@@ -22,6 +22,7 @@ runs: 10                                         # per (mission, row, avoider)
 seed: 1
 margin: 0                                        # optional: success margin (m)
 duration: null                                   # optional: longest flight (s)
+winds: [calm, "10,270", {speed: 10, from: 270, turbulence: moderate}]  # optional: rows per wind
 ```
 
 ``sensor_range`` is the radar's or the cooperative sensor's range (default 10 km), or with
@@ -29,7 +30,8 @@ duration: null                                   # optional: longest flight (s)
 avoiders as sensor returns) the beams' range R (default 20 m; four beams, gimballed, no noise).
 
 Paths are relative to the spec's folder.  The study's **rows** are the counts (a generator) or the
-files (each file one row, named by its stem).  A **run** is (mission, row, avoider, run index);
+files (each file one row, named by its stem); with ``winds`` each of them in each wind
+(``40@calm``, ``40@10-270``: the same scenarios in every wind, success against the wind).  A **run** is (mission, row, avoider, run index);
 its key reads ``mission/row/avoider/run`` (the mission by its file's stem, the avoider by its name
 and options: ``pso-ca[optimizer=pso]``).
 
@@ -61,7 +63,7 @@ from terrain.errors import DataFileError, InputError
 
 SPEC_KEYS = (
     *("terrapath", "name", "mission", "missions", "dem", "threats", "avoiders"),
-    *("sensor", "sensor_range", "runs", "seed", "margin", "duration"),
+    *("sensor", "sensor_range", "runs", "seed", "margin", "duration", "winds"),
 )
 THREAT_KEYS = (
     *("generator", "counts", "dynamic", "maps", "files"),
@@ -81,6 +83,15 @@ class Row:
     file: Path | None = None
     dynamic: bool | None = None  # a case generator's row: its static or its dynamic set
     map: str | None = None  # own-scenarios' row: the map (own-buildings': the layout)
+    # a spec's ``winds``: the row's air mass (replay.flight.wind.Wind; None: still air) and the
+    # threat row's label without the wind's (its scenarios are the same in every wind)
+    wind: Any = None
+    threat_label: str | None = None
+
+    @property
+    def scenario_label(self) -> str:
+        """The label the scenario seed is drawn from: the threat row's, whatever the wind."""
+        return self.threat_label or self.label
 
 
 @dataclass(frozen=True)
@@ -164,6 +175,11 @@ class Spec:
                 else {}
             ),
             **({"maps": [r.map for r in self.rows]} if any(r.map for r in self.rows) else {}),
+            **(
+                {"winds": [r.wind.to_dict() if r.wind else None for r in self.rows]}
+                if any(r.wind is not None for r in self.rows)
+                else {}
+            ),
         }
         return hashlib.sha256(json.dumps(canonical, sort_keys=True).encode()).hexdigest()
 
@@ -190,7 +206,7 @@ class Spec:
 
     def run(self, mission: Path, row: Row, avoider: Avoider, index: int) -> Run:
         key = f"{mission.stem}/{row.label}/{avoider.label}/{index}"
-        scenario = derive_seed(self.seed, "scenario", mission.stem, row.label, index)
+        scenario = derive_seed(self.seed, "scenario", mission.stem, row.scenario_label, index)
         seed = derive_seed(self.seed, key)
         identity: dict[str, Any] = {
             "mission": self.digests[str(mission)],
@@ -207,6 +223,8 @@ class Spec:
             identity["dynamic"] = row.dynamic
         if row.map is not None:
             identity["map"] = row.map
+        if row.wind is not None:
+            identity["wind"] = row.wind.to_dict()
         if self.sensor_range is not None:
             identity["sensor_range"] = self.sensor_range
         if self.dem:
@@ -348,6 +366,8 @@ def load_spec(path: str | Path) -> Spec:
     dem = _dem(src, doc.get("dem"), missions if not cases else ())
     generator, params, rows = _threats(src, doc.get("threats"))
     _check_files(missions if not cases else (), rows, dem)
+    if "winds" in doc:
+        rows = _by_wind(src, doc["winds"], rows)
     avoiders = _avoiders(src, doc.get("avoiders"), AVOIDERS)
     sensor = doc.get("sensor", "radar")
     if sensor not in SENSORS:
@@ -397,6 +417,61 @@ def load_spec(path: str | Path) -> Spec:
         dem,
     )
     return replace(spec, spec_hash=spec.content_hash())
+
+
+def _by_wind(src: Path, value: Any, rows: tuple[Row, ...]) -> tuple[Row, ...]:
+    """Every threat row in each wind of the spec's ``winds:`` -- ``calm``, ``SPEED,FROM_DEG``
+    (as ``--wind``) or a mapping ``{speed, from, up, profile, turbulence}`` -- labelled
+    ``ROW@WIND`` (``40@calm``, ``40@10-270``, ``40@10-270-moderate``); the scenarios of a threat
+    row are the same in every wind."""
+    from replay.flight.wind import PROFILES, SEVERITIES, Wind, parse_wind
+
+    if not isinstance(value, list) or not value:
+        raise _fail(
+            src, "winds", f"expected a list of winds (calm, '10,270', ...), found {value!r}"
+        )
+    winds: list[tuple[str, Wind | None]] = []
+    for i, item in enumerate(value):
+        fld = f"winds[{i}]"
+        try:
+            if item in ("calm", 0):
+                winds.append(("calm", None))
+                continue
+            if isinstance(item, str):
+                w = parse_wind(item)
+            elif isinstance(item, dict):
+                unknown = sorted(set(item) - {"speed", "from", "up", "profile", "turbulence"})
+                if unknown:
+                    raise InputError(
+                        f"unknown key(s) {', '.join(unknown)}; allowed: speed, from, up, "
+                        "profile, turbulence"
+                    )
+                turb = item.get("turbulence")
+                if turb is not None and turb not in SEVERITIES:
+                    raise InputError(f"turbulence: expected one of {', '.join(SEVERITIES)}")
+                profile = item.get("profile", "uniform")
+                if profile not in PROFILES:
+                    raise InputError(f"profile: expected one of {', '.join(PROFILES)}")
+                w = parse_wind(
+                    f"{item.get('speed', 0)},{item.get('from', 0)},{item.get('up', 0)}",
+                    profile,
+                    turb,
+                )
+            else:
+                raise InputError(f"expected calm, 'SPEED,FROM_DEG' or a mapping, found {item!r}")
+        except InputError as exc:
+            raise _fail(src, fld, str(exc)) from None
+        label = f"{w.speed:g}-{w.from_deg:g}" + (f"-{w.profile}" if w.profile != "uniform" else "")
+        label += f"-{w.turbulence}" if w.turbulence else ""
+        winds.append((label, w))
+    labels = [lab for lab, _ in winds]
+    if len(set(labels)) != len(labels):
+        raise _fail(src, "winds", f"a wind is given twice ({labels})")
+    return tuple(
+        replace(r, label=f"{r.label}@{lab}", wind=w, threat_label=r.label)
+        for r in rows
+        for lab, w in winds
+    )
 
 
 def _dem(src: Path, value: Any, missions: tuple[Path, ...]) -> tuple[str, ...]:
