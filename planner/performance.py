@@ -57,6 +57,10 @@ class Performance:
     # a multirotor: it climbs and descends on the spot at its rates (any gradient), stops to
     # turn (no fillets), and flies no spirals
     hover: bool = False
+    # the strongest horizontal wind the plan is made for (m/s; plan --wind): the gradients are
+    # over the ground at the fastest ground speed (downwind, V + w: the shallowest a climb or a
+    # descent gets), the fillets and spirals wide enough for the bank at that speed
+    wind: float = 0.0
 
     def __post_init__(self) -> None:
         for fld in ("speed", "climb_rate", "descent_rate", "bank_max_deg"):
@@ -70,6 +74,13 @@ class Performance:
             raise InputError(f"{self.name}: bank_max_deg must be below 90; got {self.bank_max_deg}")
         if math.isnan(self.ceiling):
             raise InputError(f"{self.name}: ceiling must be a number of metres or inf; got nan")
+        if isinstance(self.wind, bool) or not (
+            isinstance(self.wind, int | float) and 0.0 <= self.wind < self.speed
+        ):
+            raise InputError(
+                f"{self.name}: the wind planned for must be >= 0 m/s and slower than its "
+                f"{self.speed:g} m/s; got {self.wind!r}"
+            )
         for fld in ("climb_fraction", "turn_bank_fraction"):
             v = getattr(self, fld)
             if not (isinstance(v, int | float) and 0.0 < v <= 1.0):
@@ -81,14 +92,19 @@ class Performance:
         ``HOVER_GRADIENT``, any: it slows down and climbs on the spot)."""
         if self.hover:
             return HOVER_GRADIENT
-        return self.climb_fraction * self.climb_rate / self.speed
+        return self.climb_fraction * self.climb_rate / self.ground_speed
 
     @property
     def descent_gradient(self) -> float:
         """Steepest planned descent, metres down per metre of horizontal travel."""
         if self.hover:
             return HOVER_GRADIENT
-        return self.climb_fraction * self.descent_rate / self.speed
+        return self.climb_fraction * self.descent_rate / self.ground_speed
+
+    @property
+    def ground_speed(self) -> float:
+        """The fastest ground speed the plan allows for: the airspeed plus the wind."""
+        return self.speed + self.wind
 
     @property
     def turn_climb_gradient(self) -> float:
@@ -98,7 +114,7 @@ class Performance:
         rate = self.turn_climb_rate
         if rate is None:
             rate = TURN_CLIMB_SHARE * self.climb_rate
-        return self.climb_fraction * min(rate, self.climb_rate) / self.speed
+        return self.climb_fraction * min(rate, self.climb_rate) / self.ground_speed
 
     @property
     def turn_bank_deg(self) -> float:
@@ -109,12 +125,13 @@ class Performance:
         """Radius of the planned turn fillets (m); 0 for a multirotor (it stops to turn)."""
         if self.hover:
             return 0.0
-        return self.speed**2 / (G * math.tan(math.radians(self.turn_bank_deg)))
+        return self.ground_speed**2 / (G * math.tan(math.radians(self.turn_bank_deg)))
 
     @property
     def min_turn_radius(self) -> float:
-        """V^2 / (g tan(bank_max)): the tightest turn at cruise (seed 000 eq. 13)."""
-        return self.speed**2 / (G * math.tan(math.radians(self.bank_max_deg)))
+        """V^2 / (g tan(bank_max)): the tightest turn at cruise (seed 000 eq. 13); in a wind
+        at the fastest ground speed, V + w."""
+        return self.ground_speed**2 / (G * math.tan(math.radians(self.bank_max_deg)))
 
     def describe(self) -> str:
         """One line for messages: the limits the plan is held to (the climb as the violation
@@ -126,8 +143,9 @@ class Performance:
                 f"{self.descent_rate:g} m/s on the spot (any gradient), stops to turn (no "
                 f"fillets){ceiling}"
             )
+        wind = f" in up to {self.wind:g} m/s of wind (over the ground)" if self.wind else ""
         return (
-            f"{self.name} at {self.speed:g} m/s: climb <= {100 * self.climb_gradient:.1f} % "
+            f"{self.name} at {self.speed:g} m/s{wind}: climb <= {100 * self.climb_gradient:.1f} % "
             f"({self.climb_fraction:g} x {self.climb_rate:g} m/s), descent <= "
             f"{100 * self.descent_gradient:.1f} %, turns of radius {self.turn_radius:.0f} m "
             f"({self.turn_bank_deg:.0f} deg bank){ceiling}"
@@ -148,6 +166,8 @@ class Performance:
         }
         if math.isfinite(self.ceiling):
             out["ceiling"] = self.ceiling
+        if self.wind:
+            out["wind"] = self.wind
         if self.hover:
             out["hover"] = True
             for k in ("climb_gradient", "descent_gradient", "turn_bank_deg"):

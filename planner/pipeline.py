@@ -20,6 +20,7 @@ Everything is written to a temporary name and renamed when complete (``terrain.a
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -102,6 +103,44 @@ class PlanRequest:
     # final approach descends from it (planner.launch); ``land_heading`` (deg) or the best one
     land: bool = False
     land_heading: float | None = None
+    # the wind planned for (plan --wind): ``performance`` carries its strongest speed (the
+    # gradients over the ground, the fillets' radius); ``wind_at(altitude, height)`` is the
+    # air's (north, east) velocity m/s for the time per leg, ``wind_record`` what the mission
+    # records of it
+    wind_at: Callable[[float, float], tuple[float, float]] | None = None
+    wind_record: dict[str, Any] | None = None
+
+
+def leg_times(
+    waypoints: npt.ArrayLike,
+    speed: float,
+    wind_at: Callable[[float, float], tuple[float, float]] | None = None,
+    ground: Callable[[float, float], float] | None = None,
+) -> list[float]:
+    """Seconds to fly each straight leg at airspeed ``speed``: its horizontal length over the
+    ground speed along it -- the air's horizontal speed on the leg's gradient, crabbed into the
+    cross wind, plus the along wind (``wind_at(altitude, height over the ground)`` at the leg's
+    middle; still air without it)."""
+    w = np.asarray(waypoints, dtype=np.float64)
+    out = []
+    for a, b in itertools.pairwise(w):
+        d = b[:2] - a[:2]
+        length = float(np.hypot(*d))
+        if length <= 0.0:
+            out.append(abs(float(b[2] - a[2])) / max(speed, 1e-9))
+            continue
+        horizontal = speed * math.cos(math.atan(abs(float(b[2] - a[2])) / length))
+        ground_speed = horizontal
+        if wind_at is not None:
+            mid = 0.5 * (a + b)
+            h = float(mid[2]) - (ground(float(mid[0]), float(mid[1])) if ground else 0.0)
+            wn, we = wind_at(float(mid[2]), h)
+            e = d / length
+            along = we * e[0] + wn * e[1]
+            across = -we * e[1] + wn * e[0]
+            ground_speed = math.sqrt(max(horizontal**2 - across**2, 0.0)) + along
+        out.append(length / max(ground_speed, 1e-9))
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -565,6 +604,8 @@ def to_mission(
         "vehicle_limits": perf.as_dict(),
         "violations": [v.as_dict() for v in result.violations],
     }
+    if r.wind_record is not None:
+        provenance["wind"] = r.wind_record
     waypoints, spirals = result.waypoints, result.spirals
     to = prepared.takeoff
     if to is not None:
@@ -584,6 +625,13 @@ def to_mission(
         # the touchdown last: the final approach descends to it from the plan's goal, the fix
         provenance["landing"] = prepared.landing.as_dict()
         waypoints = np.vstack([waypoints, prepared.landing.touchdown[None, :]])
+    if r.wind_at is not None:
+        # the time of each leg over the ground in the wind (spirals not counted)
+        grid = prepared.grid
+        times = leg_times(
+            waypoints, perf.speed, r.wind_at, lambda x, y: float(grid.height_at(x, y))
+        )
+        provenance["leg_times_s"] = [round(t, 1) for t in times]
     return Mission(
         name=r.name or (out.stem if out is not None else "mission"),
         waypoints=waypoints,

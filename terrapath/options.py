@@ -185,8 +185,18 @@ def airspace_options(f: F) -> F:
 
 
 def wind_options(f: F) -> F:
-    """``--wind SPEED,FROM_DEG[,UP]``, ``--wind-profile`` and ``--wind-file`` (winds aloft):
-    the air mass of :mod:`replay.flight.wind`, read by :func:`wind_from_options`."""
+    """``--wind SPEED,FROM_DEG[,UP]``, ``--wind-profile``, ``--turbulence`` and ``--wind-file``
+    (winds aloft): the air mass of :mod:`replay.flight.wind`, read by
+    :func:`wind_from_options`."""
+    return _wind_decorators(f, turbulence=True)
+
+
+def steady_wind_options(f: F) -> F:
+    """:func:`wind_options` without ``--turbulence`` (what ``plan`` plans for)."""
+    return _wind_decorators(f, turbulence=False)
+
+
+def _wind_decorators(f: F, turbulence: bool) -> F:
     decorators = [
         click.option(
             "--wind",
@@ -206,21 +216,26 @@ def wind_options(f: F) -> F:
             "every height), or --wind is the surface wind at 10 m growing to 300 m by a power "
             "law (exponent 1/7) or a logarithmic profile (roughness 0.03 m).",
         ),
-        click.option(
-            "--turbulence",
-            type=click.Choice(["light", "moderate", "severe"]),
-            default=None,
-            help="Dryden turbulence (MIL-F-8785C) on top of the wind: gusts in the 6-DOF "
-            "equations, seeded by --seed. Default: none.",
-        ),
+    ]
+    if turbulence:
+        decorators.append(
+            click.option(
+                "--turbulence",
+                type=click.Choice(["light", "moderate", "severe"]),
+                default=None,
+                help="Dryden turbulence (MIL-F-8785C) on top of the wind: gusts in the 6-DOF "
+                "equations, seeded by --seed. Default: none.",
+            )
+        )
+    decorators.append(
         click.option(
             "--wind-file",
             type=click.Path(exists=True, dir_okay=False),
             default=None,
             help="Winds aloft: a wind file of layers by altitude (speed and direction each, "
             "as forecasts give them; docs/formats.md), instead of --wind.",
-        ),
-    ]
+        )
+    )
     for decorator in reversed(decorators):
         f = decorator(f)
     return f

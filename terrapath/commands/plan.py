@@ -15,7 +15,9 @@ from terrapath.options import (
     output_option,
     refuse_overwriting,
     seed_option,
+    steady_wind_options,
     vehicle_option,
+    wind_from_options,
 )
 from terrapath.progress import progress_bar
 
@@ -100,6 +102,21 @@ def _vehicle_limits(
     return performance, lambda low, high: params.performance(v, (low, high))
 
 
+def _in_wind(
+    wind: Any, performance: Performance, at: Callable[[float, float], Performance]
+) -> tuple[Performance, Callable[[float, float], Performance]]:
+    """The limits for a plan in ``wind``: at the strongest wind over the altitude band (a
+    profile's at 300 m over the ground), the gradients over the ground and the fillets' radius
+    at the fastest ground speed (:attr:`Performance.wind`)."""
+    from dataclasses import replace
+
+    def strongest(low: float, high: float) -> float:
+        return float(wind.strongest(low, high))
+
+    first = replace(performance, wind=strongest(-500.0, 9000.0))
+    return first, lambda low, high: replace(at(low, high), wind=strongest(low, high))
+
+
 def _multirotor_limits(
     params: Any, speed: float | None
 ) -> tuple[Performance, Callable[[float, float], Performance]]:
@@ -159,6 +176,7 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "--zones", type=click.Path(dir_okay=False), default=None, help="Danger zones: YAML or GeoJSON."
 )
 @airspace_options
+@steady_wind_options
 @click.option(
     "--algorithm",
     type=click.Choice(["ampso", "pso", "apso", "ga"]),
@@ -352,6 +370,9 @@ def plan_cmd(
     zones: str | None,
     airspace: tuple[str, ...],
     start_time: str | None,
+    wind_text: str | None,
+    wind_profile: str,
+    wind_file: str | None,
     algorithm: str,
     n_waypoints: int,
     population: int,
@@ -403,6 +424,16 @@ def plan_cmd(
         {"DEM": dem, "--zones": [zones] if zones else [], "--vehicle": [vehicle]},
     )
     performance, performance_at = _vehicle_limits(vehicle, speed)
+    wind = wind_from_options(wind_text, wind_profile, wind_file)
+    wind_at, wind_record = None, None
+    if wind is not None and not wind.calm:
+        performance, performance_at = _in_wind(wind, performance, performance_at)
+        wind_record = wind.to_dict()
+
+        def wind_at(altitude: float, height: float) -> tuple[float, float]:
+            v = wind.velocity(altitude, height)
+            return float(v[0]), float(v[1])
+
     request = PlanRequest(
         dem=tuple(dem),
         start=start,
@@ -419,6 +450,8 @@ def plan_cmd(
         zones=zones,
         airspace=tuple(airspace),
         start_time=parse_start(start_time) if start_time else None,
+        wind_at=wind_at,
+        wind_record=wind_record,
         algorithm=algorithm,
         n_waypoints=n_waypoints,
         population=population,
@@ -497,6 +530,13 @@ def _echo_summary(outcome: PlanOutcome, performance: Performance) -> None:
             f"  spirals   {len(result.spirals)} ({turns} turns of {result.spirals[0].radius:.0f} m, "
             f"at waypoint {at}): the climb and descent need at least {bound / 1000:.2f} km of "
             f"path at the gradients; the path is {t.get('length_over_bound', 0.0):.2f} x that"
+        )
+    times = outcome.mission.plan.get("leg_times_s")
+    if times:
+        per_leg = ", ".join(f"{v / 60:.1f}" for v in times)
+        click.echo(
+            f"  in wind   {sum(times) / 60:.1f} min over the ground at "
+            f"{enforced.speed:g} m/s (legs: {per_leg} min)"
         )
     ex = result.params.get("exploration")
     if isinstance(ex, dict):
