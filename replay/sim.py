@@ -346,6 +346,8 @@ def simulate(
         decisions=tuple(loop.decisions),
         seed=cfg.seed,
         wall_s=time.perf_counter() - wall0,
+        # the air's velocity (K, 3) NED at every sample, gusts included (a run with wind)
+        extra={"wind": np.concatenate(loop.air)} if loop.air else {},
     )
 
 
@@ -441,6 +443,7 @@ class _Loop:
             self.dryden = Dryden(self.wind.turbulence, float(span), [cfg.seed, 36])
         self.gust_now = np.zeros((0, 6))
         self.tick_t0 = 0.0
+        self.air: list[FloatArray] = []  # the air's velocity at the kept samples
         self.terrain_model, self.recorder = terrain_model, recorder
         self.wp0 = np.array(mission.waypoints, dtype=np.float64)
         self.duration = time_limit(mission, cfg, avoider)
@@ -595,6 +598,8 @@ class _Loop:
         self.pending.append((ts[:keep], pos[:keep], clearance[:keep]))
         self.times.append(ts[:keep])
         self.states.append(xs[:keep])
+        if self.wind is not None:
+            self.air.append(self.winds(ts[:keep]))
         self._judge(log, pos, keep, following, commanded)
         rec = self.recorder
         if rec is not None:

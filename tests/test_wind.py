@@ -139,6 +139,15 @@ def test_wind_options_and_bad_input(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert main([*args, "--wind", "10,300"]) == 0
     run = load_run(out, with_states=False)
     assert json.loads(run.metadata["wind"])["text"] == "10 m/s from 300 deg"
+    # the picture and the view: the airspeed through the air, the wind drawn (an arrow, its text)
+    from replay.record.picture import recorded_view
+
+    view = recorded_view(out)
+    assert view.wind_text == "10 m/s from 300 deg" and view.wind is not None
+    assert np.median(view.airspeed) == pytest.approx(V, rel=0.01)
+    html = tmp_path / "v.html"
+    assert main(["view", str(out), "-o", str(html)]) == 0
+    assert "wind 10 m\\u002fs from 300 deg" in html.read_text()  # plotly's JSON escapes "/"
     capsys.readouterr()
     bad = [
         (["--wind", "25,90"], "is not slower than aerosonde's 25 m/s airspeed"),

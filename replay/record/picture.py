@@ -30,6 +30,7 @@ At most :data:`MAX_POINTS` samples of the trajectory are drawn (a regular stride
 from __future__ import annotations
 
 import functools
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,7 +39,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from replay.frames import PD, PE, PHI, PN, U, V, W
+from replay.frames import PD, PE, PHI, PN, U, V, W, velocities_ned
 from replay.record import topics as T
 from terrain.errors import InputError
 
@@ -73,6 +74,8 @@ class RunView:
     avoid: str | None = None
     stride: int = 1  # times/positions hold every stride-th recorded state
     n_states: int = 0  # states recorded (0: len(times))
+    wind: FloatArray | None = None  # (K, 3) the air's velocity NED at each sample (None: still)
+    wind_text: str = ""  # the run's wind in words ("10 m/s from 270 deg"), "" in still air
 
 
 def _title(name: str, avoid: str | None, success: bool) -> str:
@@ -100,6 +103,13 @@ def recorded_view(run: str | Path, max_states: int | None = MAX_POINTS) -> RunVi
     s = record.states
     start = record.waypoints[0].waypoints if record.waypoints else mission.waypoints
     m = record.metrics
+    wind = None
+    if "wind_n" in record.extras:
+        wind = np.column_stack([record.extras[k] for k in ("wind_n", "wind_e", "wind_d")])
+        wind = np.nan_to_num(wind)
+    wind_text = ""
+    if "wind" in record.metadata:
+        wind_text = str(json.loads(record.metadata["wind"]).get("text", ""))
     return RunView(
         _title(src.name, record.metadata.get("avoid"), bool(m.get("success"))),
         mission,
@@ -112,14 +122,23 @@ def recorded_view(run: str | Path, max_states: int | None = MAX_POINTS) -> RunVi
         record.waypoints[-1].waypoints if record.waypoints else start,
         tuple(d.decision for d in record.decisions),
         float(m.get("margin_m") or 0.0),
-        np.linalg.norm(s[:, [U, V, W]], axis=1),
+        _airspeed(s, wind),
         s[:, PHI].copy(),
         tuple((c.t, c.waypoints, c.reason) for c in record.waypoints[1:]),
         bool(m.get("success")),
         record.metadata.get("avoid"),
         record.state_stride,
         record.topic_counts.get(T.VEHICLE_STATE, 0),
+        wind,
+        wind_text,
     )
+
+
+def _airspeed(states: FloatArray, wind: FloatArray | None) -> FloatArray:
+    """The speed through the air of each state (its ground velocity less the air's)."""
+    if wind is None:
+        return np.asarray(np.linalg.norm(states[:, [U, V, W]], axis=1))
+    return np.asarray(np.linalg.norm(velocities_ned(states) - wind, axis=1))
 
 
 def replay_view(prepared: Any, result: Any, name: str) -> RunView:
@@ -137,10 +156,12 @@ def replay_view(prepared: Any, result: Any, name: str) -> RunView:
         result.waypoints,
         tuple(result.decisions),
         float(result.metrics.margin_m),
-        np.linalg.norm(result.states[:, [U, V, W]], axis=1),
+        _airspeed(result.states, result.extra.get("wind")),
         result.states[:, PHI].copy(),
         success=bool(result.metrics.success),
         avoid=prepared.request.avoid,
+        wind=result.extra.get("wind"),
+        wind_text=prepared.config.wind.describe() if prepared.config.wind else "",
     )
 
 
@@ -175,6 +196,7 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     _draw_flight(ax, view, xyz, t, sep)
     _draw_decisions(ax, view.decisions)
     _set_limits(ax, grid, xyz, view.initial_waypoints)
+    _draw_wind(ax, view)
     legend_below(ax)
 
     ax2 = fig.add_subplot(gs[1])
@@ -185,6 +207,38 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     every = step * view.stride
     ax3.set_xlabel("time (min)" + (f"; 1 in {every} of {n} states drawn" if every > 1 else ""))
     return save_figure(fig, out)
+
+
+def _draw_wind(ax: Any, view: RunView) -> None:
+    """An arrow in the plan view's top-left corner the way the air moves (the run's mean wind,
+    its length growing with the speed), labelled with the wind in words."""
+    if view.wind is None or not len(view.wind):
+        return
+    wn, we = (float(v) for v in np.mean(view.wind[:, :2], axis=0))
+    speed = math.hypot(wn, we)
+    if speed < 0.1:
+        return
+    x0, y0 = 0.08, 0.90  # axes fraction
+    size = 0.04 + 0.06 * min(speed / 20.0, 1.0)
+    ax.annotate(
+        "",
+        xy=(x0 + size * we / speed, y0 + size * wn / speed),
+        xytext=(x0, y0),
+        xycoords="axes fraction",
+        arrowprops={"arrowstyle": "-|>", "color": "#1f3f7f", "lw": 2.0},
+        zorder=20,
+    )
+    text = view.wind_text or f"{speed:.1f} m/s"
+    ax.text(
+        x0,
+        y0 - 0.05,
+        f"wind {text}",
+        transform=ax.transAxes,
+        fontsize=8,
+        color="#1f3f7f",
+        bbox={"facecolor": "white", "alpha": 0.75, "edgecolor": "none", "pad": 1.5},
+        zorder=20,
+    )
 
 
 def _draw_map(fig: Any, ax: Any, view: RunView) -> None:

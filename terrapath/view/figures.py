@@ -760,6 +760,7 @@ def map_figure(sources: list[Source]) -> Any:
             fig.add_trace(_trace(_intruder_track(th, t_end)))
     for mark, _ in _layers(sources):
         fig.add_trace(_trace(mark))
+    _add_wind_arrow(fig, sources, (xmin, ymin, xmax, ymax))
     fig.update_layout(
         xaxis={"title": {"text": "x east (m)"}, "range": [xmin, xmax], "constrain": "domain"},
         yaxis={
@@ -778,6 +779,47 @@ def map_figure(sources: list[Source]) -> Any:
         legend={"groupclick": "togglegroup"},
     )
     return fig
+
+
+def _add_wind_arrow(fig: Any, sources: list[Source], extent: tuple[float, ...]) -> None:
+    """The first windy run's mean wind as an arrow the way the air moves, in the map's top-left
+    corner, labelled with the wind in words (the picture's arrow, :mod:`replay.record.picture`)."""
+    run = next((s.run for s in sources if getattr(s.run, "wind", None) is not None), None)
+    if run is None or not len(run.wind):
+        return
+    wn, we = (float(v) for v in np.mean(run.wind[:, :2], axis=0))
+    speed = math.hypot(wn, we)
+    if speed < 0.1:
+        return
+    xmin, ymin, xmax, ymax = extent
+    size = (0.04 + 0.06 * min(speed / 20.0, 1.0)) * min(xmax - xmin, ymax - ymin)
+    x0, y0 = xmin + 0.08 * (xmax - xmin), ymax - 0.08 * (ymax - ymin)
+    fig.add_annotation(
+        x=x0 + size * we / speed,
+        y=y0 + size * wn / speed,
+        ax=x0,
+        ay=y0,
+        xref="x",
+        yref="y",
+        axref="x",
+        ayref="y",
+        showarrow=True,
+        arrowhead=2,
+        arrowwidth=2.5,
+        arrowcolor="#1f3f7f",
+        text="",
+    )
+    fig.add_annotation(
+        x=x0,
+        y=y0 - 0.04 * (ymax - ymin),
+        xref="x",
+        yref="y",
+        showarrow=False,
+        xanchor="left",
+        text=f"wind {run.wind_text or f'{speed:.1f} m/s'}",
+        font={"color": "#1f3f7f", "size": 12},
+        bgcolor="rgba(255,255,255,0.75)",
+    )
 
 
 # -- the time plots -------------------------------------------------------------------------------
