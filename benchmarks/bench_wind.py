@@ -1,6 +1,7 @@
 """The demo mission in wind (issue 36): `make demo`'s plan over Rocky Mountain National Park (the
-aerosonde at 25 m/s, seed 1) flown with terrain following off in still air and in a 10 m/s wind
-from each of 8 directions -- success (no terrain contact on the measured heights, the track within
+aerosonde at 25 m/s, seed 1) flown with terrain following off in still air, in a 10 m/s wind
+from each of 8 directions, and in that wind from the west with light and moderate Dryden
+turbulence -- success (no terrain contact on the measured heights, the track within
 the conformance tolerances of the plan: issue 22's judge), the lowest clearance, the time off the
 plan, the flight time.
 
@@ -55,6 +56,13 @@ def main() -> None:
             (f"{args.speed:g} m/s from {d:03d}", parse_wind(f"{args.speed},{d}"))
             for d in range(0, 360, 45)
         ]
+        winds += [
+            (
+                f"{args.speed:g} m/s from 270, {t} turbulence",
+                parse_wind(f"{args.speed},270", turbulence=t),
+            )
+            for t in ("light", "moderate")
+        ]
         ok = 0
         for label, wind in winds:
             t = time.perf_counter()
@@ -75,7 +83,7 @@ def main() -> None:
             print(label, rows[-1][1], flush=True)
     rows.append(("successes", f"{ok} / {len(winds)}", f"{len(winds)} / {len(winds)}"))
     emit(
-        f"The demo mission in {args.speed:g} m/s of wind from 8 directions (issue 36)",
+        f"The demo mission in {args.speed:g} m/s of wind from 8 directions and in turbulence (issue 36)",
         rows,
         "make demo's plan (seed 1), terrain following off, seed 1; the judge of issue 22",
         args.no_record,
