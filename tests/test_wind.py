@@ -267,3 +267,30 @@ def test_the_preflight_judges_climbs_and_descents_over_the_ground() -> None:
         and "at 25 m/s in the wind (over the ground) that needs 3.49 m/s of descent"
         in tail.refusals[0]
     )
+
+
+@pytest.mark.parametrize("avoid", ["ctga", "fga", "pso-ca"])
+def test_avoiders_keep_clear_of_a_threat_in_a_crosswind(avoid: str) -> None:
+    """A 300 m sphere popping up on the straight leg, a 10 m/s wind across it from the north:
+    every fixed-wing avoider turns round it (its turns at the airspeed plus the wind) and the
+    flight succeeds, clear of the sphere; flying straight on enters it."""
+    from replay.threats.file import threats_from_records
+
+    m, _ = _straight(Wind())
+    threat = {"id": "t", "kind": "static", "position": [10_000.0, 0.0, 500.0], "radius": 300.0}
+    threats = threats_from_records([{**threat, "appears_at": 60.0}])
+    wind = parse_wind("10,0")
+    for name in (avoid, "none"):
+        r = simulate(
+            m,
+            threats,
+            make_avoider(name),
+            AEROSONDE,
+            config=ReplayConfig(seed=1, wind=wind, sensor="cooperative"),
+        )
+        sep = float(np.hypot(*(r.positions[:, :2] - [10_000.0, 0.0]).T).min()) - 300.0
+        if name == "none":
+            assert sep < 0
+        else:
+            assert r.metrics.success, r.metrics.failures
+            assert sep > 0
