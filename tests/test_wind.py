@@ -19,7 +19,7 @@ from replay.flight.multirotor.model import MULTIROTOR_PRESETS
 from replay.flight.wind import Wind, WindLayer, load_wind_file, parse_wind
 from replay.frames import velocities_ned
 from replay.guidance import Orbit
-from replay.sim import ReplayConfig, simulate
+from replay.sim import ReplayConfig, ReplayResult, simulate
 from replay.threats.kinds import ThreatSet
 from terrain.errors import InputError
 from terrapath.cli import main
@@ -47,7 +47,7 @@ def test_direction_profiles_and_layers() -> None:
     assert layers.strongest(0.0, 5000.0) == pytest.approx(10.0)
 
 
-def _straight(wind: Wind) -> tuple[Mission, object]:
+def _straight(wind: Wind) -> tuple[Mission, ReplayResult]:
     m = Mission(
         name="east",
         waypoints=np.array(
