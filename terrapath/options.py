@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -64,6 +64,11 @@ def dem_options(f: F) -> F:
             "the metres one cell measures (lengths are then reported in metres).",
         ),
     ]
+    return decorate(f, decorators)
+
+
+def decorate(f: F, decorators: Sequence[Callable[[Any], Any]]) -> F:
+    """``f`` under ``decorators``, the first outermost (as they would be written above it)."""
     for d in reversed(decorators):
         f = d(f)
     return f
@@ -179,9 +184,7 @@ def airspace_options(f: F) -> F:
             "when active during the flight. Default: every zone applies.",
         ),
     ]
-    for decorator in reversed(decorators):
-        f = decorator(f)
-    return f
+    return decorate(f, decorators)
 
 
 def wind_options(f: F) -> F:
@@ -236,9 +239,7 @@ def _wind_decorators(f: F, turbulence: bool) -> F:
             "as forecasts give them; docs/formats.md), instead of --wind.",
         )
     )
-    for decorator in reversed(decorators):
-        f = decorator(f)
-    return f
+    return decorate(f, decorators)
 
 
 def wind_from_options(

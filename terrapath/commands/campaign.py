@@ -11,6 +11,7 @@ from typing import Any, TypeVar
 
 import click
 
+from terrapath.options import decorate
 from terrapath.progress import progress_bar
 from terrapath.runtext import duration
 
@@ -49,9 +50,7 @@ def executor_options(f: F) -> F:
             help="Where kept MCAPs go (default: the store's name + '-mcap' beside it).",
         ),
     ]
-    for d in reversed(decorators):
-        f = d(f)
-    return f
+    return decorate(f, decorators)
 
 
 @click.command("campaign")

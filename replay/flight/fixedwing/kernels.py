@@ -983,6 +983,17 @@ def control_law(x, p, gk, cmd, leg, ap, dtc, u):  # pragma: no cover - jit
     ap[A_DIST] = dist
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _still(p, wn, we, wd):  # pragma: no cover - jit
+    """The wind back to ``(wn, we, wd)`` without gusts (the end of :func:`fly`'s turbulence)."""
+    p[I_WN] = wn
+    p[I_WE] = we
+    p[I_WD] = wd
+    p[I_GP] = 0.0
+    p[I_GQ] = 0.0
+    p[I_GR] = 0.0
+
+
 @nb.njit(cache=True, nogil=True)
 def fly(
     x, n, k0, dt, decim, p, gk, cmd, leg, ap, u, rec_every, rec_x, rec_u, rec_g, gust
@@ -1003,61 +1014,6 @@ def fly(
     we = p[I_WE]
     wd = p[I_WD]
     ng = gust.shape[0]
-    steps, ev, nrec = _fly(
-        x,
-        n,
-        k0,
-        dt,
-        decim,
-        p,
-        gk,
-        cmd,
-        leg,
-        ap,
-        u,
-        rec_every,
-        rec_x,
-        rec_u,
-        rec_g,
-        gust,
-        ng,
-        wn,
-        we,
-        wd,
-    )
-    p[I_WN] = wn
-    p[I_WE] = we
-    p[I_WD] = wd
-    p[I_GP] = 0.0
-    p[I_GQ] = 0.0
-    p[I_GR] = 0.0
-    return steps, ev, nrec
-
-
-@nb.njit(cache=True, nogil=True)
-def _fly(
-    x,
-    n,
-    k0,
-    dt,
-    decim,
-    p,
-    gk,
-    cmd,
-    leg,
-    ap,
-    u,
-    rec_every,
-    rec_x,
-    rec_u,
-    rec_g,
-    gust,
-    ng,
-    wn,
-    we,
-    wd,
-):  # pragma: no cover - jit
-    """:func:`fly`'s loop."""
     k1 = np.empty(12)
     k2 = np.empty(12)
     k3 = np.empty(12)
@@ -1077,15 +1033,11 @@ def _fly(
             p[I_GQ] = gust[i, 4]
             p[I_GR] = gust[i, 5]
         elif i == ng and ng > 0:
-            p[I_WN] = wn
-            p[I_WE] = we
-            p[I_WD] = wd
-            p[I_GP] = 0.0
-            p[I_GQ] = 0.0
-            p[I_GR] = 0.0
+            _still(p, wn, we, wd)
         if to_ctrl == 0:
             ev = leg_done(x, leg)
             if ev != 0:
+                _still(p, wn, we, wd)
                 return i, ev, nrec
             control_law(x, p, gk, cmd, leg, ap, dtc, u)
             to_ctrl = decim
@@ -1095,4 +1047,5 @@ def _fly(
         _rk4_into(x, u, dt, p, k1, k2, k3, k4, tmp)
         to_ctrl -= 1
         to_rec -= 1
+    _still(p, wn, we, wd)
     return n, 0, nrec

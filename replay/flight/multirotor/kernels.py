@@ -473,6 +473,14 @@ def control_law(x, p, gk, cmd, cs, dt, wc):  # pragma: no cover - jit
     cs[S_THETA_C] = theta_c
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _still(p, wn, we, wd):  # pragma: no cover - jit
+    """The wind back to ``(wn, we, wd)`` (the end of :func:`fly`'s turbulence)."""
+    p[I_WN] = wn
+    p[I_WE] = we
+    p[I_WD] = wd
+
+
 @nb.njit(cache=True, nogil=True)
 def fly(
     x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust
@@ -489,18 +497,6 @@ def fly(
     wn = p[I_WN]
     we = p[I_WE]
     wd = p[I_WD]
-    out = _fly(x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust, wn, we, wd)
-    p[I_WN] = wn
-    p[I_WE] = we
-    p[I_WD] = wd
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
-def _fly(
-    x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust, wn, we, wd
-):  # pragma: no cover - jit
-    """:func:`fly`'s loop."""
     ng = gust.shape[0]
     k1 = np.empty(N_X)
     k2 = np.empty(N_X)
@@ -515,11 +511,10 @@ def _fly(
             p[I_WE] = we + gust[i, 1]
             p[I_WD] = wd + gust[i, 2]
         elif i == ng and ng > 0:
-            p[I_WN] = wn
-            p[I_WE] = we
-            p[I_WD] = wd
+            _still(p, wn, we, wd)
         ev = leg_event(x, cmd)
         if ev != 0:
+            _still(p, wn, we, wd)
             return i, ev, nrec
         control_law(x, p, gk, cmd, cs, dt, wc)
         if to_rec == 0:
@@ -527,4 +522,5 @@ def _fly(
             to_rec = rec_every
         _rk4_into(x, wc, dt, p, k1, k2, k3, k4, tmp)
         to_rec -= 1
+    _still(p, wn, we, wd)
     return n, 0, nrec
