@@ -241,6 +241,20 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
             f"{params.name} flies the waypoints' altitudes and does not follow the terrain "
             f"({following:g} m of clearance asked)",
         )
+    elif (
+        not following
+        and r.terrain_following is None
+        and grid is not None
+        and not avoider.passive
+        and params.follows_terrain
+    ):
+        # a mission of another tool names no clearance: its avoidance manoeuvres (an orbit,
+        # a held course) are flown at their altitude over whatever terrain lies there
+        warnings += (
+            "terrain following is off (the mission names no planned clearance): the "
+            "avoider's manoeuvres are flown at their altitude whatever the terrain below; "
+            "give --terrain-following METRES to keep that much above it",
+        )
     return PreparedReplay(
         r,
         mission,

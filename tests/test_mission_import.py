@@ -756,3 +756,28 @@ def test_avoiders_keep_inside_an_inclusion_geofence(tmp_path: Path, grid, avoid:
             assert y.min() < -700.0 and y.max() < 50.0
         else:
             assert y.min() > -700.0 and y.max() > 500.0
+
+
+def test_an_avoider_over_terrain_without_terrain_following_is_warned(tmp_path: Path, grid) -> None:
+    """A mission of another tool names no clearance: with an avoider the replay warns that its
+    manoeuvres are not held above the terrain and names --terrain-following; given it, or with
+    no avoider, no such warning."""
+    from replay.run import ReplayRequest, prepare_replay
+
+    a, b = _ll(grid, 3000, 0), _ll(grid, 9000, 0)
+    items = [
+        _item(22, 3, [15, 0, 0, None, 0, 0, 1500], 1),
+        _item(16, 3, [0, 0, 0, None, a[0], a[1], 1500], 2),
+        _item(16, 3, [0, 0, 0, None, b[0], b[1], 1500], 3),
+    ]
+    path = tmp_path / "p.plan"
+    path.write_text(json.dumps(_qgc_plan(grid, items)))
+    dem = (str(RMNP),)
+
+    def warned(**kw: Any) -> bool:
+        w = prepare_replay(ReplayRequest.of(str(path), dem=dem, **kw)).warnings
+        return any("give --terrain-following METRES" in x for x in w)
+
+    assert warned(avoid="ctga")
+    assert not warned(avoid="ctga", terrain_following=50.0)
+    assert not warned()
