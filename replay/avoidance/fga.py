@@ -929,6 +929,8 @@ class FgaAvoider(AvoiderBase):
             d = float(np.hypot(*(w[j, :2] - pos[:2])))
             if d < 2.0 * rho and j < len(w) - 1:
                 continue
+            if j < len(w) - 1 and self._kept_out(w[j], near):
+                continue  # a waypoint in a stationary obstacle's keep-out: led past it
             c = bearing(pos, w[j])
             # the climb the autopilot's altitude loop will command towards the waypoint
             climb = min(max(LoopDesign.altitude_gain * float(w[j, 2] - pos[2]), -down), up)
@@ -939,6 +941,22 @@ class FgaAvoider(AvoiderBase):
                 return j, {"course_deg": math.degrees(c), "climb": climb}
             return None
         return None
+
+    def _kept_out(self, waypoint: FloatArray, near: list[FgaObstacle]) -> bool:
+        """A waypoint inside a stationary obstacle's keep-out (its radius plus ``d_m``,
+        horizontally, within its vertical extent): no way back to it is ever clear, so the
+        way back leads past it to the next (not in the paper; PSO-CA's Fig. 9 / 23 rule) --
+        an obstacle moves on and is not skipped round."""
+        for o in near:
+            if o.moving:
+                continue
+            inside = math.hypot(waypoint[0] - o.center[0], waypoint[1] - o.center[1])
+            if (
+                inside < o.radius + self.d_m
+                and o.bottom - self.d_m <= waypoint[2] <= o.top + self.d_m
+            ):
+                return True
+        return False
 
     def _info(
         self,
