@@ -24,6 +24,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+import numpy.typing as npt
+
 from terrain.errors import InputError
 
 G = 9.81  # m/s^2, as replay/flight/fixedwing/params.py (seed 000 eq. 13)
@@ -177,3 +180,16 @@ class Performance:
             out["turn_climb_rate"] = round(self.turn_climb_rate, 4)
         out["turn_climb_gradient"] = round(self.turn_climb_gradient, 5)
         return out
+
+
+def ground_speed(
+    horizontal: float, wind_ne: tuple[float, float], direction: npt.ArrayLike
+) -> float:
+    """The ground speed (m/s) along the unit horizontal ``direction`` (map x east, y north) of
+    an aircraft whose speed through the air is ``horizontal`` m/s horizontally, crabbed into the
+    wind ``(north, east)`` m/s: the air's speed less the cross wind, plus the along wind."""
+    e = np.asarray(direction, dtype=np.float64)
+    wn, we = (float(v) for v in wind_ne)
+    along = we * e[0] + wn * e[1]
+    across = -we * e[1] + wn * e[0]
+    return math.sqrt(max(horizontal * horizontal - across * across, 0.0)) + along

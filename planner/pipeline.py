@@ -33,7 +33,7 @@ import numpy.typing as npt
 from planner.explore import ROUTES
 from planner.launch import Landing, Takeoff
 from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
-from planner.performance import Performance
+from planner.performance import Performance, ground_speed
 from planner.plan import DEFAULT_ALGORITHM, plan
 from planner.problem import PlanningProblem, terrain_top
 from planner.result import PlanResult, spiral_violation
@@ -130,16 +130,12 @@ def leg_times(
             out.append(abs(float(b[2] - a[2])) / max(speed, 1e-9))
             continue
         horizontal = speed * math.cos(math.atan(abs(float(b[2] - a[2])) / length))
-        ground_speed = horizontal
+        over = horizontal
         if wind_at is not None:
             mid = 0.5 * (a + b)
             h = float(mid[2]) - (ground(float(mid[0]), float(mid[1])) if ground else 0.0)
-            wn, we = wind_at(float(mid[2]), h)
-            e = d / length
-            along = we * e[0] + wn * e[1]
-            across = -we * e[1] + wn * e[0]
-            ground_speed = math.sqrt(max(horizontal**2 - across**2, 0.0)) + along
-        out.append(length / max(ground_speed, 1e-9))
+            over = ground_speed(horizontal, wind_at(float(mid[2]), h), d / length)
+        out.append(length / max(over, 1e-9))
     return out
 
 

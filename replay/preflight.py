@@ -65,7 +65,7 @@ import numpy.typing as npt
 
 from planner.check import Finding, GeometryCheck, check_geometry
 from planner.mission import Mission
-from planner.performance import Performance
+from planner.performance import Performance, ground_speed
 from replay.flight.atmosphere import RHO0, check_offset, density_at
 from replay.flight.base import G
 from replay.flight.fixedwing.params import VehicleParams
@@ -426,10 +426,7 @@ def _need_in_wind(
     worst = need
     for height in (MIN_HEIGHT_M, GRADIENT_HEIGHT_M):
         wn, we, _ = wind.velocity(0.5 * (z0 + z1), height)
-        along = we * e[0] + wn * e[1]
-        across = -we * e[1] + wn * e[0]
-        ground = math.sqrt(max(horizontal * horizontal - across * across, 0.0)) + along
-        rate = gradient * ground
+        rate = gradient * ground_speed(horizontal, (wn, we), e)
         worst = max(worst, rate) if gradient > 0 else min(worst, rate)
     return worst
 

@@ -36,6 +36,7 @@ from replay.sim import (
     estimated_flight_time,
     rangefinder_spread,
     simulate,
+    strongest_wind,
     time_limit,
 )
 from replay.source import mission_on_terrain, on_its_terrain, recorded_threats
@@ -207,9 +208,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     params.check_speed(speed, "cruise speed")
     # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes -- at the fastest ground
     # speed of a turn in the run's wind (the airspeed plus the strongest wind on the way)
-    z = np.asarray(mission.waypoints, dtype=np.float64)[:, 2]
-    gusty = config.wind.strongest(float(z.min()), float(z.max())) if config.wind else 0.0
-    avoider.check_vehicle(params, float(speed) + gusty)
+    avoider.check_vehicle(params, float(speed) + strongest_wind(mission, config))
     # e.g. the priority loop: its sensor, a start outside the obstacles
     avoider.check_setup(config, mission, threats, grid, float(speed))
     # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)

@@ -240,6 +240,15 @@ def estimated_flight_time(waypoints: FloatArray, speed: float) -> float:
     return float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum() / speed)
 
 
+def strongest_wind(mission: Mission, cfg: ReplayConfig) -> float:
+    """The fastest horizontal wind (m/s) of the run between the mission's lowest and highest
+    waypoints (0 in still air)."""
+    if cfg.wind is None or cfg.wind.calm:
+        return 0.0
+    z = np.asarray(mission.waypoints, dtype=np.float64)[:, 2]
+    return float(cfg.wind.strongest(float(z.min()), float(z.max())))
+
+
 def time_limit(mission: Mission, cfg: ReplayConfig, avoider: Any = None) -> float:
     """How long a replay may fly (s): the configured duration, else 1.5 x the mission's flight
     time at its airspeed (into the strongest wind on the way: less its speed; its spirals'
@@ -249,10 +258,8 @@ def time_limit(mission: Mission, cfg: ReplayConfig, avoider: Any = None) -> floa
     if cfg.duration:
         return float(cfg.duration)
     speed = float(cfg.airspeed or mission.cruise_speed)
-    if cfg.wind is not None and not cfg.wind.calm:
-        # the ground speed into the strongest wind on the way (at least a fifth of the airspeed)
-        z = np.asarray(mission.waypoints, dtype=np.float64)[:, 2]
-        speed = max(speed - cfg.wind.strongest(float(z.min()), float(z.max())), 0.2 * speed)
+    # the ground speed into the strongest wind on the way (at least a fifth of the airspeed)
+    speed = max(speed - strongest_wind(mission, cfg), 0.2 * speed)
     loops = sum(2.0 * math.pi * sp.radius * sp.turns for sp in mission.spirals)  # climb spirals
     flight = estimated_flight_time(np.asarray(mission.waypoints, np.float64), speed)
     own = getattr(avoider, "time_limit_s", None)
@@ -384,9 +391,8 @@ def _check_wind(cfg: ReplayConfig, mission: Mission, stack: FlightStack) -> Wind
     wind = cfg.wind
     if wind is None or wind.calm:
         return None
-    z = np.asarray(mission.waypoints, dtype=np.float64)[:, 2]
     speed = float(cfg.airspeed or mission.cruise_speed)
-    fastest = wind.strongest(float(z.min()), float(z.max()))
+    fastest = strongest_wind(mission, cfg)
     if fastest >= speed:
         raise InputError(
             f"wind {fastest:.1f} m/s ({wind.describe()}) is not slower than {stack.name}'s "
@@ -598,12 +604,13 @@ class _Loop:
         self.pending.append((ts[:keep], pos[:keep], clearance[:keep]))
         self.times.append(ts[:keep])
         self.states.append(xs[:keep])
-        if self.wind is not None:
-            self.air.append(self.winds(ts[:keep]))
-        self._judge(log, pos, keep, following, commanded)
+        air = self.winds(ts) if self.wind is not None else None  # the air's velocity (K, 3)
+        if air is not None:
+            self.air.append(air[:keep])
+        self._judge(log, pos, keep, following, commanded, air)
         rec = self.recorder
         if rec is not None:
-            _record_samples(rec, log, pos, self.winds(log.times) if self.wind is not None else None)
+            _record_samples(rec, log, pos, air)
         if ts[keep - 1] - self.pending[0][0][0] >= _METRICS_BATCH_S:
             _flush(self.pending, self.validity, self.tracker, self.zones, rec)
         if not hit.size:
@@ -624,13 +631,15 @@ class _Loop:
         keep: int,
         following: bool,
         commanded: Commanded | None = None,
+        air: FloatArray | None = None,
     ) -> None:
-        """Stall and conformance of the first ``keep`` samples of the tick."""
+        """Stall and conformance of the first ``keep`` samples of the tick (``air``: the air's
+        velocity at each sample, None in still air)."""
         ts, g = log.times[:keep], log.guidance[:keep]
         if self.stall is not None:
             # the speed through the air: the ground velocity less the wind's
-            air = velocities_ned(log.states[:keep]) - self.winds(ts)
-            airspeed = np.linalg.norm(air, axis=1)
+            v = velocities_ned(log.states[:keep])
+            airspeed = np.linalg.norm(v if air is None else v - air[:keep], axis=1)
             self.stall.update(ts, pos[:keep], airspeed)
         # a leg change that is not a fillet turns the aircraft onto a leg it is not yet on
         turns = [r.t for r in log.reached if r.how not in ("fillet", "spiral")]
