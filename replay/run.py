@@ -33,6 +33,7 @@ from replay.sim import (
     ReplayConfig,
     ReplayResult,
     check_mission,
+    check_wind,
     estimated_flight_time,
     rangefinder_spread,
     simulate,
@@ -208,6 +209,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     params.check_speed(speed, "cruise speed")
     # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes -- at the fastest ground
     # speed of a turn in the run's wind (the airspeed plus the strongest wind on the way)
+    check_wind(config, mission, params.name)  # before the legs: a wind it cannot fly into
     avoider.check_vehicle(params, float(speed) + strongest_wind(mission, config))
     # e.g. the priority loop: its sensor, a start outside the obstacles
     avoider.check_setup(config, mission, threats, grid, float(speed))

@@ -331,7 +331,7 @@ def simulate(
     rng = np.random.default_rng(cfg.seed)
     if stack is None:
         stack = _vehicle_stack(mission, vehicle, grid, cfg)
-    wind = _check_wind(cfg, mission, stack)
+    wind = check_wind(cfg, mission, stack.name)
     if wind is not None:  # the start crabbed into the wind where it starts
         stack.set_wind(_wind_at(wind, mission.waypoints[0], grid))
     x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
@@ -385,7 +385,7 @@ def _vehicle_stack(
     )
 
 
-def _check_wind(cfg: ReplayConfig, mission: Mission, stack: FlightStack) -> Wind | None:
+def check_wind(cfg: ReplayConfig, mission: Mission, vehicle: str) -> Wind | None:
     """The run's wind (None in still air); a wind as fast as the airspeed anywhere between the
     mission's lowest and highest waypoints is refused: the aircraft could not make headway."""
     wind = cfg.wind
@@ -395,7 +395,7 @@ def _check_wind(cfg: ReplayConfig, mission: Mission, stack: FlightStack) -> Wind
     fastest = strongest_wind(mission, cfg)
     if fastest >= speed:
         raise InputError(
-            f"wind {fastest:.1f} m/s ({wind.describe()}) is not slower than {stack.name}'s "
+            f"wind {fastest:.1f} m/s ({wind.describe()}) is not slower than {vehicle}'s "
             f"{speed:g} m/s airspeed: it could not make headway; fly faster (--speed) or in "
             "less wind"
         )
