@@ -30,13 +30,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from planner.energy import EnergyModel, mission_energy
 from planner.explore import ROUTES
 from planner.launch import Landing, Takeoff
 from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
 from planner.performance import Performance, ground_speed
 from planner.plan import DEFAULT_ALGORITHM, plan
 from planner.problem import PlanningProblem, terrain_top
-from planner.result import PlanResult, spiral_violation
+from planner.result import PlanResult, Violation, spiral_violation
 from planner.spiral import respiral
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
@@ -109,6 +110,10 @@ class PlanRequest:
     # records of it
     wind_at: Callable[[float, float], tuple[float, float]] | None = None
     wind_record: dict[str, Any] | None = None
+    # the vehicle's energy table over an altitude band (low, high) m AMSL with turns of a
+    # radius (m; 0 none) (replay.flight.energy.energy_model): the plan reports the energy per
+    # leg and the reserve
+    energy_at: Callable[[float, float, float], EnergyModel] | None = None
 
 
 def leg_times(
@@ -539,6 +544,33 @@ def plan_mission(
                 ),
             )
     mission = to_mission(request, prepared, result, out)
+    energy = mission.plan.get("energy")
+    if result.feasible and isinstance(energy, dict) and energy.get("reserve", 0.0) < 0:
+        # a mission the aircraft cannot carry the energy for is not flyable
+        g = mission.waypoints[-1]
+        short = Violation(
+            "energy",
+            len(mission.waypoints) - 2,
+            float(g[0]),
+            float(g[1]),
+            float(g[2]),
+            0.0,
+            f"the mission needs {energy['total']:g} {energy['unit']} of "
+            f"{'battery energy' if energy['kind'] == 'battery' else 'fuel'}; the vehicle carries "
+            f"{energy['capacity']:g} {energy['unit']}",
+        )
+        result = dataclasses.replace(
+            result, status="infeasible", violations=(*result.violations, short)
+        )
+        mission = dataclasses.replace(
+            mission,
+            plan={
+                **mission.plan,
+                "feasible": False,
+                "status": "infeasible",
+                "violations": [v.as_dict() for v in result.violations],
+            },
+        )
     written: dict[str, Path] = {}
     removed: tuple[Path, ...] = ()
     warnings = list(prepared.warnings)
@@ -628,6 +660,23 @@ def to_mission(
             waypoints, perf.speed, r.wind_at, lambda x, y: float(grid.height_at(x, y))
         )
         provenance["leg_times_s"] = [round(t, 1) for t in times]
+    if r.energy_at is not None:
+        # the energy per leg from the vehicle's performance model (planner.energy)
+        grid = prepared.grid
+        zs = waypoints[:, 2]
+        radius = 0.0 if perf.hover else perf.turn_radius
+        model = r.energy_at(float(zs.min()), float(zs.max()), radius)
+        provenance["energy"] = mission_energy(
+            waypoints,
+            spirals,
+            model,
+            radius,
+            hover=perf.hover,
+            climb_rate=perf.climb_rate,
+            descent_rate=perf.descent_rate,
+            wind_at=r.wind_at,
+            ground=lambda x, y: float(grid.height_at(x, y)),
+        ).as_dict()
     return Mission(
         name=r.name or (out.stem if out is not None else "mission"),
         waypoints=waypoints,

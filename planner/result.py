@@ -25,7 +25,14 @@ class Violation:
     """One broken constraint: what, which segment, where (map metres), how much."""
 
     kind: Literal[
-        "terrain", "danger_zone", "climb", "turn", "unknown_terrain", "above_band", "spiral"
+        "terrain",
+        "danger_zone",
+        "climb",
+        "turn",
+        "unknown_terrain",
+        "above_band",
+        "spiral",
+        "energy",
     ]
     segment: int
     x: float

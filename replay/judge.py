@@ -63,6 +63,7 @@ FAILURE_NAMES = (
     "unknown_terrain",
     "violation",
     "stall",
+    "energy_exhausted",
     "lateral_excursion",
     "vertical_excursion",
     "not_back_on_plan",

@@ -85,6 +85,9 @@ class RunMetrics:
     # each climb or descent spiral flown: waypoint, t (s), the altitude it was left at and the
     # plan's (m AMSL)
     spirals: tuple[dict[str, Any], ...] = ()
+    # what the source gave (replay.flight.energy.Source.as_dict): kind, unit, used, capacity
+    # and the share left where the vehicle gives a capacity
+    energy: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -254,6 +257,7 @@ class MetricsTracker:
         judged_by: dict[str, Any] | None = None,
         position_at: Callable[[float], tuple[float, float]] | None = None,
         spirals: Sequence[dict[str, Any]] = (),
+        energy: dict[str, Any] | None = None,
     ) -> RunMetrics:
         """The run's metrics; ``contact_at`` (x, y, clearance) where the terrain was touched,
         ``failures`` the loop's other judges found (stall, conformance), ``position_at(t)`` the
@@ -301,6 +305,7 @@ class MetricsTracker:
             gave_up=tuple(gave_up),
             judged_by=dict(judged_by or {}),
             spirals=tuple(dict(s) for s in spirals),
+            energy=dict(energy or {}),
         )
 
     def _failures(
@@ -368,6 +373,8 @@ class MetricsTracker:
                 if end_reason.startswith("missed the goal")
                 else "time_limit"
                 if end_reason == "time limit"
+                else "energy_exhausted"
+                if end_reason.startswith("energy exhausted")
                 else "avoider_end"
             )
             pos = None if self.last is None else (float(self.last[0]), float(self.last[1]))

@@ -537,6 +537,8 @@ class Feasibility:
     geometry: GeometryCheck
     preflight: Preflight
     findings: tuple[Finding, ...]
+    # what the mission needs of the battery or the fuel (planner.energy.MissionEnergy.as_dict)
+    energy: dict[str, Any] | None = None
 
     @property
     def ok(self) -> bool:
@@ -553,6 +555,10 @@ class Feasibility:
             f"turns     {self.turn_model}",
             f"terrain   judged on the measured heights with {self.clearance:g} m of clearance",
         ]
+        if self.energy is not None:
+            from planner.energy import describe
+
+            out.append(f"energy    {describe(self.energy)}")
         if m.terrain_heights:
             out.append(
                 f"          {len(m.terrain_heights)} terrain-frame leg(s) flown at their height "
@@ -582,6 +588,7 @@ class Feasibility:
             "turn_model": self.turn_model,
             "ceiling": None if math.isinf(self.preflight.ceiling) else self.preflight.ceiling,
             "legs": [leg.as_dict() for leg in self.geometry.legs],
+            "energy": self.energy,
             "violations": [f.as_dict() for f in self.findings],
         }
 
@@ -686,6 +693,22 @@ def feasibility(
     else:
         turn_model = "none given: the legs are checked as straight lines between the waypoints"
     findings = list(geometry.findings) + vehicle_findings(mission, flight)
+    energy = mission_energy_of(mission, params, speed, temperature_offset)
+    if "reserve" in energy and energy["reserve"] < 0:
+        g = mission.waypoints[-1]
+        what = "battery energy" if energy["kind"] == "battery" else "fuel"
+        findings.append(
+            Finding(
+                "energy",
+                -1,
+                -float(energy["reserve"]),
+                float(g[0]),
+                float(g[1]),
+                float(g[2]),
+                f"the mission needs {energy['total']:g} {energy['unit']} of {what}; "
+                f"{params.name} carries {energy['capacity']:g} {energy['unit']}",
+            )
+        )
     return Feasibility(
         mission,
         params.name,
@@ -695,4 +718,38 @@ def feasibility(
         geometry,
         flight,
         tuple(findings),
+        energy,
     )
+
+
+def mission_energy_of(
+    mission: Mission,
+    params: VehicleParams | MultirotorParams,
+    speed: float,
+    temperature_offset: float = 0.0,
+) -> dict[str, Any]:
+    """What ``mission`` needs of the vehicle's battery or fuel flown at ``speed`` in still air
+    (:func:`planner.energy.mission_energy` on :func:`replay.flight.energy.energy_model`'s
+    table over the mission's altitudes), as :meth:`MissionEnergy.as_dict`."""
+    from planner.energy import mission_energy
+    from replay.flight.energy import energy_model
+
+    hover = isinstance(params, MultirotorParams)
+    radius = 0.0 if hover else float(mission.turn_radius or 0.0)
+    zs = mission.waypoints[:, 2]
+    model = energy_model(
+        params,
+        speed,
+        (float(zs.min()), float(zs.max())),
+        turn_radius=radius or math.inf,
+        temperature_offset=temperature_offset,
+    )
+    return mission_energy(
+        mission.waypoints,
+        mission.spirals,
+        model,
+        radius,
+        hover=hover,
+        climb_rate=float(params.climb_rate_max),
+        descent_rate=float(params.descent_rate_max),
+    ).as_dict()

@@ -38,6 +38,7 @@ from planner.mission import Mission
 from replay.avoidance.base import AvoidanceContext, Avoider
 from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
+from replay.flight.energy import source_of
 from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
 from replay.flight.wind import Dryden, Wind
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned, velocities_ned
@@ -354,7 +355,11 @@ def simulate(
         seed=cfg.seed,
         wall_s=time.perf_counter() - wall0,
         # the air's velocity (K, 3) NED at every sample, gusts included (a run with wind)
-        extra={"wind": np.concatenate(loop.air)} if loop.air else {},
+        extra={
+            **({"wind": np.concatenate(loop.air)} if loop.air else {}),
+            # what the source had given at every sample (Wh of battery, kg of fuel)
+            "energy": np.concatenate(loop.energy) if loop.energy else np.zeros(0),
+        },
     )
 
 
@@ -449,6 +454,10 @@ class _Loop:
             self.dryden = Dryden(self.wind.turbulence, float(span), [cfg.seed, 36])
         self.gust_now = np.zeros((0, 6))
         self.tick_t0 = 0.0
+        # what the source gave (replay.flight.energy): at the tick's start and end
+        self.source = source_of(stack.params)
+        self.used0 = self.used = 0.0
+        self.energy: list[FloatArray] = []  # what was used at the kept samples (Wh or kg)
         self.air: list[FloatArray] = []  # the air's velocity at the kept samples
         self.terrain_model, self.recorder = terrain_model, recorder
         self.wp0 = np.array(mission.waypoints, dtype=np.float64)
@@ -546,11 +555,16 @@ class _Loop:
                 self._gusts(x, t, period)
             following = follows_plan(stack)
             commanded = None if following else stack.commanded(t)
+            self.tick_t0, t_start = t, t
             log = stack.fly(x, t, period, record_every=self.record_every)
             x, t = log.x, log.t
-            contact_t = self._samples(log, following, commanded)
+            self.used0, self.used = self.used, float(getattr(stack, "energy_used", 0.0))
+            contact_t = self._samples(log, following, commanded, t_start)
             if contact_t is not None:
                 t = contact_t
+                break
+            if self.source.exhausted(self.used):
+                t = self._exhausted(t_start, t)
                 break
             self._events(log, t)
             if progress is not None:
@@ -574,7 +588,6 @@ class _Loop:
         speed = getattr(stack, "airspeed", None) or self.cfg.airspeed or self.mission.cruise_speed
         n = int(round(period / stack.dt)) + 1
         self.gust_now = self.dryden.gusts(n, stack.dt, float(speed), height, float(x[8]))
-        self.tick_t0 = t
         stack.set_gusts(self.gust_now)
 
     def winds(self, ts: FloatArray) -> FloatArray:
@@ -587,8 +600,35 @@ class _Loop:
             out += g[np.clip(k, 0, len(g) - 1), :3]
         return out
 
+    def _exhausted(self, t0: float, t1: float) -> float:
+        """The source ran out in the tick from ``t0`` to ``t1``: when (linear in the tick), the
+        run's end."""
+        src = self.source
+        a, b = src.amount(self.used0), src.amount(self.used)
+        f = (src.capacity - a) / (b - a) if b > a else 1.0
+        t = t0 + min(max(f, 0.0), 1.0) * (t1 - t0)
+        what = "battery" if src.kind == "battery" else "fuel"
+        self.end_reason = (
+            f"energy exhausted: the {what} ({src.capacity:g} {src.unit}) ran out at t = {t:.0f} s"
+        )
+        if self.recorder is not None:
+            self.recorder.write_log(t, "error", self.end_reason)
+        return t
+
+    def _energy_at(self, ts: FloatArray, t0: float, t1: float) -> FloatArray:
+        """What the source had given at the sample times ``ts`` of the tick from ``t0`` to
+        ``t1`` (linear in the tick), in its unit."""
+        src = self.source
+        a, b = src.amount(self.used0), src.amount(self.used)
+        f = np.clip((np.asarray(ts) - t0) / max(t1 - t0, 1e-9), 0.0, 1.0)
+        return np.asarray(a + f * (b - a), dtype=np.float64)
+
     def _samples(
-        self, log: FlightLog, following: bool = True, commanded: Commanded | None = None
+        self,
+        log: FlightLog,
+        following: bool = True,
+        commanded: Commanded | None = None,
+        t_start: float | None = None,
     ) -> float | None:
         """Keep the tick's samples (up to terrain contact) for the metrics and the recording,
         and judge them (stall, conformance: ``following`` whether the stack followed its legs,
@@ -607,10 +647,12 @@ class _Loop:
         air = self.winds(ts) if self.wind is not None else None  # the air's velocity (K, 3)
         if air is not None:
             self.air.append(air[:keep])
+        used = self._energy_at(ts, ts[0] if t_start is None else t_start, log.t)
+        self.energy.append(used[:keep])
         self._judge(log, pos, keep, following, commanded, air)
         rec = self.recorder
         if rec is not None:
-            _record_samples(rec, log, pos, air)
+            _record_samples(rec, log, pos, air, used, self.source.capacity)
         if ts[keep - 1] - self.pending[0][0][0] >= _METRICS_BATCH_S:
             _flush(self.pending, self.validity, self.tracker, self.zones, rec)
         if not hit.size:
@@ -779,6 +821,7 @@ class _Loop:
             failures=judged,
             off_plan_s=self.conformance.off_plan_s,
             spirals=self.spiral_exits,
+            energy=self.source.as_dict(self.used),
             judged_by={
                 "terrain": "flat ground at 0 m"
                 if self.grid is None
@@ -906,11 +949,17 @@ def _flush(
 
 
 def _record_samples(
-    recorder: Recorder, log: FlightLog, pos: FloatArray, wind: FloatArray | None = None
+    recorder: Recorder,
+    log: FlightLog,
+    pos: FloatArray,
+    wind: FloatArray | None = None,
+    used: FloatArray | None = None,
+    capacity: float = 0.0,
 ) -> None:
     """The tick's states at the recording rate, with the guidance and the air's velocity at
     each (``wind`` (K, 3): ``wind_n``, ``wind_e``, ``wind_d`` m/s NED, gusts included, when the
-    run has wind)."""
+    run has wind), and what the source has given (``used`` (K,): ``energy_used`` in Wh of
+    battery or kg of fuel; with a ``capacity``, ``energy_left`` the share left, 0..1)."""
     for i, tk in enumerate(log.times):
         if not recorder.state_due(float(tk)):
             continue
@@ -918,6 +967,10 @@ def _record_samples(
         extras["next_index"] = float(log.next_index[i])
         if wind is not None:
             extras["wind_n"], extras["wind_e"], extras["wind_d"] = (float(v) for v in wind[i])
+        if used is not None:
+            extras["energy_used"] = float(used[i])
+            if capacity > 0:
+                extras["energy_left"] = 1.0 - float(used[i]) / capacity
         recorder.write_state(float(tk), log.states[i], log.controls[i], extras)
 
 

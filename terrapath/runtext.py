@@ -103,6 +103,19 @@ def failure_summary(m: Mapping[str, Any]) -> list[str]:
     return why
 
 
+def energy_text(e: Mapping[str, Any]) -> str:
+    """A run's energy (``RunMetrics.energy``): what the battery or the fuel gave, and what is
+    left of the capacity where the vehicle gives one."""
+    unit = str(e.get("unit", ""))
+    used = float(e["used"])
+    what = "battery" if e.get("kind") == "battery" else "fuel"
+    amount = f"{used:,.2f}" if unit == "kg" else f"{used:,.1f}"
+    left = _number(e.get("left"))
+    if left is None:
+        return f"{amount} {unit} of {what} used (the vehicle gives no capacity)"
+    return f"{amount} {unit} of {what} used of {e.get('capacity')} {unit} ({100 * max(left, 0.0):.0f} % left)"
+
+
 def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
     """The run-level metrics (a ``RunMetrics.as_dict()``); keys a run did not record are left out."""
     rows: list[tuple[str, str]] = []
@@ -129,6 +142,9 @@ def metrics_rows(m: Mapping[str, Any]) -> list[tuple[str, str]]:
                 + ("; the goal was not reached)" if m.get("reached_goal") is False else ")"),
             )
         )
+    energy = m.get("energy")
+    if isinstance(energy, dict) and _number(energy.get("used")) is not None:
+        rows.append(("energy", energy_text(energy)))
     if "min_terrain_clearance_m" in m:
         t = m.get("min_terrain_clearance_t")
         at = f" at t = {seconds(t)}" if _number(t) is not None else ""

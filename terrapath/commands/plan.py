@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -100,6 +101,21 @@ def _vehicle_limits(
         params.name, v, params.climb_rate_max, params.descent_rate_max, params.bank_max_deg
     )
     return performance, lambda low, high: params.performance(v, (low, high))
+
+
+def _energy_at(vehicle: str, speed: float | None) -> Any:
+    """The vehicle's energy table at the plan's speed (:func:`replay.flight.energy.energy_model`)
+    over an altitude band with turns of a radius: ``(low, high, radius) -> EnergyModel``."""
+    from replay.flight.energy import energy_model
+    from replay.flight.fixedwing.presets import load_any_vehicle
+
+    params = load_any_vehicle(vehicle, base_dir=Path.cwd())
+    v = params.cruise_speed if speed is None else float(speed)
+
+    def at(low: float, high: float, radius: float) -> Any:
+        return energy_model(params, v, (low, high), turn_radius=radius or math.inf)
+
+    return at
 
 
 def _in_wind(
@@ -440,6 +456,7 @@ def plan_cmd(
         goal=goal,
         performance=performance,
         performance_at=performance_at,
+        energy_at=_energy_at(vehicle, speed),
         vehicle=vehicle,
         map_coords=map_coords,
         start_on_ground=start_on_ground,
@@ -531,6 +548,11 @@ def _echo_summary(outcome: PlanOutcome, performance: Performance) -> None:
             f"at waypoint {at}): the climb and descent need at least {bound / 1000:.2f} km of "
             f"path at the gradients; the path is {t.get('length_over_bound', 0.0):.2f} x that"
         )
+    energy = outcome.mission.plan.get("energy")
+    if isinstance(energy, dict):
+        from planner.energy import describe
+
+        click.echo(f"  energy    {describe(energy)}")
     times = outcome.mission.plan.get("leg_times_s")
     if times:
         per_leg = ", ".join(f"{v / 60:.1f}" for v in times)

@@ -345,6 +345,7 @@ class Autopilot:
         self._leg = np.zeros(kern.N_LEG)
         self._fillet_at: Fillets | None = None
         self._ap = np.zeros(kern.N_AP)
+        self._used = np.zeros(1)  # what the engine drew in fly (kernels.drain): J or kg of fuel
         self._u = np.zeros(N_CONTROLS)
         self.terrain_height = terrain_height
         self.terrain_lookahead = (
@@ -1111,6 +1112,7 @@ class Autopilot:
                 rec.u[rec.n :],
                 rec.g[rec.n :],
                 gust[done:],
+                self._used,
             )
             rec.add(k, steps, nr, self._next)
             done += steps
@@ -1120,6 +1122,12 @@ class Autopilot:
         t_end = t0_grid + (k_start + n_total) * dt
         self._t_last = t_end - dt
         return rec.log(x, t_end, self._u.copy(), tuple(self.reached[first_reached:]), n_total)
+
+    @property
+    def energy_used(self) -> float:
+        """What the engine has drawn in :meth:`fly` so far: the battery's energy (J) of an
+        electric aircraft, the fuel (kg) of a piston engine (``kernels.drain``)."""
+        return float(self._used[0])
 
     def reset_integrators(self) -> None:
         self._ap[:] = 0.0

@@ -28,6 +28,7 @@ from replay.flight.atmosphere import RHO0, density_at
 from replay.flight.fixedwing.params import (
     I_ALPHA0,
     I_B,
+    I_BSFC,
     I_C,
     I_CDDE,
     I_CDP,
@@ -78,6 +79,7 @@ from replay.flight.fixedwing.params import (
     I_DR_MIN,
     I_DTEMP,
     I_ENGINE,
+    I_ESC,
     I_G1,
     I_G2,
     I_G3,
@@ -209,16 +211,17 @@ def piston_lapse(rho):  # pragma: no cover - jit
 
 
 @nb.njit(cache=True, nogil=True)
-def propeller(va, dt, rho, p):  # pragma: no cover - jit
-    """(thrust N, torque N m) of the engine and propeller at true airspeed ``va``, throttle
-    ``dt`` and air density ``rho`` (``params.py``: electric, or piston)."""
-    dt = min(max(dt, 0.0), 1.0)
+def shaft_speed(va, dt, rho, p):  # pragma: no cover - jit
+    """The propeller's speed (rev/s) at true airspeed ``va``, throttle ``dt`` (0..1) and air
+    density ``rho``, and whether the engine drives it (1.0) or it freewheels / windmills (0.0):
+    the torque balance of ``params.py`` (electric: motor and propeller; piston: engine power and
+    propeller power, held at the rated rpm)."""
     d = p[I_DPROP]
+    d3 = d * d * d
     if p[I_ENGINE] == 0.0:  # electric: Beard & McLain 2nd ed. §4.3
         kq = p[I_KQ]
         r = p[I_RMOT]
         vin = dt * p[I_VBAT]
-        d3 = d * d * d
         a = rho * d3 * d * d * p[I_CQ0] / (4.0 * math.pi * math.pi)
         b0 = rho * d3 * d * p[I_CQ1] * va / (2.0 * math.pi)
         c0 = rho * d3 * p[I_CQ2] * va * va + kq * p[I_I0]
@@ -226,17 +229,9 @@ def propeller(va, dt, rho, p):  # pragma: no cover - jit
         if p[I_KV] * om > vin:
             # the propeller turns faster than the voltage drives it: the controller draws no
             # current (no regenerative braking) and it freewheels against the motor's friction
-            om = _positive_root(a, b0, c0)
-        if om <= 0.0:
-            return 0.0, 0.0
-        n = om / (2.0 * math.pi)
-        j = va / (n * d)
-        ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
-        cq = (p[I_CQ2] * j + p[I_CQ1]) * j + p[I_CQ0]
-        k = rho * n * n * d3 * d
-        return k * ct, k * d * cq
+            return _positive_root(a, b0, c0) / (2.0 * math.pi), 0.0
+        return om / (2.0 * math.pi), 1.0
     # piston: fixed-pitch propeller on a constant-torque engine, Gagg-Ferrar power lapse
-    d3 = d * d * d
     d4 = d3 * d
     n_r = p[I_RPM] / 60.0
     phi = piston_lapse(rho)
@@ -245,12 +240,54 @@ def propeller(va, dt, rho, p):  # pragma: no cover - jit
         p[I_CP1] * rho * d4 * va,
         p[I_CP2] * rho * d3 * va * va - dt * phi * p[I_PMAX] / n_r,
     )
-    n = min(n, n_r)  # the throttle held back at the rated rpm
+    return min(n, n_r), 1.0 if dt > 0.0 else 0.0  # the throttle held back at the rated rpm
+
+
+@nb.njit(cache=True, nogil=True)
+def drain(va, dt, rho, p):  # pragma: no cover - jit
+    """What the engine draws from its source at true airspeed ``va``, throttle ``dt`` and
+    density ``rho``: electric, the battery's power (W) -- the motor's electrical input
+    ``V_in i`` with ``i = (V_in - KV Omega) / R`` (its copper and no-load losses are in the
+    motor model) over the speed controller's efficiency; none while it freewheels (no current
+    is drawn); piston, the fuel flow (kg/s) -- the shaft power ``CP(J) rho n^3 D^5`` the
+    propeller absorbs times the brake-specific fuel consumption (none at closed throttle: the
+    idle's own burn is not modelled)."""
+    dt = min(max(dt, 0.0), 1.0)
+    n, driven = shaft_speed(va, dt, rho, p)
+    if driven == 0.0 or n <= 0.0:
+        return 0.0
+    d = p[I_DPROP]
+    if p[I_ENGINE] == 0.0:
+        vin = dt * p[I_VBAT]
+        i = (vin - p[I_KV] * 2.0 * math.pi * n) / p[I_RMOT]
+        return vin * max(i, 0.0) / p[I_ESC]
+    j = va / (n * d)
+    cp = (p[I_CP2] * j + p[I_CP1]) * j + p[I_CP0]
+    return p[I_BSFC] * max(cp, 0.0) * rho * n * n * n * d * d * d * d * d
+
+
+@nb.njit(cache=True, nogil=True)
+def propeller(va, dt, rho, p):  # pragma: no cover - jit
+    """(thrust N, torque N m) of the engine and propeller at true airspeed ``va``, throttle
+    ``dt`` and air density ``rho`` (``params.py``: electric, or piston)."""
+    dt = min(max(dt, 0.0), 1.0)
+    d = p[I_DPROP]
+    if p[I_ENGINE] == 0.0:  # electric: Beard & McLain 2nd ed. §4.3
+        d3 = d * d * d
+        n = shaft_speed(va, dt, rho, p)[0]
+        if n <= 0.0:
+            return 0.0, 0.0
+        j = va / (n * d)
+        ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
+        cq = (p[I_CQ2] * j + p[I_CQ1]) * j + p[I_CQ0]
+        k = rho * n * n * d3 * d
+        return k * ct, k * d * cq
+    n = shaft_speed(va, dt, rho, p)[0]  # piston
     if n <= 0.0:
         return 0.0, 0.0
     j = va / (n * d)
     ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
-    return rho * n * n * d4 * ct, 0.0
+    return rho * n * n * d * d * d * d * ct, 0.0
 
 
 @nb.njit(cache=True, nogil=True)
@@ -996,7 +1033,7 @@ def _still(p, wn, we, wd):  # pragma: no cover - jit
 
 @nb.njit(cache=True, nogil=True)
 def fly(
-    x, n, k0, dt, decim, p, gk, cmd, leg, ap, u, rec_every, rec_x, rec_u, rec_g, gust
+    x, n, k0, dt, decim, p, gk, cmd, leg, ap, u, rec_every, rec_x, rec_u, rec_g, gust, used
 ):  # pragma: no cover - jit
     """Closed-loop flight: up to ``n`` steps of ``dt`` from global step ``k0``; the control law
     runs every ``decim`` steps (global index), states are recorded every ``rec_every`` steps
@@ -1006,6 +1043,9 @@ def fly(
     velocity NED (added to the wind ``p[I_WN:I_WD + 1]`` for the step) and rotational gusts
     (body p, q, r); none (G = 0) or past its end: still air beyond the wind.  ``p``'s wind is
     the same after the call.
+
+    ``used[0]`` adds what the engine draws (:func:`drain`: J of the battery, kg of fuel) over
+    each control period, at the throttle and the airspeed of its control step.
 
     ``x``, ``ap`` and ``u`` are updated in place. Stops early, before the step, when the current
     leg is done (``leg_done``). Returns (steps done, leg_done code, records written).
@@ -1040,6 +1080,8 @@ def fly(
                 _still(p, wn, we, wd)
                 return i, ev, nrec
             control_law(x, p, gk, cmd, leg, ap, dtc, u)
+            va = flight_data(x, p)[3]
+            used[0] += drain(va, u[3], density_at(-x[2], p[I_DTEMP]), p) * dtc
             to_ctrl = decim
         if to_rec == 0:
             nrec = record(x, u, ap, A_CHI_C, N_GUIDANCE_LOG, rec_x, rec_u, rec_g, nrec)

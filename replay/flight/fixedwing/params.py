@@ -172,6 +172,11 @@ class VehicleParams:
     CP0: float = 0.0  # piston: power coefficient CP(J) = CP2 J^2 + CP1 J + CP0 (CT as above)
     CP1: float = 0.0
     CP2: float = 0.0
+    # energy (module docstring, "Energy"): what the engine draws and what it carries
+    esc_efficiency: float = 0.95  # electric: battery power = motor input power / this
+    bsfc_g_per_kwh: float = 0.0  # piston: fuel per shaft energy, g/kWh
+    battery_wh: float = 0.0  # electric: usable battery energy, Wh (0: not given)
+    fuel_kg: float = 0.0  # piston: usable fuel, kg (0: not given)
     # alpha-dot derivatives (per rad of alpha-dot c / (2 Va)): the tail meets the downwash the
     # wing shed a moment ago (Beard & McLain leave them out: zero for their airframes)
     CLadot: float = 0.0
@@ -413,6 +418,8 @@ class VehicleParams:
         p[I_GRAV] = G
         p[I_WN], p[I_WE], p[I_WD] = w
         p[I_ENGINE] = ENGINES.index(self.engine)
+        p[I_ESC] = self.esc_efficiency
+        p[I_BSFC] = self.bsfc_g_per_kwh * 1e-3 / 3.6e6  # kg/J
         return p
 
 
@@ -438,7 +445,9 @@ I_CLAD, I_CMAD = 74, 75
 # the turbulence's rotational gusts (body axes, rad/s) of the step flown: the kernel's ``fly``
 # sets them with the gusts' velocities (added to the wind above) and clears them after
 I_GP, I_GQ, I_GR = 76, 77, 78
-N_PACKED = 79
+# what the engine draws (kernels.drain): the speed controller's efficiency, the fuel per joule
+I_ESC, I_BSFC = 79, 80
+N_PACKED = 81
 ENGINES = ("electric", "piston")
 
 _PACKED_DERIVS: tuple[tuple[int, str], ...] = (
@@ -516,7 +525,7 @@ ENGINE_PARAMETERS: dict[str, tuple[str, ...]] = {
     "piston": ("prop_diameter", "power_max", "rated_rpm", "CT0", "CT1", "CT2", "CP0", "CP1", "CP2"),
 }
 _ANY_SIGN = ("CT1", "CT2", "CQ1", "CQ2", "CP1", "CP2")
-_NON_NEGATIVE = ("motor_no_load_current",)
+_NON_NEGATIVE = ("motor_no_load_current", "battery_wh", "fuel_kg", "bsfc_g_per_kwh")
 
 
 def _bad(field: str, expected: str, found: Any) -> InputError:
@@ -589,3 +598,13 @@ def validate(p: VehicleParams) -> None:
     for k in ENGINE_PARAMETERS[p.engine]:
         if k not in _ANY_SIGN + _NON_NEGATIVE and getattr(p, k) <= 0:
             raise _bad(k, f"a number > 0 (the {p.engine} engine needs it)", getattr(p, k))
+    if not 0.0 < p.esc_efficiency <= 1.0:
+        raise _bad("esc_efficiency", "an efficiency in (0, 1]", p.esc_efficiency)
+    if p.engine == "electric" and p.fuel_kg > 0:
+        raise _bad("fuel_kg", "0 for an electric aircraft (its capacity is battery_wh)", p.fuel_kg)
+    if p.engine == "piston" and p.battery_wh > 0:
+        raise _bad("battery_wh", "0 for a piston engine (its capacity is fuel_kg)", p.battery_wh)
+    if p.engine == "piston" and p.fuel_kg > 0 and p.bsfc_g_per_kwh <= 0:
+        raise _bad(
+            "bsfc_g_per_kwh", "a fuel consumption > 0 g/kWh (the fuel_kg is burnt by it)", 0.0
+        )

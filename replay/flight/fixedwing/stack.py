@@ -225,6 +225,11 @@ class FixedWingStack:
         """What the autopilot flies at ``t`` beside its legs (:meth:`Autopilot.commanded`)."""
         return self.autopilot.commanded(t)
 
+    @property
+    def energy_used(self) -> float:
+        """The battery's energy (J) or the fuel (kg) drawn so far (:attr:`Autopilot.energy_used`)."""
+        return self.autopilot.energy_used
+
     # -- flying ---------------------------------------------------------------------------------
     def fly(self, state: FloatArray, t: float, duration: float, *, record_every: int) -> FlightLog:
         return self.autopilot.fly(state, t, duration, record_every=record_every)

@@ -190,10 +190,27 @@ def trim(
         raise InputError(
             f"trim turn radius must be non-zero (inf for straight), found {turn_radius!r}"
         )
+    found = try_trim(params, va, altitude, gamma, turn_radius, temperature_offset)
+    if found is None:
+        raise InputError(_cannot_trim(params, va, altitude, gamma, turn_radius, temperature_offset))
+    return found
+
+
+def try_trim(
+    params: VehicleParams,
+    airspeed: float,
+    altitude: float = 0.0,
+    gamma: float = 0.0,
+    turn_radius: float = math.inf,
+    temperature_offset: float = 0.0,
+) -> Trim | None:
+    """:func:`trim`, or None when that flight does not trim (without the search for the speeds
+    that do, which the error message of :func:`trim` needs)."""
+    va = float(airspeed)
     packed = params.pack(temperature_offset=temperature_offset)
     z, r = _solve(params, packed, va, altitude, gamma, turn_radius, None)
     if r >= TOLERANCE:
-        raise InputError(_cannot_trim(params, va, altitude, gamma, turn_radius, temperature_offset))
+        return None
     psi_dot = 0.0 if math.isinf(turn_radius) else va * math.cos(gamma) / turn_radius
     return Trim(_state(z, va, altitude, psi_dot), np.array(z[3:7], dtype=np.float64))
 

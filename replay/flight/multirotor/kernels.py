@@ -26,6 +26,7 @@ from replay.flight.multirotor.model import (
     I_CDY,
     I_CDZ,
     I_DTEMP,
+    I_EFF,
     I_GRAV,
     I_JX,
     I_JY,
@@ -482,8 +483,21 @@ def _still(p, wn, we, wd):  # pragma: no cover - jit
 
 
 @nb.njit(cache=True, nogil=True)
+def drain(x, p):  # pragma: no cover - jit
+    """The battery's power (W) of the 16-state ``x``: the rotors' shaft power -- each rotor's
+    drag torque times its speed, ``sigma k_m w_i^3`` -- over the motors' and speed controllers'
+    efficiency."""
+    km = density_at(-x[2], p[I_DTEMP]) / RHO0 * p[I_KM]
+    total = 0.0
+    for i in range(4):
+        w = x[12 + i]
+        total += km * w * w * w
+    return max(total, 0.0) / p[I_EFF]
+
+
+@nb.njit(cache=True, nogil=True)
 def fly(
-    x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust
+    x, n, k0, dt, p, gk, cmd, cs, wc, rec_every, rec_x, rec_u, rec_g, gust, used
 ):  # pragma: no cover - jit
     """Closed loop: up to ``n`` steps of ``dt`` from global step ``k0``, the control law at every
     step; the 12 rigid-body states, the rotor commands and the logged guidance are recorded every
@@ -493,7 +507,8 @@ def fly(
 
     ``gust`` (G, >= 3): the turbulence's velocity (NED) of the steps of this call, added to the
     wind ``p[I_WN:I_WD + 1]`` for its step (the rotational gusts of a fixed wing's span are not
-    modelled for a multirotor); ``p``'s wind is the same after the call."""
+    modelled for a multirotor); ``p``'s wind is the same after the call. ``used[0]`` adds the
+    battery's energy (J) each step draws (:func:`drain` at the step's start)."""
     wn = p[I_WN]
     we = p[I_WE]
     wd = p[I_WD]
@@ -520,6 +535,7 @@ def fly(
         if to_rec == 0:
             nrec = record(x, wc, cs, S_YAW_C, N_GUIDANCE_LOG, rec_x, rec_u, rec_g, nrec)
             to_rec = rec_every
+        used[0] += drain(x, p) * dt
         _rk4_into(x, wc, dt, p, k1, k2, k3, k4, tmp)
         to_rec -= 1
     _still(p, wn, we, wd)

@@ -108,6 +108,10 @@ class MultirotorParams:
     descent_rate_max: float  # m/s, positive number
     tilt_max_deg: float  # deg, of the thrust axis from the vertical
     yaw_rate_max_deg: float  # deg/s
+    # energy: the battery's power is the rotors' shaft power sum(sigma k_m w_i^3) over this
+    # (motors and speed controllers together); the usable battery energy (0: not given)
+    power_efficiency: float = 0.75
+    battery_wh: float = 0.0
     source: str = ""
 
     def __post_init__(self) -> None:
@@ -229,6 +233,7 @@ class MultirotorParams:
         out[I_RY : I_RY + 4] = r[:, 1]
         out[I_SPIN : I_SPIN + 4] = SPIN
         out[I_MIX : I_MIX + 16] = np.linalg.inv(self.allocation()).reshape(-1)
+        out[I_EFF] = self.power_efficiency
         return out
 
 
@@ -240,7 +245,8 @@ I_RX = 19  # 4 hub x positions
 I_RY = 23  # 4 hub y positions
 I_SPIN = 27  # 4 spin signs
 I_MIX = 31  # 16: A^-1, row-major (rotor i, column [T, L, M, N])
-N_PACKED = 47
+I_EFF = 47  # the motors' and speed controllers' efficiency (kernels.drain)
+N_PACKED = 48
 
 
 # ---- validation --------------------------------------------------------------------------------
@@ -259,7 +265,7 @@ _POSITIVE = (
     "descent_rate_max",
     "yaw_rate_max_deg",
 )
-_NON_NEGATIVE = ("rotor_speed_min", "rotor_drag", "drag_x", "drag_y", "drag_z")
+_NON_NEGATIVE = ("rotor_speed_min", "rotor_drag", "drag_x", "drag_y", "drag_z", "battery_wh")
 
 
 def _bad(field: str, expected: str, found: Any) -> InputError:
@@ -291,6 +297,8 @@ def validate(p: MultirotorParams) -> None:
             raise _bad(
                 k, f"a time constant >= {TAU_MIN:g} s (the 100 Hz integration)", getattr(p, k)
             )
+    if not 0.0 < p.power_efficiency <= 1.0:
+        raise _bad("power_efficiency", "an efficiency in (0, 1]", p.power_efficiency)
     if not 0 < p.tilt_max_deg < 80:
         raise _bad("tilt_max_deg", "a tilt limit in (0, 80) degrees", p.tilt_max_deg)
     if p.cruise_speed > p.speed_max:

@@ -203,6 +203,7 @@ class MultirotorStack:
         self._gk = self.design.pack(params)
         self._cmd = np.zeros(kern.N_CMD)
         self._cs = np.zeros(kern.N_STATE)
+        self._used = np.zeros(1)  # the battery energy drawn in fly (J; kernels.drain)
         self._wc = np.zeros(4)
         self.reached: list[WaypointReached] = []
         wp = _waypoints(waypoints)
@@ -457,6 +458,11 @@ class MultirotorStack:
         self._x = x.copy()
         self._start_leg(direct=False)
 
+    @property
+    def energy_used(self) -> float:
+        """The battery's energy (J) drawn in :meth:`fly` so far (``kernels.drain``)."""
+        return float(self._used[0])
+
     # -- flying ---------------------------------------------------------------------------------
     def fly(
         self, state: npt.ArrayLike, t: float, duration: float, *, record_every: int = 0
@@ -498,6 +504,7 @@ class MultirotorStack:
                 rec.u[rec.n :],
                 rec.g[rec.n :],
                 gust[done:],
+                self._used,
             )
             rec.add(k, steps, nr, self._next)
             done += steps
