@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from planner.energy import WH
 from planner.mission import Mission
 from replay.avoidance.base import AvoidanceContext, Avoider
 from replay.flight.atmosphere import check_offset
@@ -611,6 +612,7 @@ class _Loop:
         self.end_reason = (
             f"energy exhausted: the {what} ({src.capacity:g} {src.unit}) ran out at t = {t:.0f} s"
         )
+        self.used = src.capacity * WH if src.kind == "battery" else src.capacity  # all of it
         if self.recorder is not None:
             self.recorder.write_log(t, "error", self.end_reason)
         return t
@@ -621,7 +623,10 @@ class _Loop:
         src = self.source
         a, b = src.amount(self.used0), src.amount(self.used)
         f = np.clip((np.asarray(ts) - t0) / max(t1 - t0, 1e-9), 0.0, 1.0)
-        return np.asarray(a + f * (b - a), dtype=np.float64)
+        used = a + f * (b - a)
+        if src.capacity > 0:  # none beyond what it carries (the tick it ran out in)
+            used = np.minimum(used, src.capacity)
+        return np.asarray(used, dtype=np.float64)
 
     def _samples(
         self,

@@ -98,6 +98,7 @@ def test_threat_example_has_every_kind_and_loads(tmp_path: Path) -> None:
 def test_vehicle_example_loads(tmp_path: Path) -> None:
     v = load_vehicle(_write(tmp_path, "vehicle.yaml"))
     assert v.name == "aerosonde-heavy" and v.mass == 15.0 and v.bank_max_deg == 25.0
+    assert v.battery_wh == 500.0
     p = v.performance()
     assert p.climb_gradient == pytest.approx(0.8 * 4.0 / v.cruise_speed)
     assert np.isfinite(p.turn_radius)

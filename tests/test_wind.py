@@ -147,7 +147,10 @@ def test_wind_options_and_bad_input(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert np.median(view.airspeed) == pytest.approx(V, rel=0.01)
     html = tmp_path / "v.html"
     assert main(["view", str(out), "-o", str(html)]) == 0
-    assert "wind 10 m\\u002fs from 300 deg" in html.read_text()  # plotly's JSON escapes "/"
+    page = html.read_text()
+    assert "wind 10 m\\u002fs from 300 deg" in page  # plotly's JSON escapes "/"
+    # the time plots: the wind's row, the gusts on it (none here) and the vertical air
+    assert "w.mcap: wind speed" in page and "w.mcap: vertical wind (up)" in page
     capsys.readouterr()
     bad = [
         (["--wind", "25,90"], "is not slower than aerosonde's 25 m/s airspeed"),

@@ -25,6 +25,22 @@ from replay.flight.base import G
 N_ALTITUDES = 4
 N_CLIMBS = 9
 
+# The presets' capacities and efficiencies, fixed before any comparison with a reference
+# (their sources in replay.flight.fixedwing.presets' docstring, "Energy"):
+LIPO_WH_PER_KG = 150.0  # Prior (2019): LiPo packs give 150-200 Wh/kg; the low end (a pack's)
+AVGAS_KG_PER_L = 6.0 * 0.45359237 / 3.785411784  # the Cessna POHs' 6.0 lb per US gallon
+AEROSONDE_FUEL_KG = 6.0 * AVGAS_KG_PER_L  # the 6 litres the Aerosonde Laima crossed the Atlantic on
+BATTERY_FRACTION = AEROSONDE_FUEL_KG / 13.5  # of the take-off mass, the aerosonde's battery's
+BSFC_G_PER_KWH = 0.45 * 453.59237 / 0.745699872  # 0.45 lb/(bhp h): mid of Yechout's 0.4-0.5
+ESC_EFFICIENCY = 0.95  # a speed controller's (chosen here: no measurement found to cite)
+MOTOR_EFFICIENCY = 0.75  # Vorkoetter (2001): "assume a motor that is about 75% efficient"
+
+
+def battery_wh(mass: float) -> float:
+    """The usable battery (Wh) of an electric preset of take-off ``mass`` (kg): the aerosonde's
+    battery fraction of the mass, as LiPo at :data:`LIPO_WH_PER_KG`."""
+    return float(round(BATTERY_FRACTION * mass * LIPO_WH_PER_KG))
+
 
 @dataclass(frozen=True)
 class Source:

@@ -15,7 +15,8 @@ above the terrain and the separation to the nearest active threat.
 
 **2-D map** (:func:`map_figure`): the same seen from above, over the tinted hillshade.
 
-**Time plots** (:func:`time_figure`): altitude and the terrain below it, airspeed, bank, and the
+**Time plots** (:func:`time_figure`): altitude and the terrain below it, airspeed, bank, the
+wind where a run flew in one (its horizontal speed and its vertical part, gusts included), and the
 separation from each threat's surface against the run's margin (violations in red): per run the
 ``replay.record.picture.NEAREST_DRAWN`` threats that came closest, as in the run's picture.
 """
@@ -843,27 +844,33 @@ def _below(t: FloatArray, v: FloatArray, top: float) -> tuple[Any, Any]:
 def time_figure(sources: list[Source]) -> Any:
     """The time plots (module docstring)."""
     runs = [s for s in sources if s.run is not None]
-    fig = _time_subplots(runs)
+    windy = any(s.track is not None and s.track.wind is not None for s in runs)
+    fig = _time_subplots(runs, windy)
+    last = 5 if windy else 4
     grid = sources[0].grid
     threat_ids = [th.id for th in _threats(sources)]
     shown, margin, top, hidden = _separation_scale(runs)
     for n, s in enumerate(runs):
-        _add_flight_plots(fig, _colour(sources, s), s, n, grid)
-        _add_separations(fig, s, n, shown[id(s)], threat_ids, top)
-    _time_layout(fig, runs, margin, top, hidden)
+        colour = _colour(sources, s)
+        _add_flight_plots(fig, colour, s, n, grid)
+        if windy:
+            _add_wind(fig, colour, s)
+        _add_separations(fig, s, n, shown[id(s)], threat_ids, top, last)
+    _time_layout(fig, runs, margin, top, hidden, last)
     return fig
 
 
-def _time_subplots(runs: list[Source]) -> Any:
-    """The four rows of plots sharing the time axis (a note in them when there is no flight)."""
+def _time_subplots(runs: list[Source], windy: bool = False) -> Any:
+    """The four rows of plots sharing the time axis, five with the wind's (``windy``: a run
+    flew in wind); a note in them when there is no flight."""
     from plotly.subplots import make_subplots
 
     fig = make_subplots(
-        rows=4,
+        rows=5 if windy else 4,
         cols=1,
         shared_xaxes=True,
         vertical_spacing=0.04,
-        row_heights=[0.3, 0.2, 0.2, 0.3],
+        row_heights=[0.26, 0.16, 0.16, 0.16, 0.26] if windy else [0.3, 0.2, 0.2, 0.3],
     )
     if not runs:
         fig.add_annotation(
@@ -954,8 +961,37 @@ def _add_flight_plots(fig: Any, colour: str, s: Source, n: int, grid: Any) -> No
         )
 
 
+def _add_wind(fig: Any, colour: str, s: Source) -> None:
+    """A windy run's air at each sample (row 4): the horizontal speed (the gusts on the wind)
+    and the vertical gust (up positive, dotted)."""
+    import plotly.graph_objects as go
+
+    tr = s.track
+    if tr is None or tr.wind is None:
+        return
+    k = _stride(len(tr.t), PLOT_POINTS)
+    tm = (tr.t[::k] / 60.0).astype(np.float32)
+    w = tr.wind[::k]
+    name = s.path.name
+    for what, values, dash in (
+        ("wind speed", np.hypot(w[:, 0], w[:, 1]), "solid"),
+        ("vertical wind (up)", -w[:, 2], "dot"),
+    ):
+        fig.add_trace(
+            go.Scatter(
+                x=tm,
+                y=values.astype(np.float32),
+                name=f"{name}: {what}",
+                line={"color": colour, "width": 1, "dash": dash},
+                legendgroup=name,
+            ),
+            row=4,
+            col=1,
+        )
+
+
 def _add_separations(
-    fig: Any, s: Source, n: int, shown: list[str], threat_ids: list[str], top: float
+    fig: Any, s: Source, n: int, shown: list[str], threat_ids: list[str], top: float, row: int
 ) -> None:
     """A run's separation from each threat it draws (the runs differ by dash), the samples
     inside the margin in red."""
@@ -981,7 +1017,7 @@ def _add_separations(
                 legendgroup=name,
                 hovertemplate=f"{ident}: %{{y:.0f}} m at %{{x:.2f}} min<extra>{name}</extra>",
             ),
-            row=4,
+            row=row,
             col=1,
         )
         bad = v < s.run.margin
@@ -996,20 +1032,23 @@ def _add_separations(
                     legendgroup=name,
                     showlegend=False,
                 ),
-                row=4,
+                row=row,
                 col=1,
             )
 
 
-def _time_layout(fig: Any, runs: list[Source], margin: float, top: float, hidden: int) -> None:
-    """Zero and the margin on the separation plot; the axes' ranges and titles; the size."""
-    fig.add_hline(y=0.0, line={"color": "black", "width": 1}, row=4, col=1)
+def _time_layout(
+    fig: Any, runs: list[Source], margin: float, top: float, hidden: int, row: int
+) -> None:
+    """Zero and the margin on the separation plot (``row``, the last); the axes' ranges and
+    titles (the wind's row before it when there is one); the size."""
+    fig.add_hline(y=0.0, line={"color": "black", "width": 1}, row=row, col=1)
     if margin:
         fig.add_hline(
             y=margin,
             line={"color": RED, "width": 1, "dash": "dash"},
             annotation_text=f"margin {margin:g} m",
-            row=4,
+            row=row,
             col=1,
         )
     if runs:
@@ -1022,11 +1061,15 @@ def _time_layout(fig: Any, runs: list[Source], margin: float, top: float, hidden
     fig.update_yaxes(title_text="altitude (m AMSL)", row=1, col=1)
     fig.update_yaxes(title_text="airspeed (m/s)", row=2, col=1)
     fig.update_yaxes(title_text="bank (deg)", row=3, col=1)
+    if row == 5:
+        fig.update_yaxes(title_text="wind (m/s)", row=4, col=1)
     what = f"separation (m), the {NEAREST_DRAWN} nearest" if hidden else "separation (m)"
-    fig.update_yaxes(title_text=what, range=[-0.05 * top, top], row=4, col=1)
-    fig.update_xaxes(title_text="time (min)", row=4, col=1)
+    fig.update_yaxes(title_text=what, range=[-0.05 * top, top], row=row, col=1)
+    fig.update_xaxes(title_text="time (min)", row=row, col=1)
     fig.update_layout(
-        height=900, margin={"l": 70, "r": 10, "t": 10, "b": 50}, hovermode="x unified"
+        height=900 if row == 4 else 1050,
+        margin={"l": 70, "r": 10, "t": 10, "b": 50},
+        hovermode="x unified",
     )
 
 

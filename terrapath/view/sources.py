@@ -41,6 +41,7 @@ class Track:
     separations: dict[str, FloatArray]
     nearest: FloatArray
     nearest_id: tuple[str, ...]
+    wind: FloatArray | None = None  # (K, 3) the air's velocity NED, gusts included (None: still)
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,6 +174,7 @@ def track_of(run: Any, max_points: int = MAX_TRACK) -> Track:
         seps,
         nearest,
         nearest_id,
+        None if run.wind is None else np.asarray(run.wind[::step], dtype=np.float64),
     )
 
 

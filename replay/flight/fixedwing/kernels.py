@@ -285,9 +285,10 @@ def propeller(va, dt, rho, p):  # pragma: no cover - jit
     n = shaft_speed(va, dt, rho, p)[0]  # piston
     if n <= 0.0:
         return 0.0, 0.0
+    d4 = d * d * d * d
     j = va / (n * d)
     ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
-    return rho * n * n * d * d * d * d * ct, 0.0
+    return rho * n * n * d4 * ct, 0.0
 
 
 @nb.njit(cache=True, nogil=True)

@@ -78,6 +78,7 @@ import numpy.typing as npt
 from planner.performance import Performance
 from replay.flight.atmosphere import check_offset, true_airspeed
 from replay.flight.base import G, TerrainHeight, check_numbers
+from replay.flight.energy import ESC_EFFICIENCY
 from terrain.errors import InputError
 
 if TYPE_CHECKING:
@@ -173,7 +174,7 @@ class VehicleParams:
     CP1: float = 0.0
     CP2: float = 0.0
     # energy (module docstring, "Energy"): what the engine draws and what it carries
-    esc_efficiency: float = 0.95  # electric: battery power = motor input power / this
+    esc_efficiency: float = ESC_EFFICIENCY  # electric: battery power = motor input power / this
     bsfc_g_per_kwh: float = 0.0  # piston: fuel per shaft energy, g/kWh
     battery_wh: float = 0.0  # electric: usable battery energy, Wh (0: not given)
     fuel_kg: float = 0.0  # piston: usable fuel, kg (0: not given)

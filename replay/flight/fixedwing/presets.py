@@ -66,6 +66,36 @@ Presets (``load_vehicle(name)``):
     30 m at 15 m/s, which needs 37.4 deg (30 deg gives 39.7 m); 29.4 m at 38 deg, 30.4 m measured
     on the 6-DOF aircraft (``benchmarks/bench_fga.py turn``).
 
+Energy (``params.py``'s ``battery_wh``, ``fuel_kg``, ``esc_efficiency``, ``bsfc_g_per_kwh``;
+what the engine draws: ``kernels.drain``). Fixed before any comparison with a reference
+(:mod:`replay.flight.energy` holds the numbers), none tuned to meet a target:
+
+- **aerosonde**: the preset is electric (Beard & McLain's second edition: a 12-cell, 44.4 V
+  motor) while the real Aerosonde burns avgas (Mk 2: "Engine 26 cc, Avgas 100LL, 1 kW"; the Mk 1
+  Laima crossed the Atlantic in 1998, 3,270 km in 26 h 45 min, "using only 6 litres (2 US gal) of
+  fuel", Flight International). Its battery takes the place of that fuel: the 4.3 kg of 6 litres
+  of avgas (6.0 lb per US gallon, as the Cessna POHs weigh it) as a LiPo pack of 150 Wh/kg
+  (S. D. Prior, "Lithium Polymer Battery Power Supply", in *Optimizing Small Multi-Rotor
+  Unmanned Aircraft*, CRC 2019: "150-200 Wh/kg"; the low end, a pack's rather than a cell's):
+  647 Wh, about 1.6 h at cruise, where the gasoline Aerosonde flies more than a day -- the
+  electric preset is not the real aircraft's endurance.
+- **small-uas**, **seed004-uas** and the multirotor **quadrotor**: the same battery fraction of
+  the take-off mass as the aerosonde (0.32) at 150 Wh/kg: 144, 144 and 33 Wh (the papers give
+  none).
+- **solar-uav**: no capacity (``battery_wh: 0``): seed 000's aircraft is solar powered, its
+  panels charge it in flight and are not modelled, so what it draws is reported and no battery
+  runs out (seed 000's missions last 8 hours).
+- Speed controllers 95 % efficient (``esc_efficiency``; chosen here, no measurement found to
+  cite); the fixed wings' motor losses are in their motor model (resistance, no-load current);
+  the multirotor, without a motor model, 0.75 x 0.95 (``power_efficiency``: Vorkoetter, "assume
+  a motor that is about 75% efficient", Sailplane & Electric Modeler, 2001).
+- **cessna172**: the 160 hp Cessna 172N's standard tanks, 40 US gallons usable (Cessna 172N
+  Pilot's Operating Handbook, 1978, section 1: "40 Gallons Usable Fuel"), at 6.0 lb/gal: 108.9
+  kg; brake-specific fuel consumption 0.45 lb/(bhp h) (273.7 g/kWh), the middle of "0.4 to 0.5
+  lb/bhp-h for cruise power" of Yechout et al., *Introduction to Aircraft Flight Mechanics*
+  (AIAA 2003), ch. 2. The mass is held at the 2,300 lb gross weight as the fuel burns (3 % of
+  it an hour at cruise); closed throttle burns nothing (the idle's flow is not modelled).
+
 Vehicle files (``load_vehicle(path)``): YAML read with ``yaml.safe_load``::
 
     terrapath: 1
@@ -86,6 +116,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from replay.flight.base import file_overrides
+from replay.flight.energy import (
+    AVGAS_KG_PER_L,
+    BSFC_G_PER_KWH,
+    battery_wh,
+)
 from replay.flight.fixedwing.params import ENGINE_PARAMETERS, ENGINES, FIELD_NAMES, VehicleParams
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError, where
@@ -98,6 +133,7 @@ DEFAULT_VEHICLE = "aerosonde"
 FILE_KEYS: tuple[str, ...] = ("terrapath", "base", *FIELD_NAMES)
 
 _SLUG_FT2 = 1.3558179483314004  # kg m^2 per slug ft^2
+
 _LB = 0.45359237  # kg per lb
 _FT = 0.3048
 
@@ -165,9 +201,11 @@ AEROSONDE = VehicleParams(
     CQ0=0.005230,
     CQ1=0.004970,
     CQ2=-0.01664,
+    battery_wh=battery_wh(13.5),
     source=(
         "Beard & McLain, Small Unmanned Aircraft (2012), Appendix E (Aerosonde); motor and "
-        "propeller of the second edition (2021, §4.3)"
+        "propeller of the second edition (2021, §4.3); battery: the real Aerosonde's 6 L fuel "
+        "load as LiPo at 150 Wh/kg (chosen here)"
     ),
 )
 
@@ -245,6 +283,7 @@ SMALL_UAS = _scaled(
     airspeed_max=19.0,
     climb_rate_max=3.0,
     descent_rate_max=2.0,
+    battery_wh=battery_wh(3.0),
     source=(
         "scaled from the Aerosonde of Beard & McLain (2012): 3 kg, 2.2 m span, 0.48 m^2; "
         "seed 004 Table II speed (15 m/s, 13-19 m/s)"
@@ -329,9 +368,12 @@ CESSNA172 = VehicleParams(
     CP2=-0.0731,
     CLadot=1.7,
     Cmadot=-7.27,
+    bsfc_g_per_kwh=BSFC_G_PER_KWH,
+    fuel_kg=round(40.0 * 3.785411784 * AVGAS_KG_PER_L, 1),  # the 172N's 40 US gal usable
     source=(
         "LaRCsim c172_aero.c (T. Peden, FlightGear; after Roskam Part I) derivatives; UIUC "
-        "Cessna 172 model (Scott & Selig 2000, Sivier) mass and geometry; propeller fitted here"
+        "Cessna 172 model (Scott & Selig 2000, Sivier) mass and geometry; propeller fitted here; "
+        "fuel: Cessna 172N POH (1978) 40 US gal usable, BSFC 0.45 lb/bhp/h"
     ),
 )
 

@@ -63,6 +63,7 @@ import numpy.typing as npt
 
 from replay.flight.atmosphere import RHO0, check_offset, density_at
 from replay.flight.base import G, check_numbers, file_overrides
+from replay.flight.energy import ESC_EFFICIENCY, MOTOR_EFFICIENCY, battery_wh
 from replay.frames import rotation_body_to_ned, translational_rates
 from terrain.errors import InputError
 
@@ -110,7 +111,7 @@ class MultirotorParams:
     yaw_rate_max_deg: float  # deg/s
     # energy: the battery's power is the rotors' shaft power sum(sigma k_m w_i^3) over this
     # (motors and speed controllers together); the usable battery energy (0: not given)
-    power_efficiency: float = 0.75
+    power_efficiency: float = MOTOR_EFFICIENCY * ESC_EFFICIENCY
     battery_wh: float = 0.0
     source: str = ""
 
@@ -343,6 +344,7 @@ QUADROTOR = MultirotorParams(
     descent_rate_max=1.0,
     tilt_max_deg=45.0,
     yaw_rate_max_deg=45.0,
+    battery_wh=battery_wh(0.68),
     source=(
         "AscTec Hummingbird as in RotorS (Furrer et al. 2016, rotors_description hummingbird.xacro, "
         "after Wang et al.): 0.68 kg, J = diag(0.007, 0.007, 0.012) kg m^2, '+' with 0.17 m arms, "
