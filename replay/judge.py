@@ -226,6 +226,18 @@ class StallJudge:
 
 
 # ---- conformance -----------------------------------------------------------------------------
+def gust_altitude_error(sigma_w: float, scale_w: float, speed: float, gain: float) -> float:
+    """The standard deviation (m) of the altitude error an altitude hold of bandwidth ``gain``
+    (1/s: the climb rate asked per metre off) keeps in vertical gusts of intensity ``sigma_w``
+    (m/s) and scale ``scale_w`` (m) flown through at ``speed`` (m/s): the gust as a first-order
+    Markov process of time constant ``T = L_w / V`` (the Dryden vertical spectrum's correlation
+    time) driving ``e' = -k e + w_g`` has the variance ``sigma_w^2 T / (k (1 + k T))``.  The
+    climb-rate loop is taken as perfect (the aircraft climbs at what it is asked): the bound
+    of a loop with its authority to spare."""
+    t = scale_w / max(speed, 1e-9)
+    return float(sigma_w * math.sqrt(t / (gain * (1.0 + gain * t))))
+
+
 @dataclass(frozen=True)
 class Tolerances:
     """How far the track may stray from the plan (m) and how long a return may take (s)."""

@@ -24,6 +24,7 @@ time limit passes (``time limit``).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import time
@@ -41,7 +42,7 @@ from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
 from replay.flight.energy import source_of
 from replay.flight.log import GUIDANCE_COLUMNS, FlightLog
-from replay.flight.wind import Dryden, Wind
+from replay.flight.wind import Dryden, Wind, dryden_scales
 from replay.frames import U, V, W, ned_to_map, rotation_body_to_ned, velocities_ned
 from replay.guidance import (
     AvoidanceDecision,
@@ -57,6 +58,7 @@ from replay.judge import (
     Conformance,
     StallJudge,
     Tolerances,
+    gust_altitude_error,
     stall_eas,
 )
 from replay.metrics import MetricsTracker, RunMetrics
@@ -896,13 +898,38 @@ def tolerances(mission: Mission, stack: FlightStack, cfg: ReplayConfig) -> Toler
         if radius:
             back = max(back, 2.0 * math.pi * float(radius) / speed + SETTLE_S)
     clearance = mission.plan.get("clearance") if isinstance(mission.plan, dict) else None
-    return Tolerances.of(
+    tol = Tolerances.of(
         cfg.vertical_tolerance,
         cfg.lateral_tolerance,
         back,
         planned_clearance=clearance if isinstance(clearance, int | float) else None,
         turn_radius=radius,
     )
+    turbulence = None if cfg.wind is None else cfg.wind.turbulence
+    if turbulence is None or cfg.vertical_tolerance is not None:
+        return tol
+    # in turbulence the altitude hold keeps the plan only so well: three standard deviations
+    # of its error in the vertical gusts (judge.gust_altitude_error), at the height above the
+    # ground where they are strongest (MIL-F-8785C's Dryden scales), on top
+    gain = _altitude_gain(stack)
+    spread = max(
+        gust_altitude_error(s[5], s[2], speed, gain)
+        for s in (dryden_scales(turbulence, h) for h in GUST_HEIGHTS_M)
+    )
+    return dataclasses.replace(tol, vertical=round(tol.vertical + GUST_SIGMAS * spread, 1))
+
+
+GUST_HEIGHTS_M = (30.0, 100.0, 300.0, 600.0, 1000.0, 2000.0, 3000.0)
+GUST_SIGMAS = 3.0
+
+
+def _altitude_gain(stack: FlightStack) -> float:
+    """The stack's altitude hold bandwidth (1/s): a fixed wing's altitude gain, a multirotor's
+    position gain."""
+    autopilot = getattr(stack, "autopilot", None)
+    if autopilot is not None:
+        return float(autopilot.config.design.altitude_gain)
+    return float(getattr(getattr(stack, "design", None), "position_gain", 1.0))
 
 
 GOAL_MISS_FACTOR = 2.0  # passing the goal's plane farther than this x the arrival distance

@@ -186,6 +186,10 @@ def test_the_altitude_shapes_are_refused_or_fail_by_name(
 
     metrics = json.loads(capsys.readouterr().out)["metrics"]
     names = {f["name"] for f in metrics["failures"]}
-    assert not metrics["success"] and metrics["reached_goal"]
+    assert not metrics["success"]
+    # the climb to 9,000 m and on empties the aerosonde's 647 Wh battery before the goal
+    # (issue 36): the altitude's failure is named all the same
+    assert metrics["reached_goal"] == (shape != "to-9000")
+    assert ("energy_exhausted" in names) == (shape == "to-9000")
     want = "lateral_excursion" if shape == "reversal" else "vertical_excursion"
     assert want in names and "stall" not in names and "terrain_contact" not in names

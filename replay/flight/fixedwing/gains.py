@@ -51,6 +51,7 @@ class LoopDesign:
     washout_tau: float = 1.0  # s
     # energy management (kernels.energy_state, kernels.climb_loop)
     energy_tau: float = 1.0  # s, filter of the measured energy rates
+    energy_speed_tau: float = 3.0  # s, filter of the airspeed energy management judges by
     energy_recovery: float = 0.2  # 1/s, acceleration asked per m/s of airspeed error
     energy_acceleration_max: float = 0.5  # m/s^2
     energy_speed_band: float = 0.1  # of the commanded airspeed: beyond it the airspeed comes first
@@ -148,6 +149,7 @@ class Gains:
         gk[kern.K_DE_DN] = self.elevator_per_gamma_down
         d = self.design
         gk[kern.K_E_TAU] = d.energy_tau
+        gk[kern.K_E_VA_TAU] = d.energy_speed_tau
         gk[kern.K_E_ACC] = d.energy_recovery
         gk[kern.K_E_ACC_MAX] = d.energy_acceleration_max
         gk[kern.K_E_SPEED_BAND] = d.energy_speed_band

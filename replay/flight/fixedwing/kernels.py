@@ -137,7 +137,8 @@ K_E_ACC_MAX = 43  # m/s^2: at most this acceleration (or deceleration) is asked
 K_E_SPEED_BAND = 44  # fraction of the commanded airspeed: under/overspeed beyond it
 K_E_TURN_MARGIN = 45  # m/s: the climb a turn leaves (the bank limit keeps this much)
 K_E_BANK_MIN = 46  # rad: the bank limit never falls below this (the aircraft can still turn)
-N_GAINS = 47
+K_E_VA_TAU = 47  # s: the airspeed energy management judges by is filtered with this
+N_GAINS = 48
 
 # ---- commands ---------------------------------------------------------------------------------
 C_LAT_MODE = 0  # 0: follow the leg, 1: hold course, 2: hold bank, 3: orbit
@@ -173,7 +174,8 @@ A_INIT = 15  # 0 until the first control step (the washout filter starts at the 
 A_VA_LAST, A_VDOT = 16, 17  # airspeed at the last control step; its filtered rate (m/s^2)
 A_HDOT_UP, A_HDOT_DN = 18, 19  # m/s: climb rate available at full / idle throttle (filtered)
 A_BANK_LIM = 20  # rad: the bank the aircraft can sustain with K_E_TURN_MARGIN of climb left
-N_AP = 21
+A_VA_F = 21  # m/s: the airspeed filtered with K_E_VA_TAU (what energy management judges by)
+N_AP = 22
 
 N_GUIDANCE_LOG = 9  # rec_g columns: A_CHI_C .. A_DIST
 
@@ -703,12 +705,15 @@ def energy_state(x, p, gk, ap, va, hdot, u, dtc):  # pragma: no cover - jit
     if ap[A_INIT] < 0.5:
         ap[A_VA_LAST] = va
         ap[A_VDOT] = 0.0
+        ap[A_VA_F] = va
+    ap[A_VA_F] += dtc / (gk[K_E_VA_TAU] + dtc) * (va - ap[A_VA_F])
     vdot_raw = (va - ap[A_VA_LAST]) / dtc
     ap[A_VA_LAST] = va
     k = dtc / (gk[K_E_TAU] + dtc)
     ap[A_VDOT] += k * (vdot_raw - ap[A_VDOT])
     thrust = propeller(va, u[3], rho, p)[0]
-    e_dot = hdot + va * ap[A_VDOT] / g
+    # through the air: the air's own rise (a gust, a steady vertical wind) is not the aircraft's
+    e_dot = hdot + p[I_WD] + va * ap[A_VDOT] / g
     up = e_dot + (propeller(va, 1.0, rho, p)[0] - thrust) * va / w
     dn = e_dot + (propeller(va, 0.0, rho, p)[0] - thrust) * va / w
     # the bank the excess power sustains
@@ -882,7 +887,7 @@ def climb_loop(gk, cmd, ap, h_c, hdot_ff, h, hdot, va, inv_va, g, dtc):  # pragm
     want = hdot_ff + gk[K_ALT_P] * (h_c - h)
     want = min(max(want, -gk[K_DESCENT_MAX]), gk[K_CLIMB_MAX])
     va_c = min(max(cmd[C_AIRSPEED], gk[K_VA_MIN]), gk[K_VA_MAX])
-    e_v = va_c - va
+    e_v = va_c - ap[A_VA_F]  # a gust's moment of airspeed is not a trend to trade height for
     acc = min(max(gk[K_E_ACC] * e_v, -gk[K_E_ACC_MAX]), gk[K_E_ACC_MAX])
     band = gk[K_E_SPEED_BAND] * va_c
     lo = -gk[K_DESCENT_MAX] if e_v > band else min(want, 0.0)
