@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from planner.performance import ground_speed
 from replay.guidance import Commanded
 from terrain.errors import InputError
 
@@ -318,6 +319,9 @@ class Conformance:
         self.climb_key: tuple[str, float] | None = None
         self.climb_from = 0.0
         self.off_command: dict[tuple[str, str], Spans] = {}
+        # the horizontal wind (north, east) m/s where the aircraft is (the loop sets it each
+        # tick): the way onto an orbit is flown over the ground
+        self.wind: tuple[float, float] = (0.0, 0.0)
 
     def settle(self, t: float) -> None:
         """A new plan or command at ``t``: the aircraft has the return time to converge."""
@@ -387,7 +391,10 @@ class Conformance:
         turn and the way onto an orbit's circle as its vector field closes it (Beard & McLain
         eq 10.9: the course ``pi/2 + atan(k e / rho)`` off the radial, so the distance ``e`` to
         the circle shrinks as ``de/dt = -V a e / sqrt(1 + a^2 e^2)``, ``a = k / rho``, ``V`` the
-        speed it closes on a moving centre with, at least a fifth of its own; integrated from
+        speed it closes on a moving centre with over the ground -- in a wind (:attr:`wind`)
+        its ground speed towards the centre, crabbed into the cross wind
+        (``planner.performance.ground_speed``: 5 m/s for a 15 m/s aircraft into 10 m/s), less
+        the centre's speed away -- at least a fifth of its own airspeed; integrated from
         ``e0`` to half the tolerance: ``(F(e0) - F(e1)) / (V a)``, ``F(e) = u - atanh(1 / u)``,
         ``u = sqrt(1 + a^2 e^2)``); the way to a held point at the speed -- each plus
         ``SETTLE_S``."""
@@ -401,8 +408,13 @@ class Conformance:
             )
             return turn / w + SETTLE_S
         if command.lateral == "orbit":
-            d = float(np.hypot(*(p - command.center_at(np.array([command.t]))[0])))
-            closing = max(v - float(np.hypot(*command.center_velocity)), 0.2 * v)
+            to = command.center_at(np.array([command.t]))[0] - p
+            d = float(np.hypot(*to))
+            u = to / d if d > 1e-9 else np.array([0.0, 1.0])
+            closing = max(
+                ground_speed(v, self.wind, u) - float(np.dot(command.center_velocity, u)),
+                0.2 * v,
+            )
             a = self.orbit_gain / max(command.radius, 1e-6)
             e0, e1 = abs(d - command.radius), 0.5 * self.tol.lateral
 

@@ -554,6 +554,7 @@ class _Loop:
                 # the wind where the aircraft is, held for the tick (a profile or layers)
                 self.wind_now = _wind_at(self.wind, ned_to_map(x[:3]), self.grid)
                 stack.set_wind(self.wind_now)
+            self.conformance.wind = (float(self.wind_now[0]), float(self.wind_now[1]))
             if self.dryden is not None:
                 self._gusts(x, t, period)
             following = follows_plan(stack)
@@ -887,16 +888,18 @@ def tolerances(mission: Mission, stack: FlightStack, cfg: ReplayConfig) -> Toler
     1 km before a waypoint leaves a slow aircraft up to 1 km off its next leg) or one full turn
     of that radius and the settling after it (an avoider's new route may need the aircraft to
     turn round: the Cessna at 50 m/s, turning 441 m at its bank limit, takes 55 s for the circle),
-    the longest."""
+    the longest -- in a wind, flown at the slowest ground speed, into the strongest wind on the
+    way (a 15 m/s aircraft into 10 m/s takes three times as long over the ground)."""
     speed = float(cfg.airspeed or mission.cruise_speed)
+    over_ground = max(speed - strongest_wind(mission, cfg), 0.2 * speed)
     radius = mission.turn_radius
     if radius is None and hasattr(stack.params, "min_turn_radius"):
         radius = stack.params.min_turn_radius(speed)
     back = cfg.return_time
     if back is None:
-        back = max(RETURN_TIME_S, 2.0 * float(stack.corner_distance) / speed)
+        back = max(RETURN_TIME_S, 2.0 * float(stack.corner_distance) / over_ground)
         if radius:
-            back = max(back, 2.0 * math.pi * float(radius) / speed + SETTLE_S)
+            back = max(back, 2.0 * math.pi * float(radius) / over_ground + SETTLE_S)
     clearance = mission.plan.get("clearance") if isinstance(mission.plan, dict) else None
     tol = Tolerances.of(
         cfg.vertical_tolerance,
