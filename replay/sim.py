@@ -337,7 +337,7 @@ def simulate(
         stack = _vehicle_stack(mission, vehicle, grid, cfg)
     wind = check_wind(cfg, mission, stack.name)
     if wind is not None:  # the start crabbed into the wind where it starts
-        stack.set_wind(_wind_at(wind, mission.waypoints[0], grid))
+        stack.set_wind(_wind_at(wind, mission.waypoints[0], grid.safety() if grid else None))
     x = stack.initial_state()  # first: "cannot trim" names the speeds it can fly
     if sensor is None:
         sensor = cfg.make_sensor(rng, rangefinder_spread(cfg, avoider))
@@ -411,8 +411,9 @@ def check_wind(cfg: ReplayConfig, mission: Mission, vehicle: str) -> Wind | None
 
 
 def _wind_at(wind: Wind, position: npt.ArrayLike, grid: HeightGrid | None) -> FloatArray:
-    """The air's velocity (3,) NED at a map ``position`` (its height over the measured ground
-    for a profile)."""
+    """The air's velocity (3,) NED at a map ``position`` (for a profile, its height over
+    ``grid``: the measured heights, ``HeightGrid.safety``, the ground the gusts' scales and the
+    judge use too)."""
     p = np.asarray(position, dtype=np.float64)
     ground = float(grid.height_at(p[0], p[1])) if grid is not None else 0.0
     return np.asarray(wind.velocity(float(p[2]), float(p[2]) - ground), dtype=np.float64)
@@ -440,8 +441,12 @@ class _Loop:
         self.wind_varies = self.wind is not None and (
             bool(self.wind.layers) or self.wind.profile != "uniform"
         )
+        # terrain is judged on the measured, conservative heights (the display heights are for
+        # the picture): the surface the sensors see and terrain following keeps clear of; the
+        # height over the ground of a wind profile and of the gusts' scales too
+        self.safety = grid.safety() if grid is not None else None
         self.wind_now = (
-            _wind_at(self.wind, mission.waypoints[0], grid)
+            _wind_at(self.wind, mission.waypoints[0], self.safety)
             if self.wind is not None
             else np.zeros(3)
         )
@@ -477,9 +482,6 @@ class _Loop:
             cfg.margin,
             allow_unknown=cfg.allow_unknown_terrain,
         )
-        # terrain is judged on the measured, conservative heights (the display heights are for
-        # the picture): the surface the sensors see and terrain following keeps clear of
-        self.safety = grid.safety() if grid is not None else None
         self.contact_at: tuple[float, float, float] | None = None
         self.tolerances = tolerances(mission, stack, cfg)
         params = stack.params
@@ -552,7 +554,7 @@ class _Loop:
                 break  # the limit falls between two steps of the integrator: nothing left to fly
             if self.wind is not None and self.wind_varies:
                 # the wind where the aircraft is, held for the tick (a profile or layers)
-                self.wind_now = _wind_at(self.wind, ned_to_map(x[:3]), self.grid)
+                self.wind_now = _wind_at(self.wind, ned_to_map(x[:3]), self.safety)
                 stack.set_wind(self.wind_now)
             self.conformance.wind = (float(self.wind_now[0]), float(self.wind_now[1]))
             if self.dryden is not None:
