@@ -297,3 +297,79 @@ def test_avoiders_keep_clear_of_a_threat_in_a_crosswind(avoid: str) -> None:
         else:
             assert r.metrics.success, r.metrics.failures
             assert sep > 0
+
+
+def test_the_judge_gives_an_orbit_join_its_ground_speed() -> None:
+    """An avoider's orbit 832 m ahead of a 15 m/s aircraft, into a 10 m/s wind blowing from the
+    centre's side: the way onto its circle is closed at 5 m/s over the ground, so the judge's
+    grace for it is three times that of still air (its join part); across the wind the
+    aircraft crabs: sqrt(15^2 - 10^2) = 11.2 m/s."""
+    from replay.guidance import Commanded
+    from replay.judge import Conformance, Tolerances
+
+    tol = Tolerances(30.0, 50.0, 60.0)
+    orbit = Commanded(0.0, "orbit", "none", center=(0.0, 832.0), radius=235.0, clockwise=False)
+    here = np.array([0.0, 0.0, 100.0])
+
+    def join(wind_ne: tuple[float, float]) -> float:
+        c = Conformance(tol, speed=15.0, turn_rate=0.2)
+        c.wind = wind_ne
+        return c.grace(orbit, here, 0.0) - math.pi / 0.2  # less the half turn and the settling
+
+    from replay.judge import SETTLE_S
+
+    calm, head, cross = join((0.0, 0.0)), join((-10.0, 0.0)), join((0.0, 10.0))
+    assert calm > SETTLE_S
+    assert (head - SETTLE_S) / (calm - SETTLE_S) == pytest.approx(3.0, rel=1e-6)
+    assert (cross - SETTLE_S) / (calm - SETTLE_S) == pytest.approx(15.0 / math.sqrt(125.0))
+
+
+def test_the_gust_altitude_error_is_that_of_the_loop_in_the_gusts() -> None:
+    """gust_altitude_error's closed form against a simulation of e' = -k e + w, w a first-order
+    Markov gust of intensity sigma and time constant L / V: the standard deviation within 3 %."""
+    from replay.judge import gust_altitude_error
+
+    rng = np.random.default_rng(36)
+    sigma, scale, speed, k = 2.0, 533.0, 25.0, 0.25
+    t_c, dt, n = scale / speed, 0.05, 2_000_000
+    a = math.exp(-dt / t_c)
+    from scipy.signal import lfilter
+
+    noise = rng.normal(0.0, sigma * math.sqrt(1.0 - a * a), n)
+    w = lfilter([1.0], [1.0, -a], noise)  # the gust: w_i = a w_(i-1) + noise_i
+    b = math.exp(-k * dt)  # e' = -k e + w, exactly for w held over each step
+    e = lfilter([0.0, (1.0 - b) / k], [1.0, -b], w)
+    burn = int(20 * t_c / dt)
+    assert float(np.std(e[burn:])) == pytest.approx(
+        gust_altitude_error(sigma, scale, speed, k), rel=0.03
+    )
+
+
+def test_turbulence_widens_the_vertical_tolerance(tmp_path: Path) -> None:
+    """In turbulence the judge's vertical tolerance is the still air's plus three standard
+    deviations of the altitude hold's gust error at the strongest gusts' height; the demo
+    mission flown in 10 m/s with moderate turbulence (terrain following off) keeps it: a
+    success (issue 36: 177 m off before the energy management judged through the air)."""
+    from replay.flight.wind import dryden_scales
+    from replay.judge import gust_altitude_error
+    from replay.run import ReplayRequest, prepare_replay, run_replay
+    from replay.sim import GUST_HEIGHTS_M, tolerances
+    from tests.test_plan_wind import ARGS
+
+    out = tmp_path / "demo.yaml"
+    assert main([*ARGS, "-o", str(out)]) == 0
+    wind = parse_wind("10,270", turbulence="moderate")
+    request = ReplayRequest.of(str(out), terrain_following=0, seed=1, wind=wind)
+    prep = prepare_replay(request)
+    stack = prep.params.flight_stack(prep.mission.waypoints, speed=25.0)
+    calm = tolerances(prep.mission, stack, ReplayConfig())
+    rough = tolerances(prep.mission, stack, prep.config)
+    k = stack.autopilot.config.design.altitude_gain
+    spread = max(
+        gust_altitude_error(s[5], s[2], 25.0, k)
+        for s in (dryden_scales("moderate", h) for h in GUST_HEIGHTS_M)
+    )
+    assert rough.vertical == pytest.approx(calm.vertical + 3.0 * spread, abs=0.05)
+    assert rough.lateral == calm.lateral
+    result = run_replay(request)
+    assert result.metrics.success, [f.text for f in result.metrics.failures]
