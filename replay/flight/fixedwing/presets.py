@@ -265,6 +265,7 @@ SOLAR_UAV = _scaled(
     airspeed_max=22.0,
     climb_rate_max=3.0,
     descent_rate_max=1.5,
+    battery_wh=0.0,  # solar: its panels charge it (not modelled), nothing to run out of
     source=(
         "scaled from the Aerosonde of Beard & McLain (2012): 6 kg, 3.5 m span, 0.75 m^2, "
         "CDp 0.025, propeller resized; seed 000 speed and limits"
