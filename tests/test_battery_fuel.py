@@ -283,3 +283,29 @@ def test_the_cessna_burns_what_its_handbook_says_at_cruise() -> None:
         assert ours[3] / 0.45359237 / LB_PER_GAL == pytest.approx(gph, rel=0.15)
         assert 100 * ours[1] / c.power_max == pytest.approx(bhp, rel=0.15)
     assert flown == len(POH_CRUISE) - 1
+
+
+def test_the_quadrotor_plan_estimate_is_what_it_draws() -> None:
+    """The quadrotor flying a climbing square (its legs at 5 m/s, stopping at each corner): the
+    plan's estimate (its steady-flight power along each leg, on the spot for the vertical
+    one) within 10 % of what its rotors drew in the replay, and within its 33 Wh."""
+    w = np.array(
+        [[0.0, 0.0, 50.0], [300.0, 0.0, 80.0], [300.0, 300.0, 80.0], [300.0, 300.0, 110.0],
+         [0.0, 300.0, 60.0]]
+    )  # fmt: skip
+    mission = Mission("square", w, vehicle="quadrotor", cruise_speed=5.0, turn_radius=None)
+    run = _fly(mission, QUADROTOR)
+    assert run.metrics.end_reason == "goal"
+    model = energy_model(QUADROTOR, 5.0, (50.0, 110.0))
+    need = mission_energy(
+        w,
+        (),
+        model,
+        0.0,
+        hover=True,
+        climb_rate=QUADROTOR.climb_rate_max,
+        descent_rate=QUADROTOR.descent_rate_max,
+    )
+    used = run.metrics.energy["used"]
+    assert need.total == pytest.approx(used, rel=0.10)
+    assert used < QUADROTOR.battery_wh and run.metrics.energy["left"] > 0
