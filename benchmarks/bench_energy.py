@@ -158,10 +158,12 @@ def _ours_level(
     it does not trim."""
     from replay.flight.atmosphere import density_at
     from replay.flight.fixedwing import kernels as kern
-    from replay.flight.fixedwing.trim import try_trim
+    from replay.flight.fixedwing.trim import trim
+    from terrain.errors import InputError
 
-    tr = try_trim(params, speed, altitude)
-    if tr is None:
+    try:
+        tr = trim(params, speed, altitude, explain=False)
+    except InputError:
         return None
     p = params.pack()
     rho = density_at(altitude, 0.0)

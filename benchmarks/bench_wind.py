@@ -1,7 +1,7 @@
 """The demo mission in wind (issue 36): `make demo`'s plan over Rocky Mountain National Park (the
 aerosonde at 25 m/s, seed 1) flown with terrain following off in still air, in a 10 m/s wind
-from each of 8 directions, and in that wind from the west with light and moderate Dryden
-turbulence -- success (no terrain contact on the measured heights, the track within
+from each of 8 directions, and in that wind from the west with light, moderate and severe
+Dryden turbulence -- success (no terrain contact on the measured heights, the track within
 the conformance tolerances of the plan: issue 22's judge), the lowest clearance, the time off the
 plan, the flight time.
 
@@ -61,7 +61,7 @@ def main() -> None:
                 f"{args.speed:g} m/s from 270, {t} turbulence",
                 parse_wind(f"{args.speed},270", turbulence=t),
             )
-            for t in ("light", "moderate")
+            for t in ("light", "moderate", "severe")
         ]
         ok = 0
         for label, wind in winds:

@@ -5,7 +5,7 @@ battery power from its motor's current, or its fuel flow from its engine's shaft
 a multirotor's battery power from its rotors' shaft power); :class:`Source` turns what was drawn
 into the vehicle's units and a state of charge. :func:`energy_model` reduces the same model to
 the table the planner integrates along a mission (:mod:`planner.energy`): trims of the 6-DOF
-aircraft (:func:`replay.flight.fixedwing.trim.try_trim`) at the cruise airspeed, by altitude and
+aircraft (:func:`replay.flight.fixedwing.trim.trim`) at the cruise airspeed, by altitude and
 climb rate, straight and in the planned turn, and what the engine draws at each trim's throttle;
 for a multirotor, its steady flight solved for the rotor speed (:func:`multirotor_power`).
 """
@@ -168,7 +168,8 @@ def _fixed_wing_table(
     trim's throttle (full throttle for a climb steeper than any that trims; idle for a descent
     steeper than the idle glide)."""
     from replay.flight.fixedwing import kernels as kern
-    from replay.flight.fixedwing.trim import try_trim
+    from replay.flight.fixedwing.trim import trim
+    from terrain.errors import InputError
 
     packed = params.pack(temperature_offset=dtemp)
     out = np.zeros((len(alts), len(climbs)))
@@ -176,11 +177,12 @@ def _fixed_wing_table(
         rho = density_at(float(h), dtemp)
         for j, c in enumerate(climbs):
             gamma = math.asin(max(-0.99, min(0.99, float(c) / speed)))
-            tr = try_trim(params, speed, float(h), gamma, turn_radius, dtemp)
-            if tr is None:
+            try:
+                throttle = float(
+                    trim(params, speed, float(h), gamma, turn_radius, dtemp, explain=False).u[3]
+                )
+            except InputError:  # beyond full throttle (a climb) or idle (a descent)
                 throttle = 1.0 if c > 0 else 0.0
-            else:
-                throttle = float(tr.u[3])
             out[i, j] = kern.drain(speed, throttle, rho, packed)
     # a climb that does not trim draws at least what a shallower one did (full throttle)
     return np.maximum.accumulate(out, axis=1)

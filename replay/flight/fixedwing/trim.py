@@ -173,13 +173,16 @@ def trim(
     gamma: float = 0.0,
     turn_radius: float = math.inf,
     temperature_offset: float = 0.0,
+    *,
+    explain: bool = True,
 ) -> Trim:
     """Trimmed state and controls at true ``airspeed`` (m/s), ``altitude`` (m AMSL: the standard
     atmosphere's density there, ``temperature_offset`` K off standard), flight-path angle
     ``gamma`` (rad, climb positive) and ``turn_radius`` (m; + right, - left, inf straight).
 
     Raises :class:`InputError` when the aircraft cannot hold that flight (stall, not enough thrust,
-    elevator travel), naming the altitude and the speed range in which it can.
+    elevator travel), naming the altitude and the speed range in which it can (``explain``
+    False: without that search, for a caller that only asks whether it trims).
     """
     va = float(airspeed)
     if not math.isfinite(va) or va <= 0:
@@ -190,27 +193,14 @@ def trim(
         raise InputError(
             f"trim turn radius must be non-zero (inf for straight), found {turn_radius!r}"
         )
-    found = try_trim(params, va, altitude, gamma, turn_radius, temperature_offset)
-    if found is None:
-        raise InputError(_cannot_trim(params, va, altitude, gamma, turn_radius, temperature_offset))
-    return found
-
-
-def try_trim(
-    params: VehicleParams,
-    airspeed: float,
-    altitude: float = 0.0,
-    gamma: float = 0.0,
-    turn_radius: float = math.inf,
-    temperature_offset: float = 0.0,
-) -> Trim | None:
-    """:func:`trim`, or None when that flight does not trim (without the search for the speeds
-    that do, which the error message of :func:`trim` needs)."""
-    va = float(airspeed)
     packed = params.pack(temperature_offset=temperature_offset)
     z, r = _solve(params, packed, va, altitude, gamma, turn_radius, None)
     if r >= TOLERANCE:
-        return None
+        raise InputError(
+            _cannot_trim(params, va, altitude, gamma, turn_radius, temperature_offset)
+            if explain
+            else f"{params.name} cannot trim at {va:g} m/s at {altitude:.0f} m"
+        )
     psi_dot = 0.0 if math.isinf(turn_radius) else va * math.cos(gamma) / turn_radius
     return Trim(_state(z, va, altitude, psi_dot), np.array(z[3:7], dtype=np.float64))
 
