@@ -47,6 +47,15 @@ over a couple of turn radii). The cross-track rate of eq. 20 is then implicit:
 The course loop turns with at most the bank limit, so the turn rate never exceeds
 ``g tan(phi_max) / V`` (eq. 14).
 
+In a wind the guidance is over the ground: the vector fields (this line's and the orbit's,
+Beard & McLain §10.2-10.3) command the course, and the course loop compares it with the ground
+track's course, so the heading crabs into the wind by itself (``asin(w_cross / V)``; measured
+within 0.11 deg, tests/test_wind.py) and a fillet or orbit is held on the ground, its downwind
+side flown at a steeper bank (within 10 % of the radius in 10 m/s). Of the anchors' followers it
+is the vector field of the book, not PX4's NPFG nor ArduPilot's L1; like NPFG, and unlike a
+heading-based follower, it needs no wind estimate to hold the track, only the ground velocity
+(the airspeed loop reads the speed through the air).
+
 Leg change (seed 000 §3.6, eqs 16-17): the paper changes leg when "the difference between Waypoint
 Distance and UAV Distance is less than 1 km" — on the track that is the distance still to go. We
 use what that means geometrically: the leg ends when the aircraft is within ``switch_distance``
