@@ -133,8 +133,10 @@ class MissionEnergy:
         return out
 
 
-def _fmt(unit: str) -> Callable[[float], str]:
-    return (lambda v: f"{v:,.1f}") if unit == "kg" else (lambda v: f"{v:,.0f}")
+def _fmt(unit: str, total: float) -> Callable[[float], str]:
+    """Numbers of a mission's energy: a decimal more on a small one (a quadrotor's 2.4 Wh)."""
+    digits = (1 if total >= 10 else 2) if unit == "kg" else (0 if total >= 100 else 1)
+    return lambda v: f"{v:,.{digits}f}"
 
 
 def describe(energy: dict[str, Any], per_leg: int = 12) -> str:
@@ -142,7 +144,7 @@ def describe(energy: dict[str, Any], per_leg: int = 12) -> str:
     ``plan.energy``): the total, the shares of climbs and spirals, the reserve, and each leg's
     when there are at most ``per_leg`` legs."""
     unit = str(energy["unit"])
-    fmt = _fmt(unit)
+    fmt = _fmt(unit, float(energy["total"]))
     what = "battery energy" if energy["kind"] == "battery" else "fuel"
     line = f"{what} {fmt(energy['total'])} {unit} over {energy['minutes']:.1f} min"
     extra = [f"{k} {fmt(energy[k])}" for k in ("climb", "spirals") if energy.get(k, 0) > 0]
