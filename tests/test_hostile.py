@@ -421,7 +421,10 @@ def _parts(folder: Path) -> list[Path]:
 
 @pytest.mark.parametrize(("sig", "code"), [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
 def test_a_signal_mid_replay_leaves_no_part(tmp_path: Path, sig: int, code: int) -> None:
-    proc = _start(["replay", str(MISSION), "--no-picture", "-o", "r.mcap"], tmp_path)
+    # seed 000's 8-hour mission: its replay records for seconds, so the signal lands mid-run
+    # (seed 001's short mission replays in about a second and once ended before the signal came)
+    long_mission = ROOT / "data" / "missions" / "seed000-table4.yaml"
+    proc = _start(["replay", str(long_mission), "--no-picture", "-o", "r.mcap"], tmp_path)
     try:
         _wait_for(lambda: _parts(tmp_path) or proc.poll() is not None, 120, "the .part")
         assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
