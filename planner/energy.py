@@ -22,17 +22,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.interpolate import RegularGridInterpolator
 
 from planner.performance import ground_speed
 from planner.spiral import Spiral, flown_path
 
 FloatArray = npt.NDArray[np.float64]
 WH = 3600.0  # J per Wh
+UNITS = {"battery": "Wh", "fuel": "kg"}  # a source's kind -> the unit of its capacity
+WHAT = {"battery": "battery energy", "fuel": "fuel"}  # ... and what it is called
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,38 +60,32 @@ class EnergyModel:
     turn_bank_deg: float = 0.0
     hover_rate: FloatArray | None = None
     source: str = ""
-    notes: tuple[str, ...] = field(default=())
 
     @property
     def unit(self) -> str:
-        return "Wh" if self.kind == "battery" else "kg"
+        return UNITS[self.kind]
 
     def per_second(self, altitude: float, climb: float, turning: bool = False) -> float:
         """The source's draw per second (Wh/s or kg/s) at ``altitude`` and ``climb`` m/s."""
-        return self._lookup(self.turn_rate if turning else self.rate, altitude, climb)
+        return self._lookup(self._tables[1 if turning else 0], altitude, climb)
 
     def hover_per_second(self, altitude: float, climb: float) -> float:
         """A multirotor's draw per second on the spot (Wh/s)."""
-        table = self.hover_rate if self.hover_rate is not None else self.rate
-        return self._lookup(table, altitude, climb)
+        return self._lookup(self._tables[2], altitude, climb)
 
-    def _lookup(self, table: FloatArray, altitude: float, climb: float) -> float:
+    @cached_property
+    def _tables(self) -> tuple[RegularGridInterpolator, ...]:
+        """Bilinear interpolators of the straight, turning and on-the-spot rates (a fixed wing
+        has no on-the-spot table: its straight one)."""
+        hover = self.hover_rate if self.hover_rate is not None else self.rate
+        grid = (self.altitudes, self.climbs)
+        return tuple(RegularGridInterpolator(grid, t) for t in (self.rate, self.turn_rate, hover))
+
+    def _lookup(self, table: RegularGridInterpolator, altitude: float, climb: float) -> float:
         a, c = self.altitudes, self.climbs
         h = min(max(altitude, float(a[0])), float(a[-1]))
         v = min(max(climb, float(c[0])), float(c[-1]))
-        i = int(np.clip(np.searchsorted(a, h) - 1, 0, max(len(a) - 2, 0)))
-        j = int(np.clip(np.searchsorted(c, v) - 1, 0, max(len(c) - 2, 0)))
-        fa = 0.0 if len(a) < 2 else (h - a[i]) / max(float(a[i + 1] - a[i]), 1e-9)
-        fc = 0.0 if len(c) < 2 else (v - c[j]) / max(float(c[j + 1] - c[j]), 1e-9)
-        i1, j1 = min(i + 1, len(a) - 1), min(j + 1, len(c) - 1)
-        r = (
-            (1 - fa) * (1 - fc) * table[i, j]
-            + fa * (1 - fc) * table[i1, j]
-            + (1 - fa) * fc * table[i, j1]
-            + fa * fc * table[i1, j1]
-        )
-        # W -> Wh/s; kg/h -> kg/s
-        return float(r) / 3600.0
+        return float(table((h, v))) / 3600.0  # W -> Wh/s; kg/h -> kg/s
 
 
 @dataclass(frozen=True)
@@ -106,15 +104,6 @@ class MissionEnergy:
     @property
     def total(self) -> float:
         return float(sum(self.legs))
-
-    @property
-    def reserve(self) -> float | None:
-        """What is left at the end (the unit's amount), None without a capacity."""
-        return None if self.capacity <= 0 else self.capacity - self.total
-
-    @property
-    def enough(self) -> bool:
-        return self.capacity <= 0 or self.total <= self.capacity
 
     def as_dict(self) -> dict[str, Any]:
         d = 3 if self.unit == "kg" else 1
@@ -145,8 +134,7 @@ def describe(energy: dict[str, Any], per_leg: int = 12) -> str:
     when there are at most ``per_leg`` legs."""
     unit = str(energy["unit"])
     fmt = _fmt(unit, float(energy["total"]))
-    what = "battery energy" if energy["kind"] == "battery" else "fuel"
-    line = f"{what} {fmt(energy['total'])} {unit} over {energy['minutes']:.1f} min"
+    line = f"{WHAT[energy['kind']]} {fmt(energy['total'])} {unit} over {energy['minutes']:.1f} min"
     extra = [f"{k} {fmt(energy[k])}" for k in ("climb", "spirals") if energy.get(k, 0) > 0]
     if extra:
         line += f" ({', '.join(extra)})"
@@ -159,6 +147,18 @@ def describe(energy: dict[str, Any], per_leg: int = 12) -> str:
     if reserve >= 0:
         return line + f"; reserve {fmt(reserve)} {unit} of {fmt(cap)} ({100 * reserve / cap:.0f} %)"
     return line + f"; SHORT by {fmt(-reserve)} {unit}: it carries {fmt(cap)} {unit}"
+
+
+def shortfall(energy: dict[str, Any], carrier: str = "the vehicle") -> str | None:
+    """What a mission short of energy needs against what ``carrier`` carries (one line), None
+    when it has enough or the vehicle gives no capacity (``energy``: :meth:`MissionEnergy.as_dict`)."""
+    if energy.get("reserve", 0.0) >= 0:
+        return None
+    unit = energy["unit"]
+    return (
+        f"the mission needs {energy['total']:g} {unit} of {WHAT[energy['kind']]}; {carrier} "
+        f"carries {energy['capacity']:g} {unit}"
+    )
 
 
 def mission_energy(
@@ -241,4 +241,12 @@ def mission_energy(
     )
 
 
-__all__ = ["EnergyModel", "MissionEnergy", "describe", "mission_energy"]
+__all__ = [
+    "UNITS",
+    "WHAT",
+    "EnergyModel",
+    "MissionEnergy",
+    "describe",
+    "mission_energy",
+    "shortfall",
+]

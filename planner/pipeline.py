@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner.energy import EnergyModel, mission_energy
+from planner.energy import EnergyModel, mission_energy, shortfall
 from planner.explore import ROUTES
 from planner.launch import Landing, Takeoff
 from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
@@ -545,7 +545,8 @@ def plan_mission(
             )
     mission = to_mission(request, prepared, result, out)
     energy = mission.plan.get("energy")
-    if result.feasible and isinstance(energy, dict) and energy.get("reserve", 0.0) < 0:
+    short_of = shortfall(energy) if isinstance(energy, dict) else None
+    if result.feasible and short_of is not None:
         # a mission the aircraft cannot carry the energy for is not flyable
         g = mission.waypoints[-1]
         short = Violation(
@@ -555,9 +556,7 @@ def plan_mission(
             float(g[1]),
             float(g[2]),
             0.0,
-            f"the mission needs {energy['total']:g} {energy['unit']} of "
-            f"{'battery energy' if energy['kind'] == 'battery' else 'fuel'}; the vehicle carries "
-            f"{energy['capacity']:g} {energy['unit']}",
+            short_of,
         )
         result = dataclasses.replace(
             result, status="infeasible", violations=(*result.violations, short)

@@ -64,6 +64,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.check import Finding, GeometryCheck, check_geometry
+from planner.energy import shortfall
 from planner.mission import Mission
 from planner.performance import Performance, ground_speed
 from replay.flight.atmosphere import RHO0, check_offset, density_at
@@ -694,9 +695,9 @@ def feasibility(
         turn_model = "none given: the legs are checked as straight lines between the waypoints"
     findings = list(geometry.findings) + vehicle_findings(mission, flight)
     energy = mission_energy_of(mission, params, speed, temperature_offset)
-    if "reserve" in energy and energy["reserve"] < 0:
+    short_of = shortfall(energy, params.name)
+    if short_of is not None:
         g = mission.waypoints[-1]
-        what = "battery energy" if energy["kind"] == "battery" else "fuel"
         findings.append(
             Finding(
                 "energy",
@@ -705,8 +706,7 @@ def feasibility(
                 float(g[0]),
                 float(g[1]),
                 float(g[2]),
-                f"the mission needs {energy['total']:g} {energy['unit']} of {what}; "
-                f"{params.name} carries {energy['capacity']:g} {energy['unit']}",
+                short_of,
             )
         )
     return Feasibility(

@@ -35,7 +35,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from planner.energy import WH
 from planner.mission import Mission
 from replay.avoidance.base import AvoidanceContext, Avoider
 from replay.flight.atmosphere import check_offset
@@ -561,16 +560,16 @@ class _Loop:
                 self._gusts(x, t, period)
             following = follows_plan(stack)
             commanded = None if following else stack.commanded(t)
-            self.tick_t0, t_start = t, t
+            self.tick_t0 = t
             log = stack.fly(x, t, period, record_every=self.record_every)
             x, t = log.x, log.t
             self.used0, self.used = self.used, float(getattr(stack, "energy_used", 0.0))
-            contact_t = self._samples(log, following, commanded, t_start)
+            contact_t = self._samples(log, following, commanded)
             if contact_t is not None:
                 t = contact_t
                 break
             if self.source.exhausted(self.used):
-                t = self._exhausted(t_start, t)
+                t = self._exhausted(t)
                 break
             self._events(log, t)
             if progress is not None:
@@ -606,25 +605,27 @@ class _Loop:
             out += g[np.clip(k, 0, len(g) - 1), :3]
         return out
 
-    def _exhausted(self, t0: float, t1: float) -> float:
-        """The source ran out in the tick from ``t0`` to ``t1``: when (linear in the tick), the
-        run's end."""
+    def _exhausted(self, t1: float) -> float:
+        """The source ran out in the tick from ``tick_t0`` to ``t1``: when (linear in the
+        tick), the run's end."""
+        t0 = self.tick_t0
         src = self.source
         a, b = src.amount(self.used0), src.amount(self.used)
         f = (src.capacity - a) / (b - a) if b > a else 1.0
         t = t0 + min(max(f, 0.0), 1.0) * (t1 - t0)
-        what = "battery" if src.kind == "battery" else "fuel"
         self.end_reason = (
-            f"energy exhausted: the {what} ({src.capacity:g} {src.unit}) ran out at t = {t:.0f} s"
+            f"energy exhausted: the {src.kind} ({src.capacity:g} {src.unit}) ran out at "
+            f"t = {t:.0f} s"
         )
-        self.used = src.capacity * WH if src.kind == "battery" else src.capacity  # all of it
+        self.used = src.capacity * src.per_unit  # all of it
         if self.recorder is not None:
             self.recorder.write_log(t, "error", self.end_reason)
         return t
 
-    def _energy_at(self, ts: FloatArray, t0: float, t1: float) -> FloatArray:
-        """What the source had given at the sample times ``ts`` of the tick from ``t0`` to
-        ``t1`` (linear in the tick), in its unit."""
+    def _energy_at(self, ts: FloatArray, t1: float) -> FloatArray:
+        """What the source had given at the sample times ``ts`` of the tick from ``tick_t0``
+        to ``t1`` (linear in the tick), in its unit."""
+        t0 = self.tick_t0
         src = self.source
         a, b = src.amount(self.used0), src.amount(self.used)
         f = np.clip((np.asarray(ts) - t0) / max(t1 - t0, 1e-9), 0.0, 1.0)
@@ -634,11 +635,7 @@ class _Loop:
         return np.asarray(used, dtype=np.float64)
 
     def _samples(
-        self,
-        log: FlightLog,
-        following: bool = True,
-        commanded: Commanded | None = None,
-        t_start: float | None = None,
+        self, log: FlightLog, following: bool = True, commanded: Commanded | None = None
     ) -> float | None:
         """Keep the tick's samples (up to terrain contact) for the metrics and the recording,
         and judge them (stall, conformance: ``following`` whether the stack followed its legs,
@@ -657,7 +654,7 @@ class _Loop:
         air = self.winds(ts) if self.wind is not None else None  # the air's velocity (K, 3)
         if air is not None:
             self.air.append(air[:keep])
-        used = self._energy_at(ts, ts[0] if t_start is None else t_start, log.t)
+        used = self._energy_at(ts, log.t)
         self.energy.append(used[:keep])
         self._judge(log, pos, keep, following, commanded, air)
         rec = self.recorder

@@ -108,7 +108,7 @@ def energy_text(e: Mapping[str, Any]) -> str:
     left of the capacity where the vehicle gives one."""
     unit = str(e.get("unit", ""))
     used = float(e["used"])
-    what = "battery" if e.get("kind") == "battery" else "fuel"
+    what = str(e.get("kind", ""))  # battery or fuel
     amount = f"{used:,.2f}" if unit == "kg" else f"{used:,.1f}"
     left = _number(e.get("left"))
     if left is None:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.energy import WH, EnergyModel
+from planner.energy import UNITS, WH, EnergyModel
 from replay.flight.atmosphere import RHO0, density_at
 from replay.flight.base import G
 
@@ -52,11 +52,16 @@ class Source:
 
     @property
     def unit(self) -> str:
-        return "Wh" if self.kind == "battery" else "kg"
+        return UNITS[self.kind]
+
+    @property
+    def per_unit(self) -> float:
+        """A stack's ``energy_used`` (J of battery, kg of fuel) per unit of the capacity."""
+        return WH if self.kind == "battery" else 1.0
 
     def amount(self, used: float) -> float:
         """What a stack's ``energy_used`` (J of battery, kg of fuel) is in this unit."""
-        return used / WH if self.kind == "battery" else used
+        return used / self.per_unit
 
     def left(self, used: float) -> float | None:
         """The share of the capacity left (the state of charge, or of fuel), None without one."""

@@ -274,23 +274,18 @@ def propeller(va, dt, rho, p):  # pragma: no cover - jit
     ``dt`` and air density ``rho`` (``params.py``: electric, or piston)."""
     dt = min(max(dt, 0.0), 1.0)
     d = p[I_DPROP]
-    if p[I_ENGINE] == 0.0:  # electric: Beard & McLain 2nd ed. §4.3
-        d3 = d * d * d
-        n = shaft_speed(va, dt, rho, p)[0]
-        if n <= 0.0:
-            return 0.0, 0.0
-        j = va / (n * d)
-        ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
-        cq = (p[I_CQ2] * j + p[I_CQ1]) * j + p[I_CQ0]
-        k = rho * n * n * d3 * d
-        return k * ct, k * d * cq
-    n = shaft_speed(va, dt, rho, p)[0]  # piston
+    n = shaft_speed(va, dt, rho, p)[0]
     if n <= 0.0:
         return 0.0, 0.0
-    d4 = d * d * d * d
     j = va / (n * d)
     ct = (p[I_CT2] * j + p[I_CT1]) * j + p[I_CT0]
-    return rho * n * n * d4 * ct, 0.0
+    nn = rho * n * n
+    d3 = d * d * d
+    if p[I_ENGINE] == 0.0:  # electric (Beard & McLain 2nd ed. §4.3): the motor feels the torque
+        cq = (p[I_CQ2] * j + p[I_CQ1]) * j + p[I_CQ0]
+        k = nn * d3 * d
+        return k * ct, k * d * cq
+    return nn * (d3 * d) * ct, 0.0  # piston: no engine torque on the airframe
 
 
 @nb.njit(cache=True, nogil=True)
@@ -1086,8 +1081,8 @@ def fly(
                 _still(p, wn, we, wd)
                 return i, ev, nrec
             control_law(x, p, gk, cmd, leg, ap, dtc, u)
-            va = flight_data(x, p)[3]
-            used[0] += drain(va, u[3], density_at(-x[2], p[I_DTEMP]), p) * dtc
+            # at the airspeed of this control step (energy_state keeps it in A_VA_LAST)
+            used[0] += drain(ap[A_VA_LAST], u[3], density_at(-x[2], p[I_DTEMP]), p) * dtc
             to_ctrl = decim
         if to_rec == 0:
             nrec = record(x, u, ap, A_CHI_C, N_GUIDANCE_LOG, rec_x, rec_u, rec_g, nrec)
