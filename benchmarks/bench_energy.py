@@ -28,7 +28,6 @@ Figures are appended to benchmarks/RESULTS.md (``_record.record``) unless ``--no
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -52,8 +51,6 @@ Rows = list[tuple[str, str, str]]
 
 def golden(rows: Rows) -> bool:
     """Plan estimate against the replay's draw on the golden missions, calm and in wind."""
-    from planner.energy import mission_energy
-    from replay.flight.energy import energy_model
     from replay.flight.fixedwing.presets import load_any_vehicle
     from replay.flight.wind import parse_wind
     from replay.preflight import mission_energy_of
@@ -77,29 +74,11 @@ def golden(rows: Rows) -> bool:
             for d in WIND_FROM
         ]
         for label, wind in winds:
-            if wind is None:
-                plan = float(mission_energy_of(mission, params, mission.cruise_speed)["total"])
-            else:
-                zs = mission.waypoints[:, 2]
-                model = energy_model(
-                    params,
-                    mission.cruise_speed,
-                    (float(zs.min()), float(zs.max())),
-                    turn_radius=float(mission.turn_radius or math.inf),
-                )
-
-                def at(altitude: float, height: float, w: Any = wind) -> tuple[float, float]:
-                    v = w.velocity(altitude, height)
-                    return float(v[0]), float(v[1])
-
-                plan = mission_energy(
-                    mission.waypoints,
-                    mission.spirals,
-                    model,
-                    float(mission.turn_radius or 0.0),
-                    wind_at=at,
-                    ground=lambda x, y, g=grid: float(g.height_at(x, y)),
-                ).total
+            plan = float(
+                mission_energy_of(mission, params, mission.cruise_speed, wind=wind, grid=grid)[
+                    "total"
+                ]
+            )
             t0 = time.perf_counter()
             request = ReplayRequest.of(
                 str(path), terrain_following=0.0, wind=wind, seed=0, terrain_mesh=False

@@ -727,10 +727,14 @@ def mission_energy_of(
     params: VehicleParams | MultirotorParams,
     speed: float,
     temperature_offset: float = 0.0,
+    *,
+    wind: Any = None,
+    grid: HeightGrid | None = None,
 ) -> dict[str, Any]:
-    """What ``mission`` needs of the vehicle's battery or fuel flown at ``speed`` in still air
+    """What ``mission`` needs of the vehicle's battery or fuel flown at ``speed``
     (:func:`planner.energy.mission_energy` on :func:`replay.flight.energy.energy_model`'s
-    table over the mission's altitudes), as :meth:`MissionEnergy.as_dict`."""
+    table over the mission's altitudes), as :meth:`MissionEnergy.as_dict`: in still air, or in
+    ``wind`` (:class:`replay.flight.wind.Wind`; a profile's height over ``grid``)."""
     from planner.energy import mission_energy
     from replay.flight.energy import energy_model
 
@@ -744,6 +748,13 @@ def mission_energy_of(
         turn_radius=radius or math.inf,
         temperature_offset=temperature_offset,
     )
+    wind_at = None
+    if wind is not None and not wind.calm:
+
+        def wind_at(altitude: float, height: float) -> tuple[float, float]:
+            v = wind.velocity(altitude, height)
+            return float(v[0]), float(v[1])
+
     return mission_energy(
         mission.waypoints,
         mission.spirals,
@@ -752,4 +763,6 @@ def mission_energy_of(
         hover=hover,
         climb_rate=float(params.climb_rate_max),
         descent_rate=float(params.descent_rate_max),
+        wind_at=wind_at,
+        ground=None if grid is None else lambda x, y: float(grid.height_at(x, y)),
     ).as_dict()
