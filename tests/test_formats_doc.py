@@ -42,7 +42,24 @@ def test_the_page_has_an_example_of_every_format() -> None:
         "vehicle.yaml",
         "quadrotor-vehicle.yaml",
         "wind.yaml",
+        "campaign.yaml",
     }
+
+
+def test_campaign_example_loads_beside_its_mission(tmp_path: Path) -> None:
+    from replay.campaign.spec import SPEC_KEYS, load_spec
+
+    # paths are relative to the spec's folder: the spec lies beside its mission
+    (tmp_path / "seed000-table4.yaml").write_bytes(
+        (ROOT / "data" / "missions" / "seed000-table4.yaml").read_bytes()
+    )
+    spec = load_spec(_write(tmp_path, "campaign.yaml"))
+    assert spec.name == "table4-study" and spec.runs == 10 and spec.seed == 1
+    assert [a.label for a in spec.avoiders] == ["pso-ca[optimizer=pso]", "none"]
+    assert len(spec.rows) == 9  # three counts in three winds
+    text = DOC.read_text(encoding="utf-8")
+    for key in SPEC_KEYS:  # every key the loader accepts is on the page
+        assert f"`{key}`" in text, key
 
 
 def test_wind_example_loads_its_layers(tmp_path: Path) -> None:

@@ -59,7 +59,8 @@ def bench_cmd(
 ) -> int:
     """Reproduce the paper table NAME: fly its campaign (resuming what an earlier call flew),
     print our figures beside the paper's with the ratio, and write the table into
-    benchmarks/SUMMARY.md (replacing its previous version) and the dated log RESULTS.md."""
+    benchmarks/SUMMARY.md (replacing its previous version) and the dated log RESULTS.md.  A quick
+    version (--runs) is printed only, unless --summary names a file for it."""
     from replay.campaign.benches import BENCHES, COMING, markdown, optimizer_of, update_summary
     from replay.campaign.spec import load_spec
     from terrain.errors import InputError
@@ -132,6 +133,13 @@ def bench_cmd(
         if summary
         else (bench_dir if bench_dir.is_dir() else Path(".")) / "SUMMARY.md"
     )
+    if runs and summary is None:
+        # a quick version is no measurement of the paper's table: it never replaces the current one
+        click.echo(
+            f"a quick version (--runs {runs}): the table is not written into {target} "
+            "(--summary FILE writes it there)"
+        )
+        return errors_status(rows)
     update_summary(target, bench, section)
     click.echo(f"wrote the table into {target}")
     log = bench_dir / "RESULTS.md"

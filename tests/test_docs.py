@@ -1,0 +1,222 @@
+"""Every command in README.md and docs/ runs, as written, and says what the page says it says.
+
+The pages follow a few conventions (docs/development.md, "The pages are tested"):
+
+- a ```sh block holds commands, one a line (``\\`` continues a line; ``#`` starts a comment); they run
+  in document order in one scratch folder that holds ``data/`` (the repository's), so a recipe's
+  outputs (``out/...``) are the next recipe's inputs; the pages run in the order of ``PAGES``, in
+  the same folder;
+- a trailing comment ``# exit N ...`` is the command's expected exit status (else 0); ``# quick: ARGS``
+  documents a small variant that the test runs instead (the command with ARGS appended: a bench with
+  ``--runs 1``);
+- a ```text block right after a ```sh block is what those commands print: each of its lines must be
+  found in their output, numbers matching any number (versions of the libraries move a plan's
+  last digits) and ``...`` any text;
+- ``<!-- file: PATH -->`` before a fenced block writes the block to PATH (a spec, a threats file)
+  before the commands after it run (``<!-- example: NAME -->``, formats.md's examples, to
+  ``out/examples/NAME``); a ```python block is executed.
+
+``terrapath ...`` runs in this process (``terrapath.cli.main``); ``python ...`` in a subprocess of
+this interpreter; ``make demo`` runs the Makefile's demo into the scratch folder; ``make test`` is
+the suite itself (CI runs it) and ``source .venv/bin/activate`` only puts ``terrapath`` on the PATH:
+both are recognised, not run.  Any other command fails the test: a page may not show what is not
+tested."""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import ROOT
+
+PAGES = (
+    "README.md",
+    "docs/guide.md",
+    "docs/formats.md",
+    "docs/algorithms.md",
+    "docs/vehicles.md",
+    "docs/development.md",
+)
+FENCE = re.compile(
+    r"(?:<!-- (?P<mark>file|example): (?P<file>\S+) -->\s*)?^```(?P<lang>[\w-]*)[^\n]*\n(?P<body>.*?)^```",
+    re.S | re.M,
+)
+NUMBER = re.compile(r"[-+]?\d[\d,]*(?:\.\d+)?")
+NOT_RUN = {  # recognised, and why they are not run here
+    "make test": "the suite itself: CI runs it",
+    "source .venv/bin/activate": "puts terrapath on the PATH; the test calls it directly",
+}
+NOT_RUN_PREFIXES = tuple(NOT_RUN)
+
+
+@dataclass
+class Command:
+    argv: list[str]
+    status: int = 0
+    line: str = ""
+
+
+@dataclass
+class Block:
+    lang: str
+    body: str
+    file: str | None = None
+    commands: list[Command] = field(default_factory=list)
+    output: str | None = None  # the ```text block after a ```sh block
+
+
+def commands_of(body: str) -> list[Command]:
+    joined = re.sub(r"\\\n", " ", body)
+    out: list[Command] = []
+    for raw in joined.splitlines():
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        code, _, comment = line.partition(" #")
+        if line.startswith(NOT_RUN_PREFIXES):
+            out.append(Command([], line=line.split(" #")[0].strip()))
+            continue
+        argv = shlex.split(code)
+        status = 0
+        if m := re.search(r"\bexit (\d+)\b", comment):
+            status = int(m.group(1))
+        if m := re.search(r"\bquick: (.*)$", comment):
+            argv += shlex.split(m.group(1).strip())
+        out.append(Command(argv, status, code.strip()))
+    return out
+
+
+def blocks_of(page: str) -> list[Block]:
+    text = (ROOT / page).read_text(encoding="utf-8")
+    blocks: list[Block] = []
+    for m in FENCE.finditer(text):
+        lang, body = m.group("lang"), m.group("body")
+        if lang == "text" and blocks and blocks[-1].lang == "sh" and blocks[-1].output is None:
+            between = text[text.rfind("```", 0, m.start()) + 3 : m.start()]
+            if not between.strip():
+                blocks[-1].output = body
+                continue
+        name = m.group("file")
+        b = Block(lang, body, f"out/examples/{name}" if m.group("mark") == "example" else name)
+        if lang == "sh":
+            b.commands = commands_of(body)
+        blocks.append(b)
+    return blocks
+
+
+def pattern(line: str) -> re.Pattern[str]:
+    """A line of expected output as a pattern: numbers match any number, ``...`` any text,
+    runs of spaces any run of spaces."""
+    parts = []
+    for piece in line.strip().split("..."):
+        esc = ""
+        pos = 0
+        for n in NUMBER.finditer(piece):
+            esc += re.escape(piece[pos : n.start()]) + r"[-+]?\d[\d,]*(?:\.\d+)?"
+            pos = n.end()
+        esc += re.escape(piece[pos:])
+        parts.append(re.sub(r"(\\ )+", r"\\s+", esc))
+    return re.compile(".*?".join(parts))
+
+
+def test_numbers_and_ellipses_match_any() -> None:
+    assert pattern("cost 0.5387 (length 0.0672), 44.95 km").search("cost 0.5401 (length 0.07), 45 km")
+    assert pattern("reserve 433 Wh of 647 (67 %)").search("reserve 1,433 Wh of 647 (7 %)")
+    assert pattern("success   yes ... no failure").search("success yes (the goal: no failure)")
+    assert not pattern("success   yes").search("success   NO (3 safety violations)")
+    assert not pattern("cost 0.5 km").search("cost 0.5 m")
+
+
+def test_commands_are_parsed_as_a_shell_reads_them() -> None:
+    cmds = commands_of(
+        "# a comment\nterrapath plan A.tif --start=-1,2 \\\n    --goal 3,4 -o 'out/x y.yaml'"
+        "  # exit 3: why\nterrapath bench t6  # 14 min; quick: --runs 1\nsource .venv/bin/activate\n"
+    )
+    assert cmds[0].argv == [
+        *("terrapath", "plan", "A.tif", "--start=-1,2", "--goal", "3,4", "-o", "out/x y.yaml")
+    ]
+    assert cmds[0].status == 3
+    assert cmds[1].argv == ["terrapath", "bench", "t6", "--runs", "1"] and cmds[1].status == 0
+    assert cmds[2].argv == []
+
+
+@pytest.fixture(scope="module")
+def scratch(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The folder every page's commands run in: ``data/`` is the repository's."""
+    d = tmp_path_factory.mktemp("pages")
+    (d / "data").symlink_to(ROOT / "data")
+    (d / "out").mkdir()
+    return d
+
+
+def _run(cmd: Command, where: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    from terrapath.cli import main
+
+    if cmd.argv[0] == "terrapath":
+        capsys.readouterr()
+        status = main(cmd.argv[1:])
+        got = capsys.readouterr()
+        return status, got.out + got.err
+    if cmd.argv[0] == "python":
+        env = {**os.environ, "PYTHONPATH": str(ROOT)}
+        p = subprocess.run(
+            [sys.executable, *cmd.argv[1:]], cwd=where, env=env, capture_output=True, text=True
+        )
+        return p.returncode, p.stdout + p.stderr
+    if cmd.argv[:2] == ["make", "demo"]:
+        venv = ROOT / ".venv"
+        if not (venv / ".run-stamp").exists() or Path(sys.prefix).resolve() != venv.resolve():
+            pytest.skip("make demo runs in the project's .venv only (make test makes it)")
+        p = subprocess.run(
+            ["make", "demo", f"OUT={where / 'out' / 'demo'}"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+        )
+        return p.returncode, p.stdout + p.stderr
+    raise AssertionError(f"{cmd.line!r}: not a command the pages may show (see the module doc)")
+
+
+@pytest.mark.parametrize("page", PAGES)
+def test_every_command_of_the_page_runs_as_written(
+    page: str,
+    scratch: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.chdir(scratch)
+    ran = 0
+    for b in blocks_of(page):
+        if b.file is not None:
+            target = scratch / b.file
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_text(b.body, encoding="utf-8")
+        if b.lang == "python":
+            exec(compile(b.body, f"{page} (python block)", "exec"), {"__name__": "__page__"})
+            ran += 1
+        outputs = []
+        for cmd in b.commands:
+            if not cmd.argv:
+                continue
+            status, out = _run(cmd, scratch, capsys)
+            assert status == cmd.status, (
+                f"{page}: `{cmd.line}` exited {status}, the page says {cmd.status}:\n{out[-3000:]}"
+            )
+            outputs.append(out)
+            ran += 1
+        if b.output is not None:
+            said = "\n".join(outputs)
+            for line in b.output.splitlines():
+                if line.strip() and line.strip() != "...":
+                    assert pattern(line).search(said), (
+                        f"{page}: the page shows {line.strip()!r}; the commands printed:\n"
+                        f"{said[-3000:]}"
+                    )
+    assert ran, f"{page} shows no command"
