@@ -247,16 +247,20 @@ def test_a_paper_bench_updates_its_headline(
     ]
     F.save(folder / "current.json", entries)
     monkeypatch.chdir(tmp_path)
-    assert main(["bench", "fake-table", "--runs", "3"]) == 0
+    old = (folder / "current.json").read_bytes(), (folder / "README.md").read_bytes()
+    assert main(["bench", "fake-table", "--runs", "3"]) == 0  # a quick version: not current
+    assert ((folder / "current.json").read_bytes(), (folder / "README.md").read_bytes()) == old
+    assert "| b | ampso | success | 2/3 |" in (folder / "SUMMARY.md").read_text(encoding="utf-8")
+    assert main(["bench", "fake-table"]) == 0  # the table's own runs (plans(10))
     got = {f.id: f for f in F.read(folder / "current.json")}
-    assert (got["fake.all"].value, got["fake.all"].target) == ("4/5", "paper 3/4")
+    assert (got["fake.all"].value, got["fake.all"].target) == ("11/12", "paper 3/4")
     assert (got["fake.cost"].value, got["fake.cost"].target) == ("0.5", "paper 0.6")
-    assert got["fake.all"].command == "terrapath bench fake-table --runs 3"
+    assert got["fake.all"].command == "terrapath bench fake-table"
     assert got["fake.all"].source == "SUMMARY.md"
     assert got[base.id] == base
     text = (folder / "README.md").read_text(encoding="utf-8")
     assert F.with_table(text, list(got.values()), "") == text
-    assert "| 4/5 | paper 3/4 |" in text
+    assert "| 11/12 | paper 3/4 |" in text
 
 
 def test_terrapath_bench_table_regenerates_it(

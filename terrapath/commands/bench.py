@@ -155,7 +155,9 @@ def bench_cmd(
     update_summary(target, bench, section)
     click.echo(f"wrote the table into {target}")
     current = bench_dir / "current.json"
-    if summary is None and current.exists():
+    # the current figures are the full table's: a quick version (--runs) or another choice of
+    # optimisers goes into SUMMARY.md and the log only
+    if summary is None and current.exists() and runs is None and optimizers is None:
         readme = bench_dir / "README.md"
         updated = figures.record(
             current,
