@@ -22,6 +22,13 @@ def _root() -> Path:
 @click.argument("name", required=False)
 @click.option("--list", "listing", is_flag=True, help="The benches and what each reproduces.")
 @click.option(
+    "--table",
+    "remake_table",
+    is_flag=True,
+    help="Only regenerate the current-figures table of benchmarks/README.md from "
+    "benchmarks/current.json (nothing flown).",
+)
+@click.option(
     "--runs", type=click.IntRange(min=1), default=None, help="Runs per line (a quick version)."
 )
 @click.option(
@@ -47,6 +54,7 @@ def _root() -> Path:
 def bench_cmd(
     name: str | None,
     listing: bool,
+    remake_table: bool,
     runs: int | None,
     optimizers: str | None,
     store: str | None,
@@ -64,8 +72,21 @@ def bench_cmd(
     from replay.campaign.benches import BENCHES, COMING, markdown, optimizer_of, update_summary
     from replay.campaign.spec import load_spec
     from terrain.errors import InputError
-    from terrapath import __version__
+    from terrapath import __version__, figures
 
+    bench_dir = _root() / "benchmarks"
+    if remake_table:
+        current, readme = bench_dir / "current.json", bench_dir / "README.md"
+        if not current.is_file() or not readme.is_file():
+            raise InputError(
+                f"--table: expected {current} and {readme} (a checkout of terrapath's repository)"
+            )
+        listed = figures.read(current)
+        changed = figures.write_table(readme, listed)
+        click.echo(
+            f"{'wrote' if changed else 'kept'} the table of {len(listed)} figures in {readme}"
+        )
+        return 0
     if listing or name is None:
         for b in BENCHES.values():
             click.echo(f"{b.name:<20} {b.title}")
@@ -127,7 +148,6 @@ def bench_cmd(
         f"Python {platform.python_version()}; {per}; `{command}`; store {store_path}"
     )
     section = markdown(bench, lines, header)
-    bench_dir = root / "benchmarks"
     target = (
         Path(summary)
         if summary
@@ -142,6 +162,25 @@ def bench_cmd(
         return errors_status(rows)
     update_summary(target, bench, section)
     click.echo(f"wrote the table into {target}")
+    current = bench_dir / "current.json"
+    # the current figures are the full table's: a quick version (--runs) or another choice of
+    # optimisers goes into SUMMARY.md and the log only
+    if summary is None and current.exists() and runs is None and optimizers is None:
+        readme = bench_dir / "README.md"
+        updated = figures.record(
+            current,
+            readme if readme.exists() else None,
+            f"bench {bench.name}: {bench.title}",
+            figures.bench_rows(lines, bench.columns),
+            date=now,
+            machine=f"{platform.processor() or platform.machine()}, Python {platform.python_version()}",
+            load=figures.load_average(),
+            command=command,
+            commit=figures.commit_of(root),
+            source="SUMMARY.md",
+        )
+        if updated:
+            click.echo(f"updated {', '.join(updated)} in {current} and its table")
     log = bench_dir / "RESULTS.md"
     if summary is None and log.exists() and flown:
         with log.open("a", encoding="utf-8") as f:
