@@ -11,15 +11,20 @@ title says so.
   (the list the run started with, dashed), the flown track, the final waypoint list when the
   avoider changed it, every threat's footprint (a circle of its safety radius about each point --
   a static threat, a hill's points, an intruder at its closest approach, whose track is drawn too
-  -- a cylinder's circle, a convex body's widest section), the orbits an avoider commanded (CTGA's
-  arcs, dotted), the priority loop's set-points (crosses) and the points of the track inside a
-  threat's volume or a zone, in red.
+  -- a cylinder's circle, a convex body's widest section) in its colour with its id on a white
+  halo, the orbits an avoider commanded (CTGA's arcs, dotted), the priority loop's set-points
+  (crosses) and the points of the track inside a threat's volume or a zone, in red.
   When the flight covers a small part of a large map (under a third of it each way: a priority
-  loop's block of a city district) the view is zoomed onto the flight (:func:`zoom_box`).
-- **Separation** (middle): the distance from each threat's surface against time (NaN while it is
-  not active), the success margin and zero, violations in red; the :data:`NEAREST_DRAWN` threats
+  loop's block of a city district, 65 km of a 640 km map) the view is zoomed onto the flight
+  (:func:`terrain.plot.map_window`), its colours and colour bar spanning the heights shown.
+- **Separation** (middle): the distance from each threat's and each danger zone's surface
+  against time (NaN while a threat is not active), each its own colour (zones dashed, the same
+  colour as the threat on the map) and labelled at its least separation, how deep it went inside
+  shaded red, zero (the surface: the safety radius) and the margin; the :data:`NEAREST_DRAWN`
   that came closest (:func:`nearest_threats`: 143 buildings would be a legend, not a plot), the
-  scale up to four times the largest of their least separations.
+  scale from below the deepest violation up to four times the largest of their least
+  separations (and at least 30 % of the deepest, to see its approach). "no pop-up threats; N
+  danger zones" for a run with zones only, "no threats" only with neither.
 - **Above the ground** (bottom): the altitude above the terrain under the aircraft against time
   (with a DEM), or the altitude (flat ground).
 
@@ -481,7 +486,12 @@ def active_at(th: Any, t: FloatArray) -> npt.NDArray[np.bool_]:
 
 
 def _draw_threat(
-    ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArray, colour: str
+    ax: Any,
+    th: Any,
+    xyz: FloatArray,
+    t: FloatArray,
+    sep: FloatArray,
+    colour: str = OTHER,
 ) -> None:
     """A threat's footprint in its colour: circles of its shapes (a body's widest section), a
     prism's polygon, an intruder's track and its circle where it came closest; its id on a white
