@@ -90,7 +90,15 @@ def map_window(
     xy = np.asarray(pts, dtype=np.float64).reshape(-1, np.shape(pts)[-1])[:, :2]
     xy = xy[np.all(np.isfinite(xy), axis=1)]
     box = zoom_box(grid.bounds, xy) if len(xy) else None
-    return grid.bounds if box is None else box
+    if box is None:
+        return grid.bounds
+    # at least four cells each way (a hover of 100 m on a map of 1 km cells)
+    bx0, by0, bx1, by1 = grid.bounds
+    dx, dy = grid.cell_size
+    x0, y0, x1, y1 = box
+    w, h = max(x1 - x0, 4.0 * dx), max(y1 - y0, 4.0 * dy)
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    return (max(bx0, cx - w / 2), max(by0, cy - h / 2), min(bx1, cx + w / 2), min(by1, cy + h / 2))
 
 
 def _km(metres: float) -> str:

@@ -133,6 +133,17 @@ def test_a_65_km_plan_on_a_640_km_map_is_zoomed_with_the_colours_it_shows() -> N
     assert ax.images[0].get_clim() == pytest.approx((measured.min(), measured.max()), abs=1e-3)
 
 
+def test_a_flight_smaller_than_a_cell_is_shown_on_a_few_cells() -> None:
+    grid = _long_map()
+    hover = np.array([[500e3, 5150e3, 3000.0], [500e3, 5150.1e3, 3000.0]])  # 100 m, 1 km cells
+    ax = plan_figure(grid, hover).axes[0]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert x1 - x0 == pytest.approx(4 * KM) and y1 - y0 == pytest.approx(4 * KM)
+    assert x0 < 500e3 < x1 and y0 < 5150e3 < 5150.1e3 < y1
+    lo, hi = _measured_in(grid, (x0, x1), (y0, y1))
+    assert ax.images[0].get_clim() == pytest.approx((lo, hi), abs=1e-3)
+
+
 def _view(
     grid: HeightGrid | None,
     path: np.ndarray,
