@@ -120,9 +120,12 @@ def _assert_zoomed_with_its_colours(grid: HeightGrid, ax: Any, flight: np.ndarra
 def test_a_65_km_plan_on_a_640_km_map_is_zoomed_with_the_colours_it_shows() -> None:
     grid = _long_map()
     path = _plan(grid)
-    fig = plan_figure(grid, path, title="long")
+    zones = (DangerZone(340e3, 5150e3, 4000.0, id="sam", top=4200.0),)
+    fig = plan_figure(grid, path, zones, title="long")
     ax = fig.axes[0]
     _assert_zoomed_with_its_colours(grid, ax, path)
+    (label,) = ax.texts
+    assert label.get_text() == "sam top 4200 m" and _worst_contrast(label) >= 4.5
     assert "shown: " in ax.get_title() and "of the 640 km x 320 km map" in ax.get_title()
 
     # a plan across the map shows the whole map and its whole (measured) scale
