@@ -19,7 +19,9 @@ from terrain.plot import (
     UNKNOWN_LABEL,
     draw_hillshade,
     draw_zones,
+    halo,
     legend_below,
+    map_window,
     new_figure,
     save_figure,
 )
@@ -37,12 +39,31 @@ def save_plan_picture(
     flown: npt.NDArray[np.float64] | None = None,
     explored: list[npt.NDArray[np.float64]] | None = None,
 ) -> Path:
-    """Write the map + profile PNG of a planned path: the waypoints, and the path the aircraft
+    """Write the map + profile PNG of a planned path (:func:`plan_figure`)."""
+    fig = plan_figure(grid, path, zones, title, clearance, feasible, flown, explored)
+    return save_figure(fig, out)
+
+
+def plan_figure(
+    grid: HeightGrid,
+    path: npt.NDArray[np.float64],
+    zones: tuple[Zone, ...] = (),
+    title: str = "",
+    clearance: float = 0.0,
+    feasible: bool = True,
+    flown: npt.NDArray[np.float64] | None = None,
+    explored: list[npt.NDArray[np.float64]] | None = None,
+) -> Any:
+    """The map + profile figure of a planned path: the waypoints, and the path the aircraft
     flies through them (``flown``, legs joined by turn fillets; default the polyline itself),
     which the profile follows; ``explored``: the seeds the map search gave the swarm, each the
-    free waypoints of a route (drawn thin and dashed, start and goal joined on)."""
+    free waypoints of a route (drawn thin and dashed, start and goal joined on). A plan over a
+    small part of a large map is shown zoomed onto it and its routes
+    (:func:`terrain.plot.map_window`), coloured by the heights shown."""
     track = path if flown is None else np.asarray(flown, dtype=np.float64)
-    fig, ax, ax2 = _map_and_profile(grid, title, zones)
+    framed = [np.asarray(path, dtype=np.float64)[:, :2], track[:, :2]]
+    framed += [np.asarray(seed, dtype=np.float64)[:, :2] for seed in explored or ()]
+    fig, ax, ax2 = _map_and_profile(grid, title, zones, np.vstack(framed))
     _draw_explored(ax, path, explored)
     _draw_path(ax, path, track, feasible)
     legend_below(ax)
@@ -51,19 +72,23 @@ def save_plan_picture(
     _draw_ground(ax2, grid, samples)
     _draw_profile(ax2, samples, clearance)
     legend_below(ax2)
-    return save_figure(fig, out)
+    return fig
 
 
-def _map_and_profile(grid: HeightGrid, title: str, zones: tuple[Zone, ...]) -> Any:
-    """(figure, map axes with the hillshade and zones, profile axes below it)."""
-    xmin, ymin, xmax, ymax = grid.bounds
+def _map_and_profile(
+    grid: HeightGrid, title: str, zones: tuple[Zone, ...], framed: npt.NDArray[np.float64]
+) -> Any:
+    """(figure, map axes with the hillshade and zones, profile axes below it); the map shows
+    the window round ``framed`` (x, y points) when they cover a small part of it."""
+    window = map_window(grid, framed)
+    xmin, ymin, xmax, ymax = window
     aspect = (ymax - ymin) / (xmax - xmin)
     width = 9.0
     map_h = max(3.5, min(width * aspect, 12.0))
     fig = new_figure(width, map_h + 3.4)
     gs = fig.add_gridspec(2, 1, height_ratios=[map_h, 2.6])
     ax = fig.add_subplot(gs[0])
-    draw_hillshade(fig, ax, grid, title or None)
+    draw_hillshade(fig, ax, grid, title or None, window)
     if zones:
         draw_zones(ax, zones)
     return fig, ax, fig.add_subplot(gs[1])
@@ -208,7 +233,8 @@ def save_check_picture(
     violation marked and numbered as the report ranks it on both."""
     ok = not findings
     track = check.flown.points
-    fig, ax, ax2 = _map_and_profile(grid, title, zones)
+    framed = np.vstack([np.asarray(waypoints, dtype=np.float64)[:, :2], track[:, :2]])
+    fig, ax, ax2 = _map_and_profile(grid, title, zones, framed)
     _draw_path(ax, np.asarray(waypoints, dtype=np.float64), track, ok)
     s = check.samples
     shown = PathSamples(
@@ -224,7 +250,8 @@ def save_check_picture(
         label = "violation (as ranked)" if n == 0 else None
         ax.plot(f.x, f.y, "X", color="#d62728", mec="black", ms=10, zorder=6, label=label)
         ax.annotate(str(findings.index(f) + 1), (f.x, f.y), xytext=(6, 6),
-                    textcoords="offset points", fontsize=9, weight="bold", zorder=7)  # fmt: skip
+                    textcoords="offset points", fontsize=9, weight="bold", zorder=7,
+                    path_effects=halo())  # fmt: skip
         k = int(np.argmin(np.hypot(s.points[:, 0] - f.x, s.points[:, 1] - f.y)))
         ax2.plot(s.distance[k] / 1000.0, f.z if np.isfinite(f.z) else s.points[k, 2], "X",
                  color="#d62728", mec="black", ms=9, zorder=6)  # fmt: skip

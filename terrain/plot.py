@@ -36,32 +36,107 @@ def hillshade(
     return np.asarray(np.clip(shade, 0.0, 1.0))
 
 
+def colour_limits(grid: HeightGrid) -> tuple[float, float]:
+    """(lowest, highest) measured height of ``grid`` (every cell when none is measured): the
+    limits of its colour scale, so a picture's colours span the heights it shows (filled,
+    unknown cells are greyed and do not stretch it)."""
+    h = grid.heights if grid.known is None or not grid.known.any() else grid.heights[grid.known]
+    lo, hi = float(h.min()), float(h.max())
+    return lo, max(hi, lo + 1e-6)
+
+
 def tinted_hillshade(grid: HeightGrid) -> tuple[npt.NDArray[np.float64], Any, Any]:
     """(rows, cols, 3) RGB in [0, 1]: the elevation's ``gist_earth`` tint darkened by the
-    hillshade (row 0 north), with the elevation's normalisation and colour map."""
+    hillshade (row 0 north), with the elevation's normalisation (:func:`colour_limits`) and
+    colour map."""
     from matplotlib import colormaps
     from matplotlib.colors import Normalize
 
-    relief = max(grid.zmax - grid.zmin, 1e-6)
-    norm = Normalize(grid.zmin, grid.zmin + relief)
+    norm = Normalize(*colour_limits(grid))
     cmap = colormaps["gist_earth"]
     tint = cmap(norm(grid.heights))[..., :3]
     shade = hillshade(grid)[..., None]
     return np.clip(tint * (0.35 + 0.65 * shade), 0.0, 1.0), norm, cmap
 
 
-def draw_hillshade(fig: Any, ax: Any, grid: HeightGrid, title: str | None = None) -> None:
-    """Draw the tinted hillshade of ``grid`` on ``ax`` in map metres, with an elevation colour bar."""
-    from matplotlib.cm import ScalarMappable
+def zoom_box(
+    bounds: tuple[float, float, float, float], pts: npt.NDArray[np.float64]
+) -> tuple[float, float, float, float] | None:
+    """Plot limits round ``pts`` (a flight, its waypoints) when they span under a third of the
+    map each way, padded by a quarter of their span (at least 50 m) and kept on the map; None to
+    show the whole map."""
+    xmin, ymin, xmax, ymax = bounds
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = hi - lo
+    if span[0] >= (xmax - xmin) / 3.0 or span[1] >= (ymax - ymin) / 3.0:
+        return None
+    half = 0.5 * float(max(span)) + max(0.25 * float(max(span)), 50.0)
+    cx, cy = 0.5 * (lo + hi)
+    return (
+        max(xmin, float(cx) - half),
+        max(ymin, float(cy) - half),
+        min(xmax, float(cx) + half),
+        min(ymax, float(cy) + half),
+    )
 
-    xmin, ymin, xmax, ymax = grid.bounds
-    rgb, norm, cmap = tinted_hillshade(grid)
-    ax.imshow(rgb, extent=(xmin, xmax, ymin, ymax), origin="upper", interpolation="bilinear")
-    fig.colorbar(
-        ScalarMappable(norm=norm, cmap=cmap),
+
+def map_window(
+    grid: HeightGrid, pts: npt.ArrayLike | None = None
+) -> tuple[float, float, float, float]:
+    """What a picture of ``grid`` shows: the box round ``pts`` (map x, y) when they cover a
+    small part of the map (:func:`zoom_box`), else the whole map."""
+    if pts is None:
+        return grid.bounds
+    xy = np.asarray(pts, dtype=np.float64).reshape(-1, np.shape(pts)[-1])[:, :2]
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    box = zoom_box(grid.bounds, xy) if len(xy) else None
+    if box is None:
+        return grid.bounds
+    # at least four cells each way (a hover of 100 m on a map of 1 km cells)
+    bx0, by0, bx1, by1 = grid.bounds
+    dx, dy = grid.cell_size
+    x0, y0, x1, y1 = box
+    w, h = max(x1 - x0, 4.0 * dx), max(y1 - y0, 4.0 * dy)
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    return (max(bx0, cx - w / 2), max(by0, cy - h / 2), min(bx1, cx + w / 2), min(by1, cy + h / 2))
+
+
+def _km(metres: float) -> str:
+    return f"{metres / 1000:.3g} km" if metres >= 1000 else f"{metres:.0f} m"
+
+
+def draw_hillshade(
+    fig: Any,
+    ax: Any,
+    grid: HeightGrid,
+    title: str | None = None,
+    window: tuple[float, float, float, float] | None = None,
+) -> Any:
+    """Draw the tinted hillshade of ``grid`` on ``ax`` in map metres, with an elevation colour
+    bar; returns the colour bar. ``window`` (map metres, :func:`map_window`): the part of the
+    map shown, its colours and colour bar spanning the heights inside it (default: the whole
+    map); unknown terrain is greyed and hatched and the graticule drawn in it all the same."""
+    whole = grid.bounds
+    zoomed = window is not None and tuple(window) != tuple(whole)
+    shown = grid.crop(*window) if zoomed and window is not None else grid
+    xmin, ymin, xmax, ymax = window if zoomed and window is not None else whole
+    sx0, sy0, sx1, sy1 = shown.bounds
+    rgb, norm, cmap = tinted_hillshade(shown)
+    # the RGB image carries the tint's scale (not used to colour RGB, but its clim says what the
+    # colour bar shows)
+    image = ax.imshow(
+        rgb,
+        extent=(sx0, sx1, sy0, sy1),
+        origin="upper",
+        interpolation="bilinear",
+        cmap=cmap,
+        norm=norm,
+    )
+    bar = fig.colorbar(
+        image,
         ax=ax,
         shrink=0.8,
-        label="elevation (m AMSL)",
+        label="elevation (m AMSL)" + (", of the part shown" if zoomed else ""),
         # room for the latitude labels of the graticule between the map and the bar
         pad=0.12 if grid.is_georeferenced else 0.05,
     )
@@ -70,15 +145,22 @@ def draw_hillshade(fig: Any, ax: Any, grid: HeightGrid, title: str | None = None
     ax.ticklabel_format(style="plain", useOffset=False)
     ax.tick_params(axis="x", labelrotation=30)
     dx = grid.cell_size[0]
-    ax.set_title(
+    text = (
         title
         or f"{', '.join(Path(s).name for s in grid.sources) or 'height grid'} — "
         f"{grid.rows} x {grid.cols} cells of {dx:.4g} m, {grid.zmin:.0f}–{grid.zmax:.0f} m"
     )
+    if zoomed:
+        text += (
+            f"\nshown: {_km(xmax - xmin)} x {_km(ymax - ymin)} of the "
+            f"{_km(whole[2] - whole[0])} x {_km(whole[3] - whole[1])} map"
+        )
+    ax.set_title(text)
+    draw_unknown(ax, shown)
+    draw_graticule(ax, shown)
     ax.set_xlim(xmin, xmax)
     ax.set_ylim(ymin, ymax)
-    draw_unknown(ax, grid)
-    draw_graticule(ax, grid)
+    return bar
 
 
 def new_figure(width: float, height: float) -> Any:
@@ -92,15 +174,42 @@ def new_figure(width: float, height: float) -> Any:
 
 
 def new_map_figure(
-    grid: HeightGrid, title: str | None = None, size: float = 8.0
+    grid: HeightGrid,
+    title: str | None = None,
+    size: float = 8.0,
+    window: tuple[float, float, float, float] | None = None,
 ) -> tuple[Any, Any]:
-    """A figure with the tinted hillshade of ``grid`` drawn in map metres; returns (fig, ax)."""
-    xmin, ymin, xmax, ymax = grid.bounds
+    """A figure with the tinted hillshade of ``grid`` (or of its ``window``) drawn in map
+    metres; returns (fig, ax)."""
+    xmin, ymin, xmax, ymax = window or grid.bounds
     aspect = (ymax - ymin) / (xmax - xmin)
     fig = new_figure(size, max(3.0, min(size * aspect, 2.0 * size)) + 0.8)
     ax = fig.add_subplot(1, 1, 1)
-    draw_hillshade(fig, ax, grid, title)
+    draw_hillshade(fig, ax, grid, title, window)
     return fig, ax
+
+
+# distinct colours for a picture's series (threats, zones), each with a contrast of at least
+# 4.5:1 (WCAG AA) against white: text in them reads on a white halo (:func:`halo`)
+SERIES_COLOURS = (
+    "#1f77b4",  # blue
+    "#b35806",  # dark orange
+    "#2a7d2a",  # green
+    "#7b3fa0",  # purple
+    "#8c564b",  # brown
+    "#c2188b",  # magenta
+    "#0f7c8a",  # teal
+    "#6b6b00",  # olive
+)
+HALO = "white"
+
+
+def halo(width: float = 3.0) -> list[Any]:
+    """Path effects drawing a white outline under a text or a line, so it reads over any
+    terrain (dark text on the halo: see :data:`SERIES_COLOURS`)."""
+    from matplotlib.patheffects import Normal, Stroke
+
+    return [Stroke(linewidth=width, foreground=HALO), Normal()]
 
 
 def _zone_label(zone: Any) -> str:
@@ -158,7 +267,7 @@ def draw_zones(ax: Any, zones: Sequence[Any]) -> None:
                 fontsize=7,
                 color="darkred",
                 annotation_clip=True,
-                bbox={"boxstyle": "round,pad=0.15", "fc": (1, 1, 1, 0.6), "ec": "none"},
+                path_effects=halo(),
             )
 
 

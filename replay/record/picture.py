@@ -11,15 +11,20 @@ title says so.
   (the list the run started with, dashed), the flown track, the final waypoint list when the
   avoider changed it, every threat's footprint (a circle of its safety radius about each point --
   a static threat, a hill's points, an intruder at its closest approach, whose track is drawn too
-  -- a cylinder's circle, a convex body's widest section), the orbits an avoider commanded (CTGA's
-  arcs, dotted), the priority loop's set-points (crosses) and the points of the track inside a
-  threat's volume or a zone, in red.
+  -- a cylinder's circle, a convex body's widest section) in its colour with its id on a white
+  halo, the orbits an avoider commanded (CTGA's arcs, dotted), the priority loop's set-points
+  (crosses) and the points of the track inside a threat's volume or a zone, in red.
   When the flight covers a small part of a large map (under a third of it each way: a priority
-  loop's block of a city district) the view is zoomed onto the flight (:func:`zoom_box`).
-- **Separation** (middle): the distance from each threat's surface against time (NaN while it is
-  not active), the success margin and zero, violations in red; the :data:`NEAREST_DRAWN` threats
+  loop's block of a city district, 65 km of a 640 km map) the view is zoomed onto the flight
+  (:func:`terrain.plot.map_window`), its colours and colour bar spanning the heights shown.
+- **Separation** (middle): the distance from each threat's and each danger zone's surface
+  against time (NaN while a threat is not active), each its own colour (zones dashed, the same
+  colour as the threat on the map) and labelled at its least separation, how deep it went inside
+  shaded red, zero (the surface: the safety radius) and the margin; the :data:`NEAREST_DRAWN`
   that came closest (:func:`nearest_threats`: 143 buildings would be a legend, not a plot), the
-  scale up to four times the largest of their least separations.
+  scale from below the deepest violation up to four times the largest of their least
+  separations (and at least 30 % of the deepest, to see its approach). "no pop-up threats; N
+  danger zones" for a run with zones only, "no threats" only with neither.
 - **Above the ground** (bottom): the altitude above the terrain under the aircraft against time
   (with a DEM), or the altitude (flat ground).
 
@@ -42,10 +47,12 @@ import numpy.typing as npt
 from replay.frames import PD, PE, PHI, PN, U, V, W, velocities_ned
 from replay.record import topics as T
 from terrain.errors import InputError
+from terrain.plot import zoom_box
 
 FloatArray = npt.NDArray[np.float64]
 MAX_POINTS = 20_000
 RED = "#d62728"
+OTHER = "#555555"  # threats beyond the separation panel's
 NEAREST_DRAWN = 8  # threats drawn in the separation panel: those that came closest
 
 
@@ -172,7 +179,15 @@ def run_picture(run: str | Path, out: str | Path) -> Path:
 
 def draw_run(view: RunView, out: str | Path) -> Path:
     """Write the picture of ``view`` to ``out`` (PNG, through a temporary name)."""
-    from terrain.plot import legend_below, new_figure, save_figure
+    from terrain.plot import save_figure
+
+    return save_figure(run_figure(view), out)
+
+
+def run_figure(view: RunView) -> Any:
+    """The picture of ``view``: the plan view over the map (zoomed onto a small flight on a large
+    map, its colours spanning the heights shown), the separation panel and the height panel."""
+    from terrain.plot import legend_below, map_window, new_figure
 
     grid = view.grid
     n = view.n_states or len(view.times)
@@ -181,32 +196,69 @@ def draw_run(view: RunView, out: str | Path) -> Path:
     xyz = view.positions[::step]
 
     width = 9.0
+    window = None
     if grid is not None:
-        xmin, ymin, xmax, ymax = grid.bounds
+        window = map_window(grid, np.vstack([xyz[:, :2], view.initial_waypoints[:, :2]]))
+        xmin, ymin, xmax, ymax = window
         map_h = max(3.5, min(width * (ymax - ymin) / (xmax - xmin), 10.0))
     else:
         map_h = 6.0
-    fig = new_figure(width, map_h + 5.6)
-    gs = fig.add_gridspec(3, 1, height_ratios=[map_h, 2.4, 2.2])
+    fig = new_figure(width, map_h + 5.8)
+    gs = fig.add_gridspec(3, 1, height_ratios=[map_h, 2.6, 2.2])
     ax = fig.add_subplot(gs[0])
-    _draw_map(fig, ax, view)
+    _draw_map(fig, ax, view, window)
     sep = {th.id: separation_of(th, xyz, t) for th in view.threats}
+    zone_sep = zone_separations(view.mission, grid, xyz)
+    every = {**sep, **zone_sep}
+    styles = series_styles(list(every), nearest_threats(every, NEAREST_DRAWN))
     for th in view.threats:
-        _draw_threat(ax, th, xyz, t, sep[th.id])
-    _draw_flight(ax, view, xyz, t, sep)
+        _draw_threat(ax, th, xyz, t, sep[th.id], styles[th.id][0])
+    _draw_flight(ax, view, xyz, t, every)
     _draw_decisions(ax, view.decisions)
-    _set_limits(ax, grid, xyz, view.initial_waypoints)
+    if grid is None:
+        _frame(ax, xyz, view.initial_waypoints)
     _draw_wind(ax, view)
     legend_below(ax)
 
     ax2 = fig.add_subplot(gs[1])
-    _draw_separations(ax2, sep, t, view.margin)
+    _draw_separations(ax2, sep, zone_sep, t, view.margin, styles)
 
     ax3 = fig.add_subplot(gs[2], sharex=ax2)
     _draw_height(ax3, grid, t, xyz)
-    every = step * view.stride
-    ax3.set_xlabel("time (min)" + (f"; 1 in {every} of {n} states drawn" if every > 1 else ""))
-    return save_figure(fig, out)
+    every_n = step * view.stride
+    ax3.set_xlabel("time (min)" + (f"; 1 in {every_n} of {n} states drawn" if every_n > 1 else ""))
+    return fig
+
+
+def zone_separations(mission: Any, grid: Any, xyz: FloatArray) -> dict[str, FloatArray]:
+    """The distance from each of the mission's danger zones at each sample (negative inside),
+    by the ids the replay's metrics give them (``zone:<id>``, ``zone:<k>`` without an id); a zone
+    limited above the ground needs the map (left out over flat ground)."""
+    from planner.mission import on_terrain
+
+    zones = on_terrain(mission, grid).danger_zones if mission.danger_zones else ()
+    out: dict[str, FloatArray] = {}
+    for k, z in enumerate(zones):
+        try:
+            out[f"zone:{z.id or k}"] = np.asarray(z.separation(xyz), dtype=np.float64).reshape(-1)
+        except InputError:  # above the ground, with no ground to measure it on
+            continue
+    return out
+
+
+def series_styles(ids: list[str], shown: list[str]) -> dict[str, tuple[str, str]]:
+    """(colour, line style) of each threat or zone: the ``shown`` ones (the separation panel's)
+    each its own colour of :data:`terrain.plot.SERIES_COLOURS` (zones dashed), the others grey,
+    so a threat has the same colour on the map and in the panel."""
+    from terrain.plot import SERIES_COLOURS
+
+    styles = {i: (OTHER, "-") for i in ids}
+    for k, ident in enumerate(shown):
+        dash = "--" if ident.startswith("zone:") else "-"
+        if k >= len(SERIES_COLOURS):
+            dash = ":" if dash == "-" else "-."
+        styles[ident] = (SERIES_COLOURS[k % len(SERIES_COLOURS)], dash)
+    return styles
 
 
 def _draw_wind(ax: Any, view: RunView) -> None:
@@ -241,14 +293,14 @@ def _draw_wind(ax: Any, view: RunView) -> None:
     )
 
 
-def _draw_map(fig: Any, ax: Any, view: RunView) -> None:
-    """The plan view's background: the hillshade (or bare axes over flat ground), the title and
-    the mission's danger zones."""
+def _draw_map(fig: Any, ax: Any, view: RunView, window: Any) -> None:
+    """The plan view's background: the hillshade of ``window`` (or bare axes over flat ground),
+    the title and the mission's danger zones."""
     from terrain.plot import draw_hillshade, draw_zones
 
     grid, mission, note = view.grid, view.mission, view.note
     if grid is not None:
-        draw_hillshade(fig, ax, grid, view.title + note)
+        draw_hillshade(fig, ax, grid, view.title + note, window)
     else:
         ax.set_title(view.title + note)
         ax.set_aspect("equal")
@@ -291,7 +343,9 @@ def _draw_flight(
     for v in sep.values():
         inside |= np.nan_to_num(v, nan=np.inf) < 0.0
     if inside.any():
-        ax.plot(xyz[inside, 0], xyz[inside, 1], ".", color=RED, ms=3, label="inside a threat")
+        ax.plot(
+            xyz[inside, 0], xyz[inside, 1], ".", color=RED, ms=3, label="inside a threat or zone"
+        )
 
 
 def _draw_decisions(ax: Any, decisions: tuple[dict[str, Any], ...]) -> None:
@@ -317,44 +371,71 @@ def _draw_decisions(ax: Any, decisions: tuple[dict[str, Any], ...]) -> None:
         ax.plot(s[:, 0], s[:, 1], "x", color="#ff7f0e", ms=5, mew=1.5, ls="", label="set-points S")
 
 
-def _set_limits(ax: Any, grid: Any, xyz: FloatArray, start: FloatArray) -> None:
-    """The plan view's limits: round the track and the waypoints over flat ground; zoomed onto a
-    small flight on a large map (:func:`zoom_box`); else the map's."""
-    if grid is None:
-        _frame(ax, xyz, start)
-    else:
-        box = zoom_box(grid.bounds, np.vstack([xyz[:, :2], start[:, :2]]))
-        if box is not None:
-            ax.set_xlim(box[0], box[2])
-            ax.set_ylim(box[1], box[3])
+def _draw_separations(
+    ax2: Any,
+    sep: dict[str, FloatArray],
+    zone_sep: dict[str, FloatArray],
+    t: FloatArray,
+    margin: float,
+    styles: dict[str, tuple[str, str]],
+) -> None:
+    """The separation panel: the threats and zones that came closest against time, each in its
+    colour (zones dashed) and labelled at its least separation, how deep each went inside shaded
+    red, the threat's surface (its safety radius: zero) and the margin. Says "no pop-up threats"
+    when a run had only zones, "no threats" when it had neither."""
+    from terrain.plot import halo, legend_below
 
-
-def _draw_separations(ax2: Any, sep: dict[str, FloatArray], t: FloatArray, margin: float) -> None:
-    """The separation panel: the threats that came closest against time, violations in red,
-    zero and the margin."""
-    shown = nearest_threats(sep, NEAREST_DRAWN)
-    if len(shown) < len(sep):
-        ax2.set_title(f"the {len(shown)} threats that came closest, of {len(sep)}", fontsize=8)
-    sep = {ident: sep[ident] for ident in shown}
-    for ident, v in sep.items():
-        ax2.plot(t / 60.0, v, lw=1.0, label=ident)
-        bad = v < margin
-        if bad.any():
-            ax2.plot(t[bad] / 60.0, v[bad], ".", color=RED, ms=2)
-    ax2.axhline(0.0, color="black", lw=0.8)
-    if margin:
-        ax2.axhline(margin, color=RED, lw=0.8, ls="--", label=f"margin {margin:g} m")
+    every = {**sep, **zone_sep}
+    shown = nearest_threats(every, NEAREST_DRAWN)
+    notes = []
+    if not sep and zone_sep:
+        n = len(zone_sep)
+        notes.append(f"no pop-up threats; {n} danger zone{'s' if n != 1 else ''}")
+    if len(shown) < len(every):
+        notes.append(f"the {len(shown)} that came closest, of {len(every)}")
+    if notes:
+        ax2.set_title("; ".join(notes), fontsize=8)
     ax2.set_ylabel("separation from\nthe surface (m)")
     ax2.set_xlim(t[0] / 60.0, t[-1] / 60.0)
-    if sep:
-        finite = np.concatenate([v[np.isfinite(v)] for v in sep.values()] + [np.zeros(1)])
-        closest = max(float(np.nanmin(v)) if np.isfinite(v).any() else 0.0 for v in sep.values())
-        # the close passes matter: up to four times the largest of the drawn threats' minimum
-        top = max(4.0 * closest, 2.0 * margin, 10.0)
-        ax2.set_ylim(min(float(finite.min()), 0.0) - 0.05 * top, top)
-        ax2.legend(fontsize=7, ncol=4, loc="upper right")
-    else:
+    if not every:
         ax2.text(0.5, 0.5, "no threats", transform=ax2.transAxes, ha="center")
+        return
+    minutes = t / 60.0
+    lows = []
+    for ident in shown:
+        v = every[ident]
+        colour, dash = styles[ident]
+        ax2.plot(minutes, v, dash, color=colour, lw=1.3, label=ident)
+        bad = np.nan_to_num(v, nan=np.inf) < margin
+        if bad.any():  # how deep it went, in the violation's red
+            ax2.fill_between(minutes, v, margin, where=bad, color=RED, alpha=0.18, lw=0)
+        if not np.isfinite(v).any():
+            continue
+        k = int(np.nanargmin(v))
+        low = float(v[k])
+        lows.append(low)
+        ax2.plot(minutes[k], low, "v" if low < margin else "o", color=colour, mec="black", ms=6)
+        ax2.annotate(
+            f"{ident} {low:.0f} m",
+            (minutes[k], low),
+            xytext=(5, -11 if low < margin else 4),
+            textcoords="offset points",
+            fontsize=7,
+            color=colour,
+            path_effects=halo(),
+            annotation_clip=True,
+            zorder=5,
+        )
+    ax2.axhline(0.0, color="black", lw=0.9, label="surface (safety radius)")
+    if margin:
+        ax2.axhline(margin, color=RED, lw=0.8, ls="--", label=f"margin {margin:g} m")
+    deepest = min([0.0, *lows])
+    closest = max(lows, default=0.0)
+    # the close passes matter: up to four times the largest of the drawn minima, and room above
+    # zero to see a deep violation's approach
+    top = max(4.0 * closest, 2.0 * margin, 0.3 * -deepest, 10.0)
+    ax2.set_ylim(deepest - 0.1 * (top - deepest), top)
+    legend_below(ax2, ncol=min(len(shown) + 1 + bool(margin), 5))
 
 
 def _draw_height(ax3: Any, grid: Any, t: FloatArray, xyz: FloatArray) -> None:
@@ -404,27 +485,38 @@ def active_at(th: Any, t: FloatArray) -> npt.NDArray[np.bool_]:
     return np.asarray((t >= th.appears_at) & (t < end))
 
 
-def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArray) -> None:
-    """A threat's footprint: circles of its shapes (a body's widest section), a prism's polygon,
-    an intruder's track and its circle where it came closest."""
+def _draw_threat(
+    ax: Any,
+    th: Any,
+    xyz: FloatArray,
+    t: FloatArray,
+    sep: FloatArray,
+    colour: str = OTHER,
+) -> None:
+    """A threat's footprint in its colour: circles of its shapes (a body's widest section), a
+    prism's polygon, an intruder's track and its circle where it came closest; its id on a white
+    halo."""
     from matplotlib.patches import Circle, Polygon
 
-    colour = "#9467bd"
+    from terrain.plot import halo
+
+    edge = {"fill": False, "ec": colour, "lw": 1.3, "path_effects": halo(2.6)}
+    label = {"color": colour, "fontsize": 7, "path_effects": halo(), "annotation_clip": True}
     if th.kind == "intruder":
         active = active_at(th, t)
         if active.any():
             track = np.asarray(th.position(t[active]), dtype=np.float64).reshape(-1, 3)
-            ax.plot(track[:, 0], track[:, 1], "-", color=colour, lw=1.0)
+            ax.plot(track[:, 0], track[:, 1], "-", color=colour, lw=1.0, path_effects=halo(2.4))
             k = int(np.nanargmin(np.where(active, sep, np.inf)))
             p = np.asarray(th.position(t[k]), dtype=np.float64).reshape(3)
-            ax.add_patch(Circle((p[0], p[1]), th.radius, fill=False, ec=colour, lw=1.2))
-            ax.annotate(th.id, (p[0], p[1]), color=colour, fontsize=7)
+            ax.add_patch(Circle((p[0], p[1]), th.radius, **edge))
+            ax.annotate(th.id, (p[0], p[1]), **label)
         return
     shapes = th.shapes(float(t[0]))
     for sh in shapes:
         if sh.get("kind") == "prism":
             ring = np.asarray(sh["footprint"], dtype=np.float64)
-            ax.add_patch(Polygon(ring, closed=True, fill=False, ec=colour, lw=1.2))
+            ax.add_patch(Polygon(ring, closed=True, **edge))
             continue
         c = np.asarray(sh["center"], dtype=np.float64).reshape(-1, 3)
         r = np.atleast_1d(np.asarray(sh.get("radius", 0.0), dtype=np.float64))
@@ -433,9 +525,9 @@ def _draw_threat(ax: Any, th: Any, xyz: FloatArray, t: FloatArray, sep: FloatArr
             r = np.array([max(float(axes[0]), float(axes[1]))])
         for k in range(len(c)):
             rk = float(r[min(k, len(r) - 1)])
-            ax.add_patch(Circle((c[k, 0], c[k, 1]), rk, fill=False, ec=colour, lw=1.2))
+            ax.add_patch(Circle((c[k, 0], c[k, 1]), rk, **edge))
     c0 = np.asarray(shapes[0]["center"], dtype=np.float64).reshape(-1, 3)[0]
-    ax.annotate(th.id, (c0[0], c0[1]), color=colour, fontsize=7)
+    ax.annotate(th.id, (c0[0], c0[1]), **label)
 
 
 def nearest_threats(sep: dict[str, FloatArray], k: int) -> list[str]:
@@ -446,27 +538,6 @@ def nearest_threats(sep: dict[str, FloatArray], k: int) -> list[str]:
     }
     keep = set(sorted(least, key=lambda i: least[i])[:k])
     return [ident for ident in sep if ident in keep]
-
-
-def zoom_box(
-    bounds: tuple[float, float, float, float], pts: FloatArray
-) -> tuple[float, float, float, float] | None:
-    """Plot limits round ``pts`` (the flight and its waypoints) when they span under a third of
-    the map each way, padded by a quarter of their span (at least 50 m) and kept on the map;
-    None to show the whole map."""
-    xmin, ymin, xmax, ymax = bounds
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    span = hi - lo
-    if span[0] >= (xmax - xmin) / 3.0 or span[1] >= (ymax - ymin) / 3.0:
-        return None
-    half = 0.5 * float(max(span)) + max(0.25 * float(max(span)), 50.0)
-    cx, cy = 0.5 * (lo + hi)
-    return (
-        max(xmin, float(cx) - half),
-        max(ymin, float(cy) - half),
-        min(xmax, float(cx) + half),
-        min(ymax, float(cy) + half),
-    )
 
 
 def _frame(ax: Any, xyz: FloatArray, wps: FloatArray) -> None:
@@ -487,7 +558,10 @@ __all__ = [
     "nearest_threats",
     "recorded_view",
     "replay_view",
+    "run_figure",
     "run_picture",
     "separation_of",
+    "series_styles",
+    "zone_separations",
     "zoom_box",
 ]
