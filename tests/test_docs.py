@@ -149,10 +149,15 @@ def test_commands_are_parsed_as_a_shell_reads_them() -> None:
 
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The folder every page's commands run in: ``data/`` is the repository's."""
-    d = tmp_path_factory.mktemp("pages")
-    (d / "data").symlink_to(ROOT / "data")
-    (d / "out").mkdir()
+    """The folder every page's commands run in: ``data/`` is the repository's.  While writing a
+    page, ``TERRAPATH_PAGES_DIR=DIR`` keeps it (a later page can then be run alone, ``-k``, on the
+    outputs of the earlier ones)."""
+    kept = os.environ.get("TERRAPATH_PAGES_DIR")
+    d = Path(kept) if kept else tmp_path_factory.mktemp("pages")
+    d.mkdir(parents=True, exist_ok=True)
+    if not (d / "data").exists():
+        (d / "data").symlink_to(ROOT / "data")
+    (d / "out").mkdir(exist_ok=True)
     return d
 
 
