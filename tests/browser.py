@@ -91,7 +91,8 @@ _MEASURE = """(key) => {
     if (b[2] - b[0] < 1 || b[3] - b[1] < 1 || !el.textContent.trim()) continue;
     labels.push({text: el.textContent, box: b, color: getComputedStyle(el).fill});
   }
-  return {areas, legends, modebar, labels};
+  const ranges = {x: full.xaxis && full.xaxis.range, y: full.yaxis && full.yaxis.range};
+  return {areas, legends, modebar, labels, ranges};
 }"""
 
 
@@ -142,7 +143,7 @@ class Browser:
             for tab, shot in shots.items():
                 page.click(f"nav button[data-tab='{tab}']")
                 page.wait_for_function(drawn, arg=tab, timeout=60_000)
-                page.wait_for_timeout(700)
+                page.wait_for_timeout(400)
                 page.screenshot(path=str(shot), full_page=True)
                 measures[tab] = page.evaluate(_MEASURE, tab)
         finally:

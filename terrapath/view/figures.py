@@ -689,7 +689,7 @@ def _scene_layout(
             "camera": {"eye": dict(zip("xyz", fitted_eye(aspect), strict=True))},
             "domain": {"x": [0.0, 1.0], "y": [0.1, 1.0]},
         },
-        legend=legend_below(-0.01),
+        legend=legend_below(-0.04),
         margin={"l": 0, "r": 0, "t": 34, "b": 10},
         height=760,
     )
@@ -851,12 +851,13 @@ def map_figure(sources: list[Source]) -> Any:
             track = _intruder_track(th, t_end)
             fig.add_trace(_trace(replace(track, dash=threat_dash(n), group=group)))
         fig.add_annotation(
-            label(
+            label(  # staggered: the labels of threats side by side do not overlap
                 x=float(np.nanmean(x)),
                 y=float(np.nanmax(y)),
                 text=th.id,
                 showarrow=False,
                 yanchor="bottom",
+                yshift=2 + 26 * (n % 3),
             )
         )
     for mark, _ in _layers(sources):

@@ -108,6 +108,7 @@ def map_hatch(grid: Any) -> Any:
             "bgcolor": UNKNOWN_FILL,
             "size": 10,
             "solidity": 0.3,
+            "fgopacity": 1.0,
         },
         name=f"{UNKNOWN_NAME}: {share:.1f} % of the map",
         hoverinfo="name",
