@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
+from typing import Any
 
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome")
 # root in a container has no user namespace for Chromium's sandbox; WebGL runs on SwiftShader
@@ -64,3 +65,112 @@ def render(
         finally:
             browser.close()
     return errors, loaded
+
+
+# what the page shows, read from its DOM: per tab the plot area(s), the legend's box, plotly's
+# toolbar and every text label with its colour (boxes in CSS pixels of the viewport)
+_MEASURE = """(key) => {
+  const div = document.getElementById('plot-' + key);
+  const box = (el) => { const r = el.getBoundingClientRect();
+    return [r.left, r.top, r.right, r.bottom]; };
+  const full = div._fullLayout;
+  const areas = [...div.querySelectorAll('.nsewdrag')].map(box);
+  const top = div.getBoundingClientRect();
+  for (const name of Object.keys(full).filter((k) => /^scene\\d*$/.test(k))) {
+    const d = full[name].domain, s = full._size;
+    areas.push([top.left + s.l + d.x[0] * s.w, top.top + s.t + (1 - d.y[1]) * s.h,
+                top.left + s.l + d.x[1] * s.w, top.top + s.t + (1 - d.y[0]) * s.h]);
+  }
+  const legends = [...div.querySelectorAll('.legend > .bg')].map(box);
+  const modebar = [...div.querySelectorAll('.modebar')].map(box);
+  const labels = [];
+  const selector = '.annotation-text, .legendtext, .legendtitletext, .textpoint text, '
+    + '.updatemenu-item-text, .slider-current-value';
+  for (const el of div.querySelectorAll(selector)) {
+    const b = box(el);
+    if (b[2] - b[0] < 1 || b[3] - b[1] < 1 || !el.textContent.trim()) continue;
+    labels.push({text: el.textContent, box: b, color: getComputedStyle(el).fill});
+  }
+  const ranges = {x: full.xaxis && full.xaxis.range, y: full.yaxis && full.yaxis.range};
+  return {areas, legends, modebar, labels, ranges};
+}"""
+
+
+class Browser:
+    """One headless Chromium for several pages and viewport sizes (a context manager):
+    :meth:`show` opens a page at a size, and for each tab clicks it, screenshots it and measures
+    it (:data:`_MEASURE`); the page's JavaScript errors and outside requests are collected."""
+
+    def __enter__(self) -> Browser:
+        from playwright.sync_api import sync_playwright
+
+        exe = chromium()
+        assert exe is not None, "no chromium on PATH"
+        self._pw = sync_playwright().start()
+        self._browser = self._pw.chromium.launch(executable_path=exe, args=ARGS)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._browser.close()
+        self._pw.stop()
+
+    def show(
+        self, page_path: Path, shots: dict[str, Path], width: int, height: int
+    ) -> tuple[list[str], dict[str, dict[str, Any]]]:
+        """Open ``page_path`` at ``width`` x ``height``; per tab key its screenshot (the whole
+        page) and measures; returns the errors and the measures by tab."""
+        errors: list[str] = []
+        page = self._browser.new_page(viewport={"width": width, "height": height})
+        try:
+            page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+            page.on(
+                "request",
+                lambda r: (
+                    None
+                    if r.url.startswith(("file:", "data:", "blob:"))
+                    else errors.append(f"request to {r.url}")
+                ),
+            )
+            page.on(
+                "console",
+                lambda m: (
+                    errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None
+                ),
+            )
+            page.goto(page_path.resolve().as_uri())
+            drawn = "(key) => document.getElementById('plot-' + key)._fullLayout !== undefined"
+            measures: dict[str, dict[str, Any]] = {}
+            for tab, shot in shots.items():
+                page.click(f"nav button[data-tab='{tab}']")
+                page.wait_for_function(drawn, arg=tab, timeout=60_000)
+                page.wait_for_timeout(400)
+                page.screenshot(path=str(shot), full_page=True)
+                measures[tab] = page.evaluate(_MEASURE, tab)
+        finally:
+            page.close()
+        return errors, measures
+
+
+def luminance(rgb: Any) -> Any:
+    """WCAG 2 relative luminance of sRGB colours in [0, 1] (..., 3)."""
+    import numpy as np
+
+    c = np.asarray(rgb, dtype=np.float64)
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return lin @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def contrast(a: Any, b: Any) -> Any:
+    """WCAG 2 contrast ratio of colours ``a`` and ``b`` (broadcast), from 1 to 21."""
+    import numpy as np
+
+    la, lb = luminance(a), luminance(b)
+    return (np.maximum(la, lb) + 0.05) / (np.minimum(la, lb) + 0.05)
+
+
+def css_rgb(colour: str) -> tuple[float, float, float]:
+    """``rgb(r, g, b)`` / ``rgba(...)`` as computed by the browser, in [0, 1]."""
+    import re
+
+    r, g, b = (float(v) / 255.0 for v in re.findall(r"[\d.]+", colour)[:3])
+    return r, g, b

@@ -171,8 +171,8 @@ def test_view_of_two_runs_holds_both_flights_threats_and_slider(
     assert sum(n.startswith("aircraft: ") for n in names) == 2
     assert "avoider's orbits: ctga.mcap" in names
     assert any(n.startswith("inside a threat") for n in names)  # the unavoided run's entries
-    threats = [d for d in scene["data"] if d.get("legendgroup") == "threats"]
-    assert len(threats) == 2 and all(d["type"] == "mesh3d" for d in threats)
+    threats = [d for d in scene["data"] if d["type"] == "mesh3d" and d["name"].startswith("obst")]
+    assert [d["legendgroup"] for d in threats] == ["threat:obstacle-1", "threat:obstacle-2"]
     frames = scene["frames"]
     assert len(frames) == FRAMES
     # the aircraft moves: its first and last frame positions are the run's first and last
@@ -182,7 +182,7 @@ def test_view_of_two_runs_holds_both_flights_threats_and_slider(
     assert frames[0]["data"][k]["x"][0] == pytest.approx(run.positions[0, 0], abs=1.0)
     assert "hovertemplate" in scene["data"][names.index("flown: ctga.mcap (ctga, success)")]
     plots = figs["plots"]
-    seps = [d for d in plots["data"] if d["name"].endswith(("obstacle-1", "obstacle-2"))]
+    seps = [d for d in plots["data"] if d["name"].endswith((": obstacle-1", ": obstacle-2"))]
     assert len(seps) == 4  # each threat in each run
 
 
@@ -330,3 +330,239 @@ def test_rangefinder_beams_are_drawn_at_sampled_scans_red_where_they_hit(
         names = [d.get("name", "") for d in figs[fig]["data"]]
         assert "rangefinder beams: hit" in names and "rangefinder beams: clear" in names
     assert beam_marks(runs["ctga"]) == []
+
+
+# -- legibility (issue 37): screenshots at two sizes of the demo, a 4-run comparison and a map
+# with unknown terrain, checked for errors, legends, label contrast, hatching and the camera ----
+
+HUGO = ROOT / "data" / "maps" / "landlab_hugo_site" / "hugo_site.asc"
+SIZES = ((1600, 1000), (800, 900))
+DEMO_THREATS = """terrapath: 1
+threats:
+  - {id: sam-site, kind: static, position: [429400, 4453900, 3650], radius: 800, appears_at: 60}
+  - {id: storm-cell, kind: cylinder, center: [432500, 4460400], radius: 900, top: 5000,
+     appears_at: 120}
+  - {id: drone, kind: intruder, position: [434000, 4462000, 3750], velocity: [-6, -8, 0],
+     radius: 300, appears_at: 150}
+"""
+HUGO_MISSION = f"""terrapath: 1
+name: view-hugo
+crs: local
+terrain: {{dem: [{HUGO}]}}
+vehicle: quadrotor
+cruise: {{speed: 8.0, altitude: 1760.0}}
+waypoints:
+- [60.0, 60.0, 1760.0]
+- [380.0, 480.0, 1760.0]
+- [700.0, 120.0, 1760.0]
+"""
+
+
+@pytest.fixture(scope="module")
+def legible(
+    runs: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
+) -> dict[str, tuple[Path, dict[tuple[int, str], Path], list[str], dict[str, dict]]]:
+    """Per case its page, its screenshots (by size and tab), its JavaScript errors and its DOM
+    measures (by size and tab), from one Chromium: (a) the demo's kind (a plan on the bundled
+    RMNP map, 580 unknown cells at its reprojection corners, flown into pop-up threats without
+    avoidance and with PSO-CA, first 5 minutes), (b) seed 001 flown with none / pso-ca / ctga /
+    fga, (c) a plan on the Hugo site (48.5 % unknown)."""
+    from tests.browser import Browser
+
+    assert chromium() is not None, "the view is tested in Chromium (see test above)"
+    out = tmp_path_factory.mktemp("legible")
+    mission = out / "demo.yaml"
+    mission.write_text(DEM_MISSION.replace("2823.0]", "3600.0]"), encoding="utf-8")
+    threats = out / "demo-threats.yaml"
+    threats.write_text(DEMO_THREATS, encoding="utf-8")
+    demo = []
+    for avoid in ("none", "pso-ca"):
+        demo.append(out / f"demo-{avoid}.mcap")
+        args = ["replay", str(mission), "--threats", str(threats), "--avoid", avoid, "--seed", "1"]
+        main([*args, "--duration", "300", "--no-picture", "-o", str(demo[-1])])
+    compare = [runs["none"]]
+    for avoid in ("pso-ca", "ctga", "fga"):
+        path = runs["ctga"] if avoid == "ctga" else out / f"{avoid}.mcap"
+        if avoid != "ctga":
+            args = ["replay", MISSION, "--threats", THREATS, "--avoid", avoid]
+            main([*args, "--sensor", "cooperative", "--no-picture", "-o", str(path)])
+        compare.append(path)
+    hugo = out / "hugo.yaml"
+    hugo.write_text(HUGO_MISSION, encoding="utf-8")
+    cases = {"demo": demo, "compare": compare, "unknown": [hugo]}
+    found = {}
+    with Browser() as browser:
+        for case, sources in cases.items():
+            page = out / f"{case}.html"
+            assert main(["view", *map(str, sources), "-o", str(page)]) in (0, None)
+            shots: dict[tuple[int, str], Path] = {}
+            errors: list[str] = []
+            measures: dict[str, dict] = {}
+            for w, h in SIZES:
+                tabs = {tab: out / f"{case}-{w}x{h}-{tab}.png" for tab in ("scene", "map", "plots")}
+                errs, m = browser.show(page, tabs, w, h)
+                errors += errs
+                shots.update({(w, tab): p for tab, p in tabs.items()})
+                measures.update({f"{w}:{tab}": v for tab, v in m.items()})
+            found[case] = (page, shots, errors, measures)
+    return found
+
+
+def _overlap(a: list[float], b: list[float], tol: float = 0.5) -> bool:
+    return min(a[2], b[2]) - max(a[0], b[0]) > tol and min(a[3], b[3]) - max(a[1], b[1]) > tol
+
+
+def _worst_contrast(img: np.ndarray, box: list[float], colour: str) -> float:
+    """The lowest WCAG contrast of the text colour against the pixels 1-2 px round the label's
+    box (what lies under its edge: the label's own background box, or whatever is there), the
+    pixels of the text colour itself left out."""
+    from tests.browser import contrast, css_rgb
+
+    h, w = img.shape[:2]
+    x0, y0, x1, y1 = (
+        int(math.floor(box[0])),
+        int(math.floor(box[1])),
+        int(math.ceil(box[2])),
+        int(math.ceil(box[3])),
+    )
+    ring = np.zeros((h, w), dtype=bool)
+    ring[max(0, y0 - 2) : min(h, y1 + 2), max(0, x0 - 2) : min(w, x1 + 2)] = True
+    ring[max(0, y0 - 1) : min(h, y1 + 1), max(0, x0 - 1) : min(w, x1 + 1)] = False
+    text = np.array(css_rgb(colour))
+    pixels = img[ring]
+    pixels = pixels[np.abs(pixels - text).max(axis=1) > 0.08]
+    assert len(pixels), f"nothing round the label at {box}"
+    return float(contrast(text, pixels).min())
+
+
+@pytest.mark.parametrize("case", ["demo", "compare", "unknown"])
+def test_the_views_are_legible_at_two_sizes(legible: dict, case: str) -> None:
+    _page, shots, errors, measures = legible[case]
+    assert errors == []
+    for (w, tab), shot in shots.items():
+        m = measures[f"{w}:{tab}"]
+        where = f"{case} {w} px {tab}"
+        assert m["areas"], where
+        # the legend is shown (the time plots of a plan have nothing to list), and covers
+        # neither the plot area nor plotly's toolbar
+        assert len(m["legends"]) == (0 if (case, tab) == ("unknown", "plots") else 1), where
+        for legend in m["legends"]:
+            for area in m["areas"] + m["modebar"]:
+                assert not _overlap(legend, area), f"{where}: legend {legend} over {area}"
+        # every label readable over what lies under it
+        img = imread(shot)[..., :3]
+        labels = m["labels"]
+        assert sum("hide or show" in lab["text"] for lab in labels) == len(m["legends"]), where
+        for lab in labels:
+            worst = _worst_contrast(img, lab["box"], lab["color"])
+            assert worst >= 4.5, f"{where}: {lab['text']!r} contrast {worst:.2f}"
+    shown = {lab["text"] for m in measures.values() for lab in m["labels"]}
+    if case == "compare":  # the separation panel names the threat and the depth of each entry
+        assert {"obstacle-1", "obstacle-2"} <= {t.split(":")[0] for t in shown}
+        assert sum(t.endswith("m inside") for t in shown) >= 2
+
+
+def test_every_unknown_cell_is_hatched_in_both_views(legible: dict) -> None:
+    from terrain.load import load_dem
+    from terrapath.view.unknown import UNKNOWN_NAME
+
+    for case, dem in (("unknown", HUGO), ("demo", DEM)):
+        page, shots, _, measures = legible[case]
+        grid = load_dem(dem)
+        assert grid.known is not None and grid.unknown_count in (2028, 580)
+        figs = _figures(page)
+        (hatch,) = [d for d in figs["map"]["data"] if d["name"].startswith(UNKNOWN_NAME)]
+        assert hatch["fill"] == "toself" and hatch["fillpattern"]["shape"] == "/"
+        xs, ys = _decode(hatch["x"]), _decode(hatch["y"])
+        # closed rectangles, a NaN between each two
+        rects = np.vstack([np.column_stack([xs, ys]), [[np.nan, np.nan]]]).reshape(-1, 6, 2)
+        lo, hi = rects[:, :4].min(axis=1), rects[:, :4].max(axis=1)
+        rows, cols = np.mgrid[0 : grid.rows, 0 : grid.cols]
+        cx, cy = grid.index_to_xy(rows.ravel(), cols.ravel())
+        inside = (
+            (cx[:, None] > lo[None, :, 0])
+            & (cx[:, None] < hi[None, :, 0])
+            & (cy[:, None] > lo[None, :, 1])
+            & (cy[:, None] < hi[None, :, 1])
+        ).sum(axis=1)
+        # each unknown cell under exactly one rectangle, no measured cell under any
+        np.testing.assert_array_equal(inside, (~grid.known).ravel().astype(int))
+        # the 3D scene: a grey surface over every unknown cell, hatch lines on it
+        scene = figs["scene"]["data"]
+        (grey,) = [d for d in scene if d["type"] == "surface" and d["name"] == UNKNOWN_NAME]
+        z = _decode(grey["z"])
+        (terrain,) = [d for d in scene if d["name"] == "terrain"]
+        tz = _decode(terrain["z"])
+        assert np.isfinite(z[np.isnan(tz)]).all() and np.isnan(tz).any()
+        assert any(d["name"] == f"{UNKNOWN_NAME}: hatch" for d in scene)
+    # in the screenshots: the hatch's lines and gaps over the Hugo site's unknown frame
+    _, shots, _, measures = legible["unknown"]
+    grid = load_dem(HUGO)
+    from scipy.ndimage import binary_erosion
+
+    deep = binary_erosion(~grid.known, np.ones((5, 5), dtype=bool))
+    r, c = np.nonzero(deep)
+    for w, _h in SIZES:
+        m = measures[f"{w}:map"]
+        (x0, y0, x1, y1), (xr, yr) = m["areas"][0], (m["ranges"]["x"], m["ranges"]["y"])
+        img = imread(shots[(w, "map")])[..., :3]
+        x, y = grid.index_to_xy(r, c)
+        px = x0 + (x - xr[0]) / (xr[1] - xr[0]) * (x1 - x0)
+        py = y0 + (yr[1] - y) / (yr[1] - yr[0]) * (y1 - y0)
+        hatched = 0
+        for u, v in zip(px.astype(int), py.astype(int), strict=True):
+            patch = img[v - 5 : v + 6, u - 5 : u + 6].reshape(-1, 3)
+            dark = (np.abs(patch - 0x30 / 255).max(axis=1) < 0.12).mean()
+            hatched += 0.08 < dark < 0.7  # lines and the gaps between them
+        assert hatched >= 0.9 * len(r), f"{w} px: {hatched} of {len(r)} patches hatched"
+
+
+def _decode(z: object) -> np.ndarray:
+    """A plotly JSON array (a list, or typed-array base64) as floats (None: NaN)."""
+    import base64
+
+    if isinstance(z, dict):
+        flat = np.frombuffer(base64.b64decode(z["bdata"]), dtype=np.dtype(z["dtype"]))
+        shape = [int(v) for v in str(z.get("shape", len(flat))).split(",")]
+        return flat.astype(float).reshape(shape)
+    return np.array(z, dtype=float)
+
+
+def test_one_colour_and_marker_per_run_one_style_per_threat_in_every_tab(
+    legible: dict, runs: dict[str, Path]
+) -> None:
+    from terrapath.view.style import RUN_SYMBOLS, THREAT_DASHES
+
+    page, _shots, _, _ = legible["compare"]
+    figs = _figures(page)
+    names = ["none.mcap", "pso-ca.mcap", "ctga.mcap", "fga.mcap"]
+    for n, run in enumerate(names):
+        colour = RUN_COLOURS[n]
+        (flown3d,) = [d for d in figs["scene"]["data"] if d["name"].startswith(f"flown: {run}")]
+        (flown2d,) = [d for d in figs["map"]["data"] if d["name"].startswith(f"flown: {run}")]
+        (plane,) = [d for d in figs["scene"]["data"] if d["name"] == f"aircraft: {run}"]
+        assert flown3d["line"]["color"] == flown2d["line"]["color"] == colour
+        assert plane["marker"]["color"] == colour and plane["marker"]["symbol"] == RUN_SYMBOLS[n]
+        assert flown2d["marker"]["symbol"] == RUN_SYMBOLS[n]
+        lines = [d for d in figs["plots"]["data"] if d.get("legendgroup") == run and "line" in d]
+        assert len(lines) >= 5
+        assert {d["line"]["color"] for d in lines} == {colour}
+        for k, threat in enumerate(("obstacle-1", "obstacle-2")):
+            (sep,) = [d for d in lines if d["name"] == f"{run}: {threat}"]
+            assert sep["line"]["dash"] == THREAT_DASHES[k]
+    assert len(set(RUN_SYMBOLS[:4])) == 4 and len(set(RUN_COLOURS[:4])) == 4
+    for k, threat in enumerate(("obstacle-1", "obstacle-2")):
+        for tab in ("scene", "map", "plots"):
+            (key,) = [d for d in figs[tab]["data"] if d["name"] == f"threat {threat}"]
+            assert key["line"].get("dash", "solid") == THREAT_DASHES[k], (tab, threat)
+    # the unavoided run's separation panel reaches its deepest entry, and names it
+    from terrapath.view.sources import track_of
+
+    track = track_of(recorded_view(runs["none"]))
+    layout = figs["plots"]["layout"]
+    low = layout["yaxis4"]["range"][0]
+    texts = [a["text"] for a in layout["annotations"]]
+    for threat, v in track.separations.items():
+        deepest = float(np.nanmin(v))
+        assert deepest < -100.0 and low < deepest
+        assert f"{threat}: {-deepest:.0f} m inside" in texts

@@ -43,6 +43,16 @@ from terrapath.view.shapes import (
     superellipsoid_mesh,
 )
 from terrapath.view.sources import Source
+from terrapath.view.style import (
+    RUN_COLOURS,
+    THREAT_COLOUR,
+    label,
+    legend_below,
+    legend_button,
+    run_style,
+    threat_dash,
+)
+from terrapath.view.unknown import map_hatch, scene_hatch
 
 FloatArray = npt.NDArray[np.float64]
 MAX_SURFACE = 90_000  # terrain cells of the 3D surface (300 x 300)
@@ -51,11 +61,6 @@ MAX_LINE = 4_000  # points of a run's 3D line and map track
 PLOT_POINTS = 6_000  # points of a run's altitude, airspeed and bank plots
 FRAMES = 200  # slider positions
 MIN_Z_ASPECT = 0.12  # the 3D box is at least this high for its width (a long flight is flat)
-# runs stand out from the green-brown terrain and from the red of violations
-RUN_COLOURS = ("#1f4fff", "#111111", "#c51b7d", "#00a5c8", "#ffb000", "#6a3d9a", "#8c564b")
-THREAT_COLOUR = "#9467bd"
-# one colour per threat in the separation plot (the runs differ by dash)
-THREAT_COLOURS = ("#9467bd", "#ff7f0e", "#17becf", "#e377c2", "#7f7f7f", "#bcbd22", "#8c564b")
 ZONE_COLOUR = "#d62728"
 RED = "#d62728"
 COLOR_BY = ("time", "clearance", "run")
@@ -63,7 +68,12 @@ COLOR_BY = ("time", "clearance", "run")
 
 def _colour(sources: list[Source], s: Source) -> str:
     """Each source's colour, the same in every tab (by its place among the sources)."""
-    return RUN_COLOURS[sources.index(s) % len(RUN_COLOURS)]
+    return run_style(sources.index(s))[0]
+
+
+def _symbol(sources: list[Source], s: Source) -> str:
+    """Each source's marker symbol, the same in every tab."""
+    return run_style(sources.index(s))[1]
 
 
 def _stride(n: int, most: int) -> int:
@@ -153,18 +163,21 @@ def _terrain_colourscale() -> list[list[Any]]:
     ]
 
 
-def _surface(grid: Any) -> tuple[Any, int]:
+def _surface(grid: Any) -> tuple[list[Any], int]:
     import plotly.graph_objects as go
 
     step = _stride(grid.rows * grid.cols, MAX_SURFACE)
     step = max(1, math.ceil(math.sqrt(step)))
-    h = np.asarray(grid.heights[::step, ::step], dtype=np.float64)
+    filled = np.asarray(grid.heights[::step, ::step], dtype=np.float64)
+    h = filled
     if grid.known is not None:
         h = np.where(np.asarray(grid.known)[::step, ::step], h, np.nan)
     xmin, _, _, ymax = grid.bounds
     dx, dy = grid.cell_size
     xs = xmin + dx * (0.5 + step * np.arange(h.shape[1]))
     ys = ymax - dy * (0.5 + step * np.arange(h.shape[0]))
+    relief = float(grid.zmax - grid.zmin)
+    hatch = scene_hatch(xs, ys, filled, np.isnan(h), relief)
     surface = go.Surface(
         x=xs,
         y=ys,
@@ -179,7 +192,7 @@ def _surface(grid: Any) -> tuple[Any, int]:
         lightposition={"x": -5e4, "y": 5e4, "z": 1e5},
         showlegend=True,
     )
-    return surface, step
+    return [surface, *hatch], step
 
 
 def _aircraft_at(s: Source, t: float) -> list[float]:
@@ -206,7 +219,7 @@ def scene_figure(
     _add_zones(fig, sources[0].mission.danger_zones, floor, top)
     for mark, line3d in _layers(sources, color_by):
         fig.add_trace(_trace(mark, line3d))
-    aircraft = _add_aircraft(fig, runs, notes)
+    aircraft = _add_aircraft(fig, sources, notes)
     threats = _threats(sources)
     t_end = max((float(s.run.times[-1]) for s in runs), default=0.0)
     threat_traces = _add_threats(fig, threats, floor, t_end)
@@ -216,8 +229,9 @@ def scene_figure(
     if runs:
         _add_player(fig, frames, steps)
     else:
-        for i in threat_traces:
-            fig.data[i].visible = True
+        for pair in threat_traces:
+            for i in pair:
+                fig.data[i].visible = True
     shown = _scene_layout(fig, sources, grid, floor, top, exaggeration)
     if shown > exaggeration * 1.01:
         notes.append(
@@ -231,8 +245,9 @@ def scene_figure(
 
 def _add_terrain(fig: Any, grid: Any, notes: list[str]) -> None:
     """The terrain's surface, and a note when it is decimated."""
-    surface, step = _surface(grid)
-    fig.add_trace(surface)
+    traces, step = _surface(grid)
+    for trace in traces:
+        fig.add_trace(trace)
     if step > 1:
         notes.append(
             f"3D terrain: 1 in {step} rows and columns of the {grid.rows} x {grid.cols} "
@@ -270,13 +285,15 @@ def _add_zones(fig: Any, zones: Any, floor: float, top: float) -> None:
         fig.data[-1].name = "danger zones" if k == 0 else f"danger zone {zone.id or k}"
 
 
-def _add_aircraft(fig: Any, runs: list[Source], notes: list[str]) -> list[int]:
-    """Each run's aircraft marker (the slider moves it), and a note of how its flight is
-    sampled; returns the markers' trace indices."""
+def _add_aircraft(fig: Any, sources: list[Source], notes: list[str]) -> list[int]:
+    """Each run's aircraft marker in its colour and symbol (the slider moves it), and a note
+    of how its flight is sampled; returns the markers' trace indices."""
     import plotly.graph_objects as go
 
     aircraft: list[int] = []
-    for s in runs:
+    for n, s in enumerate(sources):
+        if s.run is None:
+            continue
         tr = s.track
         assert tr is not None
         k = _stride(len(tr.t), MAX_LINE)
@@ -293,9 +310,9 @@ def _add_aircraft(fig: Any, runs: list[Source], notes: list[str]) -> list[int]:
                 z=[0.0],
                 mode="markers",
                 marker={
-                    "size": 7,
-                    "color": "black",
-                    "symbol": "diamond",
+                    "size": 8,
+                    "color": run_style(n)[0],
+                    "symbol": run_style(n)[1],
                     "line": {"color": "white", "width": 2},
                 },
                 name=f"aircraft: {s.path.name}",
@@ -306,32 +323,65 @@ def _add_aircraft(fig: Any, runs: list[Source], notes: list[str]) -> list[int]:
     return aircraft
 
 
-def _add_threats(fig: Any, threats: list[Any], floor: float, t_end: float) -> list[int]:
-    """Every threat as its shape (an intruder: its sphere at the start, and its dotted track);
-    returns the shapes' trace indices."""
-    threat_traces: list[int] = []
-    movers: list[tuple[int, Any]] = []
+def _add_threats(fig: Any, threats: list[Any], floor: float, t_end: float) -> list[tuple[int, ...]]:
+    """Every threat as its shape, with its outline at mid-height in its line style (an
+    intruder: its sphere at the start, and its track in its line style) listed in the legend
+    under its id, and a label over it; returns per threat the shape's trace index, then its
+    outline's (the slider shows both while the threat is active)."""
+    threat_traces: list[tuple[int, ...]] = []
+    labels: list[dict[str, Any]] = []
     for n, th in enumerate(threats):
+        group = f"threat:{th.id}"
+        text = f"{th.id} ({th.kind}), from {th.appears_at / 60.0:.1f} min"
         if th.kind == "intruder":
-            fig.add_trace(_trace(_intruder_track(th, t_end), {}))
+            track = _intruder_track(th, t_end)
+            track = replace(track, dash=threat_dash(n), name=f"threat {th.id}", legend=True)
+            fig.add_trace(_trace(replace(track, group=group), {}))
             mesh = sphere_mesh(np.asarray(th.position(0.0)).reshape(3), th.radius, 8, 12)
-            movers.append((len(fig.data), th))
+            top = np.asarray(th.position(th.appears_at), dtype=np.float64).reshape(3)
+            top[2] += th.radius
+            outline: tuple[int, ...] = ()
         else:
             mesh = merge([_threat_mesh(sh, floor) for sh in th.shapes(th.appears_at)])
+            mid = float(mesh[0][:, 2].min() + mesh[0][:, 2].max()) / 2.0
+            x, y = _joined(_footprints(th, floor))
+            ring = Mark(
+                f"threat {th.id}",
+                np.column_stack([x, y, np.full(len(x), mid)]),
+                "lines",
+                THREAT_COLOUR,
+                (),
+                threat_dash(n),
+                width=1.5,
+                template="",
+                group=group,
+            )
+            fig.add_trace(_trace(ring, {}))
+            outline = (len(fig.data) - 1,)
+            top = mesh[0][np.argmax(mesh[0][:, 2])].copy()
         fig.add_trace(
             _mesh_trace(
                 mesh,
                 th.id,
                 THREAT_COLOUR,
-                0.6,
-                legendgroup="threats",
-                showlegend=n == 0,
-                hovertemplate=f"{th.id} ({th.kind}), from {th.appears_at / 60.0:.1f} min<extra></extra>",
+                0.45,
+                legendgroup=group,
+                showlegend=False,
+                hovertemplate=f"{text}<extra></extra>",
             )
         )
-        if n == 0:
-            fig.data[-1].name = "threats"
-        threat_traces.append(len(fig.data) - 1)
+        threat_traces.append((len(fig.data) - 1, *outline))
+        labels.append(
+            label(
+                x=float(top[0]),
+                y=float(top[1]),
+                z=float(top[2]),
+                text=th.id,
+                showarrow=False,
+                yshift=14,
+            )
+        )
+    fig.update_layout(scene={"annotations": labels})
     return threat_traces
 
 
@@ -340,7 +390,7 @@ def _frames(
     runs: list[Source],
     aircraft: list[int],
     threats: list[Any],
-    threat_traces: list[int],
+    threat_traces: list[tuple[int, ...]],
 ) -> tuple[list[Any], list[dict[str, Any]]]:
     """The slider's frames and steps: at each time each run's aircraft, each threat's
     visibility, each intruder's sphere."""
@@ -356,14 +406,18 @@ def _frames(
             x, y, z = _aircraft_at(s, float(t))
             data.append({"type": "scatter3d", "x": [x], "y": [y], "z": [z]})
             idx.append(i)
-        for th, i in zip(threats, threat_traces, strict=True):
-            upd: dict[str, Any] = {"type": "mesh3d", "visible": _active(th, float(t))}
+        for th, (i, *outline) in zip(threats, threat_traces, strict=True):
+            active = _active(th, float(t))
+            upd: dict[str, Any] = {"type": "mesh3d", "visible": active}
             if th.kind == "intruder":
                 c = np.asarray(th.position(float(t)), dtype=np.float64).reshape(3)
                 v = c + th.radius * unit
                 upd.update(x=v[:, 0].round(1), y=v[:, 1].round(1), z=v[:, 2].round(1))
             data.append(upd)
             idx.append(i)
+            for j in outline:  # listed in the legend while hidden
+                data.append({"type": "scatter3d", "visible": True if active else "legendonly"})
+                idx.append(j)
         frames.append(go.Frame(name=name, data=data, traces=idx))
         steps.append(
             {
@@ -403,7 +457,9 @@ def _add_player(fig: Any, frames: list[Any], steps: list[dict[str, Any]]) -> Non
                 "currentvalue": {"prefix": "t = ", "font": {"color": "#222", "size": 14}},
                 "pad": {"t": 10},
                 "len": 0.85,
-                "x": 0.12,
+                "x": 0.16,
+                "y": 0.1,
+                "yanchor": "top",
             }
         ],
         updatemenus=[
@@ -411,10 +467,13 @@ def _add_player(fig: Any, frames: list[Any], steps: list[dict[str, Any]]) -> Non
                 "type": "buttons",
                 "showactive": False,
                 "x": 0.0,
-                "y": 0.0,
+                "y": 0.1,
                 "xanchor": "left",
                 "yanchor": "top",
-                "pad": {"t": 30},
+                "direction": "left",
+                "pad": {"t": 30, "l": 6},
+                "bgcolor": "white",
+                "font": {"color": "#1a1a1a", "size": 12},
                 "buttons": [
                     {
                         "label": "play",
@@ -619,32 +678,60 @@ def _scene_layout(
         )
     span = max(xmax - xmin, ymax - ymin)
     zr = max((top - floor) * exaggeration / span, MIN_Z_ASPECT)
+    aspect = ((xmax - xmin) / span, (ymax - ymin) / span, zr)
     fig.update_layout(
         scene={
             "xaxis": {"title": {"text": "x east (m)"}, "range": [xmin, xmax]},
             "yaxis": {"title": {"text": "y north (m)"}, "range": [ymin, ymax]},
             "zaxis": {"title": {"text": "altitude (m AMSL)"}, "range": [floor, top]},
             "aspectmode": "manual",
-            "aspectratio": {
-                "x": (xmax - xmin) / span,
-                "y": (ymax - ymin) / span,
-                "z": zr,
-            },
-            "camera": {"eye": {"x": -0.55, "y": -1.0, "z": 0.75}},
-            "domain": {"x": [0.0, 1.0], "y": [0.08, 1.0]},
+            "aspectratio": dict(zip("xyz", aspect, strict=True)),
+            "camera": {"eye": dict(zip("xyz", fitted_eye(aspect), strict=True))},
+            "domain": {"x": [0.0, 1.0], "y": [0.1, 1.0]},
         },
-        legend={
-            "itemsizing": "constant",
-            "groupclick": "togglegroup",
-            "x": 0.01,
-            "y": 0.99,
-            "bgcolor": "rgba(255,255,255,0.75)",
-            "font": {"size": 11},
-        },
-        margin={"l": 0, "r": 0, "t": 10, "b": 0},
+        legend=legend_below(-0.04),
+        margin={"l": 0, "r": 0, "t": 34, "b": 10},
         height=760,
     )
+    fig.update_layout(updatemenus=[*fig.layout.updatemenus, legend_button()])
     return zr * span / max(top - floor, 1e-9)
+
+
+def fitted_eye(
+    aspect: tuple[float, float, float],
+    direction: tuple[float, float, float] = (-0.55, -1.0, 0.75),
+    fovy: float = math.pi / 4.0,
+    screen: float = 1.2,
+) -> tuple[float, float, float]:
+    """The camera's eye (plotly's scene units: the box spans half its aspect ratio either side
+    of the centre) seen from ``direction``, as near as it can be with every corner of the box
+    inside plotly's perspective view (``fovy`` high, ``screen`` times as wide: the scene at
+    800 px wide, and anything wider), with a 5 % margin."""
+    d = np.asarray(direction, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    half = 0.5 * np.asarray(aspect, dtype=np.float64)
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    forward = -d
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    ty, tx = math.tan(fovy / 2.0), math.tan(fovy / 2.0) * screen
+
+    def fits(dist: float) -> bool:
+        rel = corners - dist * d
+        depth = rel @ forward
+        return bool(
+            (depth > 0).all()
+            and (np.abs(rel @ right) <= tx * depth).all()
+            and (np.abs(rel @ up) <= ty * depth).all()
+        )
+
+    lo, hi = 0.0, 100.0
+    for _ in range(60):
+        mid = (lo + hi) / 2.0
+        lo, hi = (lo, mid) if fits(mid) else (mid, hi)
+    eye = 1.05 * hi * d
+    return float(eye[0]), float(eye[1]), float(eye[2])
 
 
 # -- the 2-D map ----------------------------------------------------------------------------------
@@ -721,6 +808,9 @@ def map_figure(sources: list[Source]) -> Any:
             sizing="stretch",
             layer="below",
         )
+        hatch = map_hatch(grid)
+        if hatch is not None:
+            fig.add_trace(hatch)
     floor = _floor(sources)
     for k, zone in enumerate(sources[0].mission.danger_zones):
         if zone.kind == "cylinder":
@@ -743,24 +833,48 @@ def map_figure(sources: list[Source]) -> Any:
         )
     for n, th in enumerate(_threats(sources)):
         x, y = _joined(_footprints(th, floor))
+        group = f"threat:{th.id}"
         fig.add_trace(
             go.Scatter(
                 x=x,
                 y=y,
                 mode="lines",
-                line={"color": THREAT_COLOUR, "width": 1.5},
-                name="threats" if n == 0 else th.id,
-                legendgroup="threats",
-                showlegend=n == 0,
+                line={"color": THREAT_COLOUR, "width": 2, "dash": threat_dash(n)},
+                name=f"threat {th.id}",
+                legendgroup=group,
                 text=[f"{th.id} ({th.kind}), from {th.appears_at / 60.0:.1f} min"] * len(x),
                 hovertemplate="%{text}<extra></extra>",
             )
         )
         if th.kind == "intruder":
             t_end = max((float(s.run.times[-1]) for s in sources if s.run is not None), default=0)
-            fig.add_trace(_trace(_intruder_track(th, t_end)))
+            track = _intruder_track(th, t_end)
+            fig.add_trace(_trace(replace(track, dash=threat_dash(n), group=group)))
+        fig.add_annotation(
+            label(  # staggered: the labels of threats side by side do not overlap
+                x=float(np.nanmean(x)),
+                y=float(np.nanmax(y)),
+                text=th.id,
+                showarrow=False,
+                yanchor="bottom",
+                yshift=2 + 26 * (n % 3),
+            )
+        )
     for mark, _ in _layers(sources):
-        fig.add_trace(_trace(mark))
+        trace = _trace(mark)
+        owner = next(
+            (s for s in sources if s.run is not None and mark.name == f"flown: {s.label}"), None
+        )
+        if owner is not None:  # the run's marker symbol along its track
+            trace.mode = "lines+markers"
+            trace.marker = {
+                "color": mark.color,
+                "size": 9,
+                "symbol": _symbol(sources, owner),
+                "maxdisplayed": 12,
+                "line": {"color": "white", "width": 1},
+            }
+        fig.add_trace(trace)
     _add_wind_arrow(fig, sources, (xmin, ymin, xmax, ymax))
     fig.update_layout(
         xaxis={"title": {"text": "x east (m)"}, "range": [xmin, xmax], "constrain": "domain"},
@@ -775,9 +889,10 @@ def map_figure(sources: list[Source]) -> Any:
         # the hillshade shows through: no grid lines across it
         xaxis_showgrid=grid is None,
         yaxis_showgrid=grid is None,
-        margin={"l": 60, "r": 10, "t": 10, "b": 50},
+        margin={"l": 60, "r": 10, "t": 34, "b": 10},
         height=760,
-        legend={"groupclick": "togglegroup"},
+        legend=legend_below(-0.08),
+        updatemenus=[legend_button()],
     )
     return fig
 
@@ -817,9 +932,7 @@ def _add_wind_arrow(fig: Any, sources: list[Source], extent: tuple[float, ...]) 
         yref="y",
         showarrow=False,
         xanchor="left",
-        text=f"wind {run.wind_text or f'{speed:.1f} m/s'}",
-        font={"color": "#1f3f7f", "size": 12},
-        bgcolor="rgba(255,255,255,0.75)",
+        **label(text=f"wind {run.wind_text or f'{speed:.1f} m/s'}"),
     )
 
 
@@ -850,14 +963,37 @@ def time_figure(sources: list[Source]) -> Any:
     grid = sources[0].grid
     threat_ids = [th.id for th in _threats(sources)]
     shown, margin, top, hidden = _separation_scale(runs)
-    for n, s in enumerate(runs):
-        colour = _colour(sources, s)
-        _add_flight_plots(fig, colour, s, n, grid)
+    deepest = 0.0
+    for s in runs:
+        style = (_colour(sources, s), _symbol(sources, s))
+        _add_flight_plots(fig, style, s, grid, len(runs) > 1)
         if windy:
-            _add_wind(fig, colour, s)
-        _add_separations(fig, s, n, shown[id(s)], threat_ids, top, last)
-    _time_layout(fig, runs, margin, top, hidden, last)
+            _add_wind(fig, style[0], s)
+        low = _add_separations(fig, s, style, shown[id(s)], threat_ids, top, last)
+        deepest = min(deepest, low)
+    drawn = {i for s in runs for i in shown[id(s)]}
+    for n, ident in enumerate(threat_ids):  # the threats' line styles, in the legend
+        if ident in drawn:
+            fig.add_trace(
+                _key_trace(f"threat {ident}", threat_dash(n), f"threat:{ident}"), row=last, col=1
+            )
+    _time_layout(fig, runs, margin, top, hidden, last, deepest, len(runs) > 1)
     return fig
+
+
+def _key_trace(name: str, dash: str, group: str) -> Any:
+    """A legend entry with no data: a line style and what it means."""
+    import plotly.graph_objects as go
+
+    return go.Scatter(
+        x=[None],
+        y=[None],
+        mode="lines",
+        line={"color": "#444444", "width": 1.5, "dash": dash},
+        name=name,
+        legendgroup=group,
+        hoverinfo="skip",
+    )
 
 
 def _time_subplots(runs: list[Source], windy: bool = False) -> Any:
@@ -911,37 +1047,46 @@ def _separation_scale(
     return shown, margin, top, hidden
 
 
-def _add_flight_plots(fig: Any, colour: str, s: Source, n: int, grid: Any) -> None:
-    """A run's altitude (and the terrain below it), airspeed and bank."""
+def _add_flight_plots(
+    fig: Any, style: tuple[str, str], s: Source, grid: Any, several: bool
+) -> None:
+    """A run's altitude and the terrain below it (``several`` runs: its height above the
+    terrain instead, one line a run), airspeed and bank, in its colour with its marker."""
     import plotly.graph_objects as go
 
     tr = s.track
     assert tr is not None
+    colour, symbol = style
     k = _stride(len(tr.t), PLOT_POINTS)
     tm = (tr.t[::k] / 60.0).astype(np.float32)
     name = s.path.name
+    line = {"color": colour, "width": 1.5}
+    marker = {"symbol": symbol, "size": 8, "color": colour, "maxdisplayed": 10}
+    top = tr.agl if several and grid is not None else tr.xyz[:, 2]
     fig.add_trace(
         go.Scatter(
             x=tm,
-            y=tr.xyz[::k, 2].astype(np.float32),
-            name=f"{name}: altitude",
-            line={"color": colour},
+            y=top[::k].astype(np.float32),
+            name=s.label,
+            mode="lines+markers",
+            line=line,
+            marker=marker,
             legendgroup=name,
         ),
         row=1,
         col=1,
     )
-    if grid is not None:
+    if grid is not None and not several:
         ground = (tr.xyz[::k, 2] - tr.agl[::k]).astype(np.float32)
         fig.add_trace(
             go.Scatter(
                 x=tm,
                 y=ground,
-                name=f"{name}: terrain below",
+                name="terrain below",
                 line={"color": "#8c6d46", "width": 1},
-                fill="tozeroy" if n == 0 else None,  # the axis starts just below it
+                fill="tozeroy",  # the axis starts just below it
                 fillcolor="rgba(140,109,70,0.25)",
-                legendgroup=name,
+                legendgroup="terrain",
             ),
             row=1,
             col=1,
@@ -952,7 +1097,9 @@ def _add_flight_plots(fig: Any, colour: str, s: Source, n: int, grid: Any) -> No
                 x=tm,
                 y=values[::k].astype(np.float32),
                 name=f"{name}: {what}",
-                line={"color": colour},
+                mode="lines+markers",
+                line=line,
+                marker=marker,
                 legendgroup=name,
                 showlegend=False,
             ),
@@ -991,85 +1138,141 @@ def _add_wind(fig: Any, colour: str, s: Source) -> None:
 
 
 def _add_separations(
-    fig: Any, s: Source, n: int, shown: list[str], threat_ids: list[str], top: float, row: int
-) -> None:
-    """A run's separation from each threat it draws (the runs differ by dash), the samples
-    inside the margin in red."""
+    fig: Any,
+    s: Source,
+    style: tuple[str, str],
+    shown: list[str],
+    threat_ids: list[str],
+    top: float,
+    row: int,
+) -> float:
+    """A run's separation from each threat it draws, in the run's colour and the threat's line
+    style; the samples inside the margin in red, and each violation's deepest point labelled
+    with the threat and the depth.  Returns the lowest separation drawn (0 when none is
+    below)."""
     import plotly.graph_objects as go
 
     tr = s.track
     assert tr is not None
     name = s.path.name
-    dashes = ("solid", "dot", "dash", "longdash", "dashdot")
+    colour, symbol = style
+    lowest = 0.0
     for ident in shown:
         v = tr.separations[ident]
+        dash = threat_dash(threat_ids.index(ident))
         ts, vs = _below(tr.t / 60.0, v, top)
         fig.add_trace(
             go.Scatter(
                 x=ts,
                 y=vs,
                 name=f"{name}: {ident}",
-                line={
-                    "width": 1.2,
-                    "dash": dashes[n % len(dashes)],
-                    "color": THREAT_COLOURS[threat_ids.index(ident) % len(THREAT_COLOURS)],
-                },
+                mode="lines+markers",
+                line={"width": 1.5, "dash": dash, "color": colour},
+                marker={"symbol": symbol, "size": 7, "color": colour, "maxdisplayed": 6},
                 legendgroup=name,
+                showlegend=False,
                 hovertemplate=f"{ident}: %{{y:.0f}} m at %{{x:.2f}} min<extra>{name}</extra>",
             ),
             row=row,
             col=1,
         )
         bad = v < s.run.margin
-        if bad.any():
-            fig.add_trace(
-                go.Scatter(
-                    x=tr.t[bad] / 60.0,
-                    y=v[bad],
-                    mode="markers",
-                    marker={"color": RED, "size": 3},
-                    name=f"{name}: {ident} inside the margin",
-                    legendgroup=name,
-                    showlegend=False,
-                ),
-                row=row,
-                col=1,
-            )
+        if not bad.any():
+            continue
+        fig.add_trace(
+            go.Scatter(
+                x=tr.t[bad] / 60.0,
+                y=v[bad],
+                mode="markers",
+                marker={"color": RED, "size": 3},
+                name=f"{name}: {ident} inside the margin",
+                legendgroup=name,
+                showlegend=False,
+                hoverinfo="skip",
+            ),
+            row=row,
+            col=1,
+        )
+        k = int(np.nanargmin(np.where(bad, v, np.inf)))
+        depth = float(v[k])
+        lowest = min(lowest, depth)
+        what = f"{-depth:.0f} m inside" if depth < 0 else f"{depth:.0f} m off"
+        fig.add_annotation(
+            **label(
+                x=float(tr.t[k] / 60.0),
+                y=depth,
+                text=f"{ident}: {what}",
+                showarrow=True,
+                arrowcolor=colour,
+                arrowwidth=1.5,
+                ax=0,
+                ay=-28 if depth < 0 else 28,
+                bordercolor=colour,
+            ),
+            row=row,
+            col=1,
+        )
+    return lowest
 
 
 def _time_layout(
-    fig: Any, runs: list[Source], margin: float, top: float, hidden: int, row: int
+    fig: Any,
+    runs: list[Source],
+    margin: float,
+    top: float,
+    hidden: int,
+    row: int,
+    deepest: float = 0.0,
+    several: bool = False,
 ) -> None:
-    """Zero and the margin on the separation plot (``row``, the last); the axes' ranges and
-    titles (the wind's row before it when there is one); the size."""
+    """Zero and the margin on the separation plot (``row``, the last), down to the ``deepest``
+    violation (inside a threat shaded); the axes' ranges and titles (the wind's row before it
+    when there is one; the first row the height above the terrain of ``several`` runs); the
+    size and the legend below the plots."""
     fig.add_hline(y=0.0, line={"color": "black", "width": 1}, row=row, col=1)
+    low = min(-0.05 * top, 1.15 * deepest - 0.05 * top)
+    if deepest < 0:
+        fig.add_hrect(
+            y0=low, y1=0.0, fillcolor="rgba(214,39,40,0.08)", line_width=0, row=row, col=1
+        )
     if margin:
         fig.add_hline(
             y=margin,
             line={"color": RED, "width": 1, "dash": "dash"},
-            annotation_text=f"margin {margin:g} m",
+            label={
+                "text": f"margin {margin:g} m",
+                "textposition": "end",
+                "font": {"color": "#a01818", "size": 11},
+            },
             row=row,
             col=1,
         )
-    if runs:
+    grid_known = any(s.grid is not None for s in runs)
+    if runs and several and grid_known:
+        fig.update_yaxes(title_text="above the terrain (m)", row=1, col=1)
+        fig.add_hline(y=0.0, line={"color": "#8c6d46", "width": 1.5}, row=1, col=1)
+    elif runs:
         lows = [
             float(np.nanmin(s.track.xyz[:, 2] - s.track.agl)) for s in runs if s.track is not None
         ]
         highs = [float(np.nanmax(s.track.xyz[:, 2])) for s in runs if s.track is not None]
         pad = 0.05 * (max(highs) - min(lows)) + 20.0
         fig.update_yaxes(range=[min(lows) - pad, max(highs) + pad], row=1, col=1)
-    fig.update_yaxes(title_text="altitude (m AMSL)", row=1, col=1)
+    if not (runs and several and grid_known):
+        fig.update_yaxes(title_text="altitude (m AMSL)", row=1, col=1)
     fig.update_yaxes(title_text="airspeed (m/s)", row=2, col=1)
     fig.update_yaxes(title_text="bank (deg)", row=3, col=1)
     if row == 5:
         fig.update_yaxes(title_text="wind (m/s)", row=4, col=1)
     what = f"separation (m), the {NEAREST_DRAWN} nearest" if hidden else "separation (m)"
-    fig.update_yaxes(title_text=what, range=[-0.05 * top, top], row=row, col=1)
+    fig.update_yaxes(title_text=what, range=[low, top], row=row, col=1)
     fig.update_xaxes(title_text="time (min)", row=row, col=1)
     fig.update_layout(
         height=900 if row == 4 else 1050,
-        margin={"l": 70, "r": 10, "t": 10, "b": 50},
+        margin={"l": 70, "r": 10, "t": 34, "b": 10},
         hovermode="x unified",
+        legend=legend_below(-0.06),
+        updatemenus=[legend_button()],
     )
 
 
@@ -1078,6 +1281,7 @@ __all__ = [
     "FRAMES",
     "MAX_LINE",
     "MAX_SURFACE",
+    "RUN_COLOURS",
     "map_figure",
     "scene_figure",
     "time_figure",
