@@ -164,7 +164,7 @@ def bench_cmd(
     click.echo(f"wrote the table into {target}")
     current = bench_dir / "current.json"
     # the current figures are the full table's: a quick version (--runs) or another choice of
-    # optimisers goes into SUMMARY.md and the log only
+    # optimisers goes into SUMMARY.md and the log only (a quick one only with --summary)
     if summary is None and current.exists() and runs is None and optimizers is None:
         readme = bench_dir / "README.md"
         updated = figures.record(
