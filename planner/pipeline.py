@@ -39,6 +39,7 @@ from planner.plan import DEFAULT_ALGORITHM, plan
 from planner.problem import PlanningProblem, terrain_top
 from planner.result import PlanResult, Violation, spiral_violation
 from planner.spiral import respiral
+from terrain.atomic import output_folder
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.zones import DangerZone, Zone
@@ -490,8 +491,7 @@ def plan_mission(
         out = Path(output)
         if out.suffix.lower() not in (".yaml", ".yml"):
             raise InputError(f"the mission file must end in .yaml; got {str(output)!r}")
-        if not out.parent.is_dir() and str(out.parent):
-            raise InputError(f"{str(out)!r}: output folder {str(out.parent)!r} does not exist")
+        output_folder(out, create=False)  # made when the mission is written
     prepared = build_problem(request)
     r = request
 

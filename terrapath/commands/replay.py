@@ -9,6 +9,7 @@ from typing import Any
 
 import click
 
+from terrain.atomic import output_folder
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError
 from terrapath.options import (
@@ -405,6 +406,7 @@ def _check_output(source: str, output: str) -> None:
             f"{output!r} is the run being re-flown; write the new run to another file",
             param_hint="-o/--output",
         )
+    output_folder(output, create=False)  # made when the recording starts, before the flight
 
 
 def _ca_options(avoid: str, settings: dict[str, Any]) -> dict[str, Any]:
