@@ -353,7 +353,8 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "aircraft makes at the top of the band.",
 )
 @vehicle_option(
-    "Vehicle preset or vehicle file: the plan is flyable by it, and the mission names it.",
+    "Vehicle preset (fixed-wing or multirotor) or vehicle file: the plan is flyable by it, "
+    "and the mission names it.",
     default="aerosonde",
 )
 @click.option(

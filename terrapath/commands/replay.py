@@ -148,7 +148,8 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "whatever the map and vehicle (to reproduce the paper).",
 )
 @vehicle_option(
-    "Vehicle preset or file (default: the mission's; for an .mcap source, the vehicle that run flew)."
+    "Vehicle preset (fixed-wing or multirotor) or file (default: the mission's; for an .mcap "
+    "source, the vehicle that run flew)."
 )
 @dem_tiles_option(
     "DEM tile to fly over instead of the mission's (repeat for several tiles; the "
