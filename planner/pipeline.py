@@ -157,9 +157,18 @@ class Prepared:
     landing: Landing | None = None
 
 
+# why a plan over a map without CRS has no ground-station files (they are in lon/lat)
+NO_CRS_NOTE = (
+    "no CRS: the map has no geographic reference (local metres), so no "
+    ".geojson/.plan/.waypoints (lon/lat) were written; give the DEM its CRS (a GeoTIFF with "
+    "one, or a .prj file beside it) to have them"
+)
+
+
 @dataclass(frozen=True, eq=False)
 class PlanOutcome:
-    """A finished plan: the result, the mission it became, the files written, the warnings."""
+    """A finished plan: the result, the mission it became, the files written, the warnings and
+    the notes (what was not written and why)."""
 
     result: PlanResult
     mission: Mission
@@ -167,6 +176,7 @@ class PlanOutcome:
     written: dict[str, Path]
     removed: tuple[Path, ...]
     warnings: tuple[str, ...]
+    notes: tuple[str, ...] = ()
 
     @property
     def feasible(self) -> bool:
@@ -597,6 +607,7 @@ def plan_mission(
     written: dict[str, Path] = {}
     removed: tuple[Path, ...] = ()
     warnings = list(prepared.warnings)
+    notes: list[str] = []
     share = result.terms.get("over_unknown_share", 0.0)
     if share > 0:
         km = share * result.terms["path_length_m"] / 1000
@@ -613,7 +624,9 @@ def plan_mission(
                 "ground-station files written for an INFEASIBLE plan (--force-export): "
                 "do not fly them as they are"
             )
-    return PlanOutcome(result, mission, prepared, written, removed, tuple(warnings))
+        if (result.feasible or force_export) and not prepared.grid.is_georeferenced:
+            notes.append(NO_CRS_NOTE)
+    return PlanOutcome(result, mission, prepared, written, removed, tuple(warnings), tuple(notes))
 
 
 def to_mission(

@@ -193,6 +193,36 @@ def test_lonlat_on_a_local_grid_names_map_coords(
     )
 
 
+def test_a_plan_without_crs_says_why_no_ground_station_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    hugo = str(DATA_MAPS / "landlab_hugo_site" / "hugo_site.asc")  # no CRS: local metres
+    out = tmp_path / "m.yaml"
+    args = ["plan", hugo, "--map-coords", "--start=100,100", "--goal=700,450", "--vehicle",
+            "quadrotor", "--allow-unknown-terrain", "--init", "corridor", "-o", str(out)]  # fmt: skip
+    assert main(args) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert (
+        "terrapath: note: no CRS: the map has no geographic reference (local metres), so no "
+        ".geojson/.plan/.waypoints (lon/lat) were written; give the DEM its CRS (a GeoTIFF with "
+        "one, or a .prj file beside it) to have them"
+    ) in err
+    assert out.is_file() and out.with_suffix(".png").is_file()
+    for suffix in (".geojson", ".plan", ".waypoints"):
+        assert not out.with_suffix(suffix).exists(), suffix
+    # the same map with its CRS given in a .prj file: the files are written, no note
+    (tmp_path / "geo").mkdir()
+    dem = tmp_path / "geo" / "hugo.asc"
+    dem.write_bytes(Path(hugo).read_bytes())
+    from rasterio.crs import CRS
+
+    dem.with_suffix(".prj").write_text(CRS.from_epsg(32613).to_wkt())
+    assert main([*args[:1], str(dem), *args[2:]]) == 0
+    assert "no CRS" not in capsys.readouterr().err
+    for suffix in (".geojson", ".plan", ".waypoints"):
+        assert out.with_suffix(suffix).is_file(), suffix
+
+
 def test_malformed_zones_file_names_line_and_field(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -495,6 +495,8 @@ def plan_cmd(
     outcome = _run_with_progress(request, output, alt_frame, force_export)
     for warning in outcome.warnings:
         click.echo(f"terrapath: warning: {warning}", err=True)
+    for note in outcome.notes:
+        click.echo(f"terrapath: note: {note}", err=True)
     if as_json:
         _echo_json(outcome, performance, seed)
     else:
