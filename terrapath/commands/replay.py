@@ -189,12 +189,12 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 @click.option(
     "--sensor",
     type=click.Choice(["radar", "cooperative", "rangefinder"]),
-    default="radar",
-    show_default=True,
+    default=None,
     help="What the avoider sees: radar (seed 000: returns in range and line of sight, terrain "
     "too), cooperative (ADS-B-like: every threat in range reports its true position, "
     "velocity and size, with --coop-noise and --coop-latency) or rangefinder (seed 003: beams "
-    "by ray casting at 10 Hz, with the --rangefinder-* options).",
+    "by ray casting at 10 Hz, with the --rangefinder-* options). Default: the avoider's only "
+    "sensor if it works with one alone (--avoid priority: rangefinder), else radar.",
 )
 @click.option(
     "--rangefinder-range",
@@ -353,10 +353,12 @@ def replay_cmd(
     no terrain contact on the measured heights, over known terrain on the map, no stall, the
     track within the tolerances of the plan), 3 the flight failed (still recorded; each failure
     named), 1 error (a refused mission among them)."""
+    from replay.avoidance.registry import sensor_for
     from replay.run import ReplayRequest, prepare_replay, run_replay
     from terrain.airspace import parse_start
 
     _check_output(source, output)
+    settings["sensor"] = sensor_for((avoid,), settings["sensor"], where="--sensor")
     options = {**_ca_options(avoid, settings), **_options(avoid_opts)}
     # the other options are named after the request's fields and the replay settings'
     request = ReplayRequest.of(
