@@ -126,7 +126,9 @@ class Route:
 @dataclass(frozen=True, eq=False)
 class Exploration:
     """What :func:`explore` found: the routes (shortest first), the block size and grid shape,
-    and the seconds it took."""
+    and the seconds it took.  From :func:`explore_pool`, ``routes`` are the swarm's seeds: the
+    ``distinct`` routes kept of the ``candidates`` its graphs gave, and the placements of the
+    waypoints along the best of them (``placed``)."""
 
     routes: tuple[Route, ...]
     block_m: float
@@ -135,11 +137,23 @@ class Exploration:
     edges: int
     elapsed_s: float
     placement_s: float = 0.0  # of elapsed_s, placing waypoints along the routes (explore_pool)
+    candidates: int | None = None  # routes found on every graph (None: those of ``routes``)
+    distinct: int | None = None  # of them, kept as distinct (None: every one of ``routes``)
+    graphs: int = 1  # graph resolutions searched
+
+    @property
+    def placed(self) -> int:
+        """Seeds made by placing the waypoints along the best distinct routes."""
+        return len(self.routes) - (len(self.routes) if self.distinct is None else self.distinct)
 
     def summary(self) -> dict[str, object]:
         """Plain data for a result's parameters."""
         return {
             "routes": len(self.routes),
+            "candidates": len(self.routes) if self.candidates is None else self.candidates,
+            "distinct": len(self.routes) - self.placed,
+            "placed": self.placed,
+            "graphs": self.graphs,
             "route_costs": [round(r.cost, 6) for r in self.routes],
             "route_F": [round(r.f, 6) for r in self.routes],
             # each route's seed, its free waypoints (drawn in the plan's picture)
@@ -538,11 +552,14 @@ def explore_pool(
     cands = [r for e in found for r in e.routes]
     finest = found[-1]
     if not cands:
-        return replace(finest, elapsed_s=time.perf_counter() - t0)
+        return replace(
+            finest, elapsed_s=time.perf_counter() - t0, candidates=0, graphs=len(resolutions)
+        )
     terms = problem.terms(np.array([r.x for r in cands]))
     ok = problem.repairable(terms)
     scored = [(replace(r, f=float(terms.total[i])), bool(ok[i])) for i, r in enumerate(cands)]
     kept = _distinct(problem, scored, k)
+    distinct = len(kept)
     t1 = time.perf_counter()
     placing = placed > 0 and problem.agl_pref is None
     if placing:
@@ -571,6 +588,9 @@ def explore_pool(
         sum(e.edges for e in found),
         time.perf_counter() - t0,
         placement_s=time.perf_counter() - t1 if placing else 0.0,
+        candidates=len(cands),
+        distinct=distinct,
+        graphs=len(resolutions),
     )
 
 

@@ -39,6 +39,7 @@ from planner.plan import DEFAULT_ALGORITHM, plan
 from planner.problem import PlanningProblem, terrain_top
 from planner.result import PlanResult, Violation, spiral_violation
 from planner.spiral import respiral
+from terrain.atomic import output_folder
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
 from terrain.zones import DangerZone, Zone
@@ -156,9 +157,18 @@ class Prepared:
     landing: Landing | None = None
 
 
+# why a plan over a map without CRS has no ground-station files (they are in lon/lat)
+NO_CRS_NOTE = (
+    "no CRS: the map has no geographic reference (local metres), so no "
+    ".geojson/.plan/.waypoints (lon/lat) were written; give the DEM its CRS (a GeoTIFF with "
+    "one, or a .prj file beside it) to have them"
+)
+
+
 @dataclass(frozen=True, eq=False)
 class PlanOutcome:
-    """A finished plan: the result, the mission it became, the files written, the warnings."""
+    """A finished plan: the result, the mission it became, the files written, the warnings and
+    the notes (what was not written and why)."""
 
     result: PlanResult
     mission: Mission
@@ -166,10 +176,16 @@ class PlanOutcome:
     written: dict[str, Path]
     removed: tuple[Path, ...]
     warnings: tuple[str, ...]
+    notes: tuple[str, ...] = ()
 
     @property
     def feasible(self) -> bool:
         return self.result.feasible
+
+
+def _as_given(point: Sequence[float], map_coords: bool) -> str | None:
+    """A start or goal as the user gave it, for messages: lon/lat, or None (map metres)."""
+    return None if map_coords else f"lon {float(point[0]):.5f}, lat {float(point[1]):.5f}"
 
 
 def _place(
@@ -194,6 +210,13 @@ def _place(
         if not (-180.0 <= a <= 360.0 and -90.0 <= b <= 90.0):
             raise InputError(
                 f"{name} {a},{b} is not lon,lat in degrees (use --map-coords for map metres)"
+            )
+        if grid.crs is None:
+            xmin, ymin, xmax, ymax = grid.bounds
+            raise InputError(
+                f"{name} {a},{b} is lon,lat but the map has no CRS (a local grid in metres): "
+                f"give --map-coords and the {name} in map metres X,Y "
+                f"(x {xmin:.1f} .. {xmax:.1f}, y {ymin:.1f} .. {ymax:.1f})"
             )
         xa, ya = grid.from_lonlat(a, b)
         x, y = float(xa), float(ya)
@@ -275,14 +298,23 @@ def build_problem(request: PlanRequest) -> Prepared:
         landing = _landing(r, grid, g, s, zlist, cruise)
         g = landing.fix
     warnings: list[str] = list(airspace_notes)
-    for label, p in (("start", s), ("goal", g)):
+    # the start and goal in messages as the user gave them (not a take-off's or landing's)
+    named = (
+        None if takeoff is not None else _as_given(r.start, r.map_coords),
+        None if landing is not None else _as_given(r.goal, r.map_coords),
+    )
+    for label, p, given in (("start", s, named[0]), ("goal", g, named[1])):
         for z in zlist:
             if bool(np.asarray(z.contains(p[0], p[1], p[2])).any()):
                 cx, cy = z.centroid
                 what = f"diameter {z.diameter:g} m" if isinstance(z, DangerZone) else "a polygon"
+                centre = f"{cx:.0f}, {cy:.0f}"
+                if given is not None:  # the zone's centre in the units of the point too
+                    lon, lat = grid.to_lonlat(cx, cy)
+                    centre = f"lon {float(lon):.5f}, lat {float(lat):.5f}"
                 msg = (
-                    f"the {label} lies inside danger zone {z.id or ''} ({z.kind} centred at "
-                    f"{cx:.0f}, {cy:.0f}, {what})"
+                    f"the {label} ({given or f'{p[0]:.1f}, {p[1]:.1f}'}) lies inside danger zone "
+                    f"{z.id or ''} ({z.kind} centred at {centre}, {what})"
                 )
                 if r.strict:
                     raise InputError(msg + "; refused because of --strict")
@@ -309,6 +341,7 @@ def build_problem(request: PlanRequest) -> Prepared:
         lead_out=(
             landing.touchdown if landing is not None and landing.heading_deg is not None else None
         ),
+        named_ends=named,
     )
     if r.performance_at is not None:
         zmin, zmax = problem.band
@@ -335,16 +368,18 @@ def _ground_point(
             f"{flag}: the {what} is on the ground; give it as lon,lat (or x,y) without an altitude"
         )
     x, y = float(point[0]), float(point[1])
+    named = _as_given(given, r.map_coords)
+    at = f"({named}; map {x:.1f}, {y:.1f})" if named else f"({x:.1f}, {y:.1f})"
     unknown = None if r.allow_unknown else unknown_mask_grid(grid)
     if unknown is not None and float(unknown.heights[unknown.cell_of(x, y)]) > 0:
         raise InputError(
-            f"the {what} ({x:.1f}, {y:.1f}) lies over terrain the DEM did not measure: its "
+            f"the {what} {at} lies over terrain the DEM did not measure: its "
             "ground height is not known (--allow-unknown-terrain accepts that)"
         )
     safety = grid.safety()
     for z in zones:
         if bool(np.asarray(z.contains(x, y, float(safety.height_at(x, y)) + 1.0)).any()):
-            raise InputError(f"the {what} ({x:.1f}, {y:.1f}) lies inside danger zone {z.id or ''}")
+            raise InputError(f"the {what} {at} lies inside danger zone {z.id or ''}")
     perf = r.performance
     if r.performance_at is not None:
         margin = r.clearance + max(50.0, 0.05 * (grid.zmax - grid.zmin))
@@ -490,8 +525,7 @@ def plan_mission(
         out = Path(output)
         if out.suffix.lower() not in (".yaml", ".yml"):
             raise InputError(f"the mission file must end in .yaml; got {str(output)!r}")
-        if not out.parent.is_dir() and str(out.parent):
-            raise InputError(f"{str(out)!r}: output folder {str(out.parent)!r} does not exist")
+        output_folder(out, create=False)  # made when the mission is written
     prepared = build_problem(request)
     r = request
 
@@ -573,6 +607,7 @@ def plan_mission(
     written: dict[str, Path] = {}
     removed: tuple[Path, ...] = ()
     warnings = list(prepared.warnings)
+    notes: list[str] = []
     share = result.terms.get("over_unknown_share", 0.0)
     if share > 0:
         km = share * result.terms["path_length_m"] / 1000
@@ -589,7 +624,9 @@ def plan_mission(
                 "ground-station files written for an INFEASIBLE plan (--force-export): "
                 "do not fly them as they are"
             )
-    return PlanOutcome(result, mission, prepared, written, removed, tuple(warnings))
+        if (result.feasible or force_export) and not prepared.grid.is_georeferenced:
+            notes.append(NO_CRS_NOTE)
+    return PlanOutcome(result, mission, prepared, written, removed, tuple(warnings), tuple(notes))
 
 
 def to_mission(

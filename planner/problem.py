@@ -156,6 +156,9 @@ class PlanningProblem:
     # turns there are flown as fillets in the cost (with_leads, lead_turn_excess)
     lead_in: FloatArray | None = None
     lead_out: FloatArray | None = None
+    # how messages name the start and the goal where the user gave them otherwise than in map
+    # metres (e.g. "lon -105.85000, lat 40.20000"): None names them by their map metres
+    named_ends: tuple[str | None, str | None] = (None, None)
     _zones: ZoneSet = field(init=False, repr=False)
     _check_grid: HeightGrid = field(init=False, repr=False)
     _unknown: HeightGrid | None = field(init=False, repr=False)
@@ -219,6 +222,13 @@ class PlanningProblem:
         )
         self._check_ends_known_and_clear()
 
+    def where(self, name: str, p: FloatArray) -> str:
+        """The start or goal ``p`` in a message, in the units the user gave it: its
+        :attr:`named_ends` text with the map metres after it, else the map metres."""
+        metres = f"{p[0]:.1f}, {p[1]:.1f}"
+        given = self.named_ends[0 if name == "start" else 1] if name in ("start", "goal") else None
+        return f"({given}; map {metres})" if given else f"({metres})"
+
     def _check_ends_on_the_map(self) -> None:
         """Start and goal inside the map, above the terrain by the clearance, below --agl-max."""
         g = self.grid
@@ -226,7 +236,7 @@ class PlanningProblem:
             if not bool(g.contains(p[0], p[1])):
                 xmin, ymin, xmax, ymax = g.bounds
                 raise InputError(
-                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) lies outside the map "
+                    f"{name} {self.where(name, p)} lies outside the map "
                     f"(x {xmin:.1f} .. {xmax:.1f}, y {ymin:.1f} .. {ymax:.1f})"
                 )
             ground = float(g.height_at(p[0], p[1]))
@@ -235,13 +245,13 @@ class PlanningProblem:
                     f" + clearance {self.clearance:g} m" if self.clearance else ""
                 )
                 raise InputError(
-                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is inside the terrain "
+                    f"{name} {self.where(name, p)} at {p[2]:.1f} m AMSL is inside the terrain "
                     f"(needs at least {need})"
                 )
             if self.agl_max is not None and p[2] - ground > self.agl_max:
                 raise InputError(
-                    f"{name} ({p[0]:.1f}, {p[1]:.1f}) at {p[2]:.1f} m AMSL is {p[2] - ground:.0f} m "
-                    f"above the ground, above --agl-max {self.agl_max:g} m; lower it"
+                    f"{name} {self.where(name, p)} at {p[2]:.1f} m AMSL is {p[2] - ground:.0f} "
+                    f"m above the ground, above --agl-max {self.agl_max:g} m; lower it"
                 )
 
     def _altitude_band(self) -> tuple[float, float]:
@@ -278,7 +288,7 @@ class PlanningProblem:
             for name, p in (("start", self.start), ("goal", self.goal)):
                 if float(self._unknown.heights[self._unknown.cell_of(p[0], p[1])]) > 0:
                     raise InputError(
-                        f"the {name} ({p[0]:.1f}, {p[1]:.1f}) lies over terrain the DEM did not "
+                        f"the {name} {self.where(name, p)} lies over terrain the DEM did not "
                         "measure (filled nodata or outside the source raster, or next to it); "
                         "--allow-unknown-terrain accepts that"
                     )

@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from planner.mission import Mission
 from replay.avoidance.base import AvoidanceContext, Avoider
+from replay.avoidance.registry import SENSORS
 from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
 from replay.flight.energy import source_of
@@ -948,7 +949,6 @@ def _arrival(stack: FlightStack, position: FloatArray) -> str:
     return f"missed the goal (passed it {miss:.0f} m away)"
 
 
-SENSORS = ("radar", "cooperative", "rangefinder")
 _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much flight at once
 
 

@@ -22,9 +22,7 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     (:func:`remove_stale_parts`).
     """
     final = Path(path)
-    parent = final.parent if str(final.parent) else Path(".")
-    if not parent.is_dir():
-        raise DataFileError(f"{str(final)!r}: output folder {str(parent)!r} does not exist")
+    parent = output_folder(final)
     prefix = f".{final.name}.{os.getpid()}."
     fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".part", dir=parent)
     os.close(fd)
@@ -43,6 +41,54 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
                 f"{str(final)!r}: cannot be written: {exc.strerror or exc} (nothing was written)"
             ) from None
         raise
+
+
+def output_folder(path: str | os.PathLike[str], *, create: bool = True) -> Path:
+    """The folder ``path`` (an output file) is written in, with its missing parents created, as
+    ``mkdir -p`` does; with ``create`` False only checked that they could be (a command checks
+    before its work, creates when it writes).
+
+    When the folder cannot be made -- a file in the way, no permission -- a one-line
+    :class:`DataFileError` names the output, the folder and why.
+    """
+    final = Path(path)
+    parent = final.parent if str(final.parent) else Path(".")
+    make_folder(parent, create=create, output=final)
+    return parent
+
+
+def make_folder(
+    folder: str | os.PathLike[str],
+    *,
+    create: bool = True,
+    output: str | os.PathLike[str] | None = None,
+) -> Path:
+    """``folder`` with its missing parents created (``mkdir -p``); with ``create`` False only
+    checked that they could be.  ``output``: the file written there, named in the error (else
+    the folder itself is)."""
+    folder = Path(folder)
+    named = str(output if output is not None else folder)
+
+    def refused(why: str) -> DataFileError:
+        return DataFileError(f"{named!r}: cannot create the output folder {str(folder)!r}: {why}")
+
+    if folder.is_dir():
+        return folder
+    # the nearest part of the folder's path that exists decides whether the rest can be made
+    existing = folder
+    while not existing.exists() and not existing.is_symlink() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        what = "a broken link" if not existing.exists() else "a file"
+        raise refused(f"{str(existing)!r} is {what}, not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise refused(f"no permission to create folders in {str(existing)!r}")
+    if create:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise refused(exc.strerror or str(exc)) from None
+    return folder
 
 
 def remove_stale_parts(folder: str | os.PathLike[str]) -> list[Path]:

@@ -1,3 +1,3 @@
-"""terrapath: terrain-aware path planning and 6-DOF replay for fixed-wing UAVs."""
+"""terrapath: terrain-aware path planning and 6-DOF replay for fixed-wing and multirotor UAVs."""
 
 __version__ = "0.1.0"

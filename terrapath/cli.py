@@ -73,7 +73,7 @@ def _signals_interrupt() -> Iterator[None]:
 @click.option("-v", "--verbose", count=True, help="More log output (repeatable).")
 @click.option("-q", "--quiet", is_flag=True, help="Only errors.")
 def cli(verbose: int, quiet: bool) -> None:
-    """Terrain-aware path planning and 6-DOF replay for fixed-wing UAVs."""
+    """Terrain-aware path planning and 6-DOF replay for fixed-wing and multirotor UAVs."""
     level = (
         logging.ERROR
         if quiet

@@ -318,6 +318,19 @@ def test_wilson_interval() -> None:
 # -- bad input -----------------------------------------------------------------------------------
 
 
+def test_the_sensor_is_implied_by_the_avoiders_when_only_one_fits(tmp_path: Path) -> None:
+    def sensor(avoiders: str) -> str:
+        text = SPEC.replace("sensor: cooperative\n", "").replace(
+            "avoiders: [{name: ctga}, {name: none}]", f"avoiders: {avoiders}"
+        )
+        assert "sensor" not in text
+        return load_spec(_spec(tmp_path, text)).sensor
+
+    assert sensor("[{name: priority}]") == "rangefinder"
+    assert sensor("[{name: none}, {name: priority}]") == "rangefinder"  # none sees anything
+    assert sensor("[{name: ctga}, {name: none}]") == "radar"  # any fits: the default
+
+
 @pytest.mark.parametrize(
     ("change", "expect"),
     [
@@ -350,6 +363,11 @@ def test_wilson_interval() -> None:
         (
             ("sensor: cooperative", "sensor: sonar"),
             "field 'sensor': expected one of radar, cooperative",
+        ),
+        (
+            ("avoiders: [{name: ctga}, {name: none}]", "avoiders: [{name: priority}]"),
+            "field 'sensor': cooperative: the priority avoider works with rangefinder only; "
+            "give that sensor or leave the sensor out (it is implied)",
         ),
         (("seed: 7", "seed: 7\ncolour: red"), "unknown key(s) 'colour'"),
         (("terrapath: 1", "terrapath: 2"), "field 'terrapath': expected 1"),

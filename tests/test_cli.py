@@ -141,3 +141,22 @@ def test_hillshade_of_a_map_with_unknown_terrain(tmp_path: Path) -> None:
     out = tmp_path / "hugo.png"
     assert main(["hillshade", HUGO, "-o", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_descriptions_name_both_kinds_of_vehicle(capsys: pytest.CaptureFixture[str]) -> None:
+    import tomllib
+
+    import terrapath
+
+    # multirotors (the quadrotor preset) are planned and flown as well as fixed-wing aircraft
+    want = "for fixed-wing and multirotor UAVs"
+    assert main(["--help"]) == 0
+    assert want in " ".join(capsys.readouterr().out.split())  # as one line, however wrapped
+    doc = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    assert doc["project"]["description"].endswith(want)
+    assert terrapath.__doc__ is not None and want in terrapath.__doc__
+    for command in ("plan", "replay"):
+        assert main([command, "--help"]) == 0
+        assert "Vehicle preset (fixed-wing or multirotor)" in " ".join(
+            capsys.readouterr().out.split()
+        )

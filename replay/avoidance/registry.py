@@ -10,11 +10,15 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
 from replay.avoidance.base import Avoider
 from terrain.errors import InputError
+
+SENSORS = ("radar", "cooperative", "rangefinder")  # what an avoider may see through
+DEFAULT_SENSOR = "radar"
 
 
 @dataclass(frozen=True)
@@ -22,6 +26,7 @@ class AvoiderEntry:
     module: str
     cls: str
     summary: str
+    sensors: tuple[str, ...] = SENSORS  # the sensors it can work with
 
 
 AVOIDERS: dict[str, AvoiderEntry] = {
@@ -47,19 +52,43 @@ AVOIDERS: dict[str, AvoiderEntry] = {
         "replay.avoidance.priority",
         "PriorityAvoider",
         "seed 003: stop, scan 32 directions with rangefinders, choose a set-point by steps "
-        "4a-4d (hover-capable vehicles, --sensor rangefinder)",
+        "4a-4d (hover-capable vehicles; the rangefinders are its sensor)",
+        sensors=("rangefinder",),
     ),
 }
 
 
-def avoider_class(name: str) -> type:
-    """The class registered under ``name`` (imported now)."""
+def sensor_for(avoiders: Iterable[str], sensor: str | None = None, *, where: str = "") -> str:
+    """The sensor the ``avoiders`` fly with: ``sensor`` when given, else the only one every
+    one of them can work with (``--avoid priority``: the rangefinders), else the default
+    (radar).  A ``sensor`` one of them cannot work with is refused, ``where`` (e.g.
+    ``"--sensor"``) naming what gave it."""
+    names = tuple(avoiders)
+    fits = [s for s in SENSORS if all(s in _entry(n).sensors for n in names)]
+    if sensor is None:
+        return fits[0] if len(fits) == 1 else DEFAULT_SENSOR
+    for n in names:
+        ok = _entry(n).sensors
+        if sensor not in ok:
+            raise InputError(
+                f"{where + ' ' if where else ''}{sensor}: the {n} avoider works with "
+                f"{' or '.join(ok)} only; give that sensor or leave the sensor out (it is implied)"
+            )
+    return sensor
+
+
+def _entry(name: str) -> AvoiderEntry:
     try:
-        entry = AVOIDERS[name]
+        return AVOIDERS[name]
     except KeyError:
         raise InputError(
             f"unknown avoider {name!r}; available: {', '.join(sorted(AVOIDERS))}"
         ) from None
+
+
+def avoider_class(name: str) -> type:
+    """The class registered under ``name`` (imported now)."""
+    entry = _entry(name)
     cls = getattr(importlib.import_module(entry.module), entry.cls)
     assert isinstance(cls, type)
     return cls
@@ -91,4 +120,13 @@ def make_avoider(name: str, **options: Any) -> Avoider:
     return avoider
 
 
-__all__ = ["AVOIDERS", "AvoiderEntry", "avoider_class", "avoider_options", "make_avoider"]
+__all__ = [
+    "AVOIDERS",
+    "DEFAULT_SENSOR",
+    "SENSORS",
+    "AvoiderEntry",
+    "avoider_class",
+    "avoider_options",
+    "make_avoider",
+    "sensor_for",
+]

@@ -165,10 +165,9 @@ def _slug(text: str) -> str:
 
 def write_report(rows: list[dict[str, Any]], folder: str | Path, store_name: str) -> Path:
     """Write the tables, plots and ``index.md`` for ``rows``; returns the index's path."""
-    from terrain.atomic import atomic_output
+    from terrain.atomic import atomic_output, make_folder
 
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_folder(folder)
     index = [f"# Campaign report: {store_name}", ""]
     total = len(rows)
     index.append(

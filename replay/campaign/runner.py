@@ -32,7 +32,7 @@ from planner.imports import is_foreign
 from replay.campaign.spec import Run, Spec
 from replay.campaign.store import Store
 from replay.campaign.workers import bind_to_parent, end_workers
-from terrain.atomic import remove_stale_parts
+from terrain.atomic import make_folder, remove_stale_parts
 from terrain.errors import InputError, NoRoomError
 
 KEEP = ("none", "failures", "all")
@@ -324,7 +324,7 @@ def run_campaign(
             if mcap_dir is not None
             else store.path.parent / f"{store.path.stem}-mcap"
         )
-        folder.mkdir(parents=True, exist_ok=True)
+        make_folder(folder)
         remove_stale_parts(folder)  # recordings a killed campaign left half-written
     args = (
         spec.name,

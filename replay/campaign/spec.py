@@ -16,7 +16,8 @@ threats:                                         # a generator, or files: [a.yam
 avoiders:
   - {name: pso-ca, options: {optimizer: pso}}
   - {name: none}
-sensor: radar                                    # or cooperative, or rangefinder
+sensor: radar                                    # or cooperative, or rangefinder (default:
+                                                 # the avoiders' only sensor, else radar)
 sensor_range: null                               # optional: the sensor's range (m)
 runs: 10                                         # per (mission, row, avoider)
 seed: 1
@@ -57,6 +58,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from replay.avoidance.registry import SENSORS, sensor_for
 from replay.campaign.generators import CASE_GENERATORS, GENERATORS, Params
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError, InputError
@@ -69,7 +71,6 @@ THREAT_KEYS = (
     *("generator", "counts", "dynamic", "maps", "files"),
     *("sigma", "keep_clear", "radius", "altitude", "box"),
 )
-SENSORS = ("radar", "cooperative", "rangefinder")
 # generators named by the issues but not built yet: said so when asked for
 COMING: dict[str, str] = {}
 
@@ -369,9 +370,13 @@ def load_spec(path: str | Path) -> Spec:
     if "winds" in doc:
         rows = _by_wind(src, doc["winds"], rows)
     avoiders = _avoiders(src, doc.get("avoiders"), AVOIDERS)
-    sensor = doc.get("sensor", "radar")
-    if sensor not in SENSORS:
+    sensor = doc.get("sensor")
+    if sensor is not None and sensor not in SENSORS:
         raise _fail(src, "sensor", f"expected one of {', '.join(SENSORS)}, found {sensor!r}")
+    try:  # absent: the one sensor every avoider works with (priority: rangefinder), else radar
+        sensor = sensor_for((a.name for a in avoiders), sensor)
+    except InputError as exc:
+        raise _fail(src, "sensor", str(exc)) from None
     runs = _integer(src, "runs", doc.get("runs"), 1)
     total = len(missions) * len(rows) * len(avoiders) * runs
     if total > MAX_RUNS:  # refused before the list of runs is made (1e9 runs filled the memory)

@@ -25,6 +25,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from terrain.atomic import output_folder
 from terrain.errors import DataFileError, InputError
 
 FORMAT = "1"
@@ -72,8 +73,7 @@ class Store:
         self.path = Path(path)
         if self.path.is_dir():
             raise InputError(f"{self.path}: is a folder; the store is a file (results.sqlite)")
-        if not self.path.parent.is_dir():
-            raise InputError(f"{self.path}: no folder {self.path.parent} to keep the store in")
+        output_folder(self.path)  # the store's folder, made if missing
         self.version = version
         deadline = time.monotonic() + BUSY_S
         while True:

@@ -7,20 +7,20 @@ optional ``disappears_at`` (> ``appears_at``) (``COMMON_KEYS``), and the keys of
 (``KIND_KEYS``; what each kind means: :mod:`replay.threats.kinds`, :mod:`replay.threats.body`).
 Positions are map metres (x east, y north, z metres AMSL, :mod:`replay.frames`):
 
-``static`` -- ``position: [x, y, z]`` and a safety ``radius`` R > 0; optional ``solid: true`` (a
+``static`` -- ``position: [x, y, z]`` and a safety ``radius`` R > 0 (or its ``diameter``, as for
+    every size below: one of the two, as in a zones file); optional ``solid: true`` (a
     body the radar sees whole, centre and radius, instead of seed 000's point; default false).
-``hill`` -- ``points: [[x, y, z], ...]`` and ``radius`` (one number for all points, or one per
-    point).
+``hill`` -- ``points: [[x, y, z], ...]`` and ``radius`` or ``diameter`` (one number for all
+    points, or one per point).
 ``body`` -- ``center: [x0, y0, z0]``, ``axes: [a, b, c]``, ``exponents: [p, q, r]`` (seed 001 eq 3,
     each in ``EXPONENT_RANGE``).
 ``cylinder`` -- ``center: [x, y]``, ``radius``, ``top`` and optional ``bottom`` (default -inf).
 ``prism`` -- a building: ``footprint: [[x, y], ...]`` (map metres) or ``footprint_lonlat: [[lon,
     lat], ...]`` (degrees, converted vertex by vertex: edges are straight in map metres), ``top``
-    and optional ``bottom``.  The footprint is one closed ring: its last vertex repeats its first
-    (an unclosed ring is refused, as GeoJSON refuses one, so that a ring cut short by an editing
-    slip is not silently closed), with at least 3 distinct vertices, no self-intersection
-    (shapely's reason is given) and no holes (a list of rings is refused).  ``bottom`` defaults to
-    the ground: with a map grid, the lowest terrain under the footprint
+    and optional ``bottom``.  The footprint is one ring, open (a repeated closing vertex allowed),
+    as a zones file's rings (:mod:`terrain.zone_file`), with at least 3 distinct vertices, no
+    self-intersection (shapely's reason is given) and no holes (a list of rings is refused).
+    ``bottom`` defaults to the ground: with a map grid, the lowest terrain under the footprint
     (:meth:`~terrain.grid.HeightGrid.lowest_under`; ``top`` must then be above it), without one
     -inf, as for a cylinder.
 ``intruder`` -- a safety ``radius`` and either ``position: [x, y, z]`` and ``velocity: [east, north,
@@ -89,14 +89,14 @@ DOCUMENT_KEYS = ("terrapath", "name", "threats")
 KINDS = ("static", "hill", "body", "cylinder", "prism", "intruder")
 COMMON_KEYS = ("id", "kind", "appears_at", "disappears_at")
 KIND_KEYS: dict[str, tuple[str, ...]] = {
-    "static": ("position", "lon", "lat", "alt", "radius", "solid"),
-    "hill": ("points", "radius"),
+    "static": ("position", "lon", "lat", "alt", "radius", "diameter", "solid"),
+    "hill": ("points", "radius", "diameter"),
     "body": ("center", "lon", "lat", "alt", "axes", "exponents"),
-    "cylinder": ("center", "lon", "lat", "radius", "top", "bottom"),
+    "cylinder": ("center", "lon", "lat", "radius", "diameter", "top", "bottom"),
     "prism": ("footprint", "footprint_lonlat", "top", "bottom"),
     "intruder": (
         *("position", "lon", "lat", "alt", "velocity", "stops_at"),
-        *("waypoints", "speed", "loop", "radius", "solid"),
+        *("waypoints", "speed", "loop", "radius", "diameter", "solid"),
     ),
 }
 
@@ -305,7 +305,7 @@ class _Parser:
                 f"feature {common['id']!r}: a prism's footprint has no holes; found "
                 f"{len(coords) - 1} interior ring(s)",
             )
-        ring = self.ring(coords[0], f"{cfield}[0]", True, (2, 3))
+        ring = self.ring(coords[0], f"{cfield}[0]", True, (2, 3), closed=True)
         return self.prism(
             common,
             ring,
@@ -321,9 +321,21 @@ class _Parser:
             raise self.fail(field, f"missing '{key}' ({expected})")
         return entry[key]
 
+    def _size_key(self, entry: dict[str, Any], field: str) -> str:
+        """Which of ``radius`` and ``diameter`` the entry gives (one of them, as for zones)."""
+        if "radius" in entry and "diameter" in entry:
+            raise self.fail(field, "give 'radius' or 'diameter', not both")
+        if "diameter" in entry:
+            return "diameter"
+        if "radius" not in entry:
+            raise self.fail(field, "missing 'radius' (metres, > 0) or 'diameter'")
+        return "radius"
+
     def _radius(self, entry: dict[str, Any], field: str) -> float:
-        r = self._require(entry, field, "radius", "safety radius in metres, > 0")
-        return self.positive(r, f"{field}.radius", "a radius in metres > 0")
+        """The safety radius, from ``radius`` or half the ``diameter``."""
+        key = self._size_key(entry, field)
+        r = self.positive(entry[key], f"{field}.{key}", f"a {key} in metres > 0")
+        return r if key == "radius" else 0.5 * r
 
     def _flag(self, entry: dict[str, Any], field: str, key: str) -> bool:
         """An optional true/false key (default false)."""
@@ -345,19 +357,21 @@ class _Parser:
         pts = self.point_list(
             self._require(entry, field, "points", "a list of [x, y, z]"), f"{field}.points", 1
         )
-        r = self._require(entry, field, "radius", "a radius in metres > 0, or one per point")
+        key = self._size_key(entry, field)
+        r = entry[key]
         if isinstance(r, list):
             if len(r) != len(pts):
                 raise self.fail(
-                    f"{field}.radius",
-                    f"expected one radius or {len(pts)} (one per point), found {len(r)}",
+                    f"{field}.{key}",
+                    f"expected one {key} or {len(pts)} (one per point), found {len(r)}",
                 )
-            radii = tuple(
-                self.positive(v, f"{field}.radius[{i}]", "a radius in metres > 0")
+            sizes = tuple(
+                self.positive(v, f"{field}.{key}[{i}]", f"a {key} in metres > 0")
                 for i, v in enumerate(r)
             )
         else:
-            radii = (self.positive(r, f"{field}.radius", "a radius in metres > 0"),)
+            sizes = (self.positive(r, f"{field}.{key}", f"a {key} in metres > 0"),)
+        radii = sizes if key == "radius" else tuple(0.5 * d for d in sizes)
         return HillThreat(**common, points=pts, radii=radii)
 
     def _body(self, entry: dict[str, Any], field: str, common: dict[str, Any]) -> Threat:
@@ -405,7 +419,7 @@ class _Parser:
         if len(given) != 1:
             raise self.fail(
                 field,
-                "give 'footprint' (a closed ring [[x, y], ...] in map metres) or "
+                "give 'footprint' (a ring [[x, y], ...] in map metres) or "
                 "'footprint_lonlat' ([[lon, lat], ...] in degrees), "
                 + ("not both" if given else "found neither"),
             )
@@ -415,9 +429,19 @@ class _Parser:
             common, ring, f"{field}.{key}", entry.get("top"), entry.get("bottom"), field, "top"
         )
 
-    def ring(self, value: Any, field: str, lonlat: bool, dims: tuple[int, ...] = (2,)) -> Any:
-        """A prism footprint: a closed ring of [x, y] (``lonlat``: [lon, lat]; ``dims``: the
-        sizes a position may have, a third coordinate being ignored) as map (x, y) tuples."""
+    def ring(
+        self,
+        value: Any,
+        field: str,
+        lonlat: bool,
+        dims: tuple[int, ...] = (2,),
+        *,
+        closed: bool = False,
+    ) -> Any:
+        """A prism footprint: a ring of [x, y] (``lonlat``: [lon, lat]; ``dims``: the sizes a
+        position may have, a third coordinate being ignored) as map (x, y) tuples.  Open (a
+        repeated closing vertex allowed) as in a zones file, or with ``closed`` (GeoJSON,
+        RFC 7946) closed: its last position repeats its first."""
         pair = "[lon, lat]" if lonlat else "[x, y]"
         if (
             isinstance(value, list | tuple)
@@ -432,9 +456,10 @@ class _Parser:
                 "holes (give the outer ring only, or one prism per part)",
             )
         if not isinstance(value, list | tuple) or len(value) < 2:
-            raise self.fail(
-                field, f"expected a closed ring [{pair}, ...] (last = first), found {_found(value)}"
+            what = (
+                f"a closed ring [{pair}, ...] (last = first)" if closed else f"a ring [{pair}, ...]"
             )
+            raise self.fail(field, f"expected {what}, found {_found(value)}")
         points: list[tuple[float, float]] = []
         for i, v in enumerate(value):
             at = f"{field}[{i}]"
@@ -446,13 +471,14 @@ class _Parser:
             else:
                 self.number(v[0], f"{at}[0]")
                 self.number(v[1], f"{at}[1]")
-        if list(value[0][:2]) != list(value[-1][:2]):
+        repeated = list(value[0][:2]) == list(value[-1][:2])
+        if closed and not repeated:
             raise self.fail(
                 field,
-                f"expected a closed ring (the last vertex repeats the first), found first "
-                f"{list(value[0][:2])} and last {list(value[-1][:2])}",
+                f"expected a closed ring (the last position repeats the first, as GeoJSON "
+                f"requires), found first {list(value[0][:2])} and last {list(value[-1][:2])}",
             )
-        for i, v in enumerate(value[:-1]):
+        for i, v in enumerate(value[:-1] if repeated else value):
             at = f"{field}[{i}]"
             if lonlat:
                 points.append(self.lonlat(v[0], v[1], at, f"{at}[0]", f"{at}[1]"))

@@ -71,6 +71,7 @@ def bench_cmd(
     version (--runs) is printed only, unless --summary names a file for it."""
     from replay.campaign.benches import BENCHES, COMING, markdown, optimizer_of, update_summary
     from replay.campaign.spec import load_spec
+    from terrain.atomic import output_folder
     from terrain.errors import InputError
     from terrapath import __version__, figures
 
@@ -103,7 +104,9 @@ def bench_cmd(
         chosen = tuple(optimizers.split(",")) if optimizers else bench.optimizers
     root = _root()
     store_path = Path(store) if store else Path("build") / "bench" / f"{name}.sqlite"
-    store_path.parent.mkdir(parents=True, exist_ok=True)
+    output_folder(store_path)
+    if summary:
+        output_folder(summary, create=False)  # made when the table is written, after the runs
     given = [
         name,
         *(["--runs", str(runs)] if runs else []),

@@ -353,7 +353,8 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
     "aircraft makes at the top of the band.",
 )
 @vehicle_option(
-    "Vehicle preset or vehicle file: the plan is flyable by it, and the mission names it.",
+    "Vehicle preset (fixed-wing or multirotor) or vehicle file: the plan is flyable by it, "
+    "and the mission names it.",
     default="aerosonde",
 )
 @click.option(
@@ -494,6 +495,8 @@ def plan_cmd(
     outcome = _run_with_progress(request, output, alt_frame, force_export)
     for warning in outcome.warnings:
         click.echo(f"terrapath: warning: {warning}", err=True)
+    for note in outcome.notes:
+        click.echo(f"terrapath: note: {note}", err=True)
     if as_json:
         _echo_json(outcome, performance, seed)
     else:
@@ -562,13 +565,35 @@ def _echo_summary(outcome: PlanOutcome, performance: Performance) -> None:
         )
     ex = result.params.get("exploration")
     if isinstance(ex, dict):
-        found = f"{ex['routes']} routes" if ex["routes"] else "no route (start and goal unlinked)"
-        best = f", the best seeds the swarm at cost {ex['route_F'][0]:.4f}" if ex["routes"] else ""
-        click.echo(f"  explored  {found} on graphs of the whole map in {ex['seconds']:.2f} s{best}")
+        click.echo(f"  explored  {explored_line(ex, result.params.get('routes'))}")
     for k, v in outcome.written.items():
         click.echo(f"  {k:9s} {v}")
     for p in outcome.removed:
         click.echo(f"  removed   {p} (from an earlier run: this plan is infeasible)")
+
+
+def explored_line(ex: dict[str, Any], routes: object) -> str:
+    """What the map search before the swarm did (a result's ``exploration``, ``--routes``)."""
+    graphs = ex.get("graphs", 1)
+    where = (
+        f"on {graphs} graph{'s' if graphs != 1 else ''} of the whole map in {ex['seconds']:.2f} s"
+    )
+    if not ex["routes"]:
+        return f"no route {where} (start and goal unlinked)"
+    candidates = ex.get("candidates", ex["routes"])
+    distinct = ex.get("distinct", ex["routes"])
+    placed = ex.get("placed", 0)
+    line = (
+        f"{candidates} candidate route{'s' if candidates != 1 else ''} {where}, kept the "
+        f"{distinct} best distinct" + (f" (--routes {routes})" if routes is not None else "")
+    )
+    if placed:
+        line += f" and {placed} placements of the waypoints along the best of them"
+    seeds = ex["routes"]
+    return (
+        f"{line}: {seeds} seed{'s' if seeds != 1 else ''} for the swarm, the best at cost "
+        f"{ex['route_F'][0]:.4f}"
+    )
 
 
 def _exit_status(result: PlanResult, force_export: bool) -> int:

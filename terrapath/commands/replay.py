@@ -9,6 +9,7 @@ from typing import Any
 
 import click
 
+from terrain.atomic import output_folder
 from terrain.docfile import parse_yaml
 from terrain.errors import DataFileError
 from terrapath.options import (
@@ -147,7 +148,8 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     "whatever the map and vehicle (to reproduce the paper).",
 )
 @vehicle_option(
-    "Vehicle preset or file (default: the mission's; for an .mcap source, the vehicle that run flew)."
+    "Vehicle preset (fixed-wing or multirotor) or file (default: the mission's; for an .mcap "
+    "source, the vehicle that run flew)."
 )
 @dem_tiles_option(
     "DEM tile to fly over instead of the mission's (repeat for several tiles; the "
@@ -187,12 +189,12 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 @click.option(
     "--sensor",
     type=click.Choice(["radar", "cooperative", "rangefinder"]),
-    default="radar",
-    show_default=True,
+    default=None,
     help="What the avoider sees: radar (seed 000: returns in range and line of sight, terrain "
     "too), cooperative (ADS-B-like: every threat in range reports its true position, "
     "velocity and size, with --coop-noise and --coop-latency) or rangefinder (seed 003: beams "
-    "by ray casting at 10 Hz, with the --rangefinder-* options).",
+    "by ray casting at 10 Hz, with the --rangefinder-* options). Default: the avoider's only "
+    "sensor if it works with one alone (--avoid priority: rangefinder), else radar.",
 )
 @click.option(
     "--rangefinder-range",
@@ -351,10 +353,12 @@ def replay_cmd(
     no terrain contact on the measured heights, over known terrain on the map, no stall, the
     track within the tolerances of the plan), 3 the flight failed (still recorded; each failure
     named), 1 error (a refused mission among them)."""
+    from replay.avoidance.registry import sensor_for
     from replay.run import ReplayRequest, prepare_replay, run_replay
     from terrain.airspace import parse_start
 
     _check_output(source, output)
+    settings["sensor"] = sensor_for((avoid,), settings["sensor"], where="--sensor")
     options = {**_ca_options(avoid, settings), **_options(avoid_opts)}
     # the other options are named after the request's fields and the replay settings'
     request = ReplayRequest.of(
@@ -405,6 +409,7 @@ def _check_output(source: str, output: str) -> None:
             f"{output!r} is the run being re-flown; write the new run to another file",
             param_hint="-o/--output",
         )
+    output_folder(output, create=False)  # made when the recording starts, before the flight
 
 
 def _ca_options(avoid: str, settings: dict[str, Any]) -> dict[str, Any]:

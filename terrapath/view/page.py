@@ -126,12 +126,10 @@ def write_view(
 ) -> Path:
     """Read the SOURCEs (``dem``: the DEM of missions of other tools), build the page, write it
     to ``out`` through a temporary name."""
-    from terrain.atomic import atomic_output
+    from terrain.atomic import atomic_output, output_folder
 
     target = Path(out)
-    parent = target.parent if str(target.parent) else Path(".")
-    if not parent.is_dir():
-        raise InputError(f"{target}: cannot write the view there: no folder {parent}")
+    output_folder(target, create=False)  # made when the view is written
     if target.is_dir():
         raise InputError(f"{target}: is a folder; give a file name ending in .html")
     sources = read_sources(paths, dem)
