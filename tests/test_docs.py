@@ -157,8 +157,7 @@ def scratch(tmp_path_factory: pytest.TempPathFactory) -> Path:
     d.mkdir(parents=True, exist_ok=True)
     if not (d / "data").exists():
         (d / "data").symlink_to(ROOT / "data")
-    (d / "out").mkdir(exist_ok=True)
-    return d
+    return d  # no out/: the commands create the folders of their outputs
 
 
 def _run(cmd: Command, where: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
