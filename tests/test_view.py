@@ -567,3 +567,38 @@ def test_one_colour_and_marker_per_run_one_style_per_threat_in_every_tab(
         deepest = float(np.nanmin(v))
         assert deepest < -100.0 and low < deepest
         assert f"{threat}: {-deepest:.0f} m inside" in texts
+
+
+@pytest.mark.parametrize(
+    "aspect", [(1.0, 1.0, 0.3), (2.0, 0.6, 0.25), (0.5, 1.5, 0.4), (1.0, 1.0, 1.0)]
+)
+def test_the_camera_is_fitted_to_the_box(aspect: tuple[float, float, float]) -> None:
+    """Every corner of the scene's box lies inside the perspective view from the fitted eye (the
+    near corner is not cut), and the eye is as near as that allows (5 % margin): at 0.9 of its
+    distance a corner falls outside."""
+    import math
+
+    import numpy as np
+
+    from terrapath.view.figures import fitted_eye
+
+    eye = np.asarray(fitted_eye(aspect))
+    half = 0.5 * np.asarray(aspect)
+    corners = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)]) * half
+    forward = -eye / np.linalg.norm(eye)
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    ty = math.tan(math.pi / 8.0)
+
+    def inside(e: np.ndarray) -> bool:
+        rel = corners - e
+        depth = rel @ forward
+        return bool(
+            (depth > 0).all()
+            and (np.abs(rel @ right) <= 1.2 * ty * depth).all()
+            and (np.abs(rel @ up) <= ty * depth).all()
+        )
+
+    assert inside(eye)
+    assert not inside(0.9 * eye)
