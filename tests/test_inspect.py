@@ -187,3 +187,34 @@ def test_replay_does_not_overwrite_the_run_it_re_flies(
     assert main(["replay", str(run), "-o", "./run.mcap"]) == 2
     assert "'./run.mcap' is the run being re-flown" in capsys.readouterr().err
     assert run.read_bytes() == b"a run"
+
+
+def test_inspect_at_places_a_threat_where_the_aircraft_was(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`inspect --at T` says where the aircraft was at T as a threat entry: a threat placed there
+    (appearing before T) is flown through at its centre when the same flight is flown again."""
+    first = tmp_path / "first.mcap"
+    args = ["replay", str(MISSION), "--duration", "300", "--seed", "3", "--no-picture"]
+    assert main([*args, "-o", str(first)]) == 3  # cut at 300 s: the goal not reached
+    capsys.readouterr()
+    assert main(["inspect", str(first), "--at", "200", "--at", "250.5"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert re.match(r"^t = 200\.0 s: x [\d.]+, y -?[\d.]+ m, [\d,]+ m AMSL$", lines[0]), lines
+    assert lines[2].startswith("t = 250.5 s: ")
+    entry = re.search(r"as a threat: (\{.*\})$", lines[1])
+    assert entry is not None
+    threats = tmp_path / "here.yaml"
+    threats.write_text(
+        "terrapath: 1\nthreats:\n  - " + entry.group(1).replace("radius: ...", "radius: 40") + "\n"
+    )
+    again = tmp_path / "again.mcap"
+    assert main([*args, "--threats", str(threats), "-o", str(again)]) == 3
+    sep = load_run(again, with_states=False).metrics["min_separation"]["at-200s"]
+    assert sep["value"] == pytest.approx(-40.0, abs=2.0)  # through the centre
+    assert sep["t"] == pytest.approx(200.0, abs=1.0)
+    capsys.readouterr()
+    assert main(["inspect", str(first), "--at", "301"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert re.search(r"--at 301: the flight lasts from t = 0\.0 to 299\.\d s$", err), err

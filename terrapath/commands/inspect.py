@@ -23,11 +23,26 @@ from terrapath.runtext import duration, metrics_rows, plural, report_lines, tabl
     default=None,
     help="Also draw the run's picture to this PNG (as terrapath replay writes beside the MCAP).",
 )
-def inspect_cmd(run: str, as_json: bool, png: str | None) -> None:
+@click.option(
+    "--at",
+    "at",
+    type=float,
+    multiple=True,
+    metavar="SECONDS",
+    help="Where the aircraft was at this time of the flight (repeatable): map metres, lon/lat, "
+    "altitude and height above the terrain, as a threat file's entry -- to place a threat on "
+    "its path.",
+)
+def inspect_cmd(run: str, as_json: bool, png: str | None, at: tuple[float, ...]) -> None:
     """Summarise a replay MCAP: what was flown (mission, terrain, vehicle, seed, avoidance), the
     metrics (success, PLR, terrain clearance, minimum separation to each threat), topics and
-    attachments; --json adds the final waypoint list; --png draws the run."""
+    attachments; --json adds the final waypoint list; --png draws the run; --at T says where the
+    aircraft was at T seconds."""
     from replay.record.reader import load_run, summary
+
+    if at:
+        _where(run, at)
+        return
 
     if png is not None:
         if not png.lower().endswith(".png"):
@@ -95,6 +110,36 @@ def inspect_cmd(run: str, as_json: bool, png: str | None) -> None:
         ]
     ):
         click.echo(line)
+
+
+def _where(run: str, times: tuple[float, ...]) -> None:
+    """One line per time: the aircraft's position then (interpolated between the recorded
+    states), and the same as a threat entry (``{kind: static, ...}``: give it a radius)."""
+    import numpy as np
+
+    from replay.record.picture import recorded_view
+    from terrain.errors import InputError
+
+    view = recorded_view(run, max_states=None)
+    t0, t1 = float(view.times[0]), float(view.times[-1])
+    for t in times:
+        if not t0 <= t <= t1:
+            raise InputError(f"{run}: --at {t:g}: the flight lasts from t = {t0:.1f} to {t1:.1f} s")
+    for t in times:
+        x, y, z = (float(np.interp(t, view.times, view.positions[:, i])) for i in range(3))
+        text = f"t = {t:.1f} s: x {x:.1f}, y {y:.1f} m"
+        entry = f"position: [{x:.1f}, {y:.1f}, {z:.0f}]"
+        grid = view.grid
+        if grid is not None and grid.crs is not None:
+            lon, lat = grid.to_lonlat([x], [y])
+            text += f" (lon {float(lon[0]):.5f}, lat {float(lat[0]):.5f})"
+            entry = f"lon: {float(lon[0]):.5f}, lat: {float(lat[0]):.5f}, alt: {z:.0f}"
+        text += f", {z:,.0f} m AMSL"
+        if grid is not None:
+            ground = float(grid.height_at([x], [y])[0])
+            text += f", {z - ground:,.0f} m above the terrain"
+        click.echo(text)
+        click.echo(f"  as a threat: {{id: at-{t:g}s, kind: static, {entry}, radius: ...}}")
 
 
 def _mission(text: bytes | None) -> dict[str, Any] | None:
