@@ -127,7 +127,9 @@ def pattern(line: str) -> re.Pattern[str]:
 
 
 def test_numbers_and_ellipses_match_any() -> None:
-    assert pattern("cost 0.5387 (length 0.0672), 44.95 km").search("cost 0.5401 (length 0.07), 45 km")
+    assert pattern("cost 0.5387 (length 0.0672), 44.95 km").search(
+        "cost 0.5401 (length 0.07), 45 km"
+    )
     assert pattern("reserve 433 Wh of 647 (67 %)").search("reserve 1,433 Wh of 647 (7 %)")
     assert pattern("success   yes ... no failure").search("success yes (the goal: no failure)")
     assert not pattern("success   yes").search("success   NO (3 safety violations)")
