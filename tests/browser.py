@@ -20,6 +20,24 @@ def chromium() -> str | None:
     return None
 
 
+def listen(page: Any, errors: list[str]) -> None:
+    """Collect the page's JavaScript errors, console errors and requests beyond the file itself
+    (a self-contained page asks for nothing more) into ``errors``."""
+    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+    page.on(
+        "request",
+        lambda r: (
+            None
+            if r.url.startswith(("file:", "data:", "blob:"))
+            else errors.append(f"request to {r.url}")
+        ),
+    )
+    page.on(
+        "console",
+        lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None,
+    )
+
+
 def render(
     page_path: Path, tabs: dict[str, Path], width: int = 1400, height: int = 1000
 ) -> tuple[list[str], float]:
@@ -37,21 +55,7 @@ def render(
         browser = p.chromium.launch(executable_path=exe, args=ARGS)
         try:
             page = browser.new_page(viewport={"width": width, "height": height})
-            page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-            page.on(  # a self-contained page asks for nothing beyond itself
-                "request",
-                lambda r: (
-                    None
-                    if r.url.startswith(("file:", "data:", "blob:"))
-                    else errors.append(f"request to {r.url}")
-                ),
-            )
-            page.on(
-                "console",
-                lambda m: (
-                    errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None
-                ),
-            )
+            listen(page, errors)
             t0 = time.perf_counter()
             page.goto(page_path.resolve().as_uri())
             drawn = "(key) => document.getElementById('plot-' + key)._fullLayout !== undefined"
@@ -122,21 +126,7 @@ class Browser:
         errors: list[str] = []
         page = self._browser.new_page(viewport={"width": width, "height": height})
         try:
-            page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-            page.on(
-                "request",
-                lambda r: (
-                    None
-                    if r.url.startswith(("file:", "data:", "blob:"))
-                    else errors.append(f"request to {r.url}")
-                ),
-            )
-            page.on(
-                "console",
-                lambda m: (
-                    errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None
-                ),
-            )
+            listen(page, errors)
             page.goto(page_path.resolve().as_uri())
             drawn = "(key) => document.getElementById('plot-' + key)._fullLayout !== undefined"
             measures: dict[str, dict[str, Any]] = {}

