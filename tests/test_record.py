@@ -620,11 +620,17 @@ def test_file_appears_only_when_complete(tmp_path: Path) -> None:
         assert tmp.name.startswith(".run.mcap.") and tmp.name.endswith(".part")
     assert list(tmp_path.iterdir()) == [target]
     assert load_run(target).states.shape == (1, 12)
+    # a missing folder is created (as every command's outputs are); a file in its way is refused
+    with RunRecorder(tmp_path / "new" / "run.mcap") as rec:
+        rec.write_state(0.0, np.zeros(12), np.zeros(4))
+    assert load_run(tmp_path / "new" / "run.mcap").states.shape == (1, 12)
+    (tmp_path / "file").write_bytes(b"")
     with (
-        pytest.raises(DataFileError, match="does not exist"),
-        RunRecorder(tmp_path / "no" / "run.mcap"),
+        pytest.raises(DataFileError, match="is a file, not a folder"),
+        RunRecorder(tmp_path / "file" / "run.mcap"),
     ):
         pass
+    assert not (tmp_path / "file" / "run.mcap").exists()
 
 
 # ---------------------------------------------------------------------------------------------
