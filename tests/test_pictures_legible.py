@@ -249,3 +249,24 @@ def test_no_threats_only_when_there_are_neither_threats_nor_zones() -> None:
 
     bare = run_figure(_view(None, path))
     assert _panel(bare).texts[0].get_text() == "no threats"
+
+
+def test_each_violation_is_labelled_with_its_depth() -> None:
+    """A threat entered twice: the picture labels each entry's deepest point, and the view's
+    separation labels come from the same rule."""
+    from replay.record.picture import violation_lows
+
+    v = np.array([5.0, -1.0, -3.0, 2.0, 4.0, -2.0, 1.0, np.nan, -0.5])
+    assert violation_lows(v, 0.0) == [2, 5, 8]  # each run below the surface, deepest first
+    assert violation_lows(v, 0.0, limit=2) == [2, 5]
+    assert violation_lows(v, 1.5) == [2, 5, 8]  # 1.0 at 6 joins no run: 5 and 6 are one
+    assert violation_lows(np.array([3.0, np.nan, 2.0]), 0.0) == []
+    # a path through the same threat's sphere, out, and back through it
+    path = np.array([[0.0, 0.0, 200.0], [0.0, 3000.0, 200.0], [3000.0, 3000.0, 200.0],
+                     [3000.0, 1400.0, 200.0], [-400.0, 1400.0, 200.0]])  # fmt: skip
+    threats = (StaticThreat(id="drone", center=(0.0, 1500.0, 200.0), radius=300.0),)
+    ax = _panel(run_figure(_view(None, path, threats)))
+    labels = sorted((t.get_text(), t.xy[0]) for t in ax.texts if t.get_text().startswith("drone "))
+    # through the centre (300 m deep) on the first leg, 100 m off it (200 m deep) on the last
+    assert [text for text, _ in labels] == ["drone -200 m", "drone -300 m"]
+    assert labels[0][1] > labels[1][1]  # the second entry later

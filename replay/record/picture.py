@@ -415,17 +415,21 @@ def _draw_separations(
         low = float(v[k])
         lows.append(low)
         ax2.plot(minutes[k], low, "v" if low < margin else "o", color=colour, mec="black", ms=6)
-        ax2.annotate(
-            f"{ident} {low:.0f} m",
-            (minutes[k], low),
-            xytext=(5, -11 if low < margin else 4),
-            textcoords="offset points",
-            fontsize=7,
-            color=colour,
-            path_effects=halo(),
-            annotation_clip=True,
-            zorder=5,
-        )
+        # its least separation, and the deepest point of each other violation of it
+        for j in [k, *(i for i in violation_lows(v, margin) if i != k)]:
+            if j != k:
+                ax2.plot(minutes[j], v[j], "v", color=colour, mec="black", ms=5)
+            ax2.annotate(
+                f"{ident} {float(v[j]):.0f} m",
+                (minutes[j], float(v[j])),
+                xytext=(5, -11 if v[j] < margin else 4),
+                textcoords="offset points",
+                fontsize=7,
+                color=colour,
+                path_effects=halo(),
+                annotation_clip=True,
+                zorder=5,
+            )
     ax2.axhline(0.0, color="black", lw=0.9, label="surface (safety radius)")
     if margin:
         ax2.axhline(margin, color=RED, lw=0.8, ls="--", label=f"margin {margin:g} m")
@@ -528,6 +532,18 @@ def _draw_threat(
             ax.add_patch(Circle((c[k, 0], c[k, 1]), rk, **edge))
     c0 = np.asarray(shapes[0]["center"], dtype=np.float64).reshape(-1, 3)[0]
     ax.annotate(th.id, (c0[0], c0[1]), **label)
+
+
+def violation_lows(v: FloatArray, margin: float, limit: int = 5) -> list[int]:
+    """The index of the deepest sample of each separate violation of ``v`` (each run of
+    consecutive samples below ``margin``; NaN is no violation), deepest first, at most ``limit``:
+    where a picture labels how deep each one went."""
+    bad = np.nan_to_num(v, nan=np.inf) < margin
+    if not bad.any():
+        return []
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], bad.astype(np.int8), [0]))))
+    lows = [int(a + np.argmin(v[a:b])) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    return sorted(lows, key=lambda k: float(v[k]))[:limit]
 
 
 def nearest_threats(sep: dict[str, FloatArray], k: int) -> list[str]:

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from replay.record.picture import NEAREST_DRAWN, nearest_threats
+from replay.record.picture import NEAREST_DRAWN, nearest_threats, violation_lows
 from terrapath.view.decisions import Mark, decision_marks
 from terrapath.view.shapes import (
     Mesh,
@@ -1193,25 +1193,25 @@ def _add_separations(
             row=row,
             col=1,
         )
-        k = int(np.nanargmin(np.where(bad, v, np.inf)))
-        depth = float(v[k])
-        lowest = min(lowest, depth)
-        what = f"{-depth:.0f} m inside" if depth < 0 else f"{depth:.0f} m off"
-        fig.add_annotation(
-            **label(
-                x=float(tr.t[k] / 60.0),
-                y=depth,
-                text=f"{ident}: {what}",
-                showarrow=True,
-                arrowcolor=colour,
-                arrowwidth=1.5,
-                ax=0,
-                ay=-28 if depth < 0 else 28,
-                bordercolor=colour,
-            ),
-            row=row,
-            col=1,
-        )
+        for k in violation_lows(v, s.run.margin):  # how deep each violation went
+            depth = float(v[k])
+            lowest = min(lowest, depth)
+            what = f"{-depth:.0f} m inside" if depth < 0 else f"{depth:.0f} m off"
+            fig.add_annotation(
+                **label(
+                    x=float(tr.t[k] / 60.0),
+                    y=depth,
+                    text=f"{ident}: {what}",
+                    showarrow=True,
+                    arrowcolor=colour,
+                    arrowwidth=1.5,
+                    ax=0,
+                    ay=-28 if depth < 0 else 28,
+                    bordercolor=colour,
+                ),
+                row=row,
+                col=1,
+            )
     return lowest
 
 
