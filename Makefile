@@ -104,7 +104,7 @@ typecheck: $(VENV)/.test-stamp
 
 pytest: $(VENV)/.test-stamp
 	@mkdir -p build
-	$(BIN)/python -m pytest -p no:dash -q
+	$(BIN)/python -m pytest -p no:dash -q -n auto --dist loadfile
 
 test: lint typecheck pytest
 
