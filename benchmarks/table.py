@@ -14,11 +14,7 @@ HERE = Path(__file__).resolve().parent
 
 
 def main() -> int:
-    listed = figures.read(HERE / "current.json")
-    changed = figures.write_table(HERE / "README.md", listed)
-    print(
-        f"{'wrote' if changed else 'kept'} the table of {len(listed)} figures in {HERE / 'README.md'}"
-    )
+    print(figures.remake_table(HERE / "current.json", HERE / "README.md"))
     return 0
 
 

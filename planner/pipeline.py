@@ -36,7 +36,7 @@ from planner.launch import Landing, Takeoff
 from planner.mission import Mission, TerrainRef, grid_crs_label, save_mission
 from planner.performance import Performance, ground_speed
 from planner.plan import DEFAULT_ALGORITHM, plan
-from planner.problem import PlanningProblem, terrain_top
+from planner.problem import PlanningProblem, point_text, terrain_top
 from planner.result import PlanResult, Violation, spiral_violation
 from planner.spiral import respiral
 from terrain.atomic import output_folder
@@ -368,8 +368,7 @@ def _ground_point(
             f"{flag}: the {what} is on the ground; give it as lon,lat (or x,y) without an altitude"
         )
     x, y = float(point[0]), float(point[1])
-    named = _as_given(given, r.map_coords)
-    at = f"({named}; map {x:.1f}, {y:.1f})" if named else f"({x:.1f}, {y:.1f})"
+    at = point_text(_as_given(given, r.map_coords), x, y)
     unknown = None if r.allow_unknown else unknown_mask_grid(grid)
     if unknown is not None and float(unknown.heights[unknown.cell_of(x, y)]) > 0:
         raise InputError(

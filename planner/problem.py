@@ -127,6 +127,13 @@ def lead_turn_excess(
     return np.asarray(np.maximum(0.0, whole - own), dtype=np.float64)
 
 
+def point_text(given: str | None, x: float, y: float) -> str:
+    """A point in a message, in the units the user gave it: ``given`` (e.g. ``lon -105.85000,
+    lat 40.20000``) with the map metres after it, else the map metres."""
+    metres = f"{x:.1f}, {y:.1f}"
+    return f"({given}; map {metres})" if given else f"({metres})"
+
+
 @dataclass(frozen=True, eq=False)
 class PlanningProblem:
     """Start/goal (map metres, z AMSL), N free waypoints, zones, band and clearance."""
@@ -223,11 +230,10 @@ class PlanningProblem:
         self._check_ends_known_and_clear()
 
     def where(self, name: str, p: FloatArray) -> str:
-        """The start or goal ``p`` in a message, in the units the user gave it: its
-        :attr:`named_ends` text with the map metres after it, else the map metres."""
-        metres = f"{p[0]:.1f}, {p[1]:.1f}"
+        """The start or goal ``p`` in a message, in the units the user gave it (its
+        :attr:`named_ends` text, :func:`point_text`)."""
         given = self.named_ends[0 if name == "start" else 1] if name in ("start", "goal") else None
-        return f"({given}; map {metres})" if given else f"({metres})"
+        return point_text(given, float(p[0]), float(p[1]))
 
     def _check_ends_on_the_map(self) -> None:
         """Start and goal inside the map, above the terrain by the clearance, below --agl-max."""

@@ -137,6 +137,14 @@ def write_table(readme: str | os.PathLike[str], figures: Sequence[Figure]) -> bo
     return new != old
 
 
+def remake_table(current: str | os.PathLike[str], readme: str | os.PathLike[str]) -> str:
+    """Regenerate ``readme``'s table from ``current`` (``terrapath bench --table``,
+    ``python -m benchmarks.table``); what was done, in one line."""
+    listed = read(current)
+    changed = write_table(readme, listed)
+    return f"{'wrote' if changed else 'kept'} the table of {len(listed)} figures in {readme}"
+
+
 def record(
     current: str | os.PathLike[str],
     readme: str | os.PathLike[str] | None,
@@ -262,6 +270,7 @@ __all__ = [
     "load_average",
     "read",
     "record",
+    "remake_table",
     "save",
     "table",
     "with_table",

@@ -20,21 +20,10 @@ from terrain.grid import HeightGrid
 from terrain.plot import SERIES_COLOURS, UNKNOWN_HATCH, UNKNOWN_LABEL
 from terrain.synthetic import synthetic_terrain
 from terrain.zones import DangerZone
+from tests.browser import contrast
 
 KM = 1000.0
 FILLED = 9000.0  # the filled height of the unknown block: far above any measured height
-
-
-def _luminance(rgb: Any) -> float:
-    """WCAG 2 relative luminance of an sRGB colour in [0, 1]."""
-    c = np.asarray(rgb, dtype=np.float64)[:3]
-    lin = np.where(c <= 0.03928, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    return float(lin @ [0.2126, 0.7152, 0.0722])
-
-
-def _contrast(a: Any, b: Any) -> float:
-    la, lb = sorted((_luminance(a), _luminance(b)), reverse=True)
-    return (la + 0.05) / (lb + 0.05)
 
 
 def _worst_contrast(text: Any) -> float:
@@ -56,7 +45,7 @@ def _worst_contrast(text: Any) -> float:
         alpha = back[3]
         for under in (np.zeros(3), np.ones(3)):
             seen = alpha * np.asarray(back[:3]) + (1.0 - alpha) * under
-            worst = min(worst, _contrast(fg[:3], seen))
+            worst = min(worst, float(contrast(fg[:3], seen)))
     return worst
 
 
@@ -195,7 +184,7 @@ def test_a_run_on_a_large_map_is_zoomed_and_its_threat_labels_read() -> None:
 def test_the_series_colours_read_on_white_and_differ() -> None:
     assert len(set(SERIES_COLOURS)) == len(SERIES_COLOURS) >= 8
     for colour in SERIES_COLOURS:
-        assert _contrast(to_rgba(colour), (1, 1, 1)) >= 4.5, colour
+        assert contrast(to_rgba(colour)[:3], (1, 1, 1)) >= 4.5, colour
 
 
 def test_the_separation_panel_shows_how_deep_and_which_threat() -> None:

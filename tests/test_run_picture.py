@@ -74,7 +74,7 @@ def test_the_separation_panel_keeps_the_threats_that_came_closest() -> None:
 
 
 def test_a_small_flight_on_a_large_map_is_zoomed_onto() -> None:
-    from replay.record.picture import zoom_box
+    from terrain.plot import zoom_box
 
     bounds = (0.0, 0.0, 1000.0, 1000.0)
     small = np.array([[400.0, 500.0], [500.0, 560.0]])  # 100 x 60 m: under a third each way

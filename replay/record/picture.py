@@ -47,7 +47,6 @@ import numpy.typing as npt
 from replay.frames import PD, PE, PHI, PN, U, V, W, velocities_ned
 from replay.record import topics as T
 from terrain.errors import InputError
-from terrain.plot import zoom_box
 
 FloatArray = npt.NDArray[np.float64]
 MAX_POINTS = 20_000
@@ -210,7 +209,8 @@ def run_figure(view: RunView) -> Any:
     sep = {th.id: separation_of(th, xyz, t) for th in view.threats}
     zone_sep = zone_separations(view.mission, grid, xyz)
     every = {**sep, **zone_sep}
-    styles = series_styles(list(every), nearest_threats(every, NEAREST_DRAWN))
+    shown = nearest_threats(every, NEAREST_DRAWN)  # the separation panel's
+    styles = series_styles(list(every), shown)
     for th in view.threats:
         _draw_threat(ax, th, xyz, t, sep[th.id], styles[th.id][0])
     _draw_flight(ax, view, xyz, t, every)
@@ -221,7 +221,7 @@ def run_figure(view: RunView) -> Any:
     legend_below(ax)
 
     ax2 = fig.add_subplot(gs[1])
-    _draw_separations(ax2, sep, zone_sep, t, view.margin, styles)
+    _draw_separations(ax2, sep, zone_sep, shown, t, view.margin, styles)
 
     ax3 = fig.add_subplot(gs[2], sharex=ax2)
     _draw_height(ax3, grid, t, xyz)
@@ -375,18 +375,19 @@ def _draw_separations(
     ax2: Any,
     sep: dict[str, FloatArray],
     zone_sep: dict[str, FloatArray],
+    shown: list[str],
     t: FloatArray,
     margin: float,
     styles: dict[str, tuple[str, str]],
 ) -> None:
-    """The separation panel: the threats and zones that came closest against time, each in its
-    colour (zones dashed) and labelled at its least separation, how deep each went inside shaded
-    red, the threat's surface (its safety radius: zero) and the margin. Says "no pop-up threats"
-    when a run had only zones, "no threats" when it had neither."""
+    """The separation panel: the threats and zones that came closest (``shown``, of
+    :func:`nearest_threats`) against time, each in its colour (zones dashed) and labelled at its
+    least separation and at the deepest point of each violation, how deep each went inside
+    shaded red, the threat's surface (its safety radius: zero) and the margin. Says "no pop-up
+    threats" when a run had only zones, "no threats" when it had neither."""
     from terrain.plot import halo, legend_below
 
     every = {**sep, **zone_sep}
-    shown = nearest_threats(every, NEAREST_DRAWN)
     notes = []
     if not sep and zone_sep:
         n = len(zone_sep)
@@ -412,13 +413,11 @@ def _draw_separations(
         if not np.isfinite(v).any():
             continue
         k = int(np.nanargmin(v))
-        low = float(v[k])
-        lows.append(low)
-        ax2.plot(minutes[k], low, "v" if low < margin else "o", color=colour, mec="black", ms=6)
+        lows.append(float(v[k]))
         # its least separation, and the deepest point of each other violation of it
         for j in [k, *(i for i in violation_lows(v, margin) if i != k)]:
-            if j != k:
-                ax2.plot(minutes[j], v[j], "v", color=colour, mec="black", ms=5)
+            marker = "v" if v[j] < margin else "o"
+            ax2.plot(minutes[j], v[j], marker, color=colour, mec="black", ms=6 if j == k else 5)
             ax2.annotate(
                 f"{ident} {float(v[j]):.0f} m",
                 (minutes[j], float(v[j])),
@@ -579,5 +578,4 @@ __all__ = [
     "separation_of",
     "series_styles",
     "zone_separations",
-    "zoom_box",
 ]

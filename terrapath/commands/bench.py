@@ -75,18 +75,15 @@ def bench_cmd(
     from terrain.errors import InputError
     from terrapath import __version__, figures
 
-    bench_dir = _root() / "benchmarks"
+    root = _root()
+    bench_dir = root / "benchmarks"
     if remake_table:
         current, readme = bench_dir / "current.json", bench_dir / "README.md"
         if not current.is_file() or not readme.is_file():
             raise InputError(
                 f"--table: expected {current} and {readme} (a checkout of terrapath's repository)"
             )
-        listed = figures.read(current)
-        changed = figures.write_table(readme, listed)
-        click.echo(
-            f"{'wrote' if changed else 'kept'} the table of {len(listed)} figures in {readme}"
-        )
+        click.echo(figures.remake_table(current, readme))
         return 0
     if listing or name is None:
         for b in BENCHES.values():
@@ -102,7 +99,6 @@ def bench_cmd(
     chosen = None
     if optimizers != "all":
         chosen = tuple(optimizers.split(",")) if optimizers else bench.optimizers
-    root = _root()
     store_path = Path(store) if store else Path("build") / "bench" / f"{name}.sqlite"
     output_folder(store_path)
     if summary:
@@ -166,9 +162,9 @@ def bench_cmd(
     update_summary(target, bench, section)
     click.echo(f"wrote the table into {target}")
     current = bench_dir / "current.json"
-    # the current figures are the full table's: a quick version (--runs) or another choice of
-    # optimisers goes into SUMMARY.md and the log only (a quick one only with --summary)
-    if summary is None and current.exists() and runs is None and optimizers is None:
+    # the current figures are the full table's (a quick version has returned above): another
+    # choice of optimisers goes into SUMMARY.md and the log only
+    if summary is None and current.exists() and optimizers is None:
         readme = bench_dir / "README.md"
         updated = figures.record(
             current,

@@ -66,14 +66,10 @@ RED = "#d62728"
 COLOR_BY = ("time", "clearance", "run")
 
 
-def _colour(sources: list[Source], s: Source) -> str:
-    """Each source's colour, the same in every tab (by its place among the sources)."""
-    return run_style(sources.index(s))[0]
-
-
-def _symbol(sources: list[Source], s: Source) -> str:
-    """Each source's marker symbol, the same in every tab."""
-    return run_style(sources.index(s))[1]
+def _style(sources: list[Source], s: Source) -> tuple[str, str]:
+    """Each source's colour and marker symbol, the same in every tab (by its place among the
+    sources)."""
+    return run_style(sources.index(s))
 
 
 def _stride(n: int, most: int) -> int:
@@ -294,6 +290,7 @@ def _add_aircraft(fig: Any, sources: list[Source], notes: list[str]) -> list[int
     for n, s in enumerate(sources):
         if s.run is None:
             continue
+        colour, symbol = run_style(n)
         tr = s.track
         assert tr is not None
         k = _stride(len(tr.t), MAX_LINE)
@@ -311,8 +308,8 @@ def _add_aircraft(fig: Any, sources: list[Source], notes: list[str]) -> list[int
                 mode="markers",
                 marker={
                     "size": 8,
-                    "color": run_style(n)[0],
-                    "symbol": run_style(n)[1],
+                    "color": colour,
+                    "symbol": symbol,
                     "line": {"color": "white", "width": 2},
                 },
                 name=f"aircraft: {s.path.name}",
@@ -540,7 +537,7 @@ def _layers(
 
             path, _ = flown_paths(wps, float(s.mission.turn_radius))
             name = f"{s.path.name}: path with turn fillets (r {s.mission.turn_radius:.0f} m)"
-            out.append((Mark(name, path, "lines", _colour(sources, s), (), width=2.5), {}))
+            out.append((Mark(name, path, "lines", _style(sources, s)[0], (), width=2.5), {}))
     above = "above the terrain" if grid is not None else "(flat ground)"
     template = (
         "t %{customdata[0]:.2f} min<br>alt %{customdata[3]:.0f} m AMSL, %{customdata[1]:.0f} m "
@@ -556,7 +553,7 @@ def _layers(
             f"flown: {s.label}",
             tr.xyz[::k],
             "lines",
-            _colour(sources, s),
+            _style(sources, s)[0],
             tr.nearest_id[::k],
             width=2.5,
             customdata=custom,
@@ -860,17 +857,17 @@ def map_figure(sources: list[Source]) -> Any:
                 yshift=2 + 26 * (n % 3),
             )
         )
+    # each run's flown track (its mark's name, as _layers makes it) with the run's marker symbol
+    flown = {f"flown: {s.label}": s for s in sources if s.run is not None}
     for mark, _ in _layers(sources):
         trace = _trace(mark)
-        owner = next(
-            (s for s in sources if s.run is not None and mark.name == f"flown: {s.label}"), None
-        )
-        if owner is not None:  # the run's marker symbol along its track
+        owner = flown.get(mark.name)
+        if owner is not None:
             trace.mode = "lines+markers"
             trace.marker = {
                 "color": mark.color,
                 "size": 9,
-                "symbol": _symbol(sources, owner),
+                "symbol": _style(sources, owner)[1],
                 "maxdisplayed": 12,
                 "line": {"color": "white", "width": 1},
             }
@@ -964,9 +961,10 @@ def time_figure(sources: list[Source]) -> Any:
     threat_ids = [th.id for th in _threats(sources)]
     shown, margin, top, hidden = _separation_scale(runs)
     deepest = 0.0
+    above_terrain = len(runs) > 1 and grid is not None  # several runs: their heights above it
     for s in runs:
-        style = (_colour(sources, s), _symbol(sources, s))
-        _add_flight_plots(fig, style, s, grid, len(runs) > 1)
+        style = _style(sources, s)
+        _add_flight_plots(fig, style, s, grid, above_terrain)
         if windy:
             _add_wind(fig, style[0], s)
         low = _add_separations(fig, s, style, shown[id(s)], threat_ids, top, last)
@@ -977,7 +975,7 @@ def time_figure(sources: list[Source]) -> Any:
             fig.add_trace(
                 _key_trace(f"threat {ident}", threat_dash(n), f"threat:{ident}"), row=last, col=1
             )
-    _time_layout(fig, runs, margin, top, hidden, last, deepest, len(runs) > 1)
+    _time_layout(fig, runs, margin, top, hidden, last, deepest, above_terrain)
     return fig
 
 
@@ -1048,10 +1046,11 @@ def _separation_scale(
 
 
 def _add_flight_plots(
-    fig: Any, style: tuple[str, str], s: Source, grid: Any, several: bool
+    fig: Any, style: tuple[str, str], s: Source, grid: Any, above_terrain: bool
 ) -> None:
-    """A run's altitude and the terrain below it (``several`` runs: its height above the
-    terrain instead, one line a run), airspeed and bank, in its colour with its marker."""
+    """A run's altitude and the terrain below it (``above_terrain``, for several runs: its
+    height above the terrain instead, one line a run), airspeed and bank, in its colour with
+    its marker."""
     import plotly.graph_objects as go
 
     tr = s.track
@@ -1062,7 +1061,7 @@ def _add_flight_plots(
     name = s.path.name
     line = {"color": colour, "width": 1.5}
     marker = {"symbol": symbol, "size": 8, "color": colour, "maxdisplayed": 10}
-    top = tr.agl if several and grid is not None else tr.xyz[:, 2]
+    top = tr.agl if above_terrain else tr.xyz[:, 2]
     fig.add_trace(
         go.Scatter(
             x=tm,
@@ -1076,7 +1075,7 @@ def _add_flight_plots(
         row=1,
         col=1,
     )
-    if grid is not None and not several:
+    if grid is not None and not above_terrain:
         ground = (tr.xyz[::k, 2] - tr.agl[::k]).astype(np.float32)
         fig.add_trace(
             go.Scatter(
@@ -1223,11 +1222,11 @@ def _time_layout(
     hidden: int,
     row: int,
     deepest: float = 0.0,
-    several: bool = False,
+    above_terrain: bool = False,
 ) -> None:
     """Zero and the margin on the separation plot (``row``, the last), down to the ``deepest``
     violation (inside a threat shaded); the axes' ranges and titles (the wind's row before it
-    when there is one; the first row the height above the terrain of ``several`` runs); the
+    when there is one; the first row the height above the terrain with ``above_terrain``); the
     size and the legend below the plots."""
     fig.add_hline(y=0.0, line={"color": "black", "width": 1}, row=row, col=1)
     low = min(-0.05 * top, 1.15 * deepest - 0.05 * top)
@@ -1247,18 +1246,19 @@ def _time_layout(
             row=row,
             col=1,
         )
-    grid_known = any(s.grid is not None for s in runs)
-    if runs and several and grid_known:
+    if above_terrain:
         fig.update_yaxes(title_text="above the terrain (m)", row=1, col=1)
         fig.add_hline(y=0.0, line={"color": "#8c6d46", "width": 1.5}, row=1, col=1)
-    elif runs:
-        lows = [
-            float(np.nanmin(s.track.xyz[:, 2] - s.track.agl)) for s in runs if s.track is not None
-        ]
-        highs = [float(np.nanmax(s.track.xyz[:, 2])) for s in runs if s.track is not None]
-        pad = 0.05 * (max(highs) - min(lows)) + 20.0
-        fig.update_yaxes(range=[min(lows) - pad, max(highs) + pad], row=1, col=1)
-    if not (runs and several and grid_known):
+    else:
+        if runs:
+            lows = [
+                float(np.nanmin(s.track.xyz[:, 2] - s.track.agl))
+                for s in runs
+                if s.track is not None
+            ]
+            highs = [float(np.nanmax(s.track.xyz[:, 2])) for s in runs if s.track is not None]
+            pad = 0.05 * (max(highs) - min(lows)) + 20.0
+            fig.update_yaxes(range=[min(lows) - pad, max(highs) + pad], row=1, col=1)
         fig.update_yaxes(title_text="altitude (m AMSL)", row=1, col=1)
     fig.update_yaxes(title_text="airspeed (m/s)", row=2, col=1)
     fig.update_yaxes(title_text="bank (deg)", row=3, col=1)
