@@ -14,6 +14,7 @@ from replay.flight.atmosphere import (
     check_offset,
     density,
     density_at,
+    density_ratio,
     equivalent_airspeed,
     true_airspeed,
 )
@@ -76,3 +77,27 @@ def test_bad_altitudes_are_refused() -> None:
         air([0.0, math.nan])
     with pytest.raises(InputError, match="altitude must be finite metres above -1000 m"):
         air(-2000.0)
+
+
+def test_one_number_is_the_array_path_to_the_last_bit() -> None:
+    """The flight asks for one altitude a step (a fast path without arrays): the same numbers."""
+    rng = np.random.default_rng(38)
+    z = rng.uniform(-1000.0, 30000.0, 500)
+    dt = rng.uniform(-50.0, 50.0, 500)
+    speed = rng.uniform(5.0, 80.0, 500)
+    for zi, di, vi in zip(z, dt, speed, strict=True):
+        zf, df, vf = float(zi), float(di), float(vi)
+        sigma = np.asarray(density_ratio(np.array([zf]), df))
+        assert density_ratio(zf, df) == sigma[0]
+        assert (
+            true_airspeed(vf, zf, df)
+            == np.asarray(true_airspeed(np.array([vf]), np.array([zf]), df))[0]
+        )
+        assert (
+            equivalent_airspeed(vf, zf, df)
+            == np.asarray(equivalent_airspeed(np.array([vf]), np.array([zf]), df))[0]
+        )
+    with pytest.raises(InputError, match="altitude"):
+        density_ratio(-1500.0)
+    with pytest.raises(InputError, match="within ±50 K"):
+        density_ratio(100.0, 80.0)

@@ -118,8 +118,22 @@ def density(altitude: npt.ArrayLike, dt: float = 0.0) -> FloatArray | float:
     return air(altitude, dt).density
 
 
+def _scalar_sigma(altitude: object, dt: float) -> float | None:
+    """sigma of one altitude given as a number, by the compiled :func:`density_at` (the same
+    arithmetic as :func:`air`, without its arrays: the flight asks once a step); None for arrays."""
+    if isinstance(altitude, bool) or not isinstance(altitude, float | int | np.floating):
+        return None
+    z = float(altitude)
+    if not math.isfinite(z) or z < -1000.0:
+        raise InputError(f"altitude must be finite metres above -1000 m; got {altitude!r}")
+    return float(density_at(z, check_offset(dt))) / RHO0
+
+
 def density_ratio(altitude: npt.ArrayLike, dt: float = 0.0) -> FloatArray | float:
     """sigma = rho / rho0."""
+    scalar = _scalar_sigma(altitude, dt)
+    if scalar is not None:
+        return scalar
     sigma = np.asarray(density(altitude, dt)) / RHO0
     return float(sigma) if sigma.ndim == 0 else sigma
 
@@ -129,6 +143,8 @@ def true_airspeed(
 ) -> FloatArray | float:
     """TAS (m/s) of an equivalent airspeed ``eas`` at ``altitude``: EAS sqrt(rho0 / rho)."""
     sigma = density_ratio(altitude, dt)
+    if isinstance(sigma, float) and isinstance(eas, float | int):  # one number: no arrays
+        return float(eas) / math.sqrt(sigma)
     out = np.asarray(eas, dtype=np.float64) / np.sqrt(sigma)
     return float(out) if out.ndim == 0 else out
 
@@ -138,6 +154,8 @@ def equivalent_airspeed(
 ) -> FloatArray | float:
     """EAS (m/s) of a true airspeed ``tas`` at ``altitude``: TAS sqrt(rho / rho0)."""
     sigma = density_ratio(altitude, dt)
+    if isinstance(sigma, float) and isinstance(tas, float | int):  # one number: no arrays
+        return float(tas) * math.sqrt(sigma)
     out = np.asarray(tas, dtype=np.float64) * np.sqrt(sigma)
     return float(out) if out.ndim == 0 else out
 
