@@ -449,3 +449,44 @@ def cylinder_lengths(
             w = hi - lo
             out[i, k] = w if w > 0.0 else 0.0
     return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def ray_buffer(
+    origins: np.ndarray, directions: np.ndarray, shift: np.ndarray, rays: np.ndarray
+) -> int:  # pragma: no cover - jit
+    """Fill ``rays`` ((N, 6) float32, open3d's layout) with ``origins - shift`` and the unit
+    ``directions`` ((N, 3) float64 each) in one pass: the arithmetic of
+    ``terrain.model.rays_numpy`` (``norm = sqrt(x^2 + y^2 + z^2)``, ``d / norm``, both in float64,
+    then rounded to float32), so the rays are bit-identical.  Returns a bit mask of what was
+    wrong (nothing written is then used): 1 a non-finite origin, 2 a non-finite direction, 4 a
+    zero direction."""
+    bad = 0
+    for i in range(origins.shape[0]):
+        ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+        dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+        if not (np.isfinite(ox) and np.isfinite(oy) and np.isfinite(oz)):
+            bad |= 1
+        if not (np.isfinite(dx) and np.isfinite(dy) and np.isfinite(dz)):
+            bad |= 2
+        norm = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if norm == 0.0:
+            bad |= 4
+        rays[i, 0] = ox - shift[0]
+        rays[i, 1] = oy - shift[1]
+        rays[i, 2] = oz - shift[2]
+        rays[i, 3] = dx / norm
+        rays[i, 4] = dy / norm
+        rays[i, 5] = dz / norm
+    return bad
+
+
+@nb.njit(cache=True, nogil=True)
+def ranges_within(t_hit: np.ndarray, max_range: float) -> np.ndarray:  # pragma: no cover - jit
+    """open3d's float32 ``t_hit`` as float64, inf beyond ``max_range`` (and for NaN): the
+    arithmetic of ``np.where(t.astype(float64) <= max_range, t, inf)``."""
+    out = np.empty(t_hit.shape[0])
+    for i in range(t_hit.shape[0]):
+        v = np.float64(t_hit[i])
+        out[i] = v if v <= max_range else np.inf
+    return out
