@@ -384,9 +384,42 @@ def cylinder_lengths(
     k_n = c.shape[0]
     out = np.empty((m, k_n))
     tiny = 2.0**-52
+    # a cylinder whose footprint's box lies farther than its radius (plus a margin far above
+    # rounding) from the segment's horizontal box cannot hold any of it: its length is 0.0, as
+    # the full computation gives it (perp >= r there clamps ``half`` to 0, so hi <= lo), and a
+    # segment far from every cylinder skips that computation (issue 38: most of a swarm's
+    # segments are nowhere near the zones)
+    reach = np.empty(k_n)
+    for k in range(k_n):
+        reach[k] = abs(r[k]) * (1.0 + 1e-9) + 1e-6
+    far = np.zeros(k_n, dtype=np.bool_)
     for i in range(m):
         ax, ay, az = a_in[i, 0], a_in[i, 1], a_in[i, 2]
         bx, by, bz = b_in[i, 0], b_in[i, 1], b_in[i, 2]
+        plain = True  # finite and far from overflow: the length is finite too
+        for v in (ax, ay, az, bx, by, bz):
+            if not abs(v) < 1e100:
+                plain = False
+        n_far = 0
+        if plain:
+            x_lo, x_hi = min(ax, bx), max(ax, bx)
+            y_lo, y_hi = min(ay, by), max(ay, by)
+            for k in range(k_n):
+                cx, cy, rk = c[k, 0], c[k, 1], reach[k]
+                # NaN centres, radii, tops or floors compare False: never "far" (NaN below)
+                far[k] = (
+                    (x_lo - cx > rk or cx - x_hi > rk or y_lo - cy > rk or cy - y_hi > rk)
+                    and not np.isnan(top[k])
+                    and not np.isnan(floor[k])
+                )
+                if far[k]:
+                    n_far += 1
+            if n_far == k_n:
+                for k in range(k_n):
+                    out[i, k] = 0.0
+                continue
+        else:
+            far[:] = False
         if (bx < ax) or (bx == ax and ((by < ay) or (by == ay and bz < az))):
             ax, ay, az, bx, by, bz = bx, by, bz, ax, ay, az
         dx, dy, dz = bx - ax, by - ay, bz - az
@@ -403,6 +436,9 @@ def cylinder_lengths(
             factor = min(max(length / dz, -1.7e308), 1.7e308)
         bad_segment = not np.isfinite(length)
         for k in range(k_n):
+            if far[k]:
+                out[i, k] = 0.0
+                continue
             cx, cy, rk = c[k, 0], c[k, 1], r[k]
             if bad_segment or np.isnan(cx) or np.isnan(cy) or np.isnan(rk):
                 out[i, k] = np.nan
