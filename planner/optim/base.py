@@ -324,7 +324,7 @@ class Optimizer(ABC):
 
     def _evaluate(self, X: FloatArray) -> FloatArray:
         """f on the rows of X (all inside the box), counted; updates the best point."""
-        if np.any(X < self._lower) or np.any(X > self._upper):
+        if (X < self._lower).any() or (X > self._upper).any():
             raise RuntimeError(
                 f"internal error: {self.name} tried to evaluate a point outside the box"
             )
@@ -356,7 +356,7 @@ class Optimizer(ABC):
 
     def _after_iteration(self) -> None:
         self._history_best.append(float(self._best_f))
-        self._history_mean.append(float(np.mean(self._fx)))
+        self._history_mean.append(float(self._fx.mean()))
         assert self._termination is not None
         self._status = self._termination.reason(self)
 

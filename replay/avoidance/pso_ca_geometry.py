@@ -184,6 +184,17 @@ def segment_clearance(p0: npt.ArrayLike, p1: npt.ArrayLike, centers: npt.ArrayLi
     )
 
 
+def _clearances(p0: FloatArray, p1: FloatArray, centers: FloatArray) -> FloatArray:
+    """:func:`segment_clearance` of arrays already checked ((P, D), (P, D), (K, D)): the same
+    compiled arithmetic without the checks, for :meth:`WaypointProblem.constraint_report`'s
+    calls, several a decision (issue 38)."""
+    from replay.avoidance.pso_ca_kernel import segment_clearances
+
+    return np.asarray(
+        segment_clearances(*(np.array(a, dtype=np.float64, order="C") for a in (p0, p1, centers)))
+    )
+
+
 # -- 2. grouping and classification (Figs 8-10, §5.3) ---------------------------------------------
 def route_altitude(route: npt.ArrayLike, points: npt.ArrayLike) -> FloatArray:
     """The altitude (m) the polyline ``route`` (R, 3; R >= 1) has at the point nearest each of
@@ -576,12 +587,12 @@ class WaypointProblem:
         fin = np.broadcast_to(self.target, (n, 2))
         pos = np.broadcast_to(self.position, (n, 2))
         u_in = p - self.position
-        g3 = segment_clearance(p, fin, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin)
+        g3 = _clearances(p, fin, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin)
         # g5: an aircraft already closer than RS + margin to a point may not get any closer
         # (1 m slack): otherwise no leg could start where it is and it could not leave
         d0 = np.hypot(*(self.avoided - self.position).T)
         need = np.minimum(pr.rs + pr.leg_margin, d0 - 1.0)
-        g5 = (segment_clearance(pos, p, self.avoided) - need[None, :]).min(axis=1)
+        g5 = (_clearances(pos, p, self.avoided) - need[None, :]).min(axis=1)
         u_out = self.target - p
         l_in = np.hypot(*u_in.T)
         l_out = np.hypot(*u_out.T)
@@ -591,7 +602,7 @@ class WaypointProblem:
             # inbound leg (g5), the one at X_fin (towards ``after``) with the outbound leg (g3)
             cut = corner_cut(p, u_in, u_out, sw, pr.approach_deg)
             for a, b in cut:
-                g5 = np.minimum(g5, (segment_clearance(a, b, self.avoided) - need).min(axis=1))
+                g5 = np.minimum(g5, (_clearances(a, b, self.avoided) - need).min(axis=1))
             if self.after is not None:
                 v = np.broadcast_to(self.after - self.target, (n, 2))
                 cut = corner_cut(
@@ -600,7 +611,7 @@ class WaypointProblem:
                 for a, b in cut:
                     g3 = np.minimum(
                         g3,
-                        segment_clearance(a, b, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin),
+                        _clearances(a, b, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin),
                     )
         if self.side:
             leg = self.target - self.position
