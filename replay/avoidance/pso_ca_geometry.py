@@ -298,20 +298,32 @@ def tangent_points(
     Raises :class:`InputError` when the aircraft is inside the circle (no tangent)."""
     a = _xy(aircraft_xy, "aircraft_xy").reshape(2)
     o = _xy(obstacle_xy, "obstacle_xy").reshape(2)
-    x0, y0 = o - a
-    d2 = x0 * x0 + y0 * y0
-    if not (radius > 0.0) or d2 <= radius * radius:
+    pts = _tangents(float(a[0]), float(a[1]), float(o[0]), float(o[1]), radius)
+    if pts is None:
+        d = math.hypot(float(o[0] - a[0]), float(o[1] - a[1]))
         raise InputError(
-            f"no tangent: the aircraft is {math.sqrt(d2):.1f} m from the obstacle, inside the "
+            f"no tangent: the aircraft is {d:.1f} m from the obstacle, inside the "
             f"circle of radius {radius} m"
         )
+    return pts
+
+
+def _tangents(ax: float, ay: float, ox: float, oy: float, radius: float) -> FloatArray | None:
+    """:func:`tangent_points` of checked coordinates, None inside the circle: eq 27 in scalars
+    (a PSO-CA decision asks twice, where small numpy arrays cost more than the arithmetic; the
+    same operations in the same order as the array form ``(-r x0 +- y0 s) / d^2``, so the same
+    bits)."""
+    x0, y0 = ox - ax, oy - ay
+    d2 = x0 * x0 + y0 * y0
+    if not (radius > 0.0) or d2 <= radius * radius:
+        return None
     s = math.sqrt(d2 - radius * radius)
-    cos_t = (-radius * x0 + np.array([1.0, -1.0]) * y0 * s) / d2
-    sin_t = (-radius * y0 - np.array([1.0, -1.0]) * x0 * s) / d2
-    pts = o + radius * np.column_stack([cos_t, sin_t])
-    rel = pts - a
-    left = x0 * rel[:, 1] - y0 * rel[:, 0] > 0.0  # cross(line of sight, T - aircraft) > 0
-    return pts if left[0] else pts[::-1].copy()
+    p0x = ox + radius * ((-radius * x0 + y0 * s) / d2)
+    p0y = oy + radius * ((-radius * y0 - x0 * s) / d2)
+    p1x = ox + radius * ((-radius * x0 - y0 * s) / d2)
+    p1y = oy + radius * ((-radius * y0 + x0 * s) / d2)
+    left = x0 * (p0y - ay) - y0 * (p0x - ax) > 0.0  # cross(line of sight, T - aircraft) > 0
+    return np.array([[p0x, p0y], [p1x, p1y]] if left else [[p1x, p1y], [p0x, p0y]])
 
 
 def tangent_seed_points(
@@ -338,18 +350,17 @@ def tangent_seed_points(
     gen = _rng(rng)
     a = _xy(aircraft_xy, "aircraft_xy").reshape(2)
     o = _xy(obstacle_xy, "obstacle_xy").reshape(2)
-    los = o - a
-    try:
-        tp = tangent_points(a, o, safety_radius)
+    tp = _tangents(float(a[0]), float(a[1]), float(o[0]), float(o[1]), safety_radius)
+    if tp is not None:
         base = np.arctan2(tp[:, 1] - o[1], tp[:, 0] - o[0])
-    except InputError:
+    else:
+        los = o - a
         bearing = math.atan2(los[1], los[0])
         base = np.array([bearing + math.pi / 2, bearing - math.pi / 2])
-    side = np.arange(n) % 2
-    ang = base[side] + np.where(np.arange(n) < 2, 0.0, gen.normal(0.0, spread, n))
-    rad = safety_radius * (
-        1.0 + np.where(np.arange(n) < 2, 0.0, gen.uniform(0.0, radial_jitter, n))
-    )
+    k = np.arange(n)
+    first = k < 2
+    ang = base[k % 2] + np.where(first, 0.0, gen.normal(0.0, spread, n))
+    rad = safety_radius * (1.0 + np.where(first, 0.0, gen.uniform(0.0, radial_jitter, n)))
     return np.asarray(o + rad[:, None] * np.column_stack([np.cos(ang), np.sin(ang)]))
 
 
