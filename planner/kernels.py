@@ -99,8 +99,9 @@ def flown(
             ay = t1y - cy
             turn = (1.0 if (qx[k] * qy[k + 1] - qy[k] * qx[k + 1]) >= 0.0 else -1.0) * angle[k]
             base = 1 + k * (chords + 1)
-            for s_i in range(chords + 1):
-                s = 1.0 if s_i == chords else s_i * (1.0 / chords)
+            # the arc's inner points (its ends are the tangent points, set below)
+            for s_i in range(1, chords):
+                s = s_i * (1.0 / chords)
                 th = turn * s
                 c, sn = np.cos(th), np.sin(th)
                 out[i, base + s_i, 0] = cx + ax * c - ay * sn
