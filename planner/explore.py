@@ -474,7 +474,30 @@ def _clear_chords(
     problem: PlanningProblem, p: FloatArray, qs: FloatArray, heights: FloatArray
 ) -> npt.NDArray[np.bool_]:
     """For each chord p -> qs[i] (3-D, altitude linear), whether it clears the terrain floor at
-    the samples :class:`Chords` takes (the same points, bit for bit: quarter-cell steps)."""
+    the samples :class:`Chords` takes (the same points, bit for bit: quarter-cell steps); the
+    compiled loop of :func:`planner.kernels.clear_chords`, which leaves a chord at its first
+    sample below (issue 38), :func:`_clear_chords_numpy` its twin."""
+    grid = problem.grid
+    dx, dy = grid.cell_size
+    return np.asarray(
+        kernels.clear_chords(
+            np.ascontiguousarray(p, dtype=np.float64),
+            np.ascontiguousarray(qs, dtype=np.float64),
+            np.ascontiguousarray(heights, dtype=np.float64),
+            float(grid.transform.c),
+            float(grid.transform.f),
+            float(dx),
+            float(dy),
+            0.25 * min(grid.cell_size),
+            float(problem.clearance),
+        )
+    )
+
+
+def _clear_chords_numpy(
+    problem: PlanningProblem, p: FloatArray, qs: FloatArray, heights: FloatArray
+) -> npt.NDArray[np.bool_]:
+    """The numpy twin of :func:`_clear_chords`: every sample of every chord at once."""
     grid = problem.grid
     step = 0.25 * min(grid.cell_size)
     d = qs - p[None, :]

@@ -99,8 +99,9 @@ def flown(
             ay = t1y - cy
             turn = (1.0 if (qx[k] * qy[k + 1] - qy[k] * qx[k + 1]) >= 0.0 else -1.0) * angle[k]
             base = 1 + k * (chords + 1)
-            for s_i in range(chords + 1):
-                s = 1.0 if s_i == chords else s_i * (1.0 / chords)
+            # the arc's inner points (its ends are the tangent points, set below)
+            for s_i in range(1, chords):
+                s = s_i * (1.0 / chords)
                 th = turn * s
                 c, sn = np.cos(th), np.sin(th)
                 out[i, base + s_i, 0] = cx + ax * c - ay * sn
@@ -254,4 +255,40 @@ def layered_dp(
         out[layer + 1] = at
         at = back[layer, at]
     out[0] = start
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def clear_chords(
+    p: np.ndarray,
+    qs: np.ndarray,
+    heights: np.ndarray,
+    left: float,
+    top: float,
+    dx: float,
+    dy: float,
+    step: float,
+    clearance: float,
+) -> np.ndarray:  # pragma: no cover - jit
+    """``planner.explore._clear_chords_numpy``: for each chord p -> qs[i] (3-D, altitude linear),
+    whether it clears ``heights`` + clearance + 1 m at its samples every ``step`` metres
+    (``np.linspace(0, 1, m)``'s values, m from the horizontal length); the same samples and
+    arithmetic (``HeightGrid.cell_of``'s cells), each chord left at its first sample below."""
+    rows, cols = heights.shape[0], heights.shape[1]
+    out = np.ones(qs.shape[0], dtype=np.bool_)
+    for i in range(qs.shape[0]):
+        ex = qs[i, 0] - p[0]
+        ey = qs[i, 1] - p[1]
+        ez = qs[i, 2] - p[2]
+        m = max(2, int(np.ceil(np.hypot(ex, ey) / step)) + 1)
+        inv = 1.0 / (m - 1)
+        for k in range(m):
+            t = 1.0 if k == m - 1 else k * inv
+            x = p[0] + t * ex
+            y = p[1] + t * ey
+            r = min(max(np.floor(((top - y) / dy - 0.5) + 0.5), 0.0), rows - 1.0)
+            c = min(max(np.floor(((x - left) / dx - 0.5) + 0.5), 0.0), cols - 1.0)
+            if p[2] + t * ez < heights[int(r), int(c)] + clearance + 1.0:
+                out[i] = False
+                break
     return out

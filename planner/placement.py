@@ -347,6 +347,7 @@ class Lattice:
             plain = np.sqrt(flat**2 + (levels.flat[v] - levels.flat[u]) ** 2)
             steep = l3 > plain + 1e-6
             surcharge = 8.0 * self.dz * (problem.n_waypoints + 1) * float(l3.max(initial=1.0))
+            extra = steep * surcharge  # the same every round
         n_states = len(xy) * k
         goal = (len(xy) - 1) * k
         inner = np.ones(n_states, dtype=np.bool_)
@@ -358,10 +359,14 @@ class Lattice:
             _, length, mean_z = self.surrogate(start)
         seen: set[tuple[int, ...]] = set()
         out: list[FloatArray] = []
+        w = np.empty_like(l3)
         for _ in range(ITERATIONS):
-            w = l3 * (zm + self.dz * self.d / length - mean_z)
+            # w = l3 * (zm + dz d / length - mean_z) (+ extra), in one buffer, in that order
+            np.add(zm, self.dz * self.d / length, out=w)
+            np.subtract(w, mean_z, out=w)
+            np.multiply(l3, w, out=w)
             if self.spiral > 0.0:
-                w = w + steep * surcharge
+                np.add(w, extra, out=w)
             chain = kernels.layered_dp(u, v, w, n_states, 0, goal, problem.n_waypoints, inner)
             if chain.size == 0 or tuple(chain.tolist()) in seen:
                 break

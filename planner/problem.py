@@ -516,6 +516,13 @@ class PlanningProblem:
         return self.terms(x).total
 
     @property
+    def rowwise(self) -> bool:
+        """Whether each path's cost is the same whatever other paths share the call (the
+        optimisers then batch their calls, :data:`planner.optim.base.Objective`): so but with
+        the above-ground terms, whose samples a segment follow the call's longest segment."""
+        return self.agl_max is None and self.agl_pref is None
+
+    @property
     def unknown_grid(self) -> HeightGrid | None:
         """The unknown-terrain mask the cost walks (None: all measured, or allowed)."""
         return self._unknown

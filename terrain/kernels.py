@@ -384,9 +384,42 @@ def cylinder_lengths(
     k_n = c.shape[0]
     out = np.empty((m, k_n))
     tiny = 2.0**-52
+    # a cylinder whose footprint's box lies farther than its radius (plus a margin far above
+    # rounding) from the segment's horizontal box cannot hold any of it: its length is 0.0, as
+    # the full computation gives it (perp >= r there clamps ``half`` to 0, so hi <= lo), and a
+    # segment far from every cylinder skips that computation (issue 38: most of a swarm's
+    # segments are nowhere near the zones)
+    reach = np.empty(k_n)
+    for k in range(k_n):
+        reach[k] = abs(r[k]) * (1.0 + 1e-9) + 1e-6
+    far = np.zeros(k_n, dtype=np.bool_)
     for i in range(m):
         ax, ay, az = a_in[i, 0], a_in[i, 1], a_in[i, 2]
         bx, by, bz = b_in[i, 0], b_in[i, 1], b_in[i, 2]
+        plain = True  # finite and far from overflow: the length is finite too
+        for v in (ax, ay, az, bx, by, bz):
+            if not abs(v) < 1e100:
+                plain = False
+        n_far = 0
+        if plain:
+            x_lo, x_hi = min(ax, bx), max(ax, bx)
+            y_lo, y_hi = min(ay, by), max(ay, by)
+            for k in range(k_n):
+                cx, cy, rk = c[k, 0], c[k, 1], reach[k]
+                # NaN centres, radii, tops or floors compare False: never "far" (NaN below)
+                far[k] = (
+                    (x_lo - cx > rk or cx - x_hi > rk or y_lo - cy > rk or cy - y_hi > rk)
+                    and not np.isnan(top[k])
+                    and not np.isnan(floor[k])
+                )
+                if far[k]:
+                    n_far += 1
+            if n_far == k_n:
+                for k in range(k_n):
+                    out[i, k] = 0.0
+                continue
+        else:
+            far[:] = False
         if (bx < ax) or (bx == ax and ((by < ay) or (by == ay and bz < az))):
             ax, ay, az, bx, by, bz = bx, by, bz, ax, ay, az
         dx, dy, dz = bx - ax, by - ay, bz - az
@@ -403,6 +436,9 @@ def cylinder_lengths(
             factor = min(max(length / dz, -1.7e308), 1.7e308)
         bad_segment = not np.isfinite(length)
         for k in range(k_n):
+            if far[k]:
+                out[i, k] = 0.0
+                continue
             cx, cy, rk = c[k, 0], c[k, 1], r[k]
             if bad_segment or np.isnan(cx) or np.isnan(cy) or np.isnan(rk):
                 out[i, k] = np.nan
@@ -448,4 +484,45 @@ def cylinder_lengths(
                     hi = s_floor
             w = hi - lo
             out[i, k] = w if w > 0.0 else 0.0
+    return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def ray_buffer(
+    origins: np.ndarray, directions: np.ndarray, shift: np.ndarray, rays: np.ndarray
+) -> int:  # pragma: no cover - jit
+    """Fill ``rays`` ((N, 6) float32, open3d's layout) with ``origins - shift`` and the unit
+    ``directions`` ((N, 3) float64 each) in one pass: the arithmetic of
+    ``terrain.model.rays_numpy`` (``norm = sqrt(x^2 + y^2 + z^2)``, ``d / norm``, both in float64,
+    then rounded to float32), so the rays are bit-identical.  Returns a bit mask of what was
+    wrong (nothing written is then used): 1 a non-finite origin, 2 a non-finite direction, 4 a
+    zero direction."""
+    bad = 0
+    for i in range(origins.shape[0]):
+        ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+        dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+        if not (np.isfinite(ox) and np.isfinite(oy) and np.isfinite(oz)):
+            bad |= 1
+        if not (np.isfinite(dx) and np.isfinite(dy) and np.isfinite(dz)):
+            bad |= 2
+        norm = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if norm == 0.0:
+            bad |= 4
+        rays[i, 0] = ox - shift[0]
+        rays[i, 1] = oy - shift[1]
+        rays[i, 2] = oz - shift[2]
+        rays[i, 3] = dx / norm
+        rays[i, 4] = dy / norm
+        rays[i, 5] = dz / norm
+    return bad
+
+
+@nb.njit(cache=True, nogil=True)
+def ranges_within(t_hit: np.ndarray, max_range: float) -> np.ndarray:  # pragma: no cover - jit
+    """open3d's float32 ``t_hit`` as float64, inf beyond ``max_range`` (and for NaN): the
+    arithmetic of ``np.where(t.astype(float64) <= max_range, t, inf)``."""
+    out = np.empty(t_hit.shape[0])
+    for i in range(t_hit.shape[0]):
+        v = np.float64(t_hit[i])
+        out[i] = v if v <= max_range else np.inf
     return out

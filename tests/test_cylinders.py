@@ -293,3 +293,34 @@ def test_nan_zone_gives_nan_column_in_both_backends():
         assert np.isnan(out[:, 1]).all() and (out[:, 0] > 0).all()
     with pytest.raises(InputError, match="backend"):
         segment_cylinder_lengths(p0, p1, [[0, 0]], [1], [1], backend="cuda")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_segments_far_from_the_cylinders_skip_to_zero_bit_identically(seed):
+    """The compiled loop skips a cylinder whose footprint box lies beyond its radius from the
+    segment's box (issue 38): the same bits as the full computation, at the edge of the box too
+    (segments passing the circle at r (1 +- 1e-12)), with NaN and infinite inputs kept."""
+    rng = np.random.default_rng(seed)
+    k = 5
+    centers = rng.uniform(-5000, 5000, (k, 2)) + np.array([376313.655, 3807917.83])
+    radii = rng.uniform(100, 900, k)
+    tops = np.array([INF, 500.0, 800.0, np.nan, 300.0])
+    floors = np.array([-INF, 100.0, -INF, 0.0, np.nan])
+    rows = []
+    for j in range(k):  # horizontal segments tangent-ish above every circle, both directions
+        for f in (0.0, 0.5, 1 - 1e-12, 1.0, 1 + 1e-12, 1 + 1e-9, 1 + 2e-9):
+            y = centers[j, 1] + f * radii[j]
+            rows.append(([centers[j, 0] - 3000, y, 200.0], [centers[j, 0] + 3000, y, 400.0]))
+            rows.append(([centers[j, 0] + 50, y + 1e-6, 900.0], [centers[j, 0] - 50, y, 100.0]))
+    m = 600
+    a = rng.uniform(-12000, 12000, (m, 3)) + np.array([376313.655, 3807917.83, 0.0])
+    b = a + rng.normal(0, 800, (m, 3))
+    a[:, 2], b[:, 2] = rng.uniform(0, 1000, m), rng.uniform(0, 1000, m)
+    a[5, 0], b[6, 1], a[7, 2] = np.nan, np.inf, -np.inf
+    p0 = np.vstack([np.array([r[0] for r in rows]), a])
+    p1 = np.vstack([np.array([r[1] for r in rows]), b])
+    fast = segment_cylinder_lengths(p0, p1, centers, radii, tops, floors)
+    ref = segment_cylinder_lengths(p0, p1, centers, radii, tops, floors, backend="numpy")
+    assert np.count_nonzero(ref > 0) > 20 and np.count_nonzero(ref == 0) > 1000
+    np.testing.assert_array_equal(fast, ref)
+    np.testing.assert_array_equal(np.signbit(fast), np.signbit(ref))

@@ -230,6 +230,35 @@ def test_batched_chord_test_agrees_with_the_chord_sampler() -> None:
     assert 50 < int(got.sum()) < 350  # both answers are exercised
 
 
+def test_compiled_chord_test_is_its_numpy_twin() -> None:
+    """Issue 38: the compiled ``_clear_chords`` (each chord left at its first sample below)
+    answers as the numpy twin, on the wall map at a clearance of 20 m and on a random terrain
+    at 0 m (chords from a corner of a cell, of no extent, along the samples' edges)."""
+    from planner.explore import _clear_chords, _clear_chords_numpy, corridor_terrain
+
+    rng = np.random.default_rng(11)
+    rough = make_grid(rng.uniform(0, 100, (80, 90)), cell=30.0, x0=1000.0, y0=9000.0)
+    problems = [
+        _problem(),
+        PlanningProblem(rough, [1100.0, 6700.0, 400.0], [3600.0, 8800.0, 400.0], 3, zmax=700.0),
+    ]
+    clear = total = 0
+    for problem in problems:
+        heights = corridor_terrain(problem)
+        x0, y0, x1, y1 = problem.grid.bounds
+        for p in (problem.start, np.array([x0, y1, 250.0]), np.array([x1, y0, 320.0])):
+            qs = np.column_stack(
+                [rng.uniform(x0, x1, 500), rng.uniform(y0, y1, 500), rng.uniform(0, 1300, 500)]
+            )
+            qs[0] = p
+            qs[1] = p + np.array([0.0, 0.0, 50.0])
+            got = _clear_chords(problem, p, qs, heights)
+            assert got.tolist() == _clear_chords_numpy(problem, p, qs, heights).tolist()
+            clear += int(got.sum())
+            total += len(got)
+    assert 0.1 < clear / total < 0.9  # both answers are exercised
+
+
 def test_compiled_tree_counts_match_the_python_twin() -> None:
     from planner.explore import _along, _along_py
 

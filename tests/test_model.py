@@ -8,15 +8,23 @@ from collections.abc import Callable
 
 import fcl
 import numpy as np
+import open3d as o3d
 import pytest
 import trimesh
 from affine import Affine
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain import kernels
 from terrain.errors import InputError
 from terrain.grid import HeightGrid
-from terrain.model import TerrainModel, airframe_box, airframe_sphere, grid_faces
+from terrain.model import (
+    TerrainModel,
+    airframe_box,
+    airframe_sphere,
+    grid_faces,
+    rays_numpy,
+)
 
 X0, Y0 = 400_000.0, 3_800_000.0  # UTM-sized: float32 would round these to 0.03 m / 0.25 m
 F32 = 2e-3  # float32 ray casting on coordinates ~1 km from the origin: a few ulp of ~6e-5 m
@@ -213,6 +221,69 @@ def test_ray_inputs_are_validated(flat: TerrainModel) -> None:
         flat.raycast(o, [0, 0, 0])
     with pytest.raises(InputError, match="max_range"):
         flat.raycast(o, [0, 0, -1], max_range=float("nan"))
+
+
+def _raycast_numpy(model: TerrainModel, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """The ranges as the numpy version of raycast computed them (before issue 38)."""
+    o, d = np.broadcast_arrays(np.asarray(origins, np.float64), np.asarray(directions, np.float64))
+    rays = rays_numpy(o, d, model.origin)
+    t = model._scene.cast_rays(o3d.core.Tensor.from_numpy(rays.reshape(-1, 6)))["t_hit"]
+    return np.asarray(t.numpy().reshape(o.shape[:-1]).astype(np.float64))
+
+
+def test_ray_buffer_is_bit_identical_to_its_numpy_twin() -> None:
+    rng = np.random.default_rng(3)
+    n = 20_000
+    d = rng.normal(size=(n, 3)) * rng.uniform(1e-3, 1e3, (n, 1))
+    o = rng.uniform(-1e6, 1e6, (n, 3)) + np.array([X0, Y0, 0.0])
+    shift = np.array([X0 + 123.4, Y0 - 56.7, 0.0])
+    rays = np.empty((n, 6), np.float32)
+    assert kernels.ray_buffer(o, d, shift, rays) == 0
+    np.testing.assert_array_equal(rays.view(np.int32), rays_numpy(o, d, shift).view(np.int32))
+    for bad, bit in (((0, 1), 1), ((3, 4), 2)):
+        oo, dd = o.copy(), d.copy()
+        (oo if bit == 1 else dd)[bad[0] % n, bad[1] % 3] = np.nan
+        assert kernels.ray_buffer(oo, dd, shift, rays) == bit
+    d[7] = 0.0
+    assert kernels.ray_buffer(o, d, shift, rays) == 4
+
+
+def test_raycast_gives_the_ranges_of_the_numpy_version() -> None:
+    cone = TerrainModel.from_grid(CONE)
+    rng = np.random.default_rng(4)
+    x0, y0, x1, y1 = cone.grid.bounds
+    n = 3000
+    o = np.column_stack(
+        [rng.uniform(x0 - 50, x1 + 50, n), rng.uniform(y0 - 50, y1 + 50, n), rng.uniform(0, 900, n)]
+    )
+    d = rng.normal(size=(n, 3))
+    t = _raycast_numpy(cone, o, d)
+    assert np.isfinite(t).sum() > n // 4
+    np.testing.assert_array_equal(cone.raycast(o, d), t)
+    np.testing.assert_array_equal(
+        cone.raycast(o, d, max_range=300.0), np.where(t <= 300, t, np.inf)
+    )
+    # one origin for many directions, one direction for many origins, one ray
+    np.testing.assert_array_equal(cone.raycast(o[0], d), _raycast_numpy(cone, o[0], d))
+    np.testing.assert_array_equal(cone.raycast(o, d[0]), _raycast_numpy(cone, o, d[0]))
+    one = cone.raycast(o[5], d[5])
+    assert one.shape == () and (one == t[5] or (np.isinf(one) and np.isinf(t[5])))
+    # transposed (not C-ordered) inputs
+    np.testing.assert_array_equal(cone.raycast(o.T.copy().T, d.T.copy().T), t)
+
+
+def test_ray_inputs_are_checked_in_order(flat: TerrainModel) -> None:
+    o = np.tile([X0, Y0, 500.0], (4, 1))
+    bad = o.copy()
+    bad[2, 1] = np.inf
+    with pytest.raises(InputError, match="origins must be finite"):
+        flat.raycast(bad, [0.0, 0.0, 0.0])
+    with pytest.raises(InputError, match="directions must be finite"):
+        flat.raycast(o, [0.0, np.nan, 0.0])
+    with pytest.raises(InputError, match="origins must be finite"):
+        flat.raycast(bad, np.tile([0.0, 0.0, -1.0], (3, 1)))  # finite checks before the shapes
+    with pytest.raises(InputError, match="non-zero"):
+        flat.raycast(o, [0, 0, 0], max_range=float("nan"))
 
 
 # -- fcl -------------------------------------------------------------------------------------------

@@ -193,3 +193,21 @@ def test_a_plan_on_a_local_dem_reports_metres_and_its_mission_reloads_the_same_g
     assert grid.cell_size == (10.0, 10.0) and grid.bounds == (0.0, -1000.0, 1000.0, 0.0)
     length = float(np.linalg.norm(np.diff(m.waypoints[:, :2], axis=0), axis=1).sum())
     assert 900.0 <= length < 1100.0  # 900 m straight: the plan is in metres, not cells
+
+
+@pytest.mark.parametrize("kw", [{}, {"smoothness": 0.5}, {"zones": ()}])
+def test_a_path_s_cost_does_not_depend_on_the_other_paths_of_the_call(kw: dict) -> None:
+    """``rowwise`` (issue 38: the optimisers batch their calls on it): each row's terms are the
+    same bits alone, in a slice, or behind other rows; not so with the above-ground terms."""
+    problem = _problem(**kw)
+    assert problem.rowwise
+    assert not _problem(agl_max=300.0).rowwise and not _problem(agl_pref=60.0).rowwise
+    lo, hi = problem.bounds()
+    rng = np.random.default_rng(2)
+    X = lo + rng.random((37, lo.size)) * (hi - lo)
+    whole = problem(X)
+    np.testing.assert_array_equal(problem(X[:5]), whole[:5])
+    np.testing.assert_array_equal(problem(X[30:]), whole[30:])
+    np.testing.assert_array_equal(problem(np.concatenate([X[7:9], X])), np.r_[whole[7:9], whole])
+    for i in (0, 13, 36):
+        assert problem(X[i : i + 1])[0] == whole[i]

@@ -460,3 +460,28 @@ def test_compiled_cost_has_one_specialisation_for_every_caller() -> None:
     np.testing.assert_array_equal(a, c)
     assert np.isfinite(b).all()
     assert len(penalised_costs.signatures) == 1
+
+
+def _tangent_points_arrays(a: np.ndarray, o: np.ndarray, radius: float) -> np.ndarray:
+    """Eq 27 in the array form tangent_points had before issue 38 (the reference)."""
+    x0, y0 = o - a
+    d2 = x0 * x0 + y0 * y0
+    s = math.sqrt(d2 - radius * radius)
+    cos_t = (-radius * x0 + np.array([1.0, -1.0]) * y0 * s) / d2
+    sin_t = (-radius * y0 - np.array([1.0, -1.0]) * x0 * s) / d2
+    pts = o + radius * np.column_stack([cos_t, sin_t])
+    rel = pts - a
+    left = x0 * rel[:, 1] - y0 * rel[:, 0] > 0.0
+    return pts if left[0] else pts[::-1].copy()
+
+
+def test_scalar_tangent_points_are_the_array_form_s_bits() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(3000):
+        a = rng.uniform(-5e5, 5e5, 2) + np.array([4e5, 4e6])
+        o = a + rng.normal(0.0, rng.choice([1e3, 1e4, 1e5]), 2)
+        radius = float(rng.uniform(1.0, 0.999 * np.hypot(*(o - a))))
+        got = tangent_points(a, o, radius)
+        np.testing.assert_array_equal(got, _tangent_points_arrays(a, o, radius))
+    with pytest.raises(InputError, match="no tangent"):
+        tangent_points([0.0, 0.0], [10.0, 0.0], 20.0)

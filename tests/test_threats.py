@@ -694,3 +694,27 @@ def test_solid_spheres_are_read_written_and_refused_when_not_boolean(tmp_path: P
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
     with pytest.raises(InputError, match=r"field 'threats\[0\]\.solid': expected true or false"):
         load_threats(str(path))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_dense_clusters_match_the_k_d_tree_s(seed: int) -> None:
+    """The dense grouping of a few points (issue 38) gives the k-d tree's groups: random points
+    at every density, chains of steps just below and above the link, duplicates."""
+    from replay.threats import clusters as cl
+
+    rng = np.random.default_rng(seed)
+    for n in (1, 2, 5, 40, 120, cl.SMALL_CLUSTERING):
+        spread = rng.choice([500.0, 3000.0, 20000.0])
+        p = rng.normal(0.0, spread, (n, 3))
+        if n > 5:
+            p[:5] = p[0] + np.array(
+                [[0, 0, 0], [999.0, 0, 0], [1998.0, 0, 0], [0, 0, 0], [0, 0, 0]]
+            )
+            p[5 % n] = p[2] + [1000.0 + 1e-6, 0, 0]
+        small, tree = cl._small_clusters(p, 1000.0), cl._tree_clusters(p, 1000.0)
+        assert [g.tolist() for g in small] == [g.tolist() for g in tree]
+    line = np.column_stack([np.arange(300) * 900.0, np.zeros(300), np.zeros(300)])
+    order = rng.permutation(300)
+    assert [g.tolist() for g in cl._small_clusters(line[order[:256]], 1000.0)] == [
+        g.tolist() for g in cl._tree_clusters(line[order[:256]], 1000.0)
+    ]

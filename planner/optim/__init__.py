@@ -11,6 +11,7 @@ AMPSO) and :mod:`planner.optim.ga` (GA). Pick one by name with :func:`make_optim
 
 from __future__ import annotations
 
+import functools
 import inspect
 from typing import Any
 
@@ -41,6 +42,15 @@ OPTIMIZERS: dict[str, type[Optimizer]] = {
 }
 
 
+@functools.cache
+def _parameters(cls: type[Optimizer]) -> tuple[str, ...]:
+    """The keyword parameters of an optimiser class (read once: ``inspect.signature`` costs a
+    tenth of a PSO-CA decision, which builds its optimiser every time)."""
+    return tuple(
+        p for p in inspect.signature(cls).parameters if p not in ("self", "args", "kwargs")
+    )
+
+
 def make_optimizer(name: str, **params: Any) -> Optimizer:
     """The optimiser registered as ``name``, built with ``params`` (checked against its signature)."""
     cls = OPTIMIZERS.get(name) if isinstance(name, str) else None
@@ -48,7 +58,7 @@ def make_optimizer(name: str, **params: Any) -> Optimizer:
         raise InputError(
             f"unknown optimiser {name!r}; expected one of {', '.join(sorted(OPTIMIZERS))}"
         )
-    allowed = [p for p in inspect.signature(cls).parameters if p not in ("self", "args", "kwargs")]
+    allowed = _parameters(cls)
     unknown = sorted(set(params) - set(allowed))
     if unknown:
         raise InputError(

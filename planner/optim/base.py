@@ -46,6 +46,8 @@ from terrain.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
 Objective = Callable[[FloatArray], npt.ArrayLike]
+"""f(X (P, D)) -> (P,).  An objective may say ``rowwise = True`` (an attribute): each row's cost
+is the same whatever other rows share the call; optimisers may then batch their calls."""
 Seed = int | np.random.Generator
 
 __all__ = [
@@ -324,7 +326,28 @@ class Optimizer(ABC):
 
     def _evaluate(self, X: FloatArray) -> FloatArray:
         """f on the rows of X (all inside the box), counted; updates the best point."""
-        if np.any(X < self._lower) or np.any(X > self._upper):
+        F = self._call(X)
+        self._account(X, F)
+        return F
+
+    def _evaluate_two(self, X: FloatArray, M: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``_evaluate(X)`` then ``_evaluate(M)`` (M may be empty: not evaluated), in one call of
+        f when the objective says its rows are independent (``rowwise``: a row's cost does not
+        depend on the other rows of the call) -- the same costs, counts and best point, one
+        objective call less (issue 38: the call's own overhead is a tenth of a plan)."""
+        if not M.shape[0]:
+            return self._evaluate(X), np.zeros(0)
+        if not getattr(self._f, "rowwise", False):
+            return self._evaluate(X), self._evaluate(M)
+        both = self._call(np.concatenate([X, M]))
+        F, FM = both[: X.shape[0]], both[X.shape[0] :]
+        self._account(X, F)
+        self._account(M, FM)
+        return F, FM
+
+    def _call(self, X: FloatArray) -> FloatArray:
+        """f on the rows of X (all inside the box), NaN costs as inf."""
+        if (X < self._lower).any() or (X > self._upper).any():
             raise RuntimeError(
                 f"internal error: {self.name} tried to evaluate a point outside the box"
             )
@@ -335,14 +358,16 @@ class Optimizer(ABC):
             raise InputError(
                 f"the objective must return one cost per row, shape ({X.shape[0]},); got {F.shape}"
             )
-        F = np.where(np.isnan(F), np.inf, F)
+        return np.where(np.isnan(F), np.inf, F)
+
+    def _account(self, X: FloatArray, F: FloatArray) -> None:
+        """Count the evaluations of X's rows and keep the best point (the first of equals)."""
         self._evaluations += X.shape[0]
         if X.shape[0]:
             i = int(np.argmin(F))
             if F[i] < self._best_f:
                 self._best_f = float(F[i])
                 self._best_x = X[i].copy()
-        return F
 
     def _random_points(self, n: int) -> FloatArray:
         """n points uniform in the box."""
@@ -356,7 +381,7 @@ class Optimizer(ABC):
 
     def _after_iteration(self) -> None:
         self._history_best.append(float(self._best_f))
-        self._history_mean.append(float(np.mean(self._fx)))
+        self._history_mean.append(float(self._fx.mean()))
         assert self._termination is not None
         self._status = self._termination.reason(self)
 

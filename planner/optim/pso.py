@@ -217,6 +217,12 @@ class PSO(Optimizer):
         self._pbest, self._pbest_f = X.copy(), self._fx.copy()
 
     def _iterate(self) -> None:
+        self._fx = self._evaluate(self._move())
+        self._update_pbest(np.arange(self.pop_size))
+
+    def _move(self) -> FloatArray:
+        """Eqs 12-13, the walls and :meth:`_perturb`: the new positions (and velocities) of
+        iteration ``self._iteration + 1``, kept as the current ones, not yet evaluated."""
         t = self._iteration + 1
         w, c1, c2 = self.coefficients(t)
         X, V = self._x, self._v
@@ -228,8 +234,7 @@ class PSO(Optimizer):
         X, V = wall(X + V, V, self._lower, self._upper)
         X = self._perturb(X, t)
         self._x, self._v = X, V
-        self._fx = self._evaluate(X)
-        self._update_pbest(np.arange(self.pop_size))
+        return X
 
     def _update_pbest(self, rows: npt.NDArray[np.intp]) -> None:
         better = rows[self._fx[rows] < self._pbest_f[rows]]
@@ -354,13 +359,17 @@ class AMPSO(AdaptivePSO):
         return X
 
     def _iterate(self) -> None:
-        super()._iterate()
         if self.acceptance != "greedy" or not self._mutating:
+            super()._iterate()
             return
-        rows, M = self._mutants(self._x, self._iteration + 1)
+        X = self._move()
+        # the mutants are drawn from the moved particles before the move is evaluated (no draw
+        # comes between), so both go to the objective in one call when it allows
+        rows, M = self._mutants(X, self._iteration + 1)
+        self._fx, FM = self._evaluate_two(X, M)
+        self._update_pbest(np.arange(self.pop_size))
         if rows.size == 0:
             return
-        FM = self._evaluate(M)
         accepted = FM < self._fx[rows]
         rows = rows[accepted]
         self._x[rows] = M[accepted]

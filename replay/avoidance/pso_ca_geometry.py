@@ -184,6 +184,17 @@ def segment_clearance(p0: npt.ArrayLike, p1: npt.ArrayLike, centers: npt.ArrayLi
     )
 
 
+def _clearances(p0: FloatArray, p1: FloatArray, centers: FloatArray) -> FloatArray:
+    """:func:`segment_clearance` of arrays already checked ((P, D), (P, D), (K, D)): the same
+    compiled arithmetic without the checks, for :meth:`WaypointProblem.constraint_report`'s
+    calls, several a decision (issue 38)."""
+    from replay.avoidance.pso_ca_kernel import segment_clearances
+
+    return np.asarray(
+        segment_clearances(*(np.array(a, dtype=np.float64, order="C") for a in (p0, p1, centers)))
+    )
+
+
 # -- 2. grouping and classification (Figs 8-10, §5.3) ---------------------------------------------
 def route_altitude(route: npt.ArrayLike, points: npt.ArrayLike) -> FloatArray:
     """The altitude (m) the polyline ``route`` (R, 3; R >= 1) has at the point nearest each of
@@ -287,20 +298,32 @@ def tangent_points(
     Raises :class:`InputError` when the aircraft is inside the circle (no tangent)."""
     a = _xy(aircraft_xy, "aircraft_xy").reshape(2)
     o = _xy(obstacle_xy, "obstacle_xy").reshape(2)
-    x0, y0 = o - a
-    d2 = x0 * x0 + y0 * y0
-    if not (radius > 0.0) or d2 <= radius * radius:
+    pts = _tangents(float(a[0]), float(a[1]), float(o[0]), float(o[1]), radius)
+    if pts is None:
+        d = math.hypot(float(o[0] - a[0]), float(o[1] - a[1]))
         raise InputError(
-            f"no tangent: the aircraft is {math.sqrt(d2):.1f} m from the obstacle, inside the "
+            f"no tangent: the aircraft is {d:.1f} m from the obstacle, inside the "
             f"circle of radius {radius} m"
         )
+    return pts
+
+
+def _tangents(ax: float, ay: float, ox: float, oy: float, radius: float) -> FloatArray | None:
+    """:func:`tangent_points` of checked coordinates, None inside the circle: eq 27 in scalars
+    (a PSO-CA decision asks twice, where small numpy arrays cost more than the arithmetic; the
+    same operations in the same order as the array form ``(-r x0 +- y0 s) / d^2``, so the same
+    bits)."""
+    x0, y0 = ox - ax, oy - ay
+    d2 = x0 * x0 + y0 * y0
+    if not (radius > 0.0) or d2 <= radius * radius:
+        return None
     s = math.sqrt(d2 - radius * radius)
-    cos_t = (-radius * x0 + np.array([1.0, -1.0]) * y0 * s) / d2
-    sin_t = (-radius * y0 - np.array([1.0, -1.0]) * x0 * s) / d2
-    pts = o + radius * np.column_stack([cos_t, sin_t])
-    rel = pts - a
-    left = x0 * rel[:, 1] - y0 * rel[:, 0] > 0.0  # cross(line of sight, T - aircraft) > 0
-    return pts if left[0] else pts[::-1].copy()
+    p0x = ox + radius * ((-radius * x0 + y0 * s) / d2)
+    p0y = oy + radius * ((-radius * y0 - x0 * s) / d2)
+    p1x = ox + radius * ((-radius * x0 - y0 * s) / d2)
+    p1y = oy + radius * ((-radius * y0 + x0 * s) / d2)
+    left = x0 * (p0y - ay) - y0 * (p0x - ax) > 0.0  # cross(line of sight, T - aircraft) > 0
+    return np.array([[p0x, p0y], [p1x, p1y]] if left else [[p1x, p1y], [p0x, p0y]])
 
 
 def tangent_seed_points(
@@ -327,18 +350,17 @@ def tangent_seed_points(
     gen = _rng(rng)
     a = _xy(aircraft_xy, "aircraft_xy").reshape(2)
     o = _xy(obstacle_xy, "obstacle_xy").reshape(2)
-    los = o - a
-    try:
-        tp = tangent_points(a, o, safety_radius)
+    tp = _tangents(float(a[0]), float(a[1]), float(o[0]), float(o[1]), safety_radius)
+    if tp is not None:
         base = np.arctan2(tp[:, 1] - o[1], tp[:, 0] - o[0])
-    except InputError:
+    else:
+        los = o - a
         bearing = math.atan2(los[1], los[0])
         base = np.array([bearing + math.pi / 2, bearing - math.pi / 2])
-    side = np.arange(n) % 2
-    ang = base[side] + np.where(np.arange(n) < 2, 0.0, gen.normal(0.0, spread, n))
-    rad = safety_radius * (
-        1.0 + np.where(np.arange(n) < 2, 0.0, gen.uniform(0.0, radial_jitter, n))
-    )
+    k = np.arange(n)
+    first = k < 2
+    ang = base[k % 2] + np.where(first, 0.0, gen.normal(0.0, spread, n))
+    rad = safety_radius * (1.0 + np.where(first, 0.0, gen.uniform(0.0, radial_jitter, n)))
     return np.asarray(o + rad[:, None] * np.column_stack([np.cos(ang), np.sin(ang)]))
 
 
@@ -576,12 +598,12 @@ class WaypointProblem:
         fin = np.broadcast_to(self.target, (n, 2))
         pos = np.broadcast_to(self.position, (n, 2))
         u_in = p - self.position
-        g3 = segment_clearance(p, fin, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin)
+        g3 = _clearances(p, fin, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin)
         # g5: an aircraft already closer than RS + margin to a point may not get any closer
         # (1 m slack): otherwise no leg could start where it is and it could not leave
         d0 = np.hypot(*(self.avoided - self.position).T)
         need = np.minimum(pr.rs + pr.leg_margin, d0 - 1.0)
-        g5 = (segment_clearance(pos, p, self.avoided) - need[None, :]).min(axis=1)
+        g5 = (_clearances(pos, p, self.avoided) - need[None, :]).min(axis=1)
         u_out = self.target - p
         l_in = np.hypot(*u_in.T)
         l_out = np.hypot(*u_out.T)
@@ -591,7 +613,7 @@ class WaypointProblem:
             # inbound leg (g5), the one at X_fin (towards ``after``) with the outbound leg (g3)
             cut = corner_cut(p, u_in, u_out, sw, pr.approach_deg)
             for a, b in cut:
-                g5 = np.minimum(g5, (segment_clearance(a, b, self.avoided) - need).min(axis=1))
+                g5 = np.minimum(g5, (_clearances(a, b, self.avoided) - need).min(axis=1))
             if self.after is not None:
                 v = np.broadcast_to(self.after - self.target, (n, 2))
                 cut = corner_cut(
@@ -600,7 +622,7 @@ class WaypointProblem:
                 for a, b in cut:
                     g3 = np.minimum(
                         g3,
-                        segment_clearance(a, b, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin),
+                        _clearances(a, b, self.avoided).min(axis=1) - (pr.rs + pr.leg_margin),
                     )
         if self.side:
             leg = self.target - self.position
