@@ -228,15 +228,48 @@ def test_importing_the_avoidance_package_imports_no_avoider_module() -> None:
 
 
 # -- the replay as a library, and the avoider options on the command line ----------------------------
+def _short_seed000(folder: Any) -> tuple[str, str]:
+    """Seed 000's aircraft and obstacles on a 40 km mission (the avoidance contract's "two":
+    an obstacle on each leg) written as files: 45 min of flight, a tenth of Table 4's 8 h, and
+    the same questions for the command line (the avoider's options, the sensor) as Table 4."""
+    import yaml
+
+    mission = folder / "short-seed000.yaml"
+    mission.write_text(
+        yaml.safe_dump(
+            {
+                "terrapath": 1,
+                "name": "short-seed000",
+                "crs": "local",
+                "vehicle": "solar-uav",
+                "cruise": {"speed": 15.0, "altitude": 200.0},
+                "waypoints": [[0, 0, 200], [20000, 0, 200], [40000, 0, 200]],
+            }
+        )
+    )
+    threats = folder / "short-seed000-threats.yaml"
+    obstacles = [("o1", [9000, -200, 200]), ("o2", [27000, 300, 200])]
+    threats.write_text(
+        yaml.safe_dump(
+            {
+                "terrapath": 1,
+                "threats": [
+                    {"id": i, "kind": "static", "position": p, "radius": 1000.0}
+                    for i, p in obstacles
+                ],
+            }
+        )
+    )
+    return str(mission), str(threats)
+
+
 def test_run_replay_is_what_the_cli_runs(tmp_path: Any, capsys: pytest.CaptureFixture[str]) -> None:
     import json
 
     from replay.run import ReplayRequest, run_replay
     from terrapath.cli import main
-    from tests.conftest import ROOT
 
-    mission = str(ROOT / "data/missions/seed000-table4.yaml")
-    threats = str(ROOT / "data/threats/seed000-table4.yaml")
+    mission, threats = _short_seed000(tmp_path)
     req = ReplayRequest.of(mission, threats=threats, avoid="pso-ca", avoid_options={"rs": 1200.0})
     lib = run_replay(req)  # no output: nothing written
     rc = main(
@@ -304,10 +337,8 @@ def test_cooperative_sensor_drives_pso_ca_and_is_recorded(
 
     from replay.record.reader import load_run
     from terrapath.cli import main
-    from tests.conftest import ROOT
 
-    mission = str(ROOT / "data/missions/seed000-table4.yaml")
-    threats = str(ROOT / "data/threats/seed000-table4.yaml")
+    mission, threats = _short_seed000(tmp_path)
     out = tmp_path / "coop.mcap"
     rc = main(
         [
