@@ -148,6 +148,7 @@ from replay.record.scene import (
     prism_mesh,
     superellipsoid_mesh,
 )
+from replay.record.separation import kept_rows, nearest, separation_doc
 from replay.record.writer import COMPRESSIONS, McapFile, McapSink, descriptor_set
 from terrain.errors import InputError, where
 
@@ -447,16 +448,18 @@ class RunRecorder:
             return {}
         cols: dict[str, Any] = {}
         for name, value in extras.items():
-            if not isinstance(name, str) or not name:
+            a = value
+            if type(a) is not np.ndarray or a.dtype != np.float64 or number:
+                try:
+                    if number and not isinstance(value, int | float | np.number):
+                        raise TypeError
+                    a = np.asarray(value, dtype=np.float64).reshape(-1)
+                except (TypeError, ValueError):
+                    raise InputError(
+                        f"{self._where}extras: expected numbers, found {extras!r:.200}"
+                    ) from None
+            if type(name) is not str or not name:
                 raise InputError(f"{self._where}extras: names must be non-empty text ({name!r})")
-            try:
-                if number and not isinstance(value, int | float | np.number):
-                    raise TypeError
-                a = np.asarray(value, dtype=np.float64).reshape(-1)
-            except (TypeError, ValueError):
-                raise InputError(
-                    f"{self._where}extras: expected numbers, found {extras!r:.200}"
-                ) from None
             if a.shape != (k,):
                 raise InputError(
                     f"{self._where}extras {name!r}: expected {k} numbers, found shape {a.shape}"
@@ -499,12 +502,16 @@ class RunRecorder:
             names.update(dict.fromkeys(p[3]))
         extras = {}
         for name in names:
+            parts = [p[3].get(name) for p in pending]
+            if all(a is not None for a in parts):
+                extras[name] = (np.concatenate(parts)[rows], np.ones(len(rows), dtype=bool))
+                continue
             values = np.full(len(t), np.nan)
             present = np.zeros(len(t), dtype=bool)
-            for p, a in zip(pending, offsets[:-1], strict=True):
-                if name in p[3]:
-                    values[a : a + len(p[0])] = p[3][name]
-                    present[a : a + len(p[0])] = True
+            for a, start, stop in zip(parts, offsets[:-1], offsets[1:], strict=True):
+                if a is not None:
+                    values[start:stop] = a
+                    present[start:stop] = True
             extras[name] = (values[rows], present[rows])
         batch = Samples(
             ns=ns[rows],
@@ -908,10 +915,12 @@ class RunRecorder:
         ``zone:``), ``separations`` (K, len(ids)) metres, NaN while a threat is inactive.  Each
         message holds the nearest active threat (``nearest_m``, ``nearest``), the nearest danger
         zone (``zone_m``, ``zone``), ``margin_m`` and ``threats``, the (at most) four nearest
-        active threats by id.  Separations are computed in batches after the states they
-        belong to, so these messages come later in the file than the states of their time
-        (MCAP readers order by log time); successive calls must not go back in time.  Returns
-        how many messages were written."""
+        active threats by id.  Of those samples, the ones where something shown changed are
+        written (:mod:`replay.record.separation`: a value left its band, crossed the margin or
+        reached its least, the threats shown changed; at least one every 10 s).  Separations
+        are computed in batches after the states they belong to, so these messages come later
+        in the file than the states of their time (MCAP readers order by log time); successive
+        calls must not go back in time.  Returns how many messages were written."""
         t = np.asarray(ts, dtype=np.float64).reshape(-1)
         seps = np.asarray(separations, dtype=np.float64).reshape(len(t), len(ids))
         if not len(t):
@@ -930,25 +939,25 @@ class RunRecorder:
         threat_cols = np.flatnonzero(~is_zone)
         zone_cols = np.flatnonzero(is_zone)
         margin = float(margin_m)
-        for k in rows.tolist():
-            doc: dict[str, Any] = {"margin_m": margin, "threats": {}}
-            row = seps[k]
-            if len(threat_cols):
-                v = row[threat_cols]
-                live = np.flatnonzero(np.isfinite(v))
-                if len(live):
-                    order = live[np.argsort(v[live], kind="stable")[:4]]
-                    doc["nearest_m"] = round(float(v[order[0]]), 2)
-                    doc["nearest"] = names[threat_cols[order[0]]]
-                    doc["threats"] = {names[threat_cols[j]]: round(float(v[j]), 2) for j in order}
-            if len(zone_cols):
-                z = row[zone_cols]
-                if np.isfinite(z).any():
-                    j = int(np.nanargmin(z))
-                    doc["zone_m"] = round(float(z[j]), 2)
-                    doc["zone"] = names[zone_cols[j]]
-            self._emit(T.SEPARATION, int(ns[k]), dumps(doc))
-        return len(rows)
+        picked = seps[rows]
+        cols, shown, zcol, zval = nearest(picked[:, threat_cols], picked[:, zone_cols])
+        keep = kept_rows(
+            ns[rows], cols, shown, zcol, zval, margin, len(threat_cols), len(zone_cols)
+        )
+        written = np.flatnonzero(keep)
+        sink, channel = self._require(), self._channels[T.SEPARATION]
+        for i, c, v, zc, zv in zip(
+            written.tolist(),
+            cols[written].tolist(),
+            shown[written].tolist(),
+            zcol[written].tolist(),
+            zval[written].tolist(),
+            strict=True,
+        ):
+            doc = separation_doc(margin, names, threat_cols, zone_cols, c, v, zc, zv)
+            sink.add_message(channel, int(ns[rows[i]]), dumps(doc))
+        self._t_max = max(self._t_max, int(ns[rows[-1]]))
+        return len(written)
 
     def write_decision(self, t: float, decision: Mapping[str, Any]) -> None:
         """An avoidance decision: a JSON object with at least ``algorithm`` (text) and
