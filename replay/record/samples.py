@@ -62,7 +62,13 @@ def quaternions_map(phi: FloatArray, theta: FloatArray, psi: FloatArray) -> Floa
 
 def air_data(s: FloatArray, extras: Mapping[str, tuple[FloatArray, BoolArray]]) -> FloatArray:
     """(K, 3) airspeed, alpha, beta: the body velocity less the wind in body axes (where a
-    sample has any of ``wind_n``, ``wind_e``, ``wind_d``; an absent one is 0)."""
+    sample has any of ``wind_n``, ``wind_e``, ``wind_d``; an absent one is 0).  A value that is
+    not finite gives NaN, silently (it is recorded as it is)."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _air_data(s, extras)
+
+
+def _air_data(s: FloatArray, extras: Mapping[str, tuple[FloatArray, BoolArray]]) -> FloatArray:
     u, v, w = s[:, 3], s[:, 4], s[:, 5]
     if any(name in extras for name in WIND):
         k = len(s)
@@ -85,8 +91,7 @@ def air_data(s: FloatArray, extras: Mapping[str, tuple[FloatArray, BoolArray]]) 
         w = np.where(windy, w - bw, w)
     va = np.sqrt(u * u + v * v + w * w)
     alpha = np.arctan2(w, u)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        beta = np.where(va > 0, np.arcsin(np.clip(v / va, -1.0, 1.0)), 0.0)
+    beta = np.where(va > 0, np.arcsin(np.clip(v / va, -1.0, 1.0)), 0.0)
     return np.stack([va, alpha, beta], axis=1)
 
 

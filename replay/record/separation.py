@@ -7,15 +7,15 @@ four nearest active threats by id -- the message format 1 wrote at every state s
 everything these change slowly; format 2 writes a sample of the state log's ticks only where
 (:func:`kept_rows`):
 
-- a shown value left its *band*: the bands are ``BAND_ABS_M`` wide near zero and widen with the
-  distance (``BAND_REL`` of it), so between two written samples every value shown stays in the
-  band of the first (:func:`band`): within ``BAND_ABS_M + BAND_REL * |value|`` of it;
-- which threats are shown (in order), or which zone is nearest, changed;
-- a shown value crossed the margin (the sample before and the sample after are written: the
-  violation intervals of the written samples are the full record's);
+- ``nearest_m`` or ``zone_m`` left its *band*: the bands are ``BAND_ABS_M`` wide near zero and
+  widen with the distance (``BAND_REL`` of it), so between two written samples each stays in the
+  band of the first (:func:`band`): within about ``BAND_ABS_M + BAND_REL * |value|`` of it;
+- which threat or zone is nearest changed;
+- ``nearest_m`` or ``zone_m`` crossed the margin (the sample before and the sample after are
+  written: the violation intervals of the written samples are the full record's);
 - a threat's or zone's least shown separation in the batch is there (so the least separation
-  of each, over the whole record, is a written one), and the local minima of ``nearest_m`` and
-  ``zone_m``;
+  of each shown, over the whole record, is a written one), and the local minima of
+  ``nearest_m`` and ``zone_m``;
 - the first and last sample of each batch, and the first of each ``MAX_GAP_S`` window.
 
 What the run's metrics, ``inspect``, ``view`` and the pictures say about separations is
@@ -100,8 +100,8 @@ def kept_rows(
     keep[0] = keep[-1] = True
     if k < 3:
         return keep | True
-    values = np.column_stack([shown, zval])  # (K, SHOWN + 1): every value a message shows
-    ids = np.column_stack([cols, zcol])
+    values = np.column_stack([shown[:, 0], zval])  # what Foxglove plots: nearest_m, zone_m
+    ids = np.column_stack([cols[:, 0], zcol])
     bands = np.nan_to_num(band(values), nan=np.inf)
     below = values < margin
     change = (
