@@ -995,7 +995,7 @@ def _record_samples(
     included, when the run has wind), and what the source has given (``used`` (K,):
     ``energy_used`` in Wh of battery or kg of fuel; with a ``capacity``, ``energy_left`` the
     share left, 0..1): one call, as columns."""
-    extras: dict[str, FloatArray] = {
+    extras: dict[str, npt.NDArray[Any]] = {
         name: log.guidance[:, j] for j, name in enumerate(GUIDANCE_COLUMNS)
     }
     extras["next_index"] = log.next_index

@@ -72,8 +72,8 @@ def test_tf_pose_and_fix_are_the_bytes_of_serialize_to_string() -> None:
     xyz, q = awkward_values(rng, k, 3), awkward_values(rng, k, 4)
     lon, lat, alt = awkward_values(rng, k, 3).T
     tf, pose = pose_rows(ns, xyz, q)
-    tf_msgs, pose_msgs = split(*tf.bytes()), split(*pose.bytes())
-    fix_msgs = split(*fix_rows(ns, lon, lat, alt).bytes())
+    tf_msgs, pose_msgs = split(*tf.messages()), split(*pose.messages())
+    fix_msgs = split(*fix_rows(ns, lon, lat, alt).messages())
     for i in range(k):
         sec, nsec = divmod(int(ns[i]), 10**9)
         ref = FrameTransform(parent_frame_id="map", child_frame_id="base_link")
@@ -103,7 +103,7 @@ def test_state_message_is_the_bytes_of_serialize_to_string() -> None:
         name: (awkward_values(rng, k, 1)[:, 0], rng.random(k) < 0.8)
         for name in (*STATE_EXTRAS[::2], "leg", "a name with spaces é")
     }
-    msgs = split(*state_rows(Samples(ns, states, ctrl, extras)).bytes())
+    msgs = split(*state_rows(Samples(ns, states, ctrl, extras)).messages())
     for i in range(k):
         m = VehicleState.FromString(msgs[i])
         assert m.SerializeToString() == msgs[i]  # canonical: protobuf writes these bytes
@@ -388,7 +388,9 @@ def separations_flight(n_threats: int) -> tuple[np.ndarray, list[str], np.ndarra
 def runs_below(times: np.ndarray, values: np.ndarray, margin: float) -> list[tuple[int, int]]:
     below = values < margin
     edges = np.flatnonzero(np.diff(np.r_[0, below.astype(int), 0]))
-    return [(int(times[a]), int(times[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    return [
+        (int(times[a]), int(times[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)
+    ]
 
 
 @pytest.mark.parametrize("n_threats", [0, 3, 100])

@@ -2,7 +2,7 @@
 
 What a message says is decided by :mod:`replay.record.recorder`; here it is encoded, with the bytes the
 general encoders (protobuf's ``SerializeToString``, ``json``) would give, by hand where a message is
-large or frequent:
+large or frequent (the vehicle's samples, many at once: :mod:`replay.record.samples`):
 
 - **protobuf wire format** for large arrays (terrain, track, detection markers), written with numpy
   and struct (:func:`ld`, :func:`doubles_messages`, :func:`packed_fixed32`, :func:`sphere_field`);
@@ -10,7 +10,6 @@ large or frequent:
   against, the installed foxglove schemas at import;
 - **JSON**: plain JSON data from numpy values (:func:`jsonable`; NaN and infinities become
   ``null``), compact encoding (:func:`dumps`), numbers to ``DIGITS`` significant digits;
-- the **vehicle state** text, one %-format per set of extras names (:class:`StateText`);
 - a **radar scan**, its marker scene update and its detection list, with the encoded pieces of
   repeated detections kept (:class:`ScanEncoder`; bounded memos).
 """
@@ -37,13 +36,8 @@ from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
-from terrain.errors import InputError
-
 FloatArray = npt.NDArray[np.float64]
 
-# significant digits of the numbers in /vehicle/state: 1e-5 m at 10,000 km; formatting 17 (exact
-# round trip) costs twice as much, and this message is written 288,000 times in an 8-hour mission
-DIGITS = 12
 MEMO_SIZE = 50_000  # encoded detections kept (a few MB), cleared when full
 
 # ---------------------------------------------------------------------------------------------
@@ -204,58 +198,6 @@ _JSON = json.JSONEncoder(separators=(",", ":"), allow_nan=False)  # json.dumps w
 def dumps(value: Any) -> bytes:
     """Compact JSON bytes (NaN and infinities refused: pass :func:`jsonable` data)."""
     return _JSON.encode(value).encode()
-
-
-def number_text(x: float) -> str:
-    """A number as the state message writes it: ``DIGITS`` significant digits, ``null`` if not finite."""
-    return f"{x:.{DIGITS}g}" if math.isfinite(x) else "null"
-
-
-# ---------------------------------------------------------------------------------------------
-# the vehicle state
-
-
-class StateText:
-    """The JSON text of a state message: ``keys`` (the fixed numbers, in order) then ``extras``
-    (name -> number), each number to ``DIGITS`` significant digits.  One %-format is kept per
-    tuple of extras names; a message with a value that is not finite writes it as ``null``.
-    ``where`` prefixes error messages (the file)."""
-
-    def __init__(self, keys: Sequence[str], where: str = "") -> None:
-        self._keys = tuple(keys)
-        self._where = where
-        self._head = ",".join(f'"{k}":%.{DIGITS}g' for k in self._keys)
-        self._formats: dict[tuple[str, ...], str] = {(): "{" + self._head + ',"extras":{}}'}
-
-    def text(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
-        """The message for ``values`` (one per key) and ``extras``; a value that is not a number
-        raises TypeError, an extras name that is not text InputError."""
-        if extras:
-            fmt = self._formats.get(tuple(extras)) or self._format(extras)
-            values += tuple(extras.values())
-        else:
-            fmt = self._formats[()]
-        return fmt % values if math.isfinite(sum(values)) else self._with_nulls(values, extras)
-
-    def _format(self, extras: Mapping[str, float]) -> str:
-        """The %-format of a state message with these extras names (cached per name tuple)."""
-        names = tuple(extras)
-        for name in names:
-            if not isinstance(name, str) or not name:
-                raise InputError(f"{self._where}extras: names must be non-empty text ({name!r})")
-        fields = ",".join(f"{json.dumps(name)}:%.{DIGITS}g" for name in names)
-        fmt = self._formats[names] = "{" + self._head + ',"extras":{' + fields + "}}"
-        return fmt
-
-    def _with_nulls(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
-        """The state message when some value is not finite (written as null)."""
-        nums = [number_text(float(x)) for x in values]
-        body = ",".join(f'"{k}":{n}' for k, n in zip(self._keys, nums, strict=False))
-        names = tuple(extras or ())
-        more = ",".join(
-            f"{json.dumps(k)}:{n}" for k, n in zip(names, nums[len(self._keys) :], strict=True)
-        )
-        return "{" + body + ',"extras":{' + more + "}}"
 
 
 # ---------------------------------------------------------------------------------------------

@@ -8,8 +8,10 @@ Topics (names in :mod:`replay.record.topics`; Foxglove schemas are the protobuf 
     /map/terrain             foxglove.SceneUpdate      terrain mesh coloured by height
     /vehicle/pose            foxglove.PoseInFrame      vehicle pose in ``map``
     /vehicle/state           terrapath.VehicleState    12 states, airspeed, alpha, beta, controls, extras
+                                                       (protobuf; recording format 2)
     /vehicle/fix             foxglove.LocationFix      WGS84 position (only with ``to_lonlat``)
-    /vehicle/separation      terrapath.Separation      nearest threat and zone, margin (batches: later in the file)
+    /vehicle/separation      terrapath.Separation      nearest threat and zone, margin, where they change
+                                                       (batches: later in the file)
     /vehicle/track           foxglove.SceneUpdate      track flown since the last overview
     /vehicle/track_overview  foxglove.SceneUpdate      whole track so far (decimated)
     /mission/waypoints       foxglove.SceneUpdate      waypoint line strip, spheres and labels
@@ -36,14 +38,17 @@ Conventions:
   to it.  ``world`` is the map CRS itself, published as a *child* of ``map`` (translation
   ``-map_origin``) so that ``map`` stays the root of the frame tree, the frame Foxglove displays by
   default: a display frame at CRS coordinates (millions of metres) would jitter in float32.
-  ``base_link`` is the vehicle (x forward, y left, z up).  The JSON messages keep absolute map
-  coordinates: ``/vehicle/state`` to ``DIGITS`` (12, :mod:`replay.record.encoding`) significant digits
-  (1e-5 m at 10,000 km; 17 would round-trip exactly but costs twice as much to format), the
-  events in full.
+  ``base_link`` is the vehicle (x forward, y left, z up).  ``/vehicle/state`` keeps absolute map
+  coordinates (``pn``, ``pe``, ``pd``, ``alt`` as doubles; the other numbers float32: the
+  protobuf schema ``terrapath.VehicleState`` of :mod:`replay.record.messages`), the JSON events
+  too, in full.
 - **Rates**: :meth:`RunRecorder.write_state` may be called at any rate (e.g. every 100 Hz step): the
   *recorder* drops the calls between ticks of ``log_rate_hz`` (a sample is written for the first
   call at or after each tick ``k / log_rate_hz``; ``force=True`` writes anyway) and returns whether
-  it wrote.  The track is sampled from the written states at ``track_rate_hz``; the overview is
+  it wrote; :meth:`RunRecorder.write_states` takes a flight log's samples at once (what the
+  simulation uses), and the samples are encoded in batches (``STATE_BATCH``) with numpy
+  (:mod:`replay.record.samples`), so their messages come later in the file than the events of
+  their time.  The track is sampled from the written states at ``track_rate_hz``; the overview is
   re-published every ``track_overview_s``.  Moving threats are likewise re-drawn at most at
   ``log_rate_hz``; appearances and removals, waypoint changes, detections, decisions and logs are
   written when they happen.
@@ -500,11 +505,12 @@ class RunRecorder:
         names: dict[str, None] = {}
         for p in pending:
             names.update(dict.fromkeys(p[3]))
-        extras = {}
+        extras: dict[str, tuple[FloatArray, npt.NDArray[np.bool_]]] = {}
         for name in names:
             parts = [p[3].get(name) for p in pending]
             if all(a is not None for a in parts):
-                extras[name] = (np.concatenate(parts)[rows], np.ones(len(rows), dtype=bool))
+                whole = np.concatenate([a for a in parts if a is not None])
+                extras[name] = (whole[rows], np.ones(len(rows), dtype=bool))
                 continue
             values = np.full(len(t), np.nan)
             present = np.zeros(len(t), dtype=bool)

@@ -61,7 +61,7 @@ def varints(values: npt.ArrayLike, width: int = 10) -> tuple[U8, I64]:
 
 class Rows:
     """K messages of one layout being built (module docstring).  Each method appends a field to
-    every row; :meth:`bytes` gives the messages' bytes and lengths."""
+    every row; :meth:`messages` gives the messages' bytes and lengths."""
 
     def __init__(self, k: int) -> None:
         self.k = k
@@ -104,9 +104,8 @@ class Rows:
         only), a boolean array where false (proto2 optional: absent), None writes it always."""
         v = np.ascontiguousarray(values, dtype="<f8").reshape(self.k)
         raw = v.view(np.uint8).reshape(self.k, 8)
-        if isinstance(keep, str):
-            keep = v.view(np.uint64) != 0
-        return self._fixed(field, _WIRE_I64, raw, keep)
+        mask = v.view(np.uint64) != 0 if isinstance(keep, str) else keep
+        return self._fixed(field, _WIRE_I64, raw, mask)
 
     def float32(
         self, field: int, values: npt.ArrayLike, keep: npt.NDArray[np.bool_] | None = None
@@ -154,7 +153,7 @@ class Rows:
         sec, nsec = np.divmod(np.asarray(ns, dtype=np.int64), 1_000_000_000)
         return self.message(field, Rows(self.k).uint(1, sec).uint(2, nsec))
 
-    def bytes(self) -> tuple[bytes, I64]:
+    def messages(self) -> tuple[bytes, I64]:
         """The K messages one after the other, and the length of each."""
         return _compact(self.parts, self.k), self.lengths()
 
