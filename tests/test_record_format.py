@@ -445,3 +445,14 @@ def test_thinned_separations_keep_minima_violations_and_bands(
             assert abs(a - b) <= 1.01 * (BAND_ABS_M + BAND_REL * max(abs(a), abs(b))) + 0.01
     # at least one every 10 s
     assert np.diff(ns[rows]).max() <= 10 * 10**9
+
+
+def test_entity_head_is_the_bytes_of_serialize_to_string() -> None:
+    from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
+
+    from replay.record.encoding import entity_head
+
+    for ns in awkward_times(np.random.default_rng(4), 50).tolist():
+        e = SceneEntity(frame_id="map", id="track/recent")
+        e.timestamp.seconds, e.timestamp.nanos = divmod(ns, 10**9)
+        assert entity_head(ns, "map", "track/recent") == e.SerializeToString()

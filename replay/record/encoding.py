@@ -90,6 +90,20 @@ def _row_template(field: int, k: int) -> npt.NDArray[np.uint8]:
     return np.array(row, dtype=np.uint8)
 
 
+@functools.cache
+def _entity_tail(frame_id: str, ident: str) -> bytes:
+    return SceneEntity(frame_id=frame_id, id=ident).SerializeToString()
+
+
+def entity_head(ns: int, frame_id: str, ident: str) -> bytes:
+    """``SceneEntity(timestamp=ns, frame_id=frame_id, id=ident).SerializeToString()`` (ns >= 0
+    integer nanoseconds), without building the message (it is written once a second for the
+    track and for each radar scan)."""
+    sec, nsec = divmod(ns, 1_000_000_000)
+    stamp = (b"\x08" + _varint(sec) if sec else b"") + (b"\x10" + _varint(nsec) if nsec else b"")
+    return b"\x0a" + _varint(len(stamp)) + stamp + _entity_tail(frame_id, ident)
+
+
 def packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
     return ld(field, np.ascontiguousarray(values, dtype="<u4").tobytes())
 
@@ -145,6 +159,8 @@ def _check_wire_layout() -> None:
         for j, name in enumerate("xyz"):
             if number(msg, name, 1) != j + 1:
                 raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
+    if (number(SceneEntity, "timestamp"), number(SceneEntity, "frame_id")) != (1, 2):
+        raise ImportError("unexpected field numbers for foxglove.SceneEntity")
     if (number(Pose, "position"), number(Pose, "orientation")) != (1, 2) or number(
         SpherePrimitive, "pose"
     ) >= min(number(SpherePrimitive, "size"), number(SpherePrimitive, "color")):

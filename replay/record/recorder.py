@@ -129,6 +129,7 @@ from replay.record.encoding import (
     ScanEncoder,
     doubles_messages,
     dumps,
+    entity_head,
     jsonable,
     ld,
     packed_fixed32,
@@ -572,7 +573,7 @@ class RunRecorder:
                 self._recent_from = n - 1
             if n - self._recent_from >= 2:
                 line = head + self._track_bytes[self._recent_from * size : n * size]
-                entity = self._entity(t_ns, "track/recent").SerializeToString()
+                entity = entity_head(t_ns, T.MAP_FRAME, "track/recent")
                 self._emit(
                     T.VEHICLE_TRACK, t_ns, ld(UPDATE_ENTITIES, entity + ld(ENTITY_LINES, line))
                 )
@@ -588,7 +589,7 @@ class RunRecorder:
         segments: bool = False,
     ) -> None:
         line = line_head(rgba, segments=segments) + doubles_messages(LINE_POINTS, pts)
-        entity = self._entity(ns, ident).SerializeToString() + ld(ENTITY_LINES, line)
+        entity = entity_head(ns, T.MAP_FRAME, ident) + ld(ENTITY_LINES, line)
         self._emit(topic, ns, ld(UPDATE_ENTITIES, entity))
 
     def _entity(self, ns: int, ident: str, **fields: Any) -> SceneEntity:
@@ -887,7 +888,7 @@ class RunRecorder:
                 f"shapes {e.shape} and {h.shape}"
             )
         rel = np.asarray(self.map_origin)
-        body = self._entity(ns, BEAMS_ENTITY).SerializeToString()
+        body = entity_head(ns, T.MAP_FRAME, BEAMS_ENTITY)
         for mask, rgba in ((h, (1.0, 0.15, 0.1, 1.0)), (~h, (0.2, 0.85, 0.3, 0.8))):
             if mask.any():
                 pairs = np.empty((2 * int(mask.sum()), 3))
@@ -902,7 +903,7 @@ class RunRecorder:
 
     def _write_markers(self, ns: int, positions: list[list[float]], tails: list[bytes]) -> None:
         """The scene update of one scan: a sphere at each position (map CRS metres)."""
-        entity = self._entity(ns, "detections").SerializeToString()
+        entity = entity_head(ns, T.MAP_FRAME, "detections")
         self._emit(T.DETECTIONS, ns, self._scan.markers(entity, positions, tails))
 
     # -- events ------------------------------------------------------------------------------
