@@ -531,8 +531,8 @@ class RunRecorder:
         self._last_state = max(self._last_state, last)
         sink = self._require()
         xyz, records = sample_records(batch, self._channels, self.map_origin, self._to_lonlat)
-        for channel, data, lengths in records:
-            sink.add_records(channel, batch.ns, data, lengths)
+        for channel, data, lengths, times in records:
+            sink.add_records(channel, times, data, lengths)
         if last > self._t_max:
             self._t_max = last
         self.samples_written += len(rows)

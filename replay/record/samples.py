@@ -188,10 +188,10 @@ def sample_records(
     channels: Mapping[str, int],
     origin: Sequence[float],
     to_lonlat: LonLat | None,
-) -> tuple[FloatArray, list[tuple[int, bytes, I64]]]:
-    """The positions (K, 3) relative to the map origin, and the (channel, records, lengths) of
-    the samples' ``/tf``, ``/vehicle/pose``, ``/vehicle/state`` (and ``/vehicle/fix`` with
-    ``to_lonlat``)."""
+) -> tuple[FloatArray, list[tuple[int, bytes, I64, I64]]]:
+    """The positions (K, 3) relative to the map origin, and the (channel, records, lengths,
+    log times) of the samples' ``/tf``, ``/vehicle/pose``, ``/vehicle/state`` (and
+    ``/vehicle/fix`` with ``to_lonlat``), each in the order of its records."""
     s = b.states
     ox, oy, oz = (float(v) for v in origin)
     xyz = np.stack([s[:, 1] - ox, s[:, 0] - oy, -s[:, 2] - oz], axis=1)

@@ -157,9 +157,11 @@ class Rows:
         """The K messages one after the other, and the length of each."""
         return _compact(self.parts, self.k), self.lengths()
 
-    def records(self, channel: int, log_ns: I64) -> tuple[bytes, I64]:
+    def records(self, channel: int, log_ns: I64) -> tuple[bytes, I64, I64]:
         """The K messages framed as MCAP message records of ``channel`` at ``log_ns`` (also the
-        publish time), one after the other, and each record's length."""
+        publish time), one after the other -- grouped by layout (rows whose varints are as long
+        are copied together), not in row order -- each record's length and log time in the
+        order written."""
         body = self.lengths()
         t = np.ascontiguousarray(log_ns, dtype="<u8").view(np.uint8).reshape(self.k, 8)
         length = np.ascontiguousarray(body + _MESSAGE_HEAD, dtype="<u8")
@@ -170,7 +172,8 @@ class Rows:
             (t, None),
             (t, None),
         ]
-        return _compact(head + self.parts, self.k), body + 9 + _MESSAGE_HEAD
+        data, order = _compact_grouped(head + self.parts, self.k)
+        return data, (body + 9 + _MESSAGE_HEAD)[order], np.asarray(log_ns)[order]
 
 
 @functools.cache
@@ -189,6 +192,36 @@ def _compact(parts: list[tuple[U8, I64 | None]], k: int) -> bytes:
         for data, n in parts
     ]
     return bytes(wide[np.concatenate(masks, axis=1)].tobytes())
+
+
+def _compact_grouped(parts: list[tuple[U8, I64 | None]], k: int) -> tuple[bytes, I64]:
+    """The rows' bytes (as :func:`_compact`) written group by group of rows with the same
+    lengths in every part (a column selection each, cheaper than one boolean mask over all),
+    and the order of the rows written."""
+    wide = np.concatenate([data for data, _ in parts], axis=1)
+    varying = [(j, n) for j, (_, n) in enumerate(parts) if n is not None]
+    if not varying:
+        return wide.tobytes(), np.arange(k)
+    sizes = np.stack([n for _, n in varying], axis=1)  # (K, V), each 0..10 (< 16)
+    key = sizes @ (16 ** np.arange(sizes.shape[1], dtype=np.int64))
+    _, first, group = np.unique(key, return_index=True, return_inverse=True)
+    patterns = sizes[first]
+    group = group.reshape(-1)
+    starts = np.cumsum([0] + [data.shape[1] for data, _ in parts])
+    pieces, orders = [], []
+    for g, pattern in enumerate(patterns):
+        cols: list[npt.NDArray[np.int64]] = []
+        v = 0
+        for j, (_, n) in enumerate(parts):
+            if n is None:
+                cols.append(np.arange(starts[j], starts[j + 1]))
+            else:
+                cols.append(np.arange(starts[j], starts[j] + int(pattern[v])))
+                v += 1
+        rows = np.flatnonzero(group == g) if len(patterns) > 1 else np.arange(k)
+        pieces.append(wide[rows][:, np.concatenate(cols)].tobytes())
+        orders.append(rows)
+    return b"".join(pieces), np.concatenate(orders).astype(np.int64)
 
 
 __all__ = ["Rows", "tag", "varint", "varints"]
