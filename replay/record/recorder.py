@@ -498,11 +498,11 @@ class RunRecorder:
         first[0] = True
         first[1:] = tick[1:] != tick[:-1]
         due = first & (tick > self._next_state // period - 1)
-        forced = np.concatenate([np.full(len(p[0]), p[4]) for p in pending])
-        rows = np.flatnonzero(due | forced)
+        offsets = np.cumsum([0] + [len(p[0]) for p in pending])
+        due[[int(a) for p, a in zip(pending, offsets[:-1], strict=True) if p[4]]] = True
+        rows = np.flatnonzero(due)  # (forced samples are single ones, written)
         if not len(rows):
             return
-        offsets = np.cumsum([0] + [len(p[0]) for p in pending])
         names: dict[str, None] = {}
         for p in pending:
             names.update(dict.fromkeys(p[3]))
