@@ -456,3 +456,21 @@ def test_entity_head_is_the_bytes_of_serialize_to_string() -> None:
         e = SceneEntity(frame_id="map", id="track/recent")
         e.timestamp.seconds, e.timestamp.nanos = divmod(ns, 10**9)
         assert entity_head(ns, "map", "track/recent") == e.SerializeToString()
+
+
+def test_records_frame_each_message_once() -> None:
+    """``Rows.records``: MCAP message records (opcode, length, channel, sequence 0, log and
+    publish time) of every message, grouped by layout; lengths and times in that order."""
+    import struct
+
+    rng = np.random.default_rng(5)
+    k = 500
+    ns = awkward_times(rng, k)
+    tf, _ = pose_rows(ns, awkward_values(rng, k, 3), awkward_values(rng, k, 4))
+    want = dict(zip(ns.tolist(), split(*tf.messages()), strict=True))
+    data, lengths, times = tf.records(7, ns)
+    assert sorted(times.tolist()) == sorted(ns.tolist()) and len(data) == lengths.sum()
+    for record, t in zip(split(data, lengths), times.tolist(), strict=True):
+        op, size, channel, seq, log, pub = struct.unpack_from("<BQHIQQ", record)
+        assert (op, size, channel, seq, log, pub) == (5, len(record) - 9, 7, 0, t, t)
+        assert record[31:] == want[t]
