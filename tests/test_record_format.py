@@ -325,6 +325,14 @@ def test_inspect_reads_format_1(capsys: pytest.CaptureFixture[str]) -> None:
     assert out["samples"] == 200 and out["topics"][T.VEHICLE_STATE] == 200
 
 
+def test_view_reads_format_1(tmp_path: Path) -> None:
+    from terrapath.cli import main
+
+    out = tmp_path / "view.html"
+    assert main(["view", str(DATA / "run-format1.mcap"), "-o", str(out)]) in (0, None)
+    assert out.stat().st_size > 100_000 and "run-format1" in out.read_text(encoding="utf-8")
+
+
 def test_unknown_format_is_refused(tmp_path: Path) -> None:
     from terrain.errors import DataFileError
 
