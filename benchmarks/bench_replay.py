@@ -41,6 +41,7 @@ MISSION = ROOT / "data" / "missions" / "seed000-table4.yaml"
 def bench_empty() -> None:
     request = ReplayRequest.of(str(MISSION), seed=0, command="bench_replay")
     run_replay(request.but(duration=5.0))  # JIT warm-up
+    load_before = _load()
     t = time.perf_counter()
     bare = run_replay(request)
     t_bare = time.perf_counter() - t
@@ -68,6 +69,7 @@ def bench_empty() -> None:
                 f"{t_bare:.1f} s ({bare.metrics.flight_time_s / t_bare:.0f}x real time)",
                 "",
             ),
+            ("wall with MCAP / without (this run)", f"{t_rec / t_bare:.3f}", "<= 1.3 (issue 38)"),
             (
                 "MCAP size",
                 f"{size / 2**20:.1f} MiB ({size / len(run.times):.0f} B per state sample)",
@@ -75,7 +77,9 @@ def bench_empty() -> None:
             ),
             ("read back (load_run, CRC checked)", f"{t_read:.1f} s, {len(run.times)} samples", ""),
         ],
-        notes="solar-uav preset, RK4 at 100 Hz with the autopilot in the compiled loop",
+        notes="solar-uav preset, RK4 at 100 Hz with the autopilot in the compiled loop; the run "
+        f"without recording, then with; load average (1/5/15 min) {load_before} before, "
+        f"{_load()} after",
     )
 
 

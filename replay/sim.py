@@ -990,22 +990,22 @@ def _record_samples(
     used: FloatArray | None = None,
     capacity: float = 0.0,
 ) -> None:
-    """The tick's states at the recording rate, with the guidance and the air's velocity at
-    each (``wind`` (K, 3): ``wind_n``, ``wind_e``, ``wind_d`` m/s NED, gusts included, when the
-    run has wind), and what the source has given (``used`` (K,): ``energy_used`` in Wh of
-    battery or kg of fuel; with a ``capacity``, ``energy_left`` the share left, 0..1)."""
-    for i, tk in enumerate(log.times):
-        if not recorder.state_due(float(tk)):
-            continue
-        extras = {name: float(log.guidance[i, j]) for j, name in enumerate(GUIDANCE_COLUMNS)}
-        extras["next_index"] = float(log.next_index[i])
-        if wind is not None:
-            extras["wind_n"], extras["wind_e"], extras["wind_d"] = (float(v) for v in wind[i])
-        if used is not None:
-            extras["energy_used"] = float(used[i])
-            if capacity > 0:
-                extras["energy_left"] = 1.0 - float(used[i]) / capacity
-        recorder.write_state(float(tk), log.states[i], log.controls[i], extras)
+    """The tick's states (the recorder keeps those at its rate), with the guidance and the
+    air's velocity at each (``wind`` (K, 3): ``wind_n``, ``wind_e``, ``wind_d`` m/s NED, gusts
+    included, when the run has wind), and what the source has given (``used`` (K,):
+    ``energy_used`` in Wh of battery or kg of fuel; with a ``capacity``, ``energy_left`` the
+    share left, 0..1): one call, as columns."""
+    extras: dict[str, npt.NDArray[Any]] = {
+        name: log.guidance[:, j] for j, name in enumerate(GUIDANCE_COLUMNS)
+    }
+    extras["next_index"] = log.next_index
+    if wind is not None:
+        extras["wind_n"], extras["wind_e"], extras["wind_d"] = wind[:, 0], wind[:, 1], wind[:, 2]
+    if used is not None:
+        extras["energy_used"] = used
+        if capacity > 0:
+            extras["energy_left"] = 1.0 - used / capacity
+    recorder.write_states(log.times, log.states, log.controls, extras)
 
 
 RECORDED_TERRAIN_RETURNS = 48  # the nearest terrain returns of a scan that go into the MCAP

@@ -26,7 +26,7 @@ from mcap.writer import Writer
 
 from replay.frames import quaternion_map_from_euler
 from replay.record import topics as T
-from replay.record.encoding import DIGITS
+from replay.record.messages import VehicleState
 from replay.record.reader import load_run, summary
 from replay.record.recorder import RunRecorder
 from replay.record.scene import decimate_mesh, quaternion_map, superellipsoid_mesh
@@ -40,6 +40,7 @@ FOXGLOVE: dict[str, Any] = {
     T.LOCATION_FIX: LocationFix,
     T.SCENE_UPDATE: SceneUpdate,
     T.LOG_SCHEMA: Log,
+    T.STATE_SCHEMA: VehicleState,  # terrapath's own protobuf schema (format 2)
 }
 
 
@@ -201,9 +202,15 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]
     return path, record(path)
 
 
-def rounded(a: np.ndarray) -> np.ndarray:
-    """What /vehicle/state keeps of a value (DIGITS significant digits)."""
-    return np.vectorize(lambda x: float(f"{x:.{DIGITS}g}"))(a)
+def f32(a: Any) -> np.ndarray:
+    """What /vehicle/state keeps of a float32 field: the value rounded to float32."""
+    return np.asarray(a, dtype=np.float64).astype(np.float32).astype(np.float64)
+
+
+def kept_states(states: np.ndarray) -> np.ndarray:
+    """What /vehicle/state keeps of states (K, 12): pn, pe, pd as they are (doubles), the rest
+    rounded to float32."""
+    return np.column_stack([states[:, :3], f32(states[:, 3:])])
 
 
 def messages(path: Path) -> list[tuple[Any, Any, Any]]:
@@ -224,11 +231,13 @@ def test_round_trip(run: tuple[Path, dict[str, Any]]) -> None:
     assert rec.times_ns.dtype == np.int64
     assert np.array_equal(rec.times_ns, np.arange(600, dtype=np.int64) * 100_000_000)
     expected = np.array([circle_state(x) for x in t])
-    assert np.array_equal(rec.states, rounded(expected))
-    assert np.allclose(rec.states, expected, rtol=1e-11, atol=0)
-    assert np.array_equal(rec.controls, rounded(np.array([controls(x) for x in t])))
+    assert np.array_equal(rec.states, kept_states(expected))
+    assert np.allclose(rec.states, expected, rtol=2**-24, atol=0)  # float32's half ulp
+    assert np.array_equal(rec.controls, f32(np.array([controls(x) for x in t])))
     assert sorted(rec.extras) == ["course_cmd", "leg", "xte"]
-    assert np.array_equal(rec.extras["xte"], rounded(np.sin(t)))
+    # xte and leg are not fields of VehicleState.extras: extras.other, doubles
+    assert np.array_equal(rec.extras["xte"], np.sin(t))
+    assert np.array_equal(rec.extras["course_cmd"], f32(0.1 * t))
     assert np.array_equal(rec.extras["leg"], (ks // 2000).astype(float))
 
     assert [(w.t_ns, w.reason, w.active_index) for w in rec.waypoints] == [
@@ -337,7 +346,7 @@ def test_schemas_are_the_foxglove_ones(run: tuple[Path, dict[str, Any]]) -> None
     assert set(by_topic) == set(T.SCHEMAS)
     for topic, (channel, schema) in by_topic.items():
         assert schema.name == T.SCHEMAS[topic]
-        if schema.name.startswith("foxglove."):
+        if schema.name in FOXGLOVE:
             assert (schema.encoding, channel.message_encoding) == ("protobuf", "protobuf")
             fds = descriptor_pb2.FileDescriptorSet.FromString(schema.data)
             pool = descriptor_pool.DescriptorPool()
@@ -432,16 +441,22 @@ def test_messages_decode_with_foxglove_classes(run: tuple[Path, dict[str, Any]])
     assert len(wp.entities[0].spheres) == 2 and len(wp.entities[0].lines[0].points) == 2
     levels = [Log.Level.Name(m.level) for _, m in seen[T.LOG]]
     assert levels == ["WARNING", "INFO", "ERROR"]
-    for _, doc in seen[T.VEHICLE_STATE]:
-        assert set(doc) == {
-            *T.STATE_FIELDS,
-            *T.CONTROL_FIELDS,
-            "alt",
-            "airspeed",
-            "alpha",
-            "beta",
-            "extras",
-        }
+    # every state field is the sample's: map coordinates exactly, the rest to float32
+    assert len(seen[T.VEHICLE_STATE]) == 600
+    for ns, msg in seen[T.VEHICLE_STATE]:
+        t = ns / 1e9
+        s, c = circle_state(t), controls(t)
+        assert all(msg.HasField(k) for k in (*T.STATE_FIELDS, *T.CONTROL_FIELDS, "alt"))
+        assert (msg.pn, msg.pe, msg.pd, msg.alt) == (s[0], s[1], s[2], -s[2])
+        assert [getattr(msg, k) for k in T.STATE_FIELDS[3:]] == f32(s[3:]).tolist()
+        assert [getattr(msg, k) for k in T.CONTROL_FIELDS] == f32(c).tolist()
+        va = math.sqrt(s[3] ** 2 + s[4] ** 2 + s[5] ** 2)
+        air = [va, math.atan2(s[5], s[3]), math.asin(s[4] / va)]
+        assert np.allclose([msg.airspeed, msg.alpha, msg.beta], air, rtol=2**-23, atol=0)
+        assert msg.extras.course_cmd == f32(0.1 * t)
+        assert [f.name for f, _ in msg.extras.ListFields()] == ["course_cmd", "other"]
+        other = {e.name: e.value for e in msg.extras.other}
+        assert other == {"xte": math.sin(t), "leg": float(round(t * 100) // 2000)}
 
 
 def test_indexes_point_at_their_messages(run: tuple[Path, dict[str, Any]]) -> None:
@@ -692,7 +707,8 @@ def test_bad_inputs(tmp_path: Path) -> None:
         RunRecorder(tmp_path / "x.mcap", compression="gzip")
 
 
-def test_non_finite_values_become_null(tmp_path: Path) -> None:
+def test_non_finite_values_are_kept(tmp_path: Path) -> None:
+    """Format 2 writes an infinity or NaN as it is (format 1 wrote null, read as NaN)."""
     path = tmp_path / "run.mcap"
     state = circle_state(0.0)
     state[4] = float("inf")
@@ -700,7 +716,7 @@ def test_non_finite_values_become_null(tmp_path: Path) -> None:
         rec.write_state(0.0, state, controls(0.0), {"xte": float("nan"), "leg": 1})
         rec.write_state(0.1, circle_state(0.1), controls(0.1), {"leg": 1})
     r = load_run(path)
-    assert np.isnan(r.states[0, 4]) and r.states[0, 0] == rounded(state[:1])[0]
+    assert np.isinf(r.states[0, 4]) and r.states[0, 0] == state[0]
     assert np.isnan(r.extras["xte"]).all() and np.array_equal(r.extras["leg"], [1.0, 1.0])
 
 

@@ -30,6 +30,14 @@ class Recorder(Protocol):
         force: bool = False,
     ) -> bool: ...
 
+    def write_states(
+        self,
+        ts: npt.ArrayLike,
+        states: npt.ArrayLike,
+        controls: npt.ArrayLike,
+        extras: Mapping[str, npt.ArrayLike] | None = None,
+    ) -> None: ...
+
     def write_waypoints(
         self, t: float, waypoints: npt.ArrayLike, reason: str, active_index: int = 0
     ) -> None: ...

@@ -2,7 +2,7 @@
 
 What a message says is decided by :mod:`replay.record.recorder`; here it is encoded, with the bytes the
 general encoders (protobuf's ``SerializeToString``, ``json``) would give, by hand where a message is
-large or frequent:
+large or frequent (the vehicle's samples, many at once: :mod:`replay.record.samples`):
 
 - **protobuf wire format** for large arrays (terrain, track, detection markers), written with numpy
   and struct (:func:`ld`, :func:`doubles_messages`, :func:`packed_fixed32`, :func:`sphere_field`);
@@ -10,7 +10,6 @@ large or frequent:
   against, the installed foxglove schemas at import;
 - **JSON**: plain JSON data from numpy values (:func:`jsonable`; NaN and infinities become
   ``null``), compact encoding (:func:`dumps`), numbers to ``DIGITS`` significant digits;
-- the **vehicle state** text, one %-format per set of extras names (:class:`StateText`);
 - a **radar scan**, its marker scene update and its detection list, with the encoded pieces of
   repeated detections kept (:class:`ScanEncoder`; bounded memos).
 """
@@ -37,13 +36,8 @@ from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
-from terrain.errors import InputError
-
 FloatArray = npt.NDArray[np.float64]
 
-# significant digits of the numbers in /vehicle/state: 1e-5 m at 10,000 km; formatting 17 (exact
-# round trip) costs twice as much, and this message is written 288,000 times in an 8-hour mission
-DIGITS = 12
 MEMO_SIZE = 50_000  # encoded detections kept (a few MB), cleared when full
 
 # ---------------------------------------------------------------------------------------------
@@ -94,6 +88,20 @@ def _row_template(field: int, k: int) -> npt.NDArray[np.uint8]:
     for j in range(k):
         row += [(j + 1) << 3 | _WIRE_DOUBLE] + [0] * 8
     return np.array(row, dtype=np.uint8)
+
+
+@functools.cache
+def _entity_tail(frame_id: str, ident: str) -> bytes:
+    return SceneEntity(frame_id=frame_id, id=ident).SerializeToString()
+
+
+def entity_head(ns: int, frame_id: str, ident: str) -> bytes:
+    """``SceneEntity(timestamp=ns, frame_id=frame_id, id=ident).SerializeToString()`` (ns >= 0
+    integer nanoseconds), without building the message (it is written once a second for the
+    track and for each radar scan)."""
+    sec, nsec = divmod(ns, 1_000_000_000)
+    stamp = (b"\x08" + _varint(sec) if sec else b"") + (b"\x10" + _varint(nsec) if nsec else b"")
+    return b"\x0a" + _varint(len(stamp)) + stamp + _entity_tail(frame_id, ident)
 
 
 def packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
@@ -151,6 +159,8 @@ def _check_wire_layout() -> None:
         for j, name in enumerate("xyz"):
             if number(msg, name, 1) != j + 1:
                 raise ImportError(f"unexpected field number for {msg.DESCRIPTOR.full_name}.{name}")
+    if (number(SceneEntity, "timestamp"), number(SceneEntity, "frame_id")) != (1, 2):
+        raise ImportError("unexpected field numbers for foxglove.SceneEntity")
     if (number(Pose, "position"), number(Pose, "orientation")) != (1, 2) or number(
         SpherePrimitive, "pose"
     ) >= min(number(SpherePrimitive, "size"), number(SpherePrimitive, "color")):
@@ -204,58 +214,6 @@ _JSON = json.JSONEncoder(separators=(",", ":"), allow_nan=False)  # json.dumps w
 def dumps(value: Any) -> bytes:
     """Compact JSON bytes (NaN and infinities refused: pass :func:`jsonable` data)."""
     return _JSON.encode(value).encode()
-
-
-def number_text(x: float) -> str:
-    """A number as the state message writes it: ``DIGITS`` significant digits, ``null`` if not finite."""
-    return f"{x:.{DIGITS}g}" if math.isfinite(x) else "null"
-
-
-# ---------------------------------------------------------------------------------------------
-# the vehicle state
-
-
-class StateText:
-    """The JSON text of a state message: ``keys`` (the fixed numbers, in order) then ``extras``
-    (name -> number), each number to ``DIGITS`` significant digits.  One %-format is kept per
-    tuple of extras names; a message with a value that is not finite writes it as ``null``.
-    ``where`` prefixes error messages (the file)."""
-
-    def __init__(self, keys: Sequence[str], where: str = "") -> None:
-        self._keys = tuple(keys)
-        self._where = where
-        self._head = ",".join(f'"{k}":%.{DIGITS}g' for k in self._keys)
-        self._formats: dict[tuple[str, ...], str] = {(): "{" + self._head + ',"extras":{}}'}
-
-    def text(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
-        """The message for ``values`` (one per key) and ``extras``; a value that is not a number
-        raises TypeError, an extras name that is not text InputError."""
-        if extras:
-            fmt = self._formats.get(tuple(extras)) or self._format(extras)
-            values += tuple(extras.values())
-        else:
-            fmt = self._formats[()]
-        return fmt % values if math.isfinite(sum(values)) else self._with_nulls(values, extras)
-
-    def _format(self, extras: Mapping[str, float]) -> str:
-        """The %-format of a state message with these extras names (cached per name tuple)."""
-        names = tuple(extras)
-        for name in names:
-            if not isinstance(name, str) or not name:
-                raise InputError(f"{self._where}extras: names must be non-empty text ({name!r})")
-        fields = ",".join(f"{json.dumps(name)}:%.{DIGITS}g" for name in names)
-        fmt = self._formats[names] = "{" + self._head + ',"extras":{' + fields + "}}"
-        return fmt
-
-    def _with_nulls(self, values: tuple[Any, ...], extras: Mapping[str, float] | None) -> str:
-        """The state message when some value is not finite (written as null)."""
-        nums = [number_text(float(x)) for x in values]
-        body = ",".join(f'"{k}":{n}' for k, n in zip(self._keys, nums, strict=False))
-        names = tuple(extras or ())
-        more = ",".join(
-            f"{json.dumps(k)}:{n}" for k, n in zip(names, nums[len(self._keys) :], strict=True)
-        )
-        return "{" + body + ',"extras":{' + more + "}}"
 
 
 # ---------------------------------------------------------------------------------------------

@@ -8,8 +8,10 @@ The layout (Foxglove's layout JSON: ``configById`` -- each panel's settings unde
   the mission's waypoints, the flown track, the radar's detections and the avoider's orbits
   visible (:data:`SCENE_TOPICS`);
 - **plots** from ``/vehicle/state``: altitude and its command, airspeed and its command, bank and
-  its command (radians, as recorded); from ``/vehicle/separation``: the separation from the
-  nearest active threat and from the nearest danger zone against the run's margin;
+  its command (radians, as recorded; the protobuf field names of ``terrapath.VehicleState`` since
+  recording format 2, the same paths as format 1's JSON keys); from ``/vehicle/separation``: the
+  separation from the nearest active threat and from the nearest danger zone against the run's
+  margin (written where it changes: Foxglove draws the line between the samples);
 - a **raw messages** panel on ``/avoidance/decision``: each decision with its inputs, its
   command and its compute time.
 

@@ -1,9 +1,11 @@
 """What each message of a recorded run contains: the schemas of the channels and the checks of the
 caller's threat and detection dicts (the content side of :mod:`replay.record.recorder`).
 
-- ``PROTOBUF_CLASSES``: the foxglove protobuf class of each Foxglove schema (names in
-  :mod:`replay.record.topics`); ``JSON_SCHEMAS``: the JSON Schema of each ``terrapath.*`` schema, among
-  them the vehicle state's keys in order (``STATE_KEYS``, documented in ``STATE_DOCS``).
+- ``PROTOBUF_CLASSES``: the protobuf class of each protobuf schema (names in
+  :mod:`replay.record.topics`): the Foxglove ones, and ``terrapath.VehicleState`` (:data:`VehicleState`,
+  its descriptor built here: the vehicle state's keys in order, ``STATE_KEYS``, documented in
+  ``STATE_DOCS``, and the extras); ``JSON_SCHEMAS``: the JSON Schema of each JSON ``terrapath.*``
+  schema (the vehicle state's of recording format 1 is kept: ``STATE_JSON_SCHEMA``).
 - Threat and detection dicts (their shapes are described in the :mod:`replay.record.recorder` docstring)
   are checked and normalised to plain types (:func:`normalize_threat`,
   :func:`normalize_detection`); unknown keys are refused and errors are
@@ -22,6 +24,8 @@ from foxglove_schemas_protobuf.LocationFix_pb2 import LocationFix
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from google.protobuf.timestamp_pb2 import Timestamp
 
 from replay.record import topics as T
 from terrain.errors import InputError
@@ -82,24 +86,122 @@ STATE_DOCS = {
     "delta_t": "throttle, 0..1",
 }
 STATE_KEYS = tuple(STATE_DOCS)
+STATE_DOUBLES = ("pn", "pe", "pd", "alt")  # map coordinates: doubles; the other keys float32
+# the extras the simulation writes (replay.sim): float32 fields of VehicleState.extras; any
+# other name goes to extras.other (name, double value)
+STATE_EXTRAS = (
+    "course_cmd",
+    "bank_cmd",
+    "altitude_cmd",
+    "climb_rate_cmd",
+    "pitch_cmd",
+    "airspeed_cmd",
+    "cross_track",
+    "along_track",
+    "distance_to_next",
+    "next_index",
+    "wind_n",
+    "wind_e",
+    "wind_d",
+    "energy_used",
+    "energy_left",
+)
+STATE_TIMESTAMP_FIELD = 1
+STATE_FIELD_NUMBERS = {k: i + 2 for i, k in enumerate(STATE_KEYS)}  # 2..21
+STATE_EXTRAS_FIELD = 22
+EXTRAS_FIELD_NUMBERS = {k: i + 1 for i, k in enumerate(STATE_EXTRAS)}  # 1..15
+EXTRAS_OTHER_FIELD = 16
+_D = descriptor_pb2.FieldDescriptorProto
+
+
+def _state_file() -> descriptor_pb2.FileDescriptorProto:
+    """terrapath/VehicleState.proto (proto2: every field optional with presence, so that an
+    absent extra reads as absent, not 0)::
+
+        message VehicleState {
+          google.protobuf.Timestamp timestamp = 1;
+          double pn = 2; double pe = 3; double pd = 4; double alt = 5;
+          float u = 6; ... float delta_t = 21;      // STATE_KEYS in order
+          Extras extras = 22;
+          message Extras {
+            float course_cmd = 1; ... float energy_left = 15;   // STATE_EXTRAS in order
+            repeated Extra other = 16;              // any other name
+            message Extra { string name = 1; double value = 2; }
+          }
+        }
+    """
+    f = descriptor_pb2.FileDescriptorProto(
+        name="terrapath/VehicleState.proto",
+        package="terrapath",
+        syntax="proto2",
+        dependency=[Timestamp.DESCRIPTOR.file.name],
+    )
+    opt = _D.LABEL_OPTIONAL
+    msg = f.message_type.add(name="VehicleState")
+    msg.field.add(
+        name="timestamp",
+        number=STATE_TIMESTAMP_FIELD,
+        label=opt,
+        type=_D.TYPE_MESSAGE,
+        type_name=".google.protobuf.Timestamp",
+    )
+    for key, number in STATE_FIELD_NUMBERS.items():
+        kind = _D.TYPE_DOUBLE if key in STATE_DOUBLES else _D.TYPE_FLOAT
+        msg.field.add(name=key, number=number, label=opt, type=kind)
+    msg.field.add(
+        name="extras",
+        number=STATE_EXTRAS_FIELD,
+        label=opt,
+        type=_D.TYPE_MESSAGE,
+        type_name=".terrapath.VehicleState.Extras",
+    )
+    extras = msg.nested_type.add(name="Extras")
+    for key, number in EXTRAS_FIELD_NUMBERS.items():
+        extras.field.add(name=key, number=number, label=opt, type=_D.TYPE_FLOAT)
+    extras.field.add(
+        name="other",
+        number=EXTRAS_OTHER_FIELD,
+        label=_D.LABEL_REPEATED,
+        type=_D.TYPE_MESSAGE,
+        type_name=".terrapath.VehicleState.Extras.Extra",
+    )
+    extra = extras.nested_type.add(name="Extra")
+    extra.field.add(name="name", number=1, label=opt, type=_D.TYPE_STRING)
+    extra.field.add(name="value", number=2, label=opt, type=_D.TYPE_DOUBLE)
+    return f
+
+
+def _state_class() -> Any:
+    pool = descriptor_pool.Default()
+    try:
+        desc = pool.FindMessageTypeByName(T.STATE_SCHEMA)
+    except KeyError:
+        pool.Add(_state_file())
+        desc = pool.FindMessageTypeByName(T.STATE_SCHEMA)
+    return message_factory.GetMessageClass(desc)
+
+
+VehicleState: Any = _state_class()  # the protobuf class of /vehicle/state (recording format 2)
 SEPARATION_DOCS = {
     "nearest_m": "separation from the surface of the nearest active threat, m (absent: none)",
     "zone_m": "separation from the nearest danger zone of the mission, m (absent: none)",
     "margin_m": "the run's success margin, m (a separation below it is a violation)",
 }
-JSON_SCHEMAS: dict[str, dict[str, Any]] = {
-    T.STATE_SCHEMA: _object(
-        {
-            **{k: {**_NUM, "description": d} for k, d in STATE_DOCS.items()},
-            "extras": {
-                "type": "object",
-                "additionalProperties": _NUM,
-                "description": "caller's values: commanded course/altitude, cross-track error, leg...",
-            },
+# /vehicle/state of recording format 1 (JSON), which the reader still reads
+STATE_JSON_SCHEMA: dict[str, Any] = _object(
+    {
+        **{k: {**_NUM, "description": d} for k, d in STATE_DOCS.items()},
+        "extras": {
+            "type": "object",
+            "additionalProperties": _NUM,
+            "description": "caller's values: commanded course/altitude, cross-track error, leg...",
         },
-        T.STATE_SCHEMA,
-        STATE_KEYS,
-    ),
+    },
+    T.STATE_SCHEMA,
+    STATE_KEYS,
+)
+PROTOBUF_CLASSES[T.STATE_SCHEMA] = VehicleState
+JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     T.WAYPOINT_LIST_SCHEMA: _object(
         {
             "waypoints": {"type": "array", "items": _VEC3, "description": "map metres"},

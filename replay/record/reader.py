@@ -3,6 +3,7 @@
 The file is what :class:`replay.record.recorder.RunRecorder` writes (topics in :mod:`replay.record.topics`)::
 
     /vehicle/state           terrapath.VehicleState  -> RunRecord.times_ns, states, controls, extras
+                                                        (format 2: protobuf; format 1: JSON)
     /mission/waypoint_list   terrapath.WaypointList  -> RunRecord.waypoints (WaypointChange)
     /threats/list            terrapath.ThreatList    -> RunRecord.threats (ThreatUpdate)
     /radar/detection_list    terrapath.DetectionList -> RunRecord.detections (DetectionScan)
@@ -14,7 +15,10 @@ The file is what :class:`replay.record.recorder.RunRecorder` writes (topics in :
 
 The Foxglove display topics (``/tf``, ``/vehicle/pose``, ``/map/terrain``, the scene updates) are
 counted in ``topic_counts`` (from the summary statistics) but not decoded: what they show is in the
-JSON topics, which the recorder keeps in chunks of their own, so they are not even decompressed.
+data topics, which the recorder keeps in chunks of their own, so they are not even decompressed.
+
+Formats (the metadata's ``terrapath`` key, :data:`replay.record.topics.READABLE_FORMATS`): 1 wrote
+``/vehicle/state`` as JSON text, 2 as protobuf; both are read.
 
 Integrity: the whole file is checked before anything is believed -- the footer and closing magic
 must be there, the data-section CRC (which also covers attachments and metadata) and the summary
@@ -29,8 +33,10 @@ from __future__ import annotations
 import io
 import json
 import math
+import operator
 import struct
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from os import PathLike
 from typing import IO, Any
@@ -287,10 +293,10 @@ def _read(
             f"{name!r}: not a terrapath run (no {T.RUN_METADATA!r} metadata record)"
         )
     version = run.get("terrapath", "")
-    if version != T.FORMAT_VERSION:
+    if version not in T.READABLE_FORMATS:
         raise DataFileError(
             f"{name!r}: terrapath run format {version!r} is not supported (this version reads "
-            f"{T.FORMAT_VERSION!r})"
+            f"{', '.join(map(repr, T.READABLE_FORMATS))})"
         )
     _check_metadata(run, name)
     attachments: dict[str, bytes] = {}
@@ -321,16 +327,17 @@ def _read(
     n_states = counts.get(T.VEHICLE_STATE, 0)
     stride = max(1, -(-n_states // max_states)) if max_states else 1
     seen = -1
+    state = _state_decoder(version)
     for _schema, channel, message in reader.iter_messages(wanted, log_time_order=False):
         topic, ns = channel.topic, message.log_time
         if topic == T.VEHICLE_STATE:
             seen += 1
             if seen % stride:
                 continue
-            doc = json.loads(message.data)
+            row, extra = state(message.data)
             times.append(ns)
-            rows.append([doc[k] for k in keys])
-            extras.append(doc.get("extras") or {})
+            rows.append(row)
+            extras.append(extra)
         elif topic == T.WAYPOINT_LIST:
             doc = json.loads(message.data)
             wps = np.asarray(doc["waypoints"], dtype=np.float64).reshape(-1, 3)
@@ -389,6 +396,38 @@ def _read(
         end_ns=end,
         state_stride=stride,
     )
+
+
+StateDecoder = Callable[[bytes], tuple[list[Any], dict[str, Any]]]
+
+
+def _state_decoder(version: str) -> StateDecoder:
+    """The /vehicle/state message's numbers (the 12 states and 4 controls in order) and extras:
+    format 1 JSON text (a number not finite was written ``null``), format 2 protobuf
+    (``terrapath.VehicleState``: an extra is there when its field is)."""
+    keys = (*T.STATE_FIELDS, *T.CONTROL_FIELDS)
+    if version == "1":
+
+        def from_json(data: bytes) -> tuple[list[Any], dict[str, Any]]:
+            doc = json.loads(data)
+            return [doc[k] for k in keys], doc.get("extras") or {}
+
+        return from_json
+    from replay.record.messages import VehicleState
+
+    parse, values = VehicleState.FromString, operator.attrgetter(*keys)
+
+    def from_protobuf(data: bytes) -> tuple[list[Any], dict[str, Any]]:
+        msg = parse(data)
+        extra: dict[str, Any] = {}
+        for desc, value in msg.extras.ListFields():
+            if desc.name == "other":
+                extra.update((e.name, e.value) for e in value)
+            else:
+                extra[desc.name] = value
+        return list(values(msg)), extra
+
+    return from_protobuf
 
 
 def summary(record: RunRecord) -> dict[str, Any]:

@@ -8,8 +8,10 @@ Topics (names in :mod:`replay.record.topics`; Foxglove schemas are the protobuf 
     /map/terrain             foxglove.SceneUpdate      terrain mesh coloured by height
     /vehicle/pose            foxglove.PoseInFrame      vehicle pose in ``map``
     /vehicle/state           terrapath.VehicleState    12 states, airspeed, alpha, beta, controls, extras
+                                                       (protobuf; recording format 2)
     /vehicle/fix             foxglove.LocationFix      WGS84 position (only with ``to_lonlat``)
-    /vehicle/separation      terrapath.Separation      nearest threat and zone, margin (batches: later in the file)
+    /vehicle/separation      terrapath.Separation      nearest threat and zone, margin, where they change
+                                                       (batches: later in the file)
     /vehicle/track           foxglove.SceneUpdate      track flown since the last overview
     /vehicle/track_overview  foxglove.SceneUpdate      whole track so far (decimated)
     /mission/waypoints       foxglove.SceneUpdate      waypoint line strip, spheres and labels
@@ -36,14 +38,17 @@ Conventions:
   to it.  ``world`` is the map CRS itself, published as a *child* of ``map`` (translation
   ``-map_origin``) so that ``map`` stays the root of the frame tree, the frame Foxglove displays by
   default: a display frame at CRS coordinates (millions of metres) would jitter in float32.
-  ``base_link`` is the vehicle (x forward, y left, z up).  The JSON messages keep absolute map
-  coordinates: ``/vehicle/state`` to ``DIGITS`` (12, :mod:`replay.record.encoding`) significant digits
-  (1e-5 m at 10,000 km; 17 would round-trip exactly but costs twice as much to format), the
-  events in full.
+  ``base_link`` is the vehicle (x forward, y left, z up).  ``/vehicle/state`` keeps absolute map
+  coordinates (``pn``, ``pe``, ``pd``, ``alt`` as doubles; the other numbers float32: the
+  protobuf schema ``terrapath.VehicleState`` of :mod:`replay.record.messages`), the JSON events
+  too, in full.
 - **Rates**: :meth:`RunRecorder.write_state` may be called at any rate (e.g. every 100 Hz step): the
   *recorder* drops the calls between ticks of ``log_rate_hz`` (a sample is written for the first
   call at or after each tick ``k / log_rate_hz``; ``force=True`` writes anyway) and returns whether
-  it wrote.  The track is sampled from the written states at ``track_rate_hz``; the overview is
+  it wrote; :meth:`RunRecorder.write_states` takes a flight log's samples at once (what the
+  simulation uses), and the samples are encoded in batches (``STATE_BATCH``) with numpy
+  (:mod:`replay.record.samples`), so their messages come later in the file than the events of
+  their time.  The track is sampled from the written states at ``track_rate_hz``; the overview is
   re-published every ``track_overview_s``.  Moving threats are likewise re-drawn at most at
   ``log_rate_hz``; appearances and removals, waypoint changes, detections, decisions and logs are
   written when they happen.
@@ -100,10 +105,8 @@ from foxglove_schemas_protobuf.CylinderPrimitive_pb2 import CylinderPrimitive
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.KeyValuePair_pb2 import KeyValuePair
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
-from foxglove_schemas_protobuf.LocationFix_pb2 import LocationFix
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.Point3_pb2 import Point3
-from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from foxglove_schemas_protobuf.Quaternion_pb2 import Quaternion
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
@@ -114,7 +117,6 @@ from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrim
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
 from replay.avoidance.circles import cone_outline
-from replay.frames import rotation_body_to_ned
 from replay.record import topics as T
 from replay.record.encoding import (
     ENTITY_LINES,
@@ -125,9 +127,9 @@ from replay.record.encoding import (
     TRI_POINTS,
     UPDATE_ENTITIES,
     ScanEncoder,
-    StateText,
     doubles_messages,
     dumps,
+    entity_head,
     jsonable,
     ld,
     packed_fixed32,
@@ -135,13 +137,13 @@ from replay.record.encoding import (
 from replay.record.messages import (
     JSON_SCHEMAS,
     PROTOBUF_CLASSES,
-    STATE_KEYS,
     check_finite,
     check_positive,
     check_vector,
     normalize_detection,
     normalize_threat,
 )
+from replay.record.samples import Samples, sample_records
 from replay.record.scene import (
     FloatArray,
     color,
@@ -150,9 +152,9 @@ from replay.record.scene import (
     line_head,
     pose,
     prism_mesh,
-    quaternion_map,
     superellipsoid_mesh,
 )
+from replay.record.separation import kept_rows, nearest, separation_doc
 from replay.record.writer import COMPRESSIONS, McapFile, McapSink, descriptor_set
 from terrain.errors import InputError, where
 
@@ -166,6 +168,8 @@ BEAMS_ENTITY = "rangefinder/beams"  # the rangefinders' beams on /rangefinder/be
 ORBIT_SEGMENTS = 72
 UNBOUNDED_TOP_DRAW_M = 10_000.0  # an unbounded cylinder top is drawn this far above its bottom
 LOG_LEVELS = ("debug", "info", "warning", "error", "fatal")
+_POINT_BYTES = 2 + 3 * 9  # a LinePrimitive.points entry (doubles_messages)
+STATE_BATCH = 4096  # vehicle samples kept before they are encoded and written at once
 
 # ---------------------------------------------------------------------------------------------
 # the recorder
@@ -273,13 +277,14 @@ class RunRecorder:
         self._setpoints_drawn = 0  # the length of the set-point list last drawn
         self._recent_from = 0  # index in the track where the recent line starts
         self._threats: dict[str, dict[str, Any]] = {}
-        self._state_text = StateText(STATE_KEYS, loc)
+        # vehicle samples given and not yet encoded: (times s, states, controls, extras, forced)
+        self._pending: list[tuple[FloatArray, FloatArray, FloatArray, dict[str, Any], bool]] = []
+        self._pending_n = 0
+        self._pending_t = -1.0  # the last time given
+        self._track_bytes = bytearray()  # the track's points as LinePrimitive.points entries
         self._floor_z = 0.0
         self._attachments: set[str] = set()
         self.samples_written = 0
-        self._pose = PoseInFrame(frame_id=T.MAP_FRAME)
-        self._tf = FrameTransform(parent_frame_id=T.MAP_FRAME, child_frame_id=T.VEHICLE_FRAME)
-        self._fix = LocationFix(frame_id=T.VEHICLE_FRAME)
 
     # -- life cycle --------------------------------------------------------------------------
 
@@ -308,9 +313,16 @@ class RunRecorder:
         tb: TracebackType | None,
     ) -> bool:
         file = self._file
-        self._file = self._sink = None
         if file is None:
             return False
+        if exc_type is None:
+            try:
+                self._encode_states()
+            except BaseException as err:
+                self._file = self._sink = None
+                file.close(type(err), err, err.__traceback__)
+                raise
+        self._file = self._sink = None
         return file.close(exc_type, exc, tb)
 
     def _start(self) -> None:
@@ -371,6 +383,7 @@ class RunRecorder:
     def state_due(self, t: float) -> bool:
         """Whether :meth:`write_state` at time ``t`` would write a sample (lets a caller skip
         building its arguments between ticks)."""
+        self._encode_states()
         return self._ns(t) >= self._next_state
 
     def write_state(
@@ -384,93 +397,186 @@ class RunRecorder:
     ) -> bool:
         """One vehicle sample (12-state NED vector and 4 controls, :mod:`replay.frames`) with the
         caller's ``extras`` (name -> number).  Written if ``t`` reached the next log tick (or
-        ``force``); returns whether it was written.  Times must not go backwards."""
+        ``force``); returns whether it was written.  Times must not go backwards.  The messages
+        are encoded with the samples around it (:meth:`write_states`)."""
         ns = self._ns(t)
-        if ns < self._last_state:
+        if self._pending and not self._pending[-1][4]:
+            self._encode_states()  # a batch of write_states first: its samples decide the tick
+        if ns < self._last_state or t < self._pending_t:
             raise InputError(f"{self._where}state time {t!r} s is before the previous sample")
         if ns < self._next_state and not force:
             return False
         s = _sample(state, 12, f"{self._where}state")
         c = _sample(controls, 4, f"{self._where}controls")
-        period = self._state_period
-        self._next_state = (ns // period + 1) * period
+        cols = self._extras_columns(extras, 1, number=True)
+        self._next_state = (ns // self._state_period + 1) * self._state_period
         self._last_state = ns
-        sec, nsec = divmod(ns, NS_PER_S)
-        pn, pe, pd, u, v, w, phi, theta, psi = s[:9]
-        ox, oy, oz = self.map_origin
-        x, y, z = pe - ox, pn - oy, -pd - oz
-        qx, qy, qz, qw = quaternion_map(phi, theta, psi)
-
-        pose = self._pose
-        pose.timestamp.seconds = sec
-        pose.timestamp.nanos = nsec
-        p, o = pose.pose.position, pose.pose.orientation
-        p.x, p.y, p.z = x, y, z
-        o.x, o.y, o.z, o.w = qx, qy, qz, qw
-        tf = self._tf
-        tf.timestamp.seconds = sec
-        tf.timestamp.nanos = nsec
-        tr, ro = tf.translation, tf.rotation
-        tr.x, tr.y, tr.z = x, y, z
-        ro.x, ro.y, ro.z, ro.w = qx, qy, qz, qw
-
-        ur, vr, wr = u, v, w
-        if extras and ("wind_n" in extras or "wind_e" in extras or "wind_d" in extras):
-            # the velocity through the air: the body velocity less the wind in body axes
-            wb = rotation_body_to_ned(phi, theta, psi).T @ np.array(
-                [extras.get("wind_n", 0.0), extras.get("wind_e", 0.0), extras.get("wind_d", 0.0)]
-            )
-            ur, vr, wr = u - float(wb[0]), v - float(wb[1]), w - float(wb[2])
-        va = math.sqrt(ur * ur + vr * vr + wr * wr)
-        alpha = math.atan2(wr, ur)
-        beta = math.asin(max(-1.0, min(1.0, vr / va))) if va > 0 else 0.0
-        values = (*s[:3], -pd, *s[3:], va, alpha, beta, *c)
-        try:
-            text = self._state_text.text(values, extras)
-        except TypeError:
-            raise InputError(f"{self._where}extras: expected numbers, found {extras!r}") from None
-
-        sink, ch = self._require(), self._channels
-        sink.add_message(ch[T.TF], ns, tf.SerializeToString())
-        sink.add_message(ch[T.VEHICLE_POSE], ns, pose.SerializeToString())
-        sink.add_message(ch[T.VEHICLE_STATE], ns, text.encode())
-        if self._to_lonlat is not None:
-            lon, lat = self._to_lonlat(pe, pn)
-            fix = self._fix
-            fix.timestamp.seconds = sec
-            fix.timestamp.nanos = nsec
-            fix.longitude, fix.latitude, fix.altitude = float(lon), float(lat), -pd
-            sink.add_message(ch[T.VEHICLE_FIX], ns, fix.SerializeToString())
-        if ns > self._t_max:
-            self._t_max = ns
-        if ns >= self._next_track:
-            self._next_track = (ns // self._track_period + 1) * self._track_period
-            self._track_point(ns, (x, y, z))
-        self.samples_written += 1
+        self._queue(np.array([float(t)]), np.array([s]), np.array([c]), cols, True)
         return True
 
-    def _track_point(self, ns: int, xyz: tuple[float, float, float]) -> None:
-        if self._track_n == len(self._track):
-            self._track = np.concatenate([self._track, np.empty_like(self._track)])
-        self._track[self._track_n] = xyz
-        self._track_n += 1
-        n = self._track_n
-        if ns >= self._next_overview:
-            self._next_overview = (ns // self._overview_period + 1) * self._overview_period
-            pts = self._track[:n]
-            if n > self._overview_points:
-                stride = 1 << math.ceil(math.log2(n / (self._overview_points - 1)))
-                keep = np.arange(0, n, stride)
-                if keep[-1] != n - 1:
-                    keep = np.append(keep, n - 1)
-                pts = pts[keep]
-            self._line_update(
-                T.VEHICLE_TRACK_OVERVIEW, ns, "track/overview", pts, (0.95, 0.8, 0.1, 0.9)
+    def write_states(
+        self,
+        ts: npt.ArrayLike,
+        states: npt.ArrayLike,
+        controls: npt.ArrayLike,
+        extras: Mapping[str, npt.ArrayLike] | None = None,
+    ) -> None:
+        """Many vehicle samples at once, as a flight log holds them: times ``ts`` (K,) s,
+        increasing, ``states`` (K, 12), ``controls`` (K, 4) and ``extras`` name -> (K,).  The
+        samples that :meth:`write_state` would write (the first at or after each log tick) are
+        written.  The arrays are kept, not copied, until they are encoded (every
+        ``STATE_BATCH`` samples, at the end, or when a sample decides something): do not write
+        into them afterwards."""
+        t = np.asarray(ts, dtype=np.float64).reshape(-1)
+        k = len(t)
+        if not k:
+            return
+        s = np.asarray(states, dtype=np.float64)
+        c = np.asarray(controls, dtype=np.float64)
+        if s.shape != (k, 12) or c.shape != (k, 4):
+            raise InputError(
+                f"{self._where}states: expected {k} states (K, 12) and controls (K, 4), found "
+                f"shapes {s.shape} and {c.shape}"
             )
-            self._recent_from = n - 1
-        pts = self._track[self._recent_from : n]
-        if len(pts) >= 2:
-            self._line_update(T.VEHICLE_TRACK, ns, "track/recent", pts, (1.0, 0.9, 0.2, 1.0))
+        self._ns(t[0])
+        self._ns(t[-1])
+        if t[0] < self._pending_t or self._ns(t[0]) < self._last_state:
+            raise InputError(f"{self._where}state time {t[0]!r} s is before the previous sample")
+        if k > 1 and not (t[1:] >= t[:-1]).all():
+            raise InputError(f"{self._where}state times: expected increasing finite seconds")
+        self._queue(t, s, c, self._extras_columns(extras, k), False)
+
+    def _extras_columns(
+        self, extras: Mapping[str, Any] | None, k: int, *, number: bool = False
+    ) -> dict[str, Any]:
+        """The extras as name -> (k,) float arrays (checked: text names, numbers)."""
+        if not extras:
+            return {}
+        cols: dict[str, Any] = {}
+        for name, value in extras.items():
+            a = value
+            if type(a) is not np.ndarray or a.dtype != np.float64 or number:
+                try:
+                    if number and not isinstance(value, int | float | np.number):
+                        raise TypeError
+                    a = np.asarray(value, dtype=np.float64).reshape(-1)
+                except (TypeError, ValueError):
+                    raise InputError(
+                        f"{self._where}extras: expected numbers, found {extras!r:.200}"
+                    ) from None
+            if type(name) is not str or not name:
+                raise InputError(f"{self._where}extras: names must be non-empty text ({name!r})")
+            if a.shape != (k,):
+                raise InputError(
+                    f"{self._where}extras {name!r}: expected {k} numbers, found shape {a.shape}"
+                )
+            cols[name] = a
+        return cols
+
+    def _queue(
+        self, t: FloatArray, s: FloatArray, c: FloatArray, cols: dict[str, Any], forced: bool
+    ) -> None:
+        self._pending.append((t, s, c, cols, forced))
+        self._pending_n += len(t)
+        self._pending_t = float(t[-1])
+        if self._pending_n >= STATE_BATCH:
+            self._encode_states()
+
+    def _encode_states(self) -> None:
+        """The samples given since the last time: those due at the log rate (forced ones all)
+        encoded and written at once (:func:`replay.record.samples.sample_records`), and the
+        track drawn from them."""
+        pending = self._pending
+        if not pending:
+            return
+        self._pending, self._pending_n = [], 0
+        t = np.concatenate([p[0] for p in pending])
+        ns = np.round(t * NS_PER_S).astype(np.int64)
+        period = self._state_period
+        tick = ns // period
+        first = np.empty(len(t), dtype=bool)
+        first[0] = True
+        first[1:] = tick[1:] != tick[:-1]
+        due = first & (tick > self._next_state // period - 1)
+        offsets = np.cumsum([0] + [len(p[0]) for p in pending])
+        due[[int(a) for p, a in zip(pending, offsets[:-1], strict=True) if p[4]]] = True
+        rows = np.flatnonzero(due)  # (forced samples are single ones, written)
+        if not len(rows):
+            return
+        names: dict[str, None] = {}
+        for p in pending:
+            names.update(dict.fromkeys(p[3]))
+        extras: dict[str, tuple[FloatArray, npt.NDArray[np.bool_]]] = {}
+        for name in names:
+            parts = [p[3].get(name) for p in pending]
+            if all(a is not None for a in parts):
+                whole = np.concatenate([a for a in parts if a is not None])
+                extras[name] = (whole[rows], np.ones(len(rows), dtype=bool))
+                continue
+            values = np.full(len(t), np.nan)
+            present = np.zeros(len(t), dtype=bool)
+            for a, start, stop in zip(parts, offsets[:-1], offsets[1:], strict=True):
+                if a is not None:
+                    values[start:stop] = a
+                    present[start:stop] = True
+            extras[name] = (values[rows], present[rows])
+        batch = Samples(
+            ns=ns[rows],
+            states=np.concatenate([p[1] for p in pending])[rows],
+            controls=np.concatenate([p[2] for p in pending])[rows],
+            extras=extras,
+        )
+        last = int(batch.ns[-1])
+        self._next_state = max(self._next_state, (last // period + 1) * period)
+        self._last_state = max(self._last_state, last)
+        sink = self._require()
+        xyz, records = sample_records(batch, self._channels, self.map_origin, self._to_lonlat)
+        for channel, data, lengths, times in records:
+            sink.add_records(channel, times, data, lengths)
+        if last > self._t_max:
+            self._t_max = last
+        self.samples_written += len(rows)
+        # the track: the first sample written at or after each tick of the track rate
+        tt = batch.ns // self._track_period
+        new = np.empty(len(tt), dtype=bool)
+        new[0] = True
+        new[1:] = tt[1:] != tt[:-1]
+        new &= batch.ns >= self._next_track
+        points = np.flatnonzero(new)
+        if len(points):
+            self._next_track = int((tt[points[-1]] + 1) * self._track_period)
+            self._track_points(batch.ns[points], xyz[points])
+
+    def _track_points(self, ns: npt.NDArray[np.int64], xyz: FloatArray) -> None:
+        """New points of the flown track: the recent line at each, the overview when due."""
+        n0, k = self._track_n, len(xyz)
+        while n0 + k > len(self._track):
+            self._track = np.concatenate([self._track, np.empty_like(self._track)])
+        self._track[n0 : n0 + k] = xyz
+        self._track_bytes += doubles_messages(LINE_POINTS, xyz)
+        size = _POINT_BYTES
+        head = line_head((1.0, 0.9, 0.2, 1.0))
+        for i, t_ns in enumerate(ns.tolist()):
+            self._track_n = n = n0 + i + 1
+            if t_ns >= self._next_overview:
+                self._next_overview = (t_ns // self._overview_period + 1) * self._overview_period
+                pts = self._track[:n]
+                if n > self._overview_points:
+                    stride = 1 << math.ceil(math.log2(n / (self._overview_points - 1)))
+                    keep = np.arange(0, n, stride)
+                    if keep[-1] != n - 1:
+                        keep = np.append(keep, n - 1)
+                    pts = pts[keep]
+                self._line_update(
+                    T.VEHICLE_TRACK_OVERVIEW, t_ns, "track/overview", pts, (0.95, 0.8, 0.1, 0.9)
+                )
+                self._recent_from = n - 1
+            if n - self._recent_from >= 2:
+                line = head + self._track_bytes[self._recent_from * size : n * size]
+                entity = entity_head(t_ns, T.MAP_FRAME, "track/recent")
+                self._emit(
+                    T.VEHICLE_TRACK, t_ns, ld(UPDATE_ENTITIES, entity + ld(ENTITY_LINES, line))
+                )
 
     def _line_update(
         self,
@@ -483,7 +589,7 @@ class RunRecorder:
         segments: bool = False,
     ) -> None:
         line = line_head(rgba, segments=segments) + doubles_messages(LINE_POINTS, pts)
-        entity = self._entity(ns, ident).SerializeToString() + ld(ENTITY_LINES, line)
+        entity = entity_head(ns, T.MAP_FRAME, ident) + ld(ENTITY_LINES, line)
         self._emit(topic, ns, ld(UPDATE_ENTITIES, entity))
 
     def _entity(self, ns: int, ident: str, **fields: Any) -> SceneEntity:
@@ -782,7 +888,7 @@ class RunRecorder:
                 f"shapes {e.shape} and {h.shape}"
             )
         rel = np.asarray(self.map_origin)
-        body = self._entity(ns, BEAMS_ENTITY).SerializeToString()
+        body = entity_head(ns, T.MAP_FRAME, BEAMS_ENTITY)
         for mask, rgba in ((h, (1.0, 0.15, 0.1, 1.0)), (~h, (0.2, 0.85, 0.3, 0.8))):
             if mask.any():
                 pairs = np.empty((2 * int(mask.sum()), 3))
@@ -797,7 +903,7 @@ class RunRecorder:
 
     def _write_markers(self, ns: int, positions: list[list[float]], tails: list[bytes]) -> None:
         """The scene update of one scan: a sphere at each position (map CRS metres)."""
-        entity = self._entity(ns, "detections").SerializeToString()
+        entity = entity_head(ns, T.MAP_FRAME, "detections")
         self._emit(T.DETECTIONS, ns, self._scan.markers(entity, positions, tails))
 
     # -- events ------------------------------------------------------------------------------
@@ -816,10 +922,12 @@ class RunRecorder:
         ``zone:``), ``separations`` (K, len(ids)) metres, NaN while a threat is inactive.  Each
         message holds the nearest active threat (``nearest_m``, ``nearest``), the nearest danger
         zone (``zone_m``, ``zone``), ``margin_m`` and ``threats``, the (at most) four nearest
-        active threats by id.  Separations are computed in batches after the states they
-        belong to, so these messages come later in the file than the states of their time
-        (MCAP readers order by log time); successive calls must not go back in time.  Returns
-        how many messages were written."""
+        active threats by id.  Of those samples, the ones where something shown changed are
+        written (:mod:`replay.record.separation`: a value left its band, crossed the margin or
+        reached its least, the threats shown changed; at least one every 10 s).  Separations
+        are computed in batches after the states they belong to, so these messages come later
+        in the file than the states of their time (MCAP readers order by log time); successive
+        calls must not go back in time.  Returns how many messages were written."""
         t = np.asarray(ts, dtype=np.float64).reshape(-1)
         seps = np.asarray(separations, dtype=np.float64).reshape(len(t), len(ids))
         if not len(t):
@@ -838,25 +946,25 @@ class RunRecorder:
         threat_cols = np.flatnonzero(~is_zone)
         zone_cols = np.flatnonzero(is_zone)
         margin = float(margin_m)
-        for k in rows.tolist():
-            doc: dict[str, Any] = {"margin_m": margin, "threats": {}}
-            row = seps[k]
-            if len(threat_cols):
-                v = row[threat_cols]
-                live = np.flatnonzero(np.isfinite(v))
-                if len(live):
-                    order = live[np.argsort(v[live], kind="stable")[:4]]
-                    doc["nearest_m"] = round(float(v[order[0]]), 2)
-                    doc["nearest"] = names[threat_cols[order[0]]]
-                    doc["threats"] = {names[threat_cols[j]]: round(float(v[j]), 2) for j in order}
-            if len(zone_cols):
-                z = row[zone_cols]
-                if np.isfinite(z).any():
-                    j = int(np.nanargmin(z))
-                    doc["zone_m"] = round(float(z[j]), 2)
-                    doc["zone"] = names[zone_cols[j]]
-            self._emit(T.SEPARATION, int(ns[k]), dumps(doc))
-        return len(rows)
+        picked = seps[rows]
+        cols, shown, zcol, zval = nearest(picked[:, threat_cols], picked[:, zone_cols])
+        keep = kept_rows(
+            ns[rows], cols, shown, zcol, zval, margin, len(threat_cols), len(zone_cols)
+        )
+        written = np.flatnonzero(keep)
+        sink, channel = self._require(), self._channels[T.SEPARATION]
+        for i, c, v, zc, zv in zip(
+            written.tolist(),
+            cols[written].tolist(),
+            shown[written].tolist(),
+            zcol[written].tolist(),
+            zval[written].tolist(),
+            strict=True,
+        ):
+            doc = separation_doc(margin, names, threat_cols, zone_cols, c, v, zc, zv)
+            sink.add_message(channel, int(ns[rows[i]]), dumps(doc))
+        self._t_max = max(self._t_max, int(ns[rows[-1]]))
+        return len(written)
 
     def write_decision(self, t: float, decision: Mapping[str, Any]) -> None:
         """An avoidance decision: a JSON object with at least ``algorithm`` (text) and
@@ -925,6 +1033,7 @@ class RunRecorder:
         if z is None:
             z = (doc.get("arc") or {}).get("altitude")
         if z is None:
+            self._encode_states()  # the track so far
             z = float(self._track[self._track_n - 1, 2]) if self._track_n else 0.0
         a = np.linspace(0.0, 2.0 * math.pi, ORBIT_SEGMENTS + 1)
         pts = np.column_stack(

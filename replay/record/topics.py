@@ -3,14 +3,16 @@
 One module, like mcap's ``well_known.py``: the recorder (:mod:`replay.record.recorder`) writes these names
 and the reader (:mod:`replay.record.reader`) looks for them, so neither spells a topic twice.
 
-Topics and their schemas (Foxglove schemas are protobuf, from ``foxglove-schemas-protobuf``; the
-``terrapath.*`` schemas are JSON Schema, messages JSON)::
+Topics and their schemas (Foxglove schemas are protobuf, from ``foxglove-schemas-protobuf``, and so
+is ``terrapath.VehicleState``; the other ``terrapath.*`` schemas are JSON Schema, messages JSON)::
 
     /tf                      foxglove.FrameTransform   map -> base_link, at the state log rate
     /tf_static               foxglove.FrameTransform   map -> world, once at t = 0
     /map/terrain             foxglove.SceneUpdate      terrain triangle mesh, once
     /vehicle/pose            foxglove.PoseInFrame      vehicle pose in ``map``, at the log rate
+    /vehicle/separation      terrapath.Separation      nearest threat and zone, margin, where they change
     /vehicle/state           terrapath.VehicleState    full 12-state, controls, airspeed, extras
+                                                       (protobuf, built in replay.record.messages)
     /vehicle/fix             foxglove.LocationFix      WGS84 position (georeferenced runs only)
     /vehicle/track           foxglove.SceneUpdate      flown track since the last overview (1 Hz)
     /vehicle/track_overview  foxglove.SceneUpdate      whole flown track, decimated (every 60 s)
@@ -126,7 +128,11 @@ VEHICLE_FRAME = "base_link"
 # metadata records
 RUN_METADATA = "terrapath"
 METRICS_METADATA = "metrics"
-FORMAT_VERSION = "1"
+# the recording format (metadata "terrapath"): 1 had /vehicle/state as JSON text and
+# /vehicle/separation at every state sample; 2 (issue 38) has /vehicle/state as protobuf
+# (terrapath.VehicleState) and /vehicle/separation where it changes.  The reader reads both.
+FORMAT_VERSION = "2"
+READABLE_FORMATS = ("1", "2")
 
 # MCAP header profile (empty: not ROS) and the library string prefix
 PROFILE = ""

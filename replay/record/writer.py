@@ -25,6 +25,7 @@ from types import TracebackType
 from typing import IO, Any
 
 import numpy as np
+import numpy.typing as npt
 from google.protobuf import descriptor_pb2
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
@@ -49,6 +50,9 @@ from replay.record import topics as T
 from terrain.atomic import atomic_output
 
 COMPRESSIONS = ("zstd", "lz4", "none")
+# zstd's level: 1 compresses a run's chunks 40 % faster than the default 3, into a file 23 %
+# larger (measured on a 1-h seed 000 run: 0.080 s vs 0.134 s, 6.1 vs 5.0 MiB)
+ZSTD_LEVEL = 1
 
 
 def descriptor_set(message_class: Any) -> bytes:
@@ -87,11 +91,13 @@ def _record_bytes(record: McapRecord) -> bytes:
 class _OpenChunk:
     """Messages of one chunk being built: the records, and per channel (log time, offset) pairs."""
 
-    __slots__ = ("data", "index", "t0", "t1")
+    __slots__ = ("batches", "data", "index", "t0", "t1")
 
     def __init__(self) -> None:
         self.data = bytearray()
         self.index: dict[int, list[int]] = {}  # channel -> [log_time, offset, log_time, ...]
+        # channel -> (log_time, offset) pairs (n, 2) of the batches (McapSink.add_records)
+        self.batches: dict[int, list[npt.NDArray[np.uint64]]] = {}
         self.t0 = -1
         self.t1 = 0
 
@@ -173,16 +179,43 @@ class McapSink:
         if len(buf) >= self._chunk_size:
             self._flush(self._group_of[channel])
 
+    def add_records(
+        self, channel: int, log_times: npt.NDArray[np.int64], data: bytes, lengths: npt.ArrayLike
+    ) -> None:
+        """Many messages of ``channel`` at once: ``data``, their MCAP message records one after
+        the other (:meth:`replay.record.wire.Rows.records`), ``lengths`` the length of each,
+        ``log_times`` their log times.  The chunk is closed after them when full."""
+        n = len(log_times)
+        if not n:
+            return
+        group = self._group_of[channel]
+        chunk = self._open[group]
+        buf = chunk.data
+        pairs = np.empty((n, 2), dtype=np.uint64)
+        pairs[:, 0] = log_times
+        pairs[0, 1] = len(buf)
+        np.cumsum(np.asarray(lengths, dtype=np.uint64)[:-1], out=pairs[1:, 1])
+        pairs[1:, 1] += np.uint64(len(buf))
+        chunk.batches.setdefault(channel, []).append(pairs)
+        buf += data
+        lo, hi = int(log_times.min()), int(log_times.max())
+        if lo < chunk.t0 or chunk.t0 < 0:
+            chunk.t0 = lo
+        if hi > chunk.t1:
+            chunk.t1 = hi
+        if len(buf) >= self._chunk_size:
+            self._flush(group)
+
     def _flush(self, group: int) -> None:
         chunk = self._open[group]
-        if not chunk.index:
+        if not chunk.index and not chunk.batches:
             return
         self._open[group] = _OpenChunk()
         raw = bytes(chunk.data)
         if self._compression == "zstd":
             import zstandard
 
-            data = zstandard.ZstdCompressor().compress(raw)
+            data = zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(raw)
         elif self._compression == "lz4":
             import lz4.frame
 
@@ -200,8 +233,11 @@ class McapSink:
         start, length = self._write_record(record)
         index_start = self._offset
         offsets: dict[int, int] = {}
-        for channel in sorted(chunk.index):
-            pairs = np.asarray(chunk.index[channel], dtype=np.uint64).reshape(-1, 2)
+        for channel in sorted({*chunk.index, *chunk.batches}):
+            pieces = chunk.batches.get(channel, [])
+            if channel in chunk.index:
+                pieces = [np.asarray(chunk.index[channel], dtype=np.uint64).reshape(-1, 2), *pieces]
+            pairs = pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
             if np.any(np.diff(pairs[:, 0].astype(np.int64)) < 0):
                 pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
             body = pairs.astype("<u8").tobytes()
