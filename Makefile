@@ -106,7 +106,19 @@ pytest: $(VENV)/.test-stamp
 	@mkdir -p build
 	$(BIN)/python -m pytest -p no:dash -q -n auto --dist loadfile
 
-test: lint typecheck pytest
+# mypy and the numba kernels' compilation (tools/warm.py) side by side, one core each, then the
+# suite on every core, finding the kernels compiled; each step timed apart
+test: lint
+	@start=$$(date +%s); \
+	$(BIN)/python -m tools.warm & warm=$$!; \
+	$(BIN)/mypy; rc=$$?; \
+	wait $$warm || rc=1; \
+	echo "mypy and tools.warm: $$(( $$(date +%s) - start )) s"; \
+	exit $$rc
+	@start=$$(date +%s); \
+	$(MAKE) --no-print-directory pytest; rc=$$?; \
+	echo "pytest: $$(( $$(date +%s) - start )) s"; \
+	exit $$rc
 
 bench: $(VENV)/.run-stamp
 	$(BIN)/python benchmarks/bench_terrain.py
