@@ -18,10 +18,11 @@ import numpy.typing as npt
 from terrain.atomic import atomic_output
 from terrain.grid import HeightGrid, crs_label
 
-# A picture shows at most this many cells along its longer side (a figure is 8-9 inches at 130
-# dpi, ~1,200 pixels): a larger grid is drawn from its block means (HeightGrid.decimated), so the
-# picture of a 100 M-cell DEM costs what one of 1.4 M cells does.
-DISPLAY_CELLS = 1200
+# A picture shows at most this many cells along its longer side: a map's axes are ~750 pixels
+# wide (a figure of 8-9 inches at 130 dpi, less the colour bar and labels), so this keeps about a
+# cell a pixel.  A larger grid is drawn from its block means (HeightGrid.decimated): the picture
+# of a 100 M-cell DEM costs what one of 0.6 M cells does.
+DISPLAY_CELLS = 800
 
 
 def display_grid(grid: HeightGrid, max_cells: int = DISPLAY_CELLS) -> HeightGrid:
