@@ -6,7 +6,7 @@ GeoTIFF at 80 / 40 / 20 / 10 / 4 m cells (0.25 / 1 / 4 / 16 / 100 M cells) under
 (a scratch folder, never committed; a file already there is reused).  For each size, in a fresh
 subprocess each: ``terrapath plan DEM --map-coords --start 402000,3702000 --goal 438000,3738000
 --seed 1``, then ``terrapath check`` of the mission it wrote.  Peak memory is the child's peak
-resident set size (``os.wait4``'s rusage, ``ru_maxrss``); wall time is measured round the child.
+resident set size (``os.wait4``'s rusage, ``ru_maxrss``); wall time is measured round the child, CPU time (user + system) from its rusage.
 
 Bytes a cell (the issue's formula): (peak RSS - the same command's peak on the 0.25 M-cell map)
 / (cells - 0.25 M); the target is <= 40 B a cell.  Time a cell: the wall time over the cells
@@ -78,7 +78,8 @@ def make_dem(dem_dir: Path, mcells: float) -> Path:
 
 
 def measured(argv: list[str], code: Path, cwd: Path) -> dict[str, float | int]:
-    """Run ``argv`` in a fresh process on ``code``'s packages: its exit status, wall time (s)
+    """Run ``argv`` in a fresh process on ``code``'s packages: its exit status, wall time (s),
+    CPU time (user + system, s: less disturbed than the wall time by other work on the machine)
     and peak resident set size (bytes, the child's own rusage)."""
     env = dict(os.environ, PYTHONPATH=str(code), MPLBACKEND="Agg")
     t0 = time.perf_counter()
@@ -87,7 +88,8 @@ def measured(argv: list[str], code: Path, cwd: Path) -> dict[str, float | int]:
         _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     proc.returncode = os.waitstatus_to_exitcode(status)
-    return {"status": proc.returncode, "wall": wall, "rss": usage.ru_maxrss * 1024}
+    cpu = usage.ru_utime + usage.ru_stime
+    return {"status": proc.returncode, "wall": wall, "cpu": cpu, "rss": usage.ru_maxrss * 1024}
 
 
 def run_size(mcells: float, dem: Path, code: Path, out: Path, python: str) -> dict[str, object]:
@@ -134,7 +136,8 @@ def _fmt(m: dict | None, stats: tuple[float, float, float]) -> str:
         return "not run (no mission)"
     b, us, dus = stats
     ok = {0: "ok", 3: "infeasible"}.get(int(m["status"]), f"exit {m['status']}")
-    text = f"{m['rss'] / 2**20:,.0f} MiB, {m['wall']:.1f} s ({ok})"
+    cpu = f", cpu {m['cpu']:.1f} s" if "cpu" in m else ""
+    text = f"{m['rss'] / 2**20:,.0f} MiB, {m['wall']:.1f} s{cpu} ({ok})"
     if not math.isnan(b):
         text += f"; {b:.1f} B/cell, {us:.2f} µs/cell ({dus:.2f} µs per added cell)"
     else:
@@ -143,6 +146,7 @@ def _fmt(m: dict | None, stats: tuple[float, float, float]) -> str:
 
 
 def rows_of(runs: list[dict], old: list[dict] | None) -> list[tuple[str, str, str]]:
+    """A row per command and size: the figures, and the old code's beside them where measured."""
     rows: list[tuple[str, str, str]] = []
     olds = {r["mcells"]: r for r in old or []}
     for what in ("plan", "check"):
@@ -152,10 +156,11 @@ def rows_of(runs: list[dict], old: list[dict] | None) -> list[tuple[str, str, st
         for r, s in zip(runs, stats, strict=True):
             label = f"{what}, {r['mcells']:g} M cells ({cell_size(r['mcells']):g} m)"
             target = f"<= {TARGET_BYTES:g} B/cell" if r is not runs[0] else "reference (0.25 M)"
-            rows.append((label, _fmt(r[what], s), target))
+            value = _fmt(r[what], s)
             o = olds.get(r["mcells"])
             if o is not None:
-                rows.append((f"{label}, old code", _fmt(o[what], old_stats[r["mcells"]]), "-"))
+                value += f" — old code: {_fmt(o[what], old_stats[r['mcells']])}"
+            rows.append((label, value, target))
     return rows
 
 

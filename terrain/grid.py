@@ -16,6 +16,7 @@ Conventions (used everywhere in terrapath):
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import re
@@ -212,6 +213,11 @@ class HeightGrid:
             if not math.isfinite(self.source_max):
                 raise InputError(f"source_max must be a finite height; got {self.source_max!r}")
             object.__setattr__(self, "source_max", float(self.source_max))
+
+    def __getstate__(self) -> dict[str, Any]:
+        """What a pickle keeps: the grid's fields, not what was derived from it (block maxima,
+        coarse copies, the planner's dilated grid): a worker makes those again if it needs them."""
+        return {k: v for k, v in self.__dict__.items() if k in _FIELDS}
 
     # -- what is measured -------------------------------------------------------------------------
     @property
@@ -626,3 +632,6 @@ class HeightGrid:
         if corners is not None:
             out["footprint_lonlat"] = [list(c) for c in corners]
         return out
+
+
+_FIELDS = frozenset(f.name for f in dataclasses.fields(HeightGrid))

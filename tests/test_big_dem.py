@@ -232,3 +232,17 @@ def test_a_million_cell_map_is_planned_in_under_40_bytes_a_cell(tmp_path: Path) 
         peaks.append(_peak_plan_rss(dem, work, "401000,3701000", "414000,3714000"))
     per_cell = (peaks[1] - peaks[0]) / (1200**2 - 100**2)
     assert per_cell <= 40.0, f"{per_cell:.1f} B a cell (peaks {peaks})"
+
+
+def test_a_pickled_grid_leaves_what_was_derived_from_it_behind() -> None:
+    """Workers get the grid's fields, not its block maxima, coarse copies or the planner's
+    dilated grid (a pickle twice the grid's size otherwise)."""
+    import pickle
+
+    g = synthetic_terrain(100, 120, 30.0, seed=1)
+    size = len(pickle.dumps(g))
+    g.block_maxima, g.decimated(3), g.derived("copy", lambda q: np.array(q.heights))
+    assert len(pickle.dumps(g)) == size
+    h = pickle.loads(pickle.dumps(g))
+    assert np.array_equal(h.heights, g.heights) and h.transform == g.transform
+    assert np.array_equal(h.block_maxima, g.block_maxima)
