@@ -82,6 +82,7 @@ from planner import kernels
 from planner.placement import (
     Chords,
     Lattice,
+    Terrain,
     corridor_terrain,
     finish_waypoints,
     place,
@@ -90,7 +91,6 @@ from planner.placement import (
 from planner.problem import PlanningProblem
 from planner.result import flown_checks
 from terrain.errors import InputError
-from terrain.grid import block_max
 from terrain.zones import inflated
 from terrain.zoneset import ZoneSet
 
@@ -98,6 +98,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 CELLS = 64  # blocks along the map's longer side
+CHORD_SAMPLES = 1_000_000  # the most chord samples string pulling holds at once (memory)
 ROUTES = 5  # k
 STRETCH = 0.6  # a kept route costs at most (1 + STRETCH) x the shortest
 OVERLAP = 0.5  # share of a route's nodes that may lie near a kept route
@@ -194,13 +195,13 @@ def explore(
     b = max(1, math.ceil(max(rows, cols) / int(cells)))
     dx, dy = grid.cell_size
     zlo, zhi = problem.band
-    top = block_max(check.heights, b, -np.inf)
+    top = check.block_max(b)  # computed once per grid and block size, shared
     h = np.maximum(top + problem.clearance, zlo)  # a block's floor
     nr, nc = h.shape
     bad = h > zhi
     unknown = problem.unknown_grid
     if unknown is not None:
-        bad |= block_max(unknown.heights > 0, b, 0.0) > 0
+        bad |= unknown.block_max(b) > 0  # +1 over unknown terrain, -1 elsewhere
     # block centres (the middle of the block's cells that lie on the map), kept inside the
     # search box
     lo, hi = problem.bounds()
@@ -441,7 +442,7 @@ def _halve_longest(pts: list[FloatArray], count: int) -> FloatArray:
     return np.asarray(pts, dtype=np.float64)
 
 
-def _pull(problem: PlanningProblem, xyz: FloatArray, heights: FloatArray) -> FloatArray:
+def _pull(problem: PlanningProblem, xyz: FloatArray, heights: Terrain) -> FloatArray:
     """String pulling along a route in 3-D: from each kept vertex the farthest later route point
     whose straight chord (altitudes linear between their own) clears the terrain floor and enters
     no danger zone (as the cost sees them, grown by the margin), the chords up to the first that
@@ -471,7 +472,7 @@ def _pull(problem: PlanningProblem, xyz: FloatArray, heights: FloatArray) -> Flo
 
 
 def _clear_chords(
-    problem: PlanningProblem, p: FloatArray, qs: FloatArray, heights: FloatArray
+    problem: PlanningProblem, p: FloatArray, qs: FloatArray, heights: Terrain
 ) -> npt.NDArray[np.bool_]:
     """For each chord p -> qs[i] (3-D, altitude linear), whether it clears the terrain floor at
     the samples :class:`Chords` takes (the same points, bit for bit: quarter-cell steps); the
@@ -502,6 +503,28 @@ def _clear_chords_numpy(
     step = 0.25 * min(grid.cell_size)
     d = qs - p[None, :]
     counts = np.maximum(2, np.ceil(np.hypot(d[:, 0], d[:, 1]) / step).astype(np.int64) + 1)
+    # the chords in groups of at most CHORD_SAMPLES samples (more when one chord has more): on a
+    # fine DEM a batch of long chords would otherwise hold millions of samples at once
+    ok = np.empty(len(qs), dtype=np.bool_)
+    ends = np.cumsum(counts)
+    i = 0
+    while i < len(qs):
+        j = max(i + 1, int(np.searchsorted(ends, ends[i] - counts[i] + CHORD_SAMPLES, "right")))
+        ok[i:j] = _clear_group(problem, p, qs[i:j], d[i:j], counts[i:j], heights)
+        i = j
+    return ok
+
+
+def _clear_group(
+    problem: PlanningProblem,
+    p: FloatArray,
+    qs: FloatArray,
+    d: FloatArray,
+    counts: npt.NDArray[np.int64],
+    heights: Terrain,
+) -> npt.NDArray[np.bool_]:
+    """:func:`_clear_chords` of a group of chords, all their samples at once."""
+    grid = problem.grid
     idx = np.repeat(np.arange(len(qs)), counts)
     k = np.arange(idx.size) - np.repeat(np.cumsum(counts) - counts, counts)
     t = k * (1.0 / (counts[idx] - 1))  # np.linspace(0, 1, m)'s values, its last exactly 1
@@ -514,7 +537,7 @@ def _clear_chords_numpy(
 
 
 def route_waypoints(
-    problem: PlanningProblem, xyz: FloatArray, terrain: FloatArray | None = None
+    problem: PlanningProblem, xyz: FloatArray, terrain: Terrain | None = None
 ) -> FloatArray:
     """The solution vector (3N,) of a route ((M, 3): start, block centres at their node
     altitudes, goal) (module docstring, "Waypoints").  ``terrain``: the conservative heights

@@ -78,6 +78,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -110,17 +111,40 @@ POLISH_XY = 0.005  # its first horizontal step, share of the start-goal distance
 POLISH_Z = 0.01  # its first vertical step, share of the altitude band
 
 
-def corridor_terrain(problem: PlanningProblem) -> FloatArray:
+class Heights64:
+    """A float32 height array read as float64: indexing it gives float64 values (what a float64
+    copy would give, exactly), with no copy of the grid made (4 bytes a cell instead of 12)."""
+
+    def __init__(self, heights: npt.NDArray[np.float32]) -> None:
+        self.heights = heights
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self.heights.shape)
+
+    def __getitem__(self, index: Any) -> Any:
+        return np.asarray(self.heights[index], dtype=np.float64)
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> FloatArray:
+        return np.asarray(self.heights, dtype=np.float64 if dtype is None else dtype)
+
+
+# the corridor heights as the seeds' searches take them: a float64 view of the grid, or (tests)
+# a float64 array
+Terrain = Heights64 | FloatArray
+
+
+def corridor_terrain(problem: PlanningProblem) -> Heights64:
     """The heights a seed's chords must clear: the conservative terrain the cost's Bresenham
-    walk checks (the safety heights dilated by a cell)."""
-    return np.asarray(problem.check_grid.heights, dtype=np.float64)
+    walk checks (the safety heights dilated by a cell), read as float64."""
+    return Heights64(problem.check_grid.heights)
 
 
 class Chords:
     """The terrain floor (corridor heights + clearance + 1 m) sampled every quarter cell along
     each chord of a polyline: ``t`` (0..1 from its first end) and ``floor`` per chord."""
 
-    def __init__(self, problem: PlanningProblem, pts: FloatArray, heights: FloatArray) -> None:
+    def __init__(self, problem: PlanningProblem, pts: FloatArray, heights: Terrain) -> None:
         grid = problem.grid
         step = 0.25 * min(grid.cell_size)
         self.t: list[FloatArray] = []
@@ -150,7 +174,7 @@ class Chords:
 
 
 def finish_waypoints(
-    problem: PlanningProblem, xy: FloatArray, z: FloatArray, heights: FloatArray
+    problem: PlanningProblem, xy: FloatArray, z: FloatArray, heights: Terrain
 ) -> FloatArray:
     """The solution vector (3N,) of the polyline ``xy`` (N + 2, 2) at altitudes ``z`` (start and
     goal at the ends): each waypoint lowered as far as both its chords allow (three sweeps), moved
@@ -219,14 +243,44 @@ def _into_band(problem: PlanningProblem, xy: FloatArray, low: FloatArray) -> Flo
     return np.asarray(low + lo * (target - low), dtype=np.float64)
 
 
-def floor_grid(problem: PlanningProblem, heights: FloatArray) -> FloatArray:
-    """The altitudes a chord must keep above, per cell: ``heights`` + clearance + 1 m, infinite
-    over terrain the DEM did not measure (unless the problem allows it)."""
-    floor = heights + problem.clearance + 1.0
-    unknown = problem.unknown_grid
-    if unknown is not None:
-        floor = np.where(unknown.heights > 0, np.inf, floor)
-    return np.asarray(floor, dtype=np.float64)
+class Floor:
+    """The altitudes a chord must keep above, per cell: ``heights`` + clearance + 1 m (float64),
+    infinite over terrain the DEM did not measure (unless the problem allows it).  Computed
+    where indexed (``floor[rows, cols]``), never for the whole map; ``np.asarray(floor)`` makes
+    the whole array (for the tests)."""
+
+    def __init__(self, problem: PlanningProblem, heights: Terrain) -> None:
+        self.heights = heights.heights if isinstance(heights, Heights64) else heights
+        self.lift = problem.clearance
+        unknown = problem.unknown_grid
+        self.unknown = None if unknown is None else unknown.heights
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self.heights.shape)
+
+    def __getitem__(self, index: Any) -> Any:
+        floor = np.asarray(self.heights[index], dtype=np.float64) + self.lift + 1.0
+        if self.unknown is not None:
+            floor = np.where(self.unknown[index] > 0, np.inf, floor)
+        return floor
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> FloatArray:
+        whole = self[...]
+        return np.asarray(whole, dtype=np.float64 if dtype is None else dtype)
+
+    def block_max(self, b: int) -> FloatArray:
+        """:func:`terrain.grid.block_max` of the floor, from the heights' blocks (adding the same
+        float64 lift to every value keeps their order, so the maxima are the same numbers)."""
+        top = block_max(self.heights, b) + self.lift + 1.0
+        if self.unknown is not None:
+            top = np.where(block_max(self.unknown, b) > 0, np.inf, top)
+        return np.asarray(top, dtype=np.float64)
+
+
+def floor_grid(problem: PlanningProblem, heights: Terrain) -> Floor:
+    """The chords' floor over the map (:class:`Floor`)."""
+    return Floor(problem, heights)
 
 
 def candidates(problem: PlanningProblem, route_xy: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -257,7 +311,7 @@ def candidates(problem: PlanningProblem, route_xy: FloatArray) -> tuple[FloatArr
 
 
 def levels_of(
-    problem: PlanningProblem, xy: FloatArray, floor: FloatArray, above: tuple[float, ...]
+    problem: PlanningProblem, xy: FloatArray, floor: Floor | FloatArray, above: tuple[float, ...]
 ) -> FloatArray:
     """Each candidate's altitude levels (M, K), infinite where not allowed; the start and the
     goal have their own altitude as their only level."""
@@ -303,12 +357,12 @@ class Lattice:
     """What the searches over one problem share: the chords' floor (blocks of cells), the
     gradients, the band and the straight distance."""
 
-    def __init__(self, problem: PlanningProblem, heights: FloatArray) -> None:
+    def __init__(self, problem: PlanningProblem, heights: Terrain) -> None:
         self.problem = problem
         self.floor = floor_grid(problem, heights)
         span = float(np.hypot(*(problem.goal[:2] - problem.start[:2])))
         self.block = max(1, round(span / CELLS_ALONG / max(problem.grid.cell_size)))
-        self.coarse = block_max(self.floor, self.block, -np.inf)
+        self.coarse = self.floor.block_max(self.block)
         self.climb, self.descent = _gradients(problem)
         # a chord too steep may climb the rest in a spiral, its helix counted in its length
         self.spiral = problem.spiral_gradient or 0.0
@@ -381,7 +435,7 @@ class Lattice:
 def place(
     problem: PlanningProblem,
     route_xy: FloatArray,
-    heights: FloatArray,
+    heights: Terrain,
     lattice: Lattice | None = None,
 ) -> list[FloatArray]:
     """Seeds (solution vectors) placed along the route ``route_xy`` (module docstring), each
@@ -453,7 +507,7 @@ def _layer_pairs(n: int, per: int) -> IntArray:
     return np.asarray(np.vstack(out), dtype=np.int64)
 
 
-def repair(problem: PlanningProblem, x: FloatArray, heights: FloatArray) -> FloatArray:
+def repair(problem: PlanningProblem, x: FloatArray, heights: Terrain) -> FloatArray:
     """``x`` with the waypoints next to each piece of the flown path that runs below the floor
     (the cost's Bresenham walk) raised by 1.5 x its depth + 2 m (at least 3 m deep), again until
     the flown path is clear or ``REPAIR_ROUNDS`` have passed; under the band's top."""
@@ -468,7 +522,7 @@ def repair(problem: PlanningProblem, x: FloatArray, heights: FloatArray) -> Floa
     return x
 
 
-def _depths(problem: PlanningProblem, x: FloatArray, heights: FloatArray) -> FloatArray:
+def _depths(problem: PlanningProblem, x: FloatArray, heights: Terrain) -> FloatArray:
     """Per free waypoint, the deepest piece of the flown path next to it that runs below the
     floor (0 where none does)."""
     n = problem.n_waypoints

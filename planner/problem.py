@@ -69,6 +69,7 @@ def dilated(grid: HeightGrid) -> HeightGrid:
     from scipy.ndimage import maximum_filter
 
     h = maximum_filter(np.asarray(grid.heights), size=3, mode="nearest")
+    h.flags.writeable = False  # the grid takes it as it is (no copy)
     return replace(grid, heights=h, upper=None)
 
 
@@ -209,8 +210,12 @@ class PlanningProblem:
         set_(self, "_zones", ZoneSet.of(tuple(inflated(z, self.zone_margin) for z in self.zones)))
         safety = g.safety()
         set_(self, "safety_grid", safety)
-        set_(self, "_check_grid", dilated(safety) if self.conservative else safety)
-        set_(self, "_unknown", None if self.allow_unknown else unknown_mask_grid(g))
+        # made once per grid, shared by every problem on it (a problem is rebuilt with new
+        # limits by dataclasses.replace)
+        check = safety.derived("planner.dilated", dilated) if self.conservative else safety
+        set_(self, "_check_grid", check)
+        unknown = None if self.allow_unknown else g.derived("planner.unknown", unknown_mask_grid)
+        set_(self, "_unknown", unknown)
         # the hard conditions on a result, on the densely sampled flown path: terrain +
         # clearance on the safety heights, unknown terrain (the same mask as the cost), the zones
         # grown by the margin when they must be avoided (terrain.validity)

@@ -16,6 +16,7 @@ Conventions (used everywhere in terrapath):
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import re
@@ -58,15 +59,75 @@ def crs_label(crs: CRS | None) -> str:
     return match.group(1) if match else crs.to_string()
 
 
-def block_max(a: npt.ArrayLike, b: int, fill: float) -> npt.NDArray[np.float64]:
-    """The maximum of each ``b x b`` block of the 2-D array ``a`` (float64; the last row and
-    column of blocks, when partial, padded with ``fill``)."""
-    arr = np.asarray(a, dtype=np.float64)
-    rows, cols = arr.shape
+def _block_reduce(
+    a: npt.NDArray[Any], b: int, reduce: Callable[..., Any], dtype: type
+) -> npt.NDArray[Any]:
+    """``reduce`` (a numpy reduction taking ``axis``) of each ``b x b`` block of the 2-D array
+    ``a``, the last row and column of blocks partial (reduced over the cells they have).  Works a
+    strip of ``b`` rows at a time, so it makes no copy of ``a`` (a float32 grid is reduced as it
+    is; each strip is widened to ``dtype`` only in the reduction)."""
+    rows, cols = a.shape
     nr, nc = -(-rows // b), -(-cols // b)
-    pad = np.full((nr * b, nc * b), fill, dtype=np.float64)
-    pad[:rows, :cols] = arr
-    return np.asarray(pad.reshape(nr, b, nc, b).max(axis=(1, 3)), dtype=np.float64)
+    full = cols // b
+    out: npt.NDArray[Any] = np.empty((nr, nc), dtype=dtype)
+    for i in range(nr):
+        strip = a[i * b : (i + 1) * b]
+        if full:
+            out[i, :full] = reduce(strip[:, : full * b].reshape(len(strip), full, b), axis=(0, 2))
+        if full < nc:
+            out[i, full] = reduce(strip[:, full * b :], axis=None)
+    return out
+
+
+def block_max(a: npt.ArrayLike, b: int, fill: float = -np.inf) -> npt.NDArray[np.float64]:
+    """The maximum of each ``b x b`` block of the 2-D array ``a`` (float64, exact: the maximum
+    of the values as given; the last row and column of blocks, when partial, are the maximum of
+    the cells they have, as if padded with ``fill`` below every value).  Makes no full-size copy
+    of ``a`` (a float32 grid stays float32 until the blocks' maxima are taken)."""
+    arr = np.asarray(a)
+    if arr.dtype == np.bool_:
+        arr = arr.view(np.uint8)
+    out = _block_reduce(arr, int(b), np.max, np.float64)
+    if fill > -np.inf and (arr.shape[0] % b or arr.shape[1] % b):
+        # a partial block padded with ``fill`` takes it when it is above every value
+        edge = np.zeros(out.shape, dtype=bool)
+        if arr.shape[0] % b:
+            edge[-1, :] = True
+        if arr.shape[1] % b:
+            edge[:, -1] = True
+        out[edge] = np.maximum(out[edge], fill)
+    return out
+
+
+def block_mean(a: npt.ArrayLike, b: int) -> npt.NDArray[np.float64]:
+    """The mean of each ``b x b`` block of the 2-D array ``a`` (float64; a partial block at the
+    last row or column is the mean of the cells it has), without a full-size copy of ``a``."""
+    arr = np.asarray(a)
+    return _block_reduce(arr, int(b), lambda x, axis: np.mean(x, axis=axis, dtype=np.float64),
+                         np.float64)  # fmt: skip
+
+
+def frozen(values: npt.ArrayLike, dtype: type) -> npt.NDArray[Any]:
+    """``values`` as a read-only C-contiguous array of ``dtype``: taken as it is (no copy) when
+    it already is one that owns its memory -- nobody else can write to it, e.g. an array a
+    loader made for the grid and handed over read-only -- else copied and frozen."""
+    if (
+        isinstance(values, np.ndarray)
+        and values.dtype == dtype
+        and values.flags.c_contiguous
+        and values.flags.owndata
+        and not values.flags.writeable
+    ):
+        return values
+    copied: npt.NDArray[Any] = np.array(values, dtype=dtype, copy=True, order="C")
+    copied.flags.writeable = False
+    return copied
+
+
+def _all_finite(a: npt.NDArray[Any]) -> bool:
+    """True when no value of ``a`` is NaN or infinite (its min and max are finite: NaN spreads
+    through both), with no temporary array of the grid's size."""
+    return bool(a.size == 0 or (math.isfinite(float(a.min())) and math.isfinite(float(a.max()))))
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,30 +162,29 @@ class HeightGrid:
     outside: BoolArray | None = None
 
     def __post_init__(self) -> None:
-        h = np.array(self.heights, dtype=np.float32, copy=True)
+        h = np.asarray(self.heights)
         if h.ndim != 2 or h.shape[0] < 2 or h.shape[1] < 2:
             raise InputError(f"a height grid needs at least 2 x 2 cells; got shape {h.shape}")
-        if not np.all(np.isfinite(h)):
+        h = frozen(h, np.float32)
+        if not _all_finite(h):
             raise InputError("a height grid may not contain NaN or infinite heights")
         t = self.transform
         if t.b != 0 or t.d != 0 or t.a <= 0 or t.e >= 0:
             raise InputError(
                 f"a height grid must be north-up with positive cell sizes; got transform {tuple(t)[:6]}"
             )
-        h.flags.writeable = False
         object.__setattr__(self, "heights", h)
         for name in ("known", "outside"):
             value = getattr(self, name)
             if value is None:
                 continue
-            mask = np.array(value, copy=True)
+            mask = np.asarray(value)
             if mask.shape != h.shape or mask.dtype != np.bool_:
                 raise InputError(
                     f"{name} must be a boolean array of the heights' shape {h.shape}; "
                     f"got {mask.dtype} {mask.shape}"
                 )
-            mask.flags.writeable = False
-            object.__setattr__(self, name, mask)
+            object.__setattr__(self, name, frozen(mask, np.bool_))
         if (
             self.outside is not None
             and self.known is not None
@@ -132,15 +192,17 @@ class HeightGrid:
         ):
             raise InputError("a cell outside every source cannot be known (outside & known)")
         if self.upper is not None:
-            u = np.array(self.upper, dtype=np.float32, copy=True)
+            u = np.asarray(self.upper)
             if u.shape != h.shape:
                 raise InputError(
                     f"upper must have the heights' shape {h.shape}; got shape {u.shape}"
                 )
-            if not np.all(np.isfinite(u)):
+            u = frozen(u, np.float32)
+            if not _all_finite(u):
                 raise InputError("upper may not contain NaN or infinite heights")
-            np.maximum(u, h, out=u)  # conservative: never below the display heights
-            u.flags.writeable = False
+            if np.any(u < h):  # conservative: never below the display heights
+                u = np.maximum(u, h)
+                u.flags.writeable = False
             object.__setattr__(self, "upper", u)
         for name in ("nodata_filled", "outside_source"):
             n = getattr(self, name)
@@ -151,6 +213,11 @@ class HeightGrid:
             if not math.isfinite(self.source_max):
                 raise InputError(f"source_max must be a finite height; got {self.source_max!r}")
             object.__setattr__(self, "source_max", float(self.source_max))
+
+    def __getstate__(self) -> dict[str, Any]:
+        """What a pickle keeps: the grid's fields, not what was derived from it (block maxima,
+        coarse copies, the planner's dilated grid): a worker makes those again if it needs them."""
+        return {k: v for k, v in self.__dict__.items() if k in _FIELDS}
 
     # -- what is measured -------------------------------------------------------------------------
     @property
@@ -167,18 +234,24 @@ class HeightGrid:
         in each cell, never below the display heights); ``self`` when ``upper`` is None."""
         if self.upper is None:
             return self
-        return HeightGrid(
-            self.upper,
-            self.transform,
-            self.crs,
-            self.sources,
-            self.nodata_filled,
-            known=self.known,
-            upper=None,
-            outside_source=self.outside_source,
-            source_max=self.source_max,
-            outside=self.outside,
-        )
+
+        def make(grid: HeightGrid) -> HeightGrid:
+            return HeightGrid(
+                grid.upper if grid.upper is not None else grid.heights,
+                grid.transform,
+                grid.crs,
+                grid.sources,
+                grid.nodata_filled,
+                known=grid.known,
+                upper=None,
+                outside_source=grid.outside_source,
+                source_max=grid.source_max,
+                outside=grid.outside,
+            )
+
+        # one safety grid per grid, its own derived grids (the planner's) shared with it
+        safety: HeightGrid = self.derived("terrain.safety", make)
+        return safety
 
     # -- shape and extent -------------------------------------------------------------------------
     @property
@@ -198,9 +271,66 @@ class HeightGrid:
         """Highest height of each ``terrain.kernels.BLOCK``-square block of cells (float64,
         read-only): lets the segment checks skip stretches of a segment far above the ground.
         Computed on first use and kept (the heights never change)."""
-        out = block_max(self.heights, kernels.BLOCK, -np.inf)
-        out.flags.writeable = False
+        return self.block_max(kernels.BLOCK)
+
+    def block_max(self, b: int) -> npt.NDArray[np.float64]:
+        """Highest height of each ``b``-square block of cells (float64, read-only; the last row
+        and column of blocks partial): :func:`block_max` of the heights, computed once per
+        ``b`` and shared by everyone who asks (the segment checks, the planner's map search)."""
+        cache: dict[int, npt.NDArray[np.float64]] = self.__dict__.setdefault("_block_max", {})
+        out = cache.get(int(b))
+        if out is None:
+            out = block_max(self.heights, int(b))
+            out.flags.writeable = False
+            cache[int(b)] = out
         return out
+
+    def derived(self, key: str, make: Callable[[HeightGrid], Any]) -> Any:
+        """``make(self)``, computed on the first call for ``key`` and kept with the grid (which
+        never changes): a grid derived from this one (the planner's dilated heights, its
+        unknown-terrain mask) is built once and shared by every problem and check on it."""
+        cache: dict[str, Any] = self.__dict__.setdefault("_derived", {})
+        if key not in cache:
+            cache[key] = make(self)
+        return cache[key]
+
+    def decimated(self, k: int) -> HeightGrid:
+        """A coarse copy of the grid for pictures, ``k x k`` cells to one (a partial block at
+        the east and south edges covers the cells it has, so the coarse grid reaches up to
+        ``k - 1`` cells beyond the map): heights the blocks' means, ``upper`` their maxima, a
+        coarse cell known only when every cell in it is (unknown terrain stays unknown) and
+        outside every source when any cell in it is.  Never used for a safety check (those
+        read the measured cells).  ``self`` for ``k`` <= 1; computed once per ``k``."""
+        k = int(k)
+        if k <= 1:
+            return self
+        cache: dict[int, HeightGrid] = self.__dict__.setdefault("_decimated", {})
+        if k in cache:
+            return cache[k]
+        known = None
+        if self.known is not None:
+            known = _block_reduce(self.known.view(np.uint8), k, np.min, np.uint8) > 0
+        outside = None
+        if self.outside is not None:
+            outside = block_max(self.outside, k) > 0
+        rows, cols = -(-self.rows // k), -(-self.cols // k)
+        n_unknown = 0 if known is None else int(known.size - np.count_nonzero(known))
+        n_out = 0 if outside is None else int(np.count_nonzero(outside))
+        coarse = HeightGrid(
+            block_mean(self.heights, k).astype(np.float32),
+            self.transform @ Affine.scale(k, k),
+            self.crs,
+            self.sources,
+            n_unknown - n_out,
+            known=None if known is None or known.all() else known,
+            upper=None if self.upper is None else block_max(self.upper, k).astype(np.float32),
+            outside_source=n_out,
+            source_max=self.source_max,
+            outside=None if outside is None or not outside.any() else outside,
+        )
+        assert coarse.shape == (rows, cols)
+        cache[k] = coarse
+        return coarse
 
     @property
     def cell_size(self) -> tuple[float, float]:
@@ -502,3 +632,6 @@ class HeightGrid:
         if corners is not None:
             out["footprint_lonlat"] = [list(c) for c in corners]
         return out
+
+
+_FIELDS = frozenset(f.name for f in dataclasses.fields(HeightGrid))

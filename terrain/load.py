@@ -49,8 +49,9 @@ import numpy.typing as npt
 import rasterio
 from affine import Affine
 from rasterio.crs import CRS
-from rasterio.enums import Resampling
+from rasterio.enums import MaskFlags, Resampling
 from rasterio.errors import CRSError, RasterioIOError
+from rasterio.windows import Window
 
 from terrain.errors import DataFileError, InputError, ResourceError
 from terrain.grid import HeightGrid
@@ -62,6 +63,7 @@ WGS84 = CRS.from_epsg(4326)
 _BYTES_PER_CELL = 48
 
 PathLike = str | os.PathLike[str]
+READ_CACHE = 16 * 2**20  # bytes of GDAL's block cache while a grid is read
 
 
 @dataclass(frozen=True)
@@ -190,18 +192,62 @@ def check_grid_memory(rows: int, cols: int, cell_size: float) -> None:
         )
 
 
-def _read_band(src: rasterio.DatasetReader, band: int, path: str) -> npt.NDArray[np.float32]:
+def _read_band(
+    src: rasterio.DatasetReader,
+    band: int,
+    path: str,
+    window: Window | None = None,
+    out: npt.NDArray[np.float32] | None = None,
+) -> npt.NDArray[np.float32]:
+    """The tile's heights (float32, NaN where nodata, masked or not finite) of ``window`` (the
+    whole band when None), read straight into ``out`` when given (a C-contiguous float32 array
+    of the window's shape): no masked array, no copy of the band."""
+    if window is None:
+        window = Window(0, 0, src.width, src.height)
+    shape = (int(window.height), int(window.width))
+    arr = np.empty(shape, dtype=np.float32) if out is None else out
     try:
-        data = src.read(band, masked=True).astype(np.float32)
+        src.read(band, window=window, out=arr, out_dtype=np.float32)
+        masked = MaskFlags.all_valid not in src.mask_flag_enums[band - 1]
+        if masked:  # a nodata value, an internal mask or an alpha band
+            arr[src.read_masks(band, window=window) == 0] = np.nan
     except RasterioIOError:  # GDAL's "Read failed": a truncated or damaged file
         raise DataFileError(
             f"{path!r}: its heights cannot be read (band {band}): the file is truncated or damaged"
         ) from None
-    arr = np.ma.filled(data, np.nan).astype(np.float32, copy=False)
-    arr[~np.isfinite(arr)] = np.nan
-    if not np.isfinite(arr).any():
+    if np.dtype(src.dtypes[band - 1]).kind == "f":
+        arr[~np.isfinite(arr)] = np.nan
+    whole = shape == (src.height, src.width)
+    if whole and _finite_max(arr) is None:
         raise DataFileError(f"{path!r}: every cell is nodata; there are no heights in it")
     return arr
+
+
+def _source_window(
+    src: rasterio.DatasetReader, target: CRS | None, transform: Affine, rows: int, cols: int
+) -> Window:
+    """The part of a tile that a grid (``transform``, ``rows`` x ``cols``, in ``target``) needs
+    to be resampled from: the grid's box in the tile's frame, widened by two source cells for the
+    resampling's kernel, on the tile (a windowed read: a crop of a large DEM reads its part)."""
+    from rasterio.warp import transform_bounds
+
+    everything = Window(0, 0, src.width, src.height)
+    st = src.transform
+    if st.b != 0 or st.d != 0:  # a rotated tile: read it all
+        return everything
+    x0, y0 = transform.c, transform.f + rows * transform.e
+    x1, y1 = transform.c + cols * transform.a, transform.f
+    if target is not None and src.crs != target:
+        x0, y0, x1, y1 = transform_bounds(target, src.crs, x0, y0, x1, y1, densify_pts=21)
+    cols_ = sorted(((x0 - st.c) / st.a, (x1 - st.c) / st.a))
+    rows_ = sorted(((y0 - st.f) / st.e, (y1 - st.f) / st.e))
+    if not all(map(math.isfinite, cols_ + rows_)):
+        return everything
+    c0, c1 = max(0, math.floor(cols_[0]) - 2), min(src.width, math.ceil(cols_[1]) + 2)
+    r0, r1 = max(0, math.floor(rows_[0]) - 2), min(src.height, math.ceil(rows_[1]) + 2)
+    if c1 <= c0 or r1 <= r0:
+        return everything
+    return Window(c0, r0, c1 - c0, r1 - r0)
 
 
 def _choose_band(src: rasterio.DatasetReader, band: int | None, path: str) -> int:
@@ -277,7 +323,10 @@ def load_dem(
             target = None
         else:
             target = user_crs or _default_crs(srcs)
-        grid = _build(srcs, names, bands, target, cell_size, crop, crop_lonlat)
+        # every block is read once, straight into the grid: GDAL's block cache (5 % of the
+        # memory by default) would only keep a second copy of the file's cells
+        with rasterio.Env(GDAL_CACHEMAX=READ_CACHE):
+            grid = _build(srcs, names, bands, target, cell_size, crop, crop_lonlat)
     finally:
         for s in srcs:
             s.close()
@@ -411,44 +460,60 @@ def _build(
 
     coarse = min(res) > 1.5 * max(max(r) for r in native)
     resampling = Resampling.average if coarse else Resampling.bilinear
-    heights = np.full((rows, cols), np.nan, dtype=np.float32)
-    upper = np.full((rows, cols), np.nan, dtype=np.float32)
-    covered = np.zeros((rows, cols), dtype=bool)
+    heights: npt.NDArray[np.float32] | None = None
+    # None while the safety heights are the display heights (one tile copied exactly)
+    upper: npt.NDArray[np.float32] | None = None
+    covered: npt.NDArray[np.bool_] | None = None
     exact = True
     source_max: float | None = None
     for src, name, band in zip(srcs, names, bands, strict=True):
         part = _warp_tile(
             src, name, band, target, transform, rows, cols, resampling, same_frame, box is None
         )
-        hole = np.isnan(heights) & part.measured
-        heights[hole] = part.heights[hole]
-        covered |= part.covered
-        if part.upper is None:
-            np.fmax(upper, part.heights, out=upper)  # an exact copy is its own maximum
+        if heights is None or covered is None:
+            # the first tile's arrays become the grid's (no copy); a display height counts
+            # only over a measured cell
+            heights, covered, upper = part.heights, part.covered, part.upper
+            if part.measured is not None:
+                heights[~part.measured] = np.nan
         else:
-            exact = False
-            np.fmax(upper, part.upper, out=upper)
+            if upper is None:
+                upper = heights.copy()  # an exact copy is its own maximum
+            measured = np.isfinite(part.heights) if part.measured is None else part.measured
+            hole = np.isnan(heights) & measured
+            heights[hole] = part.heights[hole]
+            del hole
+            covered |= part.covered
+            np.fmax(upper, part.heights if part.upper is None else part.upper, out=upper)
+        exact = exact and part.upper is None
         if part.source_max is not None:
             source_max = part.source_max if source_max is None else max(source_max, part.source_max)
+        del part
+    assert heights is not None and covered is not None
     known = ~np.isnan(heights)
     if not known.any():
         raise DataFileError(
             f"{', '.join(repr(n) for n in names)}: no heights inside the requested area (all nodata)"
         )
-    outside = ~covered
+    outside = np.logical_not(covered, out=covered)
     n_outside = int(np.count_nonzero(outside))
     n_holes = int(known.size - np.count_nonzero(known)) - n_outside
     if n_holes or n_outside:
         heights[~known] = np.nan
         heights = fill_nodata(heights)
-        if not exact:
+        if not exact and upper is not None:
             # Unknown cells: the nearest measured safety height (below, never under the fill).
             upper = _fill_nearest(upper)
-    np.fmax(upper, heights, out=upper)  # NaN (an exact copy's holes) takes the filled height
-    if exact and np.array_equal(upper, heights):
-        safety: npt.NDArray[np.float32] | None = None
-    else:
-        safety = upper
+    safety: npt.NDArray[np.float32] | None = None
+    if upper is not None:
+        np.fmax(upper, heights, out=upper)  # NaN (an exact copy's holes) takes the filled height
+        if not (exact and np.array_equal(upper, heights)):
+            safety = upper
+            safety.flags.writeable = False  # handed to the grid as it is
+    del upper
+    heights.flags.writeable = False
+    known.flags.writeable = False
+    outside.flags.writeable = False
     return HeightGrid(
         heights,
         transform,
@@ -474,13 +539,17 @@ class _TilePart:
     heights: npt.NDArray[np.float32]
     upper: npt.NDArray[np.float32] | None
     covered: npt.NDArray[np.bool_]
-    measured: npt.NDArray[np.bool_]
+    measured: npt.NDArray[np.bool_] | None  # None: where ``heights`` is not NaN
     source_max: float | None
 
 
 def _finite_max(values: npt.NDArray[np.float32]) -> float | None:
-    finite = values[np.isfinite(values)]
-    return float(finite.max()) if finite.size else None
+    """The highest value that is not NaN (None when every one is; heights hold no infinities
+    by then), with no copy of ``values``."""
+    if values.size == 0:
+        return None
+    top = float(np.fmax.reduce(values, axis=None))
+    return None if math.isnan(top) else top
 
 
 def _warp_tile(
@@ -495,7 +564,6 @@ def _warp_tile(
     same_frame: bool,
     whole: bool,
 ) -> _TilePart:
-    data = _read_band(src, band, name)
     out = np.full((rows, cols), np.nan, dtype=np.float32)
     st = src.transform
     aligned = (
@@ -506,7 +574,8 @@ def _warp_tile(
         and math.isclose(st.e, transform.e, rel_tol=1e-9)
     )
     if aligned:
-        # Same lattice: an exact copy of the overlapping window (no resampling at all).
+        # Same lattice: an exact copy of the overlapping window (no resampling at all), read
+        # from the file straight into the grid (a windowed read: a crop reads only its cells).
         c_off = (st.c - transform.c) / transform.a
         r_off = (st.f - transform.f) / transform.e
         ci, ri = round(c_off), round(r_off)
@@ -516,11 +585,21 @@ def _warp_tile(
             r1, c1 = min(ri + src.height, rows), min(ci + src.width, cols)
             top = None
             if r1 > r0 and c1 > c0:
-                window = data[r0 - ri : r1 - ri, c0 - ci : c1 - ci]
-                out[r0:r1, c0:c1] = window
+                window = Window(c0 - ci, r0 - ri, c1 - c0, r1 - r0)
+                if c0 == 0 and c1 == cols:  # whole rows of the grid: a contiguous block
+                    _read_band(src, band, name, window, out[r0:r1])
+                else:
+                    out[r0:r1, c0:c1] = _read_band(src, band, name, window)
                 covered[r0:r1, c0:c1] = True
-                top = _finite_max(window)
-            return _TilePart(out, None, covered, np.isfinite(out), top)
+                top = _finite_max(out[r0:r1, c0:c1])
+            elif whole:
+                _read_band(src, band, name)  # refuses a tile that is all nodata
+            return _TilePart(out, None, covered, None, top)
+    win = _source_window(src, target, transform, rows, cols)
+    data = _read_band(src, band, name, win)
+    if (win.width, win.height) != (src.width, src.height):
+        whole = False  # the source maximum over the grid's area is taken as for a crop
+        st = st @ Affine.translation(win.col_off, win.row_off)
     from rasterio.warp import reproject
 
     if target is None:

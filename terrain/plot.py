@@ -18,22 +18,62 @@ import numpy.typing as npt
 from terrain.atomic import atomic_output
 from terrain.grid import HeightGrid, crs_label
 
+# A picture shows at most this many cells along its longer side: a map's axes are ~750 pixels
+# wide (a figure of 8-9 inches at 130 dpi, less the colour bar and labels), so this keeps about a
+# cell a pixel.  A larger grid is drawn from its block means (HeightGrid.decimated): the picture
+# of a 100 M-cell DEM costs what one of 0.6 M cells does.
+DISPLAY_CELLS = 800
+
+
+def display_grid(grid: HeightGrid, max_cells: int = DISPLAY_CELLS) -> HeightGrid:
+    """``grid``, or its coarse copy (:meth:`HeightGrid.decimated`) with at most ``max_cells``
+    cells along its longer side, for drawing."""
+    return grid.decimated(math.ceil(max(grid.rows, grid.cols) / max_cells))
+
 
 def hillshade(
     grid: HeightGrid, azimuth: float = 315.0, altitude: float = 45.0, exaggeration: float = 1.0
 ) -> npt.NDArray[np.float64]:
     """Illumination in [0, 1] of each cell for a sun at ``azimuth`` (deg clockwise from north) and
-    ``altitude`` (deg above the horizon), from the terrain's true metric slopes."""
-    dx, dy = grid.cell_size
-    z = grid.heights.astype(np.float64) * exaggeration
+    ``altitude`` (deg above the horizon), from the terrain's true metric slopes: ``sin(alt)
+    cos(slope) + cos(alt) sin(slope) cos(az - aspect)``, written with the gradient's components
+    (``(sin(alt) - cos(alt) (gx sin(az) + gy cos(az))) / sqrt(1 + gx^2 + gy^2)``, gx east and
+    gy north) so it needs few arrays of the grid's size."""
+    return _shade(grid.heights, grid.cell_size, azimuth, altitude, exaggeration)
+
+
+def _shade(
+    heights: npt.NDArray[np.float32],
+    cell_size: tuple[float, float],
+    azimuth: float = 315.0,
+    altitude: float = 45.0,
+    exaggeration: float = 1.0,
+) -> npt.NDArray[np.float64]:
+    """:func:`hillshade` of a height array (rows north to south)."""
+    dx, dy = cell_size
+    z = heights.astype(np.float64)
+    if exaggeration != 1.0:
+        z *= exaggeration
     # rows run south, so d/dy(north) = -d/drow
-    dz_drow, dz_dcol = np.gradient(z, dy, dx)
-    gx, gy = dz_dcol, -dz_drow
-    slope = np.arctan(np.hypot(gx, gy))
-    aspect = np.arctan2(-gx, -gy)  # direction the slope faces, clockwise from north
-    az, alt = np.radians(azimuth), np.radians(altitude)
-    shade = np.sin(alt) * np.cos(slope) + np.cos(alt) * np.sin(slope) * np.cos(az - aspect)
-    return np.asarray(np.clip(shade, 0.0, 1.0))
+    grads: list[npt.NDArray[np.float64]] = list(np.gradient(z, dy, dx))
+    del z
+    dz_drow, gx = grads
+    gy = np.negative(dz_drow, out=dz_drow)
+    az, alt = math.radians(azimuth), math.radians(altitude)
+    norm = np.hypot(gx, gy)
+    np.square(norm, out=norm)
+    norm += 1.0
+    np.sqrt(norm, out=norm)
+    gx *= math.sin(az)
+    gy *= math.cos(az)
+    gx += gy
+    del gy, dz_drow
+    shade: npt.NDArray[np.float64] = gx
+    shade *= -math.cos(alt)
+    shade += math.sin(alt)
+    shade /= norm
+    np.clip(shade, 0.0, 1.0, out=shade)
+    return shade
 
 
 def colour_limits(grid: HeightGrid) -> tuple[float, float]:
@@ -45,18 +85,32 @@ def colour_limits(grid: HeightGrid) -> tuple[float, float]:
     return lo, max(hi, lo + 1e-6)
 
 
-def tinted_hillshade(grid: HeightGrid) -> tuple[npt.NDArray[np.float64], Any, Any]:
-    """(rows, cols, 3) RGB in [0, 1]: the elevation's ``gist_earth`` tint darkened by the
-    hillshade (row 0 north), with the elevation's normalisation (:func:`colour_limits`) and
-    colour map."""
+STRIP = 256  # rows of a picture shaded at a time
+
+
+def tinted_hillshade(grid: HeightGrid) -> tuple[npt.NDArray[np.float32], Any, Any]:
+    """(rows, cols, 3) RGB in [0, 1] (float32): the elevation's ``gist_earth`` tint darkened by
+    the hillshade (row 0 north), with the elevation's normalisation (:func:`colour_limits`) and
+    colour map.  Made ``STRIP`` rows at a time (each with a row of its neighbours on either
+    side, so the slopes are those of the whole grid), so it needs the picture and little more."""
     from matplotlib import colormaps
     from matplotlib.colors import Normalize
 
     norm = Normalize(*colour_limits(grid))
     cmap = colormaps["gist_earth"]
-    tint = cmap(norm(grid.heights))[..., :3]
-    shade = hillshade(grid)[..., None]
-    return np.clip(tint * (0.35 + 0.65 * shade), 0.0, 1.0), norm, cmap
+    h = grid.heights
+    rows = grid.rows
+    rgb = np.empty((rows, grid.cols, 3), dtype=np.float32)
+    for r0 in range(0, rows, STRIP):
+        r1 = min(rows, r0 + STRIP)
+        a0, a1 = max(0, r0 - 1), min(rows, r1 + 1)
+        shade = _shade(h[a0:a1], grid.cell_size)[r0 - a0 : r1 - a0]
+        shade *= 0.65
+        shade += 0.35
+        tint = cmap(norm(h[r0:r1]))[..., :3]
+        tint *= shade[..., None]
+        rgb[r0:r1] = np.clip(tint, 0.0, 1.0, out=tint)
+    return rgb, norm, cmap
 
 
 def zoom_box(
@@ -119,6 +173,8 @@ def draw_hillshade(
     whole = grid.bounds
     zoomed = window is not None and tuple(window) != tuple(whole)
     shown = grid.crop(*window) if zoomed and window is not None else grid
+    # a grid larger than the picture is drawn from its block means (display_grid)
+    shown = display_grid(shown)
     xmin, ymin, xmax, ymax = window if zoomed and window is not None else whole
     sx0, sy0, sx1, sy1 = shown.bounds
     rgb, norm, cmap = tinted_hillshade(shown)

@@ -739,10 +739,11 @@ def _image_uri(grid: Any) -> tuple[str, int]:
 
     from terrain.plot import tinted_hillshade
 
-    rgb, _, _ = tinted_hillshade(grid)
     step = _stride(max(grid.rows, grid.cols), MAX_IMAGE)
+    # a large map is shaded from its block means (one pixel a block), never in full
+    rgb, _, _ = tinted_hillshade(grid.decimated(step))
     buf = io.BytesIO()
-    imsave(buf, rgb[::step, ::step], format="png")
+    imsave(buf, rgb, format="png")
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii"), step
 
 
