@@ -37,6 +37,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 import numpy.typing as npt
 
+from replay.threats.index import NearIndex
 from replay.threats.kinds import (
     EDGE_SUFFIXES,
     CylinderThreat,
@@ -106,12 +107,34 @@ class _Points:
         self.t1 = table.disappears[self.rows]
         # no windows: every point is active from t = 0 on (appears_at is >= 0)
         self.always = bool(np.all(self.t0 == 0.0) and np.all(np.isinf(self.t1)))
+        # the points near the aircraft (replay.threats.index), and their columns and windows
+        self.index = NearIndex(p)
+        self._near = self.index.rows
+        self._near_columns, self._near_t0, self._near_t1 = self.columns, self.t0, self.t1
 
     def __len__(self) -> int:
         return len(self.rows)
 
     def seen(self, t: float, own: FloatArray, max_range: float) -> IntArray:
-        """Points active at t within ``max_range`` of ``own``."""
+        """Points active at t within ``max_range`` of ``own`` (only the points the index keeps
+        near ``own`` are measured; the others are farther)."""
+        near, fresh = self.index.near(own, max_range)
+        if fresh:
+            self._near = near
+            self._near_columns = np.ascontiguousarray(self.columns[:, near])
+            self._near_t0, self._near_t1 = self.t0[near], self.t1[near]
+        if not len(near):
+            return near
+        dx, dy, dz = self._near_columns - own[:, None]
+        d = norm3(dx, dy, dz)
+        if self.always:
+            hit = np.flatnonzero(d <= max_range) if t >= 0.0 else np.zeros(0, np.int64)
+        else:
+            hit = np.flatnonzero((d <= max_range) & (t >= self._near_t0) & (t < self._near_t1))
+        return hit if len(near) == len(self.rows) else near[hit]
+
+    def seen_all(self, t: float, own: FloatArray, max_range: float) -> IntArray:
+        """:meth:`seen` testing every point (the reference the tests compare it with)."""
         dx, dy, dz = self.columns - own[:, None]
         d = norm3(dx, dy, dz)
         if self.always:
@@ -184,6 +207,13 @@ class ThreatTable:
         arrayed = {*st, *hl, *cy, *iv}
         self._other = [i for i in range(len(ths)) if i not in arrayed]
         self._static_only = len(st) == len(ths) > 0
+        # the kinds in arrays have a separation 1-Lipschitz in position (a signed distance to
+        # spheres or a cylinder) and centres that move at most ``speed`` m/s
+        # (replay.threats.book bounds a batch of samples with it)
+        self.bounded = np.zeros(len(ths), dtype=bool)
+        self.bounded[list(arrayed)] = True
+        self.speed = np.zeros(len(ths))
+        self.speed[self._iv] = np.linalg.norm(self._iv_vel, axis=-1).reshape(-1)
 
     def __len__(self) -> int:
         return len(self.threats)
@@ -299,19 +329,32 @@ class ThreatTable:
         is active at all of them; the others are masked sample by sample.  The kinds in arrays
         are computed a block of samples at a time (temporaries of ``_BLOCK`` numbers, which stay
         in cache); the others in one call over all the samples, as before."""
+        cols, out = self.separation_columns(positions, ts)
+        return [self.ids[i] for i in cols.tolist()], out
+
+    def separation_columns(
+        self, positions: FloatArray, ts: FloatArray, only: BoolArray | None = None
+    ) -> tuple[IntArray, FloatArray]:
+        """:meth:`separations` as (threat rows, values (k, m)), of the threats ``only`` (n,)
+        marks (every threat when None): each column is the one :meth:`separations` gives."""
         pos = np.asarray(positions, dtype=np.float64)
         ts = np.asarray(ts, dtype=np.float64)
         k, n = len(ts), len(self.threats)
+        none = np.zeros(0, dtype=np.int64)
         if not n or not k:
-            return [], np.zeros((k, 0))
+            return none, np.zeros((k, 0))
         whole = self.active(float(ts[0])) & self.active(float(ts[-1]))
-        part = np.flatnonzero(~whole & (self.appears <= ts[-1]) & (self.disappears > ts[0]))
+        inside = (self.appears <= ts[-1]) & (self.disappears > ts[0])
+        if only is not None:
+            whole &= only
+            inside &= only
+        part = np.flatnonzero(~whole & inside)
         mask = (ts[:, None] >= self.appears[part]) & (ts[:, None] < self.disappears[part])
         live = whole.copy()
         live[part] = mask.any(axis=0)
         cols = np.flatnonzero(live)
         if not len(cols):
-            return [], np.zeros((k, 0))
+            return none, np.zeros((k, 0))
         column = np.full(n, -1, dtype=np.int64)
         column[cols] = np.arange(len(cols))
         out = np.empty((k, len(cols)))
@@ -347,7 +390,7 @@ class ThreatTable:
         finite = np.isfinite(out).any(axis=0)
         if not finite.all():
             cols, out = cols[finite], out[:, finite]
-        return [self.ids[i] for i in cols.tolist()], out
+        return cols, out
 
     def _cylinder_separation(self, q: FloatArray, on: IntArray) -> FloatArray:
         """:meth:`CylinderThreat.separation` of points q (k, 3) from the cylinders ``on``."""
