@@ -48,6 +48,15 @@ class NearIndex:
     def __len__(self) -> int:
         return len(self.points)
 
+    def margin(self, own: FloatArray) -> float:
+        """How much farther than ``reach`` (of the last :meth:`near`) from ``own`` every point
+        left out lies, at least: the aircraft may move this far before one can be in reach."""
+        if self._at is None or len(self.points) <= BRUTE_MAX or not math.isfinite(self._step):
+            return math.inf
+        at = self._at
+        moved = math.sqrt((own[0] - at[0]) ** 2 + (own[1] - at[1]) ** 2 + (own[2] - at[2]) ** 2)
+        return self._step + SLACK_M - float(moved)
+
     def near(self, own: FloatArray, reach: float) -> tuple[IntArray, bool]:
         """(rows of the points that may lie within ``reach`` of ``own``, increasing; True when
         they were refreshed by this call)."""

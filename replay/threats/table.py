@@ -55,6 +55,7 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 T = TypeVar("T", bound=Threat)
 _BLOCK = 16384  # numbers per temporary array of the separations (128 KiB)
+_HELD_SLACK_M = 1e-3  # a held radar answer's reach is this much shorter: rounding
 
 
 def _index(items: Sequence[int]) -> IntArray:
@@ -109,29 +110,61 @@ class _Points:
         self.always = bool(np.all(self.t0 == 0.0) and np.all(np.isinf(self.t1)))
         # the points near the aircraft (replay.threats.index), and their columns and windows
         self.index = NearIndex(p)
-        self._near = self.index.rows
         self._near_columns, self._near_t0, self._near_t1 = self.columns, self.t0, self.t1
+        # the last answer of :meth:`seen` and where it holds: (x, y, z, t, t_until, gap^2,
+        # max_range), the aircraft within gap of (x, y, z) and t <= time < t_until
+        self._held: tuple[float, ...] | None = None
+        self._hit = np.zeros(0, dtype=np.int64)
 
     def __len__(self) -> int:
         return len(self.rows)
 
     def seen(self, t: float, own: FloatArray, max_range: float) -> IntArray:
-        """Points active at t within ``max_range`` of ``own`` (only the points the index keeps
-        near ``own`` are measured; the others are farther)."""
+        """Points active at t within ``max_range`` of ``own``: the same array object as the
+        last call's while the answer cannot have changed.
+
+        Only the points the index keeps near ``own`` are measured (the others are farther).
+        Each measured point's range changes no faster than the aircraft moves, so the answer
+        holds while the aircraft stays within the smallest ``|range - max_range|`` of where it
+        was measured (and within the index's reach), and no activity window opens or closes."""
+        x, y, z = float(own[0]), float(own[1]), float(own[2])
+        h = self._held
+        if (
+            h is not None
+            and h[6] == max_range
+            and h[3] <= t < h[4]
+            and (x - h[0]) ** 2 + (y - h[1]) ** 2 + (z - h[2]) ** 2 < h[5]
+        ):
+            return self._hit
         near, fresh = self.index.near(own, max_range)
         if fresh:
-            self._near = near
             self._near_columns = np.ascontiguousarray(self.columns[:, near])
             self._near_t0, self._near_t1 = self.t0[near], self.t1[near]
+        self._held = None
         if not len(near):
-            return near
-        dx, dy, dz = self._near_columns - own[:, None]
-        d = norm3(dx, dy, dz)
-        if self.always:
-            hit = np.flatnonzero(d <= max_range) if t >= 0.0 else np.zeros(0, np.int64)
+            hit = near
+            gap = self.index.margin(own)
         else:
-            hit = np.flatnonzero((d <= max_range) & (t >= self._near_t0) & (t < self._near_t1))
-        return hit if len(near) == len(self.rows) else near[hit]
+            dx, dy, dz = self._near_columns - own[:, None]
+            d = norm3(dx, dy, dz)
+            if self.always:
+                hit = np.flatnonzero(d <= max_range) if t >= 0.0 else np.zeros(0, np.int64)
+            else:
+                hit = np.flatnonzero(
+                    (d <= max_range) & (t >= self._near_t0) & (t < self._near_t1)
+                )
+            if len(near) != len(self.rows):
+                hit = near[hit]
+            gap = min(float(np.abs(d - max_range).min()), self.index.margin(own))
+        gap -= _HELD_SLACK_M
+        if gap > 0.0 and t >= 0.0:
+            until = math.inf
+            if not self.always:
+                t0, t1 = self._near_t0, self._near_t1
+                until = float(min(t0[t0 > t].min(initial=math.inf), t1[t1 > t].min(initial=math.inf)))
+            self._held = (x, y, z, t, until, gap * gap, max_range)
+        self._hit = hit
+        return hit
 
     def seen_all(self, t: float, own: FloatArray, max_range: float) -> IntArray:
         """:meth:`seen` testing every point (the reference the tests compare it with)."""
@@ -207,6 +240,8 @@ class ThreatTable:
         arrayed = {*st, *hl, *cy, *iv}
         self._other = [i for i in range(len(ths)) if i not in arrayed]
         self._static_only = len(st) == len(ths) > 0
+        # the static returns of the last radar_points: (the seen rows, ids, points)
+        self._static_returns: tuple[IntArray, list[str], FloatArray] | None = None
         # the kinds in arrays have a separation 1-Lipschitz in position (a signed distance to
         # spheres or a cylinder) and centres that move at most ``speed`` m/s
         # (replay.threats.book bounds a batch of samples with it)
@@ -237,8 +272,12 @@ class ThreatTable:
         order -- :meth:`Threat.radar_points` of each active threat, range-tested."""
         if self._static_only:  # a static threat's one return is named after it
             hit = self._static.seen(t, own, max_range)
-            ids = [self._static.ids[j] for j in hit.tolist()]
-            return ids, ids.copy(), self._static.xyz[hit], np.zeros(len(ids), dtype=bool)
+            last = self._static_returns
+            if last is None or last[0] is not hit:
+                ids = [self._static.ids[j] for j in hit.tolist()]
+                last = self._static_returns = (hit, ids, self._static.xyz[hit])
+            _, ids, xyz = last  # the same points (read-only) while the same are seen
+            return list(ids), list(ids), xyz, np.zeros(len(ids), dtype=bool)
         blocks: list[tuple[IntArray, IntArray, list[str], FloatArray]] = []
         for kind in (self._static, self._hills):
             if len(kind):
