@@ -64,8 +64,8 @@ from replay.judge import (
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.record.base import Recorder
 from replay.sensors.base import Sensor
-from replay.threats.kinds import ThreatSet
 from replay.threats.book import SeparationBook
+from replay.threats.kinds import ThreatSet
 from replay.threats.table import ThreatTable
 from terrain.errors import InputError
 from terrain.grid import HeightGrid

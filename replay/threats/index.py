@@ -77,7 +77,11 @@ class NearIndex:
         tree = self._tree
         assert isinstance(tree, cKDTree)
         step = STEP_FRACTION * reach if math.isfinite(reach) else math.inf
-        rows = tree.query_ball_point([x, y, z], reach + step + SLACK_M) if math.isfinite(step) else None
+        rows = (
+            tree.query_ball_point([x, y, z], reach + step + SLACK_M)
+            if math.isfinite(step)
+            else None
+        )
         self.rows = (
             np.arange(len(self.points), dtype=np.int64)
             if rows is None

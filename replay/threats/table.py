@@ -150,9 +150,7 @@ class _Points:
             if self.always:
                 hit = np.flatnonzero(d <= max_range) if t >= 0.0 else np.zeros(0, np.int64)
             else:
-                hit = np.flatnonzero(
-                    (d <= max_range) & (t >= self._near_t0) & (t < self._near_t1)
-                )
+                hit = np.flatnonzero((d <= max_range) & (t >= self._near_t0) & (t < self._near_t1))
             if len(near) != len(self.rows):
                 hit = near[hit]
             gap = min(float(np.abs(d - max_range).min()), self.index.margin(own))
@@ -161,7 +159,9 @@ class _Points:
             until = math.inf
             if not self.always:
                 t0, t1 = self._near_t0, self._near_t1
-                until = float(min(t0[t0 > t].min(initial=math.inf), t1[t1 > t].min(initial=math.inf)))
+                until = float(
+                    min(t0[t0 > t].min(initial=math.inf), t1[t1 > t].min(initial=math.inf))
+                )
             self._held = (x, y, z, t, until, gap * gap, max_range)
         self._hit = hit
         return hit
