@@ -20,6 +20,12 @@ methods (they are rare; the 143 buildings of ``data/scenarios/bubenec-buildings.
 about 0.3 s per 1000 samples of separations and 20 ms per radar scan, one prism at a time).
 Only the exact classes are put in arrays; a subclass of a kind is asked through its methods.
 
+The radar asks the fixed points (static threats, hills' points) near the aircraft only
+(:class:`replay.threats.index.NearIndex`), and keeps its answer while the aircraft cannot have
+moved a point across the range edge (``_Points.seen``); the simulation's judge asks the
+separations of the threats that can matter to a batch of samples
+(:class:`replay.threats.book.SeparationBook`, :meth:`separation_columns` with ``only``).
+
 Every array operation is the threat's own formula applied elementwise (same operations in the
 same order), so the results are bit for bit those of the threat objects:
 :meth:`radar_points` returns the points :meth:`Threat.radar_points` would, within range, in threat
