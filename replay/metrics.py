@@ -201,6 +201,13 @@ class MetricsTracker:
         for c in sorted({*entered, *(c for c, tid in enumerate(ids) if tid in self.inside)}):
             self._track_violation(ids[c], times, separations[:, c])
 
+    def lowest(self, tid: str, value: float, t: float) -> None:
+        """A smallest separation from ``tid`` (at time ``t``) measured apart from the chunks
+        (``replay.threats.book``): kept when lower than the one so far, or as low and earlier."""
+        low, when = self.min_sep.get(tid, (math.inf, math.nan))
+        if value < low or (value == low and t < when):
+            self.min_sep[tid] = (float(value), float(t))
+
     def _track_violation(self, tid: str, times: FloatArray, sep: FloatArray) -> None:
         """Open/close violation intervals at the samples where the separation crosses the margin
         (0: the threat's surface)."""

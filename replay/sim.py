@@ -64,6 +64,7 @@ from replay.judge import (
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.record.base import Recorder
 from replay.sensors.base import Sensor
+from replay.threats.book import SeparationBook
 from replay.threats.kinds import ThreatSet
 from replay.threats.table import ThreatTable
 from terrain.errors import InputError
@@ -516,8 +517,10 @@ class _Loop:
         self.contact = False
         self.table = ThreatTable(threats.threats)  # activity and separations of every threat
         # what the metrics judge the flight by: the map, its measured terrain, the mission's
-        # danger zones (no-fly volumes) and the threats' safety volumes
-        self.validity = ValidityChecker(grid=grid, zones=mission.danger_zones, volumes=self.table)
+        # danger zones (no-fly volumes) and the threats' safety volumes -- those measured where
+        # they can matter (replay.threats.book)
+        self.validity = ValidityChecker(grid=grid, zones=mission.danger_zones)
+        self.book = SeparationBook(self.table, cfg.margin)
         # what an avoider's new waypoints and legs must pass: the same without the threats,
         # which the avoider knows only through its sensor
         self.candidates = ValidityChecker(grid=grid, zones=mission.danger_zones)
@@ -662,7 +665,7 @@ class _Loop:
         if rec is not None:
             _record_samples(rec, log, pos, air, used, self.source.capacity)
         if ts[keep - 1] - self.pending[0][0][0] >= _METRICS_BATCH_S:
-            _flush(self.pending, self.validity, self.tracker, self.zones, rec)
+            _flush(self.pending, self.validity, self.tracker, self.zones, rec, self.book)
         if not hit.size:
             return None
         self.contact = True
@@ -814,7 +817,9 @@ class _Loop:
         return (float(p[0]), float(p[1]))
 
     def finish(self) -> RunMetrics:
-        _flush(self.pending, self.validity, self.tracker, self.zones, self.recorder)
+        _flush(self.pending, self.validity, self.tracker, self.zones, self.recorder, self.book)
+        for tid, (value, t) in self.book.lowest().items():
+            self.tracker.lowest(tid, value, t)
         judged = list(self.conformance.failures(self.t))
         if self.stall is not None:
             judged += self.stall.failures(self.t)
@@ -950,6 +955,7 @@ def _arrival(stack: FlightStack, position: FloatArray) -> str:
 
 
 _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much flight at once
+RECORDED_NEAREST = 4  # replay.record.recorder.write_separations keeps the 4 nearest threats
 
 
 def _flush(
@@ -958,10 +964,13 @@ def _flush(
     tracker: MetricsTracker,
     zones: tuple[str, ...],
     recorder: Recorder | None = None,
+    book: SeparationBook | None = None,
 ) -> None:
     """Separation to every active threat and to every danger zone of the mission, time off the
-    map and over unknown terrain (all from ``validity``), and the metrics update, for the
-    buffered samples; the separations are recorded (``/vehicle/separation``) too."""
+    map and over unknown terrain (``validity``; the threats from ``validity``'s volumes, or
+    from ``book``: those that can change what is judged or recorded, the smallest separation
+    from the others when the run ends, ``SeparationBook.lowest``), and the metrics update, for
+    the buffered samples; the separations are recorded (``/vehicle/separation``) too."""
     if not pending:
         return
     ts = np.concatenate([p[0] for p in pending])
@@ -969,8 +978,12 @@ def _flush(
     clearance = np.concatenate([p[2] for p in pending])
     pending.clear()
     pv = validity.points(pos, ts)
-    ids = [*pv.volume_ids, *zones]  # the mission's danger zones after the threats
-    seps = np.column_stack([pv.volumes, pv.zones])
+    volume_ids, volumes = list(pv.volume_ids), pv.volumes
+    if book is not None:
+        nearest = RECORDED_NEAREST if recorder is not None else 0
+        volume_ids, volumes = book.batch(ts, pos, tracker.inside, nearest)
+    ids = [*volume_ids, *zones]  # the mission's danger zones after the threats
+    seps = np.column_stack([volumes, pv.zones])
     off_map = unknown = None
     grid = validity.grid
     if grid is not None:

@@ -419,7 +419,8 @@ class Radar:
         bearings = course_of(d[:, 0], d[:, 1])
         elevations = np.arctan2(d[:, 2], horiz)
         positions = true_pts.copy()
-        if self.noise_range_m > 0 or self.noise_bearing_rad > 0:
+        noisy = self.noise_range_m > 0 or self.noise_bearing_rad > 0
+        if noisy:
             if self.noise_range_m > 0:
                 ranges = np.maximum(ranges + self.rng.normal(0.0, self.noise_range_m, n), 0.0)
             if self.noise_bearing_rad > 0:
@@ -444,7 +445,16 @@ class Radar:
                 a = np.flatnonzero(j >= 0)
                 b = j[a]
             solid = ext[a]  # returns of solid bodies
-            if len(solid):
+            if (
+                isinstance(a, slice)
+                and not noisy
+                and not ext[:n_threat].any()
+                and bool((positions[:n_threat] == prev.positions[:n_threat]).all())
+            ):
+                # the same points where they were, none of a solid: none moved (the general
+                # test below gives 0 > limit, False, for each)
+                moving[:n_threat] = 0
+            elif len(solid):
                 moved = np.linalg.norm(positions[a] - prev.positions[b], axis=-1)
                 limit: float | FloatArray = self.moving_floor_m  # exactly that when sigma is 0
                 if self.noise_range_m > 0 or self.noise_bearing_rad > 0:

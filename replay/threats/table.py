@@ -20,6 +20,12 @@ methods (they are rare; the 143 buildings of ``data/scenarios/bubenec-buildings.
 about 0.3 s per 1000 samples of separations and 20 ms per radar scan, one prism at a time).
 Only the exact classes are put in arrays; a subclass of a kind is asked through its methods.
 
+The radar asks the fixed points (static threats, hills' points) near the aircraft only
+(:class:`replay.threats.index.NearIndex`), and keeps its answer while the aircraft cannot have
+moved a point across the range edge (``_Points.seen``); the simulation's judge asks the
+separations of the threats that can matter to a batch of samples
+(:class:`replay.threats.book.SeparationBook`, :meth:`separation_columns` with ``only``).
+
 Every array operation is the threat's own formula applied elementwise (same operations in the
 same order), so the results are bit for bit those of the threat objects:
 :meth:`radar_points` returns the points :meth:`Threat.radar_points` would, within range, in threat
@@ -37,6 +43,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 import numpy.typing as npt
 
+from replay.threats.index import NearIndex
 from replay.threats.kinds import (
     EDGE_SUFFIXES,
     CylinderThreat,
@@ -54,6 +61,7 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 T = TypeVar("T", bound=Threat)
 _BLOCK = 16384  # numbers per temporary array of the separations (128 KiB)
+_HELD_SLACK_M = 1e-3  # a held radar answer's reach is this much shorter: rounding
 
 
 def _index(items: Sequence[int]) -> IntArray:
@@ -106,12 +114,66 @@ class _Points:
         self.t1 = table.disappears[self.rows]
         # no windows: every point is active from t = 0 on (appears_at is >= 0)
         self.always = bool(np.all(self.t0 == 0.0) and np.all(np.isinf(self.t1)))
+        # the points near the aircraft (replay.threats.index), and their columns and windows
+        self.index = NearIndex(p)
+        self._near_columns, self._near_t0, self._near_t1 = self.columns, self.t0, self.t1
+        # the last answer of :meth:`seen` and where it holds: (x, y, z, t, t_until, gap^2,
+        # max_range), the aircraft within gap of (x, y, z) and t <= time < t_until
+        self._held: tuple[float, ...] | None = None
+        self._hit = np.zeros(0, dtype=np.int64)
 
     def __len__(self) -> int:
         return len(self.rows)
 
     def seen(self, t: float, own: FloatArray, max_range: float) -> IntArray:
-        """Points active at t within ``max_range`` of ``own``."""
+        """Points active at t within ``max_range`` of ``own``: the same array object as the
+        last call's while the answer cannot have changed.
+
+        Only the points the index keeps near ``own`` are measured (the others are farther).
+        Each measured point's range changes no faster than the aircraft moves, so the answer
+        holds while the aircraft stays within the smallest ``|range - max_range|`` of where it
+        was measured (and within the index's reach), and no activity window opens or closes."""
+        x, y, z = float(own[0]), float(own[1]), float(own[2])
+        h = self._held
+        if (
+            h is not None
+            and h[6] == max_range
+            and h[3] <= t < h[4]
+            and (x - h[0]) ** 2 + (y - h[1]) ** 2 + (z - h[2]) ** 2 < h[5]
+        ):
+            return self._hit
+        near, fresh = self.index.near(own, max_range)
+        if fresh:
+            self._near_columns = np.ascontiguousarray(self.columns[:, near])
+            self._near_t0, self._near_t1 = self.t0[near], self.t1[near]
+        self._held = None
+        if not len(near):
+            hit = near
+            gap = self.index.margin(own)
+        else:
+            dx, dy, dz = self._near_columns - own[:, None]
+            d = norm3(dx, dy, dz)
+            if self.always:
+                hit = np.flatnonzero(d <= max_range) if t >= 0.0 else np.zeros(0, np.int64)
+            else:
+                hit = np.flatnonzero((d <= max_range) & (t >= self._near_t0) & (t < self._near_t1))
+            if len(near) != len(self.rows):
+                hit = near[hit]
+            gap = min(float(np.abs(d - max_range).min()), self.index.margin(own))
+        gap -= _HELD_SLACK_M
+        if gap > 0.0 and t >= 0.0:
+            until = math.inf
+            if not self.always:
+                t0, t1 = self._near_t0, self._near_t1
+                until = float(
+                    min(t0[t0 > t].min(initial=math.inf), t1[t1 > t].min(initial=math.inf))
+                )
+            self._held = (x, y, z, t, until, gap * gap, max_range)
+        self._hit = hit
+        return hit
+
+    def seen_all(self, t: float, own: FloatArray, max_range: float) -> IntArray:
+        """:meth:`seen` testing every point (the reference the tests compare it with)."""
         dx, dy, dz = self.columns - own[:, None]
         d = norm3(dx, dy, dz)
         if self.always:
@@ -184,6 +246,15 @@ class ThreatTable:
         arrayed = {*st, *hl, *cy, *iv}
         self._other = [i for i in range(len(ths)) if i not in arrayed]
         self._static_only = len(st) == len(ths) > 0
+        # the static returns of the last radar_points: (the seen rows, ids, points)
+        self._static_returns: tuple[IntArray, list[str], FloatArray] | None = None
+        # the kinds in arrays have a separation 1-Lipschitz in position (a signed distance to
+        # spheres or a cylinder) and centres that move at most ``speed`` m/s
+        # (replay.threats.book bounds a batch of samples with it)
+        self.bounded = np.zeros(len(ths), dtype=bool)
+        self.bounded[list(arrayed)] = True
+        self.speed = np.zeros(len(ths))
+        self.speed[self._iv] = np.linalg.norm(self._iv_vel, axis=-1).reshape(-1)
 
     def __len__(self) -> int:
         return len(self.threats)
@@ -207,8 +278,12 @@ class ThreatTable:
         order -- :meth:`Threat.radar_points` of each active threat, range-tested."""
         if self._static_only:  # a static threat's one return is named after it
             hit = self._static.seen(t, own, max_range)
-            ids = [self._static.ids[j] for j in hit.tolist()]
-            return ids, ids.copy(), self._static.xyz[hit], np.zeros(len(ids), dtype=bool)
+            last = self._static_returns
+            if last is None or last[0] is not hit:
+                ids = [self._static.ids[j] for j in hit.tolist()]
+                last = self._static_returns = (hit, ids, self._static.xyz[hit])
+            _, ids, xyz = last  # the same points (read-only) while the same are seen
+            return list(ids), list(ids), xyz, np.zeros(len(ids), dtype=bool)
         blocks: list[tuple[IntArray, IntArray, list[str], FloatArray]] = []
         for kind in (self._static, self._hills):
             if len(kind):
@@ -299,19 +374,32 @@ class ThreatTable:
         is active at all of them; the others are masked sample by sample.  The kinds in arrays
         are computed a block of samples at a time (temporaries of ``_BLOCK`` numbers, which stay
         in cache); the others in one call over all the samples, as before."""
+        cols, out = self.separation_columns(positions, ts)
+        return [self.ids[i] for i in cols.tolist()], out
+
+    def separation_columns(
+        self, positions: FloatArray, ts: FloatArray, only: BoolArray | None = None
+    ) -> tuple[IntArray, FloatArray]:
+        """:meth:`separations` as (threat rows, values (k, m)), of the threats ``only`` (n,)
+        marks (every threat when None): each column is the one :meth:`separations` gives."""
         pos = np.asarray(positions, dtype=np.float64)
         ts = np.asarray(ts, dtype=np.float64)
         k, n = len(ts), len(self.threats)
+        none = np.zeros(0, dtype=np.int64)
         if not n or not k:
-            return [], np.zeros((k, 0))
+            return none, np.zeros((k, 0))
         whole = self.active(float(ts[0])) & self.active(float(ts[-1]))
-        part = np.flatnonzero(~whole & (self.appears <= ts[-1]) & (self.disappears > ts[0]))
+        inside = (self.appears <= ts[-1]) & (self.disappears > ts[0])
+        if only is not None:
+            whole &= only
+            inside &= only
+        part = np.flatnonzero(~whole & inside)
         mask = (ts[:, None] >= self.appears[part]) & (ts[:, None] < self.disappears[part])
         live = whole.copy()
         live[part] = mask.any(axis=0)
         cols = np.flatnonzero(live)
         if not len(cols):
-            return [], np.zeros((k, 0))
+            return none, np.zeros((k, 0))
         column = np.full(n, -1, dtype=np.int64)
         column[cols] = np.arange(len(cols))
         out = np.empty((k, len(cols)))
@@ -347,7 +435,7 @@ class ThreatTable:
         finite = np.isfinite(out).any(axis=0)
         if not finite.all():
             cols, out = cols[finite], out[:, finite]
-        return [self.ids[i] for i in cols.tolist()], out
+        return cols, out
 
     def _cylinder_separation(self, q: FloatArray, on: IntArray) -> FloatArray:
         """:meth:`CylinderThreat.separation` of points q (k, 3) from the cylinders ``on``."""
