@@ -263,10 +263,10 @@ def test_every_message_decodes_from_the_file_schemas(replayed: Path) -> None:
 
 
 def test_mcap_protobuf_decoder_factory_decodes_every_message(replayed: Path) -> None:
-    """mcap-protobuf-support's decoder factory (not a dependency: skipped without it; checked
-    with mcap-protobuf-support 0.6.0) and a JSON one decode every message."""
-    decoder = pytest.importorskip("mcap_protobuf.decoder")
+    """mcap-protobuf-support's decoder factory (in the test extra: Foxglove's Python reader of
+    protobuf MCAPs) and a JSON one decode every message."""
     from mcap.decoder import DecoderFactory
+    from mcap_protobuf import decoder
 
     class Json(DecoderFactory):
         def decoder_for(self, message_encoding: str, schema: Any) -> Any:
