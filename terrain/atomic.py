@@ -5,7 +5,9 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import signal
 import tempfile
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,23 +26,52 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     final = Path(path)
     parent = output_folder(final)
     prefix = f".{final.name}.{os.getpid()}."
-    fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".part", dir=parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs get the usual permissions
+    tmp: Path | None = None
+    # the ending signals (terrapath.cli turns them into an exception) wait while the file is made
+    # and its name known: one landing between mkstemp and the handler below left the .part behind
+    masked = _hold_ending_signals()
     try:
+        fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".part", dir=parent)
+        tmp = Path(tmp_name)
+        try:
+            _release_signals(masked)  # a signal waiting raises here, the .part known
+        finally:
+            os.close(fd)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs get the usual permissions
         yield tmp
         os.replace(tmp, final)
     except BaseException as exc:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        _release_signals(masked)
+        if tmp is not None:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
         if isinstance(exc, OSError) and exc.errno in _NO_ROOM:
             raise NoRoomError(
                 f"{str(final)!r}: cannot be written: {exc.strerror or exc} (nothing was written)"
             ) from None
         raise
+
+
+_ENDING = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
+def _hold_ending_signals() -> set[int | signal.Signals] | None:
+    """Block SIGINT, SIGTERM and SIGHUP in this thread (the main one: where Python runs its
+    handlers); the mask to restore, or None where signals cannot be held (not POSIX, a thread)."""
+    if (
+        not hasattr(signal, "pthread_sigmask")
+        or threading.current_thread() is not threading.main_thread()
+    ):
+        return None
+    return signal.pthread_sigmask(signal.SIG_BLOCK, _ENDING)
+
+
+def _release_signals(masked: set[int | signal.Signals] | None) -> None:
+    """Restore the mask :func:`_hold_ending_signals` changed (again is harmless: the same mask)."""
+    if masked is not None and hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_SETMASK, masked)
 
 
 def output_folder(path: str | os.PathLike[str], *, create: bool = True) -> Path:

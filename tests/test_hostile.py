@@ -508,3 +508,40 @@ def test_resume_keeps_the_parts_of_a_live_writer(tmp_path: Path) -> None:
         p.write_bytes(b"half")
     assert remove_stale_parts(tmp_path) == [stale]
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([live.name, other.name])
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signal masks")
+def test_a_signal_as_the_part_is_made_leaves_no_part(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The window that once left a .part (seen under load): SIGTERM arriving just after mkstemp
+    made the file, before its name was known to the clean-up. The signal waits and is raised
+    with the .part known: nothing left."""
+    import tempfile
+
+    import terrain.atomic as atomic
+
+    class Ended(Exception):
+        pass
+
+    def ended(signum: int, frame: Any) -> None:
+        raise Ended
+
+    made = []
+    real_mkstemp = tempfile.mkstemp
+
+    def mkstemp_then_signal(**kw: Any) -> tuple[int, str]:
+        fd, name = real_mkstemp(**kw)
+        made.append(name)
+        os.kill(os.getpid(), signal.SIGTERM)  # Python would run the handler right here
+        return fd, name
+
+    previous = signal.signal(signal.SIGTERM, ended)
+    monkeypatch.setattr(atomic.tempfile, "mkstemp", mkstemp_then_signal)
+    try:
+        with pytest.raises(Ended), atomic.atomic_output(tmp_path / "out.txt") as tmp:
+            tmp.write_text("never reached")
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert made and not Path(made[0]).exists()
+    _nothing_left(tmp_path)
