@@ -34,19 +34,17 @@ def commands(folder: Path) -> list[list[str]]:
     plan += ["--zones", str(ZONES), "--avoid-zones", "--vehicle", "aerosonde", "--seed", "1"]
     plan += ["--population", "20", "--iterations", "10", "-o", mission]
     runs = [plan, ["check", mission, "--picture", str(folder / "check.png")]]
-    for avoid, sensor in (("pso-ca", "radar"), ("pso-ca", "cooperative"), ("ctga", "radar")):
-        runs.append(
-            ["replay", mission, "--threats", str(THREATS), "--avoid", avoid, "--sensor", sensor]
-            + ["--seed", "1", "--duration", "400", "-o", str(folder / f"{avoid}-{sensor}.mcap")]
-        )
-    runs.append(
-        ["replay", mission, "--threats", str(THREATS), "--avoid", "fga", "--seed", "1"]
-        + ["--duration", "400", "-o", str(folder / "fga.mcap")]
-    )
-    runs.append(
-        ["replay", str(QUAD), "--threats", str(QUAD_THREATS), "--avoid", "priority"]
-        + ["--seed", "1", "--duration", "120", "-o", str(folder / "priority.mcap")]
-    )
+    flights = [("pso-ca", "radar", "400"), ("pso-ca", "cooperative", "400")]
+    flights += [
+        ("ctga", "radar", "400"),
+        ("fga", "radar", "400"),
+        ("priority", "rangefinder", "120"),
+    ]
+    for avoid, sensor, seconds in flights:
+        source, threats = (QUAD, QUAD_THREATS) if avoid == "priority" else (mission, THREATS)
+        out = str(folder / f"{avoid}-{sensor}.mcap")
+        flight = ["replay", str(source), "--threats", str(threats), "--avoid", avoid]
+        runs.append([*flight, "--sensor", sensor, "--seed", "1", "--duration", seconds, "-o", out])
     return runs
 
 
