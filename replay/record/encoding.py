@@ -36,6 +36,8 @@ from foxglove_schemas_protobuf.SpherePrimitive_pb2 import SpherePrimitive
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 
+from replay.record.wire import tag, varint
+
 FloatArray = npt.NDArray[np.float64]
 
 MEMO_SIZE = 50_000  # encoded detections kept (a few MB), cleared when full
@@ -48,22 +50,9 @@ _WIRE_LEN = 2
 _FIXED32 = 7  # FieldDescriptor.TYPE_FIXED32
 
 
-def _tag(field: int, wire: int) -> bytes:
-    return _varint(field << 3 | wire)
-
-
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while n > 0x7F:
-        out.append(n & 0x7F | 0x80)
-        n >>= 7
-    out.append(n)
-    return bytes(out)
-
-
 def ld(field: int, payload: bytes) -> bytes:
     """A length-delimited field (embedded message, string, packed array)."""
-    return _tag(field, _WIRE_LEN) + _varint(len(payload)) + payload
+    return tag(field, _WIRE_LEN) + varint(len(payload)) + payload
 
 
 def doubles_messages(field: int, values: FloatArray) -> bytes:
@@ -81,10 +70,10 @@ def doubles_messages(field: int, values: FloatArray) -> bytes:
 @functools.cache
 def _row_template(field: int, k: int) -> npt.NDArray[np.uint8]:
     """The bytes of one embedded message of ``doubles_messages`` with all doubles zero."""
-    tag = _tag(field, _WIRE_LEN)
-    if len(tag) != 1 or k > 15:
+    key = tag(field, _WIRE_LEN)
+    if len(key) != 1 or k > 15:
         raise ValueError("only fields 1..15 with up to 15 doubles are supported")
-    row = [tag[0], 9 * k]
+    row = [key[0], 9 * k]
     for j in range(k):
         row += [(j + 1) << 3 | _WIRE_DOUBLE] + [0] * 8
     return np.array(row, dtype=np.uint8)
@@ -100,8 +89,8 @@ def entity_head(ns: int, frame_id: str, ident: str) -> bytes:
     integer nanoseconds), without building the message (it is written once a second for the
     track and for each radar scan)."""
     sec, nsec = divmod(ns, 1_000_000_000)
-    stamp = (b"\x08" + _varint(sec) if sec else b"") + (b"\x10" + _varint(nsec) if nsec else b"")
-    return b"\x0a" + _varint(len(stamp)) + stamp + _entity_tail(frame_id, ident)
+    stamp = (b"\x08" + varint(sec) if sec else b"") + (b"\x10" + varint(nsec) if nsec else b"")
+    return b"\x0a" + varint(len(stamp)) + stamp + _entity_tail(frame_id, ident)
 
 
 def packed_fixed32(field: int, values: npt.NDArray[Any]) -> bytes:
@@ -116,10 +105,10 @@ def _vector3(x: float, y: float, z: float) -> bytes:
     """A Vector3 / Point3 message as protobuf writes it: the doubles x (1), y (2), z (3), each
     left out when its bits are all zero (proto3 default; -0.0 is written)."""
     out = b""
-    for tag, v in ((b"\x09", x), (b"\x11", y), (b"\x19", z)):
+    for key, v in ((b"\x09", x), (b"\x11", y), (b"\x19", z)):
         raw = _DOUBLE.pack(v)
         if raw != _NO_BITS:
-            out += tag + raw
+            out += key + raw
     return out
 
 
@@ -178,8 +167,8 @@ UPDATE_ENTITIES = SceneUpdate.DESCRIPTOR.fields_by_name["entities"].number
 ENTITY_SPHERES = SceneEntity.DESCRIPTOR.fields_by_name["spheres"].number
 _SPHERE_POSE = SpherePrimitive.DESCRIPTOR.fields_by_name["pose"].number
 _POSE_POSITION = Pose.DESCRIPTOR.fields_by_name["position"].number
-_SPHERE_POSE_TAG = _tag(_SPHERE_POSE, _WIRE_LEN)[0]  # one byte each (fields 1..15), and so are
-_POSE_POSITION_TAG = _tag(_POSE_POSITION, _WIRE_LEN)[0]  # the lengths: a pose is < 128 bytes
+_SPHERE_POSE_TAG = tag(_SPHERE_POSE, _WIRE_LEN)[0]  # one byte each (fields 1..15), and so are
+_POSE_POSITION_TAG = tag(_POSE_POSITION, _WIRE_LEN)[0]  # the lengths: a pose is < 128 bytes
 _IDENTITY = Pose(orientation=Quaternion(w=1.0)).SerializeToString()  # the orientation field
 
 

@@ -27,6 +27,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.timestamp_pb2 import Timestamp
 
+from replay.flight.log import GUIDANCE_COLUMNS
 from replay.record import topics as T
 from terrain.errors import InputError
 
@@ -90,15 +91,7 @@ STATE_DOUBLES = ("pn", "pe", "pd", "alt")  # map coordinates: doubles; the other
 # the extras the simulation writes (replay.sim): float32 fields of VehicleState.extras; any
 # other name goes to extras.other (name, double value)
 STATE_EXTRAS = (
-    "course_cmd",
-    "bank_cmd",
-    "altitude_cmd",
-    "climb_rate_cmd",
-    "pitch_cmd",
-    "airspeed_cmd",
-    "cross_track",
-    "along_track",
-    "distance_to_next",
+    *GUIDANCE_COLUMNS,  # field numbers follow this order: new extras go at the end
     "next_index",
     "wind_n",
     "wind_e",
