@@ -10,6 +10,7 @@ import tempfile
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 from terrain.errors import DataFileError, NoRoomError
 
@@ -27,23 +28,24 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     parent = output_folder(final)
     prefix = f".{final.name}.{os.getpid()}."
     tmp: Path | None = None
-    # the ending signals (terrapath.cli turns them into an exception) wait while the file is made
-    # and its name known: one landing between mkstemp and the handler below left the .part behind
-    masked = _hold_ending_signals()
+    fd = -1
     try:
-        fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".part", dir=parent)
-        tmp = Path(tmp_name)
-        try:
-            _release_signals(masked)  # a signal waiting raises here, the .part known
-        finally:
-            os.close(fd)
+        # the ending signals (terrapath.cli turns them into an exception) are held while the file
+        # is made and its name known, then raised here: one landing between mkstemp and this
+        # handler once left the .part behind
+        with _ending_signals_held():
+            fd, tmp_name = tempfile.mkstemp(prefix=prefix, suffix=".part", dir=parent)
+            tmp = Path(tmp_name)
+        os.close(fd)
+        fd = -1
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs get the usual permissions
         yield tmp
         os.replace(tmp, final)
     except BaseException as exc:
-        _release_signals(masked)
+        if fd >= 0:
+            os.close(fd)
         if tmp is not None:
             with contextlib.suppress(FileNotFoundError):
                 tmp.unlink()
@@ -57,21 +59,29 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
 _ENDING = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
 
 
-def _hold_ending_signals() -> set[int | signal.Signals] | None:
-    """Block SIGINT, SIGTERM and SIGHUP in this thread (the main one: where Python runs its
-    handlers); the mask to restore, or None where signals cannot be held (not POSIX, a thread)."""
-    if (
-        not hasattr(signal, "pthread_sigmask")
-        or threading.current_thread() is not threading.main_thread()
-    ):
-        return None
-    return signal.pthread_sigmask(signal.SIG_BLOCK, _ENDING)
-
-
-def _release_signals(masked: set[int | signal.Signals] | None) -> None:
-    """Restore the mask :func:`_hold_ending_signals` changed (again is harmless: the same mask)."""
-    if masked is not None and hasattr(signal, "pthread_sigmask"):
-        signal.pthread_sigmask(signal.SIG_SETMASK, masked)
+@contextlib.contextmanager
+def _ending_signals_held() -> Iterator[None]:
+    """SIGINT, SIGTERM and SIGHUP noted, not handled, inside the block; on leaving it the
+    handlers are put back and each noted signal handed to its own (which may raise). Python runs
+    handlers in the main thread only, so elsewhere nothing is changed. (Not a signal mask: a
+    process with other threads, a pytest-xdist worker, takes a signal on another thread and the
+    main thread's handler runs at once.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[tuple[int, Any]] = []
+    previous = {sig: signal.signal(sig, lambda s, f: noted.append((s, f))) for sig in _ENDING}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for sig, frame in noted:
+            handler = previous[sig]
+            if callable(handler):
+                handler(sig, frame)
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), sig)  # the default action, now that it is back
 
 
 def output_folder(path: str | os.PathLike[str], *, create: bool = True) -> Path:

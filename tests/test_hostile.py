@@ -510,7 +510,7 @@ def test_resume_keeps_the_parts_of_a_live_writer(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([live.name, other.name])
 
 
-@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signal masks")
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_a_signal_as_the_part_is_made_leaves_no_part(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
