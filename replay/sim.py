@@ -63,6 +63,7 @@ from replay.judge import (
 )
 from replay.metrics import MetricsTracker, RunMetrics
 from replay.record.base import Recorder
+from replay.record.separation import SHOWN
 from replay.sensors.base import Sensor
 from replay.threats.book import SeparationBook
 from replay.threats.kinds import ThreatSet
@@ -955,7 +956,6 @@ def _arrival(stack: FlightStack, position: FloatArray) -> str:
 
 
 _METRICS_BATCH_S = 60.0  # separations and metrics are computed over this much flight at once
-RECORDED_NEAREST = 4  # replay.record.recorder.write_separations keeps the 4 nearest threats
 
 
 def _flush(
@@ -980,7 +980,7 @@ def _flush(
     pv = validity.points(pos, ts)
     volume_ids, volumes = list(pv.volume_ids), pv.volumes
     if book is not None:
-        nearest = RECORDED_NEAREST if recorder is not None else 0
+        nearest = SHOWN if recorder is not None else 0  # the threats a record names
         volume_ids, volumes = book.batch(ts, pos, tracker.inside, nearest)
     ids = [*volume_ids, *zones]  # the mission's danger zones after the threats
     seps = np.column_stack([volumes, pv.zones])
