@@ -39,16 +39,28 @@ def as_points(p: npt.ArrayLike, name: str = "p") -> FloatArray:
     return a
 
 
+_SWAP = np.array([1, 0, 2])
+
+
+def _swap_axes(points: npt.ArrayLike) -> FloatArray:
+    """(..., >= 3) -> (..., 3): the first two swapped, the third negated: map <-> NED (its own
+    inverse).  Called per step of the loop, so a single point is built from scalars."""
+    p = np.asarray(points, dtype=np.float64)
+    if p.shape == (3,):
+        return np.array((p[1], p[0], -p[2]))
+    out = p[..., _SWAP]
+    np.negative(out[..., 2], out=out[..., 2])
+    return out
+
+
 def map_to_ned(xyz: npt.ArrayLike) -> FloatArray:
     """(..., 3) map points (x east, y north, z up) -> NED (north, east, down)."""
-    p = np.asarray(xyz, dtype=np.float64)
-    return np.stack([p[..., 1], p[..., 0], -p[..., 2]], axis=-1)
+    return _swap_axes(xyz)
 
 
 def ned_to_map(ned: npt.ArrayLike) -> FloatArray:
     """(..., 3) NED points -> map (x east, y north, z up)."""
-    p = np.asarray(ned, dtype=np.float64)
-    return np.stack([p[..., 1], p[..., 0], -p[..., 2]], axis=-1)
+    return _swap_axes(ned)
 
 
 def course_of(dx: npt.ArrayLike, dy: npt.ArrayLike) -> FloatArray:

@@ -124,8 +124,8 @@ class Spans:
         worst is the largest) at ``positions`` (k, >= 2); ``tags`` (k,) what a span opening at a
         sample is tagged with."""
         m = np.asarray(mask, dtype=bool)
-        if not len(m):
-            return
+        if not len(m) or (self.open is None and not m.any()):
+            return  # nothing opens, nothing to close (most chunks)
         if self.open is not None and not m[0]:
             self._close(float(times[0]))
         cuts = [0, *(np.flatnonzero(np.diff(m.astype(np.int8))) + 1).tolist(), len(m)]

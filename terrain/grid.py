@@ -388,8 +388,24 @@ class HeightGrid:
         """Bilinear terrain height at map points (vectorised; exact at cell centres).
 
         Points in the outer half cell, or outside the grid, take the value clamped to the nearest
-        cell-centre line (the grid does not extrapolate).
+        cell-centre line (the grid does not extrapolate).  Compiled
+        (:func:`terrain.kernels.bilinear`; its twin :meth:`height_at_numpy`, the same
+        arithmetic, is what the tests compare it with).
         """
+        xa = np.asarray(x, dtype=np.float64)
+        ya = np.asarray(y, dtype=np.float64)
+        if xa.shape != ya.shape:
+            xa, ya = np.broadcast_arrays(xa, ya)
+        dx, dy = self.cell_size
+        out, finite = kernels.bilinear(
+            self.heights, xa.ravel(), ya.ravel(), self.transform.c, self.transform.f, dx, dy
+        )
+        if not finite:
+            raise InputError("coordinates must be finite numbers; found NaN or infinity")
+        return np.asarray(out.reshape(xa.shape), dtype=np.float64)
+
+    def height_at_numpy(self, x: ArrayLike, y: ArrayLike) -> FloatArray:
+        """:meth:`height_at` in numpy (the compiled kernel's twin)."""
         row, col = self.xy_to_index(x, y)
         r = np.clip(row, 0.0, self.rows - 1.0)
         c = np.clip(col, 0.0, self.cols - 1.0)

@@ -526,3 +526,40 @@ def ranges_within(t_hit: np.ndarray, max_range: float) -> np.ndarray:  # pragma:
         v = np.float64(t_hit[i])
         out[i] = v if v <= max_range else np.inf
     return out
+
+
+@nb.njit(cache=True, nogil=True)
+def bilinear(
+    heights: np.ndarray, x: np.ndarray, y: np.ndarray, left: float, top: float, dx: float, dy: float
+) -> tuple[np.ndarray, bool]:  # pragma: no cover - jit
+    """Bilinear heights at map points ``x``, ``y`` (1-D, float64) of a (rows, cols) grid whose
+    top-left corner is (``left``, ``top``) with cells ``dx`` by ``dy``, and whether every point
+    was finite (the heights of the others are NaN).  Its twin is
+    :func:`terrain.grid.bilinear_numpy` (``HeightGrid.height_at``): clamped to the cell-centre
+    lines, the same operations in the same order."""
+    rows, cols = heights.shape
+    n = x.shape[0]
+    out = np.empty(n)
+    finite = True
+    for i in range(n):
+        xi, yi = x[i], y[i]
+        if not (np.isfinite(xi) and np.isfinite(yi)):
+            finite = False
+            out[i] = np.nan
+            continue
+        col = (xi - left) / dx - 0.5
+        row = (top - yi) / dy - 0.5
+        r = min(max(row, 0.0), rows - 1.0)
+        c = min(max(col, 0.0), cols - 1.0)
+        r0 = min(np.int64(np.floor(r)), rows - 2)
+        c0 = min(np.int64(np.floor(c)), cols - 2)
+        fr = r - r0
+        fc = c - c0
+        h00 = np.float64(heights[r0, c0])
+        h01 = np.float64(heights[r0, c0 + 1])
+        h10 = np.float64(heights[r0 + 1, c0])
+        h11 = np.float64(heights[r0 + 1, c0 + 1])
+        upper = h00 + (h01 - h00) * fc
+        lower = h10 + (h11 - h10) * fc
+        out[i] = upper + (lower - upper) * fr
+    return out, finite

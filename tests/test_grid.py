@@ -41,6 +41,26 @@ def test_bilinear_reproduces_a_plane(fr: float, fc: float) -> None:
     assert g.height_at(x, y) == pytest.approx(3.0 * r - 2.0 * c + 500.0, abs=1e-3)
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_compiled_bilinear_is_its_numpy_twin_bit_for_bit(dtype: type) -> None:
+    # terrain.kernels.bilinear against HeightGrid.height_at_numpy: inside, on the edges and
+    # outside the grid (clamped), scalars, broadcasting and float32 heights
+    g = make_grid(RNG.uniform(-50, 4000, size=(17, 29)).astype(dtype), cell=30.0, x0=1e5, y0=4e6)
+    rng = np.random.default_rng(3)
+    xmin, ymin, xmax, ymax = g.bounds
+    x = np.concatenate([rng.uniform(xmin - 90, xmax + 90, 5000), [xmin, xmax, xmin + 15.0]])
+    y = np.concatenate([rng.uniform(ymin - 90, ymax + 90, 5000), [ymin, ymax, ymax - 15.0]])
+    got, want = g.height_at(x, y), g.height_at_numpy(x, y)
+    assert got.dtype == np.float64 and got.shape == x.shape
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(
+        g.height_at(x[:7].reshape(7, 1), y[:3]), g.height_at_numpy(x[:7].reshape(7, 1), y[:3])
+    )
+    assert np.shape(g.height_at(x[0], y[0])) == () and float(g.height_at(x[0], y[0])) == float(
+        want[0]
+    )
+
+
 def test_geometry_and_cell_of() -> None:
     g = make_grid(np.zeros((4, 5)), cell=10.0, x0=100.0, y0=200.0)
     assert g.bounds == (100.0, 160.0, 150.0, 200.0)

@@ -286,6 +286,34 @@ def test_trim_in_a_climbing_turn(name: str) -> None:
     assert x[6] < 0  # banked left
 
 
+def test_a_remembered_trim_is_the_solved_one_and_not_shared() -> None:
+    from replay.flight.fixedwing import trim as trim_module
+
+    p = PRESETS["aerosonde"]
+    trim_module._solved.cache_clear()
+    packed = p.pack()
+    fresh = trim_module._solve_now(p, packed, 24.0, 800.0, 0.02, math.inf, None)
+    first = trim(p, 24.0, 800.0, gamma=0.02)
+    again = trim(p, 24.0, 800.0, gamma=0.02)
+    assert trim_module._solved.cache_info().hits >= 1
+    np.testing.assert_array_equal(first.x, again.x)
+    np.testing.assert_array_equal(first.u, again.u)
+    z, r = trim_module._solve(p, packed, 24.0, 800.0, 0.02, math.inf, None)
+    np.testing.assert_array_equal(z, fresh[0])
+    assert r == fresh[1]
+    z[:] = 0.0  # the caller's copy: the remembered one is untouched
+    first.x[:] = 0.0
+    np.testing.assert_array_equal(
+        trim_module._solve(p, packed, 24.0, 800.0, 0.02, math.inf, None)[0], fresh[0]
+    )
+    np.testing.assert_array_equal(trim(p, 24.0, 800.0, gamma=0.02).x, again.x)
+    # a failure is a failure again, with its explanation
+    with pytest.raises(InputError, match="cannot"):
+        trim(p, 300.0, 800.0)
+    with pytest.raises(InputError, match="cannot"):
+        trim(p, 300.0, 800.0)
+
+
 def test_cannot_trim_names_speed_and_range() -> None:
     p = PRESETS["aerosonde"]
     lo, hi = trim_range(p)  # type: ignore[misc]

@@ -324,7 +324,9 @@ def _feed_forwards(
     for rate in (p.climb_rate_max, -p.descent_rate_max):
         gam = math.asin(max(-0.9, min(0.9, rate / va)))
         try:
-            x_g, u_g = trim(p, va, altitude, gam, temperature_offset=temperature_offset)
+            x_g, u_g = trim(
+                p, va, altitude, gam, temperature_offset=temperature_offset, explain=False
+            )
             slopes.append(((x_g[7] - x_t[7]) / gam, (u_g[0] - de_t) / gam))
         except InputError:  # e.g. an idle descent that needs negative thrust: gamma alone
             slopes.append((1.0, 0.0))

@@ -118,6 +118,46 @@ def _solve(
     turn_radius: float,
     z0: FloatArray | None,
 ) -> tuple[FloatArray, float]:
+    """The trim's unknowns ``z`` (8,) and its largest residual.  A pure function of its
+    arguments, so it is remembered (:func:`_solved`): the planner, the gains and the envelope
+    ask the same trims again and again in one process (a plan, a replay, a campaign's runs, the
+    test suite's flights), each a least-squares solve of ~10 ms."""
+    key: _SolveKey = (
+        params,
+        np.asarray(packed, dtype=np.float64).tobytes(),
+        float(va),
+        float(altitude),
+        float(gamma),
+        float(turn_radius),
+        None if z0 is None else np.asarray(z0, dtype=np.float64).tobytes(),
+    )
+    z, r = _solved(key)
+    return z.copy(), r
+
+
+_SolveKey = tuple[VehicleParams, bytes, float, float, float, float, bytes | None]
+
+
+@lru_cache(maxsize=16384)
+def _solved(key: _SolveKey) -> tuple[FloatArray, float]:
+    params, packed_bytes, va, altitude, gamma, turn_radius, z0_bytes = key
+    packed = np.frombuffer(packed_bytes, dtype=np.float64).copy()
+    z0 = None if z0_bytes is None else np.frombuffer(z0_bytes, dtype=np.float64).copy()
+    z, r = _solve_now(params, packed, va, altitude, gamma, turn_radius, z0)
+    z = np.array(z, dtype=np.float64)
+    z.flags.writeable = False
+    return z, r
+
+
+def _solve_now(
+    params: VehicleParams,
+    packed: FloatArray,
+    va: float,
+    altitude: float,
+    gamma: float,
+    turn_radius: float,
+    z0: FloatArray | None,
+) -> tuple[FloatArray, float]:
     psi_dot = 0.0 if math.isinf(turn_radius) else va * math.cos(gamma) / turn_radius
     target = np.zeros(10)
     target[0] = -va * math.sin(gamma)
