@@ -61,3 +61,38 @@ def shared_maps() -> Path:
     if not SHARED_MAPS.is_dir():
         pytest.skip("../shared/maps is not beside the checkout")
     return SHARED_MAPS
+
+
+# The longest test files first: pytest-xdist's ``--dist loadfile`` hands files to the workers in
+# collection order, so a long file collected late runs alone at the end while the other worker
+# idles.  Longest first (per file, a quiet profile of 2026-11-29; the rest keep their order
+# after them) keeps both cores busy to the end.  Within a file the order is unchanged (the pages
+# of test_docs run in order, in one folder).
+LONGEST_FIRST = (
+    "test_docs.py",
+    "test_golden_replay.py",
+    "test_avoidance_contract.py",
+    "test_own_scenarios.py",
+    "test_pso_ca.py",
+    "test_launch.py",
+    "test_golden_flight.py",
+    "test_wind.py",
+    "test_view.py",
+    "test_campaign.py",
+    "test_replay.py",
+    "test_threat_index.py",
+    "test_mission_import.py",
+    "test_priority.py",
+    "test_spiral.py",
+    "test_energy.py",
+    "test_replay_zones.py",
+    "test_validate_jsbsim.py",
+    "test_judge.py",
+    "test_golden.py",
+    "test_files_travel.py",
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    rank = {name: k for k, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))

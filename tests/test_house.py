@@ -61,3 +61,12 @@ def test_no_avoider_imports_another() -> None:
 def test_the_module_names_come_from_the_paths() -> None:
     assert module_name(ROOT / "replay" / "avoidance" / "__init__.py", ROOT) == "replay.avoidance"
     assert module_name(ROOT / "replay" / "sim.py", ROOT) == "replay.sim"
+
+
+def test_the_suites_longest_first_order_names_existing_files() -> None:
+    from tests.conftest import LONGEST_FIRST
+
+    here = Path(__file__).resolve().parent
+    missing = [name for name in LONGEST_FIRST if not (here / name).is_file()]
+    assert not missing, f"tests/conftest.py LONGEST_FIRST names files that are gone: {missing}"
+    assert len(set(LONGEST_FIRST)) == len(LONGEST_FIRST)
