@@ -1049,7 +1049,7 @@ def _record_picture(recorder: Recorder, t: float, picture: Any) -> None:
     rows = np.concatenate([np.arange(n), near])
     recorder.write_detection_arrays(
         t,
-        [picture.ids[i] for i in rows.tolist()],
+        picture.ids_of(rows),
         picture.positions[rows],
         picture.ranges[rows],
         rows >= n,

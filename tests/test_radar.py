@@ -176,6 +176,13 @@ def test_terrain_returns_show_a_ridge_higher_than_the_aircraft(ridge: TerrainMod
     }
     assert len(cells) == len(terrain)
     assert {f"terrain/{i}/{j}" for i, j in cells} == {d.id for d in terrain}
+    # a few returns' ids, asked before and after the scan has named them all (the recording's
+    # way: its threat returns and nearest terrain returns), are those of the list
+    rows = np.array([len(pic) - 1, 3, 0, len(pic) // 2])
+    fresh = radar.scan(0.0, own, [], ridge)
+    assert "ids" not in fresh.__dict__
+    assert fresh.ids_of(rows) == [pic.ids[i] for i in rows.tolist()]
+    assert fresh.ids_of(rows) == [fresh.ids[i] for i in rows.tolist()]
     # a second scan 15 m further on sees mostly the same cells
     again = radar.scan(1.0, own + np.array([15.0, 0.0, 0.0]), [], ridge)
     same = set(again.ids) & set(pic.ids)

@@ -129,6 +129,11 @@ class Detection:
     source: str  # the threat's id, or "terrain"
 
 
+def _terrain_ids(cells: npt.NDArray[np.int64]) -> tuple[str, ...]:
+    """The ids of terrain returns: ``terrain/<i>/<j>``, their cell of the radar's grid."""
+    return tuple(f"terrain/{i}/{j}" for i, j in cells.tolist())
+
+
 @dataclass(frozen=True, eq=False)
 class RadarPicture:
     """Everything one scan saw, as parallel arrays (threat returns first, then terrain returns)
@@ -168,8 +173,17 @@ class RadarPicture:
 
     @cached_property
     def ids(self) -> tuple[str, ...]:
-        cells = self.terrain_cells.tolist()
-        return self.threat_ids + tuple(f"terrain/{i}/{j}" for i, j in cells)
+        return self.threat_ids + _terrain_ids(self.terrain_cells)
+
+    def ids_of(self, rows: IntArray) -> list[str]:
+        """The ids of some returns (``rows`` into :attr:`ids`), without naming every terrain
+        return of the scan (hundreds over a mountain) when a few are asked for."""
+        if "ids" in self.__dict__:
+            return [self.ids[i] for i in rows.tolist()]
+        n = self.n_threat
+        terrain = _terrain_ids(self.terrain_cells[rows[rows >= n] - n])
+        it = iter(terrain)
+        return [self.threat_ids[i] if i < n else next(it) for i in rows.tolist()]
 
     @cached_property
     def sources(self) -> tuple[str, ...]:
