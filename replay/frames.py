@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import numpy.typing as npt
 
@@ -89,7 +90,28 @@ def rotation_body_to_ned(phi: float, theta: float, psi: float) -> FloatArray:
 
 def velocities_ned(states: npt.ArrayLike) -> FloatArray:
     """The ground velocities (K, 3) NED of states (K, >= 12): each body velocity ``[u, v, w]``
-    rotated by its attitude (:func:`rotation_body_to_ned`, all at once)."""
+    rotated by its attitude (:func:`rotation_body_to_ned`, all at once; compiled, the judge asks
+    each tick: :func:`velocities_ned_numpy` is its twin, the same arithmetic)."""
+    x = np.asarray(states, dtype=np.float64).reshape(-1, np.shape(states)[-1])
+    return np.asarray(_velocities(np.ascontiguousarray(x)))
+
+
+@nb.njit(cache=True, nogil=True)
+def _velocities(x: np.ndarray) -> np.ndarray:  # pragma: no cover - jit
+    out = np.empty((x.shape[0], 3))
+    for i in range(x.shape[0]):
+        sf, cf = np.sin(x[i, PHI]), np.cos(x[i, PHI])
+        st, ct = np.sin(x[i, THETA]), np.cos(x[i, THETA])
+        sp, cp = np.sin(x[i, PSI]), np.cos(x[i, PSI])
+        u, v, w = x[i, U], x[i, V], x[i, W]
+        out[i, 0] = ct * cp * u + (sf * st * cp - cf * sp) * v + (cf * st * cp + sf * sp) * w
+        out[i, 1] = ct * sp * u + (sf * st * sp + cf * cp) * v + (cf * st * sp - sf * cp) * w
+        out[i, 2] = -st * u + sf * ct * v + cf * ct * w
+    return out
+
+
+def velocities_ned_numpy(states: npt.ArrayLike) -> FloatArray:
+    """:func:`velocities_ned` in numpy (the compiled kernel's twin)."""
     x = np.asarray(states, dtype=np.float64).reshape(-1, np.shape(states)[-1])
     sf, cf = np.sin(x[:, PHI]), np.cos(x[:, PHI])
     st, ct = np.sin(x[:, THETA]), np.cos(x[:, THETA])

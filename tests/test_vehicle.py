@@ -25,7 +25,13 @@ from replay.flight.fixedwing.kernels import alpha_rate, rk4, step_n
 from replay.flight.fixedwing.params import I_DPROP, I_ENGINE, I_PMAX, I_RPM, I_S, VehicleParams
 from replay.flight.fixedwing.presets import PRESETS, load_vehicle
 from replay.flight.fixedwing.trim import alpha_max_lift, best_climb, trim, trim_range
-from replay.frames import rotation_body_to_ned
+from replay.frames import (
+    map_to_ned,
+    ned_to_map,
+    rotation_body_to_ned,
+    velocities_ned,
+    velocities_ned_numpy,
+)
 from terrain.errors import DataFileError, InputError
 
 G = 9.81
@@ -457,3 +463,28 @@ def test_a_steady_30_degree_turn_has_the_radius_of_physics(name: str) -> None:
     x, _ = trim(p, va, 500.0, turn_radius=radius)
     physics = va * va / (G * math.tan(x[6]))  # the radius the trimmed bank would give
     assert radius / physics == pytest.approx(1.0, abs=0.02)
+
+
+def test_frames_compiled_velocities_and_the_axis_swap_are_their_numpy_forms() -> None:
+    rng = np.random.default_rng(38)
+    x = rng.uniform(-3.5, 3.5, (3000, 12))
+    x[:, 3:6] *= 20.0
+    np.testing.assert_array_equal(velocities_ned(x), velocities_ned_numpy(x))
+    # one state, a wider state (a multirotor's rotor speeds after the 12), a strided view
+    assert velocities_ned(x[0]).shape == (1, 3)
+    wide = np.hstack([x[:5], rng.uniform(0, 900, (5, 4))])
+    np.testing.assert_array_equal(velocities_ned(wide), velocities_ned_numpy(wide))
+    np.testing.assert_array_equal(velocities_ned(x[::7]), velocities_ned_numpy(x[::7]))
+    # each row is the rotation matrix applied to the body velocity
+    for s in x[:20]:
+        np.testing.assert_allclose(
+            velocities_ned(s)[0], rotation_body_to_ned(*s[6:9]) @ s[3:6], rtol=1e-12, atol=1e-9
+        )
+    # map <-> NED: the first two swapped, the third negated, one point or many, its own inverse
+    p = rng.uniform(-1e5, 1e5, (50, 3))
+    want = np.stack([p[:, 1], p[:, 0], -p[:, 2]], axis=-1)
+    np.testing.assert_array_equal(ned_to_map(p), want)
+    np.testing.assert_array_equal(map_to_ned(p), want)
+    np.testing.assert_array_equal(ned_to_map(p[0]), want[0])
+    np.testing.assert_array_equal(map_to_ned(ned_to_map(p)), p)
+    np.testing.assert_array_equal(ned_to_map(x[:4, :3]), ned_to_map(x[:4])[:, :3])
