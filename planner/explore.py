@@ -81,6 +81,7 @@ from scipy.sparse.csgraph import dijkstra
 from planner import kernels
 from planner.placement import (
     Chords,
+    Heights64,
     Lattice,
     Terrain,
     corridor_terrain,
@@ -480,11 +481,14 @@ def _clear_chords(
     sample below (issue 38), :func:`_clear_chords_numpy` its twin."""
     grid = problem.grid
     dx, dy = grid.cell_size
+    # the heights as stored (a float32 grid's values read as float64 in the kernel, the same
+    # numbers): a float64 copy of the whole map per call was most of string pulling (issue 38)
+    raw = heights.heights if isinstance(heights, Heights64) else heights
     return np.asarray(
         kernels.clear_chords(
             np.ascontiguousarray(p, dtype=np.float64),
             np.ascontiguousarray(qs, dtype=np.float64),
-            np.ascontiguousarray(heights, dtype=np.float64),
+            raw if raw.dtype in (np.float32, np.float64) else np.asarray(raw, dtype=np.float64),
             float(grid.transform.c),
             float(grid.transform.f),
             float(dx),

@@ -273,7 +273,8 @@ def clear_chords(
     """``planner.explore._clear_chords_numpy``: for each chord p -> qs[i] (3-D, altitude linear),
     whether it clears ``heights`` + clearance + 1 m at its samples every ``step`` metres
     (``np.linspace(0, 1, m)``'s values, m from the horizontal length); the same samples and
-    arithmetic (``HeightGrid.cell_of``'s cells), each chord left at its first sample below."""
+    arithmetic (``HeightGrid.cell_of``'s cells), each chord left at its first sample below.
+    ``heights`` float32 or float64: a float32 value is read as the float64 it equals."""
     rows, cols = heights.shape[0], heights.shape[1]
     out = np.ones(qs.shape[0], dtype=np.bool_)
     for i in range(qs.shape[0]):
