@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from terrain import kernels
 from terrain.cylinders import (
     ZoneArrays,
     points_in_cylinders,
@@ -120,6 +121,9 @@ class ZoneSet:
             raise InputError(f"paths must have shape (P, W, 3) with W >= 1; got {p.shape}")
         n_paths, n_points = p.shape[0], p.shape[1]
         per_segment = self.segment_lengths(p[:, :-1, :].reshape(-1, 3), p[:, 1:, :].reshape(-1, 3))
+        if n_points > 1 and n_paths and len(self) > 1:
+            # numpy's sum over the segments, in its order, compiled (terrain.kernels.run_sums)
+            return np.asarray(kernels.run_sums(per_segment, n_paths), dtype=np.float64)
         total = per_segment.reshape(n_paths, n_points - 1, len(self)).sum(axis=1)
         return np.asarray(total, dtype=np.float64)
 

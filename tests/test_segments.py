@@ -203,3 +203,29 @@ def test_block_skipping_changes_no_bit() -> None:
             table, g.heights, clearance, np.full_like(g.block_maxima, -np.inf)
         )
         assert not blind.any()
+
+
+def test_cells_passed_without_their_parameters_change_no_bit() -> None:
+    """Issue 38: inside a walked chunk the kernel passes a cell lower than the chunk's lowest
+    altitude without computing its part, and carries a cell's parameters to the next; on
+    segments hugging the terrain (most cells near the ground, a quarter below, climbing,
+    descending and level, float32 heights) every length is the numpy twin's, bit for bit (the
+    twin adds every cell's part, 0.0 for a clear one, in the walk's order)."""
+    yy, xx = np.mgrid[0:200, 0:220]
+    h = 600.0 + 180.0 * np.sin(xx / 9.0) * np.cos(yy / 13.0) + 0.7 * xx
+    g = make_grid(h.astype(np.float32), cell=30.0, x0=1000.0, y0=8000.0)
+    rng = np.random.default_rng(38)
+    m = 4000
+    xmin, ymin, xmax, ymax = g.bounds
+    p0 = rng.uniform([xmin - 200, ymin - 200, 0.0], [xmax + 200, ymax + 200, 1.0], (m, 3))
+    p1 = p0 + rng.normal(0.0, 1500.0, (m, 3)) * [1.0, 1.0, 0.0]
+    p1[:500, :2] = p0[:500, :2] + rng.uniform(-90, 90, (500, 2))  # a few cells long
+    ground0 = g.heights[g.cell_of(np.clip(p0[:, 0], xmin, xmax), np.clip(p0[:, 1], ymin, ymax))]
+    ground1 = g.heights[g.cell_of(np.clip(p1[:, 0], xmin, xmax), np.clip(p1[:, 1], ymin, ymax))]
+    p0[:, 2] = ground0 + rng.uniform(-40.0, 260.0, m)
+    p1[:, 2] = ground1 + rng.uniform(-40.0, 260.0, m)
+    p1[600:700, 2] = p0[600:700, 2]  # level
+    for clearance in (0.0, 50.0):
+        got = below_terrain_lengths(g, p0, p1, clearance)
+        np.testing.assert_array_equal(got, below_terrain_lengths_numpy(g, p0, p1, clearance))
+        assert 0.2 * m < np.count_nonzero(got) < 0.9 * m
