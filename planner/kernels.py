@@ -216,6 +216,23 @@ def chord_edges(
 
 
 @nb.njit(cache=True, nogil=True)
+def steep_chords(
+    u: np.ndarray, v: np.ndarray, l3: np.ndarray, xy: np.ndarray, levels: np.ndarray
+) -> np.ndarray:  # pragma: no cover - jit
+    """``planner.placement._steep_chords_numpy``: which edges of :func:`chord_edges` are longer
+    than their straight 3-D chord by more than 1e-6 m (a helix added), in one pass: the same
+    operations in the same order (``np.hypot`` is the C library's in both)."""
+    k = levels.shape[1]
+    out = np.empty(u.shape[0], dtype=np.bool_)
+    for e in range(u.shape[0]):
+        a, b = u[e] // k, v[e] // k
+        flat = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
+        dz = levels[b, v[e] % k] - levels[a, u[e] % k]
+        out[e] = l3[e] > np.sqrt(flat * flat + dz * dz) + 1e-6
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
 def layered_dp(
     u: np.ndarray,
     v: np.ndarray,

@@ -396,10 +396,7 @@ class Lattice:
             # a chord that needs a spiral is taken only where no chain without one reaches the
             # goal, and as few as can be: it weighs more than the spread of any chain's weights
             # (each chord's weight is within +-2 x the band x its length, N + 1 chords a chain)
-            a, b = u // k, v // k
-            flat = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
-            plain = np.sqrt(flat**2 + (levels.flat[v] - levels.flat[u]) ** 2)
-            steep = l3 > plain + 1e-6
+            steep = kernels.steep_chords(u, v, l3, xy, levels)  # _steep_chords_numpy's
             surcharge = 8.0 * self.dz * (problem.n_waypoints + 1) * float(l3.max(initial=1.0))
             extra = steep * surcharge  # the same every round
         n_states = len(xy) * k
@@ -615,6 +612,18 @@ def _chord_edges_py(
         np.asarray(arr[:, 2]),
         np.asarray(arr[:, 3]),
     )
+
+
+def _steep_chords_numpy(
+    u: IntArray, v: IntArray, l3: FloatArray, xy: FloatArray, levels: FloatArray
+) -> npt.NDArray[np.bool_]:
+    """Pure-numpy twin of ``planner.kernels.steep_chords``: the edges (u, v) longer than their
+    straight 3-D chord by more than 1e-6 m (a helix added to them)."""
+    k = levels.shape[1]
+    a, b = u // k, v // k
+    flat = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
+    plain = np.sqrt(flat**2 + (levels.flat[v] - levels.flat[u]) ** 2)
+    return np.asarray(l3 > plain + 1e-6, dtype=np.bool_)
 
 
 def _layered_dp_py(

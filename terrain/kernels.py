@@ -86,6 +86,36 @@ def _t_of(
     return min(max((maj0 + smaj * k - f0) / span, 0.0), 1.0)
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _part_below(
+    k: int,
+    n: int,
+    maj0: int,
+    smaj: int,
+    f0: float,
+    span: float,
+    kt: int,
+    t_kt: float,
+    t_kt1: float,
+    z0: float,
+    z1: float,
+    ground: float,
+) -> tuple[bool, float, float, float]:  # pragma: no cover - jit
+    """(whether cell k's part of the segment runs below ``ground``, its width in t, t_k,
+    t_(k+1)); the t values of cells kt and kt + 1 (``t_kt``, ``t_kt1``) are reused when kt is
+    the previous cell (the same numbers: :func:`_t_of` is a function of k)."""
+    if kt == k - 1:
+        t_prev, t_cur = t_kt, t_kt1
+    else:
+        t_prev = _t_of(k - 1, n, maj0, smaj, f0, span) if k > 0 else 0.0
+        t_cur = _t_of(k, n, maj0, smaj, f0, span)
+    t_next = _t_of(k + 1, n, maj0, smaj, f0, span) if k < n else 0.0
+    hi = 0.5 * (t_cur + t_next) if k < n else 1.0
+    lo = 0.0 if k == 0 else 0.5 * (t_prev + t_cur)
+    z = z0 + (lo if z1 >= z0 else hi) * (z1 - z0)  # the part's lowest point
+    return z < ground, hi - lo, t_cur, t_next
+
+
 @nb.njit(cache=True, nogil=True)
 def below_lengths(
     seg: np.ndarray, heights: np.ndarray, clearance: float, blocks: np.ndarray
@@ -106,8 +136,10 @@ def below_lengths(
     floor((2 k d_minor + d_major - 1) / (2 d_major))).  Inside a chunk that is walked, a cell
     whose height + clearance lies below the chunk's lowest altitude is passed without its part's
     parameters (issue 38: on a swarm's paths only one walked cell in four is below; the
-    parameters a cell needs are carried to the next).  Skipped cells add nothing, so the result is bit-identical
-    to the full walk; a segment well above the ground costs a sixteenth of it.
+    parameters a cell needs are carried to the next), and a chunk whose box lies on the grid
+    walks the flat index of its cells without clamping them.  Skipped cells add nothing, so the
+    result is bit-identical to the full walk; a segment well above the ground costs a sixteenth
+    of it.
 
     Single-threaded on purpose: a swarm's call is a few hundred segments (~0.2 ms), too small to
     gain from numba's threads, and with ``parallel=True`` a plan took 20x longer whenever another
@@ -118,6 +150,7 @@ def below_lengths(
     rows = heights.shape[0]
     cols = heights.shape[1]
     out = np.zeros(m)
+    flat = heights.ravel()  # a view: the caller passes C-contiguous heights
     for i in range(m):
         fr0 = seg[i, 0]
         fc0 = seg[i, 1]
@@ -150,7 +183,6 @@ def below_lengths(
             span = fr1 - fr0
             maj0, smaj, min0, smin, dmin = r0, sr, c0, sc, dc
             n_maj, n_min = rows, cols
-        rising = z1 >= z0
         total = 0.0
         # the last t values computed: t of cell kt in t_kt, of cell kt + 1 in t_kt1
         kt = -2
@@ -188,6 +220,41 @@ def below_lengths(
             if low > top + clearance + SKIP_MARGIN:
                 k = k_end + 1
                 continue
+            if (
+                min_a == minor
+                and min_b == minor_end
+                and maj_a == maj0 + smaj * k
+                and maj_b == maj0 + smaj * k_end
+            ):
+                # the chunk's cells all lie on the grid (its box does): walk the flat index
+                # of the cells, without clamping
+                if col_major:
+                    at = minor * cols + maj0 + smaj * k
+                    step_maj, step_min = smaj, smin * cols
+                else:
+                    at = (maj0 + smaj * k) * cols + minor
+                    step_maj, step_min = smaj * cols, smin
+                while k <= k_end:
+                    ground = flat[at] + clearance
+                    # a part's lowest point is no lower than the chunk's lowest (the rounded
+                    # operations are monotone), so a cell below that is clear without its t
+                    if not low > ground:
+                        below, width, t_kt, t_kt1 = _part_below(
+                            k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground
+                        )
+                        kt = k
+                        if below:
+                            total += width * length
+                    # Bresenham step to the next cell
+                    if d > 0:
+                        at += step_min
+                        d -= 2 * n
+                    d += 2 * dmin
+                    at += step_maj
+                    k += 1
+                continue
+            # a chunk reaching off the grid: its cells outside take the nearest edge cell's
+            # height
             while k <= k_end:
                 if col_major:
                     r, c = minor, maj0 + smaj * k
@@ -199,18 +266,12 @@ def below_lengths(
                 # a part's lowest point is no lower than the chunk's lowest (the rounded
                 # operations are monotone), so a cell below that is clear without its t
                 if not low > ground:
-                    if kt == k - 1:  # the previous cell's t values, as computed there
-                        t_prev, t_cur = t_kt, t_kt1
-                    else:
-                        t_prev = _t_of(k - 1, n, maj0, smaj, f0, span) if k > 0 else 0.0
-                        t_cur = _t_of(k, n, maj0, smaj, f0, span)
-                    t_next = _t_of(k + 1, n, maj0, smaj, f0, span) if k < n else 0.0
-                    kt, t_kt, t_kt1 = k, t_cur, t_next
-                    hi = 0.5 * (t_cur + t_next) if k < n else 1.0
-                    lo = 0.0 if k == 0 else 0.5 * (t_prev + t_cur)
-                    z = z0 + (lo if rising else hi) * (z1 - z0)  # the part's lowest point
-                    if z < ground:
-                        total += (hi - lo) * length
+                    below, width, t_kt, t_kt1 = _part_below(
+                        k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground
+                    )
+                    kt = k
+                    if below:
+                        total += width * length
                 # Bresenham step to the next cell
                 if d > 0:
                     minor += smin

@@ -102,7 +102,9 @@ def below_terrain_lengths(
         raise InputError(f"backend must be 'numba' or 'numpy'; got {backend!r}")
     table = _segment_table(grid, p0, p1)
     return np.asarray(
-        kernels.below_lengths(table, grid.heights, float(clearance), grid.block_maxima)
+        kernels.below_lengths(
+            table, np.ascontiguousarray(grid.heights), float(clearance), grid.block_maxima
+        )
     )
 
 

@@ -18,6 +18,7 @@ from planner.placement import (
     LEVELS,
     Lattice,
     _chord_edges_py,
+    _steep_chords_numpy,
     _layered_dp_py,
     candidates,
     chord_pairs,
@@ -79,6 +80,21 @@ def test_the_compiled_chord_table_matches_its_twin(block: int) -> None:
     order_w = np.lexsort((want[1], want[0]))
     for g, w in zip(got, want, strict=True):
         np.testing.assert_allclose(g[order_g], w[order_w], rtol=0, atol=1e-9)
+
+
+def test_the_compiled_steep_chord_flags_are_their_twins() -> None:
+    """Issue 38: which chords carry a helix (the search's surcharge) comes from one compiled
+    pass, the numpy twin's flags exactly, on a table with steep chords and on one without."""
+    for pr in (_problem(), _problem(spirals=False)):
+        args = _tables(pr, 1)
+        u, v, l3, _ = kernels.chord_edges(*args)
+        xy, levels = args[1], args[2]
+        got = kernels.steep_chords(u, v, l3, xy, levels)
+        np.testing.assert_array_equal(got, _steep_chords_numpy(u, v, l3, xy, levels))
+        if args[-1] > 0.0:
+            assert 0 < int(got.sum()) < len(got)
+        else:
+            assert not got.any()
 
 
 def test_chords_clear_the_floor_and_keep_the_gradients() -> None:
