@@ -254,6 +254,10 @@ class Floor:
         self.lift = problem.clearance
         unknown = problem.unknown_grid
         self.unknown = None if unknown is None else unknown.heights
+        # the grids whose cached block maxima are those of these heights (the corridor terrain
+        # is the problem's check grid): built once per grid, not once per plan
+        check = problem.check_grid
+        self._grids = (check if self.heights is check.heights else None, unknown)
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -272,9 +276,11 @@ class Floor:
     def block_max(self, b: int) -> FloatArray:
         """:func:`terrain.grid.block_max` of the floor, from the heights' blocks (adding the same
         float64 lift to every value keeps their order, so the maxima are the same numbers)."""
-        top = block_max(self.heights, b) + self.lift + 1.0
+        grid, unknown = self._grids
+        top = (block_max(self.heights, b) if grid is None else grid.block_max(b)) + self.lift + 1.0
         if self.unknown is not None:
-            top = np.where(block_max(self.unknown, b) > 0, np.inf, top)
+            over = block_max(self.unknown, b) if unknown is None else unknown.block_max(b)
+            top = np.where(over > 0, np.inf, top)
         return np.asarray(top, dtype=np.float64)
 
 
