@@ -128,10 +128,13 @@ def below_lengths(
     below ground when the segment's lowest altitude over it (at one of its ends) is below the
     cell's height plus clearance.
 
-    ``blocks`` (``HeightGrid.block_maxima``: :func:`terrain.grid.block_max` of ``heights``) lets the walk skip: the cells are taken in
-    chunks of BLOCK steps; a chunk's cells lie in the box spanned by its first and last cell (the
-    line is monotone in both axes), and when the lowest altitude of its cells' parts clears the highest
-    block over that box by more than SKIP_MARGIN, no cell of it can be below and the walk jumps
+    ``blocks`` (``HeightGrid.block_maxima``: :func:`terrain.grid.block_max` of ``heights``) lets
+    the walk skip: the cells are taken in chunks of at most BLOCK steps that end where the major
+    axis enters the next block (issue 38: its box is one block long on that axis, not two; the
+    kernel ~10 % faster on a swarm's calls); a chunk's cells lie in the box spanned by its first
+    and last cell (the line is monotone in both axes), and when the lowest altitude of its
+    cells' parts clears the highest block over that box by more than SKIP_MARGIN, no cell of it
+    can be below and the walk jumps
     to the next chunk (the Bresenham state there from its closed form, minor_k =
     floor((2 k d_minor + d_major - 1) / (2 d_major))).  Inside a chunk that is walked, a cell
     whose height + clearance lies below the chunk's lowest altitude is passed without its part's
@@ -190,9 +193,15 @@ def below_lengths(
         t_kt1 = 0.0
         k = 0
         while k <= n:
-            # chunk [k, k_end]: the Bresenham state at k in closed form (minor_k =
+            # chunk [k, k_end]: up to where the major axis leaves its block (at most BLOCK
+            # steps; BLOCK steps off the grid), so that its box spans one block along that
+            # axis; the Bresenham state at k in closed form (minor_k =
             # floor((2 k d_minor + d_major - 1) / (2 d_major)), the error term to match)
-            k_end = min(k + BLOCK - 1, n)
+            maj_k = maj0 + smaj * k
+            if 0 <= maj_k < n_maj:
+                k_end = min(k + (BLOCK - 1 - maj_k % BLOCK if smaj > 0 else maj_k % BLOCK), n)
+            else:
+                k_end = min(k + BLOCK - 1, n)
             steps = (2 * k * dmin + n - 1) // (2 * n) if n else 0
             minor = min0 + smin * steps
             d = 2 * dmin - n + 2 * k * dmin - 2 * n * steps
