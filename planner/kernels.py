@@ -119,6 +119,109 @@ def flown(
     return out, turn_excess, climb_excess
 
 
+PAIRWISE_BLOCK = 128  # numpy's PW_BLOCKSIZE: runs longer than this are split in two
+
+
+@nb.njit(cache=True, nogil=True)
+def _pairwise_block(a: np.ndarray, lo: int, n: int) -> float:  # pragma: no cover - jit
+    """numpy's pairwise sum of ``a[lo:lo + n]`` for n <= PAIRWISE_BLOCK (:func:`pairwise_sum`)."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@nb.njit(cache=True, nogil=True)
+def pairwise_sum(a: np.ndarray, lo: int, n: int) -> float:  # pragma: no cover - jit
+    """numpy's sum of ``a[lo:lo + n]`` (float64, contiguous) bit for bit: its pairwise
+    summation (``pairwise_sum`` in numpy's ``loops_utils.h``): fewer than 8 numbers added in
+    order from 0.0, up to PAIRWISE_BLOCK in eight interleaved partial sums combined as
+    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)) with the rest added after, longer runs
+    split at a multiple of 8 near their middle and the halves' sums added.  The split is
+    walked with an explicit stack (numba's cache breaks on recursive functions)."""
+    if n <= PAIRWISE_BLOCK:
+        return _pairwise_block(a, lo, n)
+    los = np.empty(64, np.int64)
+    ns = np.empty(64, np.int64)
+    state = np.empty(64, np.int64)
+    vals = np.empty(64)
+    top, n_vals = 0, 0
+    los[0], ns[0], state[0] = lo, n, 0
+    while top >= 0:
+        at, m = los[top], ns[top]
+        if m <= PAIRWISE_BLOCK:
+            vals[n_vals] = _pairwise_block(a, at, m)
+            n_vals += 1
+            top -= 1
+            continue
+        half = m // 2
+        half -= half % 8
+        if state[top] == 0:  # the first half next
+            state[top] = 1
+            top += 1
+            los[top], ns[top], state[top] = at, half, 0
+        elif state[top] == 1:  # then the second
+            state[top] = 2
+            top += 1
+            los[top], ns[top], state[top] = at + half, m - half, 0
+        else:  # both summed: the first's sum plus the second's
+            vals[n_vals - 2] = vals[n_vals - 2] + vals[n_vals - 1]
+            n_vals -= 1
+            top -= 1
+    return vals[0]
+
+
+@nb.njit(cache=True, nogil=True)
+def path_lengths(
+    p: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - jit
+    """``planner.cost._lengths_numpy`` of (P, W, 3) polylines in one pass: (segment lengths
+    (P, W - 1), path lengths, straight end-to-end distances, sums of segment length x mean
+    altitude (P,)), the same operations in the same order and the sums numpy's
+    (:func:`pairwise_sum`), so the same numbers bit for bit."""
+    n_p, n_w = p.shape[0], p.shape[1]
+    n_s = n_w - 1
+    seg_len = np.empty((n_p, n_s))
+    length = np.empty(n_p)
+    straight = np.empty(n_p)
+    weighted = np.empty(n_p)
+    wz = np.empty(n_s)
+    for i in range(n_p):
+        for j in range(n_s):
+            dx = p[i, j + 1, 0] - p[i, j, 0]
+            dy = p[i, j + 1, 1] - p[i, j, 1]
+            dz = p[i, j + 1, 2] - p[i, j, 2]
+            s = np.sqrt(dx * dx + dy * dy + dz * dz)
+            seg_len[i, j] = s
+            wz[j] = s * (0.5 * (p[i, j, 2] + p[i, j + 1, 2]))
+        length[i] = pairwise_sum(seg_len[i], 0, n_s)
+        weighted[i] = pairwise_sum(wz, 0, n_s)
+        ex = p[i, n_w - 1, 0] - p[i, 0, 0]
+        ey = p[i, n_w - 1, 1] - p[i, 0, 1]
+        ez = p[i, n_w - 1, 2] - p[i, 0, 2]
+        straight[i] = np.sqrt(ex * ex + ey * ey + ez * ez)
+    return seg_len, length, straight, weighted
+
+
 @nb.njit(cache=True, nogil=True)
 def chord_edges(
     rc: np.ndarray,
