@@ -229,3 +229,26 @@ def test_cells_passed_without_their_parameters_change_no_bit() -> None:
         got = below_terrain_lengths(g, p0, p1, clearance)
         np.testing.assert_array_equal(got, below_terrain_lengths_numpy(g, p0, p1, clearance))
         assert 0.2 * m < np.count_nonzero(got) < 0.9 * m
+
+
+def test_paths_table_is_the_segments_table_bit_for_bit() -> None:
+    """Issue 38: a swarm's table is read straight from its (P, W, 3) paths; the same rows as
+    the table of the segments' ends (``paths[:, :-1] -> paths[:, 1:]``), so the same lengths
+    below as segment by segment; a NaN is refused as before."""
+    xmin, ymin, xmax, ymax = ROUGH.bounds
+    rng = np.random.default_rng(38)
+    lo, hi = np.array([xmin, ymin, 0.0]), np.array([xmax, ymax, 400.0])
+    paths = lo + rng.random((40, 9, 3)) * (hi - lo)
+    paths[:3, :, :2] = np.round(paths[:3, :, :2])  # on cell borders and centres
+    a, b = paths[:, :-1].reshape(-1, 3), paths[:, 1:].reshape(-1, 3)
+    dx, dy = ROUGH.cell_size
+    table = kernels.path_segment_table(
+        paths, float(ROUGH.transform.c), float(ROUGH.transform.f), float(dx), float(dy)
+    )
+    assert np.array_equal(table, segments_module._segment_table(ROUGH, a, b))
+    for clearance in (0.0, 30.0):
+        per = below_terrain_lengths(ROUGH, a, b, clearance).reshape(40, 8).sum(axis=1)
+        np.testing.assert_array_equal(path_below_lengths(ROUGH, paths, clearance), per)
+    paths[5, 4, 1] = np.nan
+    with pytest.raises(InputError, match="finite"):
+        path_below_lengths(ROUGH, paths)
