@@ -145,18 +145,28 @@ class Chords:
     each chord of a polyline: ``t`` (0..1 from its first end) and ``floor`` per chord."""
 
     def __init__(self, problem: PlanningProblem, pts: FloatArray, heights: Terrain) -> None:
+        xy = np.ascontiguousarray(np.asarray(pts, dtype=np.float64)[:, :2])
+        raw = heights.heights if isinstance(heights, Heights64) else heights
+        if not np.isfinite(xy).all() or raw.dtype not in (np.float32, np.float64):
+            self.t, self.floor = _chord_samples_numpy(problem, xy, heights)
+            return
+        # compiled (planner.kernels.chord_samples): the seeds' finishing builds ~60 of these a
+        # plan, a tenth of the map search in numpy (issue 38)
         grid = problem.grid
-        step = 0.25 * min(grid.cell_size)
-        self.t: list[FloatArray] = []
-        self.floor: list[FloatArray] = []
-        for p, q in itertools.pairwise(pts):
-            m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
-            t = np.linspace(0.0, 1.0, m)
-            line = p[None, :] + t[:, None] * (q - p)[None, :]
-            self.t.append(t)
-            self.floor.append(
-                heights[grid.cell_of(line[:, 0], line[:, 1])] + problem.clearance + 1.0
-            )
+        dx, dy = grid.cell_size
+        t, floor, at = kernels.chord_samples(
+            xy,
+            raw,
+            float(problem.clearance),
+            float(grid.transform.c),
+            float(grid.transform.f),
+            float(dx),
+            float(dy),
+            0.25 * min(grid.cell_size),
+        )
+        bounds = at.tolist()
+        self.t = [t[a:b] for a, b in itertools.pairwise(bounds)]
+        self.floor = [floor[a:b] for a, b in itertools.pairwise(bounds)]
 
     def clear(self, i: int, za: float, zb: float) -> bool:
         t = self.t[i]
@@ -171,6 +181,24 @@ class Chords:
         """The lowest altitude of chord i's first end keeping it clear, its second end at zb."""
         t, f = self.t[i][:-1], self.floor[i][:-1]
         return float(np.max(zb + (f - zb) / (1.0 - t)))
+
+
+def _chord_samples_numpy(
+    problem: PlanningProblem, pts: FloatArray, heights: Terrain
+) -> tuple[list[FloatArray], list[FloatArray]]:
+    """The numpy twin of ``planner.kernels.chord_samples``: :class:`Chords`' samples (t) and
+    floors, chord by chord."""
+    grid = problem.grid
+    step = 0.25 * min(grid.cell_size)
+    ts: list[FloatArray] = []
+    floors: list[FloatArray] = []
+    for p, q in itertools.pairwise(pts):
+        m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
+        t = np.linspace(0.0, 1.0, m)
+        line = p[None, :] + t[:, None] * (q - p)[None, :]
+        ts.append(t)
+        floors.append(heights[grid.cell_of(line[:, 0], line[:, 1])] + problem.clearance + 1.0)
+    return ts, floors
 
 
 def finish_waypoints(
