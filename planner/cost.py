@@ -83,6 +83,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from planner import kernels
 from terrain.grid import HeightGrid
 from terrain.segments import path_below_lengths
 from terrain.zoneset import ZoneSet
@@ -168,19 +169,17 @@ def path_costs(
     ``agl_max`` or ``agl_pref`` adds the above-ground terms; ``smoothness`` (P,) is F_smooth,
     computed by the caller on the waypoint polylines (:func:`smoothness_of`).
     ``spiral_gradient``: the climb excess is priced as a spiral's length (module docstring)."""
-    p = np.asarray(paths, dtype=np.float64)
-    seg = np.diff(p, axis=1)
-    seg_len = np.sqrt((seg * seg).sum(axis=2))  # np.linalg.norm's arithmetic, without its checks
-    length = seg_len.sum(axis=1)
-    ends = p[:, -1, :] - p[:, 0, :]
-    straight = np.sqrt((ends * ends).sum(axis=1))
+    p = np.ascontiguousarray(paths, dtype=np.float64)
+    if p.ndim == 3 and p.shape[1] >= 2 and p.shape[2] == 3:
+        seg_len, length, straight, weighted = kernels.path_lengths(p)
+    else:
+        seg_len, length, straight, weighted = _lengths_numpy(p)
     safe_len = np.where(length > 0, length, 1.0)
     f_length = np.where(length > 0, 1.0 - straight / safe_len, 0.0)
 
-    mid_z = 0.5 * (p[:, :-1, 2] + p[:, 1:, 2])
-    mean_alt = np.where(
-        length > 0, (seg_len * mid_z).sum(axis=1) / safe_len, p[:, :, 2].mean(axis=1)
-    )
+    mean_alt = weighted / safe_len
+    if not (length > 0).all():  # a path of length 0: the mean of its points
+        mean_alt = np.where(length > 0, mean_alt, p[:, :, 2].mean(axis=1))
     f_alt = (mean_alt - zmin) / (zmax - zmin)
 
     below = path_below_lengths(grid, p, clearance)
@@ -250,6 +249,21 @@ def path_costs(
         f_pref,
         f_smooth,
     )
+
+
+def _lengths_numpy(p: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(segment lengths (P, S), path lengths, straight end-to-end distances, sums of segment
+    length x mean altitude) of (P, W, 3) polylines: the numpy twin of
+    ``planner.kernels.path_lengths`` (which path_costs runs: one pass instead of a dozen numpy
+    calls, issue 38).  np.linalg.norm's arithmetic without its checks, the three squares added
+    in order as ``(seg * seg).sum(axis=2)`` adds them."""
+    seg = np.diff(p, axis=1)
+    sq = seg * seg
+    seg_len = np.sqrt(sq[..., 0] + sq[..., 1] + sq[..., 2])
+    ends = p[:, -1, :] - p[:, 0, :]
+    straight = np.sqrt((ends * ends).sum(axis=1))
+    mid_z = 0.5 * (p[:, :-1, 2] + p[:, 1:, 2])
+    return seg_len, seg_len.sum(axis=1), straight, (seg_len * mid_z).sum(axis=1)
 
 
 AGL_SAMPLES_MAX = 128  # height-above-ground samples per segment at most

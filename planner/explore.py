@@ -74,13 +74,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from planner import kernels
 from planner.placement import (
     Chords,
+    Heights64,
     Lattice,
     Terrain,
     corridor_terrain,
@@ -355,9 +355,7 @@ def _via_routes(
     ry, rx = radius_m / (b * cell[1]), radius_m / (b * cell[0])
     yy, xx = np.mgrid[-math.ceil(ry) : math.ceil(ry) + 1, -math.ceil(rx) : math.ceil(rx) + 1]
     disc = (yy / max(ry, 1e-9)) ** 2 + (xx / max(rx, 1e-9)) ** 2 <= 1.0
-    ends = np.zeros((nr, nc), dtype=bool)
-    ends.flat[list(ends_at)] = True
-    ends = ndimage.binary_dilation(ends, structure=disc)
+    ends = _discs((nr, nc), np.asarray(ends_at, dtype=np.int64), disc)
     near = np.zeros((nr, nc), dtype=bool)
     terrain = corridor_terrain(problem)
     routes: list[Route] = []
@@ -391,9 +389,7 @@ def _via_routes(
         xyz = np.column_stack([node_xy[nodes], z])
         cost = float(total[via]) / span
         routes.append(Route(xyz[:, :2], cost, route_waypoints(problem, xyz, terrain)))
-        mark = np.zeros((nr, nc), dtype=bool)
-        mark.flat[nodes] = True
-        near |= ndimage.binary_dilation(mark, structure=disc)
+        near |= _discs((nr, nc), ids, disc)
         if len(routes) == k:
             break
         # every node's via-route share near the kept routes, from both trees at once
@@ -403,6 +399,24 @@ def _via_routes(
         size = lengths[0] + lengths[1] - counted_flag
         share = np.where(size > 0, both / np.maximum(size, 1), 0.0)
     return routes
+
+
+def _discs(
+    shape: tuple[int, int], nodes: IntArray, disc: npt.NDArray[np.bool_]
+) -> npt.NDArray[np.bool_]:
+    """The nodes (flat indices into ``shape``) dilated by ``disc`` (odd sides, symmetric about
+    its centre): ``scipy.ndimage.binary_dilation`` of their mask with that structure, the same
+    cells, by stamping the disc round each node (issue 38: the dilation of the whole graph
+    was a tenth of the route search)."""
+    out = np.zeros(shape, dtype=bool)
+    dy, dx = np.nonzero(disc)
+    dy = dy - disc.shape[0] // 2
+    dx = dx - disc.shape[1] // 2
+    r = (nodes // shape[1])[:, None] + dy[None, :]
+    c = (nodes % shape[1])[:, None] + dx[None, :]
+    ok = (r >= 0) & (r < shape[0]) & (c >= 0) & (c < shape[1])
+    out[r[ok], c[ok]] = True
+    return out
 
 
 def _simplify(xy: FloatArray, n: int) -> FloatArray:
@@ -480,11 +494,14 @@ def _clear_chords(
     sample below (issue 38), :func:`_clear_chords_numpy` its twin."""
     grid = problem.grid
     dx, dy = grid.cell_size
+    # the heights as stored (a float32 grid's values read as float64 in the kernel, the same
+    # numbers): a float64 copy of the whole map per call was most of string pulling (issue 38)
+    raw = heights.heights if isinstance(heights, Heights64) else heights
     return np.asarray(
         kernels.clear_chords(
             np.ascontiguousarray(p, dtype=np.float64),
             np.ascontiguousarray(qs, dtype=np.float64),
-            np.ascontiguousarray(heights, dtype=np.float64),
+            raw if raw.dtype in (np.float32, np.float64) else np.asarray(raw, dtype=np.float64),
             float(grid.transform.c),
             float(grid.transform.f),
             float(dx),

@@ -119,6 +119,109 @@ def flown(
     return out, turn_excess, climb_excess
 
 
+PAIRWISE_BLOCK = 128  # numpy's PW_BLOCKSIZE: runs longer than this are split in two
+
+
+@nb.njit(cache=True, nogil=True)
+def _pairwise_block(a: np.ndarray, lo: int, n: int) -> float:  # pragma: no cover - jit
+    """numpy's pairwise sum of ``a[lo:lo + n]`` for n <= PAIRWISE_BLOCK (:func:`pairwise_sum`)."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@nb.njit(cache=True, nogil=True)
+def pairwise_sum(a: np.ndarray, lo: int, n: int) -> float:  # pragma: no cover - jit
+    """numpy's sum of ``a[lo:lo + n]`` (float64, contiguous) bit for bit: its pairwise
+    summation (``pairwise_sum`` in numpy's ``loops_utils.h``): fewer than 8 numbers added in
+    order from 0.0, up to PAIRWISE_BLOCK in eight interleaved partial sums combined as
+    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)) with the rest added after, longer runs
+    split at a multiple of 8 near their middle and the halves' sums added.  The split is
+    walked with an explicit stack (numba's cache breaks on recursive functions)."""
+    if n <= PAIRWISE_BLOCK:
+        return _pairwise_block(a, lo, n)
+    los = np.empty(64, np.int64)
+    ns = np.empty(64, np.int64)
+    state = np.empty(64, np.int64)
+    vals = np.empty(64)
+    top, n_vals = 0, 0
+    los[0], ns[0], state[0] = lo, n, 0
+    while top >= 0:
+        at, m = los[top], ns[top]
+        if m <= PAIRWISE_BLOCK:
+            vals[n_vals] = _pairwise_block(a, at, m)
+            n_vals += 1
+            top -= 1
+            continue
+        half = m // 2
+        half -= half % 8
+        if state[top] == 0:  # the first half next
+            state[top] = 1
+            top += 1
+            los[top], ns[top], state[top] = at, half, 0
+        elif state[top] == 1:  # then the second
+            state[top] = 2
+            top += 1
+            los[top], ns[top], state[top] = at + half, m - half, 0
+        else:  # both summed: the first's sum plus the second's
+            vals[n_vals - 2] = vals[n_vals - 2] + vals[n_vals - 1]
+            n_vals -= 1
+            top -= 1
+    return vals[0]
+
+
+@nb.njit(cache=True, nogil=True)
+def path_lengths(
+    p: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - jit
+    """``planner.cost._lengths_numpy`` of (P, W, 3) polylines in one pass: (segment lengths
+    (P, W - 1), path lengths, straight end-to-end distances, sums of segment length x mean
+    altitude (P,)), the same operations in the same order and the sums numpy's
+    (:func:`pairwise_sum`), so the same numbers bit for bit."""
+    n_p, n_w = p.shape[0], p.shape[1]
+    n_s = n_w - 1
+    seg_len = np.empty((n_p, n_s))
+    length = np.empty(n_p)
+    straight = np.empty(n_p)
+    weighted = np.empty(n_p)
+    wz = np.empty(n_s)
+    for i in range(n_p):
+        for j in range(n_s):
+            dx = p[i, j + 1, 0] - p[i, j, 0]
+            dy = p[i, j + 1, 1] - p[i, j, 1]
+            dz = p[i, j + 1, 2] - p[i, j, 2]
+            s = np.sqrt(dx * dx + dy * dy + dz * dz)
+            seg_len[i, j] = s
+            wz[j] = s * (0.5 * (p[i, j, 2] + p[i, j + 1, 2]))
+        length[i] = pairwise_sum(seg_len[i], 0, n_s)
+        weighted[i] = pairwise_sum(wz, 0, n_s)
+        ex = p[i, n_w - 1, 0] - p[i, 0, 0]
+        ey = p[i, n_w - 1, 1] - p[i, 0, 1]
+        ez = p[i, n_w - 1, 2] - p[i, 0, 2]
+        straight[i] = np.sqrt(ex * ex + ey * ey + ez * ez)
+    return seg_len, length, straight, weighted
+
+
 @nb.njit(cache=True, nogil=True)
 def chord_edges(
     rc: np.ndarray,
@@ -165,30 +268,43 @@ def chord_edges(
         a, b = pairs[e, 0], pairs[e, 1]
         r0, c0, r1, c1 = rc[a, 0], rc[a, 1], rc[b, 0], rc[b, 1]
         m = max(2, int(np.ceil(np.hypot(r1 - r0, c1 - c0) / step)) + 1)
+        # the samples in straight loops (no exit on the first infinite floor, one loop per
+        # kind of floor: issue 38, a tenth faster), then whether any is infinite
+        for i in range(m):
+            ts[i] = i / (m - 1)
+        ts[m - 1] = 1.0
+        if block == 1:
+            for i in range(m):
+                r = min(max(int(np.floor(r0 + ts[i] * (r1 - r0) + 0.5)), 0), n_r - 1)
+                c = min(max(int(np.floor(c0 + ts[i] * (c1 - c0) + 0.5)), 0), n_col - 1)
+                fs[i] = floor[r, c]
+        else:
+            for i in range(m):
+                r = min(max(int(np.floor(r0 + ts[i] * (r1 - r0) + 0.5)), 0), n_r - 1)
+                c = min(max(int(np.floor(c0 + ts[i] * (c1 - c0) + 0.5)), 0), n_col - 1)
+                fs[i] = floor[int(r * inv + eps), int(c * inv + eps)]
         finite = True
         for i in range(m):
-            t = 1.0 if i == m - 1 else i / (m - 1)
-            r = min(max(int(np.floor(r0 + t * (r1 - r0) + 0.5)), 0), n_r - 1)
-            c = min(max(int(np.floor(c0 + t * (c1 - c0) + 0.5)), 0), n_col - 1)
-            ts[i] = t
-            fs[i] = floor[r, c] if block == 1 else floor[int(r * inv + eps), int(c * inv + eps)]
             if not np.isfinite(fs[i]):
                 finite = False
-                break
         if not finite:
             continue
-        h = 0  # upper hull of the samples after the first (t increasing)
+        # upper hull of the samples after the first (t increasing), its last two vertices
+        # also held in (x0, y0) and (x1, y1)
+        h = 0
+        x0 = y0 = x1 = y1 = 0.0
         for i in range(1, m):
-            while (
-                h >= 2
-                and (ht[h - 1] - ht[h - 2]) * (fs[i] - hf[h - 2])
-                - (hf[h - 1] - hf[h - 2]) * (ts[i] - ht[h - 2])
-                >= 0.0
-            ):
+            t, f = ts[i], fs[i]
+            while h >= 2 and (x1 - x0) * (f - y0) - (y1 - y0) * (t - x0) >= 0.0:
                 h -= 1
-            ht[h] = ts[i]
-            hf[h] = fs[i]
+                x1, y1 = x0, y0
+                if h >= 2:
+                    x0, y0 = ht[h - 2], hf[h - 2]
+            ht[h] = t
+            hf[h] = f
             h += 1
+            x0, y0 = x1, y1
+            x1, y1 = t, f
         length = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
         for ka in range(n_k):
             za = levels[a, ka]
@@ -213,6 +329,27 @@ def chord_edges(
                 zm[count] = 0.5 * (za + zb)
                 count += 1
     return u[:count], v[:count], l3[:count], zm[:count]
+
+
+@nb.njit(cache=True, nogil=True)
+def steep_chords(
+    u: np.ndarray, v: np.ndarray, l3: np.ndarray, xy: np.ndarray, levels: np.ndarray
+) -> np.ndarray:  # pragma: no cover - jit
+    """``planner.placement._steep_chords_numpy``: which edges of :func:`chord_edges` are longer
+    than their straight 3-D chord by more than 1e-6 m (a helix added), in one pass: the same
+    operations in the same order (``np.hypot`` is the C library's in both)."""
+    k = levels.shape[1]
+    # s // k without an integer division (as chord_edges does r // block): s / k is a whole
+    # number or at least 1 / k above one, and s * inv is within 1e-11 of it for any lattice
+    inv = 1.0 / k
+    eps = 0.5 / k
+    out = np.empty(u.shape[0], dtype=np.bool_)
+    for e in range(u.shape[0]):
+        a, b = int(u[e] * inv + eps), int(v[e] * inv + eps)
+        flat = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
+        dz = levels[b, v[e] - b * k] - levels[a, u[e] - a * k]
+        out[e] = l3[e] > np.sqrt(flat * flat + dz * dz) + 1e-6
+    return out
 
 
 @nb.njit(cache=True, nogil=True)
@@ -259,6 +396,47 @@ def layered_dp(
 
 
 @nb.njit(cache=True, nogil=True)
+def chord_samples(
+    pts: np.ndarray,
+    heights: np.ndarray,
+    lift: float,
+    left: float,
+    top: float,
+    dx: float,
+    dy: float,
+    step: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - jit
+    """``planner.placement.Chords`` of the polyline ``pts`` (M, 2) in one pass: each chord's
+    samples every ``step`` metres (``np.linspace(0, 1, m)``'s values: i * (1 / (m - 1)), the
+    last exactly 1) and the floor there (``heights`` + ``lift`` + 1 m at
+    ``HeightGrid.cell_of``'s cell, float32 heights read as the float64 they equal), as
+    (t, floor, offsets): chord i's in ``[offsets[i]:offsets[i + 1]]``.  The same numbers as
+    the numpy loop it replaces (``placement._chord_samples_numpy``)."""
+    n = pts.shape[0] - 1
+    rows, cols = heights.shape[0], heights.shape[1]
+    offsets = np.zeros(n + 1, np.int64)
+    for i in range(n):
+        d = np.hypot(pts[i + 1, 0] - pts[i, 0], pts[i + 1, 1] - pts[i, 1])
+        offsets[i + 1] = offsets[i] + max(2, int(np.ceil(d / step)) + 1)
+    t_all = np.empty(offsets[n])
+    f_all = np.empty(offsets[n])
+    for i in range(n):
+        m = offsets[i + 1] - offsets[i]
+        px, py = pts[i, 0], pts[i, 1]
+        ex, ey = pts[i + 1, 0] - px, pts[i + 1, 1] - py
+        inc = 1.0 / (m - 1)
+        for k in range(m):
+            t = 1.0 if k == m - 1 else k * inc
+            x = px + t * ex
+            y = py + t * ey
+            r = min(max(np.floor(((top - y) / dy - 0.5) + 0.5), 0.0), rows - 1.0)
+            c = min(max(np.floor(((x - left) / dx - 0.5) + 0.5), 0.0), cols - 1.0)
+            t_all[offsets[i] + k] = t
+            f_all[offsets[i] + k] = heights[int(r), int(c)] + lift + 1.0
+    return t_all, f_all, offsets
+
+
+@nb.njit(cache=True, nogil=True)
 def clear_chords(
     p: np.ndarray,
     qs: np.ndarray,
@@ -273,7 +451,8 @@ def clear_chords(
     """``planner.explore._clear_chords_numpy``: for each chord p -> qs[i] (3-D, altitude linear),
     whether it clears ``heights`` + clearance + 1 m at its samples every ``step`` metres
     (``np.linspace(0, 1, m)``'s values, m from the horizontal length); the same samples and
-    arithmetic (``HeightGrid.cell_of``'s cells), each chord left at its first sample below."""
+    arithmetic (``HeightGrid.cell_of``'s cells), each chord left at its first sample below.
+    ``heights`` float32 or float64: a float32 value is read as the float64 it equals."""
     rows, cols = heights.shape[0], heights.shape[1]
     out = np.ones(qs.shape[0], dtype=np.bool_)
     for i in range(qs.shape[0]):

@@ -145,18 +145,28 @@ class Chords:
     each chord of a polyline: ``t`` (0..1 from its first end) and ``floor`` per chord."""
 
     def __init__(self, problem: PlanningProblem, pts: FloatArray, heights: Terrain) -> None:
+        xy = np.ascontiguousarray(np.asarray(pts, dtype=np.float64)[:, :2])
+        raw = heights.heights if isinstance(heights, Heights64) else heights
+        if not np.isfinite(xy).all() or raw.dtype not in (np.float32, np.float64):
+            self.t, self.floor = _chord_samples_numpy(problem, xy, heights)
+            return
+        # compiled (planner.kernels.chord_samples): the seeds' finishing builds ~60 of these a
+        # plan, a tenth of the map search in numpy (issue 38)
         grid = problem.grid
-        step = 0.25 * min(grid.cell_size)
-        self.t: list[FloatArray] = []
-        self.floor: list[FloatArray] = []
-        for p, q in itertools.pairwise(pts):
-            m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
-            t = np.linspace(0.0, 1.0, m)
-            line = p[None, :] + t[:, None] * (q - p)[None, :]
-            self.t.append(t)
-            self.floor.append(
-                heights[grid.cell_of(line[:, 0], line[:, 1])] + problem.clearance + 1.0
-            )
+        dx, dy = grid.cell_size
+        t, floor, at = kernels.chord_samples(
+            xy,
+            raw,
+            float(problem.clearance),
+            float(grid.transform.c),
+            float(grid.transform.f),
+            float(dx),
+            float(dy),
+            0.25 * min(grid.cell_size),
+        )
+        bounds = at.tolist()
+        self.t = [t[a:b] for a, b in itertools.pairwise(bounds)]
+        self.floor = [floor[a:b] for a, b in itertools.pairwise(bounds)]
 
     def clear(self, i: int, za: float, zb: float) -> bool:
         t = self.t[i]
@@ -171,6 +181,24 @@ class Chords:
         """The lowest altitude of chord i's first end keeping it clear, its second end at zb."""
         t, f = self.t[i][:-1], self.floor[i][:-1]
         return float(np.max(zb + (f - zb) / (1.0 - t)))
+
+
+def _chord_samples_numpy(
+    problem: PlanningProblem, pts: FloatArray, heights: Terrain
+) -> tuple[list[FloatArray], list[FloatArray]]:
+    """The numpy twin of ``planner.kernels.chord_samples``: :class:`Chords`' samples (t) and
+    floors, chord by chord."""
+    grid = problem.grid
+    step = 0.25 * min(grid.cell_size)
+    ts: list[FloatArray] = []
+    floors: list[FloatArray] = []
+    for p, q in itertools.pairwise(pts):
+        m = max(2, int(math.ceil(float(np.hypot(*(q - p))) / step)) + 1)
+        t = np.linspace(0.0, 1.0, m)
+        line = p[None, :] + t[:, None] * (q - p)[None, :]
+        ts.append(t)
+        floors.append(heights[grid.cell_of(line[:, 0], line[:, 1])] + problem.clearance + 1.0)
+    return ts, floors
 
 
 def finish_waypoints(
@@ -254,6 +282,10 @@ class Floor:
         self.lift = problem.clearance
         unknown = problem.unknown_grid
         self.unknown = None if unknown is None else unknown.heights
+        # the grids whose cached block maxima are those of these heights (the corridor terrain
+        # is the problem's check grid): built once per grid, not once per plan
+        check = problem.check_grid
+        self._grids = (check if self.heights is check.heights else None, unknown)
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -272,9 +304,11 @@ class Floor:
     def block_max(self, b: int) -> FloatArray:
         """:func:`terrain.grid.block_max` of the floor, from the heights' blocks (adding the same
         float64 lift to every value keeps their order, so the maxima are the same numbers)."""
-        top = block_max(self.heights, b) + self.lift + 1.0
+        grid, unknown = self._grids
+        top = (block_max(self.heights, b) if grid is None else grid.block_max(b)) + self.lift + 1.0
         if self.unknown is not None:
-            top = np.where(block_max(self.unknown, b) > 0, np.inf, top)
+            over = block_max(self.unknown, b) if unknown is None else unknown.block_max(b)
+            top = np.where(over > 0, np.inf, top)
         return np.asarray(top, dtype=np.float64)
 
 
@@ -396,10 +430,7 @@ class Lattice:
             # a chord that needs a spiral is taken only where no chain without one reaches the
             # goal, and as few as can be: it weighs more than the spread of any chain's weights
             # (each chord's weight is within +-2 x the band x its length, N + 1 chords a chain)
-            a, b = u // k, v // k
-            flat = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
-            plain = np.sqrt(flat**2 + (levels.flat[v] - levels.flat[u]) ** 2)
-            steep = l3 > plain + 1e-6
+            steep = kernels.steep_chords(u, v, l3, xy, levels)  # _steep_chords_numpy's
             surcharge = 8.0 * self.dz * (problem.n_waypoints + 1) * float(l3.max(initial=1.0))
             extra = steep * surcharge  # the same every round
         n_states = len(xy) * k
@@ -615,6 +646,18 @@ def _chord_edges_py(
         np.asarray(arr[:, 2]),
         np.asarray(arr[:, 3]),
     )
+
+
+def _steep_chords_numpy(
+    u: IntArray, v: IntArray, l3: FloatArray, xy: FloatArray, levels: FloatArray
+) -> npt.NDArray[np.bool_]:
+    """Pure-numpy twin of ``planner.kernels.steep_chords``: the edges (u, v) longer than their
+    straight 3-D chord by more than 1e-6 m (a helix added to them)."""
+    k = levels.shape[1]
+    a, b = u // k, v // k
+    flat = np.hypot(xy[b, 0] - xy[a, 0], xy[b, 1] - xy[a, 1])
+    plain = np.sqrt(flat**2 + (levels.flat[v] - levels.flat[u]) ** 2)
+    return np.asarray(l3 > plain + 1e-6, dtype=np.bool_)
 
 
 def _layered_dp_py(

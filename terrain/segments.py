@@ -102,7 +102,9 @@ def below_terrain_lengths(
         raise InputError(f"backend must be 'numba' or 'numpy'; got {backend!r}")
     table = _segment_table(grid, p0, p1)
     return np.asarray(
-        kernels.below_lengths(table, grid.heights, float(clearance), grid.block_maxima)
+        kernels.below_lengths(
+            table, np.ascontiguousarray(grid.heights), float(clearance), grid.block_maxima
+        )
     )
 
 
@@ -176,6 +178,23 @@ def path_below_lengths(
     if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[1] < 2:
         raise InputError(f"paths must be a (P, W >= 2, 3) array of x, y, z; got shape {arr.shape}")
     p, w = arr.shape[0], arr.shape[1]
+    if backend == "numba":
+        # the table straight from the paths (terrain.kernels.path_segment_table): the same rows
+        # as from the segments' ends below, without copying them (issue 38)
+        if not np.isfinite(arr).all():
+            raise InputError("segment coordinates must be finite; found NaN or infinity")
+        dx, dy = grid.cell_size
+        table = kernels.path_segment_table(
+            np.ascontiguousarray(arr),
+            float(grid.transform.c),
+            float(grid.transform.f),
+            float(dx),
+            float(dy),
+        )
+        below = kernels.below_lengths(
+            table, np.ascontiguousarray(grid.heights), float(clearance), grid.block_maxima
+        )
+        return np.asarray(below).reshape(p, w - 1).sum(axis=1)
     a = arr[:, :-1, :].reshape(-1, 3)
     b = arr[:, 1:, :].reshape(-1, 3)
     return (

@@ -17,14 +17,15 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
 
+from terrain import kernels
 from terrain.cylinders import (
     ZoneArrays,
     points_in_cylinders,
-    segment_cylinder_lengths,
     zones_arrays,
 )
 from terrain.errors import InputError
@@ -91,6 +92,11 @@ class ZoneSet:
     def __len__(self) -> int:
         return len(self.zones)
 
+    @cached_property
+    def _floored(self) -> bool:
+        """Whether a cylinder has a floor (segment_cylinder_lengths' ``floors`` flag)."""
+        return bool(np.any(self.cylinders.floors != -np.inf))
+
     def segment_lengths(self, p0: npt.ArrayLike, p1: npt.ArrayLike) -> FloatArray:
         """Length (m) of each segment p0[m] -> p1[m] ((M, 3) map metres, z AMSL) inside each zone,
         shape (M, K).  Bit-identical when p0 and p1 are swapped."""
@@ -102,9 +108,17 @@ class ZoneSet:
             )
         out = np.zeros((a.shape[0], len(self)))
         if self.cylinder_columns.size:
+            # segment_cylinder_lengths' kernel on the packed arrays, checked when packed
+            # (issue 38: its per-call checks were a sixth of a swarm's zone lengths)
             c = self.cylinders
-            out[:, self.cylinder_columns] = segment_cylinder_lengths(
-                a, b, c.centers, c.radii, c.tops, c.floors
+            out[:, self.cylinder_columns] = kernels.cylinder_lengths(
+                np.ascontiguousarray(a),
+                np.ascontiguousarray(b),
+                c.centers,
+                c.radii,
+                c.tops,
+                c.floors,
+                self._floored,
             )
         if self.polygon_columns.size:
             out[:, self.polygon_columns] = segment_polygon_lengths(a, b, self.polygons)
@@ -120,6 +134,9 @@ class ZoneSet:
             raise InputError(f"paths must have shape (P, W, 3) with W >= 1; got {p.shape}")
         n_paths, n_points = p.shape[0], p.shape[1]
         per_segment = self.segment_lengths(p[:, :-1, :].reshape(-1, 3), p[:, 1:, :].reshape(-1, 3))
+        if n_points > 1 and n_paths and len(self) > 1:
+            # numpy's sum over the segments, in its order, compiled (terrain.kernels.run_sums)
+            return np.asarray(kernels.run_sums(per_segment, n_paths), dtype=np.float64)
         total = per_segment.reshape(n_paths, n_points - 1, len(self)).sum(axis=1)
         return np.asarray(total, dtype=np.float64)
 

@@ -3,6 +3,8 @@ the whole map, distinct and valid, turned into waypoint vectors that seed the po
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -273,3 +275,25 @@ def test_compiled_tree_counts_match_the_python_twin() -> None:
     got = _along(pred, top, flag)
     np.testing.assert_array_equal(got, _along_py(pred, top, flag))
     assert got[order[-20:]].sum() == 0 and got.max() >= 3
+
+
+def test_disc_stamps_are_scipys_dilation() -> None:
+    """Issue 38: the nodes near a kept route (and round the start and goal) are found by
+    stamping the disc round each node; the same cells as ``scipy.ndimage.binary_dilation`` of
+    their mask, for round and elongated discs and nodes at the graph's edges and corners."""
+    from scipy import ndimage
+
+    from planner.explore import _discs
+
+    rng = np.random.default_rng(38)
+    for shape, (ry, rx) in (((40, 64), (3.0, 3.0)), ((86, 160), (4.6, 2.2)), ((9, 7), (5.5, 8.0))):
+        yy, xx = np.mgrid[-math.ceil(ry) : math.ceil(ry) + 1, -math.ceil(rx) : math.ceil(rx) + 1]
+        disc = (yy / ry) ** 2 + (xx / rx) ** 2 <= 1.0
+        n = shape[0] * shape[1]
+        corners = [0, shape[1] - 1, n - shape[1], n - 1]
+        nodes = np.concatenate([corners, rng.choice(n, 25, replace=False)]).astype(np.int64)
+        mask = np.zeros(shape, dtype=bool)
+        mask.flat[nodes] = True
+        want = ndimage.binary_dilation(mask, structure=disc)
+        np.testing.assert_array_equal(_discs(shape, nodes, disc), want)
+        assert 0 < int(want.sum()) < n or shape == (9, 7)

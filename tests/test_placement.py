@@ -16,9 +16,12 @@ from planner.explore import _flyable, explore_pool
 from planner.performance import Performance
 from planner.placement import (
     LEVELS,
+    Chords,
     Lattice,
     _chord_edges_py,
+    _chord_samples_numpy,
     _layered_dp_py,
+    _steep_chords_numpy,
     candidates,
     chord_pairs,
     corridor_terrain,
@@ -79,6 +82,21 @@ def test_the_compiled_chord_table_matches_its_twin(block: int) -> None:
     order_w = np.lexsort((want[1], want[0]))
     for g, w in zip(got, want, strict=True):
         np.testing.assert_allclose(g[order_g], w[order_w], rtol=0, atol=1e-9)
+
+
+def test_the_compiled_steep_chord_flags_are_their_twins() -> None:
+    """Issue 38: which chords carry a helix (the search's surcharge) comes from one compiled
+    pass, the numpy twin's flags exactly, on a table with steep chords and on one without."""
+    for pr in (_problem(), _problem(spirals=False)):
+        args = _tables(pr, 1)
+        u, v, l3, _ = kernels.chord_edges(*args)
+        xy, levels = args[1], args[2]
+        got = kernels.steep_chords(u, v, l3, xy, levels)
+        np.testing.assert_array_equal(got, _steep_chords_numpy(u, v, l3, xy, levels))
+        if args[-1] > 0.0:
+            assert 0 < int(got.sum()) < len(got)
+        else:
+            assert not got.any()
 
 
 def test_chords_clear_the_floor_and_keep_the_gradients() -> None:
@@ -238,3 +256,25 @@ def test_no_placement_with_a_preferred_height() -> None:
     assert len(ex.routes) == len(plain.routes) > 0
     for a, b in zip(ex.routes, plain.routes, strict=True):
         np.testing.assert_array_equal(a.x, b.x)
+
+
+def test_compiled_chord_samples_are_their_twins() -> None:
+    """Issue 38: :class:`Chords` samples its chords in one compiled pass; the same t and floors
+    bit for bit as the numpy twin (np.linspace, HeightGrid.cell_of), on the problem's float32
+    corridor terrain and on a float64 array, for chords across the map, off its edges, of no
+    length and along a row."""
+    pr = _problem()
+    rng = np.random.default_rng(38)
+    xmin, ymin, xmax, ymax = pr.grid.bounds
+    pts = np.column_stack(
+        [rng.uniform(xmin - 300, xmax + 300, 12), rng.uniform(ymin - 300, ymax + 300, 12)]
+    )
+    pts[5] = pts[4]  # no length
+    pts[7, 1] = pts[6, 1]  # along a row
+    heights = corridor_terrain(pr)
+    for terrain in (heights, np.asarray(heights, dtype=np.float64)):
+        got = Chords(pr, pts, terrain)
+        want_t, want_f = _chord_samples_numpy(pr, pts, terrain)
+        assert len(got.t) == len(want_t) == 11
+        for a, b in zip(got.t + got.floor, want_t + want_f, strict=True):
+            np.testing.assert_array_equal(a, b)

@@ -203,3 +203,52 @@ def test_block_skipping_changes_no_bit() -> None:
             table, g.heights, clearance, np.full_like(g.block_maxima, -np.inf)
         )
         assert not blind.any()
+
+
+def test_cells_passed_without_their_parameters_change_no_bit() -> None:
+    """Issue 38: inside a walked chunk the kernel passes a cell lower than the chunk's lowest
+    altitude without computing its part, and carries a cell's parameters to the next; on
+    segments hugging the terrain (most cells near the ground, a quarter below, climbing,
+    descending and level, float32 heights) every length is the numpy twin's, bit for bit (the
+    twin adds every cell's part, 0.0 for a clear one, in the walk's order)."""
+    yy, xx = np.mgrid[0:200, 0:220]
+    h = 600.0 + 180.0 * np.sin(xx / 9.0) * np.cos(yy / 13.0) + 0.7 * xx
+    g = make_grid(h.astype(np.float32), cell=30.0, x0=1000.0, y0=8000.0)
+    rng = np.random.default_rng(38)
+    m = 4000
+    xmin, ymin, xmax, ymax = g.bounds
+    p0 = rng.uniform([xmin - 200, ymin - 200, 0.0], [xmax + 200, ymax + 200, 1.0], (m, 3))
+    p1 = p0 + rng.normal(0.0, 1500.0, (m, 3)) * [1.0, 1.0, 0.0]
+    p1[:500, :2] = p0[:500, :2] + rng.uniform(-90, 90, (500, 2))  # a few cells long
+    ground0 = g.heights[g.cell_of(np.clip(p0[:, 0], xmin, xmax), np.clip(p0[:, 1], ymin, ymax))]
+    ground1 = g.heights[g.cell_of(np.clip(p1[:, 0], xmin, xmax), np.clip(p1[:, 1], ymin, ymax))]
+    p0[:, 2] = ground0 + rng.uniform(-40.0, 260.0, m)
+    p1[:, 2] = ground1 + rng.uniform(-40.0, 260.0, m)
+    p1[600:700, 2] = p0[600:700, 2]  # level
+    for clearance in (0.0, 50.0):
+        got = below_terrain_lengths(g, p0, p1, clearance)
+        np.testing.assert_array_equal(got, below_terrain_lengths_numpy(g, p0, p1, clearance))
+        assert 0.2 * m < np.count_nonzero(got) < 0.9 * m
+
+
+def test_paths_table_is_the_segments_table_bit_for_bit() -> None:
+    """Issue 38: a swarm's table is read straight from its (P, W, 3) paths; the same rows as
+    the table of the segments' ends (``paths[:, :-1] -> paths[:, 1:]``), so the same lengths
+    below as segment by segment; a NaN is refused as before."""
+    xmin, ymin, xmax, ymax = ROUGH.bounds
+    rng = np.random.default_rng(38)
+    lo, hi = np.array([xmin, ymin, 0.0]), np.array([xmax, ymax, 400.0])
+    paths = lo + rng.random((40, 9, 3)) * (hi - lo)
+    paths[:3, :, :2] = np.round(paths[:3, :, :2])  # on cell borders and centres
+    a, b = paths[:, :-1].reshape(-1, 3), paths[:, 1:].reshape(-1, 3)
+    dx, dy = ROUGH.cell_size
+    table = kernels.path_segment_table(
+        paths, float(ROUGH.transform.c), float(ROUGH.transform.f), float(dx), float(dy)
+    )
+    assert np.array_equal(table, segments_module._segment_table(ROUGH, a, b))
+    for clearance in (0.0, 30.0):
+        per = below_terrain_lengths(ROUGH, a, b, clearance).reshape(40, 8).sum(axis=1)
+        np.testing.assert_array_equal(path_below_lengths(ROUGH, paths, clearance), per)
+    paths[5, 4, 1] = np.nan
+    with pytest.raises(InputError, match="finite"):
+        path_below_lengths(ROUGH, paths)

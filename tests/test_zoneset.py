@@ -191,3 +191,25 @@ def test_cylinder_with_floor_matches_dense_sampling(p0, p1, c, r, floor, height)
     inside = (np.hypot(q[:, 0] - c[0], q[:, 1] - c[1]) <= r) & (q[:, 2] <= top) & (q[:, 2] >= floor)
     assert abs(got - inside.mean() * math.dist(p0, p1)) <= math.dist(p0, p1) / n + 1e-9
     assert got == float(segment_cylinder_lengths([p1], [p0], [c], [r], [top], [floor])[0, 0])
+
+
+def test_path_lengths_add_segments_in_numpys_order():
+    """Issue 38: a swarm's lengths inside two zones or more are added by a compiled loop in the
+    order numpy's ``sum(axis=1)`` of the (P, S, K) lengths adds them (each path's segments one
+    after the other), bit for bit; with one zone numpy's own sum (pairwise) is kept."""
+    from terrain import kernels
+
+    rng = np.random.default_rng(38)
+    for p_n, s_n, k_n in ((1, 1, 2), (3, 9, 2), (110, 57, 2), (20, 130, 5), (7, 8, 17)):
+        x = rng.uniform(0.0, 1.0, (p_n * s_n, k_n)) * 10.0 ** rng.uniform(-3, 4, (p_n * s_n, k_n))
+        x[x < 0.3] = 0.0
+        np.testing.assert_array_equal(
+            kernels.run_sums(x, p_n), x.reshape(p_n, s_n, k_n).sum(axis=1)
+        )
+    zones = mixed()
+    paths = rng.uniform([-400, -400, 0], [800, 400, 1000], (40, 25, 3))
+    for zs in (ZoneSet.of(zones), ZoneSet.of(zones[1:2])):
+        per = zs.segment_lengths(paths[:, :-1].reshape(-1, 3), paths[:, 1:].reshape(-1, 3))
+        want = per.reshape(40, 24, len(zs)).sum(axis=1)
+        np.testing.assert_array_equal(zs.path_lengths(paths), want)
+        assert np.count_nonzero(want) > 5
