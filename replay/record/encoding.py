@@ -10,8 +10,9 @@ large or frequent (the vehicle's samples, many at once: :mod:`replay.record.samp
   against, the installed foxglove schemas at import;
 - **JSON**: plain JSON data from numpy values (:func:`jsonable`; NaN and infinities become
   ``null``), compact encoding (:func:`dumps`), numbers to ``DIGITS`` significant digits;
-- a **radar scan**, its marker scene update and its detection list, with the encoded pieces of
-  repeated detections kept (:class:`ScanEncoder`; bounded memos).
+- a **radar scan**, its marker scene update and its detection list, a scan that repeats the last
+  one from the last one's pieces, the encoded pieces of repeated detections kept
+  (:class:`ScanEncoder`; bounded memos).
 """
 
 from __future__ import annotations
@@ -218,17 +219,32 @@ def bounded(memo: dict[Any, Any]) -> dict[Any, Any]:
 
 class ScanEncoder:
     """The two messages of one radar scan.  A radar sees a static threat at the same point scan
-    after scan: the encoded marker of a detection and its JSON up to the range are kept (bounded,
-    :func:`bounded`).  ``map_origin`` is subtracted from the marker positions."""
+    after scan: a scan given as arrays (:meth:`arrays`) whose ids, positions and flags are the
+    last one's is encoded from the last one's pieces (the detection list with a new range for
+    each detection), and its markers are not written again (Foxglove shows a scene entity
+    without a lifetime until it is replaced); of other scans the encoded marker of a detection
+    and its JSON up to the range are kept (bounded, :func:`bounded`).  ``map_origin`` is
+    subtracted from the marker positions; ``tails`` are the encoded size and colour fields of a
+    terrain, a moving and a stationary threat's marker."""
 
-    def __init__(self, map_origin: Sequence[float]) -> None:
+    def __init__(self, map_origin: Sequence[float], tails: Sequence[bytes]) -> None:
         self._origin = (float(map_origin[0]), float(map_origin[1]), float(map_origin[2]))
+        self._tails = tuple(tails)
         self._sphere_memo: dict[tuple[Any, ...], bytes] = {}  # detection marker bytes
         self._json_memo: dict[tuple[Any, ...], str] = {}  # detection JSON up to the range
+        self._spheres: bytes | None = None  # the spheres of the markers last written
+        self._key: tuple[Any, ...] | None = None  # the last scan given as arrays
+        self._listing = ""  # its detection list, a %r in place of each range
 
-    def markers(self, entity: bytes, positions: list[list[float]], tails: list[bytes]) -> bytes:
-        """The scene update: the encoded entity ``entity`` with a sphere at each position (map CRS
-        metres) followed by its ``tail`` (the sphere's encoded size and colour fields)."""
+    def tail(self, terrain: bool, moving: bool) -> bytes:
+        """Size and colour fields of a detection marker (brown terrain, orange moving, red)."""
+        return self._tails[0 if terrain else 1 if moving else 2]
+
+    def markers(self, positions: list[list[float]], tails: list[bytes]) -> bytes | None:
+        """The spheres of a scan's scene update: one at each position (map CRS metres) followed
+        by its ``tail`` (the sphere's encoded size and colour fields); None when they are the
+        spheres last returned (the markers shown already).  Forgets the last array scan (the
+        caller writes this scan's list)."""
         ox, oy, oz = self._origin
         memo = bounded(self._sphere_memo)
         spheres = []
@@ -241,24 +257,56 @@ class ScanEncoder:
                 if key is not None:
                     memo[key] = sphere
             spheres.append(sphere)
-        return ld(UPDATE_ENTITIES, entity + b"".join(spheres))
+        self._key = None
+        body = b"".join(spheres)
+        if body == self._spheres:
+            return None
+        self._spheres = body
+        return body
 
-    def json(
+    def arrays(
         self,
         ids: Sequence[str],
-        positions: list[list[float]],
-        flags: list[tuple[bool, bool]],
+        positions: FloatArray,
+        terrain: npt.NDArray[np.bool_],
+        moving: npt.NDArray[np.bool_],
         ranges: list[float],
-    ) -> bytes:
-        """``dumps({"detections": [...]})`` of complete detections (finite numbers; ``flags`` are
-        (terrain, moving)) written directly: JSON writes a float as its ``repr``; everything up to
-        the range is kept per id, position and flags.  The tests compare it with the recorder's
-        ``write_detections``."""
+    ) -> tuple[bytes | None, bytes]:
+        """(the spheres of the scan's markers, None when they are those shown already; the
+        detection list ``dumps({"detections": [...]})``): checked arrays (N,) and (N, 3) and
+        ``ranges`` (N floats), all finite.  JSON writes a float as its ``repr``: the list is
+        written directly (the tests compare it with the recorder's ``write_detections``); a scan
+        with the ids, positions (their bits) and flags of the last one costs a comparison and a
+        formatting of the ranges."""
+        key = (
+            ids if type(ids) is tuple else tuple(ids),
+            positions.tobytes(),
+            terrain.tobytes(),
+            moving.tobytes(),
+        )
+        spheres = None
+        if key != self._key:
+            xyz = positions.tolist()
+            flags = list(zip(terrain.tolist(), moving.tolist(), strict=True))
+            spheres = self.markers(xyz, [self.tail(g, m) for g, m in flags])
+            heads = self._heads(key[0], xyz, flags)
+            # a %r in place of each range (printf-style: repr, as JSON writes a float)
+            items = ",".join(h.replace("%", "%%") + "%r}" for h in heads)
+            self._listing = '{"detections":[' + items + "]}"
+            self._key = key
+        return spheres, (self._listing % tuple(ranges)).encode()
+
+    def same_positions(self, positions: FloatArray) -> bool:
+        """Whether ``positions`` are (bit for bit) those of the last scan given as arrays."""
+        return self._key is not None and positions.tobytes() == self._key[1]
+
+    def _heads(
+        self, ids: Sequence[str], positions: list[list[float]], flags: list[tuple[bool, bool]]
+    ) -> list[str]:
+        """Each detection's JSON object up to its range (kept per id, position and flags)."""
         memo = bounded(self._json_memo)
-        parts = []
-        for ident, (x, y, z), (terrain, moving), r in zip(
-            ids, positions, flags, ranges, strict=True
-        ):
+        heads = []
+        for ident, (x, y, z), (terrain, moving) in zip(ids, positions, flags, strict=True):
             key = (ident, x, y, z, terrain, moving) if x and y and z else None  # as above
             head = memo.get(key)
             if head is None:
@@ -269,5 +317,5 @@ class ScanEncoder:
                 )
                 if key is not None:
                     memo[key] = head
-            parts.append(f"{head}{r!r}}}")
-        return f'{{"detections":[{",".join(parts)}]}}'.encode()
+            heads.append(head)
+        return heads

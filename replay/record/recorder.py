@@ -19,6 +19,7 @@ Topics (names in :mod:`replay.record.topics`; Foxglove schemas are the protobuf 
     /threats                 foxglove.SceneUpdate      threat shapes; deletions when one goes
     /threats/list            terrapath.ThreatList      current threats, appeared/changed/removed ids
     /radar/detections        foxglove.SceneUpdate      a marker per detection of the last scan
+                                                       (when they differ from the markers shown)
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
     /rangefinder/beams       foxglove.SceneUpdate      the rangefinders' beams of the last scan
     /avoidance/decision      terrapath.Decision        algorithm, inputs, choice, costs, compute_s
@@ -51,7 +52,9 @@ Conventions:
   their time.  The track is sampled from the written states at ``track_rate_hz``; the overview is
   re-published every ``track_overview_s``.  Moving threats are likewise re-drawn at most at
   ``log_rate_hz``; appearances and removals, waypoint changes, detections, decisions and logs are
-  written when they happen.
+  written when they happen, a scan's markers only when they are not those shown already (a
+  static threat's detection stays where it was scan after scan: Foxglove keeps showing a scene
+  entity without a lifetime until it is replaced, so the markers look the same at every time).
 - **Threats** (:meth:`RunRecorder.write_threats`): the *current* set, a list of dicts (the shape of
   ``replay.threats.kinds.Threat.shape(t)``); the recorder compares it with the last set it wrote::
 
@@ -232,13 +235,15 @@ class RunRecorder:
         self._overview_period = max(1, round(track_overview_s * NS_PER_S))
         self._overview_points = int(track_overview_points)
         self._marker = float(marker_size_m)
-        self._scan = ScanEncoder(self.map_origin)
         size = Vector3(x=self._marker, y=self._marker, z=self._marker)
         # detection markers' size and colour fields: terrain (brown), moving threat (orange),
         # stationary threat (red)
-        self._detection_tails = tuple(
-            SpherePrimitive(size=size, color=color(*rgb)).SerializeToString()
-            for rgb in ((0.6, 0.4, 0.2), (1.0, 0.55, 0.0), (1.0, 0.1, 0.1))
+        self._scan = ScanEncoder(
+            self.map_origin,
+            [
+                SpherePrimitive(size=size, color=color(*rgb)).SerializeToString()
+                for rgb in ((0.6, 0.4, 0.2), (1.0, 0.55, 0.0), (1.0, 0.1, 0.1))
+            ],
         )
         self._max_triangles = int(max_terrain_triangles)
         self._compression = compression
@@ -834,8 +839,8 @@ class RunRecorder:
         terrain) replacing the previous scan's, and the list as JSON."""
         ns = self._ns(t)
         items = [normalize_detection(d, i) for i, d in enumerate(detections)]
-        tails = [self._sphere_tail(d["kind"] == "terrain", d["moving"]) for d in items]
-        self._write_markers(ns, [d["position"] for d in items], tails)
+        tails = [self._scan.tail(d["kind"] == "terrain", d["moving"]) for d in items]
+        self._write_markers(ns, self._scan.markers([d["position"] for d in items], tails))
         self._emit(T.DETECTION_LIST, ns, dumps({"detections": items}))
 
     def write_detection_arrays(
@@ -862,15 +867,19 @@ class RunRecorder:
                 f"moving flags (N,); found shapes {pos.shape}, {rng.shape}, {ground.shape}, "
                 f"{mov.shape}"
             )
-        if not (np.isfinite(pos).all() and np.isfinite(rng).all()):
+        distances = rng.tolist()
+        # (cheap tests first: a finite sum, the positions of the last scan, checked then)
+        if not (math.isfinite(sum(distances)) and self._scan.same_positions(pos)) and not (
+            np.isfinite(pos).all() and np.isfinite(rng).all()
+        ):
             i = int(np.flatnonzero(~(np.isfinite(pos).all(axis=1) & np.isfinite(rng)))[0])
             raise InputError(
                 f"{self._where}detections[{i}]: expected a finite position and range, found "
                 f"{pos[i].tolist()} and {rng[i]}"
             )
-        xyz, flags = pos.tolist(), list(zip(ground.tolist(), mov.tolist(), strict=True))
-        self._write_markers(ns, xyz, [self._sphere_tail(g, m) for g, m in flags])
-        self._emit(T.DETECTION_LIST, ns, self._scan.json(ids, xyz, flags, rng.tolist()))
+        spheres, listing = self._scan.arrays(ids, pos, ground, mov, distances)
+        self._write_markers(ns, spheres)
+        self._emit(T.DETECTION_LIST, ns, listing)
 
     def write_beams(
         self, t: float, origin: npt.ArrayLike, ends: npt.ArrayLike, hit: npt.ArrayLike
@@ -897,14 +906,13 @@ class RunRecorder:
                 body += ld(ENTITY_LINES, line)
         self._emit(T.RANGEFINDER_BEAMS, ns, ld(UPDATE_ENTITIES, body))
 
-    def _sphere_tail(self, terrain: bool, moving: bool) -> bytes:
-        """Size and colour fields of a detection marker (brown terrain, orange moving, red)."""
-        return self._detection_tails[0 if terrain else 1 if moving else 2]
-
-    def _write_markers(self, ns: int, positions: list[list[float]], tails: list[bytes]) -> None:
-        """The scene update of one scan: a sphere at each position (map CRS metres)."""
-        entity = entity_head(ns, T.MAP_FRAME, "detections")
-        self._emit(T.DETECTIONS, ns, self._scan.markers(entity, positions, tails))
+    def _write_markers(self, ns: int, spheres: bytes | None) -> None:
+        """The scene update of one scan: its spheres (:class:`ScanEncoder`) in the entity
+        ``detections``, which replaces the last scan's; nothing when they are the spheres
+        shown already (``None``: an entity without a lifetime stays until it is replaced)."""
+        if spheres is not None:
+            entity = entity_head(ns, T.MAP_FRAME, "detections")
+            self._emit(T.DETECTIONS, ns, ld(UPDATE_ENTITIES, entity + spheres))
 
     # -- events ------------------------------------------------------------------------------
 

@@ -21,6 +21,7 @@ is ``terrapath.VehicleState``; the other ``terrapath.*`` schemas are JSON Schema
     /threats                 foxglove.SceneUpdate      threat shapes, with deletions
     /threats/list            terrapath.ThreatList      current threats, appeared/moved/removed ids
     /radar/detections        foxglove.SceneUpdate      one marker per detection of the last scan
+                                                       (written when the markers change)
     /radar/detection_list    terrapath.DetectionList   the detections of the last scan
     /rangefinder/beams       foxglove.SceneUpdate      rangefinder beams of the last scan, a line
                                                        list: aircraft to hit (red) or full range
@@ -131,6 +132,9 @@ METRICS_METADATA = "metrics"
 # the recording format (metadata "terrapath"): 1 had /vehicle/state as JSON text and
 # /vehicle/separation at every state sample; 2 (issue 38) has /vehicle/state as protobuf
 # (terrapath.VehicleState) and /vehicle/separation where it changes.  The reader reads both.
+# /radar/detections (markers, not read back) is written only when a scan's markers differ from
+# those shown: the entity has no lifetime, so Foxglove shows the same at every time, and the
+# markers at a time are still the last message before it -- no reader needs to know (format 2).
 FORMAT_VERSION = "2"
 READABLE_FORMATS = ("1", "2")
 
