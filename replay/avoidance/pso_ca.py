@@ -223,6 +223,7 @@ LEG_MARGIN_M = 100.0  # the new legs' extra clearance (module docstring, *Leg ma
 MOVING_RS_M = 2000.0  # §5.7: the sphere kept from an intruder
 ACT_PER_MOVING_RS = 4.0  # §5.7: act below 8 km = 4 x the 2 km moving RS
 SCALE_ROOM_M = 40_000.0  # the map side at which seed 000's distances are kept (*Scale*)
+_FLOAT_MAX = float(np.finfo(np.float64).max)
 RESCUE_STEP_M = 100.0  # finest grid of the rescue scan (coarser for large zones: <= 20k points)
 # §5.5's stop rule (the rules are stateless: one object serves every search)
 STOP = MaxIterations(MAX_ITERATIONS) | Stall(STALL_ITERATIONS, STALL_TOLERANCE)
@@ -940,7 +941,9 @@ class PsoCaAvoider(AvoiderBase):
         # the circle kept from each point: RS, or the size the sensor reported if larger (the
         # cooperative sensor reports a body by its centre and radius, the radar by points)
         radii = st.radii[rows]
-        rs = np.maximum(self.params.rs, np.nan_to_num(radii, nan=0.0))
+        # max(RS, nan_to_num(radii, nan=0)) in two calls: an unreported size (NaN) keeps RS,
+        # an infinite one the largest float (nan_to_num alone is a dozen numpy calls a scan)
+        rs = np.fmax(self.params.rs, np.minimum(radii, _FLOAT_MAX))
         # a point whose size the sensor does not measure (the radar's static threats: seed 000's
         # point obstacles) keeps the point prior, not the scaled RS (module docstring, *Scale*)
         point = ~st.terrain[rows] & ~st.extended[rows] & np.isnan(radii)

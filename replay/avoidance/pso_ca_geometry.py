@@ -646,14 +646,14 @@ class WaypointProblem:
             lead = pr.turn_radius * np.tan(np.minimum(theta, math.pi * (1 - 1e-12)) / 2.0)
         g4 = np.minimum(np.minimum(l_in, l_out) - lead, fit)
         g7 = -self._world(p)
-        checked = (
+        # the checked ones as rows of one array: the numpy version's sum and test over its list
+        checked = np.vstack(
             [g1, g2, g4, g6, g7]
             + ([g3] if pr.check_outbound else [])
             + ([g5] if pr.check_inbound else [])
         )
-        neg = [np.clip(-g, 0.0, _BIG) for g in checked]
-        violation = np.sum(neg, axis=0)
-        feasible = np.all([g >= 0.0 for g in checked], axis=0)
+        violation = np.sum(np.clip(-checked, 0.0, _BIG), axis=0)
+        feasible = np.all(checked >= 0.0, axis=0)
         return ConstraintReport(
             g1,
             g2,
