@@ -736,6 +736,10 @@ class PsoCaAvoider(AvoiderBase):
         self._hold.clear()
         self._sides.clear()
         self._retry_stationary = -math.inf
+        if self.optimizer == "pso" and self._pso is None:
+            # built before the flight, as the kernels are compiled: the first decision does not
+            # pay for it (its setup starts every search afresh, :meth:`_optimizer`)
+            self._pso = make_optimizer("pso", **SEED000_PSO)
 
     @classmethod
     def paper(cls, optimizer: str = "pso", **kwargs: Any) -> PsoCaAvoider:
