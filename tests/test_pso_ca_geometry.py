@@ -417,6 +417,50 @@ def test_compiled_cost_equals_the_numpy_terms(side: int, options: dict) -> None:
     assert any(both)  # feasible and penalised candidates were both compared
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_compiled_constraint_report_has_the_numpy_bits(seed: int) -> None:
+    """constraint_report's compiled geometry does the numpy twin's operations in its order: every
+    field, for every candidate, the same bits (a decision records them), over the options, sides,
+    cut corners with and without a waypoint after, a world check, and one to thousands of
+    candidates (degenerate legs included)."""
+    rng = np.random.default_rng(seed)
+    options: list[dict] = [  # type: ignore[type-arg]
+        {},
+        {"normalise": True, "leg_margin": 100.0},
+        {"check_inbound": False, "check_outbound": False, "g2_centre": "aircraft"},
+        {"switch_distance": 1000.0, "leg_margin": 100.0},
+        {"switch_distance": 700.0, "approach_deg": 45.0, "tolerance": 100.0},
+        {"switch_distance": 300.0, "corner_fit": False},
+        {"switch_distance": 1000.0, "leg_margin": 100.0, "speed": 30.0},
+    ]
+
+    def north_is_off(X: np.ndarray) -> np.ndarray:
+        return np.clip(X[:, 1] - 1500.0, 0.0, None)
+
+    for trial in range(70):
+        avoided = rng.uniform(-3000, 3000, (int(rng.integers(1, 6)), 2)) + np.array([10000.0, 0.0])
+        after = rng.uniform(-8000, 8000, 2) + np.array([20000.0, 500.0])
+        pr = WaypointProblem(
+            rng.normal(0.0, 3000.0, 2),
+            np.array([20000.0, 500.0]) + rng.normal(0.0, 3000.0, 2),
+            avoided,
+            params=PsoCaParams(**options[trial % len(options)]),
+            side=int(rng.integers(-1, 2)),
+            after=after if rng.random() < 0.6 else None,
+            world=north_is_off if trial % 5 == 0 else None,
+        )
+        lo, hi = pr.bounds()
+        X = rng.uniform(lo, hi, (int(rng.choice([1, 2, 10, 3000])), 2))
+        if len(X) > 2:
+            X[0], X[1] = pr.position, pr.target
+        got, want = pr.constraint_report(X), pr.constraint_report_numpy(X)
+        for f in dataclasses.fields(got):
+            a, b = getattr(got, f.name), getattr(want, f.name)
+            assert a.dtype == b.dtype and a.shape == b.shape, f.name
+            np.testing.assert_array_equal(a, b, err_msg=f.name)
+            np.testing.assert_array_equal(np.signbit(a), np.signbit(b), err_msg=f.name)
+
+
 def test_g7_the_world_check_enters_both_costs_alike() -> None:
     """A world check (g7: metres of the new legs that break the map's or the zones' validity)
     makes a candidate infeasible in the compiled cost exactly as in the documented terms, whether

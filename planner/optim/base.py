@@ -381,7 +381,11 @@ class Optimizer(ABC):
 
     def _after_iteration(self) -> None:
         self._history_best.append(float(self._best_f))
-        self._history_mean.append(float(self._fx.mean()))
+        # ndarray.mean's own arithmetic (the sum, then one division by the count) without its
+        # Python wrapper: a PSO-CA decision records six of them (issue 38)
+        fx = self._fx
+        mean = float(np.add.reduce(fx, axis=None) / fx.size) if fx.size else math.nan
+        self._history_mean.append(mean)
         assert self._termination is not None
         self._status = self._termination.reason(self)
 

@@ -499,7 +499,7 @@ class Perception:
                 raise InputError(
                     f"keep must be a bool mask of shape ({n},); got {mask.dtype} {mask.shape}"
                 )
-            rows_in = np.flatnonzero(mask)
+            rows_in = mask.nonzero()[0]
         self._t = scan.t
         if len(rows_in):
             self._ingest(scan, rows_in)
@@ -513,7 +513,7 @@ class Perception:
         returns of one scan fall in one cell, the last one stands."""
         ids = scan.ids
         keys = [ids[i] for i in rows.tolist()]
-        ext = np.flatnonzero(scan.extended[rows])
+        ext = scan.extended[rows].nonzero()[0]
         if not ext.size:
             return keys, rows
         cells = np.floor(scan.positions[rows[ext], :2] / self.config.body_cell_m).astype(np.int64)
@@ -548,7 +548,7 @@ class Perception:
         keys, rows_in = self._keys_of(scan, rows_in)
         get = self._index.get
         rows = np.fromiter((get(key, -1) for key in keys), dtype=np.int64, count=len(keys))
-        new = np.flatnonzero(rows < 0)
+        new = (rows < 0).nonzero()[0]
         if new.size:
             base = len(self._keys)
             self._grow(scan, [keys[k] for k in new.tolist()], rows_in[new])
@@ -563,7 +563,7 @@ class Perception:
         block[:, _TOP] = scan.tops[rows_in]
         # fixes of trackable returns (neither terrain nor body-surface cells)
         terrain = self._terrain[rows]
-        trackable = np.flatnonzero(~(terrain | self._extended[rows]))
+        trackable = (~(terrain | self._extended[rows])).nonzero()[0]
         tr = rows[trackable]
         if tr.size:
             src = rows_in[trackable]
@@ -592,7 +592,7 @@ class Perception:
         """Reorder the tables: the other rows as they are, then ``rows`` in the order given."""
         stay = np.ones(len(self._keys), dtype=bool)
         stay[rows] = False
-        order = np.concatenate([np.flatnonzero(stay), rows])
+        order = np.concatenate([stay.nonzero()[0], rows])
         if np.array_equal(order, np.arange(len(order))):
             return
         self._apply(order)
@@ -611,11 +611,11 @@ class Perception:
     def _forget(self, t: float) -> None:
         stale = t - self._f[:, _LAST] > self.config.memory_s
         if stale.any():
-            self._apply(np.flatnonzero(~stale))
+            self._apply((~stale).nonzero()[0])
 
     # -- tracks and the state ----------------------------------------------------------------------
     def _tracks(self) -> tuple[Track, ...]:
-        moving = np.flatnonzero((self._code == 1) & (self._hist_n > 0))
+        moving = ((self._code == 1) & (self._hist_n > 0)).nonzero()[0]
         if not moving.size:
             return ()
         fit = fit_lines(self._hist_t[moving], self._hist_p[moving], self._hist_n[moving])

@@ -199,7 +199,6 @@ from replay.avoidance.pso_ca_geometry import (
     G,
     PsoCaParams,
     WaypointProblem,
-    corner_cut,
     group_obstacles,
     route_altitude,
     search_grid,
@@ -224,22 +223,30 @@ LEG_MARGIN_M = 100.0  # the new legs' extra clearance (module docstring, *Leg ma
 MOVING_RS_M = 2000.0  # §5.7: the sphere kept from an intruder
 ACT_PER_MOVING_RS = 4.0  # §5.7: act below 8 km = 4 x the 2 km moving RS
 SCALE_ROOM_M = 40_000.0  # the map side at which seed 000's distances are kept (*Scale*)
+_FLOAT_MAX = float(np.finfo(np.float64).max)
 RESCUE_STEP_M = 100.0  # finest grid of the rescue scan (coarser for large zones: <= 20k points)
+# §5.5's stop rule (the rules are stateless: one object serves every search)
+STOP = MaxIterations(MAX_ITERATIONS) | Stall(STALL_ITERATIONS, STALL_TOLERANCE)
 
 
 _COST_COMPILED = False
 
 
 def compile_cost() -> None:
-    """Compile the numba cost of :class:`WaypointProblem` and the leg clearance (or load them
+    """Compile the numba cost and report of :class:`WaypointProblem` and the leg clearance (or load them
     from numba's cache) once per process, before the flight: otherwise the first decision of a
     fresh install pays seconds of JIT compilation in mid-air. Called by
     :meth:`PsoCaAvoider.reset`."""
     global _COST_COMPILED
     if not _COST_COMPILED:
         pts = np.array([[0.0, 0.0], [20000.0, 0.0], [10000.0, 0.0]])
-        WaypointProblem(pts[0], pts[1], pts[2:], np.zeros((0, 2)))(np.zeros((1, 2)))
+        problem = WaypointProblem(pts[0], pts[1], pts[2:], np.zeros((0, 2)))
+        problem(np.zeros((1, 2)))
+        problem.constraint_report(np.zeros((1, 2)))
         segment_clearance(pts[:1], pts[1:2], pts[2:])
+        from replay.avoidance.pso_ca_kernel import leg_clearances
+
+        leg_clearances(pts[0].copy(), pts[1].copy(), pts[2].copy(), 1.0, 1.0, pts[2:].copy())
         _COST_COMPILED = True
 
 
@@ -626,6 +633,7 @@ class PsoCaAvoider(AvoiderBase):
         self.max_skip = int(require_real("PSO-CA max skip", max_skip, 0.0))
         self.corners = bool(corners)
         self._grid_evaluations = 0
+        self._pso: Any = None  # the "pso" optimiser, built once (:meth:`_optimizer`)
         self.rng = np.random.default_rng(0)
         self._perception = Perception(
             PerceptionConfig(memory_s=self.memory_s, body_cell_m=BODY_CELL_M, track_scans=2)
@@ -728,6 +736,10 @@ class PsoCaAvoider(AvoiderBase):
         self._hold.clear()
         self._sides.clear()
         self._retry_stationary = -math.inf
+        if self.optimizer == "pso" and self._pso is None:
+            # built before the flight, as the kernels are compiled: the first decision does not
+            # pay for it (its setup starts every search afresh, :meth:`_optimizer`)
+            self._pso = make_optimizer("pso", **SEED000_PSO)
 
     @classmethod
     def paper(cls, optimizer: str = "pso", **kwargs: Any) -> PsoCaAvoider:
@@ -744,7 +756,12 @@ class PsoCaAvoider(AvoiderBase):
 
     def _optimizer(self) -> Any:
         if self.optimizer == "pso":
-            return make_optimizer("pso", **SEED000_PSO)
+            # one instance a flight: ``setup`` starts every run afresh (its state, generator and
+            # counters; the result holds copies), and building and checking it every search cost
+            # a twentieth of a decision (issue 38)
+            if self._pso is None:
+                self._pso = make_optimizer("pso", **SEED000_PSO)
+            return self._pso
         if self.optimizer == "ga":
             from planner.optim import GA
 
@@ -800,19 +817,22 @@ class PsoCaAvoider(AvoiderBase):
     ) -> list[_Hit]:
         if not len(pts) or self._retry_stationary > t:
             return []
-        clear = segment_clearance(pos[None, :], target[None, :], pts)[0]
-        if after is not None and switch > 0:
-            # the corner the autopilot cuts at the next waypoint: it turns towards ``after``
-            # up to ``switch`` metres before it (WaypointProblem's g3 checks the same chord)
-            # (a leg of twice the distance to go: the cut starts at most ``switch`` before it)
-            for a, b in corner_cut(
-                target[None, :],
-                2.0 * (target - pos)[None, :],
-                (after - target)[None, :],
-                switch,
-                self.params.approach_deg,
-            ):
-                clear = np.minimum(clear, segment_clearance(a, b, pts)[0])
+        # the leg, and the corner the autopilot cuts at the next waypoint: it turns towards
+        # ``after`` up to ``switch`` metres before it (WaypointProblem's g3 checks the same chord)
+        # (:func:`~replay.avoidance.pso_ca_geometry.corner_cut` of a leg of twice the distance to
+        # go: the cut starts at most ``switch`` before it), compiled: one call, not the
+        # twenty-odd numpy calls of the corner on one row (issue 38)
+        from replay.avoidance.pso_ca_kernel import leg_clearances
+
+        corner = after is not None and switch > 0
+        clear = leg_clearances(
+            np.array(pos, dtype=np.float64),
+            np.array(target, dtype=np.float64),
+            np.array(after if corner and after is not None else target, dtype=np.float64),
+            switch if corner else 0.0,
+            math.tan(math.radians(self.params.approach_deg)),
+            np.array(pts, dtype=np.float64, order="C"),
+        )
         # a leg that starts inside a circle but never gets closer than where the aircraft is
         # (it is leaving) is not a new collision: re-deciding every scan would not help it out
         # the ground is a hit only under the leg (within a radar terrain cell of it): the leg
@@ -925,7 +945,9 @@ class PsoCaAvoider(AvoiderBase):
         # the circle kept from each point: RS, or the size the sensor reported if larger (the
         # cooperative sensor reports a body by its centre and radius, the radar by points)
         radii = st.radii[rows]
-        rs = np.maximum(self.params.rs, np.nan_to_num(radii, nan=0.0))
+        # max(RS, nan_to_num(radii, nan=0)) in two calls: an unreported size (NaN) keeps RS,
+        # an infinite one the largest float (nan_to_num alone is a dozen numpy calls a scan)
+        rs = np.fmax(self.params.rs, np.minimum(radii, _FLOAT_MAX))
         # a point whose size the sensor does not measure (the radar's static threats: seed 000's
         # point obstacles) keeps the point prior, not the scaled RS (module docstring, *Scale*)
         point = ~st.terrain[rows] & ~st.extended[rows] & np.isnan(radii)
@@ -1018,13 +1040,15 @@ class PsoCaAvoider(AvoiderBase):
         )
         self._grid_evaluations = 0
         sol = self._solve(ctx, st, hit, keys, pts, ground, params, "paper", ctx.next_index)
-        narrow = replace(params, tolerance=params.leg_margin)
-        use_narrow = self.narrow and params.tolerance > params.leg_margin
-        stages = [("narrow", narrow, 0)] if use_narrow else []
-        for extra in range(1, 0 if hit.moving else self.max_skip + 1):
-            stages.append((f"skip {extra}", params, extra))
-            if use_narrow:
-                stages.append((f"skip {extra}, narrow", narrow, extra))
+        stages: list[tuple[str, PsoCaParams, int]] = []
+        if not (sol.feasible and sol.clean):  # the escalation's stages, built when it is tried
+            narrow = replace(params, tolerance=params.leg_margin)
+            use_narrow = self.narrow and params.tolerance > params.leg_margin
+            stages += [("narrow", narrow, 0)] if use_narrow else []
+            for extra in range(1, 0 if hit.moving else self.max_skip + 1):
+                stages.append((f"skip {extra}", params, extra))
+                if use_narrow:
+                    stages.append((f"skip {extra}, narrow", narrow, extra))
         tried = [sol]
         for stage, stage_params, extra in stages:
             # escalation (our addition, module docstring): a narrower g1, then leaving out
@@ -1083,7 +1107,8 @@ class PsoCaAvoider(AvoiderBase):
                 "obstacles": hit.points.tolist(),
                 "others": others.tolist(),
                 "side": hit.side,
-                "params": dataclasses.asdict(params),
+                # asdict's recursion and deep copies for a flat record of numbers (issue 38)
+                "params": {f.name: getattr(params, f.name) for f in dataclasses.fields(params)},
             },
         }
         if hit.moving:
@@ -1159,7 +1184,7 @@ class PsoCaAvoider(AvoiderBase):
             problem = WaypointProblem(
                 pos, target[:2], hit.points, others, params, side=hit.side, after=after, world=world
             )
-            res, xy = self._search(problem, pos, hit, params)
+            res, xy, cost = self._search(problem, pos, hit, params)
             if hit.moving or not len(pts):
                 break
             # a stationary point that the two new legs pass closer than RS + margin would
@@ -1179,7 +1204,9 @@ class PsoCaAvoider(AvoiderBase):
             # a merged point may lie next to the target waypoint: skip it as for the hit itself
             target_i = self._skip_unsafe(wps, target_i, hit, params)
             target = wps[target_i]
-        feasible = bool(problem(xy[None, :])[0] < params.penalty_offset)
+        if cost is None:
+            cost = float(problem(xy[None, :])[0])
+        feasible = bool(cost < params.penalty_offset)
         return _Solution(res, xy, problem, hit, target_i, stage, feasible, not near.any())
 
     @staticmethod
@@ -1198,8 +1225,9 @@ class PsoCaAvoider(AvoiderBase):
 
     def _search(
         self, problem: WaypointProblem, pos: FloatArray, hit: _Hit, params: PsoCaParams
-    ) -> tuple[Any, FloatArray]:
-        """One run of the chosen optimiser over the new waypoint (Fig. 16, §5.5 stop rule)."""
+    ) -> tuple[Any, FloatArray, float | None]:
+        """One run of the chosen optimiser over the new waypoint (Fig. 16, §5.5 stop rule): its
+        result, the waypoint and, when the rescue asked, the waypoint's penalised cost."""
         seeds = self._seeds(pos, hit, params)
         lo, hi = problem.bounds()
         opt = self._optimizer()
@@ -1208,33 +1236,36 @@ class PsoCaAvoider(AvoiderBase):
             lo,
             hi,
             seed=self.rng,
-            termination=MaxIterations(MAX_ITERATIONS) | Stall(STALL_ITERATIONS, STALL_TOLERANCE),
+            termination=STOP,
             x0=np.clip(seeds, lo, hi)[: opt.max_seed_points()],
         )
         xy = np.asarray(res.x, dtype=np.float64)
-        if not self.rescue or float(problem(xy[None, :])[0]) < params.penalty_offset:
-            return res, xy
+        if not self.rescue:
+            return res, xy, None
+        cost = float(problem(xy[None, :])[0])
+        if cost < params.penalty_offset:
+            return res, xy, cost
         # rescue (our addition): the swarm, seeded round the tangent points, missed a feasible
         # region -- typically a narrow one at the edge of the search zone in a dense field.  The
         # same objective on a grid of the zone finds the feasible points; the optimiser runs again
         # seeded with the best of them (so the waypoint is still the optimiser's).
         grid = search_grid(problem, max(RESCUE_STEP_M, math.sqrt(float(np.prod(hi - lo)) / 2e4)))
-        cost = problem(grid)
+        on_grid = problem(grid)
         self._grid_evaluations += len(grid)
-        ok = np.flatnonzero(cost < params.penalty_offset)
+        ok = np.flatnonzero(on_grid < params.penalty_offset)
         if not ok.size:
-            return res, xy
-        best = grid[ok[np.argsort(cost[ok], kind="stable")]][: opt.max_seed_points()]
+            return res, xy, cost
+        best = grid[ok[np.argsort(on_grid[ok], kind="stable")]][: opt.max_seed_points()]
         opt = self._optimizer()
         res = opt.run(
             problem,
             lo,
             hi,
             seed=self.rng,
-            termination=MaxIterations(MAX_ITERATIONS) | Stall(STALL_ITERATIONS, STALL_TOLERANCE),
+            termination=STOP,
             x0=best,
         )
-        return res, np.asarray(res.x, dtype=np.float64)
+        return res, np.asarray(res.x, dtype=np.float64), None
 
     def _seeds(self, pos: FloatArray, hit: _Hit, params: PsoCaParams) -> FloatArray:
         """Fig. 14: half the seeds round each terminal point of the obstacle (one point: both

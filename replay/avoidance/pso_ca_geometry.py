@@ -541,6 +541,11 @@ class WaypointProblem:
     after: FloatArray | None = None  # the waypoint after the target (its corner is cut too)
     # g7: candidates (P, 2) -> metres (P,) of their two legs that break the world's validity
     world: Callable[[FloatArray], FloatArray] | None = field(default=None, compare=False)
+    # the compiled kernels' constants (:meth:`__post_init__`)
+    _consts: FloatArray = field(init=False, repr=False, compare=False)
+    _cost_consts: FloatArray = field(init=False, repr=False, compare=False)
+    _flags: IntArray = field(init=False, repr=False, compare=False)
+    _after: FloatArray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.side not in (-1, 0, 1):
@@ -556,6 +561,43 @@ class WaypointProblem:
         object.__setattr__(self, "others", others.copy())
         if self.after is not None:
             object.__setattr__(self, "after", _xy(self.after, "after").reshape(2).copy())
+        # the compiled kernels' inputs, built once (a decision calls the problem some ten times)
+        pr = self.params
+        leg = self.target - self.position
+        consts = np.array(
+            [
+                pr.rs,
+                pr.tolerance,
+                pr.search_limit,
+                pr.mxrsk,
+                pr.wt,
+                pr.wo,
+                pr.turn_radius,
+                pr.leg_margin,
+                pr.switch_distance,
+                math.tan(math.radians(pr.approach_deg)),
+                pr.penalty_offset,
+                pr.penalty_weight,
+                _BIG,
+                max(math.hypot(*leg), 1e-9),  # report_geometry's g6 divisor, as the numpy one
+            ]
+        )
+        flags = np.array(
+            [
+                pr.g2_centre == "obstacle",
+                pr.check_inbound,
+                pr.check_outbound,
+                pr.normalise,
+                self.side,
+                self.after is not None,
+                pr.corner_fit,
+            ],
+            dtype=np.int64,
+        )
+        object.__setattr__(self, "_consts", consts)
+        object.__setattr__(self, "_cost_consts", consts[:13].copy())
+        object.__setattr__(self, "_flags", flags)
+        object.__setattr__(self, "_after", self.target if self.after is None else self.after)
 
     # eq 2
     def f1(self, X: npt.ArrayLike) -> FloatArray:
@@ -585,7 +627,49 @@ class WaypointProblem:
         return np.asarray(np.sqrt(((p[:, None, :] - self.avoided[None]) ** 2).sum(-1)).min(axis=1))
 
     def constraint_report(self, X: npt.ArrayLike) -> ConstraintReport:
-        """g1..g4 (eqs 7-12) and g5 per candidate; see :class:`ConstraintReport`."""
+        """g1..g4 (eqs 7-12) and g5 per candidate; see :class:`ConstraintReport`.  The geometry
+        (distances, clearances, cut corners) from a compiled loop
+        (:func:`~replay.avoidance.pso_ca_kernel.report_geometry`, the operations of
+        :meth:`constraint_report_numpy` in its order: the same bits), the turn's arccos and tan and
+        the sums from numpy: a decision reports its waypoint, where some sixty small numpy calls
+        cost a fifth of it (issue 38)."""
+        from replay.avoidance.pso_ca_kernel import report_geometry
+
+        pr = self.params
+        p = np.array(_xy(X, "X").reshape(-1, 2), dtype=np.float64, order="C")
+        geo = report_geometry(
+            p, self.position, self.target, self._after, self.avoided, self._consts, self._flags
+        )
+        g1, g2, g3, g5, g6, cos_t, l_in, l_out, fit = geo  # rows: contiguous (9, P)
+        theta = np.arccos(np.clip(cos_t, -1.0, 1.0))
+        with np.errstate(over="ignore"):
+            lead = pr.turn_radius * np.tan(np.minimum(theta, math.pi * (1 - 1e-12)) / 2.0)
+        g4 = np.minimum(np.minimum(l_in, l_out) - lead, fit)
+        g7 = -self._world(p)
+        # the checked ones as rows of one array: the numpy version's sum and test over its list
+        checked = np.vstack(
+            [g1, g2, g4, g6, g7]
+            + ([g3] if pr.check_outbound else [])
+            + ([g5] if pr.check_inbound else [])
+        )
+        violation = np.sum(np.clip(-checked, 0.0, _BIG), axis=0)
+        feasible = np.all(checked >= 0.0, axis=0)
+        return ConstraintReport(
+            g1,
+            g2,
+            g3,
+            g4,
+            g5,
+            g6,
+            theta,
+            np.asarray(feasible),
+            violation,
+            np.asarray(g7),
+        )
+
+    def constraint_report_numpy(self, X: npt.ArrayLike) -> ConstraintReport:
+        """:meth:`constraint_report` in numpy, one array operation per step: the reference the
+        compiled version is checked against (``tests/test_pso_ca_geometry.py``: the same bits)."""
         pr = self.params
         p = _xy(X, "X").reshape(-1, 2)
         n = len(p)
@@ -690,40 +774,17 @@ class WaypointProblem:
         # population, a grid scan a writable array, and numba compiles one specialisation per
         # (layout, read-only) kind -- a second one costs ~3 s of JIT in the middle of a flight.
         p = np.array(_xy(X, "X").reshape(-1, 2), dtype=np.float64, order="C")
-        consts = np.array(
-            [
-                pr.rs,
-                pr.tolerance,
-                pr.search_limit,
-                pr.mxrsk,
-                pr.wt,
-                pr.wo,
-                pr.turn_radius,
-                pr.leg_margin,
-                pr.switch_distance,
-                math.tan(math.radians(pr.approach_deg)),
-                pr.penalty_offset,
-                pr.penalty_weight,
-                _BIG,
-            ]
-        )
-        flags = np.array(
-            [
-                pr.g2_centre == "obstacle",
-                pr.check_inbound,
-                pr.check_outbound,
-                pr.normalise,
-                self.side,
-                self.after is not None,
-                pr.corner_fit,
-            ],
-            dtype=np.int64,
-        )
-        after = self.target if self.after is None else self.after
-        # the fields are writable C copies already (__post_init__)
+        # the fields are writable C copies already (__post_init__), the constants built there
         cost = np.asarray(
             penalised_costs(
-                p, self.position, self.target, after, self.avoided, self.others, consts, flags
+                p,
+                self.position,
+                self.target,
+                self._after,
+                self.avoided,
+                self.others,
+                self._cost_consts,
+                self._flags,
             )
         )
         if self.world is None:

@@ -177,3 +177,185 @@ def segment_clearances(a0: FloatArray, a1: FloatArray, o: FloatArray) -> FloatAr
                 g += ((o[k, d] - a0[i, d]) - s * (a1[i, d] - a0[i, d])) ** 2
             out[i, k] = math.sqrt(g)
     return out
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _clear(a0x: float, a0y: float, a1x: float, a1y: float, ox: float, oy: float) -> float:
+    """:func:`segment_clearances` for one pair, its operations in its order (the same bits)."""
+    dx = a1x - a0x
+    dy = a1y - a0y
+    dd = 0.0
+    dd += dx**2
+    dd += dy**2
+    den = dd if dd > 0.0 else 1.0
+    rx = ox - a0x
+    ry = oy - a0y
+    s = 0.0
+    s += rx * dx
+    s += ry * dy
+    s = min(max(s / den, 0.0), 1.0)
+    g = 0.0
+    g += (rx - s * dx) ** 2
+    g += (ry - s * dy) ** 2
+    return math.sqrt(g)
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _cut(
+    wx: float, wy: float, ux: float, uy: float, vx: float, vy: float, sw: float, tan_app: float
+) -> tuple[float, float, float, float, float, float, float]:
+    """pso_ca_geometry.corner_cut for one waypoint in the numpy version's operations: c1, m, the
+    end of the second segment, and corner_reach's (uncapped) reach."""
+    lu = math.hypot(ux, uy)
+    lv = math.hypot(vx, vy)
+    du = lu if lu > 0 else 1.0
+    dv = lv if lv > 0 else 1.0
+    eux = ux / du
+    euy = uy / du
+    evx = vx / dv
+    evy = vy / dv
+    cut = min(sw, 0.5 * lu)
+    cx = wx - cut * eux
+    cy = wy - cut * euy
+    rx = cx - wx
+    ry = cy - wy
+    along = rx * evx + ry * evy
+    dd = abs(evx * ry - evy * rx)
+    reach = along + dd / tan_app
+    capped = min(reach, lv)
+    mx = wx + capped * evx
+    my = wy + capped * evy
+    if capped < 0.0:
+        return cx, cy, mx, my, wx, wy, reach
+    return cx, cy, mx, my, mx, my, reach
+
+
+@nb.njit(cache=True, nogil=True)
+def report_geometry(
+    X: FloatArray,
+    pos: FloatArray,
+    target: FloatArray,
+    after: FloatArray,
+    avoided: FloatArray,
+    consts: FloatArray,
+    flags: npt.NDArray[np.int64],
+) -> FloatArray:
+    """The geometric parts of ``WaypointProblem.constraint_report`` (9, P): g1, g2, g3, g5, g6,
+    the turn's cosine, the two legs' lengths and the corner-fit bound on g4 (inf when not asked)
+    -- the same operations in the same order as the numpy version (so the same bits); the
+    arccos and tan of the turn stay with numpy (its SIMD functions round differently from the
+    C library's).  ``consts`` and ``flags`` as :func:`penalised_costs`'s, ``consts[13]`` the
+    straight leg's length as the numpy version takes it (at least 1e-9)."""
+    rs, tol, lim = consts[0], consts[1], consts[2]
+    margin, sw, tan_app, leg_n = consts[7], consts[8], consts[9], consts[13]
+    g2_obstacle, side, has_after, corner_fit = flags[0], flags[4], flags[5], flags[6]
+    n = X.shape[0]
+    k_av = avoided.shape[0]
+    keep = rs + margin
+    lx = target[0] - pos[0]
+    ly = target[1] - pos[1]
+    out = np.empty((9, n))
+    for i in range(n):
+        px = X[i, 0]
+        py = X[i, 1]
+        ix = px - pos[0]
+        iy = py - pos[1]
+        ox = target[0] - px
+        oy = target[1] - py
+        l_in = math.hypot(ix, iy)
+        l_out = math.hypot(ox, oy)
+        if sw > 0.0:
+            c1x, c1y, mx, my, bx, by, reach = _cut(px, py, ix, iy, ox, oy, sw, tan_app)
+            if has_after:
+                d1x, d1y, nx, ny, ex, ey, _ = _cut(
+                    target[0],
+                    target[1],
+                    ox,
+                    oy,
+                    after[0] - target[0],
+                    after[1] - target[1],
+                    sw,
+                    tan_app,
+                )
+        dmin = math.inf
+        g3 = math.inf
+        g5 = math.inf
+        for k in range(k_av):
+            ax = avoided[k, 0]
+            ay = avoided[k, 1]
+            dmin = min(dmin, math.sqrt((px - ax) ** 2 + (py - ay) ** 2))
+            g3 = min(g3, _clear(px, py, target[0], target[1], ax, ay))
+            need = min(keep, math.hypot(ax - pos[0], ay - pos[1]) - 1.0)
+            g5 = min(g5, _clear(pos[0], pos[1], px, py, ax, ay) - need)
+        g3 = g3 - keep
+        if sw > 0.0:
+            c5 = math.inf
+            c5b = math.inf
+            for k in range(k_av):
+                ax = avoided[k, 0]
+                ay = avoided[k, 1]
+                need = min(keep, math.hypot(ax - pos[0], ay - pos[1]) - 1.0)
+                c5 = min(c5, _clear(c1x, c1y, mx, my, ax, ay) - need)
+                c5b = min(c5b, _clear(mx, my, bx, by, ax, ay) - need)
+            g5 = min(g5, c5)
+            g5 = min(g5, c5b)
+            if has_after:
+                c3 = math.inf
+                c3b = math.inf
+                for k in range(k_av):
+                    ax = avoided[k, 0]
+                    ay = avoided[k, 1]
+                    c3 = min(c3, _clear(d1x, d1y, nx, ny, ax, ay))
+                    c3b = min(c3b, _clear(nx, ny, ex, ey, ax, ay))
+                g3 = min(g3, c3 - keep)
+                g3 = min(g3, c3b - keep)
+        denom = l_in * l_out
+        out[0, i] = dmin - (rs + tol)
+        out[1, i] = lim - dmin if g2_obstacle else lim - l_in
+        out[2, i] = g3
+        out[3, i] = g5
+        out[4, i] = side * (lx * iy - ly * ix) / leg_n if side != 0 else math.inf
+        out[5, i] = (ix * ox + iy * oy) / denom if denom > 0 else 1.0
+        out[6, i] = l_in
+        out[7, i] = l_out
+        out[8, i] = l_out - reach if sw > 0.0 and corner_fit else math.inf
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def leg_clearances(
+    pos: FloatArray,
+    target: FloatArray,
+    after: FloatArray,
+    switch: float,
+    tan_app: float,
+    o: FloatArray,
+) -> FloatArray:
+    """Closest distance (K,) from the leg ``pos -> target`` to each centre ``o`` (K, 2) and, with
+    ``switch`` > 0, from the corner the autopilot cuts at ``target`` towards ``after``
+    (pso_ca_geometry.corner_cut of the leg drawn at twice its length, as the avoider's collision
+    test asks): :func:`segment_clearances` of the three segments and their minimum, in the same
+    operations (the same bits), without the seven small arrays of each corner."""
+    n = o.shape[0]
+    out = np.empty(n)
+    c1x = c1y = mx = my = bx = by = 0.0
+    if switch > 0.0:
+        c1x, c1y, mx, my, bx, by, _ = _cut(
+            target[0],
+            target[1],
+            2.0 * (target[0] - pos[0]),
+            2.0 * (target[1] - pos[1]),
+            after[0] - target[0],
+            after[1] - target[1],
+            switch,
+            tan_app,
+        )
+    for k in range(n):
+        ox = o[k, 0]
+        oy = o[k, 1]
+        c = _clear(pos[0], pos[1], target[0], target[1], ox, oy)
+        if switch > 0.0:
+            c = min(c, _clear(c1x, c1y, mx, my, ox, oy))
+            c = min(c, _clear(mx, my, bx, by, ox, oy))
+        out[k] = c
+    return out

@@ -32,6 +32,8 @@ def cluster_hill_points(points: npt.ArrayLike, link: float = HILL_LINK_M) -> tup
     n = len(p)
     if n == 0:
         return ()
+    if n == 1:  # one point, one group (a single obstacle: most of PSO-CA's scans)
+        return (np.zeros(1, dtype=np.int64),)
     if n <= SMALL_CLUSTERING:
         return _small_clusters(p, link)
     return _tree_clusters(p, link)
@@ -73,7 +75,7 @@ def _small_clusters(p: npt.NDArray[np.float64], link: float) -> tuple[IntArray, 
         if np.array_equal(spread, labels):
             break
         labels = spread
-    return tuple(np.flatnonzero(labels == lab).astype(np.int64) for lab in np.unique(labels))
+    return tuple((labels == lab).nonzero()[0].astype(np.int64) for lab in np.unique(labels))
 
 
 def cluster_terminals(points: npt.ArrayLike, observer: npt.ArrayLike) -> tuple[int, int]:
@@ -84,6 +86,8 @@ def cluster_terminals(points: npt.ArrayLike, observer: npt.ArrayLike) -> tuple[i
     o = as_points(observer, "observer").reshape(3)
     if len(p) == 0:
         raise InputError("a cluster needs at least one point")
+    if len(p) == 1:  # its own terminals (a single obstacle: most of PSO-CA's decisions)
+        return 0, 0
     d = p[:, :2] - o[:2]
     centre = d.mean(axis=0)
     ref = math.atan2(centre[0], centre[1])  # course of the centroid, clockwise from north
