@@ -104,7 +104,7 @@ typecheck: $(VENV)/.test-stamp
 
 pytest: $(VENV)/.test-stamp
 	@mkdir -p build
-	$(BIN)/python -m pytest -p no:dash -q -n auto --dist loadfile
+	$(BIN)/python -m pytest -p no:dash -q -n auto --dist loadfile --no-loadscope-reorder
 
 # mypy and the numba kernels' compilation (tools/warm.py) side by side, one core each, then the
 # suite on every core, finding the kernels compiled; each step timed apart

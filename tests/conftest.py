@@ -63,33 +63,40 @@ def shared_maps() -> Path:
     return SHARED_MAPS
 
 
-# The longest test files first: pytest-xdist's ``--dist loadfile`` hands files to the workers in
-# collection order, so a long file collected late runs alone at the end while the other worker
-# idles.  Longest first (per file, a quiet profile of 2026-11-29; the rest keep their order
-# after them) keeps both cores busy to the end.  Within a file the order is unchanged (the pages
-# of test_docs run in order, in one folder).
+# The longest test files first (longest-processing-time scheduling): `make test` runs
+# pytest-xdist's ``--dist loadfile --no-loadscope-reorder``, which hands whole files to the
+# workers in collection order as they run out of work (xdist's own order, by the number of tests
+# in a file, put the 4-minute docs file and the slow flights wherever their counts fell).  The
+# order: seconds per file in a quiet `make test` profile (2 workers, 2026-11-29); the files not
+# named keep their order after them, and within a file the order is unchanged (the pages of
+# test_docs run in order, in one folder).
 LONGEST_FIRST = (
     "test_docs.py",
-    "test_golden_replay.py",
     "test_avoidance_contract.py",
-    "test_own_scenarios.py",
-    "test_pso_ca.py",
-    "test_launch.py",
-    "test_golden_flight.py",
-    "test_wind.py",
     "test_view.py",
+    "test_own_scenarios.py",
     "test_campaign.py",
+    "test_golden_replay.py",
+    "test_pso_ca.py",
+    "test_wind.py",
+    "test_threat_table.py",
     "test_replay.py",
-    "test_threat_index.py",
-    "test_mission_import.py",
     "test_priority.py",
-    "test_spiral.py",
-    "test_energy.py",
-    "test_replay_zones.py",
-    "test_validate_jsbsim.py",
+    "test_launch.py",
+    "test_threat_index.py",
+    "test_golden_flight.py",
+    "test_ctga.py",
+    "test_mission_import.py",
+    "test_plan_multirotor.py",
     "test_judge.py",
+    "test_replay_zones.py",
+    "test_own_buildings.py",
+    "test_hostile.py",
+    "test_plan_terms.py",
+    "test_spiral.py",
+    "test_plan_cli.py",
     "test_golden.py",
-    "test_files_travel.py",
+    "test_fga.py",
 )
 
 
