@@ -144,6 +144,34 @@ def _part_below(
     return z < ground, hi - lo, t_cur, t_next
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _cell_below(
+    k: int,
+    n: int,
+    maj0: int,
+    smaj: int,
+    f0: float,
+    span: float,
+    kt: int,
+    t_kt: float,
+    t_kt1: float,
+    z0: float,
+    z1: float,
+    ground: float,
+    low: float,
+) -> tuple[bool, float, int, float, float]:  # pragma: no cover - jit
+    """:func:`_part_below` of cell k unless the chunk's lowest point ``low`` is above its
+    ``ground`` (a part's lowest point is no lower than the chunk's lowest: the rounded
+    operations are monotone, so such a cell is clear without its t); (below, width, and the
+    kt, t_kt, t_kt1 to carry on with)."""
+    if low > ground:
+        return False, 0.0, kt, t_kt, t_kt1
+    below, width, t_kt, t_kt1 = _part_below(
+        k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground
+    )
+    return below, width, k, t_kt, t_kt1
+
+
 @nb.njit(cache=True, nogil=True)
 def below_lengths(
     seg: np.ndarray, heights: np.ndarray, clearance: float, blocks: np.ndarray
@@ -273,15 +301,11 @@ def below_lengths(
                     step_maj, step_min = smaj * cols, smin
                 while k <= k_end:
                     ground = flat[at] + clearance
-                    # a part's lowest point is no lower than the chunk's lowest (the rounded
-                    # operations are monotone), so a cell below that is clear without its t
-                    if not low > ground:
-                        below, width, t_kt, t_kt1 = _part_below(
-                            k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground
-                        )
-                        kt = k
-                        if below:
-                            total += width * length
+                    below, width, kt, t_kt, t_kt1 = _cell_below(
+                        k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground, low
+                    )
+                    if below:
+                        total += width * length
                     # Bresenham step to the next cell
                     if d > 0:
                         at += step_min
@@ -300,15 +324,11 @@ def below_lengths(
                 rr = min(max(r, 0), rows - 1)
                 cc = min(max(c, 0), cols - 1)
                 ground = heights[rr, cc] + clearance
-                # a part's lowest point is no lower than the chunk's lowest (the rounded
-                # operations are monotone), so a cell below that is clear without its t
-                if not low > ground:
-                    below, width, t_kt, t_kt1 = _part_below(
-                        k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground
-                    )
-                    kt = k
-                    if below:
-                        total += width * length
+                below, width, kt, t_kt, t_kt1 = _cell_below(
+                    k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground, low
+                )
+                if below:
+                    total += width * length
                 # Bresenham step to the next cell
                 if d > 0:
                     minor += smin

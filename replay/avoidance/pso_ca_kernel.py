@@ -200,36 +200,6 @@ def _clear(a0x: float, a0y: float, a1x: float, a1y: float, ox: float, oy: float)
     return math.sqrt(g)
 
 
-@nb.njit(cache=True, nogil=True, inline="always")
-def _cut(
-    wx: float, wy: float, ux: float, uy: float, vx: float, vy: float, sw: float, tan_app: float
-) -> tuple[float, float, float, float, float, float, float]:
-    """pso_ca_geometry.corner_cut for one waypoint in the numpy version's operations: c1, m, the
-    end of the second segment, and corner_reach's (uncapped) reach."""
-    lu = math.hypot(ux, uy)
-    lv = math.hypot(vx, vy)
-    du = lu if lu > 0 else 1.0
-    dv = lv if lv > 0 else 1.0
-    eux = ux / du
-    euy = uy / du
-    evx = vx / dv
-    evy = vy / dv
-    cut = min(sw, 0.5 * lu)
-    cx = wx - cut * eux
-    cy = wy - cut * euy
-    rx = cx - wx
-    ry = cy - wy
-    along = rx * evx + ry * evy
-    dd = abs(evx * ry - evy * rx)
-    reach = along + dd / tan_app
-    capped = min(reach, lv)
-    mx = wx + capped * evx
-    my = wy + capped * evy
-    if capped < 0.0:
-        return cx, cy, mx, my, wx, wy, reach
-    return cx, cy, mx, my, mx, my, reach
-
-
 @nb.njit(cache=True, nogil=True)
 def report_geometry(
     X: FloatArray,
@@ -265,9 +235,9 @@ def report_geometry(
         l_in = math.hypot(ix, iy)
         l_out = math.hypot(ox, oy)
         if sw > 0.0:
-            c1x, c1y, mx, my, bx, by, reach = _cut(px, py, ix, iy, ox, oy, sw, tan_app)
+            c1x, c1y, mx, my, bx, by, reach = _corner(px, py, ix, iy, ox, oy, sw, tan_app)
             if has_after:
-                d1x, d1y, nx, ny, ex, ey, _ = _cut(
+                d1x, d1y, nx, ny, ex, ey, _ = _corner(
                     target[0],
                     target[1],
                     ox,
@@ -340,7 +310,7 @@ def leg_clearances(
     out = np.empty(n)
     c1x = c1y = mx = my = bx = by = 0.0
     if switch > 0.0:
-        c1x, c1y, mx, my, bx, by, _ = _cut(
+        c1x, c1y, mx, my, bx, by, _ = _corner(
             target[0],
             target[1],
             2.0 * (target[0] - pos[0]),
