@@ -115,36 +115,6 @@ def _t_of(
 
 
 @nb.njit(cache=True, nogil=True, inline="always")
-def _part_below(
-    k: int,
-    n: int,
-    maj0: int,
-    smaj: int,
-    f0: float,
-    span: float,
-    kt: int,
-    t_kt: float,
-    t_kt1: float,
-    z0: float,
-    z1: float,
-    ground: float,
-) -> tuple[bool, float, float, float]:  # pragma: no cover - jit
-    """(whether cell k's part of the segment runs below ``ground``, its width in t, t_k,
-    t_(k+1)); the t values of cells kt and kt + 1 (``t_kt``, ``t_kt1``) are reused when kt is
-    the previous cell (the same numbers: :func:`_t_of` is a function of k)."""
-    if kt == k - 1:
-        t_prev, t_cur = t_kt, t_kt1
-    else:
-        t_prev = _t_of(k - 1, n, maj0, smaj, f0, span) if k > 0 else 0.0
-        t_cur = _t_of(k, n, maj0, smaj, f0, span)
-    t_next = _t_of(k + 1, n, maj0, smaj, f0, span) if k < n else 0.0
-    hi = 0.5 * (t_cur + t_next) if k < n else 1.0
-    lo = 0.0 if k == 0 else 0.5 * (t_prev + t_cur)
-    z = z0 + (lo if z1 >= z0 else hi) * (z1 - z0)  # the part's lowest point
-    return z < ground, hi - lo, t_cur, t_next
-
-
-@nb.njit(cache=True, nogil=True, inline="always")
 def _cell_below(
     k: int,
     n: int,
@@ -160,16 +130,24 @@ def _cell_below(
     ground: float,
     low: float,
 ) -> tuple[bool, float, int, float, float]:  # pragma: no cover - jit
-    """:func:`_part_below` of cell k unless the chunk's lowest point ``low`` is above its
-    ``ground`` (a part's lowest point is no lower than the chunk's lowest: the rounded
-    operations are monotone, so such a cell is clear without its t); (below, width, and the
-    kt, t_kt, t_kt1 to carry on with)."""
+    """(whether cell k's part of the segment runs below ``ground``, its width in t, and the kt,
+    t_kt, t_kt1 to carry on with).  A cell whose ground lies below the chunk's lowest point
+    ``low`` is clear without its t (a part's lowest point is no lower than the chunk's lowest:
+    the rounded operations are monotone).  The t values of cells kt and kt + 1 (``t_kt``,
+    ``t_kt1``) are reused when kt is the previous cell (the same numbers: :func:`_t_of` is a
+    function of k)."""
     if low > ground:
         return False, 0.0, kt, t_kt, t_kt1
-    below, width, t_kt, t_kt1 = _part_below(
-        k, n, maj0, smaj, f0, span, kt, t_kt, t_kt1, z0, z1, ground
-    )
-    return below, width, k, t_kt, t_kt1
+    if kt == k - 1:
+        t_prev, t_cur = t_kt, t_kt1
+    else:
+        t_prev = _t_of(k - 1, n, maj0, smaj, f0, span) if k > 0 else 0.0
+        t_cur = _t_of(k, n, maj0, smaj, f0, span)
+    t_next = _t_of(k + 1, n, maj0, smaj, f0, span) if k < n else 0.0
+    hi = 0.5 * (t_cur + t_next) if k < n else 1.0
+    lo = 0.0 if k == 0 else 0.5 * (t_prev + t_cur)
+    z = z0 + (lo if z1 >= z0 else hi) * (z1 - z0)  # the part's lowest point
+    return z < ground, hi - lo, k, t_cur, t_next
 
 
 @nb.njit(cache=True, nogil=True)
