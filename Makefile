@@ -11,6 +11,8 @@ PIP_LOCK := $(if $(LOCK),-c $(LOCK))
 # Caches live inside the project's build folder (tests, CI and the demo all use them).
 export MPLCONFIGDIR    := $(CURDIR)/build/mpl
 export NUMBA_CACHE_DIR := $(CURDIR)/build/numba
+# trims solved once, read by every later process (terrain/memo.py)
+export TERRAPATH_CACHE_DIR := $(CURDIR)/build/cache
 
 .PHONY: demo test lint typecheck pytest bench sysdeps sysdeps-test clean clean-venv lock
 

@@ -27,7 +27,9 @@ which the same manoeuvre does trim (a scan of speeds refined by bisection at its
 from __future__ import annotations
 
 import math
+import pickle
 from functools import lru_cache
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -39,6 +41,7 @@ from replay.flight.fixedwing import kernels
 from replay.flight.fixedwing.dynamics import drag_coefficient, lift_coefficient
 from replay.flight.fixedwing.params import I_DTEMP, VehicleParams
 from terrain.errors import InputError
+from terrain.memo import DiskMemo
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -138,15 +141,45 @@ def _solve(
 _SolveKey = tuple[VehicleParams, bytes, float, float, float, float, bytes | None]
 
 
+_HERE = Path(__file__).resolve().parent
+# the code a solve runs: this module, the dynamics' kernels and what they read
+_MEMO = DiskMemo(
+    "trim",
+    [
+        _HERE / name
+        for name in (
+            "trim.py",
+            "kernels.py",
+            "dynamics.py",
+            "params.py",
+            "../atmosphere.py",
+            "../rigid.py",
+            "../base.py",
+            "../energy.py",
+            "../../frames.py",
+        )
+    ],
+    length=9,
+)
+
+
 @lru_cache(maxsize=16384)
 def _solved(key: _SolveKey) -> tuple[FloatArray, float]:
+    """The solve of ``key``: remembered in this process, and on disk between processes
+    (:class:`terrain.memo.DiskMemo`, its exact bytes: a campaign's workers, later replays)."""
     params, packed_bytes, va, altitude, gamma, turn_radius, z0_bytes = key
     packed = np.frombuffer(packed_bytes, dtype=np.float64).copy()
     z0 = None if z0_bytes is None else np.frombuffer(z0_bytes, dtype=np.float64).copy()
-    z, r = _solve_now(params, packed, va, altitude, gamma, turn_radius, z0)
-    z = np.array(z, dtype=np.float64)
+
+    def solve() -> FloatArray:
+        z, r = _solve_now(params, packed, va, altitude, gamma, turn_radius, z0)
+        return np.append(np.asarray(z, dtype=np.float64), r)
+
+    question = pickle.dumps((repr(params), *key[1:]), protocol=4)
+    zr = _MEMO.get(question, solve)
+    z = zr[:8].copy()
     z.flags.writeable = False
-    return z, r
+    return z, float(zr[8])
 
 
 def _solve_now(

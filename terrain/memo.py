@@ -1,0 +1,98 @@
+"""Results remembered on disk between processes: pure, costly computations on small inputs (a
+trim's least-squares solve) kept as their exact bytes, so that every later process -- another
+replay, a campaign's worker, the test suite's other worker -- reads them instead of solving again.
+
+The folder is ``TERRAPATH_CACHE_DIR`` when set (``make`` sets ``build/cache``; an empty value turns
+the memo off), else ``$XDG_CACHE_HOME/terrapath`` or ``~/.cache/terrapath``, like numba's
+compiled kernels (``NUMBA_CACHE_DIR``).  A result is found by the SHA-256 of its question (the
+caller's bytes) and of the *code* that answers it (the source files it names, the versions of
+numpy, scipy and numba): editing the code, or another numpy, asks again.  Entries are written under a
+temporary name and renamed when complete; an entry that cannot be read or written (no room, a
+read-only home, a truncated file) is computed as if it were not there, never an error.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+
+ENV = "TERRAPATH_CACHE_DIR"
+
+
+def cache_dir() -> Path | None:
+    """The memo's folder (see the module docstring); None when ``TERRAPATH_CACHE_DIR`` is empty."""
+    set_to = os.environ.get(ENV)
+    if set_to is not None:
+        return Path(set_to) if set_to.strip() else None
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "terrapath"
+
+
+class DiskMemo:
+    """float64 arrays of a fixed length remembered per question, in ``<cache>/<name>/``.
+
+    ``sources`` are the files whose text is the code answering (read once, on first use): with
+    numpy's, scipy's and numba's versions they make the memo's *version*, part of every key.
+    """
+
+    def __init__(self, name: str, sources: Sequence[str | os.PathLike[str]], length: int) -> None:
+        self.name = name
+        self.sources = tuple(Path(s) for s in sources)
+        self.length = length
+        self._version: bytes | None = None
+
+    def version(self) -> bytes:
+        if self._version is None:
+            import numba
+            import scipy
+
+            h = hashlib.sha256()
+            for src in self.sources:
+                h.update(src.read_bytes())
+            h.update(f"numpy {np.__version__} scipy {scipy.__version__}".encode())
+            h.update(f" numba {numba.__version__}".encode())
+            self._version = h.digest()
+        return self._version
+
+    def _path(self, question: bytes) -> Path | None:
+        root = cache_dir()
+        if root is None:
+            return None
+        key = hashlib.sha256(self.version() + question).hexdigest()
+        return root / self.name / key[:2] / f"{key[2:]}.f8"
+
+    def get(self, question: bytes, compute: Callable[[], FloatArray]) -> FloatArray:
+        """The remembered answer to ``question``, else ``compute()``'s (then remembered)."""
+        path = self._path(question)
+        if path is not None:
+            with contextlib.suppress(OSError):
+                data = path.read_bytes()
+                if len(data) == 8 * self.length:
+                    return np.frombuffer(data, dtype=np.float64).copy()
+        answer = np.asarray(compute(), dtype=np.float64)
+        if path is not None and answer.shape == (self.length,):
+            self._put(path, answer.tobytes())
+        return answer
+
+    @staticmethod
+    def _put(path: Path, data: bytes) -> None:
+        tmp = None
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+            os.replace(tmp, path)
+        except OSError:
+            if tmp is not None:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)

@@ -1,0 +1,101 @@
+"""Results remembered on disk (terrain.memo): the exact bytes of the answer, asked again when the
+code or the question changes, and never an error when the folder cannot be used."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from replay.flight.fixedwing import trim as trim_module
+from replay.flight.fixedwing.presets import PRESETS
+from terrain.memo import DiskMemo, cache_dir
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _memo(tmp_path: Path, text: str = "def answer(): ...") -> DiskMemo:
+    src = tmp_path / "code.py"
+    src.write_text(text, encoding="utf-8")
+    return DiskMemo("test", [src], length=3)
+
+
+def test_an_answer_is_remembered_as_its_bytes_and_asked_again_when_the_code_changes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TERRAPATH_CACHE_DIR", str(tmp_path / "cache"))
+    calls = []
+
+    def compute() -> np.ndarray:
+        calls.append(1)
+        return np.array([0.1, -math.pi, math.inf])
+
+    memo = _memo(tmp_path)
+    first = memo.get(b"q", compute)
+    again = memo.get(b"q", compute)
+    assert len(calls) == 1 and first.tobytes() == again.tobytes()
+    memo.get(b"another question", compute)
+    assert len(calls) == 2
+    _memo(tmp_path, "def answer(): return 2").get(b"q", compute)  # new code: asked again
+    assert len(calls) == 3
+    entries = list((tmp_path / "cache" / "test").rglob("*.f8"))
+    assert len(entries) == 3 and not list((tmp_path / "cache").rglob("*.part"))
+    for e in entries:
+        e.write_bytes(b"\0" * 5)  # truncated: computed again, and written whole
+    assert _memo(tmp_path).get(b"q", compute).tobytes() == first.tobytes()
+    assert len(calls) == 4
+
+
+def test_an_unusable_folder_or_an_empty_setting_only_means_computing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("", encoding="utf-8")
+    monkeypatch.setenv("TERRAPATH_CACHE_DIR", str(blocker / "cache"))  # cannot be made
+    assert _memo(tmp_path).get(b"q", lambda: np.ones(3)).tolist() == [1.0, 1.0, 1.0]
+    monkeypatch.setenv("TERRAPATH_CACHE_DIR", "")
+    assert cache_dir() is None
+    assert _memo(tmp_path).get(b"q", lambda: np.zeros(3)).tolist() == [0.0, 0.0, 0.0]
+    monkeypatch.delenv("TERRAPATH_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "terrapath"
+
+
+def test_a_trim_read_from_disk_in_another_process_is_the_solved_one(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TERRAPATH_CACHE_DIR", str(tmp_path / "cache"))
+    p = PRESETS["aerosonde"]
+    fresh = trim_module._solve_now(p, p.pack(), 23.0, 1234.5, 0.03, -400.0, None)
+    code = (
+        "import math, sys; from replay.flight.fixedwing.presets import PRESETS; "
+        "from replay.flight.fixedwing.trim import trim; p = PRESETS['aerosonde']; "
+        "x, u = trim(p, 23.0, 1234.5, gamma=0.03, turn_radius=-400.0); "
+        "sys.stdout.write((x.tobytes() + u.tobytes()).hex())"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    run = [sys.executable, "-c", code]
+    first = subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
+    entries = list((tmp_path / "cache" / "trim").rglob("*.f8"))
+    assert entries
+    for e in entries:  # another angle of attack: a process that reads them flies it
+        zr = np.frombuffer(e.read_bytes(), dtype=np.float64).copy()
+        zr[0] += 1e-3
+        e.write_bytes(zr.tobytes())
+    second = subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
+    assert second != first  # the second process read the disk's answer
+    for e in entries:
+        e.unlink()
+    third = subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
+    assert third == first  # solved again: the same bytes
+    trim_module._solved.cache_clear()
+    x, u = trim_module.trim(p, 23.0, 1234.5, gamma=0.03, turn_radius=-400.0)
+    assert (x.tobytes() + u.tobytes()).hex() == first
+    z, r = trim_module._solve(p, p.pack(), 23.0, 1234.5, 0.03, -400.0, None)
+    np.testing.assert_array_equal(z, fresh[0])
+    assert r == fresh[1]
