@@ -328,11 +328,12 @@ def draw_zones(ax: Any, zones: Sequence[Any]) -> None:
 
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 130) -> Path:
-    """Save a figure as PNG through a temporary name."""
+    """Save a figure as PNG through a temporary name.  zlib level 3, not PIL's default 6: a
+    1170 x 1877 map picture is written in 135 ms instead of 310 ms, 14 % larger."""
     out = Path(path)
     with atomic_output(out) as tmp:
         fig.tight_layout()
-        fig.savefig(tmp, dpi=dpi, format="png")
+        fig.savefig(tmp, dpi=dpi, format="png", pil_kwargs={"compress_level": 3})
     return out
 
 
