@@ -55,6 +55,7 @@ from rasterio.windows import Window
 
 from terrain.errors import DataFileError, InputError, ResourceError
 from terrain.grid import HeightGrid
+from terrain.memo import DiskMemo
 
 WGS84 = CRS.from_epsg(4326)
 # Working copies per cell while building a grid: the float32 display and safety results, one
@@ -673,10 +674,29 @@ def _fill_nearest(values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
     return np.asarray(values[idx[0], idx[1]], dtype=np.float32)
 
 
+# grids up to this many cells keep their filled heights on disk (terrain.memo; 16 MB at most)
+FILL_MEMO_CELLS = 4_000_000
+_FILL_MEMO = DiskMemo("fill", [__file__], versions=f"gdal {rasterio.__gdal_version__}")
+
+
 def fill_nodata(heights: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
     """Fill NaN cells by inverse-distance interpolation from the valid cells around them (GDAL's
     ``fillnodata``, a four-quadrant search as far as the grid is wide), then by nearest neighbour
-    for any cell that search could not reach. Valid cells are returned unchanged."""
+    for any cell that search could not reach. Valid cells are returned unchanged.
+
+    The search costs seconds on a tile with many holes (SRTM-3 N57E011 in UTM: 238,000 of 2.9 M
+    cells, 2.4 s): grids up to :data:`FILL_MEMO_CELLS` remember their filled heights on disk
+    (:class:`terrain.memo.DiskMemo`, keyed by the heights' bytes), the next load of the map reads
+    them."""
+    heights = np.ascontiguousarray(heights, dtype=np.float32)
+    if heights.size > FILL_MEMO_CELLS:
+        return _fill_now(heights)
+    question = np.asarray(heights.shape, dtype=np.int64).tobytes() + heights.tobytes()
+    data = _FILL_MEMO.get(question, lambda: _fill_now(heights).tobytes(), heights.nbytes)
+    return np.frombuffer(data, dtype=np.float32).reshape(heights.shape).copy()
+
+
+def _fill_now(heights: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
     from rasterio.fill import fillnodata
     from scipy import ndimage
 

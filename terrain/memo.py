@@ -38,16 +38,19 @@ def cache_dir() -> Path | None:
 
 
 class DiskMemo:
-    """float64 arrays of a fixed length remembered per question, in ``<cache>/<name>/``.
+    """Answers of a known size remembered per question, as bytes, in ``<cache>/<name>/``.
 
     ``sources`` are the files whose text is the code answering (read once, on first use): with
-    numpy's, scipy's and numba's versions they make the memo's *version*, part of every key.
+    numpy's, scipy's and numba's versions and ``versions`` (other libraries the code calls) they
+    make the memo's *version*, part of every key.
     """
 
-    def __init__(self, name: str, sources: Sequence[str | os.PathLike[str]], length: int) -> None:
+    def __init__(
+        self, name: str, sources: Sequence[str | os.PathLike[str]], versions: str = ""
+    ) -> None:
         self.name = name
         self.sources = tuple(Path(s) for s in sources)
-        self.length = length
+        self.versions = versions
         self._version: bytes | None = None
 
     def version(self) -> bytes:
@@ -59,7 +62,7 @@ class DiskMemo:
             for src in self.sources:
                 h.update(src.read_bytes())
             h.update(f"numpy {np.__version__} scipy {scipy.__version__}".encode())
-            h.update(f" numba {numba.__version__}".encode())
+            h.update(f" numba {numba.__version__} {self.versions}".encode())
             self._version = h.digest()
         return self._version
 
@@ -68,20 +71,26 @@ class DiskMemo:
         if root is None:
             return None
         key = hashlib.sha256(self.version() + question).hexdigest()
-        return root / self.name / key[:2] / f"{key[2:]}.f8"
+        return root / self.name / key[:2] / f"{key[2:]}.bin"
 
-    def get(self, question: bytes, compute: Callable[[], FloatArray]) -> FloatArray:
-        """The remembered answer to ``question``, else ``compute()``'s (then remembered)."""
+    def get(self, question: bytes, compute: Callable[[], bytes], size: int) -> bytes:
+        """The remembered answer to ``question`` (``size`` bytes), else ``compute()``'s (then
+        remembered when it has that size)."""
         path = self._path(question)
         if path is not None:
             with contextlib.suppress(OSError):
                 data = path.read_bytes()
-                if len(data) == 8 * self.length:
-                    return np.frombuffer(data, dtype=np.float64).copy()
-        answer = np.asarray(compute(), dtype=np.float64)
-        if path is not None and answer.shape == (self.length,):
-            self._put(path, answer.tobytes())
+                if len(data) == size:
+                    return data
+        answer = compute()
+        if path is not None and len(answer) == size:
+            self._put(path, answer)
         return answer
+
+    def floats(self, question: bytes, compute: Callable[[], FloatArray], n: int) -> FloatArray:
+        """:meth:`get` of ``n`` float64 values."""
+        data = self.get(question, lambda: np.asarray(compute(), dtype=np.float64).tobytes(), 8 * n)
+        return np.frombuffer(data, dtype=np.float64).copy()
 
     @staticmethod
     def _put(path: Path, data: bytes) -> None:

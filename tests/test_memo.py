@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def _memo(tmp_path: Path, text: str = "def answer(): ...") -> DiskMemo:
     src = tmp_path / "code.py"
     src.write_text(text, encoding="utf-8")
-    return DiskMemo("test", [src], length=3)
+    return DiskMemo("test", [src])
 
 
 def test_an_answer_is_remembered_as_its_bytes_and_asked_again_when_the_code_changes(
@@ -36,18 +36,18 @@ def test_an_answer_is_remembered_as_its_bytes_and_asked_again_when_the_code_chan
         return np.array([0.1, -math.pi, math.inf])
 
     memo = _memo(tmp_path)
-    first = memo.get(b"q", compute)
-    again = memo.get(b"q", compute)
+    first = memo.floats(b"q", compute, 3)
+    again = memo.floats(b"q", compute, 3)
     assert len(calls) == 1 and first.tobytes() == again.tobytes()
-    memo.get(b"another question", compute)
+    memo.floats(b"another question", compute, 3)
     assert len(calls) == 2
-    _memo(tmp_path, "def answer(): return 2").get(b"q", compute)  # new code: asked again
+    _memo(tmp_path, "def answer(): return 2").floats(b"q", compute, 3)  # new code: asked again
     assert len(calls) == 3
-    entries = list((tmp_path / "cache" / "test").rglob("*.f8"))
+    entries = list((tmp_path / "cache" / "test").rglob("*.bin"))
     assert len(entries) == 3 and not list((tmp_path / "cache").rglob("*.part"))
     for e in entries:
         e.write_bytes(b"\0" * 5)  # truncated: computed again, and written whole
-    assert _memo(tmp_path).get(b"q", compute).tobytes() == first.tobytes()
+    assert _memo(tmp_path).floats(b"q", compute, 3).tobytes() == first.tobytes()
     assert len(calls) == 4
 
 
@@ -57,10 +57,10 @@ def test_an_unusable_folder_or_an_empty_setting_only_means_computing(
     blocker = tmp_path / "a-file"
     blocker.write_text("", encoding="utf-8")
     monkeypatch.setenv("TERRAPATH_CACHE_DIR", str(blocker / "cache"))  # cannot be made
-    assert _memo(tmp_path).get(b"q", lambda: np.ones(3)).tolist() == [1.0, 1.0, 1.0]
+    assert _memo(tmp_path).floats(b"q", lambda: np.ones(3), 3).tolist() == [1.0, 1.0, 1.0]
     monkeypatch.setenv("TERRAPATH_CACHE_DIR", "")
     assert cache_dir() is None
-    assert _memo(tmp_path).get(b"q", lambda: np.zeros(3)).tolist() == [0.0, 0.0, 0.0]
+    assert _memo(tmp_path).floats(b"q", lambda: np.zeros(3), 3).tolist() == [0.0, 0.0, 0.0]
     monkeypatch.delenv("TERRAPATH_CACHE_DIR")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert cache_dir() == tmp_path / "xdg" / "terrapath"
@@ -81,7 +81,7 @@ def test_a_trim_read_from_disk_in_another_process_is_the_solved_one(
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     run = [sys.executable, "-c", code]
     first = subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
-    entries = list((tmp_path / "cache" / "trim").rglob("*.f8"))
+    entries = list((tmp_path / "cache" / "trim").rglob("*.bin"))
     assert entries
     for e in entries:  # another angle of attack: a process that reads them flies it
         zr = np.frombuffer(e.read_bytes(), dtype=np.float64).copy()
@@ -99,3 +99,34 @@ def test_a_trim_read_from_disk_in_another_process_is_the_solved_one(
     z, r = trim_module._solve(p, p.pack(), 23.0, 1234.5, 0.03, -400.0, None)
     np.testing.assert_array_equal(z, fresh[0])
     assert r == fresh[1]
+
+
+def test_a_filled_grid_is_read_back_bit_for_bit_and_a_big_one_is_not_kept(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from terrain import load
+
+    monkeypatch.setenv("TERRAPATH_CACHE_DIR", str(tmp_path / "cache"))
+    rng = np.random.default_rng(7)
+    heights = rng.uniform(100.0, 900.0, (60, 45)).astype(np.float32)
+    heights[rng.random(heights.shape) < 0.2] = np.nan
+    heights[:10, :12] = np.nan  # a corner the reprojection left empty
+    want = load._fill_now(heights.copy())
+    assert np.isfinite(want).all()
+    calls = []
+    fill_now = load._fill_now
+    monkeypatch.setattr(load, "_fill_now", lambda h: calls.append(1) or fill_now(h))
+    first = load.fill_nodata(heights.copy())
+    again = load.fill_nodata(heights.copy())
+    assert len(calls) == 1
+    assert first.tobytes() == want.tobytes() == again.tobytes() and first.dtype == np.float32
+    assert again.flags.writeable
+    other = heights.copy()
+    other[30, 30] = 555.0 if np.isnan(other[30, 30]) else np.nan  # another question
+    load.fill_nodata(other)
+    assert len(calls) == 2
+    monkeypatch.setattr(load, "FILL_MEMO_CELLS", heights.size - 1)
+    load.fill_nodata(heights.copy())
+    load.fill_nodata(heights.copy())
+    assert len(calls) == 4  # above the size: filled each time, nothing kept
+    assert len(list((tmp_path / "cache" / "fill").rglob("*.bin"))) == 2

@@ -159,7 +159,6 @@ _MEMO = DiskMemo(
             "../../frames.py",
         )
     ],
-    length=9,
 )
 
 
@@ -176,7 +175,7 @@ def _solved(key: _SolveKey) -> tuple[FloatArray, float]:
         return np.append(np.asarray(z, dtype=np.float64), r)
 
     question = pickle.dumps((repr(params), *key[1:]), protocol=4)
-    zr = _MEMO.get(question, solve)
+    zr = _MEMO.floats(question, solve, 9)
     z = zr[:8].copy()
     z.flags.writeable = False
     return z, float(zr[8])
