@@ -257,12 +257,36 @@ def _dask_client(scheduler: str | None, jobs: int) -> Any:
             silence_logs=logging.ERROR,
         )
         return Client(cluster)
+    _refused(scheduler)
     try:
         return Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
     except (OSError, TimeoutError, ValueError) as exc:
         raise InputError(
             f"the Dask scheduler {scheduler} does not answer within {SCHEDULER_TIMEOUT_S:g} s ({exc})"
         ) from None
+
+
+def _refused(scheduler: str) -> None:
+    """The one-line error at once when a ``tcp://`` scheduler's port refuses the connection
+    (nothing listens there: Dask's client would retry for :data:`SCHEDULER_TIMEOUT_S`)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    try:
+        where = urlsplit(scheduler)
+        host, port = where.hostname, where.port
+    except ValueError:
+        return  # Dask's own error names it
+    if where.scheme != "tcp" or host is None or port is None:
+        return
+    try:
+        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT_S).close()
+    except ConnectionRefusedError as exc:
+        raise InputError(
+            f"the Dask scheduler {scheduler} does not answer: nothing listens there ({exc})"
+        ) from None
+    except OSError:
+        return  # unreachable or slow: Dask's client tries, within its timeout
 
 
 def check_scheduler(address: str) -> None:
