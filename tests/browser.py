@@ -12,6 +12,12 @@ CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome")
 ARGS = ["--no-sandbox", "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
 
 
+# a tab's plot drawn with its frames (the page sets data-ready), then two animation frames: what
+# the drawing queued (the 3D scene's WebGL frame) is on the screen
+DRAWN = "(key) => document.getElementById('plot-' + key).dataset.ready === '1'"
+FRAMES = "() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+
+
 def chromium() -> str | None:
     for name in CHROMIUM_NAMES:
         found = shutil.which(name)
@@ -58,13 +64,12 @@ def render(
             listen(page, errors)
             t0 = time.perf_counter()
             page.goto(page_path.resolve().as_uri())
-            drawn = "(key) => document.getElementById('plot-' + key)._fullLayout !== undefined"
-            page.wait_for_function(drawn, arg="scene", timeout=60_000)
+            page.wait_for_function(DRAWN, arg="scene", timeout=60_000)
             loaded = time.perf_counter() - t0
             for tab, shot in tabs.items():
                 page.click(f"nav button[data-tab='{tab}']")
-                page.wait_for_function(drawn, arg=tab, timeout=60_000)
-                page.wait_for_timeout(1000)
+                page.wait_for_function(DRAWN, arg=tab, timeout=60_000)
+                page.evaluate(FRAMES)
                 page.screenshot(path=str(shot))
         finally:
             browser.close()
@@ -128,12 +133,11 @@ class Browser:
         try:
             listen(page, errors)
             page.goto(page_path.resolve().as_uri())
-            drawn = "(key) => document.getElementById('plot-' + key)._fullLayout !== undefined"
             measures: dict[str, dict[str, Any]] = {}
             for tab, shot in shots.items():
                 page.click(f"nav button[data-tab='{tab}']")
-                page.wait_for_function(drawn, arg=tab, timeout=60_000)
-                page.wait_for_timeout(400)
+                page.wait_for_function(DRAWN, arg=tab, timeout=60_000)
+                page.evaluate(FRAMES)
                 page.screenshot(path=str(shot), full_page=True)
                 measures[tab] = page.evaluate(_MEASURE, tab)
         finally:

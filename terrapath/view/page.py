@@ -41,9 +41,10 @@ function terrapathDraw(name) {
   if (div.dataset.drawn) { Plotly.Plots.resize(div); return; }
   div.dataset.drawn = '1';
   const fig = JSON.parse(document.getElementById('figure-' + name).textContent);
+  // data-ready: drawn with its frames (what a script driving a browser waits for)
   Plotly.newPlot(div, fig.data, fig.layout, terrapathConfig).then(function () {
-    if (fig.frames) Plotly.addFrames(div, fig.frames);
-  });
+    return fig.frames ? Plotly.addFrames(div, fig.frames) : null;
+  }).then(function () { div.dataset.ready = '1'; });
 }
 function terrapathTab(name) {
   for (const el of document.querySelectorAll('.tab')) el.classList.toggle('on', el.id === 'tab-' + name);
