@@ -368,22 +368,36 @@ class Conformance:
         )
         self.highs = (np.asarray(times, dtype=np.float64), high)
         vert = np.maximum(np.maximum(low - z, z - high), 0.0)  # outside the band
-        # the first judged samples after an avoider's manoeuvre or new plan
-        fresh = judged & ~np.concatenate([[self.judged_before], judged[:-1]]) & self.after_command
+        lat_off, vert_off = lat > self.tol.lateral, vert > self.tol.vertical
+        lat_judged, vert_judged = judged & lat_off, judged & vert_off
+        on_altitude = not following and commanded is not None and commanded.vertical == "altitude"
+        # (most chunks open and close nothing: the spans' work is skipped then)
+        lateral, vertical = self.lateral, self.vertical
+        if (
+            lateral.open is not None
+            or vertical.open is not None
+            or on_altitude
+            or lat_judged.any()
+            or vert_judged.any()
+        ):
+            # the first judged samples after an avoider's manoeuvre or new plan
+            before = np.concatenate([[self.judged_before], judged[:-1]])
+            fresh = judged & ~before & self.after_command
+            lateral.update(times, lat_judged, lat, positions, fresh)
+            # how far: from the altitude commanded (the band decides whether it is off at all)
+            off_cmd = np.abs(z - altitude_cmd)
+            vertical.update(times, vert_judged, off_cmd, positions, fresh)
+            if on_altitude:
+                spans = self._spans("vertical", "altitude", float(times[0]))
+                spans.update(times, vert_off, off_cmd, positions)
         self.judged_before = bool(judged[-1])
-        self.lateral.update(times, judged & (lat > self.tol.lateral), lat, positions, fresh)
-        # how far: from the altitude commanded (the band decides whether it is off at all)
-        off_cmd = np.abs(z - altitude_cmd)
-        self.vertical.update(times, judged & (vert > self.tol.vertical), off_cmd, positions, fresh)
-        if not following and commanded is not None and commanded.vertical == "altitude":
-            spans = self._spans("vertical", "altitude", float(times[0]))
-            spans.update(times, vert > self.tol.vertical, off_cmd, positions)
         prev = self.t_last if self.t_last is not None else float(times[0])
-        step = np.diff(np.concatenate([[prev], times]))
         self.t_last = float(times[-1])
         # off the plan: flying an avoider's commands, or beyond a tolerance (settling or not)
-        off = (lat > self.tol.lateral) | (vert > self.tol.vertical) | (not following)
-        self.off_plan_s += float(step[off].sum())
+        off = lat_off | vert_off | (not following)
+        if off.any():  # (else the sum is 0.0)
+            step = np.diff(np.concatenate([[prev], times]))
+            self.off_plan_s += float(step[off].sum())
 
     def grace(self, command: Commanded, position: FloatArray, course: float | None) -> float:
         """The time (s) an aircraft at ``position`` (map) on ``course`` (rad; None: unknown) has
