@@ -14,7 +14,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from rasterio.crs import CRS
 
-from replay.threats.body import BodyThreat
+from replay.threats.body import BodyThreat, body_radius_at_numpy, section_boundary_numpy
 from replay.threats.clusters import cluster_hill_points, cluster_terminals
 from replay.threats.file import load_threats, threats_from_records, threats_to_records
 from replay.threats.kinds import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, ThreatSet
@@ -589,6 +589,55 @@ def test_body_radius_at_circumscribes_the_section(b: BodyThreat, h: float, ang: 
         else:
             hi = mid
     assert lo <= float(b.body_radius_at(z)) * (1 + 1e-9)
+
+
+def random_bodies(rng: np.random.Generator, n: int) -> list[BodyThreat]:
+    """Bodies with exponents across [0.5, 100] (0.5 exactly, near-kinks in (0.5, 0.55), numpy's
+    ``**`` shortcuts 1 and 2 for p and q, log-uniform), axes from 1 m to 10 km, centres near and
+    far from the origin."""
+
+    def exponent() -> float:
+        pick = rng.integers(4)
+        if pick == 0:
+            return float(rng.choice([0.5, 1.0, 2.0, 100.0]))
+        if pick == 1:
+            return float(rng.uniform(0.5, 0.55))
+        return float(np.exp(rng.uniform(np.log(0.5), np.log(100.0))))
+
+    out = []
+    for i in range(n):
+        ex = (exponent(), exponent(), exponent())
+        if i % 4 == 0:
+            ex = (ex[0], ex[0], ex[2])  # p = q: the round sections of seed 001's scenarios
+        axes = tuple(float(v) for v in np.exp(rng.uniform(0.0, np.log(1e4), 3)))
+        far = 1e6 if i % 5 == 0 else 1e4
+        center = tuple(float(v) for v in rng.uniform(-far, far, 3))
+        out.append(BodyThreat(id=f"b{i}", center=center, axes=axes, exponents=ex))
+    return out
+
+
+def test_body_kernels_return_their_numpy_twins_bits() -> None:
+    """body_radius_at and section_boundary (numba, replay/threats/body_kernels.py) return exactly
+    the floats of the numpy code they replaced (kept as body_radius_at_numpy and
+    section_boundary_numpy), at altitudes across the body, on its top, bottom and centre, and
+    outside it."""
+    rng = np.random.default_rng(20260)
+    live = 0
+    for b in random_bodies(rng, 160):
+        z0, c = b.center[2], b.axes[2]
+        z = z0 + c * np.concatenate([rng.uniform(-1.3, 1.3, 12), [-1.0, 0.0, 1.0, 1.0 - 1e-12]])
+        got, want = b.body_radius_at(z), body_radius_at_numpy(b, z)
+        assert np.array_equal(got, want), (b, z, got - want)
+        assert np.array_equal(b.body_radius_at(z.reshape(4, 4)), want.reshape(4, 4))
+        assert np.array_equal(b.body_radius_at(float(z[0])), body_radius_at_numpy(b, float(z[0])))
+        for zk, n in zip(z[[0, 1, 2, 13]], (360, 90, 7, 360), strict=True):
+            got_s, want_s = b.section_boundary(float(zk), n), section_boundary_numpy(b, zk, n)
+            if want_s is None:
+                assert got_s is None
+                continue
+            live += 1
+            assert got_s is not None and np.array_equal(got_s, want_s), (b, zk, n)
+    assert live > 300  # most altitudes cut the body
 
 
 # -- hills ----------------------------------------------------------------------------------------
