@@ -14,7 +14,12 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from rasterio.crs import CRS
 
-from replay.threats.body import BodyThreat, body_radius_at_numpy, section_boundary_numpy
+from replay.threats.body import (
+    BodyThreat,
+    body_radius_at_numpy,
+    nearest_point_numpy,
+    section_boundary_numpy,
+)
 from replay.threats.clusters import cluster_hill_points, cluster_terminals
 from replay.threats.file import load_threats, threats_from_records, threats_to_records
 from replay.threats.kinds import CylinderThreat, HillThreat, IntruderThreat, StaticThreat, ThreatSet
@@ -638,6 +643,22 @@ def test_body_kernels_return_their_numpy_twins_bits() -> None:
             live += 1
             assert got_s is not None and np.array_equal(got_s, want_s), (b, zk, n)
     assert live > 300  # most altitudes cut the body
+
+
+def test_the_nearest_point_kernel_returns_the_numpy_bits() -> None:
+    """nearest_point of one point (numba) returns exactly the numpy code's point (which batches
+    still use), for points around random bodies: on their axes planes, inside and far out."""
+    rng = np.random.default_rng(20261)
+    outside = 0
+    for b in random_bodies(rng, 120):
+        c, ax = np.array(b.center), np.array(b.axes)
+        offsets = rng.uniform(-4.0, 4.0, (12, 3))
+        offsets[:4] = rng.choice([0.0, 0.3, 1.5, -2.0, 50.0], (4, 3))  # zero components
+        for p in c + ax * offsets:
+            got, want = b.nearest_point(p), nearest_point_numpy(b, p[None])[0]
+            assert np.array_equal(got, want), (b, p, got - want)
+            outside += bool(b.gamma(p) > 1.0)
+    assert outside > 1000
 
 
 # -- hills ----------------------------------------------------------------------------------------

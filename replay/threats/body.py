@@ -379,13 +379,13 @@ class BodyThreat(Threat):
 
     def nearest_point(self, p: npt.ArrayLike) -> FloatArray:
         """The closest surface point found for outside points (see the module docstring); the
-        point itself inside (clipped to the body)."""
+        point itself inside (clipped to the body).  One point (the radar's question) is
+        compiled: :func:`replay.threats.body_kernels.nearest_point`, the same steps and bits."""
         q = as_points(p)
-        flat = q.reshape(-1, 3).copy()
-        outside = self.gamma(flat) > 1.0
-        if np.any(outside):
-            flat[outside] = self._outside(flat[outside])[1]
-        return flat.reshape(q.shape)
+        if q.size == 3:
+            near = body_kernels.nearest_point(q.reshape(3), self._c, self._ax, self._k)
+            return np.asarray(near.reshape(q.shape))
+        return nearest_point_numpy(self, q)
 
     def radar_points(
         self, t: float, observer: npt.ArrayLike, max_range: float = math.inf
@@ -501,3 +501,14 @@ def section_boundary_numpy(body: BodyThreat, z: float, n: int = 360) -> FloatArr
         hi = np.where(inside, hi, mid)
     r = 0.5 * (lo + hi)
     return np.column_stack([body._c[0] + r * u[:, 0], body._c[1] + r * u[:, 1]])
+
+
+def nearest_point_numpy(body: BodyThreat, p: npt.ArrayLike) -> FloatArray:
+    """:meth:`BodyThreat.nearest_point` in numpy, for batches (its loops stop when every point has
+    converged) and as the twin of the one-point kernel (the tests compare the two)."""
+    q = as_points(p)
+    flat = q.reshape(-1, 3).copy()
+    outside = body.gamma(flat) > 1.0
+    if np.any(outside):
+        flat[outside] = body._outside(flat[outside])[1]
+    return flat.reshape(q.shape)

@@ -1,13 +1,14 @@
 """Compiled (numba) hot loops of :class:`~replay.threats.body.BodyThreat`: the section's
-circumscribed radius (:meth:`~replay.threats.body.BodyThreat.body_radius_at`) and its boundary
-(:meth:`~replay.threats.body.BodyThreat.section_boundary`).
+circumscribed radius (:meth:`~replay.threats.body.BodyThreat.body_radius_at`), its boundary
+(:meth:`~replay.threats.body.BodyThreat.section_boundary`) and the nearest point of one point
+(:meth:`~replay.threats.body.BodyThreat.nearest_point`), which a radar scan asks for each body.
 
-Both are iterative searches on one value or a few hundred (an 80-step golden-section search, a
-40-step bisection), where numpy's per-call overhead was nearly all the cost (about 1.5 ms and
-1 ms a call).  The kernels do the same arithmetic in the same order, one element at a time, with
-numpy's own ``pow`` (:mod:`terrain.npmath`), so they return the same bits as the numpy code,
-which is kept in ``body.py`` as their twin (``..._numpy``); ``tests/test_threats.py`` compares
-them on random bodies.
+Each is an iterative search on one value or a few hundred (an 80-step golden-section search, a
+40-step bisection, nested Newton loops), where numpy's per-call overhead was nearly all the cost
+(about 1.5 ms, 3 ms and 0.6 ms a call).  The kernels do the same arithmetic in the same order,
+one element at a time, with numpy's own ``pow``, ``exp`` and ``log`` (:mod:`terrain.npmath`), so
+they return the same bits as the numpy code, which is kept in ``body.py`` (``..._numpy``, and
+``BodyThreat._outside`` for batches); ``tests/test_threats.py`` compares them on random bodies.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import math
 import numba as nb
 import numpy as np
 
-from terrain.npmath import LANES, pow_, pow_lanes, scalar_pow
+from terrain.npmath import LANES, exp_, log_, pow_, pow_lanes, scalar_pow
 
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 GOLDEN_STEPS = 80
@@ -138,4 +139,163 @@ def section_boundary(
             r = 0.5 * (lo[j] + hi[j])
             out[first + j, 0] = c0 + r * u[first + j, 0]
             out[first + j, 1] = c1 + r * u[first + j, 1]
+    return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _radial(d: np.ndarray, axes: np.ndarray, powers: np.ndarray) -> float:  # pragma: no cover - jit
+    """``BodyThreat._radial`` for one non-zero offset d (3,): s with Gamma(c + s d) = 1."""
+    lw = np.empty(3)
+    m = max(max(abs(d[0]) / axes[0], abs(d[1]) / axes[1]), abs(d[2]) / axes[2])
+    for i in range(3):
+        lw[i] = log_((abs(d[i]) / axes[i]) / m)
+    z = np.empty(3)
+    lam = 0.0
+    for _ in range(60):
+        for i in range(3):
+            z[i] = powers[i] * (lam + lw[i])
+        zmax = max(max(z[0], z[1]), z[2])
+        e0, e1, e2 = exp_(z[0] - zmax), exp_(z[1] - zmax), exp_(z[2] - zmax)
+        total = (e0 + e1) + e2
+        h = zmax + log_(total)
+        dh = ((powers[0] * e0 + powers[1] * e1) + powers[2] * e2) / total
+        step = h / dh
+        lam = lam - step
+        if abs(step) < 1e-15:
+            break
+    return exp_(lam) / m
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _inner(
+    nu: float,
+    big_d: np.ndarray,
+    lx: np.ndarray,
+    dlx: np.ndarray,
+    lk: np.ndarray,
+    kla: np.ndarray,
+    ld: np.ndarray,
+    powers: np.ndarray,
+) -> None:  # pragma: no cover - jit
+    """``BodyThreat._inner`` for one point: log X and d(log X)/d(nu) into lx and dlx (3,), from
+    the start in lx (the previous outer iterate; log|d| where not finite).  lk holds ``log(k / 2)``
+    per axis, kla ``k log(a)``, ld ``log|d|`` (0 for zero components)."""
+    m = np.empty(3)
+    for i in range(3):
+        m[i] = (nu + lk[i]) - kla[i]  # log mu
+        if not np.isfinite(lx[i]):
+            lx[i] = ld[i]
+    for _ in range(100):
+        small = True
+        for i in range(3):
+            km1 = powers[i] - 1.0
+            a2 = m[i] + km1 * lx[i]
+            top = max(lx[i], a2)
+            e1, e2 = exp_(lx[i] - top), exp_(a2 - top)
+            step = (top + log_(e1 + e2) - ld[i]) / ((e1 + km1 * e2) / (e1 + e2))
+            step = step if km1 > 0.0 else 0.0
+            lx[i] = lx[i] - step
+            small = small and abs(step) < 1e-14
+        if small:
+            break
+    for i in range(3):
+        km1 = powers[i] - 1.0
+        a2 = m[i] + km1 * lx[i]
+        top = max(lx[i], a2)
+        e1, e2 = exp_(lx[i] - top), exp_(a2 - top)
+        dlx[i] = -e2 / (e1 + km1 * e2)
+        if km1 == 0.0:  # k = 1: X = |d| - mu, dX/dnu = -mu
+            mu = exp_(m[i])
+            x1 = max(exp_(ld[i]) - mu, 0.0)
+            lx[i] = log_(x1)
+            dlx[i] = -mu / x1 if x1 > 0 else 0.0
+        if big_d[i] <= 0.0:
+            lx[i] = -np.inf
+        if big_d[i] <= 0.0 or not np.isfinite(lx[i]):
+            dlx[i] = 0.0
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def nearest_point(
+    p: np.ndarray, center: np.ndarray, axes: np.ndarray, powers: np.ndarray
+) -> np.ndarray:  # pragma: no cover - jit
+    """``BodyThreat.nearest_point`` of one point p (3,): the closer of its radial projection and
+    the nearest-point conditions' solution (``BodyThreat._outside``'s steps for one point); p
+    itself when Gamma(p) <= 1.  The numpy loops stop when every point of a batch has converged,
+    so only a batch of one has these iterations: batches stay with numpy."""
+    d = np.empty(3)
+    big_d = np.empty(3)
+    for i in range(3):
+        d[i] = p[i] - center[i]
+        big_d[i] = abs(d[i])
+    g = (pow_(big_d[0] / axes[0], powers[0]) + pow_(big_d[1] / axes[1], powers[1])) + pow_(
+        big_d[2] / axes[2], powers[2]
+    )
+    if not g > 1.0:
+        return p.copy()
+    s0 = _radial(d, axes, powers)
+    q0 = np.empty(3)
+    grad = np.empty(3)
+    gap = np.empty(3)
+    for i in range(3):
+        q0[i] = s0 * d[i]
+        grad[i] = powers[i] * pow_(abs(q0[i]) / axes[i], powers[i] - 1.0) / axes[i]
+        gap[i] = d[i] - q0[i]
+    grad0 = math.sqrt((grad[0] * grad[0] + grad[1] * grad[1]) + grad[2] * grad[2])
+    dist0 = math.sqrt((gap[0] * gap[0] + gap[1] * gap[1]) + gap[2] * gap[2])
+    nu = log_(max(2.0 * dist0 / grad0, 1e-300))
+    lo, hi = -np.inf, np.inf
+    la = np.empty(3)
+    lk = np.empty(3)
+    kla = np.empty(3)
+    ld = np.empty(3)
+    lx = np.full(3, np.nan)  # no start: log|d|
+    dlx = np.empty(3)
+    z = np.empty(3)
+    for i in range(3):
+        la[i] = log_(axes[i])
+        lk[i] = log_(powers[i] / 2.0)
+        kla[i] = powers[i] * la[i]
+        ld[i] = log_(big_d[i] if big_d[i] > 0.0 else 1.0)
+    for _ in range(80):
+        _inner(nu, big_d, lx, dlx, lk, kla, ld, powers)
+        for i in range(3):
+            z[i] = powers[i] * (lx[i] - la[i])
+        top = max(max(z[0], z[1]), z[2])
+        live = np.isfinite(top)  # else every X is 0 (k = 1 axes clamped): Gamma = 0
+        shift = top if live else 0.0
+        w0, w1, w2 = exp_(z[0] - shift), exp_(z[1] - shift), exp_(z[2] - shift)
+        total = (w0 + w1) + w2 if live else 1.0
+        f = top + log_(total) if live else -np.inf  # log Gamma
+        df = ((w0 * powers[0] * dlx[0] + w1 * powers[1] * dlx[1]) + w2 * powers[2] * dlx[2]) / total
+        if f > 0:
+            lo = nu
+        if f <= 0:
+            hi = nu
+        if live and df < 0:
+            step = -f / df
+        else:
+            step = 4.0 if live else -4.0
+        step = min(max(step, -4.0), 4.0)
+        cand = nu + step
+        if (cand <= lo or cand >= hi) and np.isfinite(lo) and np.isfinite(hi):
+            cand = 0.5 * (lo + hi)
+        if abs(f) < 1e-14 or hi - lo < 1e-13:
+            break
+        nu = cand
+    x = np.empty(3)
+    for i in range(3):
+        sign = 1.0 if d[i] > 0.0 else (-1.0 if d[i] < 0.0 else 0.0)
+        x[i] = sign * exp_(lx[i])
+    if x[0] == 0.0 and x[1] == 0.0 and x[2] == 0.0:
+        x[:] = q0
+    s = _radial(x, axes, powers)
+    for i in range(3):
+        x[i] = s * x[i]
+        gap[i] = d[i] - x[i]
+    dist = math.sqrt((gap[0] * gap[0] + gap[1] * gap[1]) + gap[2] * gap[2])
+    best = x if dist <= dist0 else q0
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = best[i] + center[i]
     return out
