@@ -621,33 +621,40 @@ def random_bodies(rng: np.random.Generator, n: int) -> list[BodyThreat]:
     return out
 
 
-def test_body_kernels_return_their_numpy_twins_bits() -> None:
-    """body_radius_at and section_boundary (numba, replay/threats/body_kernels.py) return exactly
-    the floats of the numpy code they replaced (kept as body_radius_at_numpy and
-    section_boundary_numpy), at altitudes across the body, on its top, bottom and centre, and
-    outside it."""
+def test_body_kernels_agree_with_their_numpy_twins() -> None:
+    """body_radius_at and section_boundary (numba, replay/threats/body_kernels.py) against the
+    numpy code they replaced (kept as body_radius_at_numpy and section_boundary_numpy), at
+    altitudes across the body, on its top, bottom and centre, and outside it.  The kernels use the
+    C library's pow, numpy SVML's where the CPU has AVX-512: an ulp apart in a few per cent of
+    calls.  The boundary's bisection does not notice (1e-9 of the body's size); the radius's
+    golden-section search can: on a flat or a sharp maximum (exponents near 0.5, or above 40) an
+    ulp sends it down another path, and the two searches end up to 5e-5 of the size apart (both
+    above the sampled section: test_body_radius_at_circumscribes_the_section)."""
     rng = np.random.default_rng(20260)
     live = 0
     for b in random_bodies(rng, 160):
-        z0, c = b.center[2], b.axes[2]
+        z0, c, size = b.center[2], b.axes[2], max(b.axes)
         z = z0 + c * np.concatenate([rng.uniform(-1.3, 1.3, 12), [-1.0, 0.0, 1.0, 1.0 - 1e-12]])
         got, want = b.body_radius_at(z), body_radius_at_numpy(b, z)
-        assert np.array_equal(got, want), (b, z, got - want)
-        assert np.array_equal(b.body_radius_at(z.reshape(4, 4)), want.reshape(4, 4))
-        assert np.array_equal(b.body_radius_at(float(z[0])), body_radius_at_numpy(b, float(z[0])))
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-4 * size, err_msg=str(b))
+        assert np.array_equal(got == 0.0, want == 0.0)  # the same altitudes cut the body
+        assert np.array_equal(b.body_radius_at(z.reshape(4, 4)), got.reshape(4, 4))
+        assert b.body_radius_at(float(z[0])) == got[0]
         for zk, n in zip(z[[0, 1, 2, 13]], (360, 90, 7, 360), strict=True):
             got_s, want_s = b.section_boundary(float(zk), n), section_boundary_numpy(b, zk, n)
             if want_s is None:
                 assert got_s is None
                 continue
             live += 1
-            assert got_s is not None and np.array_equal(got_s, want_s), (b, zk, n)
+            assert got_s is not None
+            np.testing.assert_allclose(got_s, want_s, rtol=0, atol=1e-9 * size, err_msg=str(b))
     assert live > 300  # most altitudes cut the body
 
 
-def test_the_nearest_point_kernel_returns_the_numpy_bits() -> None:
-    """nearest_point of one point (numba) returns exactly the numpy code's point (which batches
-    still use), for points around random bodies: on their axes planes, inside and far out."""
+def test_the_nearest_point_kernel_agrees_with_the_numpy_code() -> None:
+    """nearest_point of one point (numba) against the numpy code's point (which batches still
+    use), for points around random bodies: on their axes planes, inside and far out; to 1e-12 of
+    the body's size (the C library's exp and log, not numpy's: see the test above)."""
     rng = np.random.default_rng(20261)
     outside = 0
     for b in random_bodies(rng, 120):
@@ -656,7 +663,7 @@ def test_the_nearest_point_kernel_returns_the_numpy_bits() -> None:
         offsets[:4] = rng.choice([0.0, 0.3, 1.5, -2.0, 50.0], (4, 3))  # zero components
         for p in c + ax * offsets:
             got, want = b.nearest_point(p), nearest_point_numpy(b, p[None])[0]
-            assert np.array_equal(got, want), (b, p, got - want)
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * max(b.axes), err_msg=str(b))
             outside += bool(b.gamma(p) > 1.0)
     assert outside > 1000
 

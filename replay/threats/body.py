@@ -380,7 +380,7 @@ class BodyThreat(Threat):
     def nearest_point(self, p: npt.ArrayLike) -> FloatArray:
         """The closest surface point found for outside points (see the module docstring); the
         point itself inside (clipped to the body).  One point (the radar's question) is
-        compiled: :func:`replay.threats.body_kernels.nearest_point`, the same steps and bits."""
+        compiled: :func:`replay.threats.body_kernels.nearest_point`, the same steps (to rounding)."""
         q = as_points(p)
         if q.size == 3:
             near = body_kernels.nearest_point(q.reshape(3), self._c, self._ax, self._k)

@@ -6,9 +6,12 @@ circumscribed radius (:meth:`~replay.threats.body.BodyThreat.body_radius_at`), i
 Each is an iterative search on one value or a few hundred (an 80-step golden-section search, a
 40-step bisection, nested Newton loops), where numpy's per-call overhead was nearly all the cost
 (about 1.5 ms, 3 ms and 0.6 ms a call).  The kernels do the same arithmetic in the same order,
-one element at a time, with numpy's own ``pow``, ``exp`` and ``log`` (:mod:`terrain.npmath`), so
-they return the same bits as the numpy code, which is kept in ``body.py`` (``..._numpy``, and
-``BodyThreat._outside`` for batches); ``tests/test_threats.py`` compares them on random bodies.
+one element at a time, with the C library's ``pow``, ``exp`` and ``log`` (numba's).  numpy's own
+(Intel's SVML where the CPU has AVX-512) round differently in the last bit in a few per cent of
+cases, so the kernels agree with the numpy code -- kept in ``body.py`` (``..._numpy``, and
+``BodyThreat._outside`` for batches) -- to rounding, not to the bit: ``tests/test_threats.py``
+compares them on random bodies (relative 1e-12 of the body's size).  numpy's shortcuts for
+``array ** scalar`` (2: ``x * x``, 0.5: ``sqrt``, -1: ``1 / x``) are kept (:func:`scalar_pow`).
 """
 
 from __future__ import annotations
@@ -18,7 +21,18 @@ import math
 import numba as nb
 import numpy as np
 
-from terrain.npmath import LANES, exp_, log_, pow_, pow_lanes, scalar_pow
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def scalar_pow(x: float, e: float) -> float:  # pragma: no cover - jit
+    """``x ** e`` as numpy computes an array to a Python scalar: its shortcuts for 2, 0.5, -1."""
+    if e == 2.0:
+        return x * x
+    if e == 0.5:
+        return math.sqrt(x)
+    if e == -1.0:
+        return 1.0 / x
+    return math.pow(x, e)
+
 
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 GOLDEN_STEPS = 80
@@ -103,42 +117,24 @@ def section_boundary(
 ) -> np.ndarray:  # pragma: no cover - jit
     """The section's boundary at altitude z along the unit directions u (n, 2) from the axis:
     per direction, 40 bisection steps on Gamma <= 1 over radii [0, reach] (seed 001 eq 3 with the
-    powers 2p, 2q, 2r, summed in numpy's order); the points (n, 2).  Eight directions go
-    together, so that each step's powers are two 8-lane calls."""
+    powers 2p, 2q, 2r, summed in numpy's order); the points (n, 2)."""
     c0, c1, c2 = center[0], center[1], center[2]
-    tz = pow_(abs(z - c2) / axes[2], powers[2])
+    tz = math.pow(abs(z - c2) / axes[2], powers[2])
     n = u.shape[0]
     out = np.empty((n, 2))
-    lo = np.empty(LANES)
-    hi = np.empty(LANES)
-    mid = np.empty(LANES)
-    bx = np.empty(LANES)
-    by = np.empty(LANES)
-    tx = np.empty(LANES)
-    ty = np.empty(LANES)
-    kx = np.full(LANES, powers[0])
-    ky = np.full(LANES, powers[1])
-    for first in range(0, n, LANES):
-        m = min(LANES, n - first)
-        lo[:] = 0.0
-        hi[:] = reach
+    for i in range(n):
+        lo, hi = 0.0, reach
         for _ in range(BISECTION_STEPS):
-            for j in range(LANES):
-                mid[j] = 0.5 * (lo[j] + hi[j])
-                i = first + min(j, m - 1)  # spare lanes repeat the last direction
-                bx[j] = abs((c0 + mid[j] * u[i, 0]) - c0) / axes[0]
-                by[j] = abs((c1 + mid[j] * u[i, 1]) - c1) / axes[1]
-            pow_lanes(bx, kx, tx)
-            pow_lanes(by, ky, ty)
-            for j in range(LANES):
-                if (tx[j] + ty[j]) + tz <= 1.0:
-                    lo[j] = mid[j]
-                else:
-                    hi[j] = mid[j]
-        for j in range(m):
-            r = 0.5 * (lo[j] + hi[j])
-            out[first + j, 0] = c0 + r * u[first + j, 0]
-            out[first + j, 1] = c1 + r * u[first + j, 1]
+            mid = 0.5 * (lo + hi)
+            tx = math.pow(abs((c0 + mid * u[i, 0]) - c0) / axes[0], powers[0])
+            ty = math.pow(abs((c1 + mid * u[i, 1]) - c1) / axes[1], powers[1])
+            if (tx + ty) + tz <= 1.0:
+                lo = mid
+            else:
+                hi = mid
+        r = 0.5 * (lo + hi)
+        out[i, 0] = c0 + r * u[i, 0]
+        out[i, 1] = c1 + r * u[i, 1]
     return out
 
 
@@ -148,22 +144,22 @@ def _radial(d: np.ndarray, axes: np.ndarray, powers: np.ndarray) -> float:  # pr
     lw = np.empty(3)
     m = max(max(abs(d[0]) / axes[0], abs(d[1]) / axes[1]), abs(d[2]) / axes[2])
     for i in range(3):
-        lw[i] = log_((abs(d[i]) / axes[i]) / m)
+        lw[i] = math.log((abs(d[i]) / axes[i]) / m)
     z = np.empty(3)
     lam = 0.0
     for _ in range(60):
         for i in range(3):
             z[i] = powers[i] * (lam + lw[i])
         zmax = max(max(z[0], z[1]), z[2])
-        e0, e1, e2 = exp_(z[0] - zmax), exp_(z[1] - zmax), exp_(z[2] - zmax)
+        e0, e1, e2 = math.exp(z[0] - zmax), math.exp(z[1] - zmax), math.exp(z[2] - zmax)
         total = (e0 + e1) + e2
-        h = zmax + log_(total)
+        h = zmax + math.log(total)
         dh = ((powers[0] * e0 + powers[1] * e1) + powers[2] * e2) / total
         step = h / dh
         lam = lam - step
         if abs(step) < 1e-15:
             break
-    return exp_(lam) / m
+    return math.exp(lam) / m
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -191,8 +187,8 @@ def _inner(
             km1 = powers[i] - 1.0
             a2 = m[i] + km1 * lx[i]
             top = max(lx[i], a2)
-            e1, e2 = exp_(lx[i] - top), exp_(a2 - top)
-            step = (top + log_(e1 + e2) - ld[i]) / ((e1 + km1 * e2) / (e1 + e2))
+            e1, e2 = math.exp(lx[i] - top), math.exp(a2 - top)
+            step = (top + math.log(e1 + e2) - ld[i]) / ((e1 + km1 * e2) / (e1 + e2))
             step = step if km1 > 0.0 else 0.0
             lx[i] = lx[i] - step
             small = small and abs(step) < 1e-14
@@ -202,12 +198,12 @@ def _inner(
         km1 = powers[i] - 1.0
         a2 = m[i] + km1 * lx[i]
         top = max(lx[i], a2)
-        e1, e2 = exp_(lx[i] - top), exp_(a2 - top)
+        e1, e2 = math.exp(lx[i] - top), math.exp(a2 - top)
         dlx[i] = -e2 / (e1 + km1 * e2)
         if km1 == 0.0:  # k = 1: X = |d| - mu, dX/dnu = -mu
-            mu = exp_(m[i])
-            x1 = max(exp_(ld[i]) - mu, 0.0)
-            lx[i] = log_(x1)
+            mu = math.exp(m[i])
+            x1 = max(math.exp(ld[i]) - mu, 0.0)
+            lx[i] = math.log(x1)
             dlx[i] = -mu / x1 if x1 > 0 else 0.0
         if big_d[i] <= 0.0:
             lx[i] = -np.inf
@@ -228,9 +224,9 @@ def nearest_point(
     for i in range(3):
         d[i] = p[i] - center[i]
         big_d[i] = abs(d[i])
-    g = (pow_(big_d[0] / axes[0], powers[0]) + pow_(big_d[1] / axes[1], powers[1])) + pow_(
-        big_d[2] / axes[2], powers[2]
-    )
+    g = (
+        math.pow(big_d[0] / axes[0], powers[0]) + math.pow(big_d[1] / axes[1], powers[1])
+    ) + math.pow(big_d[2] / axes[2], powers[2])
     if not g > 1.0:
         return p.copy()
     s0 = _radial(d, axes, powers)
@@ -239,11 +235,11 @@ def nearest_point(
     gap = np.empty(3)
     for i in range(3):
         q0[i] = s0 * d[i]
-        grad[i] = powers[i] * pow_(abs(q0[i]) / axes[i], powers[i] - 1.0) / axes[i]
+        grad[i] = powers[i] * math.pow(abs(q0[i]) / axes[i], powers[i] - 1.0) / axes[i]
         gap[i] = d[i] - q0[i]
     grad0 = math.sqrt((grad[0] * grad[0] + grad[1] * grad[1]) + grad[2] * grad[2])
     dist0 = math.sqrt((gap[0] * gap[0] + gap[1] * gap[1]) + gap[2] * gap[2])
-    nu = log_(max(2.0 * dist0 / grad0, 1e-300))
+    nu = math.log(max(2.0 * dist0 / grad0, 1e-300))
     lo, hi = -np.inf, np.inf
     la = np.empty(3)
     lk = np.empty(3)
@@ -253,10 +249,10 @@ def nearest_point(
     dlx = np.empty(3)
     z = np.empty(3)
     for i in range(3):
-        la[i] = log_(axes[i])
-        lk[i] = log_(powers[i] / 2.0)
+        la[i] = math.log(axes[i])
+        lk[i] = math.log(powers[i] / 2.0)
         kla[i] = powers[i] * la[i]
-        ld[i] = log_(big_d[i] if big_d[i] > 0.0 else 1.0)
+        ld[i] = math.log(big_d[i] if big_d[i] > 0.0 else 1.0)
     for _ in range(80):
         _inner(nu, big_d, lx, dlx, lk, kla, ld, powers)
         for i in range(3):
@@ -264,9 +260,9 @@ def nearest_point(
         top = max(max(z[0], z[1]), z[2])
         live = np.isfinite(top)  # else every X is 0 (k = 1 axes clamped): Gamma = 0
         shift = top if live else 0.0
-        w0, w1, w2 = exp_(z[0] - shift), exp_(z[1] - shift), exp_(z[2] - shift)
+        w0, w1, w2 = math.exp(z[0] - shift), math.exp(z[1] - shift), math.exp(z[2] - shift)
         total = (w0 + w1) + w2 if live else 1.0
-        f = top + log_(total) if live else -np.inf  # log Gamma
+        f = top + math.log(total) if live else -np.inf  # log Gamma
         df = ((w0 * powers[0] * dlx[0] + w1 * powers[1] * dlx[1]) + w2 * powers[2] * dlx[2]) / total
         if f > 0:
             lo = nu
@@ -286,7 +282,7 @@ def nearest_point(
     x = np.empty(3)
     for i in range(3):
         sign = 1.0 if d[i] > 0.0 else (-1.0 if d[i] < 0.0 else 0.0)
-        x[i] = sign * exp_(lx[i])
+        x[i] = sign * math.exp(lx[i])
     if x[0] == 0.0 and x[1] == 0.0 and x[2] == 0.0:
         x[:] = q0
     s = _radial(x, axes, powers)
