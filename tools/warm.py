@@ -5,7 +5,8 @@ Every kernel is ``cache=True``: compiled once, its machine code kept beside the 
 meet first, at the same time. ``make test`` runs this beside mypy instead (one core each), so the
 workers find the kernels compiled: a small plan on the demo map (with zones), its check, short
 replays with each fixed-wing avoider (the radar, and PSO-CA with the cooperative sensor) recorded
-to MCAP, and the quadrotor's priority loop with the rangefinders. Nothing is asserted here (the
+to MCAP, CTGA past seed 001's convex bodies (their kernels, replay/threats/body_kernels.py), and
+the quadrotor's priority loop with the rangefinders. Nothing is asserted here (the
 suite does that) and nothing is kept: the outputs go to a temporary folder. Exit status 0 unless
 one of the commands could not run at all.
 """
@@ -25,6 +26,8 @@ ZONES = ROOT / "data/zones/rmnp-demo.yaml"
 THREATS = ROOT / "data/threats/rmnp-demo.yaml"
 QUAD = ROOT / "data/scenarios/priority-mission.yaml"
 QUAD_THREATS = ROOT / "data/scenarios/priority-convex.yaml"
+SEED001 = ROOT / "data/scenarios/seed001-mission.yaml"
+SEED001_BODIES = ROOT / "data/scenarios/seed001-simple-threats.yaml"  # kind: body
 
 
 def commands(folder: Path) -> list[list[str]]:
@@ -39,10 +42,13 @@ def commands(folder: Path) -> list[list[str]]:
         ("ctga", "radar", "400"),
         ("fga", "radar", "400"),
         ("priority", "rangefinder", "120"),
+        ("ctga-bodies", "cooperative", "30"),
     ]
-    for avoid, sensor, seconds in flights:
-        source, threats = (QUAD, QUAD_THREATS) if avoid == "priority" else (mission, THREATS)
-        out = str(folder / f"{avoid}-{sensor}.mcap")
+    sources = {"priority": (QUAD, QUAD_THREATS), "ctga-bodies": (SEED001, SEED001_BODIES)}
+    for name, sensor, seconds in flights:
+        source, threats = sources.get(name, (mission, THREATS))
+        avoid = name.removesuffix("-bodies")
+        out = str(folder / f"{name}-{sensor}.mcap")
         flight = ["replay", str(source), "--threats", str(threats), "--avoid", avoid]
         runs.append([*flight, "--sensor", sensor, "--seed", "1", "--duration", seconds, "-o", out])
     return runs

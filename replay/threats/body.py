@@ -37,7 +37,7 @@ the true signed distance) which is, outside the body, also exact to ~1e-9 relati
   distance, so the result is exact when the solver converged and a safe lower bound when it
   did not.  Where an exponent is 0.5 the body has edges (|x/a| is not differentiable at 0);
   there the subgradient closest to the direction p - q is used.  Cost: ~1 ms for one point,
-  ~10 us per point in batches;
+  ~10 us per point in batches (the nearest point alone of one point is compiled: ~5 us);
 - inside: minus the smallest distance from p to a surface point found along the three axis
   directions and along the radial direction (each an upper bound of the depth);
 - on the surface (Gamma = 1): 0.
@@ -50,6 +50,7 @@ The common interface of every kind (``active``, ``position``, ``separation``, ``
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -58,6 +59,7 @@ import numpy as np
 import numpy.typing as npt
 
 from replay.frames import as_points
+from replay.threats import body_kernels
 from replay.threats.kinds import EDGE_SUFFIXES, Threat, Vec3, finite_vec3, outline_edges
 from terrain.errors import InputError
 
@@ -66,6 +68,17 @@ BoolArray = npt.NDArray[np.bool_]
 
 EXPONENT_RANGE = (0.5, 100.0)
 _RADIUS_SAMPLES = 257
+_GRID = np.linspace(0.0, 1.0, _RADIUS_SAMPLES)  # the samples of u = X/A (body_radius_at)
+_GRID.flags.writeable = False
+
+
+@functools.lru_cache(maxsize=4)
+def _directions(n: int) -> FloatArray:
+    """(n, 2) unit vectors one per 360/n degrees from the x axis (section_boundary's)."""
+    theta = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    u = np.column_stack([np.cos(theta), np.sin(theta)])
+    u.flags.writeable = False
+    return u
 
 
 # powers 2p below this (exponents below 0.55) make an edge or a vertex almost a kink: there the
@@ -108,10 +121,12 @@ class BodyThreat(Threat):
         object.__setattr__(self, "exponents", ex)
         object.__setattr__(self, "_c", np.array(self.center))
         object.__setattr__(self, "_ax", np.array(axes))
+        object.__setattr__(self, "_ex", np.array(ex))
         object.__setattr__(self, "_k", 2.0 * np.array(ex))  # the powers 2p, 2q, 2r
 
     _c: FloatArray = dataclasses.field(init=False, repr=False, compare=False)
     _ax: FloatArray = dataclasses.field(init=False, repr=False, compare=False)
+    _ex: FloatArray = dataclasses.field(init=False, repr=False, compare=False)
     _k: FloatArray = dataclasses.field(init=False, repr=False, compare=False)
 
     @property
@@ -136,19 +151,12 @@ class BodyThreat(Threat):
         return np.asarray(self.gamma(p) <= 1.0)
 
     def body_radius_at(self, z: npt.ArrayLike) -> FloatArray:
-        """Circumscribed radius (m) of the horizontal section at altitude(s) z; 0 outside it."""
+        """Circumscribed radius (m) of the horizontal section at altitude(s) z; 0 outside it
+        (compiled: :func:`replay.threats.body_kernels.body_radius`; its twin is
+        :func:`body_radius_at_numpy`)."""
         za = np.asarray(z, dtype=np.float64)
-        a, b, c = self.axes
-        p, q, r = self.exponents
-        h = np.abs(za - self.center[2]) / c
-        s = np.where(h < 1.0, 1.0 - np.minimum(h, 1.0) ** (2 * r), 0.0).ravel()
-        big_a = a * s ** (1 / (2 * p))
-        big_b = b * s ** (1 / (2 * q))
-        out = np.zeros_like(s)
-        live = s > 0
-        if np.any(live):
-            out[live] = _superellipse_radius(big_a[live], big_b[live], p, q)
-        return out.reshape(za.shape)
+        out = body_kernels.body_radius(za.ravel(), self.center[2], self._ax, self._ex, _GRID)
+        return np.asarray(out.reshape(za.shape))
 
     def _radial(self, d: FloatArray) -> FloatArray:
         """Scale s (...) with Gamma(c + s d) = 1 for non-zero offsets d (..., 3)."""
@@ -371,13 +379,13 @@ class BodyThreat(Threat):
 
     def nearest_point(self, p: npt.ArrayLike) -> FloatArray:
         """The closest surface point found for outside points (see the module docstring); the
-        point itself inside (clipped to the body)."""
+        point itself inside (clipped to the body).  One point (the radar's question) is
+        compiled: :func:`replay.threats.body_kernels.nearest_point`, the same steps (to rounding)."""
         q = as_points(p)
-        flat = q.reshape(-1, 3).copy()
-        outside = self.gamma(flat) > 1.0
-        if np.any(outside):
-            flat[outside] = self._outside(flat[outside])[1]
-        return flat.reshape(q.shape)
+        if q.size == 3:
+            near = body_kernels.nearest_point(q.reshape(3), self._c, self._ax, self._k)
+            return np.asarray(near.reshape(q.shape))
+        return nearest_point_numpy(self, q)
 
     def radar_points(
         self, t: float, observer: npt.ArrayLike, max_range: float = math.inf
@@ -397,23 +405,17 @@ class BodyThreat(Threat):
 
     def section_boundary(self, z: float, n: int = 360) -> FloatArray | None:
         """``n`` points (n, 2) of the horizontal section's boundary at altitude ``z`` (one per
-        degree about the axis, by bisection on Gamma = 1), None where the section is empty."""
+        degree about the axis, by bisection on Gamma = 1), None where the section is empty
+        (compiled: :func:`replay.threats.body_kernels.section_boundary`; its twin is
+        :func:`section_boundary_numpy`)."""
         if not float(self.body_radius_at(z)) > 0.0:
             return None
-        theta = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
-        u = np.column_stack([np.cos(theta), np.sin(theta)])
-        lo = np.zeros(n)
-        hi = np.full(n, float(np.hypot(self._ax[0], self._ax[1])) * 1.01)
-        for _ in range(40):
-            mid = 0.5 * (lo + hi)
-            pts = np.column_stack(
-                [self._c[0] + mid * u[:, 0], self._c[1] + mid * u[:, 1], np.full(n, z)]
+        reach = float(np.hypot(self._ax[0], self._ax[1])) * 1.01
+        return np.asarray(
+            body_kernels.section_boundary(
+                self._c, self._ax, self._k, float(z), _directions(n), reach
             )
-            inside = self.gamma(pts) <= 1.0
-            lo = np.where(inside, mid, lo)
-            hi = np.where(inside, hi, mid)
-        r = 0.5 * (lo + hi)
-        return np.column_stack([self._c[0] + r * u[:, 0], self._c[1] + r * u[:, 1]])
+        )
 
     def shape(self, t: float = 0.0) -> dict[str, Any]:
         return {
@@ -435,14 +437,17 @@ class BodyThreat(Threat):
         }
 
 
-def _superellipse_radius(big_a: FloatArray, big_b: FloatArray, p: float, q: float) -> FloatArray:
-    """max sqrt(X^2 + Y^2) on |X/A|^(2p) + |Y/B|^(2q) = 1, for arrays A, B > 0 (M,)."""
+def superellipse_radius_numpy(
+    big_a: FloatArray, big_b: FloatArray, p: float, q: float
+) -> FloatArray:
+    """max sqrt(X^2 + Y^2) on |X/A|^(2p) + |Y/B|^(2q) = 1, for arrays A, B > 0 (M,): the numpy
+    twin of :func:`replay.threats.body_kernels.superellipse_radius`."""
 
     def f(u: FloatArray) -> FloatArray:
         v = np.clip(1.0 - u ** (2 * p), 0.0, None) ** (1.0 / q)
         return np.asarray(big_a[:, None] ** 2 * u**2 + big_b[:, None] ** 2 * v)
 
-    grid = np.linspace(0.0, 1.0, _RADIUS_SAMPLES)
+    grid = _GRID
     vals = f(np.broadcast_to(grid, (len(big_a), len(grid))))
     k = vals.argmax(axis=1)
     best = vals[np.arange(len(k)), k]
@@ -460,3 +465,50 @@ def _superellipse_radius(big_a: FloatArray, big_b: FloatArray, p: float, q: floa
         f1, f2 = f(x1[:, None])[:, 0], f(x2[:, None])[:, 0]
     best = np.maximum(best, np.maximum(f1, f2))
     return np.asarray(np.sqrt(best))
+
+
+def body_radius_at_numpy(body: BodyThreat, z: npt.ArrayLike) -> FloatArray:
+    """The numpy twin of :meth:`BodyThreat.body_radius_at` (the tests compare the two)."""
+    za = np.asarray(z, dtype=np.float64)
+    a, b, c = body.axes
+    p, q, r = body.exponents
+    h = np.abs(za - body.center[2]) / c
+    s = np.where(h < 1.0, 1.0 - np.minimum(h, 1.0) ** (2 * r), 0.0).ravel()
+    big_a = a * s ** (1 / (2 * p))
+    big_b = b * s ** (1 / (2 * q))
+    out = np.zeros_like(s)
+    live = s > 0
+    if np.any(live):
+        out[live] = superellipse_radius_numpy(big_a[live], big_b[live], p, q)
+    return out.reshape(za.shape)
+
+
+def section_boundary_numpy(body: BodyThreat, z: float, n: int = 360) -> FloatArray | None:
+    """The numpy twin of :meth:`BodyThreat.section_boundary` (the tests compare the two)."""
+    if not float(body_radius_at_numpy(body, z)) > 0.0:
+        return None
+    theta = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    u = np.column_stack([np.cos(theta), np.sin(theta)])
+    lo = np.zeros(n)
+    hi = np.full(n, float(np.hypot(body._ax[0], body._ax[1])) * 1.01)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        pts = np.column_stack(
+            [body._c[0] + mid * u[:, 0], body._c[1] + mid * u[:, 1], np.full(n, z)]
+        )
+        inside = body.gamma(pts) <= 1.0
+        lo = np.where(inside, mid, lo)
+        hi = np.where(inside, hi, mid)
+    r = 0.5 * (lo + hi)
+    return np.column_stack([body._c[0] + r * u[:, 0], body._c[1] + r * u[:, 1]])
+
+
+def nearest_point_numpy(body: BodyThreat, p: npt.ArrayLike) -> FloatArray:
+    """:meth:`BodyThreat.nearest_point` in numpy, for batches (its loops stop when every point has
+    converged) and as the twin of the one-point kernel (the tests compare the two)."""
+    q = as_points(p)
+    flat = q.reshape(-1, 3).copy()
+    outside = body.gamma(flat) > 1.0
+    if np.any(outside):
+        flat[outside] = body._outside(flat[outside])[1]
+    return flat.reshape(q.shape)
