@@ -658,6 +658,52 @@ def ranges_within(t_hit: np.ndarray, max_range: float) -> np.ndarray:  # pragma:
     return out
 
 
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def segment_rays(
+    a: np.ndarray, b: np.ndarray, tolerance: float, shift: np.ndarray, rays: np.ndarray
+) -> tuple[np.ndarray, bool]:  # pragma: no cover - jit
+    """The rays of :meth:`terrain.model.TerrainModel.line_of_sight` for segments a -> b ((N, 3)
+    float64 each) in one pass: fill ``rays`` ((N, 6) float32) with the unit directions ``(b -
+    a) / |b - a|`` (``/ 1`` for a zero segment) and the origins ``a + tolerance * unit`` less
+    ``shift``, the arithmetic of ``terrain.model.segment_rays_numpy`` (``|v| = sqrt(x^2 + y^2
+    + z^2)`` in float64, rounded to float32 last).  Returns the segments' lengths (N,) and
+    whether every coordinate was finite (if not, nothing written is used)."""
+    n = a.shape[0]
+    length = np.empty(n)
+    finite = True
+    for i in range(n):
+        ax, ay, az = a[i, 0], a[i, 1], a[i, 2]
+        vx, vy, vz = b[i, 0] - ax, b[i, 1] - ay, b[i, 2] - az
+        if not (np.isfinite(ax) and np.isfinite(ay) and np.isfinite(az)):
+            finite = False
+        if not (np.isfinite(b[i, 0]) and np.isfinite(b[i, 1]) and np.isfinite(b[i, 2])):
+            finite = False
+        norm = np.sqrt(vx * vx + vy * vy + vz * vz)
+        d = norm if norm > 0.0 else 1.0
+        ux, uy, uz = vx / d, vy / d, vz / d
+        rays[i, 0] = (ax + tolerance * ux) - shift[0]
+        rays[i, 1] = (ay + tolerance * uy) - shift[1]
+        rays[i, 2] = (az + tolerance * uz) - shift[2]
+        rays[i, 3] = ux
+        rays[i, 4] = uy
+        rays[i, 5] = uz
+        length[i] = norm
+    return length, finite
+
+
+@nb.njit(cache=True, nogil=True)
+def clear_segments(
+    t_hit: np.ndarray, length: np.ndarray, tolerance: float
+) -> np.ndarray:  # pragma: no cover - jit
+    """Whether each segment of :func:`segment_rays` is clear: shorter than twice the tolerance,
+    or open3d's float32 ``t_hit`` (as float64) reaches its length less twice the tolerance --
+    ``(length <= 2 tol) | (t >= length - 2 tol)``."""
+    out = np.empty(length.shape[0], dtype=np.bool_)
+    for i in range(length.shape[0]):
+        out[i] = length[i] <= 2 * tolerance or np.float64(t_hit[i]) >= length[i] - 2 * tolerance
+    return out
+
+
 @nb.njit(cache=True, nogil=True)
 def bilinear(
     heights: np.ndarray, x: np.ndarray, y: np.ndarray, left: float, top: float, dx: float, dy: float

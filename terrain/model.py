@@ -140,6 +140,21 @@ def rays_numpy(
     return rays
 
 
+def segment_rays_numpy(
+    a: FloatArray, b: FloatArray, tolerance: float, shift: FloatArray
+) -> tuple[npt.NDArray[np.float32], FloatArray]:
+    """The (N, 6) float32 rays :meth:`TerrainModel.line_of_sight` casts for segments a -> b
+    (N, 3), and their lengths: from ``tolerance`` past ``a`` (less ``shift``) along the unit
+    direction.  The pure-numpy twin of :func:`terrain.kernels.segment_rays`."""
+    v = b - a
+    length = np.linalg.norm(v, axis=-1)
+    units = v / np.where(length > 0, length, 1.0)[..., None]
+    rays = np.empty((*a.shape[:-1], 6), dtype=np.float32)
+    rays[..., :3] = a + tolerance * units - shift
+    rays[..., 3:] = units
+    return rays, length
+
+
 class TerrainModel:
     """Mesh, fcl BVH and ray-casting scene of a height grid; build with :meth:`from_grid`."""
 
@@ -335,13 +350,6 @@ class TerrainModel:
         scene.add_triangles(*(o3d.core.Tensor.from_numpy(a) for a in self._scene_buffers))
         return scene
 
-    def _cast(self, origins: FloatArray, units: FloatArray) -> FloatArray:
-        rays = np.empty((*origins.shape[:-1], 6), dtype=np.float32)
-        rays[..., :3] = origins - self.origin
-        rays[..., 3:] = units
-        answer = self._scene.cast_rays(o3d.core.Tensor.from_numpy(rays.reshape(-1, 6)))
-        return answer["t_hit"].numpy().reshape(origins.shape[:-1]).astype(np.float64)
-
     def raycast(
         self, origins: npt.ArrayLike, directions: npt.ArrayLike, max_range: float = math.inf
     ) -> FloatArray:
@@ -402,9 +410,23 @@ class TerrainModel:
             raise InputError(
                 f"tolerance must be a non-negative number of metres; got {tolerance!r}"
             )
-        pa, pb = _pair(a, b, "a", "b")
-        v = pb - pa
-        length = np.linalg.norm(v, axis=-1)
-        units = v / np.where(length > 0, length, 1.0)[..., None]
-        t = self._cast(pa + tolerance * units, units)  # start past a surface at a
-        return np.asarray((length <= 2 * tolerance) | (t >= length - 2 * tolerance))
+        a0 = np.asarray(a, dtype=np.float64)
+        b0 = np.asarray(b, dtype=np.float64)
+        try:
+            shape = np.broadcast_shapes(a0.shape, b0.shape)
+        except ValueError:
+            shape = None
+        if shape is None or any(p.ndim not in (1, 2) or p.shape[-1] != 3 for p in (a0, b0)):
+            _pair(a0, b0, "a", "b")  # raises the error of the one at fault
+            raise AssertionError("unreachable")  # pragma: no cover
+        flat = (-1, 3)
+        pa = np.ascontiguousarray(np.broadcast_to(a0, shape).reshape(flat))
+        pb = np.ascontiguousarray(np.broadcast_to(b0, shape).reshape(flat))
+        rays = np.empty((pa.shape[0], 6), dtype=np.float32)
+        # from tolerance past a (past a surface at a), in one compiled pass (segment_rays_numpy)
+        length, finite = kernels.segment_rays(pa, pb, float(tolerance), self.origin, rays)
+        if not finite:
+            _pair(a0, b0, "a", "b")  # raises the error of the one at fault
+            raise AssertionError("unreachable")  # pragma: no cover
+        t = self._scene.cast_rays(o3d.core.Tensor.from_numpy(rays))["t_hit"].numpy()
+        return np.asarray(kernels.clear_segments(t, length, float(tolerance)).reshape(shape[:-1]))

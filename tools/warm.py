@@ -5,7 +5,9 @@ Every kernel is ``cache=True``: compiled once, its machine code kept beside the 
 meet first, at the same time. ``make test`` runs this beside mypy instead (one core each), so the
 workers find the kernels compiled: a small plan on the demo map (with zones), its check, short
 replays with each fixed-wing avoider (the radar, and PSO-CA with the cooperative sensor) recorded
-to MCAP, CTGA past seed 001's convex bodies (their kernels, replay/threats/body_kernels.py), and
+to MCAP -- the radar over the DEM compiles its terrain returns (``replay.sensors.radar_kernel``)
+and the terrain's line of sight (``terrain.kernels.segment_rays``, ``clear_segments``) -- CTGA past
+seed 001's convex bodies (their kernels, replay/threats/body_kernels.py), and
 the quadrotor's priority loop with the rangefinders. Nothing is asserted here (the
 suite does that) and nothing is kept: the outputs go to a temporary folder. Exit status 0 unless
 one of the commands could not run at all.

@@ -123,6 +123,27 @@ def sphere_field(field: int, x: float, y: float, z: float, tail: bytes) -> bytes
     return ld(field, sphere)
 
 
+def _around_position(tail: bytes) -> tuple[bytes, bytes]:
+    """The bytes of ``sphere_field(ENTITY_SPHERES, x, y, z, tail)`` before and after its
+    position message when x, y and z are all written (27 bytes: three keys and doubles)."""
+    whole = sphere_field(ENTITY_SPHERES, 1.0, 1.0, 1.0, tail)
+    end = _IDENTITY + tail
+    head = whole[: len(whole) - 27 - len(end)]
+    if head + _vector3(1.0, 1.0, 1.0) + end != whole:  # pragma: no cover - a schema change
+        raise ValueError("unexpected layout of a detection marker")
+    return head, end
+
+
+_POSITION_KEYS = np.frombuffer(b"\x09\x11\x19", dtype=np.uint8)  # Vector3 x, y, z (doubles)
+# a detection's JSON after its position's numbers (%r each; a second %r for the range), by
+# kind of return: 2 terrain + moving
+_ROW_TAILS = tuple(
+    f'%r,%r,%r],"kind":"{kind}","moving":{moving},"range":%%r}}'
+    for kind in ("threat", "terrain")
+    for moving in ("false", "true")
+)
+
+
 def _check_wire_layout() -> None:
     """The hand-encoded fields must be what the installed schemas say (fails at import if not)."""
 
@@ -222,8 +243,8 @@ class ScanEncoder:
     after scan: a scan given as arrays (:meth:`arrays`) whose ids, positions and flags are the
     last one's is encoded from the last one's pieces (the detection list with a new range for
     each detection), and its markers are not written again (Foxglove shows a scene entity
-    without a lifetime until it is replaced); of other scans the encoded marker of a detection
-    and its JSON up to the range are kept (bounded, :func:`bounded`).  ``map_origin`` is
+    without a lifetime until it is replaced); other scans are written whole, the text of each
+    detection's JSON around its numbers kept per id (bounded, :func:`bounded`).  ``map_origin`` is
     subtracted from the marker positions; ``tails`` are the encoded size and colour fields of a
     terrain, a moving and a stationary threat's marker."""
 
@@ -231,7 +252,10 @@ class ScanEncoder:
         self._origin = (float(map_origin[0]), float(map_origin[1]), float(map_origin[2]))
         self._tails = tuple(tails)
         self._sphere_memo: dict[tuple[Any, ...], bytes] = {}  # detection marker bytes
-        self._json_memo: dict[tuple[Any, ...], str] = {}  # detection JSON up to the range
+        self._row_memo: dict[tuple[str, int], str] = {}  # a detection's JSON, %r for numbers
+        # the sphere bytes before and after the position message of each kind of return,
+        # 2 terrain + moving (threat, moving threat, terrain, "moving" terrain)
+        self._around = [_around_position(self.tail(k > 1, k & 1 > 0)) for k in range(4)]
         self._spheres: bytes | None = None  # the spheres of the markers last written
         self._key: tuple[Any, ...] | None = None  # the last scan given as arrays
         self._listing = ""  # its detection list, a %r in place of each range
@@ -258,11 +282,7 @@ class ScanEncoder:
                     memo[key] = sphere
             spheres.append(sphere)
         self._key = None
-        body = b"".join(spheres)
-        if body == self._spheres:
-            return None
-        self._spheres = body
-        return body
+        return self._shown(b"".join(spheres))
 
     def arrays(
         self,
@@ -277,7 +297,9 @@ class ScanEncoder:
         ``ranges`` (N floats), all finite.  JSON writes a float as its ``repr``: the list is
         written directly (the tests compare it with the recorder's ``write_detections``); a scan
         with the ids, positions (their bits) and flags of the last one costs a comparison and a
-        formatting of the ranges."""
+        formatting of the ranges.  Terrain returns move with the aircraft: the markers' position
+        fields are written for the whole scan at once (:meth:`_spheres`) and the list by one
+        ``%`` formatting of its positions (:meth:`_listing_of`)."""
         key = (
             ids if type(ids) is tuple else tuple(ids),
             positions.tobytes(),
@@ -286,13 +308,9 @@ class ScanEncoder:
         )
         spheres = None
         if key != self._key:
-            xyz = positions.tolist()
-            flags = list(zip(terrain.tolist(), moving.tolist(), strict=True))
-            spheres = self.markers(xyz, [self.tail(g, m) for g, m in flags])
-            heads = self._heads(key[0], xyz, flags)
-            # a %r in place of each range (printf-style: repr, as JSON writes a float)
-            items = ",".join(h.replace("%", "%%") + "%r}" for h in heads)
-            self._listing = '{"detections":[' + items + "]}"
+            kinds = (2 * terrain.astype(np.int64) + moving).tolist()
+            spheres = self._shown(self._spheres_of(positions, kinds))
+            self._listing = self._listing_of(key[0], positions, kinds)
             self._key = key
         return spheres, (self._listing % tuple(ranges)).encode()
 
@@ -300,22 +318,48 @@ class ScanEncoder:
         """Whether ``positions`` are (bit for bit) those of the last scan given as arrays."""
         return self._key is not None and positions.tobytes() == self._key[1]
 
-    def _heads(
-        self, ids: Sequence[str], positions: list[list[float]], flags: list[tuple[bool, bool]]
-    ) -> list[str]:
-        """Each detection's JSON object up to its range (kept per id, position and flags)."""
-        memo = bounded(self._json_memo)
-        heads = []
-        for ident, (x, y, z), (terrain, moving) in zip(ids, positions, flags, strict=True):
-            key = (ident, x, y, z, terrain, moving) if x and y and z else None  # as above
-            head = memo.get(key)
-            if head is None:
-                head = (
-                    f'{{"id":{dumps(str(ident)).decode()},"position":[{x!r},{y!r},{z!r}],'
-                    f'"kind":"{"terrain" if terrain else "threat"}",'
-                    f'"moving":{"true" if moving else "false"},"range":'
-                )
-                if key is not None:
-                    memo[key] = head
-            heads.append(head)
-        return heads
+    def _shown(self, body: bytes) -> bytes | None:
+        """``body``, the spheres to show, or None when they are those shown already."""
+        if body == self._spheres:
+            return None
+        self._spheres = body
+        return body
+
+    def _spheres_of(self, positions: FloatArray, kinds: list[int]) -> bytes:
+        """``b"".join(sphere_field(...))`` of :meth:`markers` for positions (N, 3) of returns of
+        each kind (``2 terrain + moving``: :meth:`tail`'s colours): the position messages (x, y, z
+        doubles and their keys) of every row written by numpy, each row's sphere its kind's
+        bytes around them; a row with a +0.0 offset (protobuf leaves that double out) by
+        :func:`sphere_field`."""
+        rel = np.ascontiguousarray(positions - np.array(self._origin), dtype="<f8")
+        n = len(rel)
+        msg = np.empty((n, 3, 9), dtype=np.uint8)
+        msg[:, :, 0] = _POSITION_KEYS
+        msg[:, :, 1:] = rel.view(np.uint8).reshape(n, 3, 8)
+        flat = msg.tobytes()
+        full = (rel.view("<u8") != 0).all(axis=1).tolist()
+        around = self._around
+        parts = []
+        for i, (k, whole) in enumerate(zip(kinds, full, strict=True)):
+            if whole:
+                head, end = around[k]
+                parts.append(head + flat[27 * i : 27 * i + 27] + end)
+            else:
+                x, y, z = rel[i].tolist()
+                parts.append(sphere_field(ENTITY_SPHERES, x, y, z, self.tail(k > 1, k & 1 > 0)))
+        return b"".join(parts)
+
+    def _listing_of(self, ids: Sequence[str], positions: FloatArray, kinds: list[int]) -> str:
+        """The detection list with a ``%r`` in place of each range: a ``%r`` in the text of
+        each detection (kept per id and kind) for each coordinate, filled in one formatting
+        (``%`` in ids written ``%%%%``: the list is formatted twice)."""
+        memo = bounded(self._row_memo)
+        rows = []
+        for ident, k in zip(ids, kinds, strict=True):
+            row = memo.get((ident, k))
+            if row is None:
+                head = f'{{"id":{dumps(str(ident)).decode()},"position":['.replace("%", "%%%%")
+                row = head + _ROW_TAILS[k]
+                memo[(ident, k)] = row
+            rows.append(row)
+        return ('{"detections":[' + ",".join(rows) + "]}") % tuple(positions.ravel().tolist())

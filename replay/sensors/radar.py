@@ -98,6 +98,7 @@ import numpy.typing as npt
 
 from replay.frames import course_of
 from replay.sensors.base import check_own_position, scan_due, sensor_number, sensor_rng
+from replay.sensors.radar_kernel import terrain_returns
 from replay.threats.kinds import EDGE_SUFFIXES, Threat
 from replay.threats.table import ThreatTable
 from terrain.errors import InputError
@@ -395,25 +396,16 @@ class Radar:
     def _terrain_points(
         self, own: FloatArray, model: TerrainModel, clearance: float
     ) -> tuple[npt.NDArray[np.int64], FloatArray]:
-        """Terrain returns: (cells (M, 2), points (M, 3)), the nearest hit in each occupied cell."""
+        """Terrain returns: (cells (M, 2), points (M, 3)), the nearest hit in each occupied cell
+        (the hits made returns in one compiled pass: :mod:`replay.sensors.radar_kernel`)."""
         dirs, n_fan = self._rays, self._n_fan
         origins = np.empty_like(dirs)
         origins[:n_fan] = own
         origins[n_fan:] = own - np.array([0.0, 0.0, clearance])
         dist = model.raycast(origins, dirs, max_range=self.range_m)
-        hit = np.isfinite(dist)
-        pts = origins[hit] + dist[hit, None] * dirs[hit]
-        rng = np.linalg.norm(pts - own, axis=-1)
-        keep = (pts[:, 2] >= own[2] - clearance - _ALT_SLACK_M) & (rng <= self.range_m)
-        pts, rng = pts[keep], rng[keep]
-        if not len(pts):
-            return np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3))
-        cells = np.floor(pts[:, :2] / self.terrain_cell_m).astype(np.int64)
-        order = np.lexsort((rng, cells[:, 1], cells[:, 0]))
-        cells, pts = cells[order], pts[order]
-        first = np.ones(len(cells), dtype=bool)
-        first[1:] = np.any(cells[1:] != cells[:-1], axis=1)
-        return cells[first], pts[first]
+        return terrain_returns(
+            own, clearance, dirs, n_fan, dist, self.range_m, self.terrain_cell_m, _ALT_SLACK_M
+        )
 
     def _measure(
         self,

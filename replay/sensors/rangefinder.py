@@ -316,22 +316,35 @@ class Rangefinders:
                 )
             phi, theta, psi = float(x[PHI]), float(x[THETA]), float(x[PSI])
         yaw = float(wrap_bearing(psi))
-        return yaw, self._rays(phi, theta, psi, yaw, 0.0, 0.0)
+        return yaw, self._rays(phi, theta, psi, yaw)
 
     def _rays(
-        self, phi: float, theta: float, psi: float, yaw: float, down: float, right: float
+        self,
+        phi: float,
+        theta: float,
+        psi: float,
+        yaw: float,
+        turns: Sequence[tuple[float, float]] = ((0.0, 0.0),),
     ) -> FloatArray:
-        """(B, 3) unit directions in the map frame of the beams' rays turned ``right`` and
-        depressed by ``down`` (rad) from their axes."""
-        b = self.bearings + right
-        c, s = math.cos(down), math.sin(down)
+        """(K B, 3) unit directions in the map frame of the beams' rays turned ``right`` and
+        depressed by ``down`` (rad) from their axes, B rays for each of the K ``turns``
+        ``(down, right)`` in turn (the cone's five at once: the same numbers)."""
+        b = self.bearings + np.array([[right] for _, right in turns])  # (K, B)
+        c = np.array([[math.cos(down)] for down, _ in turns])
+        s = np.array([[math.sin(down)] for down, _ in turns])
+        out = np.empty((*b.shape, 3))
         if self.mount == "gimballed":
             az = yaw + b
-            return np.column_stack([c * np.sin(az), c * np.cos(az), np.full(len(b), -s)])
+            out[..., 0] = c * np.sin(az)
+            out[..., 1] = c * np.cos(az)
+            out[..., 2] = -s
+            return out.reshape(-1, 3)
         # FRD: x forward, y right, z down
-        body = np.column_stack([c * np.cos(b), c * np.sin(b), np.full(len(b), s)])
-        ned = body @ rotation_body_to_ned(phi, theta, psi).T
-        return ned_to_map(ned)
+        out[..., 0] = c * np.cos(b)
+        out[..., 1] = c * np.sin(b)
+        out[..., 2] = s
+        rot = rotation_body_to_ned(phi, theta, psi).T
+        return np.vstack([ned_to_map(body @ rot) for body in out])
 
     def scan(
         self,
@@ -347,12 +360,11 @@ class Rangefinders:
         t = sensor_number(SENSOR_NAME, "scan time", t, -math.inf, False)
         yaw, dirs = self.directions(state)
         n = len(dirs)
-        if self.spread_deg > 0.0:  # the cone's rim: down, up, right, left of each axis
+        if self.spread_deg > 0.0:  # the axes, then the cone's rim: down, up, right, left of each
             x = np.zeros(12) if state is None else np.asarray(state, dtype=np.float64).reshape(-1)
-            angles = (float(x[PHI]), float(x[THETA]), float(x[PSI]), yaw)
             a = math.radians(self.spread_deg)
-            rim = [self._rays(*angles, d, r) for d, r in ((a, 0.0), (-a, 0.0), (0.0, a), (0.0, -a))]
-            dirs = np.vstack([dirs, *rim])
+            turns = ((0.0, 0.0), (a, 0.0), (-a, 0.0), (0.0, a), (0.0, -a))
+            dirs = self._rays(float(x[PHI]), float(x[THETA]), float(x[PSI]), yaw, turns)
         dist, labels = self._cast(t, own, dirs, threats)
         if terrain_model is not None:
             ground = terrain_model.raycast(np.broadcast_to(own, dirs.shape), dirs, self.range_m)
