@@ -103,6 +103,24 @@ def _pair(a: npt.ArrayLike, b: npt.ArrayLike, na: str, nb: str) -> tuple[FloatAr
     return np.broadcast_to(pa, shape), np.broadcast_to(pb, shape)
 
 
+def _flat_pair(
+    a: FloatArray, b: FloatArray, na: str, nb: str
+) -> tuple[FloatArray, FloatArray, tuple[int, ...]]:
+    """``a`` and ``b`` (float64, (3,) or (N, 3)) broadcast together, as C-contiguous (M, 3)
+    arrays, and their common shape; else the error :func:`_pair` names."""
+    try:
+        shape = np.broadcast_shapes(a.shape, b.shape)
+    except ValueError:
+        shape = None
+    if shape is None or any(p.ndim not in (1, 2) or p.shape[-1] != 3 for p in (a, b)):
+        _pair(a, b, na, nb)  # raises the error of the one at fault
+        raise AssertionError("unreachable")  # pragma: no cover
+    flat = (-1, 3)
+    fa = np.ascontiguousarray(np.broadcast_to(a, shape).reshape(flat))
+    fb = np.ascontiguousarray(np.broadcast_to(b, shape).reshape(flat))
+    return fa, fb, shape
+
+
 def _rotation(value: npt.ArrayLike | None) -> FloatArray:
     if value is None:
         return np.eye(3)
@@ -362,18 +380,12 @@ class TerrainModel:
         (:func:`terrain.kernels.ranges_within`): at a million rays the numpy passes cost a tenth
         of open3d's own time (issue 38).
         """
-        o = np.asarray(origins, dtype=np.float64)
-        d = np.asarray(directions, dtype=np.float64)
-        try:
-            shape = np.broadcast_shapes(o.shape, d.shape)
-        except ValueError:
-            shape = None
-        if shape is None or any(a.ndim not in (1, 2) or a.shape[-1] != 3 for a in (o, d)):
-            _pair(o, d, "origins", "directions")  # raises the error of the one at fault
-            raise AssertionError("unreachable")  # pragma: no cover
-        flat = (-1, 3)
-        o = np.ascontiguousarray(np.broadcast_to(o, shape).reshape(flat))
-        d = np.ascontiguousarray(np.broadcast_to(d, shape).reshape(flat))
+        o, d, shape = _flat_pair(
+            np.asarray(origins, dtype=np.float64),
+            np.asarray(directions, dtype=np.float64),
+            "origins",
+            "directions",
+        )
         rays = np.empty((o.shape[0], 6), dtype=np.float32)
         bad = kernels.ray_buffer(o, d, self.origin, rays)
         if bad & 1:
@@ -412,16 +424,7 @@ class TerrainModel:
             )
         a0 = np.asarray(a, dtype=np.float64)
         b0 = np.asarray(b, dtype=np.float64)
-        try:
-            shape = np.broadcast_shapes(a0.shape, b0.shape)
-        except ValueError:
-            shape = None
-        if shape is None or any(p.ndim not in (1, 2) or p.shape[-1] != 3 for p in (a0, b0)):
-            _pair(a0, b0, "a", "b")  # raises the error of the one at fault
-            raise AssertionError("unreachable")  # pragma: no cover
-        flat = (-1, 3)
-        pa = np.ascontiguousarray(np.broadcast_to(a0, shape).reshape(flat))
-        pb = np.ascontiguousarray(np.broadcast_to(b0, shape).reshape(flat))
+        pa, pb, shape = _flat_pair(a0, b0, "a", "b")
         rays = np.empty((pa.shape[0], 6), dtype=np.float32)
         # from tolerance past a (past a surface at a), in one compiled pass (segment_rays_numpy)
         length, finite = kernels.segment_rays(pa, pb, float(tolerance), self.origin, rays)

@@ -794,6 +794,38 @@ def test_size_and_throughput(tmp_path: Path) -> None:
     assert n / elapsed > 2_000  # loose: CI machines are shared; the measured rate is reported
 
 
+def _radar_both_ways(
+    tmp_path: Path, scans: list[tuple[Any, ...]]
+) -> tuple[list[tuple[str, int, bytes]], list[tuple[str, int, bytes]]]:
+    """The radar messages of ``scans`` (ids, positions, ranges, terrain, moving) recorded with
+    ``write_detections`` (as dicts) and with ``write_detection_arrays``: (dicts', arrays')."""
+    paths = tmp_path / "dicts.mcap", tmp_path / "arrays.mcap"
+    for path in paths:
+        with RunRecorder(path, map_origin=ORIGIN) as rec:
+            for k, (ids, pos, rng_m, terrain, moving) in enumerate(scans):
+                if path.name == "arrays.mcap":
+                    rec.write_detection_arrays(float(k), ids, pos, rng_m, terrain, moving)
+                    continue
+                rec.write_detections(
+                    float(k),
+                    [
+                        {
+                            "id": ids[i],
+                            "position": pos[i].tolist(),
+                            "range": float(rng_m[i]),
+                            "kind": "terrain" if terrain[i] else "threat",
+                            "moving": bool(moving[i]),
+                        }
+                        for i in range(len(ids))
+                    ],
+                )
+    dicts, arrays = (
+        [(ch.topic, m.log_time, m.data) for _, ch, m in messages(p) if "radar" in ch.topic]
+        for p in paths
+    )
+    return dicts, arrays
+
+
 def test_detection_arrays_write_the_messages_of_detection_dicts(tmp_path: Path) -> None:
     """``write_detection_arrays`` (what the simulation uses) writes byte for byte the messages of
     ``write_detections`` with the same scan as dicts: every colour, zero and negative offsets
@@ -815,30 +847,7 @@ def test_detection_arrays_write_the_messages_of_detection_dicts(tmp_path: Path) 
             n, flags = len(ids), (last[0], last[1])
         ranges = rng.uniform(0.0, 10_000.0, n) * 10.0 ** rng.integers(-20, 20, n)
         scans.append((ids, pos, ranges, *flags))
-    paths = tmp_path / "dicts.mcap", tmp_path / "arrays.mcap"
-    for path in paths:
-        with RunRecorder(path, map_origin=ORIGIN) as rec:
-            for k, (ids, pos, rng_m, terrain, moving) in enumerate(scans):
-                if path.name == "arrays.mcap":
-                    rec.write_detection_arrays(float(k), ids, pos, rng_m, terrain, moving)
-                    continue
-                rec.write_detections(
-                    float(k),
-                    [
-                        {
-                            "id": ids[i],
-                            "position": pos[i].tolist(),
-                            "range": float(rng_m[i]),
-                            "kind": "terrain" if terrain[i] else "threat",
-                            "moving": bool(moving[i]),
-                        }
-                        for i in range(len(ids))
-                    ],
-                )
-    a, b = (
-        [(ch.topic, m.log_time, m.data) for _, ch, m in messages(p) if "radar" in ch.topic]
-        for p in paths
-    )
+    a, b = _radar_both_ways(tmp_path, scans)
     assert a == b
     # a detection list per scan; the markers are the message the foxglove classes build, written
     # when they differ from the last written (Foxglove shows those until they are replaced)
@@ -853,6 +862,34 @@ def test_detection_arrays_write_the_messages_of_detection_dicts(tmp_path: Path) 
 
 
 NS = 1_000_000_000
+
+
+def test_scans_of_moving_terrain_returns_are_the_dict_scans(tmp_path: Path) -> None:
+    """Scans given as arrays (every return written at once) against the same scans given as
+    detection dicts, byte for byte, with terrain returns that move every scan, ids holding ``%``,
+    every kind of return and zero offsets."""
+    rng = np.random.default_rng(11)
+    scans = []
+    own = np.array([ORIGIN[0] - 9000.0, ORIGIN[1] - 10_000.0, 3000.0])
+    for k in range(80):
+        own = own + np.array([20.0, 22.0, 0.5])
+        n_threat, n_ground = int(rng.integers(0, 4)), int(rng.integers(0, 60))
+        n = n_threat + n_ground
+        pos = own + rng.uniform(-10_000.0, 10_000.0, (n, 3)) * [1.0, 1.0, 0.1]
+        if n and k % 7 == 0:  # offsets of +0.0 and -0.0 from the origin in some rows
+            pos[rng.integers(0, n), rng.integers(0, 3)] = ORIGIN[0]
+            pos[rng.integers(0, n)] = [ORIGIN[0], ORIGIN[1], -0.0]
+        ids = [f"{'%' * (i % 3)}th%d{k}/{i}%r%%" for i in range(n_threat)]
+        ids += [f"terrain/{int(x // 100)}/{int(y // 100)}" for x, y in pos[n_threat:, :2]]
+        terrain = np.arange(n) >= n_threat
+        moving = rng.random(n) < 0.4  # also "moving" terrain, which the dicts can say
+        ranges = np.linalg.norm(pos - own, axis=1)
+        scans.append((ids, pos, ranges, terrain, moving))
+        if k % 5 == 0:  # the same returns again: new ranges only
+            scans.append((ids, pos.copy(), ranges * 1.0001, terrain, moving))
+    dicts, arrays = _radar_both_ways(tmp_path, scans)
+    assert len(dicts) > len(scans) + 50  # most scans write their markers
+    assert arrays == dicts
 
 
 def reference_markers(
