@@ -674,9 +674,12 @@ def _fill_nearest(values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
     return np.asarray(values[idx[0], idx[1]], dtype=np.float32)
 
 
-# grids up to this many cells keep their filled heights on disk (terrain.memo; 16 MB at most)
+# grids up to this many cells keep their filled heights on disk (terrain.memo; 16 MB at most,
+# 256 MB in all: the maps used longest ago are forgotten first)
 FILL_MEMO_CELLS = 4_000_000
-_FILL_MEMO = DiskMemo("fill", [__file__], versions=f"gdal {rasterio.__gdal_version__}")
+_FILL_MEMO = DiskMemo(
+    "fill", [__file__], versions=f"gdal {rasterio.__gdal_version__}", max_bytes=256 * 2**20
+)
 
 
 def fill_nodata(heights: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:

@@ -42,16 +42,26 @@ class DiskMemo:
 
     ``sources`` are the files whose text is the code answering (read once, on first use): with
     numpy's, scipy's and numba's versions and ``versions`` (other libraries the code calls) they
-    make the memo's *version*, part of every key.
+    make the memo's *version*, part of every key.  The folder holds about ``max_bytes`` of disk
+    at most: a process's first write, and every ``PRUNE_EVERY``-th after it, removes the entries
+    used longest ago beyond it (a read marks an entry used; an entry counts its disk blocks).
     """
 
+    PRUNE_EVERY = 1000
+
     def __init__(
-        self, name: str, sources: Sequence[str | os.PathLike[str]], versions: str = ""
+        self,
+        name: str,
+        sources: Sequence[str | os.PathLike[str]],
+        versions: str = "",
+        max_bytes: int = 256 * 2**20,
     ) -> None:
         self.name = name
         self.sources = tuple(Path(s) for s in sources)
         self.versions = versions
+        self.max_bytes = int(max_bytes)
         self._version: bytes | None = None
+        self._writes = 0
 
     def version(self) -> bytes:
         if self._version is None:
@@ -81,16 +91,42 @@ class DiskMemo:
             with contextlib.suppress(OSError):
                 data = path.read_bytes()
                 if len(data) == size:
+                    with contextlib.suppress(OSError):  # (a read-only folder still answers)
+                        os.utime(path)  # used now: kept longest
                     return data
         answer = compute()
         if path is not None and len(answer) == size:
             self._put(path, answer)
+            if self._writes % self.PRUNE_EVERY == 0:
+                self._prune(path.parent.parent)
+            self._writes += 1
         return answer
 
     def floats(self, question: bytes, compute: Callable[[], FloatArray], n: int) -> FloatArray:
         """:meth:`get` of ``n`` float64 values."""
         data = self.get(question, lambda: np.asarray(compute(), dtype=np.float64).tobytes(), 8 * n)
         return np.frombuffer(data, dtype=np.float64).copy()
+
+    def _prune(self, folder: Path) -> None:
+        """Remove the entries used longest ago until the folder holds at most ``max_bytes``."""
+        try:
+            entries = []
+            for sub in os.scandir(folder):
+                if sub.is_dir():
+                    for e in os.scandir(sub.path):
+                        if e.name.endswith(".bin"):
+                            st = e.stat()
+                            used = getattr(st, "st_blocks", 0) * 512 or st.st_size
+                            entries.append((st.st_mtime_ns, used, e.path))
+        except OSError:
+            return
+        total = sum(size for _, size, _ in entries)
+        for _, size, path in sorted(entries):
+            if total <= self.max_bytes:
+                break
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+                total -= size
 
     @staticmethod
     def _put(path: Path, data: bytes) -> None:

@@ -130,3 +130,36 @@ def test_a_filled_grid_is_read_back_bit_for_bit_and_a_big_one_is_not_kept(
     load.fill_nodata(heights.copy())
     assert len(calls) == 4  # above the size: filled each time, nothing kept
     assert len(list((tmp_path / "cache" / "fill").rglob("*.bin"))) == 2
+
+
+def test_the_folder_keeps_to_its_size_forgetting_the_entries_used_longest_ago(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TERRAPATH_CACHE_DIR", str(tmp_path / "cache"))
+    src = tmp_path / "code.py"
+    src.write_text("code", encoding="utf-8")
+    block = 4096  # an entry of 4 KB takes one block (or its size where blocks are not told)
+    memo = DiskMemo("sized", [src], max_bytes=3 * block)
+    memo.PRUNE_EVERY = 1  # every write (a process prunes on its first, then every 1000th)
+    calls = []
+
+    def answer(q: bytes) -> bytes:
+        calls.append(q)
+        return q * (block // len(q))
+
+    folder = tmp_path / "cache" / "sized"
+    for q in (b"a", b"b", b"c"):
+        memo.get(q, lambda q=q: answer(q), block)
+    entries = sorted(folder.rglob("*.bin"))
+    assert len(entries) == 3
+    for k, e in enumerate(sorted(entries, key=lambda e: e.stat().st_mtime_ns)):
+        os.utime(e, ns=(10**18 + k, 10**18 + k))  # written in order, a second apart
+    memo.get(b"a", lambda: answer(b"a"), block)  # read: "a" used now
+    assert calls == [b"a", b"b", b"c"]
+    memo.get(b"d", lambda: answer(b"d"), block)  # a fourth: "b", used longest ago, goes
+    assert len(list(folder.rglob("*.bin"))) == 3
+    memo.get(b"c", lambda: answer(b"c"), block)
+    memo.get(b"a", lambda: answer(b"a"), block)
+    assert calls == [b"a", b"b", b"c", b"d"]  # "a" and "c" were kept
+    memo.get(b"b", lambda: answer(b"b"), block)
+    assert calls[-1] == b"b"  # forgotten: computed again

@@ -159,6 +159,7 @@ _MEMO = DiskMemo(
             "../../frames.py",
         )
     ],
+    max_bytes=64 * 2**20,  # ~16,000 trims (a disk block each)
 )
 
 
