@@ -80,7 +80,11 @@ class DiskMemo:
         root = cache_dir()
         if root is None:
             return None
-        key = hashlib.sha256(self.version() + question).hexdigest()
+        try:
+            version = self.version()
+        except OSError:  # the code's source cannot be read (a frozen install): not kept
+            return None
+        key = hashlib.sha256(version + question).hexdigest()
         return root / self.name / key[:2] / f"{key[2:]}.bin"
 
     def get(self, question: bytes, compute: Callable[[], bytes], size: int) -> bytes:

@@ -61,6 +61,10 @@ def test_an_unusable_folder_or_an_empty_setting_only_means_computing(
     monkeypatch.setenv("TERRAPATH_CACHE_DIR", "")
     assert cache_dir() is None
     assert _memo(tmp_path).floats(b"q", lambda: np.zeros(3), 3).tolist() == [0.0, 0.0, 0.0]
+    monkeypatch.setenv("TERRAPATH_CACHE_DIR", str(tmp_path / "cache"))
+    gone = DiskMemo("test", [tmp_path / "no-such-source.py"])  # its code cannot be read
+    assert gone.floats(b"q", lambda: np.ones(3), 3).tolist() == [1.0, 1.0, 1.0]
+    assert not (tmp_path / "cache").exists()
     monkeypatch.delenv("TERRAPATH_CACHE_DIR")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert cache_dir() == tmp_path / "xdg" / "terrapath"
