@@ -445,3 +445,18 @@ def test_a_solid_sphere_behind_a_ridge_is_seen_by_its_top(ridge: TerrainModel) -
         assert pic.threat_ids == (("cloud",) if solid else ())
         if solid:
             assert pic.radii is not None and pic.radii[0] == 700.0
+
+
+def test_terrain_ids_name_their_cells_however_often_they_are_seen(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from replay.sensors import radar
+
+    monkeypatch.setattr(radar, "_TERRAIN_IDS_KEPT", 50)  # the memo emptied every few scans
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        cells = rng.integers(-40, 40, (int(rng.integers(0, 30)), 2)).astype(np.int64)
+        want = tuple(f"terrain/{i}/{j}" for i, j in cells.tolist())
+        assert radar._terrain_ids(cells) == want
+        assert radar._terrain_ids(cells) == want  # again, from the memo
+    assert len(radar._TERRAIN_IDS) <= 50 + 30

@@ -130,9 +130,25 @@ class Detection:
     source: str  # the threat's id, or "terrain"
 
 
+_TERRAIN_IDS: dict[tuple[int, int], str] = {}  # cell -> its id (a scan sees the last scan's cells)
+_TERRAIN_IDS_KEPT = 200_000
+
+
 def _terrain_ids(cells: npt.NDArray[np.int64]) -> tuple[str, ...]:
-    """The ids of terrain returns: ``terrain/<i>/<j>``, their cell of the radar's grid."""
-    return tuple(f"terrain/{i}/{j}" for i, j in cells.tolist())
+    """The ids of terrain returns: ``terrain/<i>/<j>``, their cell of the radar's grid (each
+    cell's text made once: a scan over a mountain names hundreds, most of them the last
+    scan's)."""
+    memo = _TERRAIN_IDS
+    if len(memo) > _TERRAIN_IDS_KEPT:
+        memo.clear()
+    get = memo.get
+    out = []
+    for i, j in cells.tolist():
+        ident = get((i, j))
+        if ident is None:
+            ident = memo[i, j] = f"terrain/{i}/{j}"
+        out.append(ident)
+    return tuple(out)
 
 
 @dataclass(frozen=True, eq=False)
