@@ -1,14 +1,15 @@
-"""Results remembered on disk between processes: pure, costly computations on small inputs (a
-trim's least-squares solve) kept as their exact bytes, so that every later process -- another
-replay, a campaign's worker, the test suite's other worker -- reads them instead of solving again.
+"""Results remembered on disk between processes: pure, costly computations kept as their exact
+bytes (a trim's least-squares solve, the filled holes of a map), so that every later process --
+another replay, a campaign's worker, the test suite's other worker -- reads them instead of
+computing again.
 
 The folder is ``TERRAPATH_CACHE_DIR`` when set (``make`` sets ``build/cache``; an empty value turns
 the memo off), else ``$XDG_CACHE_HOME/terrapath`` or ``~/.cache/terrapath``, like numba's
 compiled kernels (``NUMBA_CACHE_DIR``).  A result is found by the SHA-256 of its question (the
 caller's bytes) and of the *code* that answers it (the source files it names, the versions of
-numpy, scipy and numba): editing the code, or another numpy, asks again.  Entries are written under a
-temporary name and renamed when complete; an entry that cannot be read or written (no room, a
-read-only home, a truncated file) is computed as if it were not there, never an error.
+numpy, scipy and numba): editing the code, or another numpy, asks again.  Entries are written
+under a temporary name and renamed when complete; an entry that cannot be read or written (no
+room, a read-only home, a truncated file) is computed as if it were not there, never an error.
 """
 
 from __future__ import annotations

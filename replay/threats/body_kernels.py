@@ -41,7 +41,8 @@ BISECTION_STEPS = 40
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _f(u: float, a2: float, b2: float, e1: float, e2: float) -> float:  # pragma: no cover - jit
-    """``A^2 u^2 + B^2 (1 - u^(2p))^(1/q)`` (the clip at 0 included), numpy's rounding."""
+    """``A^2 u^2 + B^2 (1 - u^(2p))^(1/q)`` (the clip at 0 included), in the numpy code's order
+    of operations."""
     v = scalar_pow(max(1.0 - scalar_pow(u, e1), 0.0), e2)
     return a2 * (u * u) + b2 * v
 
@@ -52,7 +53,7 @@ def superellipse_radius(
 ) -> np.ndarray:  # pragma: no cover - jit
     """max sqrt(X^2 + Y^2) on |X/A|^(2p) + |Y/B|^(2q) = 1 for A, B > 0 (M,): the best of the
     ``grid`` samples of u = X/A in [0, 1], refined by golden-section search between its
-    neighbours (``body._superellipse_radius_numpy``'s steps)."""
+    neighbours (``body.superellipse_radius_numpy``'s steps)."""
     e1 = 2.0 * p
     e2 = 1.0 / q
     n = grid.shape[0]
