@@ -25,7 +25,7 @@ from replay.record.reader import load_run, summary
 from replay.record.recorder import RunRecorder
 from replay.record.samples import Samples, fix_rows, pose_rows, quaternions_map, state_rows
 from replay.record.separation import BAND_ABS_M, BAND_REL
-from replay.record.wire import varints
+from replay.record.wire import Rows, varints, varints_numpy
 from tests.test_record import circle_state, controls, lonlat
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -63,6 +63,37 @@ def test_varints_are_protobufs() -> None:
     for v, row, size in zip(values.tolist(), data, n, strict=True):
         ref = descriptor_pb2.UninterpretedOption(positive_int_value=v).SerializeToString()
         assert bytes(row[:size]) == ref[1:]  # positive_int_value: field 4, a one-byte tag
+
+
+def test_the_compiled_varints_and_packing_equal_their_numpy_twins() -> None:
+    """The kernels of :mod:`replay.record.wire` against the numpy code they replace: varints of
+    every length (the bytes that belong; the rest zero) and rows of fixed, varying, left-out
+    and broadcast parts taken in row order."""
+    from replay.record.wire import _compact, _pack
+
+    rng = np.random.default_rng(11)
+    edges = np.array([0, 1, 127, 128, 2**63 - 1, 2**64 - 1], dtype=np.uint64)
+    values = np.concatenate([edges, rng.integers(0, 2**63, 500, dtype=np.uint64)])
+    values[6:] >>= rng.integers(0, 63, 500).astype(np.uint64)
+    got, n = varints(values)
+    want, m = varints_numpy(values)
+    assert (n == m).all()
+    assert all(bytes(a[:k]) == bytes(b[:k]) for a, b, k in zip(got, want, n, strict=True))
+    assert not np.where(np.arange(10) < n[:, None], 0, got).any()
+    for k in (1, 7, 300):
+        rows = (
+            Rows(k)
+            .uint(1, rng.integers(0, 2**40, k))
+            .text(2, "map")
+            .double(3, np.where(rng.random(k) < 0.5, 0.0, rng.normal(size=k)))
+            .double(4, rng.normal(size=k), keep=rng.random(k) < 0.3)
+            .timestamp(5, rng.integers(0, 10**12, k))
+            .uint(6, np.zeros(k, dtype=np.int64), omit_zero=False)
+            .float32(7, rng.normal(size=k))
+        )
+        rows.message(8, Rows(k).uint(1, rng.integers(0, 3, k)))
+        assert _pack(rows.parts, k) == _compact(rows.parts, k)
+        assert len(_pack(rows.parts, k)) == rows.lengths().sum()
 
 
 def test_tf_pose_and_fix_are_the_bytes_of_serialize_to_string() -> None:
@@ -468,7 +499,7 @@ def test_entity_head_is_the_bytes_of_serialize_to_string() -> None:
 
 def test_records_frame_each_message_once() -> None:
     """``Rows.records``: MCAP message records (opcode, length, channel, sequence 0, log and
-    publish time) of every message, grouped by layout; lengths and times in that order."""
+    publish time) of every message, in row order; lengths and times in that order."""
     import struct
 
     rng = np.random.default_rng(5)
@@ -477,7 +508,7 @@ def test_records_frame_each_message_once() -> None:
     tf, _ = pose_rows(ns, awkward_values(rng, k, 3), awkward_values(rng, k, 4))
     want = dict(zip(ns.tolist(), split(*tf.messages()), strict=True))
     data, lengths, times = tf.records(7, ns)
-    assert sorted(times.tolist()) == sorted(ns.tolist()) and len(data) == lengths.sum()
+    assert times.tolist() == ns.tolist() and len(data) == lengths.sum()
     for record, t in zip(split(data, lengths), times.tolist(), strict=True):
         op, size, channel, seq, log, pub = struct.unpack_from("<BQHIQQ", record)
         assert (op, size, channel, seq, log, pub) == (5, len(record) - 9, 7, 0, t, t)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import functools
 import struct
 
+import numba as nb
 import numpy as np
 import numpy.typing as npt
 
@@ -49,7 +50,30 @@ def varint(n: int) -> bytes:
 
 def varints(values: npt.ArrayLike, width: int = 10) -> tuple[U8, I64]:
     """Each value (K,) (unsigned, or int64 >= 0) as a varint: the bytes (K, width) and how many
-    of them each takes (1..width)."""
+    of them each takes (1..width; the bytes after them are zero)."""
+    v = np.ascontiguousarray(np.asarray(values).astype(np.uint64).reshape(-1))
+    out = np.zeros((len(v), width), dtype=np.uint8)
+    n = np.empty(len(v), dtype=np.int64)
+    _varints(v, out, n)
+    return out, n
+
+
+@nb.njit(cache=True, nogil=True)
+def _varints(v: npt.NDArray[np.uint64], out: U8, n: I64) -> None:  # pragma: no cover - jit
+    width = out.shape[1]
+    for i in range(v.shape[0]):
+        x = v[i]
+        j = 0
+        while x > 0x7F and j < width - 1:
+            out[i, j] = np.uint8((x & 0x7F) | 0x80)
+            x >>= 7
+            j += 1
+        out[i, j] = np.uint8(x & 0xFF)
+        n[i] = j + 1
+
+
+def varints_numpy(values: npt.ArrayLike, width: int = 10) -> tuple[U8, I64]:
+    """:func:`varints` with numpy (the twin the tests compare it with)."""
     v = np.asarray(values).astype(np.uint64).reshape(-1)
     shifts = np.arange(width, dtype=np.uint64) * np.uint64(7)
     groups = v[:, None] >> shifts
@@ -155,13 +179,11 @@ class Rows:
 
     def messages(self) -> tuple[bytes, I64]:
         """The K messages one after the other, and the length of each."""
-        return _compact(self.parts, self.k), self.lengths()
+        return _pack(self.parts, self.k), self.lengths()
 
     def records(self, channel: int, log_ns: I64) -> tuple[bytes, I64, I64]:
         """The K messages framed as MCAP message records of ``channel`` at ``log_ns`` (also the
-        publish time), one after the other -- grouped by layout (rows whose varints are as long
-        are copied together), not in row order -- each record's length and log time in the
-        order written."""
+        publish time), one after the other in row order, each record's length and log time."""
         body = self.lengths()
         t = np.ascontiguousarray(log_ns, dtype="<u8").view(np.uint8).reshape(self.k, 8)
         length = np.ascontiguousarray(body + _MESSAGE_HEAD, dtype="<u8")
@@ -172,8 +194,7 @@ class Rows:
             (t, None),
             (t, None),
         ]
-        data, order = _compact_grouped(head + self.parts, self.k)
-        return data, (body + 9 + _MESSAGE_HEAD)[order], np.asarray(log_ns)[order]
+        return _pack(head + self.parts, self.k), body + 9 + _MESSAGE_HEAD, np.asarray(log_ns)
 
 
 @functools.cache
@@ -194,34 +215,44 @@ def _compact(parts: list[tuple[U8, I64 | None]], k: int) -> bytes:
     return bytes(wide[np.concatenate(masks, axis=1)].tobytes())
 
 
-def _compact_grouped(parts: list[tuple[U8, I64 | None]], k: int) -> tuple[bytes, I64]:
-    """The rows' bytes (as :func:`_compact`) written group by group of rows with the same
-    lengths in every part (a column selection each, cheaper than one boolean mask over all),
-    and the order of the rows written."""
+def _pack(parts: list[tuple[U8, I64 | None]], k: int) -> bytes:
+    """:func:`_compact` compiled: the parts side by side, then each row's bytes that belong
+    (parts written whole next to each other are copied as one)."""
+    if not parts or not k:
+        return b""
     wide = np.concatenate([data for data, _ in parts], axis=1)
-    varying = [(j, n) for j, (_, n) in enumerate(parts) if n is not None]
-    if not varying:
-        return wide.tobytes(), np.arange(k)
-    sizes = np.stack([n for _, n in varying], axis=1)  # (K, V), each 0..10 (< 16)
-    key = sizes @ (16 ** np.arange(sizes.shape[1], dtype=np.int64))
-    _, first, group = np.unique(key, return_index=True, return_inverse=True)
-    patterns = sizes[first]
-    group = group.reshape(-1)
-    starts = np.cumsum([0] + [data.shape[1] for data, _ in parts])
-    pieces, orders = [], []
-    for g, pattern in enumerate(patterns):
-        cols: list[npt.NDArray[np.int64]] = []
-        v = 0
-        for j, (_, n) in enumerate(parts):
-            if n is None:
-                cols.append(np.arange(starts[j], starts[j + 1]))
-            else:
-                cols.append(np.arange(starts[j], starts[j] + int(pattern[v])))
-                v += 1
-        rows = np.flatnonzero(group == g) if len(patterns) > 1 else np.arange(k)
-        pieces.append(wide[rows][:, np.concatenate(cols)].tobytes())
-        orders.append(rows)
-    return b"".join(pieces), np.concatenate(orders).astype(np.int64)
+    starts: list[int] = []
+    widths: list[int | None] = []  # a whole part's width (runs of them merged), None: varying
+    varying: list[I64] = []
+    at = 0
+    for data, n in parts:
+        w = data.shape[1]
+        if n is None and widths and widths[-1] is not None:
+            widths[-1] += w
+        else:
+            starts.append(at)
+            widths.append(w if n is None else None)
+            if n is not None:
+                varying.append(n)
+        at += w
+    sizes = np.empty((k, len(widths)), dtype=np.int64)
+    given = iter(varying)
+    for j, whole in enumerate(widths):
+        sizes[:, j] = next(given) if whole is None else whole
+    out = np.empty(int(sizes.sum()), dtype=np.uint8)
+    _pack_rows(wide, np.array(starts, dtype=np.int64), sizes, out)
+    return out.tobytes()
 
 
-__all__ = ["Rows", "tag", "varint", "varints"]
+@nb.njit(cache=True, nogil=True)
+def _pack_rows(wide: U8, starts: I64, sizes: I64, out: U8) -> None:  # pragma: no cover - jit
+    pos = 0
+    for r in range(wide.shape[0]):
+        for j in range(starts.shape[0]):
+            s = starts[j]
+            for b in range(sizes[r, j]):
+                out[pos + b] = wide[r, s + b]
+            pos += sizes[r, j]
+
+
+__all__ = ["Rows", "tag", "varint", "varints", "varints_numpy"]
