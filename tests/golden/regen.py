@@ -1,6 +1,8 @@
 """Regenerate tests/golden/plans.json:  .venv/bin/python -m tests.golden.regen
 and tests/golden/replays.json (the golden plans flown with pop-up threats by each avoider):
-.venv/bin/python -m tests.golden.regen --replays"""
+.venv/bin/python -m tests.golden.regen --replays
+and the reference suite of `terrapath regress` (each map's golden plan as a mission file and its
+threat set, replay/campaign/suites/reference/): .venv/bin/python -m tests.golden.regen --suite"""
 
 from __future__ import annotations
 
@@ -27,9 +29,53 @@ def replays() -> None:
     print(f"wrote {GOLDEN_REPLAYS}")
 
 
+def suite() -> None:
+    """The golden plans and threat sets as the files of `terrapath regress`'s reference suite:
+    ``<map>.yaml`` (its DEM named relative to the maps' folder, ``maps/<folder>/<file>``, which
+    regress resolves) and ``<map>-threats.yaml``."""
+    import tempfile
+    from pathlib import Path
+
+    import yaml
+
+    from planner.mission import save_mission
+    from replay.campaign.regress import SUITES_DIR
+    from tests.golden.replays import mission_of, threat_records
+
+    out = SUITES_DIR / "reference"
+    out.mkdir(parents=True, exist_ok=True)
+    for sc in MAPS:
+        if not sc.available():
+            raise SystemExit(f"{sc.dem} not found: every map is needed to regenerate")
+        with tempfile.TemporaryDirectory() as tmp:
+            path = save_mission(mission_of(sc), Path(tmp) / f"{sc.name}.yaml")
+            doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+        doc["terrain"]["dem"] = [f"maps/{sc.dem.parent.name}/{sc.dem.name}"]
+        head = (
+            f"# terrapath regress, reference suite: the golden AMPSO plan of {sc.name} (seed 0,\n"
+            "# tests/golden/scenarios.py); its DEM is looked up under the maps' folders\n"
+            "# (terrapath regress --data).  Regenerate: python -m tests.golden.regen --suite\n"
+        )
+        (out / f"{sc.name}.yaml").write_text(
+            head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=100),
+            encoding="utf-8",
+        )
+        records = json.loads(json.dumps(threat_records(mission_of(sc)), default=float))
+        threats = {"terrapath": 1, "threats": records}
+        (out / f"{sc.name}-threats.yaml").write_text(
+            f"# the golden threat set of {sc.name} (tests/golden/replays.py)\n"
+            + yaml.safe_dump(threats, sort_keys=False, default_flow_style=None, width=100),
+            encoding="utf-8",
+        )
+        print(f"wrote {out / sc.name}.yaml and its threats")
+
+
 def main() -> None:
     if "--replays" in sys.argv[1:]:
         replays()
+        return
+    if "--suite" in sys.argv[1:]:
+        suite()
         return
     data: dict[str, dict[str, object]] = {}
     for sc in MAPS:

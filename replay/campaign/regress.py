@@ -1,0 +1,446 @@
+"""``terrapath regress``: a named suite of campaigns flown with the avoiders asked for, each result
+compared with a stored baseline (issue 39).
+
+A suite (``suites/NAME.yaml`` beside this module, or any file in its format) lists *cases*, each a
+campaign (:mod:`replay.campaign.spec`) the regression flies:
+
+- ``mission`` + ``threats``: a fixed mission file and threat file of the suite (the reference
+  maps' golden plans and threat sets, ``suites/reference/``; made by ``python -m
+  tests.golden.regen --suite``).  The mission names its DEM as ``maps/<folder>/<file>``, looked up
+  under the maps' folders (``--data DIR``, then the checkout's ``data/maps`` and
+  ``../shared/maps``); a case whose map is not found is *skipped*, and says so.
+- ``bench``: a paper's campaign (``replay/campaign/benches/NAME.yaml``), ``runs`` per line.
+- ``spec``: a campaign spec written inline (the own-scenario generator at a fixed seed).
+
+Every case is flown with the suite's avoiders, or those named (``--avoid``: built-in or plugin),
+and grouped by (case, mission, row, avoider): the runs, the successes, the errors; for a single
+run also its end, each threat's minimum separation and the PLR.  A group is compared with the
+baseline's group of the same key (:func:`compare`):
+
+- one run (every run is a function of its seed; tolerances are for the drift of a fresh
+  install's library versions, as the golden replays' of ``tests/golden/replays.py``): a lost
+  success, a threat entered that the baseline kept clear of, a separation that fell by more than
+  ``max(25 m, 10 %)``, a PLR that grew by more than 2 % -- each a regression;
+- several runs (random scenarios): a regression when the baseline's success rate lies above the
+  upper end of the 95 % Wilson interval of the new rate (a drop the runs show, not noise);
+- an error in any run is a regression; a group the baseline does not hold is *new* (a plugin's
+  first run), printed beside the built-ins' baseline figures.
+
+Outputs (``-o DIR``): the table (``regress.md``), JUnit XML (``junit.xml``: a test case per group,
+a ``failure`` per regression, ``skipped`` per case whose map is missing), a picture of each
+regressed single run (re-flown with its recording), the runs' store.  ``--update-baseline``
+writes the figures as a new baseline beside the one compared with (a dated name, never over it).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree as ET
+
+import yaml
+
+from terrain.docfile import parse_yaml
+from terrain.errors import InputError
+
+SUITES_DIR = Path(__file__).resolve().parent / "suites"
+BENCHES_DIR = Path(__file__).resolve().parent / "benches"
+_ROOT = Path(__file__).resolve().parents[2]
+# where a suite's maps are looked for after --data: the checkout's maps and the shared ones
+MAP_DIRS = (_ROOT / "data" / "maps", _ROOT.parent / "shared" / "maps")
+
+TOL_SEPARATION = (25.0, 0.10)  # metres or relative, whichever is larger
+TOL_PLR = 0.02  # relative
+BASELINE_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class Case:
+    """One campaign of a suite: its name, the spec file written for it (None: skipped) and why it
+    was skipped."""
+
+    name: str
+    spec: Path | None
+    skipped: str | None = None
+    runs: int | None = None  # the bench's runs per line
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str
+    title: str
+    path: Path
+    avoiders: tuple[str, ...]
+    cases: tuple[dict[str, Any], ...]
+
+    @property
+    def baseline(self) -> Path:
+        """The baseline shipped beside the suite: ``NAME-baseline.json``."""
+        return self.path.with_name(f"{self.name}-baseline.json")
+
+
+def suite_names() -> list[str]:
+    return sorted(p.stem for p in SUITES_DIR.glob("*.yaml"))
+
+
+def load_suite(name: str) -> Suite:
+    """The suite ``name`` (``suites/NAME.yaml``) or the suite file at the path ``name``."""
+    path = Path(name)
+    if not (path.suffix in (".yaml", ".yml") and path.is_file()):
+        path = SUITES_DIR / f"{name}.yaml"
+        if not path.is_file():
+            raise InputError(
+                f"no regression suite {name!r}; the suites: {', '.join(suite_names())} "
+                "(or a suite file's path)"
+            )
+    doc = parse_yaml(path.read_text(encoding="utf-8"), str(path))
+    if not isinstance(doc, dict) or doc.get("terrapath") != 1:
+        raise InputError(f"{path}: expected a regression suite (terrapath: 1, name, cases)")
+    cases = doc.get("cases")
+    if not isinstance(cases, list) or not cases or not all(isinstance(c, dict) for c in cases):
+        raise InputError(f"{path}: cases: expected a list of cases (mission, bench or spec)")
+    for c in cases:
+        kinds = [k for k in ("mission", "bench", "spec") if k in c]
+        if not isinstance(c.get("name"), str) or len(kinds) != 1:
+            raise InputError(
+                f"{path}: case {c.get('name')!r}: expected a name and one of mission (with "
+                "threats), bench or spec"
+            )
+    avoiders = doc.get("avoiders", ["none", "pso-ca", "ctga", "fga"])
+    if not isinstance(avoiders, list) or not all(isinstance(a, str) for a in avoiders):
+        raise InputError(f"{path}: avoiders: expected a list of avoider names")
+    return Suite(
+        name=str(doc.get("name") or path.stem),
+        title=str(doc.get("title", "")),
+        path=path,
+        avoiders=tuple(avoiders),
+        cases=tuple(cases),
+    )
+
+
+def find_map(relative: str, data: Sequence[Path]) -> Path | None:
+    """``maps/<folder>/<file>`` under each of ``data`` (as ``DIR/<folder>/<file>`` or
+    ``DIR/maps/<folder>/<file>``), then under :data:`MAP_DIRS`; None when nowhere."""
+    rel = Path(relative)
+    inner = Path(*rel.parts[1:]) if rel.parts and rel.parts[0] == "maps" else rel
+    for d in [*data, *MAP_DIRS]:
+        for candidate in (d / inner, d / "maps" / inner):
+            if candidate.is_file():
+                return candidate.resolve()
+    return None
+
+
+def prepare(suite: Suite, avoiders: Sequence[str], work: Path, data: Sequence[Path]) -> list[Case]:
+    """Write each case's campaign spec into ``work`` (its mission's DEM resolved) and return the
+    cases, those whose maps are missing marked skipped."""
+    work.mkdir(parents=True, exist_ok=True)
+    here = suite.path.parent
+    listed = [{"name": a} for a in avoiders]
+    out: list[Case] = []
+    for c in suite.cases:
+        name = c["name"]
+        spec_path = work / f"{name}.yaml"
+        if "bench" in c:
+            bench = BENCHES_DIR / f"{c['bench']}.yaml"
+            if not bench.is_file():
+                raise InputError(f"{suite.path}: case {name!r}: no bench {c['bench']!r}")
+            doc = parse_yaml(bench.read_text(encoding="utf-8"), str(bench))
+            doc = _absolute(doc, bench.parent)
+            doc.update(name=f"{suite.name}-{name}", avoiders=listed)
+            if "runs" in c:
+                doc["runs"] = int(c["runs"])
+        elif "spec" in c:
+            doc = {"terrapath": 1, **_absolute(dict(c["spec"]), here)}
+            doc.update(name=f"{suite.name}-{name}", avoiders=listed)
+            doc.setdefault("seed", 0)
+        else:
+            mission_src = here / c["mission"]
+            mission = parse_yaml(mission_src.read_text(encoding="utf-8"), str(mission_src))
+            tiles = (mission.get("terrain") or {}).get("dem") or []
+            found = [find_map(t, data) for t in tiles]
+            if any(f is None for f in found):
+                missing = ", ".join(t for t, f in zip(tiles, found, strict=True) if f is None)
+                out.append(Case(name, None, f"map not found: {missing} (give --data DIR)"))
+                continue
+            mission["terrain"]["dem"] = [str(f) for f in found]
+            (work / f"{name}-mission.yaml").write_text(
+                yaml.safe_dump(mission, sort_keys=False, default_flow_style=None),
+                encoding="utf-8",
+            )
+            shutil.copyfile(here / c["threats"], work / f"{name}-threats.yaml")
+            doc = {
+                "terrapath": 1,
+                "name": f"{suite.name}-{name}",
+                "mission": f"{name}-mission.yaml",
+                "threats": {"files": [f"{name}-threats.yaml"]},
+                "avoiders": listed,
+                "sensor": c.get("sensor", "radar"),
+                "runs": 1,
+                "seed": int(c.get("seed", 0)),
+            }
+        spec_path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+        out.append(Case(name, spec_path))
+    return out
+
+
+def _absolute(doc: dict[str, Any], base: Path) -> dict[str, Any]:
+    """The spec's mission and threat files as absolute paths (it is written elsewhere)."""
+    out = dict(doc)
+    for key in ("mission",):
+        if isinstance(out.get(key), str):
+            out[key] = str((base / out[key]).resolve())
+    if isinstance(out.get("missions"), list):
+        out["missions"] = [str((base / m).resolve()) for m in out["missions"]]
+    threats = out.get("threats")
+    if isinstance(threats, dict) and isinstance(threats.get("files"), list):
+        out["threats"] = {**threats, "files": [str((base / f).resolve()) for f in threats["files"]]}
+    return out
+
+
+# -- figures and comparison ---------------------------------------------------------------------
+
+
+@dataclass
+class Group:
+    """The runs of one (case, mission, row, avoider)."""
+
+    key: str
+    case: str
+    avoider: str
+    runs: int = 0
+    successes: int = 0
+    errors: list[str] = field(default_factory=list)
+    end_reason: str | None = None
+    min_separation: dict[str, float] | None = None
+    plr: float | None = None
+    run_keys: list[str] = field(default_factory=list)
+
+    def figures(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"runs": self.runs, "successes": self.successes}
+        if self.runs == 1 and not self.errors:
+            out.update(end_reason=self.end_reason, min_separation=self.min_separation, plr=self.plr)
+        return out
+
+
+def groups(case: str, rows: Iterable[dict[str, Any]]) -> dict[str, Group]:
+    """The rows of a case's campaign by (case, mission, row, avoider)."""
+    out: dict[str, Group] = {}
+    for r in rows:
+        key = f"{case}/{r['mission']}/{r['row']}/{r['avoider']}"
+        g = out.setdefault(key, Group(key, case, r["avoider"]))
+        g.runs += 1
+        g.run_keys.append(r["key"])
+        if r["status"] != "ok":
+            g.errors.append(f"{r['key']}: {r.get('error')}")
+            continue
+        g.successes += bool(r["success"])
+        m = r.get("metrics") or {}
+        g.end_reason = r.get("end_reason")
+        g.min_separation = {
+            k: float(v["value"] if isinstance(v, dict) else v)
+            for k, v in (m.get("min_separation") or {}).items()
+        }
+        plr = m.get("plr")
+        g.plr = float(plr) if isinstance(plr, int | float) and math.isfinite(plr) else None
+    return out
+
+
+@dataclass(frozen=True)
+class Verdict:
+    status: str  # "ok", "improved", "regressed", "new", "error"
+    reasons: tuple[str, ...] = ()
+
+    @property
+    def failed(self) -> bool:
+        return self.status in ("regressed", "error")
+
+
+def compare(g: Group, base: dict[str, Any] | None) -> Verdict:
+    """The group against its baseline figures (module docstring)."""
+    from replay.campaign.runner import wilson
+
+    if g.errors:
+        return Verdict("error", tuple(g.errors))
+    if base is None:
+        return Verdict("new")
+    reasons: list[str] = []
+    better: list[str] = []
+    if g.runs == 1 and base.get("runs") == 1:
+        was, now = bool(base["successes"]), bool(g.successes)
+        if was and not now:
+            reasons.append(f"success lost (end: {g.end_reason})")
+        elif now and not was:
+            better.append("succeeds now")
+        for ident, sep in (base.get("min_separation") or {}).items():
+            got = (g.min_separation or {}).get(ident)
+            if got is None:
+                reasons.append(f"{ident}: no separation recorded (baseline {sep:.0f} m)")
+                continue
+            if sep >= 0 > got:
+                reasons.append(f"{ident} entered: separation {got:.0f} m (baseline {sep:.0f} m)")
+            elif sep >= 0 and got < sep - max(TOL_SEPARATION[0], TOL_SEPARATION[1] * abs(sep)):
+                reasons.append(f"{ident} separation {got:.0f} m (baseline {sep:.0f} m)")
+        plr0 = base.get("plr")
+        if was and now and plr0 is not None and g.plr is not None and g.plr > plr0 * (1 + TOL_PLR):
+            reasons.append(f"PLR {g.plr:.3f} (baseline {plr0:.3f})")
+    else:
+        k0, n0 = int(base["successes"]), int(base["runs"])
+        rate0 = k0 / n0 if n0 else 0.0
+        lo, hi = wilson(g.successes, g.runs)
+        if hi < rate0:
+            reasons.append(
+                f"success {g.successes}/{g.runs} (95 % CI {100 * lo:.0f}-{100 * hi:.0f} %) "
+                f"below the baseline's {k0}/{n0}"
+            )
+        elif lo > rate0:
+            better.append(f"success {g.successes}/{g.runs} above the baseline's {k0}/{n0}")
+    if reasons:
+        return Verdict("regressed", tuple(reasons))
+    return Verdict("improved", tuple(better)) if better else Verdict("ok")
+
+
+# -- baseline -----------------------------------------------------------------------------------
+
+
+def read_baseline(path: Path) -> dict[str, dict[str, Any]]:
+    """The groups' figures of a baseline file ({} when it does not exist)."""
+    if not path.is_file():
+        return {}
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: not a regression baseline ({exc})") from None
+    if not isinstance(doc, dict) or doc.get("format") != BASELINE_FORMAT:
+        raise InputError(f"{path}: format: expected {BASELINE_FORMAT} (a regress baseline)")
+    groups_doc = doc.get("groups")
+    if not isinstance(groups_doc, dict):
+        raise InputError(f"{path}: groups: expected the figures of each group")
+    return groups_doc
+
+
+def new_baseline_path(old: Path, now: datetime | None = None) -> Path:
+    """A dated name beside ``old`` that exists nowhere yet (never ``old`` itself)."""
+    stamp = (now or datetime.now(UTC)).strftime("%Y%m%d-%H%M%S")
+    stem = old.stem
+    path = old.with_name(f"{stem}-{stamp}.json")
+    n = 1
+    while path.exists():
+        path = old.with_name(f"{stem}-{stamp}-{n}.json")
+        n += 1
+    return path
+
+
+def baseline_doc(
+    suite: Suite, found: dict[str, Group], old: dict[str, dict[str, Any]], meta: dict[str, Any]
+) -> dict[str, Any]:
+    """The new baseline: the old groups, with the groups flown now in their place."""
+    merged = dict(old)
+    merged.update({k: g.figures() for k, g in found.items() if not g.errors})
+    return {"format": BASELINE_FORMAT, "suite": suite.name, **meta, "groups": merged}
+
+
+# -- outputs ------------------------------------------------------------------------------------
+
+
+def table(
+    found: dict[str, Group], verdicts: dict[str, Verdict], base: dict[str, dict[str, Any]]
+) -> list[list[str]]:
+    """The rows of the printed table: group, runs, success, worst separation, PLR, the
+    baseline's success, the verdict."""
+    rows = [
+        ["case / mission / row", "avoider", "success", "worst sep", "PLR", "baseline", "verdict"]
+    ]
+    for key, g in found.items():
+        where = key.rsplit("/", 1)[0]
+        seps = [v for k, v in (g.min_separation or {}).items() if not k.startswith("zone:")]
+        worst = f"{min(seps):.0f} m" if g.runs == 1 and seps and not g.errors else "-"
+        plr = f"{g.plr:.3f}" if g.runs == 1 and g.plr is not None and not g.errors else "-"
+        b = base.get(key)
+        was = f"{b['successes']}/{b['runs']}" if b else "-"
+        v = verdicts[key]
+        rows.append([where, g.avoider, f"{g.successes}/{g.runs}", worst, plr, was, v.status])
+    return rows
+
+
+def format_table(rows: list[list[str]]) -> str:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    return "\n".join(
+        "  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows
+    )
+
+
+def markdown(rows: list[list[str]]) -> str:
+    head, *body = rows
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(r) + " |" for r in body]
+    return "\n".join(lines) + "\n"
+
+
+def junit_xml(
+    suite: Suite,
+    found: dict[str, Group],
+    verdicts: dict[str, Verdict],
+    skipped: Sequence[Case],
+    seconds: float,
+) -> bytes:
+    """JUnit XML: a ``testsuite`` for the suite, a ``testcase`` per group (``failure`` when it
+    regressed, ``error`` when a run failed to fly) and per skipped case."""
+    failures = sum(v.status == "regressed" for v in verdicts.values())
+    errors = sum(v.status == "error" for v in verdicts.values())
+    root = ET.Element("testsuites")
+    ts = ET.SubElement(
+        root,
+        "testsuite",
+        name=f"terrapath regress {suite.name}",
+        tests=str(len(found) + len(skipped)),
+        failures=str(failures),
+        errors=str(errors),
+        skipped=str(len(skipped)),
+        time=f"{seconds:.1f}",
+    )
+    for key, g in found.items():
+        tc = ET.SubElement(ts, "testcase", classname=f"{suite.name}.{g.case}", name=key)
+        v = verdicts[key]
+        if v.status == "regressed":
+            el = ET.SubElement(tc, "failure", message="; ".join(v.reasons), type="regression")
+            el.text = "\n".join(v.reasons)
+        elif v.status == "error":
+            el = ET.SubElement(tc, "error", message=v.reasons[0][:200], type="error")
+            el.text = "\n".join(v.reasons)
+        else:
+            out = ET.SubElement(tc, "system-out")
+            out.text = f"{v.status}: {g.successes}/{g.runs} succeeded"
+    for c in skipped:
+        tc = ET.SubElement(ts, "testcase", classname=f"{suite.name}.{c.name}", name=c.name)
+        ET.SubElement(tc, "skipped", message=c.skipped or "skipped")
+    ET.indent(root)
+    return b'<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="utf-8")
+
+
+__all__ = [
+    "BASELINE_FORMAT",
+    "SUITES_DIR",
+    "Case",
+    "Group",
+    "Suite",
+    "Verdict",
+    "baseline_doc",
+    "compare",
+    "find_map",
+    "format_table",
+    "groups",
+    "junit_xml",
+    "load_suite",
+    "markdown",
+    "new_baseline_path",
+    "prepare",
+    "read_baseline",
+    "suite_names",
+    "table",
+]

