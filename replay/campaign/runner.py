@@ -22,7 +22,7 @@ import math
 import multiprocessing
 import os
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -209,25 +209,27 @@ def start_worker(run: Run, parent: int) -> None:
     warm_up(run)
 
 
-def _pool(runs: list[Run], args: tuple[Any, ...], jobs: int) -> Iterator[dict[str, Any]]:
+def _pool(tasks: list[tuple[Run, tuple[Any, ...]]], jobs: int) -> Iterator[dict[str, Any]]:
+    """Each (run, :func:`execute`'s other arguments) flown in a process pool of ``jobs``
+    workers (in this process with one), the rows as they finish."""
     if jobs <= 1:
-        for r in runs:
+        for r, args in tasks:
             yield execute(r, *args)
         return
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     before = {p.pid for p in multiprocessing.active_children()}
     pool = ProcessPoolExecutor(
-        max_workers=jobs, initializer=start_worker, initargs=(runs[0], os.getpid())
+        max_workers=jobs, initializer=start_worker, initargs=(tasks[0][0], os.getpid())
     )
     try:
-        futures = [pool.submit(execute, r, *args) for r in runs]
+        futures = [pool.submit(execute, r, *args) for r, args in tasks]
         for f in as_completed(futures):
             yield f.result()
     except BaseException:  # SIGTERM, Ctrl-C, a full disk: the workers' runs are not waited for
         end_workers(p for p in multiprocessing.active_children() if p.pid not in before)
-        if args[-1] is not None:  # the recordings the workers were writing
-            remove_stale_parts(args[-1])
+        for folder in {args[-1] for _, args in tasks if args[-1] is not None}:
+            remove_stale_parts(folder)  # the recordings the workers were writing
         raise
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
@@ -362,7 +364,7 @@ def run_campaign(
     if not todo:
         stream = ()
     elif executor == "pool":
-        stream = _pool(todo, args, jobs)
+        stream = _pool([(r, args) for r in todo], jobs)
     else:
         stream = _dask(todo, args, jobs, scheduler if executor == "scheduler" else None)
     flown: list[dict[str, Any]] = []
@@ -372,6 +374,35 @@ def run_campaign(
         if report is not None:
             report(row, len(flown), len(todo))
     return runs, flown
+
+
+def run_campaigns(
+    specs: Sequence[Spec],
+    store: Store,
+    *,
+    version: str,
+    commands: Sequence[str],
+    jobs: int = 1,
+    report: Callable[[dict[str, Any], int, int], None] | None = None,
+) -> list[dict[str, Any]]:
+    """The missing runs of several campaigns flown in one process pool (no recordings kept:
+    ``terrapath regress``), each row written as it finishes; returns the rows flown now.  One
+    pool for all balances the cores to the last run and starts its workers once."""
+    tasks: list[tuple[Run, tuple[Any, ...]]] = []
+    for spec, command in zip(specs, commands, strict=True):
+        runs = spec.all_runs()
+        have = store.done(r.run_hash for r in runs)
+        args = (spec.name, spec.spec_hash, version, command, "none", None)
+        tasks += [(r, args) for r in runs if r.run_hash not in have]
+    flown: list[dict[str, Any]] = []
+    if not tasks:
+        return flown
+    for row in _pool(tasks, jobs):
+        store.put(row)
+        flown.append(row)
+        if report is not None:
+            report(row, len(flown), len(tasks))
+    return flown
 
 
 def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
@@ -394,6 +425,7 @@ __all__ = [
     "execute",
     "mcap_name",
     "run_campaign",
+    "run_campaigns",
     "scenario",
     "wilson",
 ]

@@ -12,7 +12,8 @@ from typing import Any
 
 import click
 
-from terrapath.commands.campaign import fly
+from terrapath.progress import progress_bar
+from terrapath.runtext import duration
 
 EXIT_REGRESSED = 3  # as a failed replay: the outcome is a failure, not an error of input
 
@@ -108,17 +109,15 @@ def regress_cmd(
     command = "terrapath regress " + " ".join(shlex.quote(a) for a in given)
     store = folder / "runs.sqlite"
     t0 = time.perf_counter()
-    found: dict[str, R.Group] = {}
-    specs: dict[str, Any] = {}
+    specs = {c.name: load_spec(c.spec) for c in cases if c.spec is not None}
     for c in cases:
         if c.spec is None:
             click.echo(f"{c.name}: skipped ({c.skipped})", err=True)
-            continue
-        spec = load_spec(c.spec)
-        specs[c.name] = spec
-        refly = f"terrapath campaign {shlex.quote(str(c.spec))} --store {shlex.quote(str(store))}"
-        rows, _ = fly(spec, str(store), refly, jobs, False, None, "none", None)
-        found.update(R.groups(c.name, rows))
+    rows = _fly(specs, [c for c in cases if c.spec is not None], store, jobs, __version__)
+    found: dict[str, R.Group] = {}
+    for name, spec in specs.items():
+        hashes = {r.run_hash for r in spec.all_runs()}
+        found.update(R.groups(name, [r for r in rows if r["run_hash"] in hashes]))
     seconds = time.perf_counter() - t0
     verdicts = {k: R.compare(g, base.get(k)) for k, g in found.items()}
     rows_t = R.table(found, verdicts, base)
@@ -155,6 +154,47 @@ def regress_cmd(
         err=True,
     )
     return EXIT_REGRESSED if regressed else 0
+
+
+def _fly(
+    specs: dict[str, Any], cases: list[Any], store: Path, jobs: int | None, version: str
+) -> list[dict[str, Any]]:
+    """Every case's missing runs in one process pool, with a progress bar; every run's row."""
+    import os
+
+    from replay.campaign.runner import run_campaigns
+    from replay.campaign.store import Store
+
+    names = list(specs)
+    commands = [
+        f"terrapath campaign {shlex.quote(str(c.spec))} --store {shlex.quote(str(store))}"
+        for c in cases
+    ]
+    n_jobs = jobs or os.cpu_count() or 1
+    with Store(str(store), version) as db:
+        total = sum(len(specs[n].all_runs()) for n in names)
+        click.echo(f"regress: {total} runs in {len(names)} campaigns ({n_jobs} jobs)", err=True)
+        t0 = time.perf_counter()
+        with progress_bar(max(total, 1), "runs") as bar:
+
+            def report(row: dict[str, Any], done: int, todo: int) -> None:
+                el = time.perf_counter() - t0
+                text = f"{done}/{todo} runs, ETA {duration(el / done * (todo - done))}"
+                if bar is not None:
+                    bar(done, text)
+                else:
+                    click.echo(f"[{text}] {row['key']}", err=True)
+
+            run_campaigns(
+                [specs[n] for n in names],
+                db,
+                version=version,
+                commands=commands,
+                jobs=n_jobs,
+                report=report,
+            )
+        hashes = [r.run_hash for n in names for r in specs[n].all_runs()]
+        return list(db.rows(hashes=hashes))
 
 
 def _pictures(
