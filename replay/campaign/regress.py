@@ -38,7 +38,7 @@ import json
 import math
 import shutil
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -52,8 +52,11 @@ from terrain.errors import InputError
 SUITES_DIR = Path(__file__).resolve().parent / "suites"
 BENCHES_DIR = Path(__file__).resolve().parent / "benches"
 _ROOT = Path(__file__).resolve().parents[2]
-# where a suite's maps are looked for after --data: the checkout's maps and the shared ones
-MAP_DIRS = (_ROOT / "data" / "maps", _ROOT.parent / "shared" / "maps")
+# the data a wheel bundles (setup.py: the suite's maps and scenario files), after the checkout's
+DATA_DIRS = (_ROOT / "data", Path(__file__).resolve().parent / "data")
+# where a suite's maps are looked for after --data: the checkout's or the bundled maps, the
+# shared ones beside the checkout
+MAP_DIRS = (*(d / "maps" for d in DATA_DIRS), _ROOT.parent / "shared" / "maps")
 
 TOL_SEPARATION = (25.0, 0.10)  # metres or relative, whichever is larger
 TOL_PLR = 0.02  # relative
@@ -124,6 +127,18 @@ def load_suite(name: str) -> Suite:
     )
 
 
+def only_cases(suite: Suite, names: Sequence[str]) -> Suite:
+    """The suite with only the cases named (each must be one of its cases)."""
+    known = [c["name"] for c in suite.cases]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise InputError(
+            f"--case: no case {', '.join(map(repr, unknown))} in the suite {suite.name!r}; "
+            f"its cases: {', '.join(known)}"
+        )
+    return replace(suite, cases=tuple(c for c in suite.cases if c["name"] in names))
+
+
 def find_map(relative: str, data: Sequence[Path]) -> Path | None:
     """``maps/<folder>/<file>`` under each of ``data`` (as ``DIR/<folder>/<file>`` or
     ``DIR/maps/<folder>/<file>``), then under :data:`MAP_DIRS`; None when nowhere."""
@@ -190,17 +205,29 @@ def prepare(suite: Suite, avoiders: Sequence[str], work: Path, data: Sequence[Pa
 
 
 def _absolute(doc: dict[str, Any], base: Path) -> dict[str, Any]:
-    """The spec's mission and threat files as absolute paths (it is written elsewhere)."""
+    """The spec's mission and threat files as absolute paths (it is written elsewhere); a file
+    of the checkout's ``data/`` that is not there (an installed terrapath) from the bundled
+    copy (:data:`DATA_DIRS`)."""
     out = dict(doc)
-    for key in ("mission",):
-        if isinstance(out.get(key), str):
-            out[key] = str((base / out[key]).resolve())
+    if isinstance(out.get("mission"), str):
+        out["mission"] = _data_file(base, out["mission"])
     if isinstance(out.get("missions"), list):
-        out["missions"] = [str((base / m).resolve()) for m in out["missions"]]
+        out["missions"] = [_data_file(base, m) for m in out["missions"]]
     threats = out.get("threats")
     if isinstance(threats, dict) and isinstance(threats.get("files"), list):
-        out["threats"] = {**threats, "files": [str((base / f).resolve()) for f in threats["files"]]}
+        out["threats"] = {**threats, "files": [_data_file(base, f) for f in threats["files"]]}
     return out
+
+
+def _data_file(base: Path, rel: str) -> str:
+    path = (base / rel).resolve()
+    parts = Path(rel).parts
+    if not path.exists() and "data" in parts:
+        inner = Path(*parts[parts.index("data") + 1 :])
+        for d in DATA_DIRS:
+            if (d / inner).exists():
+                return str(d / inner)
+    return str(path)
 
 
 # -- figures and comparison ---------------------------------------------------------------------
@@ -439,6 +466,7 @@ __all__ = [
     "load_suite",
     "markdown",
     "new_baseline_path",
+    "only_cases",
     "prepare",
     "read_baseline",
     "suite_names",

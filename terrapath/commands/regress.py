@@ -57,6 +57,13 @@ EXIT_REGRESSED = 3  # as a failed replay: the outcome is a failure, not an error
     "never over it).",
 )
 @click.option(
+    "--case",
+    "only",
+    multiple=True,
+    metavar="NAME",
+    help="Fly only this case of the suite (repeatable; --list names them).",
+)
+@click.option(
     "--jobs", type=click.IntRange(min=1), default=None, help="Processes (default: cores)."
 )
 @click.option("--list", "listing", is_flag=True, help="The suites and their cases.")
@@ -67,6 +74,7 @@ def regress_cmd(
     out: str | None,
     baseline: str | None,
     update_baseline: bool,
+    only: tuple[str, ...],
     jobs: int | None,
     listing: bool,
 ) -> int:
@@ -91,6 +99,8 @@ def regress_cmd(
                 click.echo(f"  {doc['name']}")
         return 0
     s = R.load_suite(suite)
+    if only:
+        s = R.only_cases(s, only)
     avoiders = tuple(avoid.split(",")) if avoid else s.avoiders
     unknown = [a for a in avoiders if a not in AVOIDERS]
     if unknown:
@@ -105,7 +115,12 @@ def regress_cmd(
     folder = Path(out) if out else Path("out") / f"regress-{s.name}"
     folder.mkdir(parents=True, exist_ok=True)
     cases = R.prepare(s, avoiders, folder / "specs", [Path(d) for d in data])
-    given = [s.name, *(["--avoid", avoid] if avoid else []), *(f"--data={d}" for d in data)]
+    given = [
+        s.name,
+        *(["--avoid", avoid] if avoid else []),
+        *(f"--data={d}" for d in data),
+        *(f"--case={c}" for c in only),
+    ]
     command = "terrapath regress " + " ".join(shlex.quote(a) for a in given)
     store = folder / "runs.sqlite"
     t0 = time.perf_counter()
