@@ -325,7 +325,7 @@ def _file(path: Path, fld: str, value: Any) -> Path:
 
 def load_spec(path: str | Path) -> Spec:
     """Read and validate a campaign spec (module docstring)."""
-    from replay.avoidance.registry import avoider_names
+    from replay.avoidance.registry import AVOIDERS, REGISTRY
 
     src = Path(path)
     try:
@@ -378,7 +378,7 @@ def load_spec(path: str | Path) -> Spec:
     _check_files(missions if not cases else (), rows, dem)
     if "winds" in doc:
         rows = _by_wind(src, doc["winds"], rows)
-    avoiders = _avoiders(src, doc.get("avoiders"), avoider_names())
+    avoiders = _avoiders(src, doc.get("avoiders"), [*AVOIDERS, *REGISTRY.plugin_names()])
     sensor = doc.get("sensor")
     if sensor is not None and sensor not in SENSORS:
         raise _fail(src, "sensor", f"expected one of {', '.join(SENSORS)}, found {sensor!r}")
