@@ -147,13 +147,18 @@ class Registry:
         self.group = group
         self.builtins = dict(builtins)
         self.check = check
+        self._cache: tuple[int, dict[str, list[Plugin]]] | None = None
 
     def _by_name(self) -> dict[str, list[Plugin]]:
+        """Every name's entries (built once per :func:`refresh`: a lookup is a dict's)."""
+        if self._cache is not None and self._cache[0] == _generation[0]:
+            return self._cache[1]
         out: dict[str, list[Plugin]] = {
             n: [Plugin(self.group, n, v)] for n, v in self.builtins.items()
         }
         for p in installed(self.group):
             out.setdefault(p.name, []).append(p)
+        self._cache = (_generation[0], out)
         return out
 
     def names(self) -> list[str]:
@@ -196,10 +201,14 @@ class Registry:
         return obj
 
 
+_generation = [0]  # bumped by refresh(): the registries' name tables are rebuilt
+
+
 def refresh() -> None:
     """Forget the entry points read so far (tests that install a package mid-process)."""
     installed.cache_clear()
     _load.cache_clear()
+    _generation[0] += 1
 
 
 __all__ = ["GROUPS", "OWN_DISTRIBUTION", "Plugin", "Registry", "installed", "refresh"]

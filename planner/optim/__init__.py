@@ -73,8 +73,10 @@ def optimizer_names() -> list[str]:
 def optimizer_class(name: str) -> type[Optimizer]:
     """The class registered as ``name`` (an installed one imported now)."""
     cls = OPTIMIZERS.get(name) if isinstance(name, str) else None
-    if cls is None and isinstance(name, str) and name in REGISTRY:
-        cls = REGISTRY.load(name)
+    if isinstance(name, str) and name in REGISTRY:
+        REGISTRY.find(name)  # a name given twice (a package and terrapath) is named
+        if cls is None:
+            cls = REGISTRY.load(name)
     if cls is None:
         raise InputError(
             f"unknown optimiser {name!r}; expected one of {', '.join(optimizer_names())}"

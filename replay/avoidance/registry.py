@@ -146,8 +146,8 @@ def _entry(name: str) -> AvoiderEntry:
 
 def avoider_class(name: str) -> type:
     """The class registered under ``name`` (imported now)."""
+    avoider_plugin(name)  # unknown names refused, a name given twice named
     if name not in AVOIDERS:
-        avoider_plugin(name)  # unknown names refused, clashes named
         cls = REGISTRY.load(name)
         assert isinstance(cls, type)  # _check_plugin
         return cls

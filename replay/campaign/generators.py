@@ -393,6 +393,8 @@ def _installed(name: Any) -> Any:
 
 def case_generator(name: Any) -> CaseGenerator | None:
     """The case generator ``name`` (None: no such name, or a threat generator)."""
+    if isinstance(name, str) and name in REGISTRY:
+        REGISTRY.find(name)  # a name given twice (a package and terrapath) is named
     if name in CASE_GENERATORS:
         return CASE_GENERATORS[name]
     found = _installed(name)
@@ -401,6 +403,8 @@ def case_generator(name: Any) -> CaseGenerator | None:
 
 def threat_generator(name: Any) -> Generator | None:
     """The threat generator ``name`` (None: no such name, or a case generator)."""
+    if isinstance(name, str) and name in REGISTRY:
+        REGISTRY.find(name)  # a name given twice (a package and terrapath) is named
     if name in GENERATORS:
         return GENERATORS[name]
     found = _installed(name)

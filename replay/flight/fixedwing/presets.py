@@ -435,6 +435,7 @@ def preset(name: str) -> VehicleParams:
     """A preset by name (``aerosonde``, ``solar-uav``, ``cessna172``, ``small-uas``,
     ``seed004-uas``, or one an installed package gives)."""
     if name in PRESETS:
+        VEHICLES.find(name)  # a name given twice (a package and terrapath) is named
         return PRESETS[name]
     found = installed_vehicle(name)
     if isinstance(found, VehicleParams):
@@ -456,7 +457,7 @@ def load_vehicle(
         return name_or_path
     text = str(name_or_path)
     if isinstance(name_or_path, str) and text in PRESETS:
-        return PRESETS[text]
+        return preset(text)
     path = Path(text)
     if base_dir is not None and not path.is_absolute():
         path = base_dir / path
