@@ -62,6 +62,12 @@ class Chatty(AvoiderBase):
         return ["climb", 500]
 
 
+class Blind(Chatty):
+    """Sees through the rangefinders only."""
+
+    sensors = ("rangefinder",)
+
+
 class Sloppy(PSO):
     """A PSO that starts outside its bounds."""
 
@@ -81,7 +87,11 @@ TINY = dataclasses.replace(PRESETS["solar-uav"], name="tiny-uav")
 MISNAMED = dataclasses.replace(PRESETS["solar-uav"], name="something-else")
 '''
 FAKE_ENTRY_POINTS = {
-    "terrapath.avoiders": {"chatty": "tp_fake:Chatty", "ghost": "tp_fake:Ghost"},
+    "terrapath.avoiders": {
+        "chatty": "tp_fake:Chatty",
+        "ghost": "tp_fake:Ghost",
+        "blind": "tp_fake:Blind",
+    },
     "terrapath.optimizers": {
         "sloppy": "tp_fake:Sloppy",
         "faithful": "tp_fake:Faithful",
@@ -297,6 +307,32 @@ def test_an_avoider_returning_the_wrong_type_ends_the_run_unrecorded(
         (row,) = s.rows()
     assert row["status"] == "error" and row["success"] is None
     assert "ContractError" in row["error"]
+
+
+def test_a_bench_flies_an_installed_avoider_on_its_scenarios(
+    fake: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``bench --avoid``: seed 001's three scenarios flown by the plugin alone (--optimizers
+    names it); its runs raise, so they are stored as errors and the bench exits 1; the table is
+    printed, not written into SUMMARY.md."""
+    from replay.campaign.store import Store
+
+    store = tmp_path / "b.sqlite"
+    args = ["bench", "seed001-scenarios", "--runs", "1", "--store", str(store)]
+    assert main([*args, "--avoid", "chatty", "--optimizers", "chatty"]) == 1
+    out, err = capsys.readouterr()
+    assert "with --avoid the table is not the paper's" in out
+    last = err.strip().splitlines()[-1]  # after the campaign's progress lines
+    assert last.startswith("terrapath: 3 run(s) raised") and "returned list from decide()" in last
+    with Store(store, "test") as s:
+        rows = s.rows()
+    assert len(rows) == 3 and {r["avoider"] for r in rows} == {"chatty"}
+    assert all(r["status"] == "error" and r["success"] is None for r in rows)
+    assert main([*args, "--avoid", "blind"]) == 1
+    msg = one_line(capsys.readouterr().err)
+    assert "--avoid blind: this bench flies with the cooperative sensor" in msg
+    assert main([*args, "--avoid", "ghost"]) == 1
+    assert "has no 'Ghost'" in one_line(capsys.readouterr().err)
 
 
 def test_an_optimizer_leaving_its_bounds_ends_the_run(
