@@ -6,8 +6,8 @@ gathers the returns chained to it (closer than two ``keep_m``: one obstacle, as 
 are), and inserts one waypoint abreast of that group, ``keep_m + margin_m`` beyond its farther
 return on the side that needs the shorter step (the other side when the validity checker
 refuses the first). A waypoint of the mission inside the group's keep distance is dropped (it
-cannot be reached safely). It does not predict moving threats: an intruder is treated as where
-it is now, which is why it promises only the contract's static scenarios.
+cannot be reached safely). A new step replaces the one it is flying to, if any. It ignores the returns the radar classifies as moving: it promises only the contract's static
+scenarios.
 
 What the loop gives it (:class:`replay.avoidance.base.AvoidanceContext`): the time, the
 aircraft's position and velocity, the radar picture (``positions`` of its ``n_threat`` threat
@@ -51,7 +51,7 @@ class SidestepAvoider(AvoiderBase):
         self.margin_m = float(margin_m)
 
     def reset(self, waypoints: FloatArray, rng: np.random.Generator) -> None:
-        return None  # no state between flights, no randomness
+        self._steps: list[FloatArray] = []  # the waypoints it put (no randomness)
 
     def point_keep_m(self) -> tuple[float, float] | None:
         return (self.keep_m, self.keep_m)
@@ -61,11 +61,18 @@ class SidestepAvoider(AvoiderBase):
         k = ctx.next_index
         if n == 0 or k >= len(ctx.waypoints):
             return None
-        returns = np.asarray(ctx.picture.positions, dtype=np.float64)[:n, :2]
+        target = ctx.waypoints[k]
+        # flying to a step of its own: a new step replaces it (steps do not pile up)
+        replacing = any(np.array_equal(target, p) for p in self._steps)
+        # the static returns only: it does not predict moving ones (the radar tells them apart
+        # after two scans; -1, not yet known, counts as static)
+        static = np.asarray(ctx.picture.moving_code[:n]) != 1
+        returns = np.asarray(ctx.picture.positions, dtype=np.float64)[:n, :2][static]
+        if not len(returns):
+            return None
         here = np.asarray(ctx.position, dtype=np.float64)
         # the leg as the autopilot flies it: from the previous waypoint to the next
         start = ctx.waypoints[k - 1, :2] if k > 0 else here[:2]
-        target = ctx.waypoints[k]
         leg = target[:2] - start
         length = float(np.hypot(*leg))
         if length < 1.0:
@@ -90,12 +97,13 @@ class SidestepAvoider(AvoiderBase):
                 break
         else:
             return AvoidanceDecision(reason="sidestep: neither side of the obstacle is valid")
-        rest = ctx.waypoints[k:]
+        rest = ctx.waypoints[k + 1 :] if replacing else ctx.waypoints[k:]
         # a waypoint inside the obstacle's keep distance cannot be reached: dropped (not the goal)
         near = np.hypot(*(rest[:, None, :2] - returns[None, group]).T).min(axis=0) < self.keep_m
         near[-1] = False
         # the new leg starts where the aircraft is (a waypoint there), then passes the obstacle
         wps = np.vstack([ctx.waypoints[:k], here[None, :], point[None, :], rest[~near]])
+        self._steps.append(point)
         return AvoidanceDecision(
             FollowWaypoints(wps, next_index=k + 1),
             reason=f"sidestep {offset:+.0f} m beside {len(group)} return(s) at {at:.0f} m",
