@@ -272,6 +272,25 @@ def test_a_missing_class_is_one_line_naming_the_package(
     assert not out.exists()
     with pytest.raises(PluginError, match="expected a subclass"):
         make_optimizer("not-an-optimizer")
+    # a campaign spec naming it (or a generator that cannot be imported): refused before it flies
+    spec = tmp_path / "spec.yaml"
+    doc = {
+        "terrapath": 1,
+        "name": "ghost",
+        "mission": str(mission),
+        "threats": {"files": [str(threats)]},
+        "avoiders": [{"name": "ghost"}],
+        "runs": 1,
+    }
+    spec.write_text(yaml.safe_dump(doc))
+    assert main(["campaign", str(spec), "--store", str(tmp_path / "s.sqlite")]) == 1
+    msg = one_line(capsys.readouterr().err)
+    assert "field 'avoiders[0].name'" in msg and "package tp-fake 0.1.0" in msg
+    doc.update(avoiders=[{"name": "none"}], threats={"generator": "unbuilt", "counts": [1]})
+    spec.write_text(yaml.safe_dump(doc))
+    assert main(["campaign", str(spec), "--store", str(tmp_path / "s.sqlite")]) == 1
+    msg = one_line(capsys.readouterr().err)
+    assert "field 'threats.generator'" in msg and "cannot import 'tp_missing_module'" in msg
 
 
 def test_an_avoider_returning_the_wrong_type_ends_the_run_unrecorded(
@@ -449,7 +468,12 @@ def test_the_example_plugin_is_listed_flown_and_used_by_a_campaign(example: dict
     assert listed["sidestep"] == ["terrapath-sidestep", "0.1.0"]
     assert listed["on-the-path"] == ["terrapath-sidestep", "0.1.0"]
     assert "example plugin: one waypoint beside each static obstacle" in text
-    assert run.is_file()
+    from replay.record.reader import load_run
+
+    meta = load_run(run, with_states=False).metadata
+    assert (
+        meta["avoid"] == "sidestep" and meta["avoid_package"] == "package terrapath-sidestep 0.1.0"
+    )
     from replay.campaign.store import Store
 
     with Store(store, "test") as s:

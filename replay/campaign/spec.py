@@ -67,7 +67,7 @@ from replay.campaign.generators import (
     threat_generator,
 )
 from terrain.docfile import parse_yaml
-from terrain.errors import DataFileError, InputError
+from terrain.errors import DataFileError, InputError, PluginError
 
 SPEC_KEYS = (
     *("terrapath", "name", "mission", "missions", "dem", "threats", "avoiders"),
@@ -351,7 +351,10 @@ def load_spec(path: str | Path) -> Spec:
         raise _fail(src, "name", f"expected the campaign's name, found {name!r}")
     threats_doc = doc.get("threats")
     gen_name = threats_doc.get("generator") if isinstance(threats_doc, dict) else None
-    cases = case_generator(gen_name) is not None
+    try:
+        cases = case_generator(gen_name) is not None
+    except PluginError as exc:  # an installed package's generator that cannot be used
+        raise _fail(src, "threats.generator", str(exc)) from None
     missions: tuple[Path, ...]
     if cases:
         if "mission" in doc or "missions" in doc:
@@ -537,8 +540,12 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
             )
         return None, Params(), tuple(Row(p.stem, None, p) for p in paths)
     gen = doc["generator"]
-    case = case_generator(gen)
-    if case is None and threat_generator(gen) is None:
+    try:
+        case = case_generator(gen)
+        known = case is not None or threat_generator(gen) is not None
+    except PluginError as exc:  # an installed package's generator that cannot be used
+        raise _fail(src, "threats.generator", str(exc)) from None
+    if not known:
         later = f" ({gen}: {COMING[gen]})" if gen in COMING else ""
         raise _fail(
             src,
@@ -676,6 +683,8 @@ def _avoiders(src: Path, doc: Any, known: Any) -> tuple[Avoider, ...]:
             raise _fail(src, f"{fld}.options", f"expected a mapping of options, found {options!r}")
         try:  # the options are checked now, not in the first run an hour from now
             make_avoider(name, **options)
+        except PluginError as exc:  # an installed package's avoider that cannot be used
+            raise _fail(src, f"{fld}.name", str(exc)) from None
         except (InputError, TypeError, ValueError) as exc:
             raise _fail(src, f"{fld}.options", str(exc)) from None
         out.append(Avoider(name, tuple(sorted(options.items()))))
