@@ -183,7 +183,7 @@ def make_avoider(name: str, **options: Any) -> Avoider:
     return avoider
 
 
-def checked_decision(avoider: Any, decision: Any) -> Any:
+def checked_decision(avoider: Any, decision: object) -> AvoidanceDecision | None:
     """``decision`` when it is what ``decide`` may return (an AvoidanceDecision or None), else
     the :class:`~terrain.errors.ContractError` that ends the run, naming the avoider and its
     class (a plugin's package is in its module's name)."""
