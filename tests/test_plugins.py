@@ -62,6 +62,13 @@ class Chatty(AvoiderBase):
         return ["climb", 500]
 
 
+class Crashy(Chatty):
+    """Divides by zero."""
+
+    def decide(self, ctx):
+        return 1 / 0
+
+
 class Blind(Chatty):
     """Sees through the rangefinders only."""
 
@@ -91,6 +98,7 @@ FAKE_ENTRY_POINTS = {
         "chatty": "tp_fake:Chatty",
         "ghost": "tp_fake:Ghost",
         "blind": "tp_fake:Blind",
+        "crashy": "tp_fake:Crashy",
     },
     "terrapath.optimizers": {
         "sloppy": "tp_fake:Sloppy",
@@ -305,6 +313,11 @@ def test_an_avoider_returning_the_wrong_type_ends_the_run_unrecorded(
     msg = one_line(capsys.readouterr().err)
     assert "avoider 'chatty' (tp_fake.Chatty) returned list from decide()" in msg
     assert not out.exists() and not list(tmp_path.glob("*.part"))
+    # an exception of its own: the same one line, naming the class (no traceback)
+    assert main([*args, "--avoid", "crashy"]) == 1
+    msg = one_line(capsys.readouterr().err)
+    assert "avoider 'chatty' (tp_fake.Crashy) raised ZeroDivisionError in decide()" in msg
+    assert not out.exists()
     # in a campaign: the run is stored as an error, never as a success
     spec = tmp_path / "spec.yaml"
     spec.write_text(

@@ -21,7 +21,7 @@ from typing import Any
 
 from replay.avoidance.base import Avoider
 from replay.guidance import AvoidanceDecision
-from terrain.errors import ContractError, InputError, PluginError
+from terrain.errors import ContractError, InputError, PluginError, TerrapathError
 from terrain.plugins import Plugin, Registry
 
 SENSORS = ("radar", "cooperative", "rangefinder")  # what an avoider may see through
@@ -183,6 +183,29 @@ def make_avoider(name: str, **options: Any) -> Avoider:
     return avoider
 
 
+OWN_PACKAGES = ("terrain", "planner", "replay", "terrapath")
+
+
+def decide_checked(avoider: Any, ctx: Any) -> AvoidanceDecision | None:
+    """``avoider.decide(ctx)``, its answer checked (:func:`checked_decision`). An exception an
+    installed package's avoider raises (not an error terrapath defines) ends the run with a
+    one-line :class:`~terrain.errors.ContractError` naming its class, the exception chained for
+    a debugger; terrapath's own avoiders' bugs keep their traceback."""
+    try:
+        decision = avoider.decide(ctx)
+    except Exception as exc:
+        cls = type(avoider)
+        if isinstance(exc, TerrapathError) or cls.__module__.split(".")[0] in OWN_PACKAGES:
+            raise
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        raise ContractError(
+            f"avoider {getattr(avoider, 'name', cls.__name__)!r} "
+            f"({cls.__module__}.{cls.__qualname__}) raised {type(exc).__name__} in decide(): "
+            f"{first}"
+        ) from exc
+    return checked_decision(avoider, decision)
+
+
 def checked_decision(avoider: Any, decision: object) -> AvoidanceDecision | None:
     """``decision`` when it is what ``decide`` may return (an AvoidanceDecision or None), else
     the :class:`~terrain.errors.ContractError` that ends the run, naming the avoider and its
@@ -210,6 +233,7 @@ __all__ = [
     "avoider_options",
     "avoider_plugin",
     "checked_decision",
+    "decide_checked",
     "make_avoider",
     "sensor_for",
 ]
