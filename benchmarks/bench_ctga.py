@@ -15,7 +15,7 @@ remembered obstacles and tracks, about 0.17 ms a scan).
 obstacle's smallest separation, when the arcs began and ended, the paper's timings beside them.
 
 ``compare``: PSO-CA, CTGA and FGA fly the same missions: the avoider contract's six scenarios
-(the solar UAV at 15 m/s, radar, 1 km safety radii: tests/test_avoidance_contract.py), seed
+(the solar UAV at 15 m/s, radar, 1 km safety radii: terrapath.testing.avoider), seed
 000's Table 4 mission (8 h, its threat file) and seed 001's three scenarios (the Cessna at 50
 m/s, cooperative sensor). One seed each (the avoiders are deterministic given it). FGA keeps
 d_m from the surfaces with d_m no smaller than the aircraft's turn radius allows (eq 5: 37 m for
@@ -51,8 +51,8 @@ from replay.avoidance.perception import Perception  # noqa: E402
 from replay.flight.fixedwing.presets import load_vehicle  # noqa: E402
 from replay.run import ReplayRequest, prepare_replay, run_replay  # noqa: E402
 from replay.sim import ReplayResult  # noqa: E402
-from tests.test_avoidance_contract import SCENARIOS as CONTRACT  # noqa: E402
-from tests.test_avoidance_contract import _run as contract_run  # noqa: E402
+from terrapath.testing.avoider import SCENARIOS as CONTRACT  # noqa: E402
+from terrapath.testing.avoider import fly as contract_run  # noqa: E402
 
 SCENARIO_DIR = ROOT / "data" / "scenarios"
 SEED001 = ("simple", "complex", "moving")

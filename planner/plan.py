@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from planner.explore import ROUTES, check_routes, graph_population
-from planner.optim import make_optimizer
+from planner.optim import REGISTRY, make_optimizer
 from planner.optim.termination import MaxIterations, SwarmRadius
 from planner.problem import PlanningProblem
 from planner.profile import sample_path
@@ -117,6 +117,20 @@ def plan(
     return replace(best, seed=int(seed), params=params_out)
 
 
+def algorithms() -> list[str]:
+    """The algorithms a plan may use: the global planner's four (:data:`ALGORITHMS`) and every
+    optimiser an installed package gives (``terrapath.optimizers``)."""
+    return [*ALGORITHMS, *REGISTRY.plugin_names()]
+
+
+def check_algorithm(algorithm: str) -> None:
+    """Refuse an algorithm the planner does not fly (naming those it does)."""
+    if algorithm not in ALGORITHMS and algorithm not in REGISTRY.plugin_names():
+        raise InputError(
+            f"unknown algorithm {algorithm!r}; choose one of {', '.join(algorithms())}"
+        )
+
+
 def _plan_once(
     problem: PlanningProblem,
     algorithm: str,
@@ -129,8 +143,7 @@ def _plan_once(
     routes: int,
     callback: Callable[[Any], None] | None,
 ) -> PlanResult:
-    if algorithm not in ALGORITHMS:
-        raise InputError(f"unknown algorithm {algorithm!r}; choose one of {', '.join(ALGORITHMS)}")
+    check_algorithm(algorithm)
     if isinstance(population, bool) or int(population) != population or population < 2:
         raise InputError(f"population must be an integer >= 2; got {population!r}")
     if population > MAX_POPULATION:

@@ -26,6 +26,7 @@ import yaml
 
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
+from replay.avoidance.registry import AVOIDERS, avoider_plugin
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.multirotor.model import MultirotorParams
 from replay.preflight import Preflight, preflight
@@ -329,6 +330,8 @@ def run_replay(
         )
     if mission.terrain is not None:
         extra["dem"] = json.dumps(list(mission.terrain.dem))
+    if r.avoid not in AVOIDERS:  # an installed package's avoider: which package and version
+        extra["avoid_package"] = avoider_plugin(r.avoid).origin
     options = "".join(f" {k}={v}" for k, v in r.avoid_options.items())
     with RunRecorder(
         out,

@@ -37,7 +37,7 @@ import numpy.typing as npt
 
 from planner.mission import Mission
 from replay.avoidance.base import AvoidanceContext, Avoider
-from replay.avoidance.registry import SENSORS
+from replay.avoidance.registry import SENSORS, decide_checked
 from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
 from replay.flight.energy import source_of
@@ -790,7 +790,7 @@ class _Loop:
             self.wind_now,
         )
         t0 = time.perf_counter()
-        decision = avoider.decide(ctx)
+        decision = decide_checked(avoider, ctx)  # a wrong type, a plugin's crash: one line
         compute = time.perf_counter() - t0
         self.tracker.call(compute)
         if decision is None:

@@ -34,6 +34,18 @@ class ResourceError(InputError):
     """The request would need more memory (or other resources) than the machine has."""
 
 
+class PluginError(TerrapathError, ImportError):
+    """A plugin (an entry point of an installed package) cannot be used: its module or object
+    is missing, it is not what its group expects, or two packages give the same name.  The
+    message names the package, so the user knows what to fix or uninstall."""
+
+
+class ContractError(TerrapathError, RuntimeError):
+    """An algorithm broke the contract the loop relies on: an avoider returned something other
+    than a decision, an optimiser evaluated a point outside its bounds.  The run ends with this
+    one-line error and is never recorded as a success."""
+
+
 def where(path: str | PathLike[str] | None, field: str | None = None) -> str:
     """Format the location part of a message: ``'file.yaml', field 'zones[2].diameter': ``."""
     parts = []

@@ -31,6 +31,7 @@ from terrapath.commands.info import info
 from terrapath.commands.inspect import inspect_cmd
 from terrapath.commands.layout import layout_cmd
 from terrapath.commands.plan import plan_cmd
+from terrapath.commands.plugins import plugins_cmd
 from terrapath.commands.regress import regress_cmd
 from terrapath.commands.replay import replay_cmd
 from terrapath.commands.report import report_cmd
@@ -95,6 +96,7 @@ cli.add_command(campaign_cmd)
 cli.add_command(report_cmd)
 cli.add_command(bench_cmd)
 cli.add_command(regress_cmd)
+cli.add_command(plugins_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -324,9 +324,9 @@ def test_a_large_obstacle_seen_piece_by_piece_is_several_circles() -> None:
     """The avoider contract's ridge (seven radar points over 3.6 km, 1 km safety radius each): one
     circle per 1 km square of returns (§2.1, Figs 2, 3, 5), gone round in turn in one direction
     (a complex obstacle), 100 m from the safety surface."""
-    from tests.test_avoidance_contract import _run
+    from terrapath.testing.avoider import fly
 
-    r = _run("hill", "ctga")
+    r = fly("hill", "ctga")
     arcs = [d for d in r.decisions if "arc of" in d["reason"]]
     assert len(arcs) >= 2 and all(d["obstacle"].startswith("ridge@") for d in arcs)
     assert len({d["clockwise"] for d in arcs}) == 1

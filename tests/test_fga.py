@@ -474,11 +474,11 @@ def test_surveillance_radius_defaults_to_ten_d_m() -> None:
 def test_pso_ca_can_wait_for_the_critical_start_time() -> None:
     """PSO-CA with ``start=critical`` (seed 004 §III-B4) re-plans at t_c - t_res instead of at
     detection: later, still clear of the obstacle; a bad mode is refused."""
-    from tests.test_avoidance_contract import _flown, _run_with
+    from terrapath.testing.avoider import flown, fly
 
     # the contract's own "single" flight with PSO-CA (seed 0): flown once per process
-    early = _flown("single", "pso-ca")
-    late = _run_with("single", make_avoider("pso-ca", start="critical"))
+    early = flown("single", "pso-ca")
+    late = fly("single", make_avoider("pso-ca", start="critical"))
     assert early.metrics.success and late.metrics.success
     first = [min(d["t"] for d in r.decisions) for r in (early, late)]
     assert first[1] > first[0] + 300.0  # found at ~10 km, re-planned near the obstacle

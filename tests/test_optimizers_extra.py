@@ -33,7 +33,7 @@ import pytest
 from planner.optim import GCPSO, MAFOA, MPSO, OPTIMIZERS, PSO, SA, Optimizer, make_optimizer
 from planner.optim.pso import SEED000_PSO
 from terrain.errors import InputError
-from tests.test_optimizers import HI, LO, D, FloatArray, OptimizerContract, Recorder, sphere
+from terrapath.testing.optimizer import HI, LO, D, FloatArray, OptimizerContract, Recorder, sphere
 
 # --------------------------------------------------------------------------- contract
 

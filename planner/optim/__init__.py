@@ -7,6 +7,12 @@ AMPSO) and :mod:`planner.optim.ga` (GA). Pick one by name with :func:`make_optim
 
     opt = make_optimizer("ampso", pop_size=30, max_iterations=200)
     result = opt.run(cost, lower, upper, seed=7)
+
+Installed packages add optimisers by entry point (group ``terrapath.optimizers``, a subclass of
+:class:`Optimizer`; :mod:`terrain.plugins`): ``make_optimizer`` builds them by name as it builds
+the built-ins, so ``terrapath plan --algorithm NAME`` and PSO-CA's ``optimizer`` option take them.
+The base class checks every point evaluated against the bounds: an optimiser that leaves them
+ends its run with a one-line :class:`~terrain.errors.ContractError`.
 """
 
 from __future__ import annotations
@@ -28,7 +34,8 @@ from planner.optim.termination import (
     SwarmRadius,
     Termination,
 )
-from terrain.errors import InputError
+from terrain.errors import InputError, PluginError
+from terrain.plugins import Plugin, Registry
 
 OPTIMIZERS: dict[str, type[Optimizer]] = {
     "pso": PSO,
@@ -42,6 +49,41 @@ OPTIMIZERS: dict[str, type[Optimizer]] = {
 }
 
 
+def _check_plugin(obj: Any, plugin: Plugin) -> None:
+    """An installed optimiser is a subclass of :class:`Optimizer` (whose ``_call`` keeps its
+    points inside the bounds and whose result is typed)."""
+    if not (isinstance(obj, type) and issubclass(obj, Optimizer)):
+        raise PluginError(
+            f"{plugin.describe()}: expected a subclass of planner.optim.Optimizer, found {obj!r}"
+        )
+
+
+REGISTRY = Registry(
+    "terrapath.optimizers",
+    {n: f"{cls.__module__}:{cls.__qualname__}" for n, cls in OPTIMIZERS.items()},
+    _check_plugin,
+)
+
+
+def optimizer_names() -> list[str]:
+    """Every optimiser's name, built-in or installed (nothing imported)."""
+    return REGISTRY.names()
+
+
+def optimizer_class(name: str) -> type[Optimizer]:
+    """The class registered as ``name`` (an installed one imported now)."""
+    cls = OPTIMIZERS.get(name) if isinstance(name, str) else None
+    if isinstance(name, str) and name in REGISTRY:
+        REGISTRY.find(name)  # a name given twice (a package and terrapath) is named
+        if cls is None:
+            cls = REGISTRY.load(name)
+    if cls is None:
+        raise InputError(
+            f"unknown optimiser {name!r}; expected one of {', '.join(optimizer_names())}"
+        )
+    return cls
+
+
 @functools.cache
 def _parameters(cls: type[Optimizer]) -> tuple[str, ...]:
     """The keyword parameters of an optimiser class (read once: ``inspect.signature`` costs a
@@ -53,11 +95,7 @@ def _parameters(cls: type[Optimizer]) -> tuple[str, ...]:
 
 def make_optimizer(name: str, **params: Any) -> Optimizer:
     """The optimiser registered as ``name``, built with ``params`` (checked against its signature)."""
-    cls = OPTIMIZERS.get(name) if isinstance(name, str) else None
-    if cls is None:
-        raise InputError(
-            f"unknown optimiser {name!r}; expected one of {', '.join(sorted(OPTIMIZERS))}"
-        )
+    cls = optimizer_class(name)
     allowed = _parameters(cls)
     unknown = sorted(set(params) - set(allowed))
     if unknown:
@@ -76,6 +114,7 @@ __all__ = [
     "MPSO",
     "OPTIMIZERS",
     "PSO",
+    "REGISTRY",
     "SA",
     "AdaptivePSO",
     "AnyOf",
@@ -89,4 +128,6 @@ __all__ = [
     "SwarmRadius",
     "Termination",
     "make_optimizer",
+    "optimizer_class",
+    "optimizer_names",
 ]

@@ -19,7 +19,9 @@ Choices common to every optimiser:
   the earlier point), so ``best_f == f(best_x)`` and the best-so-far history never increases.
 - Costs that are NaN are treated as ``+inf`` (worse than anything), so a failing evaluation is never
   chosen as best and cannot poison comparisons. A cost array of the wrong shape is an InputError.
-- Every row passed to f is checked to lie inside ``[lower, upper]``; an escape is an internal error.
+- Every row passed to f is checked to lie inside ``[lower, upper]``; an escape ends the run with a
+  one-line :class:`~terrain.errors.ContractError` naming the optimiser (an installed one's
+  package is in its class's module).
   f receives a read-only view (writing into it raises), so it cannot change the optimiser's state.
 - Seed points ``x0`` (k, D) (or one point (D,)) replace the first k rows of the initial population;
   they must be finite and inside the box (refused, not clipped, so the caller learns of bad seeds).
@@ -42,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.optim.termination import RUNNING, Termination
-from terrain.errors import InputError
+from terrain.errors import ContractError, InputError
 
 FloatArray = npt.NDArray[np.float64]
 Objective = Callable[[FloatArray], npt.ArrayLike]
@@ -348,9 +350,7 @@ class Optimizer(ABC):
     def _call(self, X: FloatArray) -> FloatArray:
         """f on the rows of X (all inside the box), NaN costs as inf."""
         if (X < self._lower).any() or (X > self._upper).any():
-            raise RuntimeError(
-                f"internal error: {self.name} tried to evaluate a point outside the box"
-            )
+            raise self._escaped(X)
         view = X.view()
         view.flags.writeable = False  # the population is the optimiser's state: f may not edit it
         F = np.asarray(self._f(view), dtype=np.float64)
@@ -359,6 +359,19 @@ class Optimizer(ABC):
                 f"the objective must return one cost per row, shape ({X.shape[0]},); got {F.shape}"
             )
         return np.where(np.isnan(F), np.inf, F)
+
+    def _escaped(self, X: FloatArray) -> ContractError:
+        """The one-line error of a point outside the box: which optimiser (its class names a
+        plugin's package), which row and dimension, by how much."""
+        low, high = X < self._lower, X > self._upper
+        i, d = (int(k[0]) for k in np.nonzero(low | high))
+        bound = f"lower[{d}]={self._lower[d]:g}" if low[i, d] else f"upper[{d}]={self._upper[d]:g}"
+        cls = type(self)
+        return ContractError(
+            f"optimiser {self.name!r} ({cls.__module__}.{cls.__qualname__}) evaluated a point "
+            f"outside its bounds: x[{d}]={X[i, d]:g} beyond {bound}; an optimiser keeps every "
+            "point it evaluates inside [lower, upper]"
+        )
 
     def _account(self, X: FloatArray, F: FloatArray) -> None:
         """Count the evaluations of X's rows and keep the best point (the first of equals)."""

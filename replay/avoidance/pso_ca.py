@@ -185,6 +185,7 @@ from typing import Any, ClassVar
 import numpy as np
 import numpy.typing as npt
 
+from planner.optim import REGISTRY as OPTIMIZER_PLUGINS
 from planner.optim import make_optimizer
 from planner.optim.base import require_real
 from planner.optim.pso import SEED000_PSO
@@ -515,7 +516,8 @@ class PsoCaAvoider(AvoiderBase):
     name = "pso-ca"
     # what each option means, for ``terrapath replay --help-avoider pso-ca``
     OPTION_HELP: ClassVar[dict[str, str]] = {
-        "optimizer": "optimiser of the new waypoint: pso (Table 2), ga, sa, mafoa, gcpso, mpso",
+        "optimizer": "optimiser of the new waypoint: pso (Table 2), ga, sa, mafoa, gcpso, mpso, "
+        "or one an installed package gives (terrapath plugins)",
         "params": "a full PsoCaParams (Python only; None: seed 000's)",
         "rs": "safety radius RS kept from stationary obstacles, m (default 1000, seed 000's, "
         "scaled: module docstring, *Scale*)",
@@ -587,9 +589,10 @@ class PsoCaAvoider(AvoiderBase):
             )
         self.start = start
         self.t_res = require_real("PSO-CA t_res", t_res, 0.0, 10.0)
-        if optimizer not in CA_OPTIMIZERS:
+        if optimizer not in CA_OPTIMIZERS and optimizer not in OPTIMIZER_PLUGINS.plugin_names():
+            known = [*CA_OPTIMIZERS, *OPTIMIZER_PLUGINS.plugin_names()]
             raise InputError(
-                f"unknown PSO-CA optimiser {optimizer!r}; choose one of {', '.join(CA_OPTIMIZERS)}"
+                f"unknown PSO-CA optimiser {optimizer!r}; choose one of {', '.join(known)}"
             )
         self.optimizer = optimizer
         if params is not None and not isinstance(params, PsoCaParams):

@@ -27,6 +27,8 @@ count and a random generator, each returning threat records (the entries of a th
 - ``own-buildings`` (issue 34, :mod:`replay.campaign.buildings`): a *case* generator for the
   priority loop -- a quadrotor among real (Bubenec) or drawn buildings on real terrain, start and
   target in the open with something in the way; its rows are layouts, ``maps: [...]``.
+- installed packages add generators by entry point (group ``terrapath.generators``: a function
+  like ``uniform`` or a :class:`CaseGenerator`; :mod:`terrain.plugins`), used by name as these.
 - ``seed004-table2`` (seed 004 §II-C, Table II): a *case* generator -- each case is the
   aircraft's leg and its 10-20 obstacles, static cylinders or moving aircraft, with the number of
   true hazards drawn from Tables III / IV (:mod:`replay.campaign.seed004`).  A spec that uses it
@@ -55,6 +57,8 @@ from replay.campaign.own import map_path, own_case
 from replay.campaign.seed004 import GENERATOR_VERSION as SEED004_VERSION
 from replay.campaign.seed004 import seed004_case
 from replay.threats.file import COMMON_KEYS, KIND_KEYS
+from terrain.errors import PluginError
+from terrain.plugins import Plugin, Registry
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -209,12 +213,14 @@ def _obstacles(
 def seed000_normal(
     mission: Any, count: int, rng: np.random.Generator, p: Params
 ) -> list[dict[str, Any]]:
+    """seed 000 §5.6: static obstacles drawn round the mission's waypoints."""
     return _obstacles(mission, count, rng, p)
 
 
 def seed000_hill(
     mission: Any, count: int, rng: np.random.Generator, p: Params
 ) -> list[dict[str, Any]]:
+    """seed 000 §5.3: the obstacles and a ridge of points across a random leg."""
     recs = _obstacles(mission, count, rng, p)
     z = _altitude(mission, p)
     pts = hill_ridge(mission.waypoints, rng)
@@ -232,6 +238,7 @@ def seed000_hill(
 def seed000_intruders(
     mission: Any, count: int, rng: np.random.Generator, p: Params
 ) -> list[dict[str, Any]]:
+    """seed 000 §5.1: the obstacles and two intruders, head-on and crossing."""
     recs = _obstacles(mission, count, rng, p)
     return recs + intruder_records(
         mission.waypoints, float(mission.cruise_speed), rng, 2, _altitude(mission, p), p.radius
@@ -239,6 +246,7 @@ def seed000_intruders(
 
 
 def uniform(mission: Any, count: int, rng: np.random.Generator, p: Params) -> list[dict[str, Any]]:
+    """Static spheres uniform in a box round the waypoints, clear of the start and the goal."""
     w = np.asarray(mission.waypoints, dtype=np.float64)[:, :2]
     if p.box is None:
         lo, hi = w.min(axis=0) - p.sigma, w.max(axis=0) + p.sigma
@@ -286,6 +294,7 @@ class CaseGenerator:
     # this machine (an InputError naming what is missing)
     maps: tuple[str, ...] = ()
     check: Callable[[str], Any] | None = None
+    summary: str = ""  # one line for `terrapath plugins`
 
 
 def _seed004(
@@ -310,28 +319,125 @@ def _buildings(
     return buildings_case(rng, str(row.map))
 
 
+SEED004_TABLE2 = CaseGenerator(
+    _seed004,
+    SEED004_VERSION,
+    summary="seed 004 Table II: a leg and its 10-20 static or moving obstacles",
+)
+OWN_SCENARIOS = CaseGenerator(
+    _own,
+    OWN_VERSION,
+    rows="maps",
+    maps=tuple(OWN_MAPS),
+    check=map_path,
+    summary="a straight leg over a real map, one or two threats on it sized in turn radii",
+)
+OWN_PLANNED = CaseGenerator(
+    _own_planned,
+    OWN_VERSION,
+    rows="maps",
+    maps=tuple(OWN_MAPS),
+    check=map_path,
+    summary="own-scenarios with the leg planned by terrapath plan",
+)
+OWN_BUILDINGS = CaseGenerator(
+    _buildings,
+    BUILDINGS_VERSION,
+    rows="maps",
+    maps=tuple(LAYOUTS),
+    check=check_layout,
+    summary="a quadrotor among real or drawn buildings (the priority loop's cases)",
+)
 CASE_GENERATORS: Mapping[str, CaseGenerator] = {
-    "seed004-table2": CaseGenerator(_seed004, SEED004_VERSION),
-    "own-scenarios": CaseGenerator(
-        _own, OWN_VERSION, rows="maps", maps=tuple(OWN_MAPS), check=map_path
-    ),
-    "own-planned": CaseGenerator(
-        _own_planned, OWN_VERSION, rows="maps", maps=tuple(OWN_MAPS), check=map_path
-    ),
-    "own-buildings": CaseGenerator(
-        _buildings, BUILDINGS_VERSION, rows="maps", maps=tuple(LAYOUTS), check=check_layout
-    ),
+    "seed004-table2": SEED004_TABLE2,
+    "own-scenarios": OWN_SCENARIOS,
+    "own-planned": OWN_PLANNED,
+    "own-buildings": OWN_BUILDINGS,
 }
+
+
+def _check_plugin(obj: Any, plugin: Plugin) -> None:
+    """An installed generator is a threat generator (a function of the mission, the count, the
+    generator and the :class:`Params`) or a :class:`CaseGenerator`."""
+    if not (isinstance(obj, CaseGenerator) or callable(obj)):
+        raise PluginError(
+            f"{plugin.describe()}: expected a function (mission, count, rng, params) -> threat "
+            f"records or a replay.campaign.generators.CaseGenerator, found {obj!r}"
+        )
+
+
+# the generators terrapath gives and those installed packages give (entry points
+# "terrapath.generators"; terrain.plugins)
+_HERE = "replay.campaign.generators"
+REGISTRY = Registry(
+    "terrapath.generators",
+    {
+        **{n: f"{_HERE}:{g.__name__}" for n, g in GENERATORS.items()},
+        **{n: f"{_HERE}:{n.upper().replace('-', '_')}" for n in CASE_GENERATORS},
+    },
+    _check_plugin,
+)
+
+
+def generator_names() -> list[str]:
+    """Every generator's name: terrapath's threat generators, its case generators, then the
+    installed ones (nothing imported)."""
+    return [*GENERATORS, *CASE_GENERATORS, *REGISTRY.plugin_names()]
+
+
+def _installed(name: Any) -> Any:
+    if not isinstance(name, str) or name in REGISTRY.builtins or name not in REGISTRY:
+        return None
+    return REGISTRY.load(name)
+
+
+def case_generator(name: Any) -> CaseGenerator | None:
+    """The case generator ``name`` (None: no such name, or a threat generator)."""
+    if isinstance(name, str) and name in REGISTRY:
+        REGISTRY.find(name)  # a name given twice (a package and terrapath) is named
+    if name in CASE_GENERATORS:
+        return CASE_GENERATORS[name]
+    found = _installed(name)
+    return found if isinstance(found, CaseGenerator) else None
+
+
+def threat_generator(name: Any) -> Generator | None:
+    """The threat generator ``name`` (None: no such name, or a case generator)."""
+    if isinstance(name, str) and name in REGISTRY:
+        REGISTRY.find(name)  # a name given twice (a package and terrapath) is named
+    if name in GENERATORS:
+        return GENERATORS[name]
+    found = _installed(name)
+    return None if found is None or isinstance(found, CaseGenerator) else found
+
+
+def generator_origin(name: Any) -> str | None:
+    """``package NAME VERSION`` of an installed generator (a run's identity carries it: a new
+    version of the package flies its runs again); None for terrapath's own."""
+    if not isinstance(name, str) or name in REGISTRY.builtins or name not in REGISTRY:
+        return None
+    plugin = REGISTRY.find(name)
+    return None if plugin is None else plugin.origin
+
 
 __all__ = [
     "CASE_GENERATORS",
     "GENERATORS",
+    "OWN_BUILDINGS",
+    "OWN_PLANNED",
+    "OWN_SCENARIOS",
+    "REGISTRY",
+    "SEED004_TABLE2",
     "THREAT_KEYS",
     "CaseGenerator",
     "Params",
+    "case_generator",
     "file_records",
+    "generator_names",
+    "generator_origin",
     "hill_ridge",
     "intruder_records",
     "mission_timeline",
     "random_obstacles",
+    "threat_generator",
 ]

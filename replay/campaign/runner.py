@@ -48,7 +48,7 @@ def scenario(run: Run) -> Any:
     import numpy as np
 
     from planner.mission import load_mission
-    from replay.campaign.generators import GENERATORS, file_records
+    from replay.campaign.generators import file_records, threat_generator
     from replay.threats.file import threats_from_records
 
     if run.row.file is not None:
@@ -64,7 +64,9 @@ def scenario(run: Run) -> Any:
         _MISSIONS[str(run.mission)] = mission
     assert run.generator is not None and run.row.count is not None
     rng = np.random.default_rng(run.scenario_seed)
-    records = GENERATORS[run.generator](mission, run.row.count, rng, run.params)
+    make = threat_generator(run.generator)
+    assert make is not None  # the spec checked the name
+    records = make(mission, run.row.count, rng, run.params)
     return threats_from_records(file_records(records), name=f"{run.key} ({run.generator})")
 
 
@@ -74,12 +76,14 @@ def case(run: Run) -> tuple[Any, Any, dict[str, Any]]:
     import numpy as np
 
     from planner.mission import mission_from_dict
-    from replay.campaign.generators import CASE_GENERATORS, file_records
+    from replay.campaign.generators import case_generator, file_records
     from replay.threats.file import threats_from_records
 
     assert run.generator is not None
     rng = np.random.default_rng(run.scenario_seed)
-    doc, records, notes = CASE_GENERATORS[run.generator].make(rng, run.row)
+    g = case_generator(run.generator)
+    assert g is not None  # the spec checked the name
+    doc, records, notes = g.make(rng, run.row)
     mission = mission_from_dict(doc, f"{run.key} ({run.generator})")
     threats = threats_from_records(file_records(records), name=f"{run.key} ({run.generator})")
     return mission, threats, notes

@@ -59,9 +59,15 @@ from pathlib import Path
 from typing import Any
 
 from replay.avoidance.registry import SENSORS, sensor_for
-from replay.campaign.generators import CASE_GENERATORS, GENERATORS, Params
+from replay.campaign.generators import (
+    Params,
+    case_generator,
+    generator_names,
+    generator_origin,
+    threat_generator,
+)
 from terrain.docfile import parse_yaml
-from terrain.errors import DataFileError, InputError
+from terrain.errors import DataFileError, InputError, PluginError
 
 SPEC_KEYS = (
     *("terrapath", "name", "mission", "missions", "dem", "threats", "avoiders"),
@@ -130,7 +136,7 @@ class Run:
     @property
     def makes_cases(self) -> bool:
         """The generator makes the whole case (its mission too): ``mission`` names it."""
-        return self.generator in CASE_GENERATORS
+        return case_generator(self.generator) is not None
 
 
 @dataclass(frozen=True)
@@ -172,7 +178,7 @@ class Spec:
             **({"dem": list(self.dem)} if self.dem else {}),
             **(
                 {"dynamic": [r.dynamic for r in self.rows]}
-                if self.generator in CASE_GENERATORS
+                if case_generator(self.generator) is not None
                 else {}
             ),
             **({"maps": [r.map for r in self.rows]} if any(r.map for r in self.rows) else {}),
@@ -230,6 +236,9 @@ class Spec:
             identity["sensor_range"] = self.sensor_range
         if self.dem:
             identity["dem"] = list(self.dem)
+        plugins = _plugin_origins(avoider.name, self.generator)
+        if plugins:  # an installed package's new version flies its runs again
+            identity["plugins"] = plugins
         run_hash = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
         return Run(
             key,
@@ -316,7 +325,7 @@ def _file(path: Path, fld: str, value: Any) -> Path:
 
 def load_spec(path: str | Path) -> Spec:
     """Read and validate a campaign spec (module docstring)."""
-    from replay.avoidance import AVOIDERS
+    from replay.avoidance.registry import AVOIDERS, REGISTRY
 
     src = Path(path)
     try:
@@ -342,7 +351,10 @@ def load_spec(path: str | Path) -> Spec:
         raise _fail(src, "name", f"expected the campaign's name, found {name!r}")
     threats_doc = doc.get("threats")
     gen_name = threats_doc.get("generator") if isinstance(threats_doc, dict) else None
-    cases = gen_name in CASE_GENERATORS
+    try:
+        cases = case_generator(gen_name) is not None
+    except PluginError as exc:  # an installed package's generator that cannot be used
+        raise _fail(src, "threats.generator", str(exc)) from None
     missions: tuple[Path, ...]
     if cases:
         if "mission" in doc or "missions" in doc:
@@ -369,7 +381,7 @@ def load_spec(path: str | Path) -> Spec:
     _check_files(missions if not cases else (), rows, dem)
     if "winds" in doc:
         rows = _by_wind(src, doc["winds"], rows)
-    avoiders = _avoiders(src, doc.get("avoiders"), AVOIDERS)
+    avoiders = _avoiders(src, doc.get("avoiders"), [*AVOIDERS, *REGISTRY.plugin_names()])
     sensor = doc.get("sensor")
     if sensor is not None and sensor not in SENSORS:
         raise _fail(src, "sensor", f"expected one of {', '.join(SENSORS)}, found {sensor!r}")
@@ -396,7 +408,9 @@ def load_spec(path: str | Path) -> Spec:
         sensor_range = _number(src, "sensor_range", sensor_range, minimum=1.0)
     digests = {}
     if cases:  # the cases are the generator's: its name and version stand for the mission file
-        made = f"{gen_name} v{CASE_GENERATORS[str(gen_name)].version}"
+        g = case_generator(gen_name)
+        assert g is not None
+        made = f"{gen_name} v{g.version}"
         digests[str(missions[0])] = hashlib.sha256(made.encode()).hexdigest()
     for f in [
         *(m for m in missions if not cases),
@@ -526,20 +540,25 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
             )
         return None, Params(), tuple(Row(p.stem, None, p) for p in paths)
     gen = doc["generator"]
-    if gen not in GENERATORS and gen not in CASE_GENERATORS:
+    try:
+        case = case_generator(gen)
+        known = case is not None or threat_generator(gen) is not None
+    except PluginError as exc:  # an installed package's generator that cannot be used
+        raise _fail(src, "threats.generator", str(exc)) from None
+    if not known:
         later = f" ({gen}: {COMING[gen]})" if gen in COMING else ""
         raise _fail(
             src,
             "threats.generator",
-            f"unknown generator {gen!r}{later}; valid: {', '.join([*GENERATORS, *CASE_GENERATORS])}",
+            f"unknown generator {gen!r}{later}; valid: {', '.join(generator_names())}",
         )
-    if gen in CASE_GENERATORS and CASE_GENERATORS[gen].rows == "maps":
+    if case is not None and case.rows == "maps":
         return gen, Params(), _map_rows(src, gen, doc)
     if "maps" in doc:
-        names = [k for k, g in CASE_GENERATORS.items() if g.rows == "maps"]
+        names = [k for k in generator_names() if getattr(case_generator(k), "rows", "") == "maps"]
         takes = ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
         raise _fail(src, "threats.maps", f"only {takes} take it, not {gen!r}")
-    if gen in CASE_GENERATORS:
+    if case is not None:
         if "counts" in doc:
             raise _fail(
                 src, "threats.counts", f"{gen!r} draws its own obstacles: give 'dynamic' instead"
@@ -587,7 +606,8 @@ def _threats(src: Path, doc: Any) -> tuple[str | None, Params, tuple[Row, ...]]:
 def _map_rows(src: Path, gen: str, doc: dict[str, Any]) -> tuple[Row, ...]:
     """A map-row generator's rows (``own-scenarios``: the maps; ``own-buildings``: the
     layouts), default every one, each present on this machine."""
-    g = CASE_GENERATORS[gen]
+    g = case_generator(gen)
+    assert g is not None
     for key in ("counts", "dynamic"):
         if key in doc:
             raise _fail(src, f"threats.{key}", f"{gen!r} draws its own cases: give 'maps' instead")
@@ -603,6 +623,20 @@ def _map_rows(src: Path, gen: str, doc: dict[str, Any]) -> tuple[Row, ...]:
         except InputError as exc:
             raise _fail(src, f"threats.maps[{i}]", str(exc)) from None
     return tuple(Row(n, map=n) for n in names)
+
+
+def _plugin_origins(avoider: str, generator: str | None) -> list[str]:
+    """The installed packages a run's avoider and generator come from (``package NAME
+    VERSION``; none for terrapath's own)."""
+    from replay.avoidance.registry import AVOIDERS, avoider_plugin
+
+    out = []
+    if avoider not in AVOIDERS:
+        out.append(f"avoider {avoider}: {avoider_plugin(avoider).origin}")
+    origin = generator_origin(generator)
+    if origin is not None:
+        out.append(f"generator {generator}: {origin}")
+    return out
 
 
 def _check_files(
@@ -649,6 +683,8 @@ def _avoiders(src: Path, doc: Any, known: Any) -> tuple[Avoider, ...]:
             raise _fail(src, f"{fld}.options", f"expected a mapping of options, found {options!r}")
         try:  # the options are checked now, not in the first run an hour from now
             make_avoider(name, **options)
+        except PluginError as exc:  # an installed package's avoider that cannot be used
+            raise _fail(src, f"{fld}.name", str(exc)) from None
         except (InputError, TypeError, ValueError) as exc:
             raise _fail(src, f"{fld}.options", str(exc)) from None
         out.append(Avoider(name, tuple(sorted(options.items()))))

@@ -6,10 +6,33 @@ import platform
 import shlex
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 import click
 
 from terrapath.commands.campaign import errors_status, executor_options, fly
+
+
+def added(spec: Any, names: tuple[str, ...]) -> tuple[Any, ...]:
+    """``--avoid``'s avoiders for a bench's spec (no options: their defaults), each checked now:
+    a known name, one the spec's sensor serves, not already in the spec."""
+    from replay.avoidance.registry import avoider_entry, make_avoider
+    from replay.campaign.spec import Avoider
+    from terrain.errors import InputError
+
+    out = []
+    for n in dict.fromkeys(names):
+        make_avoider(n)  # unknown names, plugins that cannot be imported: one line
+        serves = avoider_entry(n).sensors
+        if spec.sensor not in serves:
+            raise InputError(
+                f"--avoid {n}: this bench flies with the {spec.sensor} sensor ({spec.path.name}); "
+                f"the {n} avoider works with {' or '.join(serves)} only"
+            )
+        if any(a.label == n for a in spec.avoiders):
+            continue  # the bench flies it already
+        out.append(Avoider(n))
+    return tuple(out)
 
 
 def _root() -> Path:
@@ -39,6 +62,15 @@ def _root() -> Path:
     "'all': every one in the spec).",
 )
 @click.option(
+    "--avoid",
+    "extra_avoiders",
+    multiple=True,
+    metavar="NAME",
+    help="Also fly avoider NAME (repeatable; e.g. one an installed package gives: terrapath "
+    "plugins) on the bench's missions and threats, beside its own. The table is then not the "
+    "paper's: printed, written only where --summary says.",
+)
+@click.option(
     "--store",
     type=click.Path(dir_okay=False),
     default=None,
@@ -57,6 +89,7 @@ def bench_cmd(
     remake_table: bool,
     runs: int | None,
     optimizers: str | None,
+    extra_avoiders: tuple[str, ...],
     store: str | None,
     summary: str | None,
     jobs: int | None,
@@ -99,6 +132,8 @@ def bench_cmd(
     chosen = None
     if optimizers != "all":
         chosen = tuple(optimizers.split(",")) if optimizers else bench.optimizers
+        if chosen is not None and not optimizers:
+            chosen = (*chosen, *extra_avoiders)  # the default choice and the avoiders added
     store_path = Path(store) if store else Path("build") / "bench" / f"{name}.sqlite"
     output_folder(store_path)
     if summary:
@@ -107,6 +142,7 @@ def bench_cmd(
         name,
         *(["--runs", str(runs)] if runs else []),
         *(["--optimizers", optimizers] if optimizers else []),
+        *(a for n in extra_avoiders for a in ("--avoid", n)),
     ]
     command = "terrapath bench " + " ".join(shlex.quote(a) for a in given)
     rows: list[dict[str, object]] = []
@@ -116,7 +152,7 @@ def bench_cmd(
         flown = 1
     for path in bench.spec_paths():
         spec = load_spec(path)
-        avoiders = spec.avoiders
+        avoiders = (*spec.avoiders, *added(spec, extra_avoiders))
         if chosen is not None:
             avoiders = tuple(a for a in avoiders if optimizer_of(a.label) in chosen)
             if not avoiders:
@@ -152,6 +188,13 @@ def bench_cmd(
         if summary
         else (bench_dir if bench_dir.is_dir() else Path(".")) / "SUMMARY.md"
     )
+    if extra_avoiders and summary is None:
+        # another avoider's lines are no measurement of the paper's table either
+        click.echo(
+            f"with --avoid the table is not the paper's: it is not written into {target} "
+            "(--summary FILE writes it there)"
+        )
+        return errors_status(rows)
     if runs and summary is None:
         # a quick version is no measurement of the paper's table: it never replaces the current one
         click.echo(

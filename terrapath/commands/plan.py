@@ -58,6 +58,19 @@ def _check_population(ctx: click.Context, param: click.Parameter, value: int) ->
     return value
 
 
+def _check_algorithm(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    """The planner's four or an installed optimiser, refused before the map is read (nothing of
+    a plugin is imported here: only its entry point's name is read)."""
+    from planner.plan import check_algorithm
+    from terrain.errors import InputError
+
+    try:
+        check_algorithm(value)
+    except InputError as exc:
+        raise click.BadParameter(str(exc)) from None
+    return value
+
+
 def _extra_terms(t: dict[str, float]) -> str:
     """The optional terms of the cost that are in use (above-ground band, preferred height,
     smoothness), as the summary line prints the others."""
@@ -195,10 +208,11 @@ def _run_with_progress(request: Any, output: str, alt_frame: str, force_export: 
 @steady_wind_options
 @click.option(
     "--algorithm",
-    type=click.Choice(["ampso", "pso", "apso", "ga"]),
     default="ampso",
     show_default=True,
-    help="ampso: PSO with adaptive mutation (seed 002); apso: adaptive-parameter PSO; ga: real-coded GA.",
+    callback=_check_algorithm,
+    help="ampso: PSO with adaptive mutation (seed 002); apso: adaptive-parameter PSO; ga: real-coded "
+    "GA; pso; or an optimiser an installed package gives (terrapath plugins).",
 )
 @click.option(
     "--waypoints",

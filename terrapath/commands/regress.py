@@ -84,7 +84,7 @@ def regress_cmd(
     interval, an error -- each a regression.  Prints the table and writes it with JUnit XML and a
     picture of each regressed run into --out.  Exit status 0 when nothing regressed, 3 when
     something did."""
-    from replay.avoidance import AVOIDERS
+    from replay.avoidance.registry import avoider_names
     from replay.campaign import regress as R
     from replay.campaign.spec import load_spec
     from terrain.atomic import atomic_output
@@ -102,11 +102,12 @@ def regress_cmd(
     if only:
         s = R.only_cases(s, only)
     avoiders = tuple(avoid.split(",")) if avoid else s.avoiders
-    unknown = [a for a in avoiders if a not in AVOIDERS]
+    known = avoider_names()  # built-in and installed
+    unknown = [a for a in avoiders if a not in known]
     if unknown:
         raise InputError(
             f"--avoid: unknown avoider(s) {', '.join(map(repr, unknown))}; "
-            f"known: {', '.join(AVOIDERS)}"
+            f"known: {', '.join(known)}"
         )
     base_path = Path(baseline) if baseline else s.baseline
     if baseline and not base_path.is_file():

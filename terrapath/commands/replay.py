@@ -58,14 +58,22 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
         return
     import inspect
 
-    from replay.avoidance.registry import AVOIDERS, avoider_class, avoider_options
+    from replay.avoidance.registry import (
+        avoider_class,
+        avoider_entry,
+        avoider_names,
+        avoider_options,
+        avoider_plugin,
+    )
 
-    if value not in AVOIDERS:
+    if value not in avoider_names():
         raise click.BadParameter(
-            f"unknown avoider {value!r}; available: {', '.join(sorted(AVOIDERS))}",
+            f"unknown avoider {value!r}; available: {', '.join(avoider_names())}",
             param_hint="--help-avoider",
         )
-    click.echo(f"{value}: {AVOIDERS[value].summary}")
+    plugin = avoider_plugin(value)
+    given = "" if plugin.builtin else f" ({plugin.origin})"
+    click.echo(f"{value}: {avoider_entry(value).summary}{given}")
     opts = avoider_options(value)
     if not opts:
         click.echo("  no options")
@@ -92,9 +100,9 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
     default="none",
     show_default=True,
     help="Avoidance algorithm: none (keep the mission), pso-ca (seed 000: waypoint re-planning), "
-    "ctga (seed 001: circular trajectories), fga (seed 004: collision cones, critical start) or "
-    "priority (seed 003: rangefinder priority loop, multirotor); --help-avoider NAME lists an "
-    "avoider's options.",
+    "ctga (seed 001: circular trajectories), fga (seed 004: collision cones, critical start), "
+    "priority (seed 003: rangefinder priority loop, multirotor) or one an installed package "
+    "gives (terrapath plugins); --help-avoider NAME lists an avoider's options.",
 )
 @click.option(
     "--avoid-opt",
@@ -113,10 +121,11 @@ def _help_avoider(ctx: click.Context, param: click.Parameter, value: str | None)
 )
 @click.option(
     "--ca-optimizer",
-    type=click.Choice(["pso", "ga", "sa", "mafoa", "gcpso", "mpso"]),
     default=None,
-    help="pso-ca: optimiser of the new waypoint (seed 000 §6; default pso, Table 2); "
-    "same as --avoid-opt optimizer=NAME.",
+    metavar="NAME",
+    help="pso-ca: optimiser of the new waypoint: pso, ga, sa, mafoa, gcpso, mpso (seed 000 §6; "
+    "default pso, Table 2) or one an installed package gives (terrapath plugins); same as "
+    "--avoid-opt optimizer=NAME.",
 )
 @click.option(
     "--ca-safety-radius",

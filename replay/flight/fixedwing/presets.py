@@ -123,7 +123,8 @@ from replay.flight.energy import (
 )
 from replay.flight.fixedwing.params import ENGINE_PARAMETERS, ENGINES, FIELD_NAMES, VehicleParams
 from terrain.docfile import parse_yaml
-from terrain.errors import DataFileError, InputError, where
+from terrain.errors import DataFileError, InputError, PluginError, where
+from terrain.plugins import Plugin, Registry
 
 if TYPE_CHECKING:
     from replay.flight.multirotor.model import MultirotorParams
@@ -383,16 +384,69 @@ PRESETS: dict[str, VehicleParams] = {
 }
 
 
+def _check_vehicle(obj: Any, plugin: Plugin) -> None:
+    """An installed preset is a vehicle's parameters, named as its entry point."""
+    from replay.flight.multirotor.model import MultirotorParams
+
+    if not isinstance(obj, VehicleParams | MultirotorParams):
+        raise PluginError(
+            f"{plugin.describe()}: expected a VehicleParams or MultirotorParams, found "
+            f"{type(obj).__name__}"
+        )
+    if obj.name != plugin.name:
+        raise PluginError(
+            f"{plugin.describe()}: the parameters are named {obj.name!r}; a preset's name is its "
+            "entry point's (runs record it)"
+        )
+
+
+# the presets terrapath gives (fixed wings here, the multirotor in replay.flight.multirotor.model)
+# and those installed packages give (entry points "terrapath.vehicles": a VehicleParams or a
+# MultirotorParams object; terrain.plugins)
+VEHICLES = Registry(
+    "terrapath.vehicles",
+    {
+        **{
+            n: f"replay.flight.fixedwing.presets:{v}"
+            for n, v in (
+                ("aerosonde", "AEROSONDE"),
+                ("solar-uav", "SOLAR_UAV"),
+                ("cessna172", "CESSNA172"),
+                ("small-uas", "SMALL_UAS"),
+                ("seed004-uas", "SEED004_UAS"),
+            )
+        },
+        "quadrotor": "replay.flight.multirotor.model:QUADROTOR",
+    },
+    _check_vehicle,
+)
+
+
+def installed_vehicle(name: str) -> VehicleParams | MultirotorParams | None:
+    """The preset an installed package gives as ``name`` (None: none does)."""
+    if name in VEHICLES.builtins or name not in VEHICLES:
+        return None
+    obj = VEHICLES.load(name)
+    assert isinstance(obj, VehicleParams) or type(obj).__name__ == "MultirotorParams"  # checked
+    return obj
+
+
 def preset(name: str) -> VehicleParams:
     """A preset by name (``aerosonde``, ``solar-uav``, ``cessna172``, ``small-uas``,
-    ``seed004-uas``)."""
-    try:
+    ``seed004-uas``, or one an installed package gives)."""
+    if name in PRESETS:
+        VEHICLES.find(name)  # a name given twice (a package and terrapath) is named
         return PRESETS[name]
-    except KeyError:
-        raise InputError(
-            f"unknown vehicle {name!r}: expected a preset ({', '.join(PRESETS)}) "
-            "or the path of a vehicle file (.yaml)"
-        ) from None
+    found = installed_vehicle(name)
+    if isinstance(found, VehicleParams):
+        return found
+    if found is not None:
+        raise InputError(f"vehicle {name!r} is a multirotor; a fixed-wing aircraft is needed here")
+    others = VEHICLES.plugin_names()
+    raise InputError(
+        f"unknown vehicle {name!r}: expected a preset ({', '.join([*PRESETS, *others])}) "
+        "or the path of a vehicle file (.yaml)"
+    )
 
 
 def load_vehicle(
@@ -403,7 +457,7 @@ def load_vehicle(
         return name_or_path
     text = str(name_or_path)
     if isinstance(name_or_path, str) and text in PRESETS:
-        return PRESETS[text]
+        return preset(text)
     path = Path(text)
     if base_dir is not None and not path.is_absolute():
         path = base_dir / path
@@ -423,6 +477,10 @@ def load_any_vehicle(
     text = str(name_or_path)
     if text in MULTIROTOR_PRESETS:
         return MULTIROTOR_PRESETS[text]
+    if isinstance(name_or_path, str) and text not in PRESETS:
+        found = installed_vehicle(text)
+        if found is not None:
+            return found
     path = Path(text)
     if base_dir is not None and not path.is_absolute():
         path = base_dir / path
