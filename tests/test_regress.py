@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import sys
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -225,3 +226,54 @@ def test_a_pip_installed_terrapath_flies_the_shipped_suite_with_its_bundled_data
             text=True,
         ).stdout
     )
+
+
+BROKEN = '''
+"""A broken copy of CTGA for terrapath's tests: it never decides anything."""
+from replay.avoidance.ctga import CtgaAvoider
+
+
+class IgnoresThreats(CtgaAvoider):
+    """CTGA that ignores every threat it sees."""
+
+    def decide(self, ctx):
+        return None
+'''
+
+
+@pytest.mark.slow
+def test_a_broken_copy_of_ctga_fails_against_ctgas_baseline_with_the_cases_named(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Installed under its own name (an entry point), CTGA that ignores threats is flown on the
+    shipped suite's seed 001 case and compared with the built-in CTGA's baseline (--against):
+    every scenario regresses (its threats entered), each named on the terminal and in the JUnit
+    XML, exit 3; the built-in CTGA passes the same baseline."""
+    from terrain import plugins
+    from tests.test_plugins import write_distribution
+
+    site = tmp_path / "site"
+    site.mkdir()
+    monkeypatch.syspath_prepend(str(site))
+    ep = {"terrapath.avoiders": {"ctga-broken": "tp_broken:IgnoresThreats"}}
+    write_distribution(site, "tp-broken", ep, {"tp_broken": BROKEN})
+    plugins.refresh()
+    try:
+        argv = ["regress", "--case", "seed001", "--jobs", "1", "-o"]
+        assert main([*argv, str(tmp_path / "ok"), "--avoid", "ctga"]) == 0
+        capsys.readouterr()
+        broken = [*argv, str(tmp_path / "bad"), "--avoid", "ctga-broken", "--against", "ctga"]
+        assert main(broken) == 3
+        said = capsys.readouterr().out
+        rows = ("simple", "complex", "moving")
+        for row in rows:
+            key = f"seed001/seed001-mission/seed001-{row}-threats/ctga-broken"
+            assert re.search(rf"REGRESSED {re.escape(key)}: .* entered", said), said
+        ts = ET.parse(tmp_path / "bad" / "junit.xml").getroot().find("testsuite")
+        assert ts is not None and (ts.get("tests"), ts.get("failures")) == ("3", "3")
+        assert len(list((tmp_path / "bad" / "failures").glob("*.png"))) == 3
+        assert main([*broken[:-1], "pso-ca-nowhere"]) == 1
+        assert "holds no 'pso-ca-nowhere'" in capsys.readouterr().err
+    finally:
+        sys.modules.pop("tp_broken", None)
+        plugins.refresh()

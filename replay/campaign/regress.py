@@ -288,6 +288,11 @@ class Verdict:
         return self.status in ("regressed", "error")
 
 
+def baseline_key(key: str, against: str | None = None) -> str:
+    """The baseline's key of a group: its own, or with its avoider replaced by ``against``."""
+    return key if against is None else f"{key.rsplit('/', 1)[0]}/{against}"
+
+
 def compare(g: Group, base: dict[str, Any] | None) -> Verdict:
     """The group against its baseline figures (module docstring)."""
     from replay.campaign.runner import wilson
@@ -458,6 +463,7 @@ __all__ = [
     "Suite",
     "Verdict",
     "baseline_doc",
+    "baseline_key",
     "compare",
     "find_map",
     "format_table",

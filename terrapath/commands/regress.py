@@ -51,6 +51,13 @@ EXIT_REGRESSED = 3  # as a failed replay: the outcome is a failure, not an error
     help="The baseline to compare with (default: the suite's, SUITE-baseline.json beside it).",
 )
 @click.option(
+    "--against",
+    default=None,
+    metavar="AVOIDER",
+    help="Compare the avoiders flown with AVOIDER's baseline figures (a changed copy of an "
+    "avoider, installed under another name, against the original's).",
+)
+@click.option(
     "--update-baseline",
     is_flag=True,
     help="Write these figures as a new baseline beside the one compared with (a dated name; "
@@ -73,6 +80,7 @@ def regress_cmd(
     data: tuple[str, ...],
     out: str | None,
     baseline: str | None,
+    against: str | None,
     update_baseline: bool,
     only: tuple[str, ...],
     jobs: int | None,
@@ -121,6 +129,7 @@ def regress_cmd(
         *(["--avoid", avoid] if avoid else []),
         *(f"--data={d}" for d in data),
         *(f"--case={c}" for c in only),
+        *([f"--against={against}"] if against else []),
     ]
     command = "terrapath regress " + " ".join(shlex.quote(a) for a in given)
     store = folder / "runs.sqlite"
@@ -135,8 +144,11 @@ def regress_cmd(
         hashes = {r.run_hash for r in spec.all_runs()}
         found.update(R.groups(name, [r for r in rows if r["run_hash"] in hashes]))
     seconds = time.perf_counter() - t0
-    verdicts = {k: R.compare(g, base.get(k)) for k, g in found.items()}
-    rows_t = R.table(found, verdicts, base)
+    if against is not None and not any(k.endswith(f"/{against}") for k in base):
+        raise InputError(f"--against {against}: the baseline {base_path} holds no {against!r}")
+    compared = {k: base.get(R.baseline_key(k, against)) for k in found}
+    verdicts = {k: R.compare(g, compared[k]) for k, g in found.items()}
+    rows_t = R.table(found, verdicts, {k: v for k, v in compared.items() if v is not None})
     click.echo(R.format_table(rows_t))
     skipped = [c for c in cases if c.spec is None]
     regressed = [k for k, v in verdicts.items() if v.failed]
