@@ -381,22 +381,43 @@ def baseline_doc(
 
 
 def table(
-    found: dict[str, Group], verdicts: dict[str, Verdict], base: dict[str, dict[str, Any]]
+    found: dict[str, Group],
+    verdicts: dict[str, Verdict],
+    base: dict[str, dict[str, Any]],
+    beside: dict[str, dict[str, Any]] | None = None,
 ) -> list[list[str]]:
     """The rows of the printed table: group, runs, success, worst separation, PLR, the
-    baseline's success, the verdict."""
+    baseline's success (``base``: by the flown group's key), the verdict; after each case's row
+    of the study, the groups of ``beside`` (the whole baseline) of the avoiders not flown there,
+    marked ``(baseline)``: a new avoider's figures beside the built-ins'."""
     rows = [
         ["case / mission / row", "avoider", "success", "worst sep", "PLR", "baseline", "verdict"]
     ]
-    for key, g in found.items():
-        where = key.rsplit("/", 1)[0]
-        seps = [v for k, v in (g.min_separation or {}).items() if not k.startswith("zone:")]
-        worst = f"{min(seps):.0f} m" if g.runs == 1 and seps and not g.errors else "-"
-        plr = f"{g.plr:.3f}" if g.runs == 1 and g.plr is not None and not g.errors else "-"
-        b = base.get(key)
-        was = f"{b['successes']}/{b['runs']}" if b else "-"
-        v = verdicts[key]
-        rows.append([where, g.avoider, f"{g.successes}/{g.runs}", worst, plr, was, v.status])
+
+    def figures(runs: int, seps: dict[str, float] | None, plr: float | None) -> list[str]:
+        threats = [v for k, v in (seps or {}).items() if not k.startswith("zone:")]
+        worst = f"{min(threats):.0f} m" if runs == 1 and threats else "-"
+        return [worst, f"{plr:.3f}" if runs == 1 and plr is not None else "-"]
+
+    wheres: dict[str, list[str]] = {}
+    for key in found:
+        wheres.setdefault(key.rsplit("/", 1)[0], []).append(key)
+    for where, keys in wheres.items():
+        for key in keys:
+            g = found[key]
+            b = base.get(key)
+            fig = figures(g.runs, g.min_separation, g.plr) if not g.errors else ["-", "-"]
+            was = f"{b['successes']}/{b['runs']}" if b else "-"
+            rows.append(
+                [where, g.avoider, f"{g.successes}/{g.runs}", *fig, was, verdicts[key].status]
+            )
+        flown = {found[k].avoider for k in keys}
+        for key, b in (beside or {}).items():
+            where_b, avoider = key.rsplit("/", 1)
+            if where_b == where and avoider not in flown:
+                fig = figures(int(b["runs"]), b.get("min_separation"), b.get("plr"))
+                done = f"{b['successes']}/{b['runs']}"
+                rows.append([where, avoider, done, *fig, done, "(baseline)"])
     return rows
 
 

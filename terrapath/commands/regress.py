@@ -148,7 +148,8 @@ def regress_cmd(
         raise InputError(f"--against {against}: the baseline {base_path} holds no {against!r}")
     compared = {k: base.get(R.baseline_key(k, against)) for k in found}
     verdicts = {k: R.compare(g, compared[k]) for k, g in found.items()}
-    rows_t = R.table(found, verdicts, {k: v for k, v in compared.items() if v is not None})
+    held = {k: v for k, v in compared.items() if v is not None}
+    rows_t = R.table(found, verdicts, held, base)
     click.echo(R.format_table(rows_t))
     skipped = [c for c in cases if c.spec is None]
     regressed = [k for k, v in verdicts.items() if v.failed]
