@@ -289,3 +289,21 @@ def test_a_broken_copy_of_ctga_fails_against_ctgas_baseline_with_the_cases_named
     finally:
         sys.modules.pop("tp_broken", None)
         plugins.refresh()
+
+
+def test_an_avoider_is_not_flown_where_the_cases_sensor_is_not_its_own(tmp_path: Path) -> None:
+    """The priority loop sees through its rangefinders: seed 001's case (the cooperative sensor)
+    flies CTGA only and says why the priority loop is left out; JUnit counts it as skipped."""
+    suite = R.only_cases(R.load_suite("reference"), ["seed001"])
+    (case,) = R.prepare(suite, ["ctga", "priority"], tmp_path, [])
+    assert case.spec is not None
+    assert [a for a, _ in case.unfit] == ["priority"]
+    assert "the case's sensor is cooperative" in case.unfit[0][1]
+    import yaml
+
+    assert yaml.safe_load(case.spec.read_text())["avoiders"] == [{"name": "ctga"}]
+    xml = R.junit_xml(suite, {}, {}, [], 0.0, [case])
+    ts = ET.fromstring(xml).find("testsuite")
+    assert ts is not None and (ts.get("tests"), ts.get("skipped")) == ("1", "1")
+    (only,) = R.prepare(suite, ["priority"], tmp_path / "p", [])
+    assert only.spec is None and only.skipped == "no avoider asked for works with its cooperative"

@@ -71,7 +71,8 @@ class Case:
     name: str
     spec: Path | None
     skipped: str | None = None
-    runs: int | None = None  # the bench's runs per line
+    # avoiders not flown here: name -> why (the case's sensor is not one they work with)
+    unfit: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -153,10 +154,12 @@ def find_map(relative: str, data: Sequence[Path]) -> Path | None:
 
 def prepare(suite: Suite, avoiders: Sequence[str], work: Path, data: Sequence[Path]) -> list[Case]:
     """Write each case's campaign spec into ``work`` (its mission's DEM resolved) and return the
-    cases, those whose maps are missing marked skipped."""
+    cases, those whose maps are missing marked skipped; an avoider that does not work with a
+    case's sensor is not flown there (the case says why)."""
+    from replay.avoidance.registry import avoider_entry
+
     work.mkdir(parents=True, exist_ok=True)
     here = suite.path.parent
-    listed = [{"name": a} for a in avoiders]
     out: list[Case] = []
     for c in suite.cases:
         name = c["name"]
@@ -167,12 +170,12 @@ def prepare(suite: Suite, avoiders: Sequence[str], work: Path, data: Sequence[Pa
                 raise InputError(f"{suite.path}: case {name!r}: no bench {c['bench']!r}")
             doc = parse_yaml(bench.read_text(encoding="utf-8"), str(bench))
             doc = _absolute(doc, bench.parent)
-            doc.update(name=f"{suite.name}-{name}", avoiders=listed)
+            doc["name"] = f"{suite.name}-{name}"
             if "runs" in c:
                 doc["runs"] = int(c["runs"])
         elif "spec" in c:
             doc = {"terrapath": 1, **_absolute(dict(c["spec"]), here)}
-            doc.update(name=f"{suite.name}-{name}", avoiders=listed)
+            doc["name"] = f"{suite.name}-{name}"
             doc.setdefault("seed", 0)
         else:
             mission_src = here / c["mission"]
@@ -194,13 +197,25 @@ def prepare(suite: Suite, avoiders: Sequence[str], work: Path, data: Sequence[Pa
                 "name": f"{suite.name}-{name}",
                 "mission": f"{name}-mission.yaml",
                 "threats": {"files": [f"{name}-threats.yaml"]},
-                "avoiders": listed,
                 "sensor": c.get("sensor", "radar"),
                 "runs": 1,
                 "seed": int(c.get("seed", 0)),
             }
+        sensor = str(doc.get("sensor", "radar"))
+        unfit = tuple(
+            (
+                a,
+                f"it works with {', '.join(avoider_entry(a).sensors)}; the case's sensor is {sensor}",
+            )
+            for a in avoiders
+            if sensor not in avoider_entry(a).sensors
+        )
+        doc["avoiders"] = [{"name": a} for a in avoiders if a not in dict(unfit)]
+        if not doc["avoiders"]:
+            out.append(Case(name, None, f"no avoider asked for works with its {sensor}", unfit))
+            continue
         spec_path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
-        out.append(Case(name, spec_path))
+        out.append(Case(name, spec_path, None, unfit))
     return out
 
 
@@ -441,20 +456,23 @@ def junit_xml(
     verdicts: dict[str, Verdict],
     skipped: Sequence[Case],
     seconds: float,
+    unfit: Sequence[Case] = (),
 ) -> bytes:
     """JUnit XML: a ``testsuite`` for the suite, a ``testcase`` per group (``failure`` when it
     regressed, ``error`` when a run failed to fly) and per skipped case."""
     failures = sum(v.status == "regressed" for v in verdicts.values())
     errors = sum(v.status == "error" for v in verdicts.values())
+    unfit = [c for c in unfit if c.spec is not None]  # a skipped case is one skip
+    n_skipped = len(skipped) + sum(len(c.unfit) for c in unfit)
     root = ET.Element("testsuites")
     ts = ET.SubElement(
         root,
         "testsuite",
         name=f"terrapath regress {suite.name}",
-        tests=str(len(found) + len(skipped)),
+        tests=str(len(found) + n_skipped),
         failures=str(failures),
         errors=str(errors),
-        skipped=str(len(skipped)),
+        skipped=str(n_skipped),
         time=f"{seconds:.1f}",
     )
     for key, g in found.items():
@@ -472,6 +490,12 @@ def junit_xml(
     for c in skipped:
         tc = ET.SubElement(ts, "testcase", classname=f"{suite.name}.{c.name}", name=c.name)
         ET.SubElement(tc, "skipped", message=c.skipped or "skipped")
+    for c in unfit:
+        for avoider, why in c.unfit:
+            tc = ET.SubElement(
+                ts, "testcase", classname=f"{suite.name}.{c.name}", name=f"{c.name}/{avoider}"
+            )
+            ET.SubElement(tc, "skipped", message=f"{avoider} not flown: {why}")
     ET.indent(root)
     return b'<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="utf-8")
 

@@ -138,6 +138,8 @@ def regress_cmd(
     for c in cases:
         if c.spec is None:
             click.echo(f"{c.name}: skipped ({c.skipped})", err=True)
+        for a, why in c.unfit:
+            click.echo(f"{c.name}: {a} not flown ({why})", err=True)
     rows = _fly(specs, [c for c in cases if c.spec is not None], store, jobs, __version__)
     found: dict[str, R.Group] = {}
     for name, spec in specs.items():
@@ -164,7 +166,7 @@ def regress_cmd(
     with atomic_output(folder / "regress.md") as tmp:
         tmp.write_text(head + R.markdown(rows_t), encoding="utf-8")
     with atomic_output(folder / "junit.xml") as tmp:
-        tmp.write_bytes(R.junit_xml(s, found, verdicts, skipped, seconds))
+        tmp.write_bytes(R.junit_xml(s, found, verdicts, skipped, seconds, cases))
     if update_baseline:
         new = R.new_baseline_path(base_path)
         meta = {"version": __version__, "created_utc": stamp, "command": command}
