@@ -92,9 +92,12 @@ def test_the_reference_suite_and_its_baseline_agree() -> None:
         for key in ("mission", "threats"):
             if key in c:
                 assert (suite.path.parent / c[key]).is_file(), c
-    seen = {(k.split("/")[0], k.rsplit("/", 1)[1]) for k in base}
+    seen = {(k.split("/")[0], k.rsplit("/", 1)[1]) for k in base if not k.startswith("plan/")}
     assert {c for c, _ in seen} == cases
     assert seen == {(c, a) for c in cases for a in suite.avoiders}
+    plans = {tuple(k.split("/")[1:]) for k in base if k.startswith("plan/")}
+    assert plans == {(m, o) for m in suite.plans for o in suite.optimizers}
+    assert all(base[f"plan/{m}/{o}"]["successes"] == 1 for m, o in plans)  # all feasible
 
 
 def test_bad_suites_and_options_get_one_line(
@@ -307,3 +310,29 @@ def test_an_avoider_is_not_flown_where_the_cases_sensor_is_not_its_own(tmp_path:
     assert ts is not None and (ts.get("tests"), ts.get("skipped")) == ("1", "1")
     (only,) = R.prepare(suite, ["priority"], tmp_path / "p", [])
     assert only.spec is None and only.skipped == "no avoider asked for works with its cooperative"
+
+
+def test_a_plan_regresses_on_feasibility_and_cost_beyond_three_percent(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An optimiser's plan of a reference map against the baseline: 3 % more cost is drift,
+    more is a regression, an infeasible plan one too; from the command line, AMPSO on Jacksboro
+    meets the shipped baseline (exit 0, nothing flown) and an unknown optimiser is one line."""
+    base = {"runs": 1, "successes": 1, "min_separation": {}, "plr": 0.5}
+    g = R.Group("plan/m/x", "plan", "x", runs=1, successes=1)
+    g.min_separation, g.plr = {}, 0.5 * 1.029
+    assert R.compare(g, base).status == "ok"
+    g.plr = 0.5 * 1.04
+    assert R.compare(g, base).reasons == ("cost 0.520 (baseline 0.500)",)
+    g.successes = 0
+    assert R.compare(g, base).reasons[0] == "feasibility lost"
+    out = tmp_path / "o"
+    argv = ["regress", "--case", "jacksboro", "--optimizer", "ampso", "-o", str(out)]
+    assert main(argv) == 0
+    ts = ET.parse(out / "junit.xml").getroot().find("testsuite")
+    assert ts is not None and (ts.get("tests"), ts.get("failures")) == ("1", "0")
+    (case,) = ts.findall("testcase")
+    assert case.get("name") == "plan/jacksboro/ampso"
+    assert "plan/jacksboro/ampso: feasible, cost 0.47" in capsys.readouterr().err
+    assert main([*argv[:-4], "--optimizer", "nope"]) == 1
+    assert "unknown algorithm 'nope'" in capsys.readouterr().err

@@ -82,6 +82,8 @@ class Suite:
     path: Path
     avoiders: tuple[str, ...]
     cases: tuple[dict[str, Any], ...]
+    optimizers: tuple[str, ...] = ()
+    plans: tuple[str, ...] = ()  # reference maps (planner.reference) planned by each optimiser
 
     @property
     def baseline(self) -> Path:
@@ -116,28 +118,42 @@ def load_suite(name: str) -> Suite:
                 f"{path}: case {c.get('name')!r}: expected a name and one of mission (with "
                 "threats), bench or spec"
             )
-    avoiders = doc.get("avoiders", ["none", "pso-ca", "ctga", "fga"])
-    if not isinstance(avoiders, list) or not all(isinstance(a, str) for a in avoiders):
-        raise InputError(f"{path}: avoiders: expected a list of avoider names")
+    names = {}
+    for key, default in (("avoiders", ["none", "pso-ca", "ctga", "fga"]), ("optimizers", [])):
+        names[key] = doc.get(key, default)
+        if not isinstance(names[key], list) or not all(isinstance(a, str) for a in names[key]):
+            raise InputError(f"{path}: {key}: expected a list of names")
+    from planner.reference import REFERENCE_MAPS
+
+    plans = doc.get("plans", [])
+    known = [m.name for m in REFERENCE_MAPS]
+    if not isinstance(plans, list) or any(p not in known for p in plans):
+        raise InputError(f"{path}: plans: expected reference maps among {', '.join(known)}")
     return Suite(
         name=str(doc.get("name") or path.stem),
         title=str(doc.get("title", "")),
         path=path,
-        avoiders=tuple(avoiders),
+        avoiders=tuple(names["avoiders"]),
         cases=tuple(cases),
+        optimizers=tuple(names["optimizers"]),
+        plans=tuple(plans),
     )
 
 
 def only_cases(suite: Suite, names: Sequence[str]) -> Suite:
-    """The suite with only the cases named (each must be one of its cases)."""
+    """The suite with only the cases named (each one of its cases or of the maps it plans)."""
     known = [c["name"] for c in suite.cases]
-    unknown = [n for n in names if n not in known]
+    unknown = [n for n in names if n not in known and n not in suite.plans]
     if unknown:
         raise InputError(
             f"--case: no case {', '.join(map(repr, unknown))} in the suite {suite.name!r}; "
-            f"its cases: {', '.join(known)}"
+            f"its cases: {', '.join(known)}; its plans: {', '.join(suite.plans)}"
         )
-    return replace(suite, cases=tuple(c for c in suite.cases if c["name"] in names))
+    return replace(
+        suite,
+        cases=tuple(c for c in suite.cases if c["name"] in names),
+        plans=tuple(p for p in suite.plans if p in names),
+    )
 
 
 def find_map(relative: str, data: Sequence[Path]) -> Path | None:
@@ -293,6 +309,55 @@ def groups(case: str, rows: Iterable[dict[str, Any]]) -> dict[str, Group]:
     return out
 
 
+TOL_COST = 0.03  # relative: a plan's cost may grow this much (the golden plans' tolerance)
+PLAN_VEHICLE = "aerosonde"
+
+
+def plan_group(name: str, algorithm: str, data: Sequence[Path]) -> Group | str:
+    """The reference map ``name`` planned as ``terrapath plan`` does (the aerosonde at its
+    cruise speed, zones as hard constraints, seed 0, the plan's defaults) by ``algorithm``: a
+    group of one run (success: feasible; ``plr`` holds the cost), or why it cannot be planned
+    here (its map is missing)."""
+    from planner.pipeline import PlanRequest, build_problem
+    from planner.plan import plan
+    from planner.reference import REFERENCE_MAPS
+    from replay.flight.fixedwing.presets import load_vehicle
+
+    ref = next(m for m in REFERENCE_MAPS if m.name == name)
+    dem = find_map(f"maps/{ref.dem.parent.name}/{ref.dem.name}", data)
+    if dem is None:
+        return f"map not found: maps/{ref.dem.parent.name}/{ref.dem.name} (give --data DIR)"
+    request = PlanRequest(
+        dem=(str(dem),),
+        start=ref.start,
+        goal=ref.goal,
+        performance=load_vehicle(PLAN_VEHICLE).performance(),
+        vehicle=PLAN_VEHICLE,
+        zones=[{"lon": a, "lat": b, "diameter": d} for a, b, d in ref.zones],
+        algorithm=algorithm,
+        avoid_zones=True,
+    )
+    key = f"plan/{name}/{algorithm}"
+    g = Group(key, "plan", algorithm, runs=1, end_reason="planned", run_keys=[key])
+    try:
+        problem = build_problem(request).problem
+        r = plan(
+            problem,
+            algorithm,
+            seed=request.seed,
+            population=request.population,
+            iterations=request.iterations,
+            attempts=request.attempts,
+        )
+    except Exception as exc:  # an optimiser that breaks its contract: the group's error
+        g.errors.append(f"{key}: {type(exc).__name__}: {exc}")
+        return g
+    g.successes = int(bool(r.feasible))
+    g.plr = float(r.terms["total"])  # the cost, compared as the PLR is (lower is better)
+    g.min_separation = {}
+    return g
+
+
 @dataclass(frozen=True)
 class Verdict:
     status: str  # "ok", "improved", "regressed", "new", "error"
@@ -321,7 +386,8 @@ def compare(g: Group, base: dict[str, Any] | None) -> Verdict:
     if g.runs == 1 and base.get("runs") == 1:
         was, now = bool(base["successes"]), bool(g.successes)
         if was and not now:
-            reasons.append(f"success lost (end: {g.end_reason})")
+            lost = "feasibility lost" if g.case == "plan" else f"success lost (end: {g.end_reason})"
+            reasons.append(lost)
         elif now and not was:
             better.append("succeeds now")
         for ident, sep in (base.get("min_separation") or {}).items():
@@ -334,8 +400,9 @@ def compare(g: Group, base: dict[str, Any] | None) -> Verdict:
             elif sep >= 0 and got < sep - max(TOL_SEPARATION[0], TOL_SEPARATION[1] * abs(sep)):
                 reasons.append(f"{ident} separation {got:.0f} m (baseline {sep:.0f} m)")
         plr0 = base.get("plr")
-        if was and now and plr0 is not None and g.plr is not None and g.plr > plr0 * (1 + TOL_PLR):
-            reasons.append(f"PLR {g.plr:.3f} (baseline {plr0:.3f})")
+        tol, what = (TOL_COST, "cost") if g.case == "plan" else (TOL_PLR, "PLR")
+        if was and now and plr0 is not None and g.plr is not None and g.plr > plr0 * (1 + tol):
+            reasons.append(f"{what} {g.plr:.3f} (baseline {plr0:.3f})")
     else:
         k0, n0 = int(base["successes"]), int(base["runs"])
         rate0 = k0 / n0 if n0 else 0.0
@@ -406,7 +473,15 @@ def table(
     of the study, the groups of ``beside`` (the whole baseline) of the avoiders not flown there,
     marked ``(baseline)``: a new avoider's figures beside the built-ins'."""
     rows = [
-        ["case / mission / row", "avoider", "success", "worst sep", "PLR", "baseline", "verdict"]
+        [
+            "case / mission / row",
+            "avoider",
+            "success",
+            "worst sep",
+            "PLR/cost",
+            "baseline",
+            "verdict",
+        ]
     ]
 
     def figures(runs: int, seps: dict[str, float] | None, plr: float | None) -> list[str]:
@@ -518,6 +593,7 @@ __all__ = [
     "markdown",
     "new_baseline_path",
     "only_cases",
+    "plan_group",
     "prepare",
     "read_baseline",
     "suite_names",

@@ -25,7 +25,16 @@ EXIT_REGRESSED = 3  # as a failed replay: the outcome is a failure, not an error
     "avoid",
     default=None,
     metavar="A,B,...",
-    help="The avoiders to fly (built-in or plugin; default: the suite's).",
+    help="The avoiders to fly (built-in or plugin; default: the suite's, unless only "
+    "--optimizer is given).",
+)
+@click.option(
+    "--optimizer",
+    "optimizer",
+    default=None,
+    metavar="A,B,...",
+    help="The optimisers to plan the suite's reference maps with (built-in or plugin; default: "
+    "the suite's, unless only --avoid is given).",
 )
 @click.option(
     "--data",
@@ -77,6 +86,7 @@ EXIT_REGRESSED = 3  # as a failed replay: the outcome is a failure, not an error
 def regress_cmd(
     suite: str,
     avoid: str | None,
+    optimizer: str | None,
     data: tuple[str, ...],
     out: str | None,
     baseline: str | None,
@@ -92,6 +102,7 @@ def regress_cmd(
     interval, an error -- each a regression.  Prints the table and writes it with JUnit XML and a
     picture of each regressed run into --out.  Exit status 0 when nothing regressed, 3 when
     something did."""
+    from planner.plan import check_algorithm
     from replay.avoidance.registry import avoider_names
     from replay.campaign import regress as R
     from replay.campaign.spec import load_spec
@@ -109,7 +120,10 @@ def regress_cmd(
     s = R.load_suite(suite)
     if only:
         s = R.only_cases(s, only)
-    avoiders = tuple(avoid.split(",")) if avoid else s.avoiders
+    avoiders = tuple(avoid.split(",")) if avoid else () if optimizer else s.avoiders
+    optimizers = tuple(optimizer.split(",")) if optimizer else () if avoid else s.optimizers
+    for name in optimizers:
+        check_algorithm(name)  # built-in and installed
     known = avoider_names()  # built-in and installed
     unknown = [a for a in avoiders if a not in known]
     if unknown:
@@ -123,10 +137,11 @@ def regress_cmd(
     base = R.read_baseline(base_path)
     folder = Path(out) if out else Path("out") / f"regress-{s.name}"
     folder.mkdir(parents=True, exist_ok=True)
-    cases = R.prepare(s, avoiders, folder / "specs", [Path(d) for d in data])
+    cases = R.prepare(s, avoiders, folder / "specs", [Path(d) for d in data]) if avoiders else []
     given = [
         s.name,
         *(["--avoid", avoid] if avoid else []),
+        *(["--optimizer", optimizer] if optimizer else []),
         *(f"--data={d}" for d in data),
         *(f"--case={c}" for c in only),
         *([f"--against={against}"] if against else []),
@@ -140,11 +155,27 @@ def regress_cmd(
             click.echo(f"{c.name}: skipped ({c.skipped})", err=True)
         for a, why in c.unfit:
             click.echo(f"{c.name}: {a} not flown ({why})", err=True)
-    rows = _fly(specs, [c for c in cases if c.spec is not None], store, jobs, __version__)
+    rows = (
+        _fly(specs, [c for c in cases if c.spec is not None], store, jobs, __version__)
+        if specs
+        else []
+    )
     found: dict[str, R.Group] = {}
     for name, spec in specs.items():
         hashes = {r.run_hash for r in spec.all_runs()}
         found.update(R.groups(name, [r for r in rows if r["run_hash"] in hashes]))
+    for m in s.plans if optimizers else ():
+        for alg in optimizers:
+            t = time.perf_counter()
+            got = R.plan_group(m, alg, [Path(d) for d in data])
+            if isinstance(got, str):
+                cases.append(R.Case(f"plan/{m}", None, got))
+                click.echo(f"plan/{m}: skipped ({got})", err=True)
+                break
+            found[got.key] = got
+            state = "error" if got.errors else "feasible" if got.successes else "infeasible"
+            cost = f", cost {got.plr:.4f}" if got.plr is not None else ""
+            click.echo(f"plan/{m}/{alg}: {state}{cost} ({time.perf_counter() - t:.1f} s)", err=True)
     seconds = time.perf_counter() - t0
     if against is not None and not any(k.endswith(f"/{against}") for k in base):
         raise InputError(f"--against {against}: the baseline {base_path} holds no {against!r}")
@@ -239,8 +270,8 @@ def _pictures(
     out: list[Path] = []
     for key, g in found.items():
         v = verdicts[key]
-        if v.status != "regressed" or g.runs != 1:
-            continue
+        if v.status != "regressed" or g.runs != 1 or g.case not in specs:
+            continue  # (a plan's regression is its cost: no flight to draw)
         spec = specs[g.case]
         run = next((r for r in spec.all_runs() if r.key == g.run_keys[0]), None)
         if run is None:
