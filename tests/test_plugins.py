@@ -534,6 +534,7 @@ def test_the_example_plugins_own_tests_pass_with_the_kit(example: dict[str, Any]
     )
     assert done.returncode == 0, done.stdout + done.stderr
     summary = done.stdout.strip().splitlines()[-1]
-    # the four static scenarios, the repeat, the hooks, the generator; the intruders skipped
-    assert "7 passed, 2 skipped" in summary, done.stdout
+    # the four static scenarios, the repeat, the hooks, the generator, the reference maps
+    # against its baseline; the intruders skipped
+    assert "8 passed, 2 skipped" in summary, done.stdout
     assert "does not claim the 'head-on-intruder' scenario" in done.stdout

@@ -289,6 +289,14 @@ def test_a_broken_copy_of_ctga_fails_against_ctgas_baseline_with_the_cases_named
         assert len(list((tmp_path / "bad" / "failures").glob("*.png"))) == 3
         assert main([*broken[:-1], "pso-ca-nowhere"]) == 1
         assert "holds no 'pso-ca-nowhere'" in capsys.readouterr().err
+        # the kit's test of the outcomes on the reference maps fails the same way
+        from terrapath.testing import ReferenceContract
+
+        class Kit(ReferenceContract):
+            avoider, against, cases = "ctga-broken", "ctga", ("seed001",)
+
+        with pytest.raises(AssertionError, match="ctga-broken regressed on the reference maps"):
+            Kit().test_meets_its_baseline_on_the_reference_maps(tmp_path / "kit")
     finally:
         sys.modules.pop("tp_broken", None)
         plugins.refresh()

@@ -70,7 +70,7 @@ EXIT_REGRESSED = 3  # as a failed replay: the outcome is a failure, not an error
     "--update-baseline",
     is_flag=True,
     help="Write these figures as a new baseline beside the one compared with (a dated name; "
-    "never over it).",
+    "never over it); a --baseline that does not exist yet is written where named.",
 )
 @click.option(
     "--case",
@@ -132,7 +132,8 @@ def regress_cmd(
             f"known: {', '.join(known)}"
         )
     base_path = Path(baseline) if baseline else s.baseline
-    if baseline and not base_path.is_file():
+    first = baseline is not None and not base_path.exists() and update_baseline
+    if baseline and not base_path.is_file() and not first:
         raise InputError(f"--baseline {baseline}: no such file")
     base = R.read_baseline(base_path)
     folder = Path(out) if out else Path("out") / f"regress-{s.name}"
@@ -199,7 +200,8 @@ def regress_cmd(
     with atomic_output(folder / "junit.xml") as tmp:
         tmp.write_bytes(R.junit_xml(s, found, verdicts, skipped, seconds, cases))
     if update_baseline:
-        new = R.new_baseline_path(base_path)
+        # a baseline named that does not exist yet is written there; else beside, never over
+        new = base_path if first else R.new_baseline_path(base_path)
         meta = {"version": __version__, "created_utc": stamp, "command": command}
         doc = R.baseline_doc(s, found, base, meta)
         try:

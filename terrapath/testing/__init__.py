@@ -16,6 +16,9 @@ A plugin's tests subclass a contract and name what they test; pytest runs every 
   one obstacle on the path, two, one beside a waypoint, a hill, a head-on and a crossing
   intruder -- each flown to the goal outside every safety volume, and the same flight again from
   the same seed, bit for bit.
+- :class:`ReferenceContract` (:mod:`terrapath.testing.reference`): the outcomes on the
+  reference maps (a real map's golden plan with pop-up threats) meet a baseline, as
+  ``terrapath regress`` judges them (the plugin's own baseline, or terrapath's).
 - :class:`OptimizerContract` (:mod:`terrapath.testing.optimizer`): the same seed gives the same
   result, every evaluated point inside the bounds, best-so-far history, step-by-step equals a
   run, seed points used, a typed result, stated bounds on the sphere and Rastrigin.
@@ -27,5 +30,6 @@ tests/test_optimizers.py): there is one copy of each contract.  The kit needs py
 
 from terrapath.testing.avoider import AvoiderContract
 from terrapath.testing.optimizer import OptimizerContract
+from terrapath.testing.reference import ReferenceContract
 
-__all__ = ["AvoiderContract", "OptimizerContract"]
+__all__ = ["AvoiderContract", "OptimizerContract", "ReferenceContract"]
