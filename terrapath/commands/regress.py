@@ -138,7 +138,11 @@ def regress_cmd(
     base = R.read_baseline(base_path)
     folder = Path(out) if out else Path("out") / f"regress-{s.name}"
     folder.mkdir(parents=True, exist_ok=True)
-    cases = R.prepare(s, avoiders, folder / "specs", [Path(d) for d in data]) if avoiders else []
+    cases = (
+        R.prepare(s, avoiders, folder / "specs", [Path(d) for d in data], named=bool(avoid))
+        if avoiders
+        else []
+    )
     given = [
         s.name,
         *(["--avoid", avoid] if avoid else []),
