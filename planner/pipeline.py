@@ -510,6 +510,27 @@ def _explored(result: PlanResult) -> list[np.ndarray] | None:
     return [np.asarray(w, dtype=np.float64) for w in ex["route_waypoints"]]
 
 
+def plan_request(
+    request: PlanRequest,
+    problem: PlanningProblem,
+    callback: Callable[[Any], None] | None = None,
+) -> PlanResult:
+    """``problem`` (built from ``request``) planned with the request's algorithm, seed,
+    population, iterations, attempts and initial population."""
+    r = request
+    return plan(
+        problem,
+        r.algorithm,
+        seed=r.seed,
+        population=r.population,
+        iterations=r.iterations,
+        attempts=r.attempts,
+        init=r.init,
+        routes=r.routes,
+        callback=callback,
+    )
+
+
 def plan_mission(
     request: PlanRequest,
     output: str | Path | None = None,
@@ -529,17 +550,7 @@ def plan_mission(
     r = request
 
     def run(prepared: Prepared) -> PlanResult:
-        return plan(
-            prepared.problem,
-            r.algorithm,
-            seed=r.seed,
-            population=r.population,
-            iterations=r.iterations,
-            attempts=r.attempts,
-            init=r.init,
-            routes=r.routes,
-            callback=callback,
-        )
+        return plan_request(request, prepared.problem, callback)
 
     result = run(prepared)
     if (prepared.takeoff is not None or prepared.landing is not None) and result.feasible:

@@ -326,42 +326,43 @@ TOL_COST = 0.03  # relative: a plan's cost may grow this much (the golden plans'
 PLAN_VEHICLE = "aerosonde"
 
 
-def plan_group(name: str, algorithm: str, data: Sequence[Path]) -> Group | str:
-    """The reference map ``name`` planned as ``terrapath plan`` does (the aerosonde at its
-    cruise speed, zones as hard constraints, seed 0, the plan's defaults) by ``algorithm``: a
-    group of one run (success: feasible; ``plr`` holds the cost), or why it cannot be planned
-    here (its map is missing)."""
-    from planner.pipeline import PlanRequest, build_problem
-    from planner.plan import plan
-    from planner.reference import REFERENCE_MAPS
+def reference_request(ref: Any, algorithm: str = "ampso", dem: Path | None = None) -> Any:
+    """The plan request of the reference map ``ref`` (:class:`planner.reference.ReferenceMap`)
+    as ``terrapath plan`` makes it: the aerosonde at its cruise speed, the zones as hard
+    constraints, seed 0 and the plan's defaults (the golden plans' and regress's); ``dem``: where
+    its DEM is found (default the map's own path)."""
+    from planner.pipeline import PlanRequest
     from replay.flight.fixedwing.presets import load_vehicle
 
-    ref = next(m for m in REFERENCE_MAPS if m.name == name)
-    dem = find_map(f"maps/{ref.dem.parent.name}/{ref.dem.name}", data)
-    if dem is None:
-        return f"map not found: maps/{ref.dem.parent.name}/{ref.dem.name} (give --data DIR)"
-    request = PlanRequest(
-        dem=(str(dem),),
+    return PlanRequest(
+        dem=(str(dem or ref.dem),),
         start=ref.start,
         goal=ref.goal,
         performance=load_vehicle(PLAN_VEHICLE).performance(),
         vehicle=PLAN_VEHICLE,
         zones=[{"lon": a, "lat": b, "diameter": d} for a, b, d in ref.zones],
         algorithm=algorithm,
+        seed=0,
         avoid_zones=True,
     )
+
+
+def plan_group(name: str, algorithm: str, data: Sequence[Path]) -> Group | str:
+    """The reference map ``name`` planned by ``algorithm`` (:func:`reference_request`): a
+    group of one run (success: feasible; ``plr`` holds the cost), or why it cannot be planned
+    here (its map is missing)."""
+    from planner.pipeline import build_problem, plan_request
+    from planner.reference import REFERENCE_MAPS
+
+    ref = next(m for m in REFERENCE_MAPS if m.name == name)
+    dem = find_map(f"maps/{ref.dem.parent.name}/{ref.dem.name}", data)
+    if dem is None:
+        return f"map not found: maps/{ref.dem.parent.name}/{ref.dem.name} (give --data DIR)"
+    request = reference_request(ref, algorithm, dem)
     key = f"plan/{name}/{algorithm}"
     g = Group(key, "plan", algorithm, runs=1, end_reason="planned", run_keys=[key])
     try:
-        problem = build_problem(request).problem
-        r = plan(
-            problem,
-            algorithm,
-            seed=request.seed,
-            population=request.population,
-            iterations=request.iterations,
-            attempts=request.attempts,
-        )
+        r = plan_request(request, build_problem(request).problem)
     except Exception as exc:  # an optimiser that breaks its contract: the group's error
         g.errors.append(f"{key}: {type(exc).__name__}: {exc}")
         return g
@@ -609,6 +610,7 @@ __all__ = [
     "plan_group",
     "prepare",
     "read_baseline",
+    "reference_request",
     "suite_names",
     "table",
 ]

@@ -17,16 +17,14 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from planner.pipeline import PlanRequest, Prepared, build_problem
-from planner.plan import plan
+from planner.pipeline import PlanRequest, Prepared, build_problem, plan_request
 from planner.problem import PlanningProblem
 from planner.reference import REFERENCE_MAPS, ReferenceMap
-from replay.flight.fixedwing.presets import load_vehicle
+from replay.campaign.regress import reference_request
 
 GOLDEN = Path(__file__).resolve().parent / "plans.json"
 ALGORITHMS = ("ampso", "apso", "pso", "ga")
 SEED = 0
-VEHICLE = "aerosonde"
 
 
 @dataclass(frozen=True)
@@ -34,17 +32,8 @@ class MapScenario(ReferenceMap):
     """A reference map (``planner.reference``) planned as ``terrapath plan`` does."""
 
     def request(self, algorithm: str = "ampso") -> PlanRequest:
-        return PlanRequest(
-            dem=(str(self.dem),),
-            start=self.start,
-            goal=self.goal,
-            performance=load_vehicle(VEHICLE).performance(),
-            vehicle=VEHICLE,
-            zones=[{"lon": a, "lat": b, "diameter": d} for a, b, d in self.zones],
-            algorithm=algorithm,
-            seed=SEED,
-            avoid_zones=True,
-        )
+        request: PlanRequest = reference_request(self, algorithm)
+        return request
 
     def prepared(self) -> Prepared:
         return _prepared(self)
@@ -53,15 +42,7 @@ class MapScenario(ReferenceMap):
         return self.prepared().problem
 
     def run(self, algorithm: str, problem: PlanningProblem | None = None) -> Any:
-        r = self.request(algorithm)
-        return plan(
-            problem or self.problem(),
-            algorithm,
-            seed=r.seed,
-            population=r.population,
-            iterations=r.iterations,
-            attempts=r.attempts,
-        )
+        return plan_request(self.request(algorithm), problem or self.problem())
 
 
 @cache
