@@ -20,11 +20,12 @@ from typing import Any
 from planner.pipeline import PlanRequest, Prepared, build_problem, plan_request
 from planner.problem import PlanningProblem
 from planner.reference import REFERENCE_MAPS, ReferenceMap
-from replay.campaign.regress import reference_request
+from replay.campaign.regress import PLAN_VEHICLE, reference_request
 
 GOLDEN = Path(__file__).resolve().parent / "plans.json"
 ALGORITHMS = ("ampso", "apso", "pso", "ga")
 SEED = 0
+VEHICLE = PLAN_VEHICLE  # the aerosonde (the golden plans' vehicle)
 
 
 @dataclass(frozen=True)
