@@ -26,7 +26,7 @@ import yaml
 
 from planner.mission import Mission
 from replay.avoidance import Avoider, make_avoider
-from replay.avoidance.registry import AVOIDERS, avoider_plugin
+from replay.avoidance.registry import AVOIDERS, avoider_plugin, hook_checked
 from replay.flight.fixedwing.params import VehicleParams
 from replay.flight.multirotor.model import MultirotorParams
 from replay.preflight import Preflight, preflight
@@ -211,7 +211,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     # e.g. FGA's eq 5: the aircraft must turn as tightly as it assumes -- at the fastest ground
     # speed of a turn in the run's wind (the airspeed plus the strongest wind on the way)
     check_wind(config, mission, params.name)  # before the legs: a wind it cannot fly into
-    avoider.check_vehicle(params, float(speed) + strongest_wind(mission, config))
+    hook_checked(avoider, "check_vehicle", params, float(speed) + strongest_wind(mission, config))
     # e.g. the priority loop: its sensor, a start outside the obstacles
     avoider.check_setup(config, mission, threats, grid, float(speed))
     # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)

@@ -37,7 +37,7 @@ import numpy.typing as npt
 
 from planner.mission import Mission
 from replay.avoidance.base import AvoidanceContext, Avoider
-from replay.avoidance.registry import SENSORS, decide_checked
+from replay.avoidance.registry import SENSORS, decide_checked, hook_checked
 from replay.flight.atmosphere import check_offset
 from replay.flight.base import FlightStack, Vehicle
 from replay.flight.energy import source_of
@@ -344,7 +344,7 @@ def simulate(
     if sensor is None:
         sensor = cfg.make_sensor(rng, rangefinder_spread(cfg, avoider))
     loop = _Loop(mission, threats, avoider, stack, sensor, grid, terrain_model, cfg, recorder)
-    avoider.reset(loop.wp0, rng)
+    hook_checked(avoider, "reset", loop.wp0, rng)  # a plugin's crash: one line
     loop.fly(x, progress)
     metrics = loop.finish()
     tt = np.concatenate(loop.times) if loop.times else np.zeros(0)

@@ -69,6 +69,13 @@ class Crashy(Chatty):
         return 1 / 0
 
 
+class Fragile(Chatty):
+    """Breaks when the loop resets it."""
+
+    def reset(self, waypoints, rng):
+        raise KeyError("no such waypoint")
+
+
 class Blind(Chatty):
     """Sees through the rangefinders only."""
 
@@ -99,6 +106,7 @@ FAKE_ENTRY_POINTS = {
         "ghost": "tp_fake:Ghost",
         "blind": "tp_fake:Blind",
         "crashy": "tp_fake:Crashy",
+        "fragile": "tp_fake:Fragile",
     },
     "terrapath.optimizers": {
         "sloppy": "tp_fake:Sloppy",
@@ -346,6 +354,13 @@ def test_an_avoider_returning_the_wrong_type_ends_the_run_unrecorded(
     assert main([*args, "--avoid", "crashy"]) == 1
     msg = one_line(capsys.readouterr().err)
     assert "avoider 'chatty' (tp_fake.Crashy) raised ZeroDivisionError in decide()" in msg
+    assert not out.exists()
+    # in another of its hooks too (reset, before the flight)
+    assert main([*args, "--avoid", "fragile"]) == 1
+    msg = one_line(capsys.readouterr().err)
+    assert (
+        "avoider 'chatty' (tp_fake.Fragile) raised KeyError in reset(): 'no such waypoint'" in msg
+    )
     assert not out.exists()
     # in a campaign: the run is stored as an error, never as a success
     spec = tmp_path / "spec.yaml"

@@ -186,13 +186,13 @@ def make_avoider(name: str, **options: Any) -> Avoider:
 OWN_PACKAGES = ("terrain", "planner", "replay", "terrapath")
 
 
-def decide_checked(avoider: Any, ctx: Any) -> AvoidanceDecision | None:
-    """``avoider.decide(ctx)``, its answer checked (:func:`checked_decision`). An exception an
+def hook_checked(avoider: Any, hook: str, *args: Any) -> Any:
+    """``avoider.<hook>(*args)`` (``decide``, ``reset``, ``check_vehicle``...). An exception an
     installed package's avoider raises (not an error terrapath defines) ends the run with a
-    one-line :class:`~terrain.errors.ContractError` naming its class, the exception chained for
-    a debugger; terrapath's own avoiders' bugs keep their traceback."""
+    one-line :class:`~terrain.errors.ContractError` naming its class and the hook, the
+    exception chained for a debugger; terrapath's own avoiders' bugs keep their traceback."""
     try:
-        decision = avoider.decide(ctx)
+        return getattr(avoider, hook)(*args)
     except Exception as exc:
         cls = type(avoider)
         if isinstance(exc, TerrapathError) or cls.__module__.split(".")[0] in OWN_PACKAGES:
@@ -200,10 +200,15 @@ def decide_checked(avoider: Any, ctx: Any) -> AvoidanceDecision | None:
         first = str(exc).splitlines()[0] if str(exc) else ""
         raise ContractError(
             f"avoider {getattr(avoider, 'name', cls.__name__)!r} "
-            f"({cls.__module__}.{cls.__qualname__}) raised {type(exc).__name__} in decide(): "
+            f"({cls.__module__}.{cls.__qualname__}) raised {type(exc).__name__} in {hook}(): "
             f"{first}"
         ) from exc
-    return checked_decision(avoider, decision)
+
+
+def decide_checked(avoider: Any, ctx: Any) -> AvoidanceDecision | None:
+    """``avoider.decide(ctx)`` through :func:`hook_checked`, its answer checked
+    (:func:`checked_decision`)."""
+    return checked_decision(avoider, hook_checked(avoider, "decide", ctx))
 
 
 def checked_decision(avoider: Any, decision: object) -> AvoidanceDecision | None:
@@ -234,6 +239,7 @@ __all__ = [
     "avoider_plugin",
     "checked_decision",
     "decide_checked",
+    "hook_checked",
     "make_avoider",
     "sensor_for",
 ]
