@@ -354,3 +354,11 @@ def test_a_plan_regresses_on_feasibility_and_cost_beyond_three_percent(
     assert "plan/jacksboro/ampso: feasible, cost 0.47" in capsys.readouterr().err
     assert main([*argv[:-4], "--optimizer", "nope"]) == 1
     assert "unknown algorithm 'nope'" in capsys.readouterr().err
+    # held to a cost it cannot reach: regressed, exit 3, the plan's picture drawn
+    doc = json.loads(R.load_suite("reference").baseline.read_text())
+    doc["groups"]["plan/jacksboro/ampso"]["plr"] = 0.3
+    strict = tmp_path / "strict.json"
+    strict.write_text(json.dumps(doc))
+    assert main([*argv[:-1], str(tmp_path / "s"), "--baseline", str(strict)]) == 3
+    assert "REGRESSED plan/jacksboro/ampso: cost 0.47" in capsys.readouterr().out
+    assert (tmp_path / "s" / "failures" / "plan__jacksboro__ampso.png").stat().st_size > 10_000

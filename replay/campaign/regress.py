@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree as ET
 
+import numpy as np
 import yaml
 
 from terrain.docfile import parse_yaml
@@ -347,10 +348,10 @@ def reference_request(ref: Any, algorithm: str = "ampso", dem: Path | None = Non
     )
 
 
-def plan_group(name: str, algorithm: str, data: Sequence[Path]) -> Group | str:
-    """The reference map ``name`` planned by ``algorithm`` (:func:`reference_request`): a
-    group of one run (success: feasible; ``plr`` holds the cost), or why it cannot be planned
-    here (its map is missing)."""
+def _planned(name: str, algorithm: str, data: Sequence[Path]) -> tuple[Any, Any] | str:
+    """The reference map ``name`` prepared and planned by ``algorithm``
+    (:func:`reference_request`): (the prepared problem, the plan's result), or why it cannot be
+    planned here (its map is missing)."""
     from planner.pipeline import build_problem, plan_request
     from planner.reference import REFERENCE_MAPS
 
@@ -359,17 +360,48 @@ def plan_group(name: str, algorithm: str, data: Sequence[Path]) -> Group | str:
     if dem is None:
         return f"map not found: maps/{ref.dem.parent.name}/{ref.dem.name} (give --data DIR)"
     request = reference_request(ref, algorithm, dem)
+    prepared = build_problem(request)
+    return prepared, plan_request(request, prepared.problem)
+
+
+def plan_group(name: str, algorithm: str, data: Sequence[Path]) -> Group | str:
+    """The reference map ``name`` planned by ``algorithm`` (:func:`_planned`): a group of one
+    run (success: feasible; ``plr`` holds the cost), or why it cannot be planned here."""
     key = f"plan/{name}/{algorithm}"
     g = Group(key, "plan", algorithm, runs=1, end_reason="planned", run_keys=[key])
     try:
-        r = plan_request(request, build_problem(request).problem)
+        got = _planned(name, algorithm, data)
     except Exception as exc:  # an optimiser that breaks its contract: the group's error
         g.errors.append(f"{key}: {type(exc).__name__}: {exc}")
         return g
+    if isinstance(got, str):
+        return got
+    r = got[1]
     g.successes = int(bool(r.feasible))
     g.plr = float(r.terms["total"])  # the cost, compared as the PLR is (lower is better)
     g.min_separation = {}
     return g
+
+
+def plan_picture(name: str, algorithm: str, data: Sequence[Path], out: Path) -> Path | None:
+    """The picture of a regressed plan (planned again: a plan is a function of its seed): the
+    map with the path and the zones, and its profile (``terrapath plan``'s picture)."""
+    from planner.plot import save_plan_picture
+
+    got = _planned(name, algorithm, data)
+    if isinstance(got, str):
+        return None
+    prepared, r = got
+    status = r.status if r.feasible else r.status.upper()
+    return save_plan_picture(
+        prepared.grid,
+        np.asarray(r.path),
+        out,
+        prepared.zones,
+        title=f"{name}: {algorithm}, seed {r.seed} — {status}, cost {r.terms['total']:.4f}",
+        clearance=prepared.problem.clearance,
+        feasible=r.feasible,
+    )
 
 
 @dataclass(frozen=True)
@@ -608,6 +640,7 @@ __all__ = [
     "new_baseline_path",
     "only_cases",
     "plan_group",
+    "plan_picture",
     "prepare",
     "read_baseline",
     "reference_request",

@@ -194,6 +194,13 @@ def regress_cmd(
     for k in regressed:
         click.echo(f"REGRESSED {k}: {'; '.join(verdicts[k].reasons)}")
     pictures = _pictures(found, verdicts, specs, folder / "failures")
+    for key, g in found.items():  # a regressed plan: terrapath plan's picture of it
+        if g.case == "plan" and verdicts[key].status == "regressed":
+            _, m, alg = key.split("/")
+            made = R.plan_picture(
+                m, alg, [Path(d) for d in data], folder / "failures" / f"plan__{m}__{alg}.png"
+            )
+            pictures += [made] if made is not None else []
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     head = (
         f"# terrapath regress {s.name}\n\n{stamp}; terrapath {__version__}; `{command}`; "
