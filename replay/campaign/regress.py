@@ -47,17 +47,16 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import yaml
 
+from replay.campaign.own import BUNDLED, ROOT, SHARED
 from terrain.docfile import parse_yaml
 from terrain.errors import InputError
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"
 BENCHES_DIR = Path(__file__).resolve().parent / "benches"
-_ROOT = Path(__file__).resolve().parents[2]
-# the data a wheel bundles (setup.py: the suite's maps and scenario files), after the checkout's
-DATA_DIRS = (_ROOT / "data", Path(__file__).resolve().parent / "data")
-# where a suite's maps are looked for after --data: the checkout's or the bundled maps, the
-# shared ones beside the checkout
-MAP_DIRS = (*(d / "maps" for d in DATA_DIRS), _ROOT.parent / "shared" / "maps")
+# the checkout's data/, then the copy a wheel bundles (setup.py: the suite's maps and files)
+DATA_DIRS = (ROOT / "data", BUNDLED)
+# where a suite's maps are looked for after --data: those, then the shared ones beside the checkout
+MAP_DIRS = (*(d / "maps" for d in DATA_DIRS), SHARED)
 
 TOL_SEPARATION = (25.0, 0.10)  # metres or relative, whichever is larger
 TOL_PLR = 0.02  # relative
@@ -72,7 +71,8 @@ class Case:
     name: str
     spec: Path | None
     skipped: str | None = None
-    # avoiders not flown here: name -> why (the case's sensor is not one they work with)
+    # avoiders not flown here and why: the case's sensor is not one they work with, or the case
+    # names its own avoiders and not them
     unfit: tuple[tuple[str, str], ...] = ()
 
 
@@ -182,8 +182,6 @@ def prepare(
     case's sensor, or that the case does not name (its ``avoiders``, when it has them: seed
     003's rooms are the priority loop's), is not flown there (the case says why); with
     ``named`` false (no --avoid) such a case flies its own avoiders."""
-    from replay.avoidance.registry import avoider_entry
-
     work.mkdir(parents=True, exist_ok=True)
     here = suite.path.parent
     out: list[Case] = []
@@ -230,23 +228,28 @@ def prepare(
         sensor = str(doc.get("sensor", "radar"))
         meant = c.get("avoiders")  # the avoiders a case is made for (the others not flown)
         asked = list(meant) if meant is not None and not named else list(avoiders)
-        unfit = tuple(
-            (a, f"the case is for {', '.join(meant)}")
-            if meant is not None and a not in meant
-            else (
-                a,
-                f"it works with {', '.join(avoider_entry(a).sensors)}; the case's sensor is {sensor}",
-            )
-            for a in asked
-            if (meant is not None and a not in meant) or sensor not in avoider_entry(a).sensors
-        )
-        doc["avoiders"] = [{"name": a} for a in asked if a not in dict(unfit)]
+        reasons = {a: _why_not(a, meant, sensor) for a in asked}
+        unfit = tuple((a, why) for a, why in reasons.items() if why is not None)
+        doc["avoiders"] = [{"name": a} for a, why in reasons.items() if why is None]
         if not doc["avoiders"]:
             out.append(Case(name, None, "no avoider asked for is one it flies", unfit))
             continue
         spec_path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
         out.append(Case(name, spec_path, None, unfit))
     return out
+
+
+def _why_not(avoider: str, meant: Sequence[str] | None, sensor: str) -> str | None:
+    """Why ``avoider`` is not flown in a case made for ``meant`` (None: any) with ``sensor``;
+    None when it is."""
+    from replay.avoidance.registry import avoider_entry
+
+    if meant is not None and avoider not in meant:
+        return f"the case is for {', '.join(meant)}"
+    works = avoider_entry(avoider).sensors
+    if sensor not in works:
+        return f"it works with {', '.join(works)}; the case's sensor is {sensor}"
+    return None
 
 
 def _absolute(doc: dict[str, Any], base: Path) -> dict[str, Any]:

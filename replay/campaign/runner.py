@@ -342,11 +342,7 @@ def run_campaign(
     if keep not in KEEP:
         raise InputError(f"--keep-mcap {keep!r}: expected one of {', '.join(KEEP)}")
     runs = spec.all_runs()
-    if only is not None:
-        todo = [spec.find(only)]
-    else:
-        have = store.done(r.run_hash for r in runs)
-        todo = [r for r in runs if r.run_hash not in have]
+    todo = [spec.find(only)] if only is not None else _missing(runs, store)
     folder = None
     if keep != "none":
         folder = (
@@ -371,13 +367,30 @@ def run_campaign(
         stream = _pool([(r, args) for r in todo], jobs)
     else:
         stream = _dask(todo, args, jobs, scheduler if executor == "scheduler" else None)
+    return runs, _stored(stream, store, len(todo), report)
+
+
+def _missing(runs: list[Run], store: Store) -> list[Run]:
+    """The runs the store holds no row of."""
+    have = store.done(r.run_hash for r in runs)
+    return [r for r in runs if r.run_hash not in have]
+
+
+def _stored(
+    stream: Iterable[dict[str, Any]],
+    store: Store,
+    total: int,
+    report: Callable[[dict[str, Any], int, int], None] | None,
+) -> list[dict[str, Any]]:
+    """Each row of ``stream`` written to the store as it comes (then ``report(row, done,
+    total)``); the rows."""
     flown: list[dict[str, Any]] = []
     for row in stream:
         store.put(row)
         flown.append(row)
         if report is not None:
-            report(row, len(flown), len(todo))
-    return runs, flown
+            report(row, len(flown), total)
+    return flown
 
 
 def run_campaigns(
@@ -394,19 +407,9 @@ def run_campaigns(
     pool for all balances the cores to the last run and starts its workers once."""
     tasks: list[tuple[Run, tuple[Any, ...]]] = []
     for spec, command in zip(specs, commands, strict=True):
-        runs = spec.all_runs()
-        have = store.done(r.run_hash for r in runs)
         args = (spec.name, spec.spec_hash, version, command, "none", None)
-        tasks += [(r, args) for r in runs if r.run_hash not in have]
-    flown: list[dict[str, Any]] = []
-    if not tasks:
-        return flown
-    for row in _pool(tasks, jobs):
-        store.put(row)
-        flown.append(row)
-        if report is not None:
-            report(row, len(flown), len(tasks))
-    return flown
+        tasks += [(r, args) for r in _missing(spec.all_runs(), store)]
+    return _stored(_pool(tasks, jobs) if tasks else (), store, len(tasks), report)
 
 
 def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:

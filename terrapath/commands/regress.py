@@ -138,11 +138,8 @@ def regress_cmd(
     base = R.read_baseline(base_path)
     folder = Path(out) if out else Path("out") / f"regress-{s.name}"
     folder.mkdir(parents=True, exist_ok=True)
-    cases = (
-        R.prepare(s, avoiders, folder / "specs", [Path(d) for d in data], named=bool(avoid))
-        if avoiders
-        else []
-    )
+    maps = [Path(d) for d in data]
+    cases = R.prepare(s, avoiders, folder / "specs", maps, named=bool(avoid)) if avoiders else []
     given = [
         s.name,
         *(["--avoid", avoid] if avoid else []),
@@ -160,19 +157,13 @@ def regress_cmd(
             click.echo(f"{c.name}: skipped ({c.skipped})", err=True)
         for a, why in c.unfit:
             click.echo(f"{c.name}: {a} not flown ({why})", err=True)
-    rows = (
-        _fly(specs, [c for c in cases if c.spec is not None], store, jobs, __version__)
-        if specs
-        else []
-    )
     found: dict[str, R.Group] = {}
-    for name, spec in specs.items():
-        hashes = {r.run_hash for r in spec.all_runs()}
-        found.update(R.groups(name, [r for r in rows if r["run_hash"] in hashes]))
+    for name, rows in (_fly(specs, store, jobs, __version__) if specs else {}).items():
+        found.update(R.groups(name, rows))
     for m in s.plans if optimizers else ():
         for alg in optimizers:
             t = time.perf_counter()
-            got = R.plan_group(m, alg, [Path(d) for d in data])
+            got = R.plan_group(m, alg, maps)
             if isinstance(got, str):
                 cases.append(R.Case(f"plan/{m}", None, got))
                 click.echo(f"plan/{m}: skipped ({got})", err=True)
@@ -193,14 +184,7 @@ def regress_cmd(
     regressed = [k for k, v in verdicts.items() if v.failed]
     for k in regressed:
         click.echo(f"REGRESSED {k}: {'; '.join(verdicts[k].reasons)}")
-    pictures = _pictures(found, verdicts, specs, folder / "failures")
-    for key, g in found.items():  # a regressed plan: terrapath plan's picture of it
-        if g.case == "plan" and verdicts[key].status == "regressed":
-            _, m, alg = key.split("/")
-            made = R.plan_picture(
-                m, alg, [Path(d) for d in data], folder / "failures" / f"plan__{m}__{alg}.png"
-            )
-            pictures += [made] if made is not None else []
+    pictures = _pictures(found, verdicts, specs, maps, folder / "failures")
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     head = (
         f"# terrapath regress {s.name}\n\n{stamp}; terrapath {__version__}; `{command}`; "
@@ -232,23 +216,24 @@ def regress_cmd(
 
 
 def _fly(
-    specs: dict[str, Any], cases: list[Any], store: Path, jobs: int | None, version: str
-) -> list[dict[str, Any]]:
-    """Every case's missing runs in one process pool, with a progress bar; every run's row."""
+    specs: dict[str, Any], store: Path, jobs: int | None, version: str
+) -> dict[str, list[dict[str, Any]]]:
+    """Every case's missing runs in one process pool, with a progress bar; each case's rows (its
+    every run's, flown now or before)."""
     import os
 
     from replay.campaign.runner import run_campaigns
     from replay.campaign.store import Store
 
-    names = list(specs)
+    runs = {name: spec.all_runs() for name, spec in specs.items()}
     commands = [
-        f"terrapath campaign {shlex.quote(str(c.spec))} --store {shlex.quote(str(store))}"
-        for c in cases
+        f"terrapath campaign {shlex.quote(str(spec.path))} --store {shlex.quote(str(store))}"
+        for spec in specs.values()
     ]
     n_jobs = jobs or os.cpu_count() or 1
     with Store(str(store), version) as db:
-        total = sum(len(specs[n].all_runs()) for n in names)
-        click.echo(f"regress: {total} runs in {len(names)} campaigns ({n_jobs} jobs)", err=True)
+        total = sum(len(r) for r in runs.values())
+        click.echo(f"regress: {total} runs in {len(specs)} campaigns ({n_jobs} jobs)", err=True)
         t0 = time.perf_counter()
         with progress_bar(max(total, 1), "runs") as bar:
 
@@ -261,35 +246,47 @@ def _fly(
                     click.echo(f"[{text}] {row['key']}", err=True)
 
             run_campaigns(
-                [specs[n] for n in names],
+                list(specs.values()),
                 db,
                 version=version,
                 commands=commands,
                 jobs=n_jobs,
                 report=report,
             )
-        hashes = [r.run_hash for n in names for r in specs[n].all_runs()]
-        return list(db.rows(hashes=hashes))
+        return {
+            name: list(db.rows(hashes=[r.run_hash for r in case_runs]))
+            for name, case_runs in runs.items()
+        }
 
 
 def _pictures(
-    found: dict[str, Any], verdicts: dict[str, Any], specs: dict[str, Any], folder: Path
+    found: dict[str, Any],
+    verdicts: dict[str, Any],
+    specs: dict[str, Any],
+    maps: list[Path],
+    folder: Path,
 ) -> list[Path]:
-    """A picture of each regressed single run: flown again with its recording (the runs are
-    flown without one), drawn beside the table."""
+    """A picture of each regressed single run, flown again with its recording (the runs are
+    flown without one), and of each regressed plan, planned again (``terrapath plan``'s
+    picture); drawn beside the table."""
+    from replay.campaign import regress as R
     from replay.campaign.runner import execute, mcap_name
     from replay.record.picture import run_picture
 
     out: list[Path] = []
     for key, g in found.items():
-        v = verdicts[key]
-        if v.status != "regressed" or g.runs != 1 or g.case not in specs:
-            continue  # (a plan's regression is its cost: no flight to draw)
+        if verdicts[key].status != "regressed" or g.runs != 1:
+            continue
+        folder.mkdir(parents=True, exist_ok=True)
+        if g.case == "plan":
+            _, m, alg = key.split("/")
+            made = R.plan_picture(m, alg, maps, folder / f"plan__{m}__{alg}.png")
+            out += [made] if made is not None else []
+            continue
         spec = specs[g.case]
         run = next((r for r in spec.all_runs() if r.key == g.run_keys[0]), None)
         if run is None:
             continue
-        folder.mkdir(parents=True, exist_ok=True)
         row = execute(run, spec.name, spec.spec_hash, "", "", "all", str(folder))
         if row.get("mcap"):
             png = folder / mcap_name(run).replace(".mcap", ".png")
