@@ -44,38 +44,6 @@ def listen(page: Any, errors: list[str]) -> None:
     )
 
 
-def render(
-    page_path: Path, tabs: dict[str, Path], width: int = 1400, height: int = 1000
-) -> tuple[list[str], float]:
-    """Open ``page_path``; for each tab key -> screenshot path, click the tab and screenshot it.
-    Returns the page's JavaScript errors and requests beyond the file itself, and the seconds
-    until the first tab's plot was drawn."""
-    import time
-
-    from playwright.sync_api import sync_playwright
-
-    exe = chromium()
-    assert exe is not None, "no chromium on PATH"
-    errors: list[str] = []
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=exe, args=ARGS)
-        try:
-            page = browser.new_page(viewport={"width": width, "height": height})
-            listen(page, errors)
-            t0 = time.perf_counter()
-            page.goto(page_path.resolve().as_uri())
-            page.wait_for_function(DRAWN, arg="scene", timeout=60_000)
-            loaded = time.perf_counter() - t0
-            for tab, shot in tabs.items():
-                page.click(f"nav button[data-tab='{tab}']")
-                page.wait_for_function(DRAWN, arg=tab, timeout=60_000)
-                page.evaluate(FRAMES)
-                page.screenshot(path=str(shot))
-        finally:
-            browser.close()
-    return errors, loaded
-
-
 # what the page shows, read from its DOM: per tab the plot area(s), the legend's box, plotly's
 # toolbar and every text label with its colour (boxes in CSS pixels of the viewport)
 _MEASURE = """(key) => {
@@ -125,14 +93,20 @@ class Browser:
 
     def show(
         self, page_path: Path, shots: dict[str, Path], width: int, height: int
-    ) -> tuple[list[str], dict[str, dict[str, Any]]]:
+    ) -> tuple[list[str], dict[str, dict[str, Any]], float]:
         """Open ``page_path`` at ``width`` x ``height``; per tab key its screenshot (the whole
-        page) and measures; returns the errors and the measures by tab."""
+        page) and measures; returns the errors, the measures by tab and the seconds until the
+        3D scene (the tab the page opens on) was drawn."""
+        import time
+
         errors: list[str] = []
         page = self._browser.new_page(viewport={"width": width, "height": height})
         try:
             listen(page, errors)
+            t0 = time.perf_counter()
             page.goto(page_path.resolve().as_uri())
+            page.wait_for_function(DRAWN, arg="scene", timeout=60_000)
+            seconds = time.perf_counter() - t0
             measures: dict[str, dict[str, Any]] = {}
             for tab, shot in shots.items():
                 page.click(f"nav button[data-tab='{tab}']")
@@ -142,7 +116,7 @@ class Browser:
                 measures[tab] = page.evaluate(_MEASURE, tab)
         finally:
             page.close()
-        return errors, measures
+        return errors, measures, seconds
 
 
 def luminance(rgb: Any) -> Any:
