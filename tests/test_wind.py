@@ -373,3 +373,25 @@ def test_turbulence_widens_the_vertical_tolerance(tmp_path: Path) -> None:
     assert rough.lateral == calm.lateral
     result = run_replay(request)
     assert result.metrics.success, [f.text for f in result.metrics.failures]
+
+
+def test_tustin_is_scipys_bilinear_transform() -> None:
+    """The Dryden filters' own bilinear transform gives scipy.signal.bilinear's filters (same
+    lengths, coefficients to rounding) for analogue filters of degree 0 to 2, including the
+    rate gusts' numerators with a zero constant term."""
+    from scipy.signal import bilinear
+
+    from replay.flight.wind import tustin
+
+    rng = np.random.default_rng(38)
+    cases = [([1.0, 0.0], [0.3, 1.0], 100.0), ([2.0], [1.0], 50.0)]
+    for _ in range(300):
+        nd = int(rng.integers(1, 4))
+        num = list(rng.uniform(-5.0, 5.0, int(rng.integers(1, nd + 1))))
+        cases.append((num, list(rng.uniform(0.01, 10.0, nd)), float(rng.uniform(10.0, 400.0))))
+    for num, den, fs in cases:
+        b, a = tustin(num, den, fs)
+        b_ref, a_ref = bilinear(num, den, fs)
+        assert b.shape == b_ref.shape and a.shape == a_ref.shape
+        np.testing.assert_allclose(b, b_ref, rtol=1e-12, atol=1e-12 * np.abs(b_ref).max())
+        np.testing.assert_allclose(a, a_ref, rtol=1e-12, atol=1e-12)
