@@ -486,6 +486,26 @@ def test_thinned_separations_keep_minima_violations_and_bands(
     assert np.diff(ns[rows]).max() <= 10 * 10**9
 
 
+def test_the_nearest_threats_of_a_sample_are_its_numpy_twins_by_value_then_column() -> None:
+    """The compiled choice of the threats a separation message shows equals its numpy twin (a
+    stable sort) on rows with inactive (NaN), infinite and equal separations, for fewer
+    columns than shown and many more; an equal separation is listed by its column."""
+    from replay.record.separation import _nearest_columns, nearest_columns_numpy
+
+    rng = np.random.default_rng(38)
+    for k, n in ((600, 100), (50, 3), (10, 0), (20, 4), (30, 5), (40, 12)):
+        v = np.round(rng.uniform(-100.0, 900.0, (k, n)), -2)  # many equal values
+        v[rng.random((k, n)) < 0.3] = np.nan
+        v[rng.random((k, n)) < 0.1] = np.inf
+        v[rng.random((k, n)) < 0.05] = -np.inf
+        cols, vals = _nearest_columns(v, 4)
+        want_cols, want_vals = nearest_columns_numpy(v, 4)
+        np.testing.assert_array_equal(cols, want_cols)
+        np.testing.assert_array_equal(vals, want_vals)
+    cols, vals = _nearest_columns(np.array([[5.0, 3.0, 3.0, 1.0, 3.0, np.nan]]), 4)
+    assert cols.tolist() == [[3, 1, 2, 4]] and vals.tolist() == [[1.0, 3.0, 3.0, 3.0]]
+
+
 def test_entity_head_is_the_bytes_of_serialize_to_string() -> None:
     from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 
