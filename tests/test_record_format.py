@@ -506,6 +506,25 @@ def test_the_nearest_threats_of_a_sample_are_its_numpy_twins_by_value_then_colum
     assert cols.tolist() == [[3, 1, 2, 4]] and vals.tolist() == [[1.0, 3.0, 3.0, 3.0]]
 
 
+def test_the_row_of_each_threats_least_separation_is_argmin_over_the_table() -> None:
+    """Which sample holds each shown threat's least separation of a batch (compiled): the rows
+    ``np.argmin`` finds over the (K, N) table of shown separations, infinite where a threat is
+    not shown -- the first of equal minima."""
+    from replay.record.separation import _least_rows, _nearest_columns
+
+    rng = np.random.default_rng(39)
+    for k, n in ((600, 100), (30, 3), (1, 5), (50, 8)):
+        v = np.round(rng.uniform(0.0, 500.0, (k, n)), -2)
+        v[rng.random((k, n)) < 0.4] = np.nan
+        ids, vals = _nearest_columns(v, 4)
+        table = np.full((k, n), np.inf)
+        for i, j in zip(*np.nonzero(ids >= 0), strict=True):
+            table[i, ids[i, j]] = vals[i, j]
+        shown = np.isfinite(table).any(axis=0)
+        want = np.argmin(table, axis=0)[shown]
+        np.testing.assert_array_equal(_least_rows(ids, vals, n), want)
+
+
 def test_entity_head_is_the_bytes_of_serialize_to_string() -> None:
     from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 

@@ -146,21 +146,30 @@ def kept_rows(
     window = ns // round(MAX_GAP_S * 1e9)
     keep[1:] |= window[1:] != window[:-1]
     # the least shown separation of each threat and zone in the batch
-    rows = np.arange(k)
     for ids_j, vals_j, n in ((cols, shown, n_threats), (zcol[:, None], zval[:, None], n_zones)):
-        if not n:
-            continue
-        least = np.full((k, n), np.inf)
-        ok = ids_j >= 0
-        r = np.broadcast_to(rows[:, None], ids_j.shape)[ok]
-        least[r, ids_j[ok]] = vals_j[ok]
-        has = np.isfinite(least).any(axis=0)
-        keep[np.argmin(least, axis=0)[has]] = True
+        if n:
+            keep[_least_rows(np.ascontiguousarray(ids_j), np.ascontiguousarray(vals_j), n)] = True
     # local minima of the nearest threat's and zone's separations
     for v in (shown[:, 0], zval):
         inner = (v[1:-1] <= v[:-2]) & (v[1:-1] <= v[2:])
         keep[1:-1] |= inner
     return keep
+
+
+@nb.njit(cache=True, nogil=True)
+def _least_rows(ids: IntArray, vals: FloatArray, n: int) -> IntArray:  # pragma: no cover - jit
+    """The row of the least value of each of the ``n`` columns that ``ids`` (K, S) name (-1:
+    none), the first such row where it is least in several: the rows (as ``np.argmin`` over a
+    (K, n) table of the values, infinite elsewhere, gives them -- without the table)."""
+    best = np.full(n, np.inf)
+    row = np.full(n, -1, dtype=np.int64)
+    for i in range(ids.shape[0]):
+        for s in range(ids.shape[1]):
+            c = ids[i, s]
+            if c >= 0 and vals[i, s] < best[c]:
+                best[c] = vals[i, s]
+                row[c] = i
+    return row[row >= 0]
 
 
 def separation_doc(
