@@ -333,6 +333,9 @@ def save_figure(fig: Any, path: str | Path, dpi: int = 130) -> Path:
     out = Path(path)
     with atomic_output(out) as tmp:
         fig.tight_layout()
+        # no layout engine left behind: tight_layout leaves a placeholder, for which savefig
+        # lays every artist out once more before drawing (0.3 s of a 100-threat picture)
+        fig.set_layout_engine(None)
         fig.savefig(tmp, dpi=dpi, format="png", pil_kwargs={"compress_level": 3})
     return out
 
