@@ -56,9 +56,15 @@ def parse_yaml(text: str | bytes, label: str) -> Any:
         return _parse_fast(text)
     except (yaml.YAMLError, _TooDeep, RecursionError):
         pass
-    loader = _DepthLimitedLoader(text)
+    loader = None
     try:
+        loader = _DepthLimitedLoader(text)  # (its reader refuses a special character here)
         return loader.get_single_data()
+    except yaml.reader.ReaderError as exc:
+        code = exc.character if isinstance(exc.character, int) else ord(exc.character)
+        raise DataFileError(
+            f"{label}: not valid YAML at character {exc.position + 1}: {exc.reason} (#x{code:02x})"
+        ) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         problem = re.sub(r"'([^']*)'", _grammar_only, getattr(exc, "problem", None) or "")
@@ -69,7 +75,8 @@ def parse_yaml(text: str | bytes, label: str) -> Any:
     except RecursionError:  # pragma: no cover - the depth limit comes first
         raise DataFileError(f"{label}: nested too deeply") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 class _TooDeep(Exception):

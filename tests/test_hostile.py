@@ -120,6 +120,25 @@ def test_a_mission_nested_a_thousand_deep(
     assert "nested deeper than 100 levels" in err
 
 
+def test_a_special_character_in_a_yaml_file_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """YAML allows printable text only: a control character in a mission or a threat file is
+    named by its code and place, in one line (PyYAML's reader raised it before the parser, past
+    the error handling: a traceback), and nothing is written."""
+    m = tmp_path / "bell.yaml"
+    m.write_text("terrapath: 1\nname: a\x07b\n", encoding="utf-8")
+    out = tmp_path / "r.mcap"
+    err = _error(["replay", str(m), "-o", str(out)], capsys)
+    assert err == (
+        f"terrapath: error: {str(m)!r}: not valid YAML at character 21: special characters "
+        "are not allowed (#x07)"
+    )
+    err = _error(["replay", str(MISSION), "--threats", str(m), "-o", str(out)], capsys)
+    assert err.endswith("not valid YAML at character 21: special characters are not allowed (#x07)")
+    assert not out.exists()
+
+
 def test_deeply_nested_zones_in_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     z = tmp_path / "z.geojson"
     z.write_text('{"type": ' + "[" * 100_000 + "]" * 100_000 + "}", encoding="utf-8")
