@@ -107,7 +107,10 @@ def _flat_pair(
     a: FloatArray, b: FloatArray, na: str, nb: str
 ) -> tuple[FloatArray, FloatArray, tuple[int, ...]]:
     """``a`` and ``b`` (float64, (3,) or (N, 3)) broadcast together, as C-contiguous (M, 3)
-    arrays, and their common shape; else the error :func:`_pair` names."""
+    arrays, and their common shape; else the error :func:`_pair` names.  Both read-only
+    whether broadcast (a copy) or not (a view of ``np.broadcast_to``, read-only): numba
+    compiles a kernel again for each mix of read-only and writable arguments (the suite
+    compiled ``segment_rays`` and ``ray_buffer`` four times each)."""
     try:
         shape = np.broadcast_shapes(a.shape, b.shape)
     except ValueError:
@@ -118,6 +121,7 @@ def _flat_pair(
     flat = (-1, 3)
     fa = np.ascontiguousarray(np.broadcast_to(a, shape).reshape(flat))
     fb = np.ascontiguousarray(np.broadcast_to(b, shape).reshape(flat))
+    fa.flags.writeable = fb.flags.writeable = False
     return fa, fb, shape
 
 
