@@ -137,12 +137,12 @@ def segment_cylinder_lengths(
     if backend == "numba":
         return np.asarray(
             kernels.cylinder_lengths(
-                np.ascontiguousarray(a),
-                np.ascontiguousarray(b),
-                np.ascontiguousarray(c),
-                r,
-                top,
-                floor,
+                kernels.read_only(a),
+                kernels.read_only(b),
+                kernels.read_only(c),
+                kernels.read_only(r),
+                kernels.read_only(top),
+                kernels.read_only(floor),
                 bool(np.any(floor != -np.inf)),
             )
         )

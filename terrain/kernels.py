@@ -11,6 +11,18 @@ import numba as nb
 import numpy as np
 
 
+def read_only(a: np.ndarray, dtype: type = np.float64) -> np.ndarray:
+    """``a`` as a C-contiguous array of ``dtype``, read-only -- a read-only view where it is one
+    already, so the caller's own array keeps its flags.  numba compiles a kernel once per mix
+    of read-only and writable arguments: the callers of a kernel hand it this one kind (issue
+    38: a fresh test suite compiled ``segment_rays`` four times, ``cylinder_lengths`` three)."""
+    out: np.ndarray = np.ascontiguousarray(a, dtype=dtype)
+    if out.flags.writeable:
+        out = out.view()
+        out.flags.writeable = False
+    return out
+
+
 @nb.njit(cache=True, nogil=True)
 def bresenham_cells(r0: int, c0: int, r1: int, c1: int) -> np.ndarray:  # pragma: no cover - jit
     """The cells of the integer Bresenham line from (r0, c0) to (r1, c1), both ends included.

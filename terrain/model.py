@@ -108,9 +108,8 @@ def _flat_pair(
 ) -> tuple[FloatArray, FloatArray, tuple[int, ...]]:
     """``a`` and ``b`` (float64, (3,) or (N, 3)) broadcast together, as C-contiguous (M, 3)
     arrays, and their common shape; else the error :func:`_pair` names.  Both read-only
-    whether broadcast (a copy) or not (a view of ``np.broadcast_to``, read-only): numba
-    compiles a kernel again for each mix of read-only and writable arguments (the suite
-    compiled ``segment_rays`` and ``ray_buffer`` four times each)."""
+    (:func:`terrain.kernels.read_only`) whether broadcast (a copy) or not (a view): the
+    kernels compiled once."""
     try:
         shape = np.broadcast_shapes(a.shape, b.shape)
     except ValueError:
@@ -119,9 +118,8 @@ def _flat_pair(
         _pair(a, b, na, nb)  # raises the error of the one at fault
         raise AssertionError("unreachable")  # pragma: no cover
     flat = (-1, 3)
-    fa = np.ascontiguousarray(np.broadcast_to(a, shape).reshape(flat))
-    fb = np.ascontiguousarray(np.broadcast_to(b, shape).reshape(flat))
-    fa.flags.writeable = fb.flags.writeable = False
+    fa = kernels.read_only(np.broadcast_to(a, shape).reshape(flat))
+    fb = kernels.read_only(np.broadcast_to(b, shape).reshape(flat))
     return fa, fb, shape
 
 

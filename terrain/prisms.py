@@ -154,13 +154,13 @@ def segment_polygon_lengths(
         raise InputError(f"backend must be 'numba' or 'numpy'; got {backend!r}")
     a, b = _check(p0, p1)
     out = kernels.polygon_lengths(
-        np.ascontiguousarray(a),
-        np.ascontiguousarray(b),
-        np.ascontiguousarray(polygons.edges, dtype=np.float64),
-        np.ascontiguousarray(polygons.offsets, dtype=np.int64),
-        np.ascontiguousarray(polygons.bboxes, dtype=np.float64),
-        np.ascontiguousarray(polygons.floors, dtype=np.float64),
-        np.ascontiguousarray(polygons.tops, dtype=np.float64),
+        kernels.read_only(a),
+        kernels.read_only(b),
+        kernels.read_only(polygons.edges),
+        kernels.read_only(polygons.offsets, np.int64),
+        kernels.read_only(polygons.bboxes),
+        kernels.read_only(polygons.floors),
+        kernels.read_only(polygons.tops),
         EDGE_EPS,
     )
     return _nan_rows(np.asarray(out, dtype=np.float64), a, b)

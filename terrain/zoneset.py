@@ -112,8 +112,8 @@ class ZoneSet:
             # (issue 38: its per-call checks were a sixth of a swarm's zone lengths)
             c = self.cylinders
             out[:, self.cylinder_columns] = kernels.cylinder_lengths(
-                np.ascontiguousarray(a),
-                np.ascontiguousarray(b),
+                kernels.read_only(a),  # as the packed arrays (frozen): one compiled variant
+                kernels.read_only(b),
                 c.centers,
                 c.radii,
                 c.tops,
