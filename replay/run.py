@@ -213,7 +213,7 @@ def prepare_replay(request: ReplayRequest) -> PreparedReplay:
     check_wind(config, mission, params.name)  # before the legs: a wind it cannot fly into
     hook_checked(avoider, "check_vehicle", params, float(speed) + strongest_wind(mission, config))
     # e.g. the priority loop: its sensor, a start outside the obstacles
-    avoider.check_setup(config, mission, threats, grid, float(speed))
+    hook_checked(avoider, "check_setup", config, mission, threats, grid, float(speed))
     # can it fly this? (the waypoints on the map and above the terrain first, as the loop asks)
     check_mission(mission, grid)
     try:

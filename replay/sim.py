@@ -305,7 +305,7 @@ def rangefinder_spread(cfg: ReplayConfig, avoider: Avoider) -> float:
     else 0 (a line)."""
     if cfg.rangefinder_spread is not None:
         return float(cfg.rangefinder_spread)
-    return float(avoider.rangefinder_spread_deg(cfg.rangefinder_range))
+    return float(hook_checked(avoider, "rangefinder_spread_deg", cfg.rangefinder_range))
 
 
 def simulate(

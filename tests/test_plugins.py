@@ -76,6 +76,13 @@ class Fragile(Chatty):
         raise KeyError("no such waypoint")
 
 
+class Picky(Chatty):
+    """Breaks when asked whether it can fly the run's setup."""
+
+    def check_setup(self, config, mission, threats, grid, speed):
+        raise ValueError("no opinion")
+
+
 class Blind(Chatty):
     """Sees through the rangefinders only."""
 
@@ -107,6 +114,7 @@ FAKE_ENTRY_POINTS = {
         "blind": "tp_fake:Blind",
         "crashy": "tp_fake:Crashy",
         "fragile": "tp_fake:Fragile",
+        "picky": "tp_fake:Picky",
     },
     "terrapath.optimizers": {
         "sloppy": "tp_fake:Sloppy",
@@ -361,6 +369,10 @@ def test_an_avoider_returning_the_wrong_type_ends_the_run_unrecorded(
     assert (
         "avoider 'chatty' (tp_fake.Fragile) raised KeyError in reset(): 'no such waypoint'" in msg
     )
+    assert not out.exists()
+    assert main([*args, "--avoid", "picky"]) == 1
+    msg = one_line(capsys.readouterr().err)
+    assert "avoider 'chatty' (tp_fake.Picky) raised ValueError in check_setup(): no opinion" in msg
     assert not out.exists()
     # in a campaign: the run is stored as an error, never as a success
     spec = tmp_path / "spec.yaml"
