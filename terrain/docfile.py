@@ -52,10 +52,11 @@ def parse_yaml(text: str | bytes, label: str) -> Any:
     Parsed by libyaml where PyYAML has it (:func:`_parse_fast`: a 100-threat file in 10 ms
     instead of 100, issue 38); a document libyaml refuses, or one nested too deep, is parsed
     again by the pure-Python loader, whose words the message quotes."""
-    try:
-        return _parse_fast(text)
-    except (yaml.YAMLError, _TooDeep, RecursionError):
-        pass
+    if _CLoader is not None:
+        try:
+            return _parse_fast(text)
+        except (yaml.YAMLError, _TooDeep, RecursionError):
+            pass
     loader = None
     try:
         loader = _DepthLimitedLoader(text)  # (its reader refuses a special character here)
@@ -89,11 +90,9 @@ _CLoader: Any = getattr(yaml, "CSafeLoader", None)  # PyYAML built without libya
 def _parse_fast(text: str | bytes) -> Any:
     """``text`` composed by libyaml's parser (PyYAML's ``CSafeLoader``: the same resolver and
     safe constructor as :class:`_DepthLimitedLoader`, so the same values), its node tree's depth
-    checked (walked without recursion, each node once), then constructed; YAMLError or :class:`_TooDeep` for
-    the caller to parse it again with the pure-Python loader (its messages are the ones
-    terrapath quotes)."""
-    if _CLoader is None:
-        raise _TooDeep
+    checked (walked without recursion, each node once), then constructed; YAMLError or
+    :class:`_TooDeep` for the caller to parse it again with the pure-Python loader (its messages
+    are the ones terrapath quotes)."""
     loader = _CLoader(text)
     try:
         node = loader.get_single_node()
